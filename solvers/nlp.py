@@ -1,0 +1,196 @@
+"""Adapter for nonlinear programs through CasADi's IPOPT interface.
+
+The NLP is symbolic (CasADi SX/MX) and is turned into a solver once, when the
+:class:`IpoptSolver` is created; each :meth:`IpoptSolver.solve` then only passes
+numbers (bounds, parameters, starting point), which is what a receding-horizon
+controller needs.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any, Mapping
+
+import casadi as ca
+import numpy as np
+
+from solvers.result import SolveResult, Status, map_status
+from solvers.validation import check_time_limit
+
+BACKEND = "ipopt"
+
+# IPOPT return_status strings (IpReturnCodes). Statuses that stop at a point whose
+# quality is unknown are mapped to FEASIBLE here and demoted to NO_SOLUTION by
+# IpoptSolver.solve when that point violates the constraints.
+STATUS_MAP: dict[str, Status] = {
+    "Solve_Succeeded": Status.OPTIMAL,
+    "Solved_To_Acceptable_Level": Status.FEASIBLE,
+    "Feasible_Point_Found": Status.FEASIBLE,
+    "Maximum_Iterations_Exceeded": Status.FEASIBLE,
+    "Maximum_CpuTime_Exceeded": Status.FEASIBLE,
+    "Maximum_WallTime_Exceeded": Status.FEASIBLE,
+    "Search_Direction_Becomes_Too_Small": Status.FEASIBLE,
+    "User_Requested_Stop": Status.FEASIBLE,
+    "Infeasible_Problem_Detected": Status.INFEASIBLE,
+    "Diverging_Iterates": Status.UNBOUNDED,
+    "Restoration_Failed": Status.NO_SOLUTION,
+    "Error_In_Step_Computation": Status.ERROR,
+    "Not_Enough_Degrees_Of_Freedom": Status.ERROR,
+    "Invalid_Problem_Definition": Status.ERROR,
+    "Invalid_Option": Status.ERROR,
+    "Invalid_Number_Detected": Status.ERROR,
+    "Unrecoverable_Exception": Status.ERROR,
+    "NonIpopt_Exception_Thrown": Status.ERROR,
+    "Insufficient_Memory": Status.ERROR,
+    "Internal_Error": Status.ERROR,
+}
+
+_LIMIT_STATUSES = {"Maximum_Iterations_Exceeded", "Maximum_CpuTime_Exceeded", "Maximum_WallTime_Exceeded",
+                   "Search_Direction_Becomes_Too_Small", "User_Requested_Stop", "Restoration_Failed"}
+
+
+class IpoptSolver:
+    """An NLP ``min f(x, p) s.t. lbg <= g(x, p) <= ubg, lbx <= x <= ubx`` solved by IPOPT.
+
+    nlp: dict with CasADi expressions ``x`` (decision vector), ``f`` (scalar
+        objective), optional ``g`` (constraints) and ``p`` (parameters).
+    options: extra IPOPT options (``{"max_iter": 200}``; keys without the
+        ``ipopt.`` prefix); printing is off unless ``print_level`` is given.
+    time_limit: default wall-clock limit per solve, in seconds (None: none).
+    feasibility_tol: maximum constraint violation for a point returned at a limit
+        to count as FEASIBLE (otherwise NO_SOLUTION).
+    """
+
+    def __init__(self, nlp: Mapping[str, Any], *, options: Mapping[str, Any] | None = None,
+                 time_limit: float | None = None, feasibility_tol: float = 1e-6):
+        if not isinstance(nlp, Mapping) or "x" not in nlp or "f" not in nlp:
+            raise ValueError("nlp must be a mapping with at least 'x' and 'f' CasADi expressions")
+        unknown = set(nlp) - {"x", "f", "g", "p"}
+        if unknown:
+            raise ValueError(f"nlp has unknown keys {sorted(unknown)}; allowed: x, f, g, p")
+        check_time_limit(time_limit)
+        if feasibility_tol <= 0:
+            raise ValueError(f"feasibility_tol must be > 0, got {feasibility_tol}")
+        self._nlp = {k: v for k, v in nlp.items()}
+        self.n_x = int(nlp["x"].numel())
+        self.n_g = int(nlp["g"].numel()) if "g" in nlp else 0
+        self.n_p = int(nlp["p"].numel()) if "p" in nlp else 0
+        self.time_limit = time_limit
+        self.feasibility_tol = feasibility_tol
+        self._options = dict(options or {})
+        self._solvers: dict[tuple[bool, float | None], ca.Function] = {}
+
+    def _solver(self, warm: bool, time_limit: float | None) -> ca.Function:
+        key = (warm, time_limit)
+        if key not in self._solvers:
+            ipopt = {"print_level": 0, "sb": "yes"}
+            ipopt.update(self._options)
+            if time_limit is not None:
+                ipopt["max_wall_time"] = float(time_limit)
+            if warm:
+                ipopt.update({"warm_start_init_point": "yes", "warm_start_bound_push": 1e-6,
+                              "warm_start_mult_bound_push": 1e-6, "mu_init": 1e-4})
+            opts = {"ipopt": ipopt, "print_time": False, "error_on_fail": False}
+            self._solvers[key] = ca.nlpsol("droneplan_ipopt", "ipopt", self._nlp, opts)
+        return self._solvers[key]
+
+    def _vec(self, name: str, value: Any, n: int, default: float) -> np.ndarray:
+        if value is None:
+            return np.full(n, default)
+        arr = np.asarray(value, dtype=float).ravel()
+        if arr.size == 1 and n != 1:
+            return np.full(n, float(arr[0]))
+        if arr.size != n:
+            raise ValueError(f"{name} has {arr.size} entries, expected {n}")
+        if np.isnan(arr).any():
+            raise ValueError(f"{name} contains NaN")
+        return arr
+
+    def solve(self, *, x0: Any = None, lbx: Any = None, ubx: Any = None, lbg: Any = None, ubg: Any = None,
+              p: Any = None, warm_start: SolveResult | None = None,
+              time_limit: float | None = None) -> SolveResult:
+        """Solve from ``x0`` (or from ``warm_start``'s primal and duals).
+
+        Bounds default to ±inf; ``p`` is required when the NLP has parameters.
+        ``warm_start``: a previous SolveResult of this solver (its ``x`` and its
+        ``info["lam_x"]``, ``info["lam_g"]``); used only when it had a solution.
+        Returns ``x`` = primal (np.ndarray), ``objective`` = f at x, ``bound`` = None
+        (a local solve proves no bound), ``info`` = {"lam_x", "lam_g", "g"}.
+        """
+        limit = self.time_limit if time_limit is None else time_limit
+        check_time_limit(limit)
+        if warm_start is not None and not isinstance(warm_start, SolveResult):
+            raise TypeError(f"warm_start must be a SolveResult, got {type(warm_start).__name__}")
+        use_warm = warm_start is not None and warm_start.has_solution and "lam_x" in warm_start.info
+        if use_warm:
+            x0 = warm_start.x if x0 is None else x0
+        args: dict[str, Any] = {
+            "x0": self._vec("x0", x0, self.n_x, 0.0),
+            "lbx": self._vec("lbx", lbx, self.n_x, -np.inf),
+            "ubx": self._vec("ubx", ubx, self.n_x, np.inf),
+        }
+        if self.n_g:
+            args["lbg"] = self._vec("lbg", lbg, self.n_g, -np.inf)
+            args["ubg"] = self._vec("ubg", ubg, self.n_g, np.inf)
+        if self.n_p:
+            if p is None:
+                raise ValueError(f"this NLP has {self.n_p} parameters: pass p")
+            args["p"] = self._vec("p", p, self.n_p, 0.0)
+        elif p is not None:
+            raise ValueError("this NLP has no parameters, but p was given")
+        if use_warm:
+            args["lam_x0"] = self._vec("lam_x0", warm_start.info["lam_x"], self.n_x, 0.0)
+            if self.n_g:
+                args["lam_g0"] = self._vec("lam_g0", warm_start.info["lam_g"], self.n_g, 0.0)
+
+        solver = self._solver(use_warm, limit)
+        t0 = time.perf_counter()
+        try:
+            sol = solver(**args)
+        except RuntimeError as exc:
+            return SolveResult(Status.ERROR, backend=BACKEND, backend_status="exception",
+                               message=f"IPOPT raised {exc}", solve_time=time.perf_counter() - t0,
+                               warm_started=use_warm)
+        elapsed = time.perf_counter() - t0
+        stats = solver.stats()
+        code = str(stats.get("return_status", "unknown"))
+        status = map_status(code, STATUS_MAP)
+        x = np.asarray(sol["x"], dtype=float).ravel()
+        g = np.asarray(sol["g"], dtype=float).ravel() if self.n_g else np.zeros(0)
+        violation = self._violation(x, g, args)
+        message = ""
+        if status is Status.OPTIMAL:
+            message = "local optimum (KKT point); no global bound"
+        if code in _LIMIT_STATUSES or status is Status.FEASIBLE:
+            if violation <= self.feasibility_tol and np.isfinite(x).all():
+                status = Status.FEASIBLE
+                message = f"IPOPT stopped with {code}; point feasible (violation {violation:.2e})"
+            else:
+                status = Status.NO_SOLUTION
+                message = f"IPOPT stopped with {code}; point infeasible (violation {violation:.2e})"
+        if status is Status.ERROR and code not in STATUS_MAP:
+            message = f"unknown IPOPT status {code!r}"
+        has = status.has_solution
+        return SolveResult(
+            status=status,
+            objective=float(sol["f"]) if has else None,
+            bound=None,
+            x=x if has else None,
+            backend=BACKEND,
+            backend_status=code,
+            message=message,
+            solve_time=elapsed,
+            iterations=int(stats.get("iter_count", 0)),
+            warm_started=use_warm,
+            info={"lam_x": np.asarray(sol["lam_x"], dtype=float).ravel(),
+                  "lam_g": np.asarray(sol["lam_g"], dtype=float).ravel(),
+                  "g": g, "violation": violation, "x_last": x},
+        )
+
+    @staticmethod
+    def _violation(x: np.ndarray, g: np.ndarray, args: Mapping[str, np.ndarray]) -> float:
+        parts = [np.maximum(args["lbx"] - x, 0), np.maximum(x - args["ubx"], 0)]
+        if g.size:
+            parts += [np.maximum(args["lbg"] - g, 0), np.maximum(g - args["ubg"], 0)]
+        finite = [np.nan_to_num(p, nan=np.inf) for p in parts]
+        return float(max((p.max() if p.size else 0.0) for p in finite))

@@ -1,0 +1,51 @@
+"""DESIGN §1: imports point one way between the layers. Checked on the source text
+(AST), so it holds for every module in the tree, including ones added later."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+LAYERS = ("solvers", "scenarios", "formulations", "planners", "studies")
+ALLOWED = {
+    "solvers": set(),
+    "scenarios": set(),
+    "formulations": {"solvers", "scenarios"},
+    "planners": {"solvers", "scenarios", "formulations"},
+    "studies": {"solvers", "scenarios", "formulations", "planners"},
+}
+
+
+def _imported_layers(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(), filename=str(path))
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names = [node.module]
+        else:
+            continue
+        found |= {n.split(".")[0] for n in names if n.split(".")[0] in LAYERS}
+    return found
+
+
+@pytest.mark.parametrize("layer", LAYERS)
+def test_layer_imports_point_one_way(layer):
+    files = sorted((ROOT / layer).rglob("*.py"))
+    assert files, f"layer {layer} has no modules"
+    bad = {}
+    for path in files:
+        wrong = _imported_layers(path) - ALLOWED[layer] - {layer}
+        if wrong:
+            bad[str(path.relative_to(ROOT))] = sorted(wrong)
+    assert not bad, f"{layer} imports layers it must not: {bad}"
+
+
+def test_nothing_imports_studies_outside_studies():
+    for layer in LAYERS[:-1]:
+        for path in (ROOT / layer).rglob("*.py"):
+            assert "studies" not in _imported_layers(path), path
