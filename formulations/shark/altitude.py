@@ -1,0 +1,37 @@
+"""Exact optimal operator altitude (the model behind Prop. 5.3.1)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from scenarios.shark import THESIS_TABLE_5_1, SharkParams
+
+__all__ = ["optimal_altitude"]
+
+
+def optimal_altitude(z_s, params: SharkParams = THESIS_TABLE_5_1) -> tuple[np.ndarray, np.ndarray]:
+    """Exact maximiser of the interception radius eps(z_o - z_s) over lmin <= z_o <= le.
+
+    z_s: shark altitude(s) (m, <= 0), scalar or array. Returns (z_o*, eps*) in metres,
+    same shape as z_s. eps(h) = max_k sqrt(eps_o^2 - (h - l_k)^2) is the maximum of two
+    functions each unimodal in z_o with its peak at z_o = z_s + l_k, so for each ball the
+    best altitude is that peak clipped to [lmin, le]; the better ball wins (ball 1 on a
+    tie, as the thesis chooses plane 1). When no ball reaches the shark, eps* = 0 and the
+    operator waits at lmin (thesis, case (d)).
+    """
+    z = np.asarray(z_s, dtype=float)
+    if not np.all(np.isfinite(z)):
+        raise ValueError("z_s must be finite")
+    if np.any(z > 0):
+        raise ValueError("z_s must be <= 0 (the shark is under the sea surface)")
+    best_z = np.full(z.shape, params.lmin)
+    best_e = np.zeros(z.shape)
+    for lk in (params.l1, params.l2):
+        zk = np.clip(z + lk, params.lmin, params.le)
+        ek = np.sqrt(np.clip(params.eps_o**2 - (zk - z - lk) ** 2, 0.0, None))
+        better = ek > best_e + 1e-12
+        best_z = np.where(better, zk, best_z)
+        best_e = np.where(better, ek, best_e)
+    if best_z.ndim == 0:
+        return float(best_z), float(best_e)
+    return best_z, best_e

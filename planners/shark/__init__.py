@@ -1,0 +1,6 @@
+"""Shark interception controllers (thesis ch. 5)."""
+
+from planners.shark.altitude import thesis_altitude
+from planners.shark.pursuit import ClassicalPursuit, VirtualSharkInterceptor
+
+__all__ = ["thesis_altitude", "ClassicalPursuit", "VirtualSharkInterceptor"]

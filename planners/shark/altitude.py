@@ -1,0 +1,36 @@
+"""Proposition 5.3.1 verbatim (eqs. 5.6-5.7) — the thesis's altitude rule, kept as the baseline.
+
+With Table 5.1 case (c) puts the operator at z_s + l2 > le for -5.5 < z_s < -3.5 m,
+outside its own constraint lmin <= z_o <= le (DESIGN §4); `formulations.shark.optimal_altitude`
+is the exact maximiser.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from scenarios.shark import THESIS_TABLE_5_1, SharkParams, field_radius
+
+__all__ = ["thesis_altitude"]
+
+
+def thesis_altitude(z_s, params: SharkParams = THESIS_TABLE_5_1) -> tuple[np.ndarray, np.ndarray]:
+    """(z_o*, eps*) of eqs. 5.6 and 5.7 for shark altitude(s) z_s (m, <= 0), verbatim."""
+    z = np.asarray(z_s, dtype=float)
+    if not np.all(np.isfinite(z)):
+        raise ValueError("z_s must be finite")
+    if np.any(z > 0):
+        raise ValueError("z_s must be <= 0 (the shark is under the sea surface)")
+    p = params
+    case_a = (p.le - p.l1 < z) & (z <= 0)
+    case_b = (p.lmin - p.l1 <= z) & (z <= p.le - p.l1)
+    case_c = (p.lmin - p.l2 <= z) & (z < p.lmin - p.l1)
+    zo = np.select([case_a, case_b, case_c], [np.full(z.shape, p.le), z + p.l1, z + p.l2], default=p.lmin)  # 5.6
+    e_a = field_radius(p.le - z, p)
+    e_c = field_radius(p.lmin - z, p)
+    eps = np.select(  # 5.7
+        [case_a, (p.lmin - p.l2 <= z) & (z <= p.le - p.l1), (p.lmin - p.lmax <= z) & (z < p.lmin - p.l2)],
+        [e_a, np.full(z.shape, p.eps_o), e_c], default=0.0)
+    if zo.ndim == 0:
+        return float(zo), float(eps)
+    return zo, eps

@@ -1,0 +1,90 @@
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from formulations.shark import optimal_altitude
+from planners.shark import ClassicalPursuit, VirtualSharkInterceptor, thesis_altitude
+from scenarios.shark import (THESIS_TABLE_5_1 as P, field_radius, make_trajectory, random_trajectory,
+                             simulate_interception, thesis_trajectories)
+
+
+def test_thesis_altitude_is_eq_5_6_5_7():
+    cases = {  # z_s: (z_o*, eps*) by hand from 5.6-5.7 with Table 5.1
+        0.0: (2.0, field_radius(2.0)), -2.0: (2.0, field_radius(4.0)), -3.0: (1.5, 3.5), -3.5: (1.0, 3.5),
+        -4.0: (3.5, 3.5), -6.0: (1.5, 3.5), -6.5: (1.0, 3.5), -8.0: (1.0, field_radius(9.0)), -10.5: (1.0, 0.0),
+    }
+    for z, (zo, eps) in cases.items():
+        got = thesis_altitude(z)
+        assert math.isclose(got[0], zo) and math.isclose(got[1], eps), z
+
+
+def test_thesis_altitude_leaves_band_exactly_on_minus_5_5_to_minus_3_5():
+    z = np.linspace(-12, 0, 24001)
+    zo, eps = thesis_altitude(z)
+    out = (zo > P.le + 1e-12) | (zo < P.lmin - 1e-12)
+    assert out.any()
+    lo, hi = z[out].min(), z[out].max()
+    assert math.isclose(lo, -5.5, abs_tol=1e-3) and math.isclose(hi, -3.5, abs_tol=1e-3)
+    # where it stays in the band it agrees with the exact maximiser
+    zx, ex = optimal_altitude(z)
+    assert np.allclose(ex[~out], eps[~out]) and np.allclose(zx[~out], zo[~out])
+    # where it leaves the band the thesis promises eps_o, the exact optimum is smaller
+    assert np.all(ex[out] < P.eps_o) and np.all(eps[out] == P.eps_o)
+
+
+def _check_props(trace):
+    assert trace.intercepted  # Prop. 5.3.2: finite time
+    assert not trace.touched_early  # Prop. 5.3.3
+    assert trace.frontal  # Prop. 5.3.4: heading points at the operator
+    z_s = trace.shark[-1, 2]
+    assert trace.contact_eps >= optimal_altitude(min(z_s, 0))[1] - 0.05  # largest radius
+
+
+@pytest.mark.parametrize("name", "abcd")
+def test_virtual_shark_props_on_thesis_paths(name):
+    _check_props(simulate_interception(thesis_trajectories()[name], VirtualSharkInterceptor()))
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000), st.floats(-180, 180))
+def test_virtual_shark_props_on_random_flat_paths(seed, bearing):
+    # the proofs treat S, S1, S2 as relatively static: a constant heading (speed, depth vary)
+    tr = random_trajectory(seed, curvy=False)
+    _check_props(simulate_interception(tr, VirtualSharkInterceptor(), bearing_deg=bearing))
+
+
+def test_virtual_shark_prop_5_3_3_fails_on_a_curvy_path():
+    # recorded counterexample: the shark turns during step 2 so the operator crosses inside eps'
+    tr = random_trajectory(9)
+    trace = simulate_interception(tr, VirtualSharkInterceptor(), bearing_deg=133)
+    assert trace.touched_early
+
+
+def test_classical_pursuit_not_frontal_on_a():
+    trace = simulate_interception(thesis_trajectories()["a"], ClassicalPursuit())
+    assert trace.intercepted and not trace.frontal and trace.frontal_angle > 90  # from behind
+
+
+def test_literal_classical_pursuit_stalls_under_altitude_floor():
+    trace = simulate_interception(thesis_trajectories()["a"], ClassicalPursuit(aim="shark"), t_max=20)
+    assert not trace.intercepted and trace.D_h[-1] > field_radius(trace.operator[-1, 2] - trace.shark[-1, 2])
+
+
+def test_virtual_shark_handles_stopping_and_deep_shark():
+    # shark slows to a stop: the heading is kept, no NaN, interception still frontal
+    stop = make_trajectory(lambda t: 0 * t, lambda t: np.maximum(5.0 - 1.0 * t, 0.0), lambda t: -3 + 0 * t,
+                           duration=20)
+    _check_props(simulate_interception(stop, VirtualSharkInterceptor()))
+    # a shark below the field's reach: operator waits at lmin, never touches
+    deep = make_trajectory(lambda t: 0 * t, lambda t: 4 + 0 * t, lambda t: -10.5 + 0 * t, duration=15)
+    tr = simulate_interception(deep, VirtualSharkInterceptor())
+    assert not tr.intercepted and np.allclose(tr.operator[-20:, 2], P.lmin)
+
+
+def test_virtual_shark_bad_options():
+    with pytest.raises(ValueError):
+        VirtualSharkInterceptor(side=2)
+    with pytest.raises(ValueError):
+        VirtualSharkInterceptor(altitude="x")
