@@ -209,8 +209,8 @@ def test_time_limit_cpsat_returns_feasible_or_nothing():
     assert res.status in (Status.FEASIBLE, Status.NO_SOLUTION)
     if res.has_solution:
         assert res.objective >= res.bound
-        dev = np.abs(a @ res.x - b).sum()
-        assert dev == pytest.approx(res.objective)
+        # the slack pair need not be tight at an incumbent: |deviation| <= slack sum
+        assert np.abs(a @ res.x - b).sum() <= res.objective + 1e-9
 
 
 @pytest.mark.parametrize("backend", MIP_BACKENDS)
@@ -228,7 +228,7 @@ def test_time_limit_mip_returns_feasible_or_nothing(backend):
     assert res.status in (Status.FEASIBLE, Status.NO_SOLUTION)
     if res.has_solution:
         assert res.objective >= res.bound - 1e-6
-        assert np.abs(a @ np.round(res.x) - b).sum() == pytest.approx(res.objective, abs=1e-6)
+        assert np.abs(a @ np.round(res.x) - b).sum() <= res.objective + 1e-6
 
 
 def test_iteration_limit_osqp_no_solution():
