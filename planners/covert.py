@@ -1,0 +1,310 @@
+"""Controllers for covert observation (thesis ch. 3).
+
+- :class:`SlidingModeObserver`: the thesis's sliding-mode navigation laws, To-sphere
+  (3.16)-(3.17), On-sphere (3.8)-(3.15) and the Retreat strategy (3.18)-(3.19), with
+  the piecewise-linear saturation variant the thesis simulates (§3.5) or the pure
+  sign-type law.
+- :class:`HoverBenchmark`: the thesis benchmark (fly towards F to the sphere, hover,
+  fly straight back to D_s).
+- :class:`MPCObserver`: receding-horizon min-max bearing control built on
+  :mod:`formulations.covert` (IPOPT or OSQP-based SQP), falling back to the
+  sliding-mode command when a solve fails.
+
+All controllers follow the protocol of :func:`scenarios.covert.simulate`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from scenarios.covert import CovertParams, CovertScenario, Observation, bearing_changes, nearest_on_line
+
+__all__ = [
+    "W",
+    "g",
+    "SlidingSettings",
+    "sliding_steering",
+    "selection_weights",
+    "turn_command",
+    "SlidingModeObserver",
+    "HoverBenchmark",
+]
+
+TO_SPHERE, ON_SPHERE, RETREAT, DONE = "to-sphere", "on-sphere", "retreat", "done"
+
+
+# --------------------------------------------------------------------------- W and g
+def W(mu1: Any, mu2: Any) -> np.ndarray:
+    """W(mu1, mu2) of (3.8)-(3.9), vectorised over leading axes.
+
+    The unit vector in the plane of mu1 and mu2 orthogonal to mu1 and directed
+    towards mu2 (Remark 3.4.1); 0 when mu1 and mu2 are collinear or mu2 = 0.
+    mu1 is normalised first (the projection in (3.9) needs a unit mu1; the thesis
+    applies W to non-unit vectors such as f). Raises ValueError if mu1 = 0.
+    """
+    m1 = np.asarray(mu1, dtype=float)
+    m2 = np.asarray(mu2, dtype=float)
+    n1 = np.linalg.norm(m1, axis=-1, keepdims=True)
+    if np.any(n1 == 0) or not (np.isfinite(m1).all() and np.isfinite(m2).all()):
+        raise ValueError("W needs a non-zero finite mu1 and a finite mu2")
+    e1 = m1 / n1
+    w = m2 - np.sum(e1 * m2, axis=-1, keepdims=True) * e1
+    nw = np.linalg.norm(w, axis=-1, keepdims=True)
+    scale = np.maximum(np.linalg.norm(m2, axis=-1, keepdims=True), 1e-300)
+    zero = nw <= 1e-12 * scale
+    return np.where(zero, 0.0, w / np.where(zero, 1.0, nw))
+
+
+def g(mu1: Any, mu2: Any) -> np.ndarray | float:
+    """g(mu1, mu2) of (3.10): +1 if mu1 . mu2 > 0, else -1 (vectorised)."""
+    d = np.sum(np.asarray(mu1, float) * np.asarray(mu2, float), axis=-1)
+    out = np.where(d > 0, 1.0, -1.0)
+    return float(out) if out.ndim == 0 else out
+
+
+# --------------------------------------------------------------------------- settings
+@dataclass(frozen=True)
+class SlidingSettings:
+    """Settings of the sliding-mode laws and of the phase logic shared by all controllers."""
+
+    saturation: bool = True
+    """Use the piecewise-linear saturation of the sign-type functions of (3.15) (thesis §3.5);
+    False: the literal switching law (chatters)."""
+    eps_line: float = 2.0
+    """Saturation width of the direction-to-the-line (sign-type) terms (m): within this distance
+    of the constraint line, W(f, p_m) on the sphere (and with it the speed) and the p_m term of
+    (3.17)/(3.19) shrink linearly to 0."""
+    cos_sat: float = 1.0
+    """Saturation of g(h, b): speed is V_max * clip((h . b_hat) / cos_sat, -1, 1) (dimensionless)."""
+    home_radius: float = 15.0
+    """Within this distance of D_s the Retreat flies straight to D_s (m); Remark 3.4.2 puts D_s
+    outside the targets' visual field, so no target is tracked there."""
+    return_margin: float = 2.0
+    """The observation ends at duration - (|D - D_s| / V_max + return_margin) (s)."""
+    arrival_tol: float = 0.05
+    """Distance at which the sphere or D_s counts as reached (m)."""
+    delta_beta: float = math.radians(1.0)
+    """Saturation width of the worst-target selection (3.13) (rad), see selection_weights."""
+    unit_p: bool = True
+    """Without saturation: enter p_m as its direction in the sums p_m + b* of (3.17) and (3.19)
+    (with saturation the term is p_m / max(|p_m|, eps_line)). The literal sum
+    adds a length (m) to a unit vector, so it depends on the unit of length; with Table 3.2
+    it keeps the drone sliding between the constraint lines near R far longer than the
+    thesis's t_a = 7.4 s. False: the literal sum."""
+
+    def __post_init__(self) -> None:
+        for name in ("eps_line", "cos_sat", "home_radius", "arrival_tol", "delta_beta"):
+            val = getattr(self, name)
+            if not math.isfinite(val) or val <= 0:
+                raise ValueError(f"{name} must be > 0, got {val}")
+        if self.cos_sat > 1:
+            raise ValueError(f"cos_sat must be <= 1, got {self.cos_sat}")
+        if not math.isfinite(self.return_margin) or self.return_margin < 0:
+            raise ValueError(f"return_margin must be >= 0, got {self.return_margin}")
+
+
+# --------------------------------------------------------------------------- the laws
+def _p_term(p_m: np.ndarray, settings: SlidingSettings) -> np.ndarray:
+    """The p_m term of (3.17)/(3.19): saturated p_m / max(|p_m|, eps_line), else p_m or its direction."""
+    if settings.saturation:
+        return p_m / max(np.linalg.norm(p_m), settings.eps_line)
+    return p_m / np.linalg.norm(p_m) if settings.unit_p else p_m
+
+
+def _steer_for(phase: str, D: np.ndarray, p_m: np.ndarray, params: CovertParams,
+               settings: SlidingSettings) -> np.ndarray:
+    """b_m of the phase given p_m, the vector to the chosen target's constraint line."""
+    f = params.F_arr - D
+    s = params.D_s_arr - D
+    if phase == ON_SPHERE:
+        if not settings.saturation:
+            return W(f, p_m)
+        e = f / np.linalg.norm(f)
+        w = p_m - np.dot(e, p_m) * e
+        return w / max(np.linalg.norm(w), settings.eps_line)
+    goal = f if phase == TO_SPHERE else s
+    if np.linalg.norm(p_m) < 1e-9:
+        return goal / max(np.linalg.norm(goal), 1e-12)
+    return _p_term(p_m, settings) + W(p_m, goal)
+
+
+def selection_weights(beta: np.ndarray, settings: SlidingSettings) -> np.ndarray:
+    """Weights of the targets in the steering vector (A1, (3.13)).
+
+    Literal law: 1 for the target with the largest bearing change, 0 for the others.
+    Saturated law: the argmax selection is a sign-type switch between targets, so it is
+    replaced by the continuous w_j = max(0, 1 - (beta_m - beta_j) / delta_beta), normalised
+    (targets within delta_beta of the maximum share the steering, as a sliding mode does
+    on the surface beta_i = beta_j).
+    """
+    if not settings.saturation:
+        w = np.zeros(beta.shape)
+        w[int(np.argmax(beta))] = 1.0
+        return w
+    w = np.maximum(0.0, 1.0 - (beta.max() - beta) / settings.delta_beta)
+    return w / w.sum()
+
+
+def sliding_steering(phase: str, D: np.ndarray, A: np.ndarray, params: CovertParams,
+                     settings: SlidingSettings) -> np.ndarray:
+    """The steering vector b_m (m or unit, as in the thesis) of the current phase.
+
+    D: drone position (3,); A: observable target positions (k, 3), k may be 0.
+    to-sphere (3.16)-(3.17): f if k = 0, else p_m + W(p_m, f);
+    on-sphere (3.14): W(f, p_m) (saturated: w(f, p_m) / max(|w|, eps_line)), 0 if k = 0;
+    retreat (3.18)-(3.19): s if k = 0 or within home_radius of D_s, else p_m + W(p_m, s).
+    The target m is chosen by :func:`selection_weights` (a weighted sum of the b_m of the
+    tied targets in the saturated variant).
+    """
+    f = params.F_arr - D
+    s = params.D_s_arr - D
+    k = A.shape[0]
+    if phase not in (TO_SPHERE, ON_SPHERE, RETREAT):
+        return np.zeros(3)
+    if k == 0:
+        return {TO_SPHERE: f, ON_SPHERE: np.zeros(3), RETREAT: s}[phase]
+    if phase == RETREAT and np.linalg.norm(s) <= settings.home_radius:
+        return s
+    beta = bearing_changes(D, A, params.R)
+    w = selection_weights(beta, settings)
+    r = params.R_arr - D
+    b = np.zeros(3)
+    for j in np.nonzero(w)[0]:
+        p_j = nearest_on_line(A[j] - D, r)
+        b = b + w[j] * _steer_for(phase, D, p_j, params, settings)
+    return b
+
+
+def turn_command(h: np.ndarray, b: np.ndarray, params: CovertParams, settings: SlidingSettings,
+                 dt: float, *, throttle: bool = False) -> tuple[np.ndarray, float]:
+    """The control (3.15): turn h towards b (or -h when b is behind) and fly at +-V_max.
+
+    Literal law: u = U_max g(h, b) W(h, b), v = V_max g(h, b). Saturated law: the turn
+    rate is min(U_max, theta / dt) with theta the angle between g h and b (no overshoot
+    in one period), and v = V_max * clip((h . b_hat) / cos_sat, -1, 1), times min(1, |b|)
+    when ``throttle`` (used on the sphere, where the saturated b shrinks near the constraint
+    line: the throttle control of §3.5).
+    b = 0 (nothing to steer towards) gives u = 0, v = 0.
+    """
+    nb = float(np.linalg.norm(b))
+    if nb < 1e-12:
+        return np.zeros(3), 0.0
+    sign = g(h, b)
+    Wv = W(h, b)
+    if not settings.saturation:
+        return params.U_max * sign * Wv, params.V_max * sign
+    c = float(np.dot(h, b) / nb)
+    theta = math.acos(min(1.0, abs(c)))
+    rate = min(params.U_max, theta / dt)
+    v = params.V_max * min(1.0, nb if throttle else 1.0) * float(np.clip(c / settings.cos_sat, -1.0, 1.0))
+    return rate * sign * Wv, v
+
+
+def _cap_speed(v: float, h: np.ndarray, toward: np.ndarray, room: float, dt: float) -> float:
+    """Limit |v| so that one step along +-h does not advance more than ``room`` along ``toward``."""
+    e = toward / max(np.linalg.norm(toward), 1e-12)
+    closing = math.copysign(1.0, v) * float(np.dot(h, e))
+    if closing <= 1e-6:
+        return v
+    vmax = max(room, 0.0) / (dt * closing)
+    return math.copysign(min(abs(v), vmax), v)
+
+
+class _PhasedController:
+    """Phase logic shared by the controllers: to-sphere -> on-sphere -> retreat -> done."""
+
+    def __init__(self, settings: SlidingSettings | None = None):
+        self.settings = settings if settings is not None else SlidingSettings()
+        if not isinstance(self.settings, SlidingSettings):
+            raise TypeError("settings must be a SlidingSettings")
+        self.params: CovertParams | None = None
+        self.phase = TO_SPHERE
+        self.finished = False
+        self.fallbacks = 0
+        self.solve_times: list[float] = []
+
+    def reset(self, scenario: CovertScenario) -> None:
+        self.params = scenario.params
+        self.scenario = scenario
+        self.phase = TO_SPHERE
+        self.finished = False
+        self.fallbacks = 0
+        self.solve_times = []
+
+    def _update_phase(self, obs: Observation) -> None:
+        p, st = self.params, self.settings
+        D = obs.drone
+        leave_at = p.duration - (np.linalg.norm(p.D_s_arr - D) / p.V_max + st.return_margin)
+        if self.phase == TO_SPHERE and np.linalg.norm(p.F_arr - D) <= p.L_u + st.arrival_tol:
+            self.phase = ON_SPHERE
+        if self.phase in (TO_SPHERE, ON_SPHERE) and obs.t >= leave_at:
+            self.phase = RETREAT
+        if self.phase == RETREAT and np.linalg.norm(p.D_s_arr - D) <= st.arrival_tol:
+            self.phase = DONE
+            self.finished = True
+
+    def _limit(self, u: np.ndarray, v: float, obs: Observation) -> tuple[np.ndarray, float]:
+        """Saturated variant only: do not cross the sphere on arrival, do not overshoot D_s."""
+        p = self.params
+        if not self.settings.saturation:
+            return u, v
+        D, h = obs.drone, obs.heading
+        if self.phase == TO_SPHERE:
+            f = p.F_arr - D
+            v = _cap_speed(v, h, f, np.linalg.norm(f) - p.L_u, p.dt)
+        elif self.phase == RETREAT:
+            s = p.D_s_arr - D
+            v = _cap_speed(v, h, s, np.linalg.norm(s), p.dt)
+        return u, v
+
+    def sliding_command(self, obs: Observation) -> tuple[np.ndarray, float]:
+        """The sliding-mode command for this observation in the current phase."""
+        if self.phase == DONE:
+            return np.zeros(3), 0.0
+        A = obs.targets
+        b = sliding_steering(self.phase, obs.drone, A, self.params, self.settings)
+        u, v = turn_command(obs.heading, b, self.params, self.settings, self.params.dt,
+                            throttle=self.phase == ON_SPHERE)
+        return self._limit(u, v, obs)
+
+
+class SlidingModeObserver(_PhasedController):
+    """The thesis's navigation laws (To-sphere, On-sphere, Retreat) as a closed-loop controller.
+
+    settings: :class:`SlidingSettings` (saturation variant by default, as simulated in §3.5).
+    """
+
+    def command(self, obs: Observation) -> tuple[np.ndarray, float]:
+        """u (3,) (rad/s) and v (m/s) for this control period."""
+        self._update_phase(obs)
+        return self.sliding_command(obs)
+
+
+class HoverBenchmark(_PhasedController):
+    """Thesis benchmark (§3.5): fly towards F to the sphere, stay there, then fly straight to D_s.
+
+    Uses the same turn/speed law as the saturated sliding mode with b = f, 0, s.
+    """
+
+    def command(self, obs: Observation) -> tuple[np.ndarray, float]:
+        """u (3,) (rad/s) and v (m/s) for this control period."""
+        self._update_phase(obs)
+        p = self.params
+        if self.phase == TO_SPHERE:
+            b = p.F_arr - obs.drone
+        elif self.phase == RETREAT:
+            b = p.D_s_arr - obs.drone
+        else:
+            return np.zeros(3), 0.0
+        sat = SlidingSettings(**{**self.settings.__dict__, "saturation": True})
+        u, v = turn_command(obs.heading, b, p, sat, p.dt)
+        f = p.F_arr - obs.drone
+        if self.phase == TO_SPHERE:
+            v = _cap_speed(v, obs.heading, f, np.linalg.norm(f) - p.L_u, p.dt)
+        else:
+            v = _cap_speed(v, obs.heading, b, np.linalg.norm(b), p.dt)
+        return u, v

@@ -1,0 +1,672 @@
+"""Covert observation of moving animals with motion camouflage (thesis ch. 3).
+
+The world of chapter 3: the Table 3.2 parameters, an uneven terrain over the
+200 m x 200 m zone, animals (targets) walking on it, occlusions, measurement
+noise, the drone's non-holonomic kinematics (3.2)-(3.5), the bearing change
+(3.6) and a closed-loop simulator.
+
+Units: metres, seconds, radians. ``U_max`` is the bound on ``|u|`` with
+``dh/dt = u`` and ``|h| = 1`` (DESIGN §4), i.e. a heading turn rate in rad/s
+(the thesis table prints m/s^2).
+
+Controllers plug into :func:`simulate` through a small protocol (duck-typed):
+
+- ``reset(scenario)`` before the run;
+- ``command(obs: Observation) -> (u, v)`` once per control period ``params.dt``;
+- attributes ``phase`` (``"to-sphere"``, ``"on-sphere"``, ``"retreat"`` or
+  ``"done"``) and ``finished`` (bool), read after every command;
+- optional ``fallbacks`` (int) and ``solve_times`` (list of s), copied to the trace.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Protocol, Sequence
+
+import numpy as np
+
+__all__ = [
+    "CovertParams",
+    "THESIS_TABLE_3_2",
+    "Terrain",
+    "TargetPath",
+    "Occlusion",
+    "CovertScenario",
+    "Observation",
+    "CovertTrace",
+    "thesis_case",
+    "random_case",
+    "bearing_changes",
+    "nearest_on_line",
+    "rotate_heading",
+    "step_drone",
+    "measure",
+    "simulate",
+]
+
+ZONE = 200.0
+"""Side of the square zone the targets move in (m), thesis §3.5."""
+HABITAT = (80.0, 195.0)
+"""Random targets stay in [HABITAT[0], HABITAT[1]]^2 (m): the habitat part of the zone near F."""
+
+
+def _as_rng(seed: int | np.random.Generator | None) -> np.random.Generator:
+    return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+
+
+def _finite_vec(name: str, value: Any, n: int = 3) -> tuple[float, ...]:
+    arr = np.asarray(value, dtype=float).ravel()
+    if arr.size != n:
+        raise ValueError(f"{name} must have {n} entries, got {arr.size}")
+    if not np.isfinite(arr).all():
+        raise ValueError(f"{name} must be finite, got {arr.tolist()}")
+    return tuple(float(x) for x in arr)
+
+
+# --------------------------------------------------------------------------- parameters
+@dataclass(frozen=True)
+class CovertParams:
+    """Parameters of the covert-observation problem (defaults: thesis Table 3.2)."""
+
+    V_max: float = 10.0
+    """Maximum drone speed |v| (m/s)."""
+    U_max: float = 5.0
+    """Maximum |u|, the heading turn rate (rad/s; Table 3.2 prints m/s^2, see DESIGN §4)."""
+    F: tuple[float, float, float] = (200.0, 200.0, 0.0)
+    """Farthest point of the habitat, centre of the observation sphere (m)."""
+    R: tuple[float, float, float] = (10.0, 10.0, 40.0)
+    """Reference point of the camouflage constraint lines (m)."""
+    D_s: tuple[float, float, float] = (20.0, 20.0, 38.0)
+    """Start and end of the drone's path (m); must lie outside the observation sphere."""
+    L_u: float = 200.0
+    """Maximum useful observing distance, radius of the observation sphere (m)."""
+    V_T: float = 2.0
+    """Maximum target speed (m/s)."""
+    duration: float = 120.0
+    """Simulation period: the drone must be back at D_s around this time (s)."""
+    dt: float = 0.1
+    """Control period and simulation step (s); not given in the thesis."""
+
+    def __post_init__(self) -> None:
+        for name in ("V_max", "U_max", "L_u", "V_T", "duration", "dt"):
+            val = getattr(self, name)
+            if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val):
+                raise ValueError(f"{name} must be a finite number, got {val!r}")
+            if val <= 0:
+                raise ValueError(f"{name} must be > 0, got {val}")
+        for name in ("F", "R", "D_s"):
+            object.__setattr__(self, name, _finite_vec(name, getattr(self, name)))
+        if self.dt > self.duration:
+            raise ValueError(f"dt must be <= duration, got dt={self.dt}, duration={self.duration}")
+        if np.linalg.norm(np.subtract(self.D_s, self.F)) <= self.L_u:
+            raise ValueError(
+                f"D_s must lie outside the observation sphere: |D_s - F| = "
+                f"{np.linalg.norm(np.subtract(self.D_s, self.F)):.3f} m <= L_u = {self.L_u} m")
+        if self.U_max * self.dt > math.pi:
+            raise ValueError(f"U_max * dt must be <= pi (one step turns at most half a turn), got {self.U_max * self.dt}")
+
+    @property
+    def F_arr(self) -> np.ndarray:
+        """F as a numpy array (m)."""
+        return np.asarray(self.F)
+
+    @property
+    def R_arr(self) -> np.ndarray:
+        """R as a numpy array (m)."""
+        return np.asarray(self.R)
+
+    @property
+    def D_s_arr(self) -> np.ndarray:
+        """D_s as a numpy array (m)."""
+        return np.asarray(self.D_s)
+
+
+THESIS_TABLE_3_2 = CovertParams()
+"""Table 3.2 of the thesis (plus the control period dt = 0.1 s, which the thesis does not state)."""
+
+
+# --------------------------------------------------------------------------- terrain
+@dataclass(frozen=True)
+class Terrain:
+    """Smooth hills: z(x, y) = sum_i height_i * exp(-((x-x_i)^2 + (y-y_i)^2) / (2 sigma_i^2)).
+
+    hills: (k, 4) rows (x_i m, y_i m, height_i m, sigma_i m); empty means flat ground z = 0.
+    """
+
+    hills: tuple[tuple[float, float, float, float], ...] = ()
+    """Hill centres, heights and widths (m)."""
+
+    def __post_init__(self) -> None:
+        arr = np.asarray(self.hills, dtype=float).reshape(-1, 4) if len(self.hills) else np.zeros((0, 4))
+        if not np.isfinite(arr).all():
+            raise ValueError("hills must be finite")
+        if (arr[:, 3] <= 0).any():
+            raise ValueError("hills: every sigma must be > 0")
+        object.__setattr__(self, "hills", tuple(tuple(float(v) for v in row) for row in arr))
+
+    def height(self, x: Any, y: Any) -> np.ndarray:
+        """Ground height (m) at planar coordinates x, y (m), vectorised (broadcast)."""
+        x = np.asarray(x, dtype=float)
+        y = np.asarray(y, dtype=float)
+        z = np.zeros(np.broadcast(x, y).shape)
+        for hx, hy, hh, hs in self.hills:
+            z = z + hh * np.exp(-((x - hx) ** 2 + (y - hy) ** 2) / (2.0 * hs * hs))
+        return z
+
+
+# --------------------------------------------------------------------------- targets
+@dataclass(frozen=True)
+class TargetPath:
+    """A target walking along a planar curve draped on the terrain at constant 3D speed.
+
+    points: (m, 3) densely sampled positions on the ground (m), in walking order.
+    """
+
+    points: np.ndarray = field(repr=False)
+    """(m, 3) samples of the path on the terrain (m)."""
+
+    def __post_init__(self) -> None:
+        pts = np.asarray(self.points, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != 3 or pts.shape[0] < 2:
+            raise ValueError(f"points must have shape (m >= 2, 3), got {pts.shape}")
+        if not np.isfinite(pts).all():
+            raise ValueError("points must be finite")
+        seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        keep = np.concatenate([[True], seg > 1e-12])
+        pts = pts[keep]
+        if pts.shape[0] < 2:
+            raise ValueError("points must not all coincide")
+        object.__setattr__(self, "points", pts)
+        object.__setattr__(self, "_s", np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))]))
+
+    @property
+    def length(self) -> float:
+        """Length of the path (m)."""
+        return float(self._s[-1])  # type: ignore[attr-defined]
+
+    def at(self, s: Any) -> np.ndarray:
+        """Positions (..., 3) at arc lengths s (m), clipped to [0, length] (the target then stands)."""
+        s = np.clip(np.asarray(s, dtype=float), 0.0, self.length)
+        out = np.empty(s.shape + (3,))
+        for c in range(3):
+            out[..., c] = np.interp(s, self._s, self.points[:, c])  # type: ignore[attr-defined]
+        return out
+
+
+def _drape(xy: np.ndarray, terrain: Terrain) -> np.ndarray:
+    return np.column_stack([xy[:, 0], xy[:, 1], terrain.height(xy[:, 0], xy[:, 1])])
+
+
+@dataclass(frozen=True)
+class Occlusion:
+    """Target ``target`` is unobservable (no line of sight) for start <= t < end (s)."""
+
+    target: int
+    """Index of the occluded target."""
+    start: float
+    """Start of the occlusion (s)."""
+    end: float = math.inf
+    """End of the occlusion (s); inf: until the end of the run."""
+
+    def __post_init__(self) -> None:
+        if self.target < 0:
+            raise ValueError(f"target must be >= 0, got {self.target}")
+        if not math.isfinite(self.start) or math.isnan(self.end) or self.end <= self.start:
+            raise ValueError(f"need finite start < end, got start={self.start}, end={self.end}")
+
+
+@dataclass(frozen=True)
+class CovertScenario:
+    """One observation run: parameters, terrain, target paths and occlusions."""
+
+    params: CovertParams
+    """Problem parameters (Table 3.2 by default)."""
+    terrain: Terrain
+    """Ground the targets walk on."""
+    paths: tuple[TargetPath, ...]
+    """One path per target; targets walk them at speed params.V_T from t = 0."""
+    occlusions: tuple[Occlusion, ...] = ()
+    """Intervals where a target cannot be seen by the drone."""
+    name: str = ""
+    """Human-readable label."""
+    seed: int | None = None
+    """Seed the scenario was generated from (None: deterministic layout)."""
+
+    def __post_init__(self) -> None:
+        R = self.params.R_arr
+        for occ in self.occlusions:
+            if occ.target >= len(self.paths):
+                raise ValueError(f"occlusion target {occ.target} out of range (n = {len(self.paths)})")
+        for j, p in enumerate(self.paths):
+            if np.min(np.linalg.norm(p.points - R, axis=1)) < 1e-6:
+                raise ValueError(f"target {j} passes through the reference point R (bearing change undefined)")
+
+    @property
+    def n_targets(self) -> int:
+        """Number of targets."""
+        return len(self.paths)
+
+    def targets_at(self, t: Any) -> np.ndarray:
+        """True target positions at time(s) t (s): shape t.shape + (n, 3) (m)."""
+        t = np.asarray(t, dtype=float)
+        if not self.paths:
+            return np.zeros(t.shape + (0, 3))
+        return np.stack([p.at(self.params.V_T * t) for p in self.paths], axis=-2)
+
+    def observable_at(self, t: Any) -> np.ndarray:
+        """Boolean mask t.shape + (n,): target has line of sight to the drone at t."""
+        t = np.asarray(t, dtype=float)
+        mask = np.ones(t.shape + (self.n_targets,), dtype=bool)
+        for occ in self.occlusions:
+            mask[..., occ.target] &= ~((t >= occ.start) & (t < occ.end))
+        return mask
+
+
+def _s_path(terrain: Terrain, length: float, m: int = 2000) -> TargetPath:
+    """Target 1 of case 1: an S-shaped walk from (30, 150) that ends on the top of the
+    hill at (150, 125), so its second half climbs the hill (thesis Fig. 3.9c); the S
+    amplitude is set (bisection) so that the 3D length is ``length``."""
+    u = np.linspace(0.0, 1.0, m)
+    x0, y0, x1, y1 = 30.0, 150.0, 150.0, 125.0
+
+    def build(amp: float) -> np.ndarray:
+        return np.column_stack([x0 + (x1 - x0) * u, y0 + (y1 - y0) * u + amp * np.sin(2.0 * math.pi * u)])
+
+    lo, hi = 0.0, 100.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if TargetPath(_drape(build(mid), terrain)).length < length:
+            lo = mid
+        else:
+            hi = mid
+    return _scale_to_length(build(hi), terrain, length)
+
+
+def _straight_path(terrain: Terrain, length: float, start, end, m: int = 2000) -> TargetPath:
+    u = np.linspace(0.0, 1.0, m)[:, None]
+    xy = (1 - u) * np.asarray(start, float) + u * np.asarray(end, float)
+    return _scale_to_length(xy, terrain, length)
+
+
+def _scale_to_length(xy: np.ndarray, terrain: Terrain, length: float) -> TargetPath:
+    """Drape a planar curve and cut (or extend linearly) it to 3D length ``length``."""
+    path = TargetPath(_drape(xy, terrain))
+    if path.length >= length:
+        s = np.linspace(0.0, length, xy.shape[0])
+        return TargetPath(path.at(s))
+    # extend along the last direction on the ground
+    d = xy[-1] - xy[-2]
+    d = d / np.linalg.norm(d)
+    extra = length - path.length
+    ext = xy[-1] + np.outer(np.linspace(0.0, 1.5 * extra, 200)[1:], d)
+    return _scale_to_length(np.vstack([xy, ext]), terrain, length)
+
+
+CASE1_TERRAIN = Terrain(((150.0, 125.0, 25.0, 22.0), (60.0, 60.0, 6.0, 30.0), (110.0, 175.0, 5.0, 25.0)))
+"""Case 1 ground: a 25 m hill that target 1 climbs, and two low swells (m)."""
+
+
+def thesis_case(case: int, seed: int | np.random.Generator | None = 0, *, V_T: float | None = None,
+                occlusion: bool = False, params: CovertParams | None = None) -> CovertScenario:
+    """The thesis simulation cases (§3.5) over uneven terrain, with Table 3.2 parameters.
+
+    case 1: two targets, target 1 on an S-shaped path whose second half climbs a hill,
+        target 2 on a straight path; they approach each other in the first half and
+        drift apart in the second (Fig. 3.9). The layout is fixed (``seed`` unused).
+    case 2: ten targets on random curvy paths over random smooth hills drawn from ``seed``.
+    V_T: target speed (m/s); the paths stay the same, so the period shrinks to
+        120 s * 2 / V_T (Fig. 3.12 uses V_T = 5 m/s).
+    occlusion: case 1 only: target 2 is unobservable from t = 90 s * 2 / V_T (Fig. 3.13).
+    params: override the Table 3.2 parameters (V_T and duration are set here).
+    """
+    base = params if params is not None else THESIS_TABLE_3_2
+    speed = base.V_T if V_T is None else float(V_T)
+    if not math.isfinite(speed) or speed <= 0:
+        raise ValueError(f"V_T must be > 0, got {V_T}")
+    path_len = THESIS_TABLE_3_2.V_T * THESIS_TABLE_3_2.duration  # 240 m walked in the thesis period
+    duration = path_len / speed
+    from dataclasses import replace
+
+    p = replace(base, V_T=speed, duration=duration)
+    if case == 1:
+        terrain = CASE1_TERRAIN
+        paths = (_s_path(terrain, path_len), _straight_path(terrain, path_len, (190.0, 15.0), (20.0, 185.0)))
+        occ = (Occlusion(1, 90.0 * 2.0 / speed),) if occlusion else ()
+        return CovertScenario(p, terrain, paths, occ, name="case 1" + (" (occlusion)" if occlusion else ""),
+                              seed=None)
+    if case == 2:
+        if occlusion:
+            raise ValueError("occlusion is defined for case 1 only (Fig. 3.13)")
+        rng = _as_rng(seed)
+        sc = random_case(10, rng, params=p)
+        return CovertScenario(sc.params, sc.terrain, sc.paths, (), name="case 2",
+                              seed=seed if isinstance(seed, int) else None)
+    raise ValueError(f"case must be 1 or 2, got {case!r}")
+
+
+def random_case(n_targets: int, seed: int | np.random.Generator | None = None, *,
+                params: CovertParams | None = None, n_hills: int = 4) -> CovertScenario:
+    """Random targets on curvy paths over random smooth hills (the family of case 2).
+
+    n_targets: number of targets (>= 1).
+    Targets start in a 60 m x 60 m patch centred at (140, 140) (the habitat side of
+    the zone, towards F), walk with a smoothly varying heading (Ornstein-Uhlenbeck
+    turn rate) and turn back at the border of [LO, 195]^2 (LO = 80 m); each walks
+    params.V_T * params.duration metres.
+    """
+    if isinstance(n_targets, bool) or not isinstance(n_targets, (int, np.integer)) or n_targets < 1:
+        raise ValueError(f"n_targets must be an int >= 1, got {n_targets!r}")
+    p = params if params is not None else THESIS_TABLE_3_2
+    rng = _as_rng(seed)
+    hills = np.column_stack([
+        rng.uniform(30.0, 190.0, n_hills), rng.uniform(30.0, 190.0, n_hills),
+        rng.uniform(5.0, 25.0, n_hills), rng.uniform(15.0, 35.0, n_hills)])
+    terrain = Terrain(tuple(map(tuple, hills)))
+    length = p.V_T * p.duration
+    ds = 0.5
+    m = int(math.ceil(length / ds)) + 1
+    paths = []
+    centre = np.array([140.0, 140.0])
+    lo, hi = HABITAT
+    for _ in range(n_targets):
+        pos = centre + rng.uniform(-30.0, 30.0, 2)
+        heading = rng.uniform(0.0, 2.0 * math.pi)
+        kappa = 0.0
+        xy = np.empty((m, 2))
+        for i in range(m):
+            xy[i] = pos
+            kappa += -0.05 * kappa * ds + 0.02 * math.sqrt(ds) * rng.standard_normal()
+            heading += kappa * ds
+            step = ds * np.array([math.cos(heading), math.sin(heading)])
+            nxt = pos + step
+            if not (lo <= nxt[0] <= hi and lo <= nxt[1] <= hi):
+                heading += math.pi / 2.0
+                kappa = 0.0
+                nxt = np.clip(pos + ds * np.array([math.cos(heading), math.sin(heading)]), lo, hi)
+            pos = nxt
+        paths.append(_scale_to_length(xy, terrain, length))
+    return CovertScenario(p, terrain, tuple(paths), (), name=f"random {n_targets} targets",
+                          seed=seed if isinstance(seed, int) else None)
+
+
+# --------------------------------------------------------------------------- geometry
+def bearing_changes(drone: Any, targets: Any, R: Any) -> np.ndarray:
+    """Bearing changes beta_j (3.6) in radians, vectorised.
+
+    drone: (..., 3) drone positions D (m); targets: (..., n, 3) target positions A_j (m),
+    broadcast against drone[..., None, :]; R: (3,) reference point (m).
+    beta_j is the angle at A_j between the directions to R and to D, i.e. the angle
+    between a_j = A_j - D and a_j - r = A_j - R (computed with atan2, stable near 0 and pi).
+    Raises ValueError when a target coincides with R or with the drone, or on non-finite input.
+    """
+    D = np.asarray(drone, dtype=float)
+    A = np.asarray(targets, dtype=float)
+    Rv = np.asarray(R, dtype=float)
+    if D.shape[-1:] != (3,) or A.shape[-1:] != (3,) or Rv.shape != (3,):
+        raise ValueError(f"drone (...,3), targets (...,n,3), R (3,) expected; got {D.shape}, {A.shape}, {Rv.shape}")
+    if not (np.isfinite(D).all() and np.isfinite(A).all() and np.isfinite(Rv).all()):
+        raise ValueError("drone, targets and R must be finite")
+    a = A - D[..., None, :]
+    c = A - Rv
+    na = np.linalg.norm(a, axis=-1)
+    nc = np.linalg.norm(c, axis=-1)
+    if A.size and np.min(nc) < 1e-9:
+        raise ValueError("a target coincides with the reference point R")
+    if A.size and np.min(na) < 1e-9:
+        raise ValueError("a target coincides with the drone")
+    cross = np.linalg.norm(np.cross(a, c), axis=-1)
+    dot = np.sum(a * c, axis=-1)
+    return np.arctan2(cross, dot)
+
+
+def nearest_on_line(a: Any, r: Any) -> np.ndarray:
+    """p_j of (3.11): vector from the drone to the nearest point of the line through A_j and R.
+
+    a: (..., 3) vectors a_j = A_j - D; r: (3,) or (..., 3) vector r = R - D (m). Returns (..., 3) (m).
+    """
+    a = np.asarray(a, dtype=float)
+    r = np.asarray(r, dtype=float)
+    ra = np.sum(r * a, axis=-1, keepdims=True)
+    aa = np.sum(a * a, axis=-1, keepdims=True)
+    rr = np.sum(r * r, axis=-1, keepdims=True)
+    den = rr + aa - 2.0 * ra
+    if np.any(den < 1e-18):
+        raise ValueError("a target coincides with the reference point R")
+    return ((aa - ra) * r + (rr - ra) * a) / den
+
+
+def rotate_heading(h: Any, u: Any, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact zero-order-hold step of dh/dt = u, dD/dt = h over dt with u orthogonal to h.
+
+    The heading rotates at the constant rate |u| (rad/s) in the plane of (h, u):
+    h(dt) = cos(w dt) h + sin(w dt) u/w, and the returned integral
+    int_0^dt h = sin(w dt)/w h + (1 - cos(w dt))/w^2 u (s), so D += v * integral.
+    Returns (new heading with |h| = 1 up to rounding, integral). u must be orthogonal to h.
+    """
+    h = np.asarray(h, dtype=float)
+    u = np.asarray(u, dtype=float)
+    w = float(np.linalg.norm(u))
+    th = w * dt
+    if th < 1e-6:
+        s_over = dt * (1.0 - th * th / 6.0)
+        c_over = dt * dt * (0.5 - th * th / 24.0)
+        cth = 1.0 - th * th / 2.0
+        sth_w = s_over
+    else:
+        s_over = math.sin(th) / w
+        c_over = (1.0 - math.cos(th)) / (w * w)
+        cth = math.cos(th)
+        sth_w = s_over
+    h_new = cth * h + sth_w * u
+    h_new = h_new / np.linalg.norm(h_new)
+    return h_new, s_over * h + c_over * u
+
+
+def step_drone(D: Any, h: Any, u: Any, v: float, dt: float, params: CovertParams) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """One plant step of (3.2)-(3.5): actuator limits, then the exact rotation of the heading.
+
+    The command is made admissible first: u is projected on the plane orthogonal to h
+    (3.5) and scaled to |u| <= U_max, v is clipped to [-V_max, V_max] (3.4).
+    Returns (D_next, h_next, u_applied, v_applied).
+    """
+    h = np.asarray(h, dtype=float)
+    u = np.asarray(u, dtype=float)
+    if not (np.isfinite(u).all() and math.isfinite(v)):
+        raise ValueError(f"command must be finite, got u={u}, v={v}")
+    u = u - np.dot(u, h) * h
+    nu = np.linalg.norm(u)
+    if nu > params.U_max:
+        u = u * (params.U_max / nu)
+    v = float(np.clip(v, -params.V_max, params.V_max))
+    h_new, integral = rotate_heading(h, u, dt)
+    return np.asarray(D, float) + v * integral, h_new, u, v
+
+
+def measure(true_rel: np.ndarray, noise: float, rng: np.random.Generator) -> np.ndarray:
+    """Noisy measurement of the vectors a_j: each component times (1 + noise * U(-1, 1)).
+
+    noise: amplitude as a fraction of the true measurement (thesis: 0.02 to 0.10).
+    """
+    if noise == 0.0:
+        return true_rel.copy()
+    return true_rel * (1.0 + noise * rng.uniform(-1.0, 1.0, size=true_rel.shape))
+
+
+# --------------------------------------------------------------------------- simulation
+@dataclass(frozen=True)
+class Observation:
+    """What the drone knows at one control instant."""
+
+    t: float
+    """Time (s)."""
+    drone: np.ndarray
+    """Drone position D (3,) (m), from GPS."""
+    heading: np.ndarray
+    """Drone heading h (3,), unit."""
+    rel: np.ndarray
+    """Measured vectors a_j = A_j - D (n, 3) (m); rows of unobservable targets are NaN."""
+    observable: np.ndarray
+    """(n,) bool: target j is observable (line of sight)."""
+
+    @property
+    def targets(self) -> np.ndarray:
+        """Measured absolute positions of the observable targets (k, 3) (m)."""
+        return self.drone + self.rel[self.observable]
+
+
+class Controller(Protocol):
+    phase: str
+    finished: bool
+
+    def reset(self, scenario: CovertScenario) -> None: ...
+
+    def command(self, obs: Observation) -> tuple[np.ndarray, float]: ...
+
+
+@dataclass(frozen=True)
+class CovertTrace:
+    """A closed-loop run. Arrays are sampled at the control instants t_k = k dt."""
+
+    t: np.ndarray
+    """(T,) times (s)."""
+    drone: np.ndarray
+    """(T, 3) drone positions (m)."""
+    heading: np.ndarray
+    """(T, 3) headings (unit)."""
+    targets: np.ndarray
+    """(T, n, 3) true target positions (m)."""
+    beta: np.ndarray
+    """(T, n) true bearing changes (rad); NaN where the target is not observable."""
+    beta_max: float
+    """Maximum recorded beta_m over the run (rad); the thesis's headline metric (nan if no target)."""
+    sphere_error: float
+    """max | |D - F| - L_u | for t_a <= t <= t_f (m); nan if the sphere was never reached."""
+    t_a: float | None
+    """Arrival time on the observation sphere (s)."""
+    t_f: float | None
+    """Time the drone leaves the sphere (start of the retreat) (s)."""
+    phase: np.ndarray
+    """(T,) phase of the controller after each command."""
+    u: np.ndarray
+    """(T, 3) commanded u as returned by the controller (NaN on the last row)."""
+    v: np.ndarray
+    """(T,) commanded v (m/s) (NaN on the last row)."""
+    finished: bool
+    """The controller reported that it was back at D_s."""
+    fallbacks: int = 0
+    """Control steps where a solver failed and a fallback command was used."""
+    solve_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """Per-step solver times reported by the controller (s)."""
+
+    @property
+    def beta_m(self) -> np.ndarray:
+        """(T,) maximum bearing change over the observable targets (rad; NaN if none)."""
+        out = np.full(self.beta.shape[0], np.nan)
+        if self.beta.shape[1]:
+            ok = ~np.all(np.isnan(self.beta), axis=1)
+            out[ok] = np.nanmax(self.beta[ok], axis=1)
+        return out
+
+    @property
+    def distance_to_F(self) -> np.ndarray:
+        """(T,) |D - F| (m)."""
+        return self.distance_to(self.F)
+
+    def distance_to(self, point: Any) -> np.ndarray:
+        """(T,) distance from the drone to a point (m)."""
+        return np.linalg.norm(self.drone - np.asarray(point, float), axis=1)
+
+    F: tuple[float, float, float] = (200.0, 200.0, 0.0)
+    """Centre of the observation sphere of the run (m)."""
+
+
+def simulate(scenario: CovertScenario, controller: Controller, *, noise: float = 0.0,
+             seed: int | np.random.Generator | None = None, max_time: float | None = None,
+             initial_heading: Any = None) -> CovertTrace:
+    """Run ``controller`` on ``scenario`` in closed loop from D_s until it reports it is back.
+
+    noise: measurement noise amplitude as a fraction of each measured component (>= 0).
+    seed: seed for the noise.
+    max_time: hard stop (s); default duration + 60 s.
+    initial_heading: initial h (default: towards F).
+    Returns a :class:`CovertTrace` (beta is computed from the true positions).
+    """
+    if not isinstance(scenario, CovertScenario):
+        raise TypeError(f"scenario must be a CovertScenario, got {type(scenario).__name__}")
+    if not math.isfinite(noise) or noise < 0:
+        raise ValueError(f"noise must be a finite fraction >= 0, got {noise}")
+    p = scenario.params
+    rng = _as_rng(seed)
+    t_stop = p.duration + 60.0 if max_time is None else float(max_time)
+    if not t_stop > 0:
+        raise ValueError(f"max_time must be > 0, got {max_time}")
+    D = p.D_s_arr.copy()
+    h = p.F_arr - D if initial_heading is None else np.asarray(initial_heading, float)
+    if not np.isfinite(h).all() or np.linalg.norm(h) == 0:
+        raise ValueError("initial_heading must be a finite non-zero vector")
+    h = h / np.linalg.norm(h)
+    controller.reset(scenario)
+    n = scenario.n_targets
+    steps = int(math.ceil(t_stop / p.dt - 1e-9))
+    ts, Ds, hs, us, vs, phases = [], [], [], [], [], []
+    finished = False
+    for k in range(steps + 1):
+        t = k * p.dt
+        A = scenario.targets_at(t)
+        obsmask = scenario.observable_at(t)
+        rel = measure(A - D, noise, rng)
+        rel[~obsmask] = np.nan
+        ts.append(t)
+        Ds.append(D.copy())
+        hs.append(h.copy())
+        if k == steps:
+            us.append(np.full(3, np.nan))
+            vs.append(np.nan)
+            phases.append(controller.phase)
+            break
+        u, v = controller.command(Observation(t, D.copy(), h.copy(), rel, obsmask))
+        u = np.asarray(u, dtype=float)
+        us.append(u.copy())
+        vs.append(float(v))
+        phases.append(controller.phase)
+        D, h, _, _ = step_drone(D, h, u, float(v), p.dt, p)
+        if controller.finished:
+            finished = True
+            # record the final state
+            t = (k + 1) * p.dt
+            ts.append(t)
+            Ds.append(D.copy())
+            hs.append(h.copy())
+            us.append(np.full(3, np.nan))
+            vs.append(np.nan)
+            phases.append("done")
+            break
+    t_arr = np.asarray(ts)
+    drone = np.asarray(Ds)
+    targets = scenario.targets_at(t_arr)
+    if n:
+        beta = bearing_changes(drone, targets, p.R)
+        beta[~scenario.observable_at(t_arr)] = np.nan
+    else:
+        beta = np.zeros((t_arr.size, 0))
+    phase = np.asarray(phases)
+    on = np.nonzero(phase == "on-sphere")[0]
+    ret = np.nonzero((phase == "retreat") | (phase == "done"))[0]
+    t_a = float(t_arr[on[0]]) if on.size else None
+    t_f = float(t_arr[ret[0]]) if ret.size and on.size else None
+    if on.size:
+        i1 = ret[0] if ret.size else len(t_arr) - 1
+        dist = np.linalg.norm(drone[on[0]:i1 + 1] - p.F_arr, axis=1)
+        sphere_error = float(np.max(np.abs(dist - p.L_u)))
+    else:
+        sphere_error = math.nan
+    bm = beta[~np.isnan(beta)]
+    trace = CovertTrace(
+        t=t_arr, drone=drone, heading=np.asarray(hs), targets=targets, beta=beta,
+        beta_max=float(bm.max()) if bm.size else math.nan, sphere_error=sphere_error,
+        t_a=t_a, t_f=t_f, phase=phase, u=np.asarray(us), v=np.asarray(vs), finished=finished,
+        fallbacks=int(getattr(controller, "fallbacks", 0)),
+        solve_times=np.asarray(getattr(controller, "solve_times", []), dtype=float), F=p.F,
+    )
+    return trace

@@ -1,0 +1,128 @@
+"""planners.covert: W/g properties, the sliding-mode laws against the hover benchmark."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from functools import lru_cache
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from planners.covert import HoverBenchmark, SlidingModeObserver, SlidingSettings, W, g, selection_weights
+from scenarios.covert import THESIS_TABLE_3_2, CovertScenario, Terrain, simulate, thesis_case
+
+coord = st.floats(-100, 100, allow_nan=False, allow_infinity=False)
+vec3 = st.tuples(coord, coord, coord).map(np.array)
+
+
+@settings(max_examples=80, deadline=None)
+@given(vec3, vec3)
+def test_W_is_unit_orthogonal_and_towards_mu2(m1, m2):
+    if np.linalg.norm(m1) < 1e-3:
+        return
+    w = W(m1, m2)
+    e1 = m1 / np.linalg.norm(m1)
+    perp = m2 - (e1 @ m2) * e1
+    if np.linalg.norm(perp) > 1e-6 * max(1.0, np.linalg.norm(m2)):
+        assert np.linalg.norm(w) == pytest.approx(1.0, abs=1e-9)
+        assert abs(w @ e1) <= 1e-9
+        assert w @ m2 > 0  # directed towards mu2
+        # in the plane of mu1 and mu2
+        assert abs(np.linalg.det(np.vstack([w, m1, m2]))) <= 1e-6 * np.linalg.norm(m1) * max(1, np.linalg.norm(m2))
+
+
+@settings(max_examples=30, deadline=None)
+@given(vec3, st.floats(-10, 10))
+def test_W_zero_when_collinear(m1, lam):
+    if np.linalg.norm(m1) < 1e-3:
+        return
+    assert np.all(W(m1, lam * m1) == 0)
+
+
+def test_W_vectorised_and_g():
+    m1 = np.array([[1.0, 0, 0], [0, 2.0, 0]])
+    m2 = np.array([[1.0, 1.0, 0], [3.0, 1.0, 0]])
+    assert np.allclose(W(m1, m2), [[0, 1, 0], [1, 0, 0]])
+    assert g([1, 0, 0], [1, 5, 0]) == 1 and g([1, 0, 0], [0, 1, 0]) == -1 and g([1, 0, 0], [-1, 0, 0]) == -1
+    with pytest.raises(ValueError):
+        W(np.zeros(3), np.ones(3))
+
+
+def test_selection_weights():
+    lit = SlidingSettings(saturation=False)
+    assert selection_weights(np.array([0.1, 0.3, 0.2]), lit).tolist() == [0, 1, 0]
+    sat = SlidingSettings(delta_beta=0.1)
+    w = selection_weights(np.array([0.3, 0.3, 0.0, 0.25]), sat)
+    assert w.sum() == pytest.approx(1.0) and w[2] == 0 and w[0] == w[1] > w[3] > 0
+
+
+@lru_cache(maxsize=None)
+def _run(case: int, which: str):
+    sc = thesis_case(case, 0)
+    ctl = SlidingModeObserver() if which == "sliding" else HoverBenchmark()
+    return sc, simulate(sc, ctl)
+
+
+@pytest.mark.parametrize("case", [1, 2])
+def test_sliding_beats_hover_and_keeps_the_sphere(case):
+    sc, sl = _run(case, "sliding")
+    _, hv = _run(case, "hover")
+    assert sl.beta_max < hv.beta_max
+    # stays on the observation sphere (Theorem 3.4.1) within 1 m
+    assert sl.t_a is not None and sl.t_f is not None and sl.t_a < sl.t_f
+    assert sl.sphere_error <= 1.0
+    on = (sl.t >= sl.t_a) & (sl.t <= sl.t_f)
+    assert np.all(np.abs(sl.distance_to_F[on] - sc.params.L_u) <= 1.0)
+    # ends back at D_s, around the end of the period
+    for tr in (sl, hv):
+        assert tr.finished
+        assert np.linalg.norm(tr.drone[-1] - sc.params.D_s_arr) <= 0.05 + 1e-9
+        assert abs(tr.t[-1] - sc.params.duration) <= 5.0
+    # heading stays unit and commands within bounds
+    assert np.allclose(np.linalg.norm(sl.heading, axis=1), 1.0, atol=1e-9)
+    ok = ~np.isnan(sl.v)
+    assert np.all(np.abs(sl.v[ok]) <= sc.params.V_max + 1e-9)
+    assert np.all(np.linalg.norm(sl.u[ok], axis=1) <= sc.params.U_max + 1e-9)
+
+
+def test_hover_stays_put_on_the_sphere():
+    sc, hv = _run(1, "hover")
+    on = (hv.t >= hv.t_a + 0.2) & (hv.t < hv.t_f)
+    assert np.ptp(hv.drone[on], axis=0).max() < 1e-9
+    assert abs(hv.distance_to_F[on][0] - sc.params.L_u) <= 0.05
+
+
+def test_sliding_equalises_the_two_bearing_changes_on_the_sphere():
+    """Fig. 3.11: beta_1 and beta_2 almost the same during the observation (min-max)."""
+    sc, sl = _run(1, "sliding")
+    on = (sl.t >= sl.t_a + 5) & (sl.t <= sl.t_f)
+    diff = np.abs(sl.beta[on, 0] - sl.beta[on, 1])
+    assert np.degrees(np.median(diff)) < 1.0
+
+
+def test_occlusion_tracks_the_visible_target():
+    """Fig. 3.13: after target 2 is hidden (t >= 90 s), beta_1 is close to zero."""
+    sc = thesis_case(1, occlusion=True)
+    tr = simulate(sc, SlidingModeObserver())
+    late = (tr.t >= 95) & (tr.t <= tr.t_f)
+    assert np.all(np.isnan(tr.beta[tr.t >= 90, 1]))
+    assert np.degrees(np.nanmax(tr.beta[late, 0])) < 2.0
+
+
+def test_no_targets_flies_the_benchmark_path():
+    p = replace(THESIS_TABLE_3_2, duration=40.0)
+    sc = CovertScenario(p, Terrain(), ())
+    a = simulate(sc, SlidingModeObserver())
+    b = simulate(sc, HoverBenchmark())
+    assert a.finished and b.finished
+    assert a.drone.shape == b.drone.shape and np.allclose(a.drone, b.drone, atol=1e-9)
+
+
+def test_settings_validation():
+    with pytest.raises(ValueError, match="eps_line"):
+        SlidingSettings(eps_line=0.0)
+    with pytest.raises(ValueError, match="cos_sat"):
+        SlidingSettings(cos_sat=2.0)
