@@ -3,3 +3,8 @@
 from formulations.shark.altitude import optimal_altitude
 
 __all__ = ["optimal_altitude"]
+from formulations.shark.ocp import (InterceptionOCP, InterceptionPlan, build_interception_nlp,  # noqa: E402
+                                    casadi_optimal_altitude, solve_interception)
+
+__all__ += ["InterceptionOCP", "InterceptionPlan", "build_interception_nlp", "casadi_optimal_altitude",
+            "solve_interception"]

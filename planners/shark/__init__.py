@@ -1,6 +1,8 @@
 """Shark interception controllers (thesis ch. 5)."""
 
 from planners.shark.altitude import thesis_altitude
+from planners.shark.ocp import OCPInterceptor, optimal_interception, virtual_shark_plan
 from planners.shark.pursuit import ClassicalPursuit, VirtualSharkInterceptor
 
-__all__ = ["thesis_altitude", "ClassicalPursuit", "VirtualSharkInterceptor"]
+__all__ = ["thesis_altitude", "ClassicalPursuit", "VirtualSharkInterceptor", "OCPInterceptor",
+           "optimal_interception", "virtual_shark_plan"]

@@ -29,3 +29,61 @@ def test_optimal_altitude_vectorised_and_bad_input():
         optimal_altitude(float("nan"))
     with pytest.raises(ValueError):
         optimal_altitude(0.5)
+
+
+# ---------------------------------------------------------------- interception OCP
+from formulations.shark import InterceptionOCP, build_interception_nlp, solve_interception  # noqa: E402
+from scenarios.shark import inside_field, random_trajectory, thesis_trajectories  # noqa: E402
+from solvers.result import Status  # noqa: E402
+
+
+def _check_plan(res, shark_at, O0):
+    plan = res.x
+    assert res.status == Status.OPTIMAL and math.isclose(res.objective, plan.T)
+    assert np.allclose(plan.operator[0], O0)
+    assert np.all(np.hypot(plan.velocity[:, 0], plan.velocity[:, 1]) <= P.VoMxy + 1e-6)
+    assert np.all(np.abs(plan.velocity[:, 2]) <= P.VoMz + 1e-6)
+    assert np.all(plan.operator[:, 2] >= P.lmin - 1e-7) and np.all(plan.operator[:, 2] <= P.le + 1e-7)
+    # terminal: frontal at eps*(1+gamma), optimal altitude
+    S_T, V_T = shark_at(plan.T)
+    zo, eps = optimal_altitude(min(S_T[2], 0.0))
+    goal = S_T[:2] + eps * (1 + P.gamma) * V_T[:2] / np.linalg.norm(V_T[:2])
+    assert np.allclose(plan.operator[-1, :2], goal, atol=1e-4) and math.isclose(plan.operator[-1, 2], zo, abs_tol=1e-4)
+    # no touch before T on a fine grid (between nodes the operator moves linearly)
+    tt = np.linspace(0, plan.T, 1001)[:-1]
+    S = np.array([shark_at(t)[0] for t in tt])
+    assert np.all(inside_field(S, plan.position(tt)) > -1e-3)
+
+
+def test_head_on_constant_velocity_matches_closed_form():
+    # shark at the origin swimming +x at v, operator D ahead on its path at the optimal altitude:
+    # the optimum flies straight at it and stops eps' ahead: T = (D - eps') / (v + VoMxy)
+    v, D, zs = 5.0, 40.0, -3.0
+    zo, eps = optimal_altitude(zs)
+    O0 = np.array([D, 0.0, zo])
+    res = solve_interception((np.array([0, 0, zs]), np.array([v, 0.0])), O0, N=30)
+    T = (D - eps * (1 + P.gamma)) / (v + P.VoMxy)
+    assert math.isclose(res.objective, T, rel_tol=1e-4)
+    _check_plan(res, lambda t: (np.array([v * t, 0, zs]), np.array([v, 0, 0])), O0)
+
+
+def test_offline_ocp_respects_model_on_thesis_path_b():
+    tr = thesis_trajectories()["b"]
+    O0 = np.array([tr.pos[0, 0] - 5, tr.pos[0, 1] - 12, 2.0])
+    res = solve_interception(tr, O0, N=50)
+    assert len(res.info["tried"]) == 2  # both sides of the path
+    _check_plan(res, tr.at, O0)
+    # lower bound: the horizontal distance to the goal at T cannot be covered faster than VoMxy
+    assert res.objective * P.VoMxy >= np.linalg.norm(res.x.operator[-1, :2] - O0[:2]) - 1e-6
+
+
+def test_ocp_bad_input():
+    with pytest.raises(ValueError):
+        build_interception_nlp(N=1)
+    ocp = InterceptionOCP(N=5)
+    with pytest.raises(ValueError, match="shark_state"):
+        ocp.solve(np.zeros(3))
+    with pytest.raises(ValueError):
+        ocp.solve(np.array([np.nan, 0, 1]), shark_state=(np.zeros(3), np.ones(2)))
+    with pytest.raises(ValueError):
+        solve_interception((np.zeros(3),), np.zeros(3))

@@ -88,3 +88,34 @@ def test_virtual_shark_bad_options():
         VirtualSharkInterceptor(side=2)
     with pytest.raises(ValueError):
         VirtualSharkInterceptor(altitude="x")
+
+
+# ---------------------------------------------------------------- OCP vs virtual shark
+from planners.shark import OCPInterceptor, optimal_interception  # noqa: E402
+from scenarios.shark import operator_start  # noqa: E402
+from solvers.result import Status  # noqa: E402
+
+
+@pytest.mark.parametrize("name", "abcd")
+def test_ocp_time_not_worse_than_virtual_shark_on_thesis_paths(name):
+    tr = thesis_trajectories()[name]
+    res = optimal_interception(tr, operator_start(tr), N=40)
+    assert res.status == Status.OPTIMAL and res.warm_started
+    assert res.objective <= res.info["virtual_shark_T"] + 1e-6
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_ocp_time_not_worse_than_virtual_shark_on_random_paths(seed):
+    tr = random_trajectory(seed)
+    res = optimal_interception(tr, operator_start(tr, bearing_deg=-60.0 * seed), N=40)
+    assert res.info["virtual_shark_T"] is not None
+    assert res.status.has_solution and res.objective <= res.info["virtual_shark_T"] + 1e-6
+
+
+def test_online_ocp_interceptor_intercepts_frontally_on_a():
+    ctl = OCPInterceptor(N=15)
+    trace = simulate_interception(thesis_trajectories()["a"], ctl)
+    _check_props(trace)
+    assert all(s == "OPTIMAL" for s in ctl.statuses)
+    vs = simulate_interception(thesis_trajectories()["a"], VirtualSharkInterceptor())
+    assert trace.intercept_time < vs.intercept_time

@@ -1,0 +1,151 @@
+"""Solver-backed interception: virtual-shark warm starts for the OCP and the receding-horizon OCPInterceptor."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from formulations.shark import InterceptionOCP, InterceptionPlan, solve_interception
+from planners.shark.pursuit import VirtualSharkInterceptor
+from scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory, clip_velocity, simulate_interception
+from solvers.result import SolveResult, Status
+
+__all__ = ["virtual_shark_plan", "optimal_interception", "OCPInterceptor"]
+
+
+def virtual_shark_plan(trajectory: SharkTrajectory, operator0, params: SharkParams = THESIS_TABLE_5_1, *,
+                       side: int | None = None) -> tuple[InterceptionPlan | None, VirtualSharkInterceptor]:
+    """Roll the virtual-shark interceptor out on a known path; its path up to the capture of S2 as a plan.
+
+    Returns (plan or None if it never reached S2, the controller after the run; its
+    ``capture_time`` is the virtual-shark interception time comparable with the OCP's T).
+    """
+    vs = VirtualSharkInterceptor(params, side=side)
+    tr = simulate_interception(trajectory, vs, params, operator0=operator0)
+    if vs.capture_time is None:
+        return None, vs
+    k = int(round(vs.capture_time / params.Ts))
+    s = side if side is not None else 0
+    return InterceptionPlan.from_samples(tr.t[:k + 1], tr.operator[:k + 1], s), vs
+
+
+def optimal_interception(trajectory: SharkTrajectory, operator0, params: SharkParams = THESIS_TABLE_5_1, *,
+                         N: int = 50, time_limit: float | None = None) -> SolveResult:
+    """Offline optimum for a known path: the OCP warm-started from virtual-shark rollouts on both sides.
+
+    Also tries the formulation's two crude starts; ``info["virtual_shark_T"]`` holds the thesis
+    algorithm's capture time (s) with its own side rule.
+    """
+    starts = []
+    ref_plan, ref = virtual_shark_plan(trajectory, operator0, params)
+    for side in (1, -1):
+        plan, _ = virtual_shark_plan(trajectory, operator0, params, side=side)
+        if plan is not None:
+            starts.append(plan)
+    ocp = InterceptionOCP(params, N=N, path=trajectory)
+    starts += ocp.default_guesses(operator0)
+    res = solve_interception(trajectory, operator0, params, N=N, warm_starts=starts, time_limit=time_limit)
+    return dataclasses.replace(res, info={**res.info, "virtual_shark_T": ref.capture_time})
+
+
+class OCPInterceptor:
+    """Receding-horizon interception: re-solve the OCP every Ts and apply the first control.
+
+    params: problem parameters; N: OCP intervals; path: the shark's known path (None: predict
+    it at constant velocity from each measurement — the online controller); margin: clearance
+    margin (m); time_limit: IPOPT wall-clock limit per replan (s); hold_timeout: s in the final
+    hold without contact before replanning again.
+
+    The first solve starts from the virtual-shark rollout (known path) or the formulation's
+    crude starts on both sides (best kept); later solves start from the previous plan shifted
+    by Ts, reusing its duals after a successful solve. ``solve_times`` (s) and ``statuses``
+    record every replan. Once the remaining time is below Ts the operator steps onto the
+    terminal point and holds (``at_interception``), as the thesis's step 3.
+    """
+
+    def __init__(self, params: SharkParams = THESIS_TABLE_5_1, *, N: int = 20,
+                 path: SharkTrajectory | None = None, margin: float = 0.05, time_limit: float | None = None,
+                 hold_timeout: float = 1.0):
+        if not (math.isfinite(hold_timeout) and hold_timeout > 0):
+            raise ValueError("hold_timeout must be > 0")
+        self.params, self.N, self.path, self.margin = params, N, path, margin
+        self.time_limit = time_limit
+        self.hold_timeout = hold_timeout
+        self.ocp = InterceptionOCP(params, N=N, path=path, margin=margin, time_limit=time_limit)
+        self.reset(np.zeros(3), params)
+
+    def reset(self, operator, params: SharkParams) -> None:
+        """Start a new run."""
+        if params != self.params:
+            raise ValueError("OCPInterceptor was built for other params")
+        self.phase = 1
+        self.at_interception = False
+        self.capture_time = None
+        self._last: SolveResult | None = None
+        self._hold_since = None
+        self.solve_times: list[float] = []
+        self.statuses: list[str] = []
+        self.plans: list[InterceptionPlan] = []
+
+    def _first_guesses(self, t, O, S, V):
+        if self.path is not None:
+            sub = SharkTrajectory(self.path.t[: len(self.path.t) - int(round(t / self.params.Ts))],
+                                  self.path.pos[int(round(t / self.params.Ts)):],
+                                  self.path.vel[int(round(t / self.params.Ts)):], self.path.name)
+            out = []
+            for side in (1, -1):
+                plan, _ = virtual_shark_plan(sub, O, self.params, side=side)
+                if plan is not None:
+                    out.append(plan)
+            return out + self.ocp.default_guesses(O, t0=t)
+        return self.ocp.default_guesses(O, shark_state=(S, V))
+
+    def _solve(self, t, O, S, V) -> SolveResult | None:
+        kw = dict(t0=t) if self.path is not None else dict(shark_state=(S, V))
+        ok = (Status.OPTIMAL, Status.FEASIBLE)
+        if self._last is not None and self._last.status in ok:
+            prev = self._last.x
+            Ts = self.params.Ts
+            T = max(prev.T - Ts, Ts)
+            tt = Ts + np.linspace(0.0, T, self.N + 1)
+            pos = prev.position(tt)
+            pos[0] = O
+            guess = InterceptionPlan(tt - Ts, pos, np.diff(pos, axis=0) / (T / self.N), T, prev.side)
+            res = self.ocp.solve(O, guess=guess, warm_start=self._last, **kw)
+            self.solve_times.append(res.solve_time)
+            self.statuses.append(res.status.name)
+            if res.status in ok:
+                return res
+        best = None
+        for g in self._first_guesses(t, O, S, V):
+            r = self.ocp.solve(O, guess=g, **kw)
+            self.solve_times.append(r.solve_time)
+            self.statuses.append(r.status.name)
+            if r.status in ok and (best is None or r.objective < best.objective):
+                best = r
+        return best
+
+    def step(self, t: float, operator, shark_pos, shark_vel) -> np.ndarray:
+        """Velocity command (m/s) for the next Ts."""
+        p = self.params
+        O = np.asarray(operator, float)
+        if self.phase == 3:
+            if t - self._hold_since <= self.hold_timeout + 1e-9:
+                return np.zeros(3)
+            self.phase, self._last, self.at_interception = 1, None, False
+        res = self._solve(t, O, np.asarray(shark_pos, float), np.asarray(shark_vel, float))
+        self._last = res
+        if res is None:  # no plan: close in on the shark's front as a fallback
+            d = np.asarray(shark_pos, float) + np.r_[np.asarray(shark_vel, float)[:2], 0.0] - O
+            d[2] = 0.0
+            return clip_velocity(p.VoMxy * d / (np.linalg.norm(d) + 1e-9), p)[0]
+        plan = res.x
+        self.plans.append(plan)
+        if plan.T <= p.Ts + 1e-9:  # reach the terminal point within this step, then hold
+            self.phase, self.at_interception = 3, True
+            self.capture_time = t + plan.T
+            self._hold_since = t
+            return clip_velocity((plan.operator[-1] - O) / p.Ts, p)[0]
+        return clip_velocity((plan.position(p.Ts) - O) / p.Ts, p)[0]
