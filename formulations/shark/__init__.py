@@ -8,3 +8,8 @@ from formulations.shark.ocp import (InterceptionOCP, InterceptionPlan, build_int
 
 __all__ += ["InterceptionOCP", "InterceptionPlan", "build_interception_nlp", "casadi_optimal_altitude",
             "solve_interception"]
+from formulations.shark.assignment import (Assignment, assignment_cost, build_assignment_model,  # noqa: E402
+                                           greedy_assignment, select_sharks, solve_assignment)
+
+__all__ += ["Assignment", "assignment_cost", "build_assignment_model", "greedy_assignment", "select_sharks",
+            "solve_assignment"]

@@ -87,3 +87,46 @@ def test_ocp_bad_input():
         ocp.solve(np.array([np.nan, 0, 1]), shark_state=(np.zeros(3), np.ones(2)))
     with pytest.raises(ValueError):
         solve_interception((np.zeros(3),), np.zeros(3))
+
+
+# ---------------------------------------------------------------- assignment
+import itertools  # noqa: E402
+
+from formulations.shark import assignment_cost, greedy_assignment, select_sharks, solve_assignment  # noqa: E402
+
+
+def _brute(cost, sharks):
+    n = cost.shape[0]
+    best = None
+    for perm in itertools.permutations(range(n), len(sharks)):
+        v = assignment_cost(cost, sharks, perm)
+        if best is None or (v[0], v[1]) < best:
+            best = (v[0], v[1])
+    return best
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(1, 5), st.integers(1, 5), st.integers(0, 10**6))
+def test_assignment_equals_brute_force(n, s, seed):
+    g = np.random.default_rng(seed)
+    cost = g.uniform(1, 20, (n, s)).round(3)
+    d = g.uniform(0, 100, s)
+    res = solve_assignment(cost, shark_to_human=d, workers=1)
+    assert res.status == Status.OPTIMAL
+    sharks = select_sharks(d, n) if s > n else np.arange(s)
+    assert np.array_equal(res.x.sharks, sharks)
+    assert len(set(res.x.operator.tolist())) == len(sharks)  # one shark per operator
+    latest, total = _brute(cost, sharks)
+    assert math.isclose(res.objective, latest, abs_tol=1e-9)
+    assert math.isclose(res.x.total, total, abs_tol=2e-3 * len(sharks))
+    assert res.bound is not None and res.bound <= res.objective + 1e-9
+    greedy = greedy_assignment(g.uniform(0, 50, (n, 3)), g.uniform(0, 50, (s, 3)), d, cost)
+    assert greedy.objective >= res.objective - 1e-9
+
+
+def test_select_sharks_thesis_rule_and_bad_input():
+    assert select_sharks([50.0, 10.0, 30.0, 5.0], 2).tolist() == [1, 3]
+    with pytest.raises(ValueError, match="shark_to_human"):
+        solve_assignment(np.ones((2, 3)))
+    with pytest.raises(ValueError):
+        solve_assignment(np.array([[1.0, -2.0]]))

@@ -119,3 +119,15 @@ def test_online_ocp_interceptor_intercepts_frontally_on_a():
     assert all(s == "OPTIMAL" for s in ctl.statuses)
     vs = simulate_interception(thesis_trajectories()["a"], VirtualSharkInterceptor())
     assert trace.intercept_time < vs.intercept_time
+
+
+def test_allocation_optimal_not_worse_than_greedy():
+    from planners.shark import allocate_operators
+    g = np.random.default_rng(5)
+    O = np.c_[g.uniform(-40, 40, (3, 2)), np.full(3, 2.0)]
+    S = np.c_[g.uniform(-40, 40, (3, 2)), np.full(3, -3.0)]
+    V = np.c_[g.normal(0, 1, (3, 2)) * 3, np.zeros(3)]
+    H = g.uniform(-20, 20, (4, 2))
+    opt = allocate_operators(O, S, V, H)
+    gr = allocate_operators(O, S, V, H, greedy=True)
+    assert np.isfinite(opt.objective) and opt.objective <= gr.objective + 1e-9

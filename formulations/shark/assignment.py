@@ -1,0 +1,154 @@
+"""Operator-shark assignment (thesis §5.3.1): one operator per shark, minimise the latest interception.
+
+The thesis allocates one operator to each spotted shark (s <= n); when s > n sharks are spotted
+it raises the highest alert and sends all n operators to the n sharks closest to humans.
+Here the allocation is an explicit bottleneck assignment model solved by CP-SAT:
+
+    min  Z * M + sum_ij c_ij x_ij
+    s.t. sum_i x_ij = 1 for every selected shark j, sum_j x_ij <= 1 for every operator i,
+         Z >= c_ij x_ij  (Z = latest interception),  x binary,
+
+with c_ij the interception time (s) of operator i on shark j (quantised to 1 ms) and M large
+enough that the latest interception is minimised first and the total second.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from ortools.sat.python import cp_model
+
+from solvers.cpsat import solve_cpsat
+from solvers.result import SolveResult, Status
+
+__all__ = ["Assignment", "select_sharks", "build_assignment_model", "solve_assignment", "greedy_assignment",
+           "assignment_cost"]
+
+_SCALE = 1000  # ms
+
+
+@dataclass(frozen=True)
+class Assignment:
+    """operator[j]: index of the operator sent to selected shark sharks[j]; latest, total: s."""
+
+    sharks: np.ndarray
+    operator: np.ndarray
+    latest: float
+    total: float
+
+
+def _check_cost(cost) -> np.ndarray:
+    c = np.asarray(cost, dtype=float)
+    if c.ndim != 2 or c.size == 0:
+        raise ValueError("cost must be a non-empty (n_operators, n_sharks) matrix")
+    if np.isnan(c).any() or (c < 0).any():
+        raise ValueError("cost entries must be >= 0 (inf allowed for 'cannot intercept')")
+    return c
+
+
+def select_sharks(shark_to_human, n_operators: int) -> np.ndarray:
+    """Indices of the sharks to serve: all if s <= n, else the n closest to humans (thesis §5.3.1).
+
+    shark_to_human: (s,) distance (m) from each shark to its nearest human.
+    """
+    d = np.asarray(shark_to_human, dtype=float)
+    if d.ndim != 1 or np.isnan(d).any():
+        raise ValueError("shark_to_human must be a 1-D array of distances")
+    if not isinstance(n_operators, (int, np.integer)) or n_operators < 1:
+        raise ValueError("n_operators must be a positive int")
+    order = np.argsort(d, kind="stable")
+    return np.sort(order[:n_operators])
+
+
+def assignment_cost(cost, sharks, operator) -> tuple[float, float]:
+    """(latest, total) interception time (s) of an assignment."""
+    c = _check_cost(cost)
+    v = c[np.asarray(operator, int), np.asarray(sharks, int)]
+    return float(v.max()), float(v.sum())
+
+
+def build_assignment_model(cost, sharks):
+    """Build (only) the CP-SAT model for the selected sharks; returns (model, x[i][j] vars, Z)."""
+    c = _check_cost(cost)
+    n = c.shape[0]
+    sharks = np.asarray(sharks, int)
+    if len(sharks) > n:
+        raise ValueError(f"{len(sharks)} sharks selected for {n} operators: select at most n (select_sharks)")
+    finite = np.isfinite(c[:, sharks])
+    big = int(np.ceil(_SCALE * (c[:, sharks][finite].max() if finite.any() else 1.0))) + 1
+    q = np.where(finite, np.round(_SCALE * np.where(finite, c[:, sharks], 0)).astype(np.int64), -1)
+    m = cp_model.CpModel()
+    x = [[m.new_bool_var(f"x_{i}_{j}") if q[i, j] >= 0 else None for j in range(len(sharks))] for i in range(n)]
+    Z = m.new_int_var(0, big, "Z")
+    for j in range(len(sharks)):
+        m.add_exactly_one([x[i][j] for i in range(n) if x[i][j] is not None])
+    for i in range(n):
+        row = [v for v in x[i] if v is not None]
+        if row:
+            m.add_at_most_one(row)
+        for j in range(len(sharks)):
+            if x[i][j] is not None:
+                m.add(Z >= int(q[i, j])).only_enforce_if(x[i][j])
+    M = big * len(sharks) + 1
+    m.minimize(M * Z + sum(int(q[i, j]) * x[i][j] for i in range(n) for j in range(len(sharks))
+                           if x[i][j] is not None))
+    return m, x, Z
+
+
+def solve_assignment(cost, *, shark_to_human=None, time_limit: float | None = 10.0, workers: int = 1) -> SolveResult:
+    """Minimise the latest interception time over one-to-one operator-shark assignments.
+
+    cost: (n_operators, n_sharks) interception times (s), inf where impossible.
+    shark_to_human: (s,) distances (m) to the nearest human; required when s > n to pick the
+    n sharks closest to humans (thesis); ignored otherwise.
+    Returns x = `Assignment`, objective = latest interception (s), bound = CP-SAT's bound on it.
+    """
+    c = _check_cost(cost)
+    n, s = c.shape
+    if s > n:
+        if shark_to_human is None:
+            raise ValueError(f"s={s} > n={n}: pass shark_to_human to select the n sharks closest to humans")
+        sharks = select_sharks(shark_to_human, n)
+    else:
+        sharks = np.arange(s)
+    model, x, Z = build_assignment_model(c, sharks)
+    flat = [v for row in x for v in row if v is not None]
+    idx = [(i, j) for i, row in enumerate(x) for j, v in enumerate(row) if v is not None]
+    res = solve_cpsat(model, variables=flat, time_limit=time_limit, workers=workers)
+    if not res.has_solution:
+        return dataclasses.replace(res, message=f"assignment: {res.message}")
+    op = np.full(len(sharks), -1)
+    for (i, j), val in zip(idx, res.x):
+        if val:
+            op[j] = i
+    latest, total = assignment_cost(c, sharks, op)
+    M = int(np.ceil(_SCALE * np.nanmax(np.where(np.isfinite(c[:, sharks]), c[:, sharks], 0)))) + 1
+    M = M * len(sharks) + 1
+    bound = None if res.bound is None else float(np.floor(res.bound / M)) / _SCALE
+    return dataclasses.replace(res, x=Assignment(sharks, op, latest, total), objective=latest, bound=bound,
+                               message=f"bottleneck assignment of {len(sharks)} sharks to {n} operators "
+                                       f"(times quantised to 1 ms)")
+
+
+def greedy_assignment(operators, sharks_pos, shark_to_human, cost) -> SolveResult:
+    """Baseline: sharks in order of distance to humans each take the nearest free operator.
+
+    operators (n,3), sharks_pos (s,3) in m; cost as in `solve_assignment` (used only to score).
+    """
+    c = _check_cost(cost)
+    O = np.asarray(operators, float)
+    Sp = np.asarray(sharks_pos, float)
+    n = len(O)
+    sel = select_sharks(shark_to_human, n) if len(Sp) > n else np.arange(len(Sp))
+    order = sel[np.argsort(np.asarray(shark_to_human, float)[sel], kind="stable")]
+    free = list(range(n))
+    op = {}
+    for j in order:
+        d = [np.linalg.norm(O[i, :2] - Sp[j, :2]) for i in free]
+        op[j] = free.pop(int(np.argmin(d)))
+    ops = np.array([op[j] for j in sel])
+    latest, total = assignment_cost(c, sel, ops)
+    return SolveResult(Status.FEASIBLE, objective=latest, x=Assignment(sel, ops, latest, total),
+                       backend="greedy", message="greedy nearest-operator assignment (heuristic)")

@@ -1,0 +1,64 @@
+"""Several sharks and operators: interception-time matrices and the allocation (thesis §5.3.1)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from formulations.shark import greedy_assignment, solve_assignment, solve_interception
+from planners.shark.pursuit import VirtualSharkInterceptor
+from scenarios.shark import THESIS_TABLE_5_1, SharkParams, constant_velocity_trajectory, simulate_interception
+from solvers.result import SolveResult
+
+__all__ = ["interception_time_matrix", "allocate_operators"]
+
+
+def interception_time_matrix(operators, sharks_pos, sharks_vel, params: SharkParams = THESIS_TABLE_5_1, *,
+                             method: str = "virtual-shark", t_max: float = 30.0) -> np.ndarray:
+    """(n, s) predicted interception times (s) of each operator on each shark (inf if none).
+
+    Sharks are predicted at constant velocity. method: "virtual-shark" (capture time of the
+    thesis algorithm) or "ocp" (time-optimal OCP, best of both sides).
+    """
+    if method not in ("virtual-shark", "ocp"):
+        raise ValueError(f"method must be 'virtual-shark' or 'ocp', got {method!r}")
+    O = np.asarray(operators, float).reshape(-1, 3)
+    Sp = np.asarray(sharks_pos, float).reshape(-1, 3)
+    Sv = np.asarray(sharks_vel, float).reshape(-1, 3)
+    if len(Sp) != len(Sv):
+        raise ValueError("sharks_pos and sharks_vel must have the same length")
+    C = np.full((len(O), len(Sp)), np.inf)
+    for j in range(len(Sp)):
+        v = Sv[j].copy()
+        v[2] = 0.0
+        path = constant_velocity_trajectory(Sp[j], v, duration=t_max, dt=params.Ts)
+        for i in range(len(O)):
+            if np.hypot(*(O[i, :2] - Sp[j, :2])) <= params.eps_o:
+                continue
+            if method == "virtual-shark":
+                vs = VirtualSharkInterceptor(params)
+                simulate_interception(path, vs, params, operator0=O[i])
+                if vs.capture_time is not None:
+                    C[i, j] = vs.capture_time
+            else:
+                r = solve_interception((Sp[j], Sv[j]), O[i], params, N=30, t_max=t_max)
+                if r.status.has_solution:
+                    C[i, j] = r.objective
+    return C
+
+
+def allocate_operators(operators, sharks_pos, sharks_vel, humans, params: SharkParams = THESIS_TABLE_5_1, *,
+                       method: str = "virtual-shark", greedy: bool = False) -> SolveResult:
+    """Allocate operators to sharks: optimal bottleneck assignment (or the greedy baseline).
+
+    humans: (m, 2 or 3) swimmer positions (m); a shark's priority is its horizontal distance
+    to the nearest human (s > n: the n closest sharks are served, thesis §5.3.1).
+    """
+    H = np.asarray(humans, float)
+    Sp = np.asarray(sharks_pos, float).reshape(-1, 3)
+    if H.ndim != 2 or len(H) == 0:
+        raise ValueError("humans must be a non-empty (m, 2|3) array")
+    d = np.min(np.linalg.norm(Sp[:, None, :2] - H[None, :, :2], axis=2), axis=1)
+    C = interception_time_matrix(operators, sharks_pos, sharks_vel, params, method=method)
+    if greedy:
+        return greedy_assignment(operators, Sp, d, C)
+    return solve_assignment(C, shark_to_human=d)
