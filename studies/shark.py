@@ -1,0 +1,258 @@
+"""Shark interception (thesis ch. 5): reproduction, optimality gap and benchmarks.
+
+`droneplan reproduce shark` — Fig. 5.10 (z_o*, eps* vs z_s: thesis formula beside the exact
+optimum), Fig. 5.11 (classical pursuit), Table 5.2 (interception distance for paths a-d:
+thesis, virtual shark, OCP), Fig. 5.12 panels, repelling episodes.
+`droneplan gap shark` — virtual-shark time vs the OCP optimum on random paths (path known),
+and the optimal operator-shark assignment vs greedy nearest-operator.
+`droneplan bench shark` — online OCP replan time vs Ts, OCP/virtual-shark time ratios.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from formulations.shark import optimal_altitude  # noqa: E402
+from planners.shark import (ClassicalPursuit, OCPInterceptor, VirtualSharkInterceptor,  # noqa: E402
+                            allocate_operators, optimal_interception, thesis_altitude)
+from scenarios.shark import (THESIS_TABLE_5_1, operator_start, random_trajectory,  # noqa: E402
+                             simulate_interception, thesis_trajectories)
+from studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
+
+P = THESIS_TABLE_5_1
+TABLE_5_2 = {"a": (5.34, 29.70), "b": (5.48, 30.50), "c": (5.55, 19.79), "d": (5.78, 21.26)}
+"""Thesis Table 5.2: average shark speed (m/s), interception distance (m)."""
+
+
+# --------------------------------------------------------------------------- reproduce
+def _fig_5_10(out: Path, table: ComparisonTable) -> None:
+    z = np.linspace(-11.5, 0, 2301)
+    zt, et = thesis_altitude(z)
+    zx, ex = optimal_altitude(z)
+    bad = (zt > P.le + 1e-12) | (zt < P.lmin - 1e-12)
+    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
+    for a, yt, yx, lab in ((ax[0], zt, zx, "z_o* (m)"), (ax[1], et, ex, "eps* (m)")):
+        a.plot(z, yt, "--", label="Prop. 5.3.1 (thesis)")
+        a.plot(z, yx, label="exact maximiser")
+        a.axvspan(z[bad].min(), z[bad].max(), color="red", alpha=0.15, label="thesis z_o* outside [lmin, le]")
+        a.set_xlabel("z_s (m)")
+        a.set_ylabel(lab)
+        a.grid(alpha=0.3)
+    ax[0].axhline(P.le, color="k", lw=0.5)
+    ax[0].axhline(P.lmin, color="k", lw=0.5)
+    ax[0].legend(fontsize=7)
+    fig.suptitle("Fig. 5.10: optimal operator altitude and interception radius")
+    fig.tight_layout()
+    fig.savefig(out / "fig_5_10.png", dpi=120)
+    plt.close(fig)
+    np.savetxt(out / "fig_5_10.csv", np.c_[z, zt, et, zx, ex], delimiter=",",
+               header="z_s,zo_thesis,eps_thesis,zo_exact,eps_exact", comments="")
+    table.add("Fig 5.10: z_s range where Prop. 5.3.1 puts z_o* outside [lmin, le]", "not noted",
+              f"({z[bad].min():.2f}, {z[bad].max():.2f}) m", "grid of 2301 z_s values, eqs. 5.6 verbatim")
+    table.add("Fig 5.10: min exact eps* on that range (thesis claims eps_o)", P.eps_o, float(ex[bad].min()),
+              "exact maximiser over lmin <= z_o <= le (two-ball field)")
+    table.add("Fig 5.10: z_o* jump (thesis at z_s = -3.5 m)", "z_s+l2 -> z_s+l1 at -3.5",
+              f"exact: 2 -> 1 m at z_s = {z[1:][np.abs(np.diff(zx)) > 0.5][0]:.2f} m", "exact maximiser")
+
+
+def _fig_5_11(out: Path, table: ComparisonTable) -> None:
+    tr = thesis_trajectories()["a"]
+    cp = simulate_interception(tr, ClassicalPursuit())
+    lit = simulate_interception(tr, ClassicalPursuit(aim="shark"), t_max=20)
+    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
+    ax[0].plot(cp.shark[:, 0], cp.shark[:, 1], "r", label="shark")
+    ax[0].plot(cp.operator[:, 0], cp.operator[:, 1], "b", label="operator (classical pursuit)")
+    th = np.linspace(0, 2 * np.pi, 60)
+    ax[0].plot(cp.operator[-1, 0] + cp.eps[-1] * np.cos(th), cp.operator[-1, 1] + cp.eps[-1] * np.sin(th), "k")
+    ax[0].set_aspect("equal")
+    ax[0].legend(fontsize=7)
+    ax[0].set_title("top view")
+    ax[1].plot(cp.t, cp.eps, label="eps(h)")
+    ax[1].plot(cp.t, cp.D_h, label="D_h")
+    ax[1].set_xlabel("t (s)")
+    ax[1].legend(fontsize=7)
+    fig.suptitle("Fig. 5.11: classical pursuit touches the shark from behind")
+    fig.tight_layout()
+    fig.savefig(out / "fig_5_11.png", dpi=120)
+    plt.close(fig)
+    table.add("Fig 5.11: classical pursuit first contact (path a)", "from behind",
+              f"angle {cp.frontal_angle:.0f} deg from the heading at t={cp.intercept_time:.2f} s",
+              "eq. 5.5 aimed above the shark; 0 deg = frontal")
+    table.add("Fig 5.11: eq. 5.5 literally (aim at the submerged shark)", "—",
+              "never touches" if not lit.intercepted else f"touches at {lit.intercept_time:.2f} s",
+              f"stalls at D_h={lit.D_h[-1]:.2f} m > eps={lit.eps[-1]:.2f} m (altitude floor)")
+
+
+def _table_5_2(out: Path, table: ComparisonTable, quick: bool) -> dict:
+    runs = {}
+    rows = []
+    for name, tr in thesis_trajectories().items():
+        O0 = operator_start(tr)
+        vs_ctl = VirtualSharkInterceptor()
+        vs = simulate_interception(tr, vs_ctl)
+        on_ctl = OCPInterceptor(N=20)
+        on = simulate_interception(tr, on_ctl)
+        off = optimal_interception(tr, O0, N=40 if quick else 60)
+        off_ctl = OCPInterceptor(N=30 if quick else 40, path=tr)
+        offsim = simulate_interception(tr, off_ctl)
+        runs[name] = (tr, vs, on, offsim)
+        sp, dist = TABLE_5_2[name]
+        table.add(f"Table 5.2 ({name}): average shark speed (m/s)", sp, tr.average_speed(vs.intercept_time),
+                  "our path, mean |v_s| until the virtual-shark contact")
+        table.add(f"Table 5.2 ({name}): interception distance, virtual shark (m)", dist, vs.interception_distance,
+                  f"|S(contact) - S(0)|, start {P.Di} m at -105 deg; frontal={vs.frontal}, early={vs.touched_early}")
+        table.add(f"Table 5.2 ({name}): interception distance, online OCP (m)", "—", on.interception_distance,
+                  f"receding horizon, constant-velocity prediction; frontal={on.frontal}, early={on.touched_early}")
+        table.add(f"Table 5.2 ({name}): interception distance, offline OCP (m)", "—", offsim.interception_distance,
+                  f"receding horizon on the known path; frontal={offsim.frontal}, early={offsim.touched_early}")
+        table.add(f"Table 5.2 ({name}): time to the interception point OCP / virtual shark", "—",
+                  off.objective / vs_ctl.capture_time, f"OCP T={off.objective:.2f} s (IPOPT {off.status.name}) vs "
+                  f"{vs_ctl.capture_time:.2f} s")
+        rows.append(dict(path=name, thesis_speed=sp, speed=tr.average_speed(vs.intercept_time), thesis_distance=dist,
+                         vs_distance=vs.interception_distance, vs_time=vs.intercept_time,
+                         online_ocp_distance=on.interception_distance, online_ocp_time=on.intercept_time,
+                         offline_ocp_distance=offsim.interception_distance, offline_ocp_time=offsim.intercept_time,
+                         ocp_T=off.objective, vs_capture=vs_ctl.capture_time))
+    import pandas as pd
+    pd.DataFrame(rows).to_csv(out / "table_5_2_runs.csv", index=False)
+    return runs
+
+
+def _fig_5_12(out: Path, runs: dict) -> None:
+    fig, ax = plt.subplots(4, 4, figsize=(16, 13))
+    for r, (name, (tr, vs, on, off)) in enumerate(runs.items()):
+        a = ax[r]
+        a[0].plot(vs.shark[:, 0], vs.shark[:, 1], "r", label="shark")
+        a[0].plot(vs.operator[:, 0], vs.operator[:, 1], "b", label="virtual shark")
+        a[0].plot(off.operator[:, 0], off.operator[:, 1], "g--", label="offline OCP")
+        th = np.linspace(0, 2 * np.pi, 60)
+        a[0].plot(vs.operator[-1, 0] + vs.eps[-1] * np.cos(th), vs.operator[-1, 1] + vs.eps[-1] * np.sin(th), "k")
+        a[0].set_aspect("equal")
+        a[0].set_title(f"({name}) top view")
+        a[1].plot(vs.t, vs.shark[:, 2], "r", label="z_s")
+        a[1].plot(vs.t, vs.operator[:, 2], "b", label="z_o")
+        a[1].set_title("altitudes (m)")
+        a[2].plot(vs.t, vs.eps, label="eps(h)")
+        a[2].plot(vs.t, vs.D_h, label="D_h")
+        a[2].set_title("eps(h) vs D_h (m)")
+        a[3].plot(vs.t, np.linalg.norm(vs.shark_vel, axis=1), "r", label="|v_s|")
+        a[3].plot(vs.t[:-1], np.linalg.norm(vs.operator_vel[:-1], axis=1), "b", label="|v_o|")
+        a[3].set_title("speeds (m/s)")
+        for x in a:
+            x.grid(alpha=0.3)
+            x.legend(fontsize=6)
+    fig.suptitle("Fig. 5.12: virtual-shark interception on paths a-d (offline OCP dashed)")
+    fig.tight_layout()
+    fig.savefig(out / "fig_5_12.png", dpi=100)
+    plt.close(fig)
+
+
+def reproduce(*, quick: bool, out: Path) -> None:
+    """Fig. 5.10, 5.11, Table 5.2, Fig. 5.12 and repelling episodes; tables on stdout, CSV/PNG in out."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    t1 = ComparisonTable("Shark ch. 5: Fig. 5.10 / 5.11")
+    _fig_5_10(out, t1)
+    _fig_5_11(out, t1)
+    t1.emit(out, "fig_5_10_5_11")
+    t2 = ComparisonTable("Shark ch. 5: Table 5.2 (interception distance)")
+    runs = _table_5_2(out, t2, quick)
+    t2.emit(out, "table_5_2")
+    _fig_5_12(out, runs)
+
+
+# --------------------------------------------------------------------------- gap
+def _gap_task(task: dict) -> dict:
+    seed = int(task["seed"])
+    if task["kind"] == "path":
+        tr = random_trajectory(seed)
+        bearing = float(np.random.default_rng(seed).uniform(-180, 180))
+        O0 = operator_start(tr, bearing_deg=bearing)
+        vs_ctl = VirtualSharkInterceptor()
+        vs = simulate_interception(tr, vs_ctl, bearing_deg=bearing)
+        t0 = time.perf_counter()
+        res = optimal_interception(tr, O0, N=50)
+        dt = time.perf_counter() - t0
+        T = res.objective if res.status.has_solution else None
+        return dict(kind="path", seed=seed, bearing=bearing, vs_T=vs_ctl.capture_time, vs_contact=vs.intercept_time,
+                    vs_frontal=vs.frontal, vs_early=vs.touched_early, ocp_T=T, ocp_status=res.status.name,
+                    ratio=(T / vs_ctl.capture_time) if (T and vs_ctl.capture_time) else None, ocp_time_s=dt)
+    g = np.random.default_rng(seed)
+    n, s = int(g.integers(2, 5)), int(g.integers(2, 6))
+    O = np.c_[g.uniform(-60, 60, (n, 2)), np.full(n, 2.0)]
+    S = np.c_[g.uniform(-60, 60, (s, 2)), g.uniform(-5, -1, s)]
+    V = np.c_[g.normal(0, 1, (s, 2)) * 3.0, np.zeros(s)]
+    H = g.uniform(-30, 30, (6, 2))
+    opt = allocate_operators(O, S, V, H)
+    gr = allocate_operators(O, S, V, H, greedy=True)
+    return dict(kind="assign", seed=seed, n=n, s=s, opt_latest=opt.objective, opt_status=opt.status.name,
+                greedy_latest=gr.objective,
+                ratio=(gr.objective / opt.objective) if np.isfinite(gr.objective) and opt.objective else None)
+
+
+def gap(*, seeds: int, executor, out: Path) -> None:
+    """Virtual shark vs OCP optimum on ``seeds`` random paths; assignment vs greedy on ``seeds`` fleets."""
+    out = Path(out)
+    p = map_rows(_gap_task, [dict(kind="path", seed=s) for s in range(seeds)], executor=executor,
+                 store=ResumableCSV(out / "gap_shark_paths.csv", key=("kind", "seed")), desc="shark gap: paths")
+    a = map_rows(_gap_task, [dict(kind="assign", seed=s) for s in range(seeds)], executor=executor,
+                 store=ResumableCSV(out / "gap_shark_assign.csv", key=("kind", "seed")), desc="shark gap: fleets")
+    t = ComparisonTable("Shark ch. 5: optimality gap")
+    r = p["ratio"].astype(float).dropna()
+    t.add("OCP T / virtual-shark T, random curvy paths (mean)", "—", float(r.mean()) if len(r) else None,
+          f"{len(r)} paths with both times; path known; 1 = no gain")
+    t.add("OCP T / virtual-shark T (worst = max)", "—", float(r.max()) if len(r) else None, "same paths")
+    t.add("virtual shark touches early (Prop. 5.3.3 violated)", "never",
+          f"{int(p['vs_early'].astype(str).eq('True').sum())}/{len(p)}", "curvy random paths, random start bearing")
+    ra = a["ratio"].astype(float).replace([np.inf], np.nan)
+    t.add("greedy / optimal latest interception (mean)", "—", float(ra.mean()) if ra.notna().any() else None,
+          f"{len(a)} fleets (2-4 operators, 2-5 sharks), virtual-shark times on constant-velocity paths")
+    t.add("fleets where greedy is worse", "—", f"{int((ra > 1 + 1e-9).sum())}/{len(a)} "
+          f"(+{int(ra.isna().sum())} where greedy leaves a shark unreachable)", "")
+    t.emit(out, "gap_shark_summary")
+
+
+# --------------------------------------------------------------------------- bench
+def bench(*, quick: bool, out: Path) -> None:
+    """Online OCP replan time vs Ts; OCP / virtual-shark interception-time ratios on a-d and random paths."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    t = ComparisonTable("Shark ch. 5: bench")
+    paths = dict(thesis_trajectories())
+    n_rand = 10 if quick else 50
+    for s in range(n_rand):
+        paths[f"r{s}"] = random_trajectory(1000 + s)
+    solve_times, warm_times, ratios_abcd, ratios_rand, missing = [], [], [], [], []
+    for name, tr in paths.items():
+        if name in "abcd" or (not quick and name in ("r0", "r1", "r2", "r3")) or (quick and name == "r0"):
+            ctl = OCPInterceptor(N=20)
+            simulate_interception(tr, ctl)
+            solve_times += ctl.solve_times
+            warm_times += ctl.solve_times[2:]  # after the two cold starts
+        O0 = operator_start(tr)
+        res = optimal_interception(tr, O0, N=50)
+        vsT = res.info["virtual_shark_T"]
+        if res.status.has_solution and vsT:
+            (ratios_abcd if name in "abcd" else ratios_rand).append(res.objective / vsT)
+        else:
+            missing.append(f"{name}: virtual shark {'no capture' if not vsT else 'ok'}, OCP {res.status.name}")
+    st = np.array(solve_times)
+    t.add("online OCP replan time / Ts (median)", "< 1 (target)", float(np.median(st) / P.Ts),
+          f"N=20 constant-velocity OCP, IPOPT, {len(st)} replans over a-d and random paths, all solves")
+    t.add("online OCP replan time / Ts (95th percentile)", "—", float(np.percentile(st, 95) / P.Ts), "same")
+    t.add("online OCP warm replan time / Ts (median)", "—", float(np.median(warm_times) / P.Ts),
+          "warm-started from the shifted previous plan and duals")
+    t.add("OCP T / virtual-shark T on a-d (mean)", "—", float(np.mean(ratios_abcd)), "path known, N=50")
+    t.add("OCP T / virtual-shark T on a-d (worst)", "—", float(np.max(ratios_abcd)), "")
+    t.add(f"OCP T / virtual-shark T on {len(ratios_rand)} random paths (mean)", "—", float(np.mean(ratios_rand)),
+          f"{n_rand} random curvy paths, start -105 deg")
+    t.add("OCP T / virtual-shark T on random paths (worst)", "—", float(np.max(ratios_rand)), "")
+    t.add("paths without both times", "—", len(missing), "; ".join(missing) or "none")
+    t.emit(out, "bench_shark")
