@@ -20,10 +20,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from formulations.shark import optimal_altitude  # noqa: E402
-from planners.shark import (ClassicalPursuit, OCPInterceptor, VirtualSharkInterceptor,  # noqa: E402
-                            allocate_operators, optimal_interception, thesis_altitude)
-from scenarios.shark import (THESIS_TABLE_5_1, operator_start, random_trajectory,  # noqa: E402
-                             simulate_interception, thesis_trajectories)
+from planners.shark import (ClassicalPursuit, OCPInterceptor, RepellingOperator,  # noqa: E402
+                            VirtualSharkInterceptor, allocate_operators, optimal_interception, thesis_altitude)
+from scenarios.shark import (THESIS_TABLE_5_1, SharkBehaviour, operator_start, random_trajectory,  # noqa: E402
+                             simulate_interception, simulate_repelling, thesis_trajectories)
 from studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
 
 P = THESIS_TABLE_5_1
@@ -166,6 +166,47 @@ def reproduce(*, quick: bool, out: Path) -> None:
     runs = _table_5_2(out, t2, quick)
     t2.emit(out, "table_5_2")
     _fig_5_12(out, runs)
+    t3 = ComparisonTable("Shark ch. 5: repelling episodes (procedure 1-5 of §5.3.1)")
+    _repelling(out, t3, quick)
+    t3.emit(out, "repelling")
+
+
+def _repel_episode(n_sharks: int, seed: int, interceptor: str, T_w: float) -> dict:
+    """One episode: sharks start 80-150 m from a group of swimmers, operators near the beach."""
+    g = np.random.default_rng(seed)
+    H = g.uniform(-15, 15, (4, 2))
+    ang = g.uniform(0, np.pi, n_sharks)
+    r = g.uniform(80, 150, n_sharks)
+    S0 = np.c_[r * np.cos(ang), r * np.sin(ang), np.full(n_sharks, -3.0)]
+    O0 = np.c_[np.linspace(-20, 20, n_sharks), np.full(n_sharks, -40.0), np.full(n_sharks, 2.0)]
+    beh = SharkBehaviour()
+    near = np.array([H[np.argmin(np.linalg.norm(H - S0[j, :2], axis=1))] for j in range(n_sharks)])
+    d = near - S0[:, :2]
+    V0 = np.c_[d / np.linalg.norm(d, axis=1)[:, None] * beh.speed, np.zeros(n_sharks)]
+    alloc = allocate_operators(O0, S0, V0, H)
+    ctls = [RepellingOperator(0, interceptor=interceptor, T_w=T_w) for _ in range(n_sharks)]
+    for j, i in zip(alloc.x.sharks, alloc.x.operator):
+        ctls[i] = RepellingOperator(int(j), interceptor=interceptor, T_w=T_w)
+    tr = simulate_repelling(S0, O0, H, ctls, behaviour=beh, seed=seed, t_max=600)
+    return dict(n_sharks=n_sharks, seed=seed, interceptor=interceptor, T_w=T_w, attacked=tr.attacked,
+                all_left=bool(tr.left.all()), interceptions=float(tr.reactions.mean()),
+                ignored=int(tr.ignored.sum()), end_time=tr.end_time)
+
+
+def _repelling(out: Path, table: ComparisonTable, quick: bool) -> None:
+    import pandas as pd
+    n = 6 if quick else 30
+    rows = [_repel_episode(k, s, kind, 4.0) for k in (1, 2) for s in range(n)
+            for kind in (("virtual-shark",) if quick and k == 2 else ("virtual-shark", "ocp"))]
+    df = pd.DataFrame(rows)
+    df.to_csv(out / "repelling_episodes.csv", index=False)
+    for (k, kind), grp in df.groupby(["n_sharks", "interceptor"]):
+        table.add(f"{k} shark(s), {kind}: interceptions per shark until it leaves (mean)", "—",
+                  float(grp["interceptions"].mean()),
+                  f"{len(grp)} episodes; shark model: flees 8 s after a contact, returns w.p. 0.6; T_w = 4 s")
+        table.add(f"{k} shark(s), {kind}: episodes with an attack / all sharks left", "0 attacks",
+                  f"{int(grp['attacked'].sum())}/{len(grp)} attacks, {int(grp['all_left'].sum())}/{len(grp)} left",
+                  "safety distance 300 m (thesis example 3 km), operators allocated by the bottleneck model")
 
 
 # --------------------------------------------------------------------------- gap

@@ -131,3 +131,50 @@ def test_allocation_optimal_not_worse_than_greedy():
     opt = allocate_operators(O, S, V, H)
     gr = allocate_operators(O, S, V, H, greedy=True)
     assert np.isfinite(opt.objective) and opt.objective <= gr.objective + 1e-9
+
+
+# ---------------------------------------------------------------- repelling (procedure 1-5 of §5.3.1)
+from planners.shark import RepellingOperator  # noqa: E402
+from scenarios.shark import SharkBehaviour, simulate_repelling  # noqa: E402
+
+
+class _Idle:
+    def step(self, t, operator, sharks_pos, sharks_vel, swimmers, contact):
+        return np.zeros(3)
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_repelling_drives_shark_away_where_idle_operator_lets_it_bite(seed):
+    H = np.array([[0.0, 0.0], [10.0, 5.0]])
+    S0 = np.array([[100.0, 60.0]])
+    O0 = np.array([[0.0, -30.0, 2.0]])
+    ctl = RepellingOperator(0)
+    tr = simulate_repelling(S0, O0, H, [ctl], seed=seed, t_max=400)
+    assert not tr.attacked and tr.left.all() and tr.reactions[0] >= 1
+    assert ctl.interceptions == tr.reactions[0] + tr.ignored[0]
+    idle = simulate_repelling(S0, O0, H, [_Idle()], seed=seed, t_max=400)
+    assert idle.attacked and idle.reactions[0] == 0
+
+
+def test_two_sharks_two_operators_with_allocation():
+    from planners.shark import allocate_operators
+    H = np.array([[0.0, 0.0]])
+    S0 = np.array([[90.0, 40.0, -3.0], [-80.0, 50.0, -3.0]])
+    O0 = np.array([[-10.0, -20.0, 2.0], [10.0, -20.0, 2.0]])
+    beh = SharkBehaviour()
+    V0 = np.array([-(S0[j, :2]) / np.linalg.norm(S0[j, :2]) * beh.speed for j in range(2)])
+    alloc = allocate_operators(O0, S0, np.c_[V0, np.zeros(2)], H)
+    ctls = [None, None]
+    for j, i in zip(alloc.x.sharks, alloc.x.operator):
+        ctls[i] = RepellingOperator(int(j))
+    tr = simulate_repelling(S0, O0, H, ctls, behaviour=beh, seed=1, t_max=400)
+    assert not tr.attacked and tr.left.all() and (tr.reactions >= 1).all()
+
+
+def test_repelling_bad_input():
+    with pytest.raises(ValueError):
+        RepellingOperator(0, T_w=-1)
+    with pytest.raises(ValueError):
+        SharkBehaviour(return_prob=2)
+    with pytest.raises(ValueError):
+        simulate_repelling(np.zeros((1, 2)), np.zeros((1, 3)), np.ones((1, 2)), [])

@@ -1,0 +1,173 @@
+"""Repelling episodes (thesis §5.3.1): closed-loop sharks that react to the field, several operators.
+
+Shark behaviour model (ours; the thesis only states the assumptions): a shark heads for its
+nearest swimmer at ``speed`` with a bounded turn rate; when its snout touches a field it
+turns away from that operator (random spread) and flees for ``flee_time``; afterwards it
+returns to hunting with probability ``return_prob``, otherwise it leaves the area for good.
+Touches within ``desensitise_time`` of the previous reaction are ignored (the loss of
+sensitivity under continuous stimulation that motivates the thesis's waiting time T_w).
+A shark that comes within ``bite_radius`` of a swimmer attacks (episode failed); it has left
+once it is ``safety_distance`` from every swimmer (thesis: e.g. 3 km).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, inside_field
+from scenarios.shark.simulate import clip_velocity
+from scenarios.shark.trajectories import _rng
+
+__all__ = ["SharkBehaviour", "RepellingTrace", "simulate_repelling"]
+
+
+@dataclass(frozen=True)
+class SharkBehaviour:
+    """Parameters of the reacting shark (our choices)."""
+
+    speed: float = 5.0
+    """Cruise speed when hunting or fleeing (m/s, <= VsMxy)."""
+    turn_rate: float = 0.8
+    """Maximum heading rate (rad/s)."""
+    flee_time: float = 8.0
+    """Time spent fleeing after reacting to the field (s)."""
+    flee_spread: float = math.radians(40)
+    """Half-width of the random spread of the flight direction around 'away from the operator' (rad)."""
+    return_prob: float = 0.6
+    """Probability of resuming the hunt after fleeing (else it leaves for good)."""
+    desensitise_time: float = 3.0
+    """Touches within this time after a reaction are ignored (s)."""
+    depth: float = -3.0
+    """Swimming depth (m, < 0)."""
+    bite_radius: float = 2.0
+    """Horizontal distance to a swimmer that counts as an attack (m)."""
+    safety_distance: float = 300.0
+    """Distance from every swimmer beyond which the shark has left (m; thesis example 3 km)."""
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"{f.name} must be finite, got {v!r}")
+        for name in ("speed", "turn_rate", "flee_time", "bite_radius", "safety_distance"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"{name} must be > 0")
+        if not 0 <= self.return_prob <= 1:
+            raise ValueError("return_prob must be in [0, 1]")
+        if self.depth >= 0:
+            raise ValueError("depth must be < 0")
+        if self.desensitise_time < 0 or self.flee_spread < 0:
+            raise ValueError("desensitise_time and flee_spread must be >= 0")
+
+
+@dataclass
+class RepellingTrace:
+    """Outcome of a repelling episode.
+
+    t (K,) s; sharks (K,s,3), operators (K,n,3) m; mode (K,s) shark modes (0 hunt, 1 flee, 2 leave);
+    reactions (s,) number of field contacts each shark reacted to (= successful interceptions);
+    ignored (s,) contacts ignored through desensitisation; attacked: a swimmer was reached;
+    left (s,) bool: shark beyond the safety distance; end_time (s); seed.
+    """
+
+    t: np.ndarray
+    sharks: np.ndarray
+    operators: np.ndarray
+    mode: np.ndarray
+    reactions: np.ndarray
+    ignored: np.ndarray
+    attacked: bool
+    left: np.ndarray
+    end_time: float
+    seed: int | None = None
+    info: dict = field(default_factory=dict)
+
+
+def simulate_repelling(sharks0, operators0, swimmers, controllers, params: SharkParams = THESIS_TABLE_5_1,
+                       behaviour: SharkBehaviour = SharkBehaviour(), *, t_max: float = 300.0,
+                       seed=0) -> RepellingTrace:
+    """Simulate sharks hunting swimmers while operators repel them, at Ts.
+
+    sharks0 (s,2|3), operators0 (n,3), swimmers (m,2|3) in m; controllers: n objects with
+    ``step(t, operator, sharks_pos, sharks_vel, swimmers, contact) -> velocity (3,)`` where
+    contact is a bool array over sharks (this operator's field touched that shark in the last
+    step). Stops when every shark has left, a swimmer is attacked, or at t_max (s).
+    """
+    if not isinstance(params, SharkParams) or not isinstance(behaviour, SharkBehaviour):
+        raise TypeError("params must be SharkParams and behaviour SharkBehaviour")
+    g = _rng(seed)
+    if behaviour.speed > params.VsMxy:
+        raise ValueError(f"behaviour.speed must be <= VsMxy={params.VsMxy}")
+    S = np.array(sharks0, float).reshape(-1, np.shape(sharks0)[-1])
+    if S.shape[1] == 2:
+        S = np.c_[S, np.full(len(S), behaviour.depth)]
+    O = np.array(operators0, float).reshape(-1, 3)
+    H = np.array(swimmers, float)[:, :2]
+    if len(controllers) != len(O):
+        raise ValueError("one controller per operator")
+    if not (np.all(np.isfinite(S)) and np.all(np.isfinite(O)) and np.all(np.isfinite(H))):
+        raise ValueError("positions must be finite")
+    s = len(S)
+    Ts = params.Ts
+    near0 = H[np.argmin(np.linalg.norm(H[None] - S[:, None, :2], axis=2), axis=1)]
+    heading = np.arctan2(near0[:, 1] - S[:, 1], near0[:, 0] - S[:, 0])
+    mode = np.zeros(s, int)
+    flee_until = np.zeros(s)
+    last_react = np.full(s, -np.inf)
+    reactions = np.zeros(s, int)
+    ignored = np.zeros(s, int)
+    contact_prev = np.zeros((len(O), s), bool)
+    ts, Ss, Os, Ms = [0.0], [S.copy()], [O.copy()], [mode.copy()]
+    attacked = False
+    n_steps = int(round(t_max / Ts))
+    for k in range(n_steps):
+        t = k * Ts
+        V = np.c_[behaviour.speed * np.cos(heading), behaviour.speed * np.sin(heading), np.zeros(s)]
+        vel = np.array([clip_velocity(c.step(t, O[i].copy(), S.copy(), V.copy(), H.copy(), contact_prev[i].copy()),
+                                      params)[0] for i, c in enumerate(controllers)]).reshape(-1, 3)
+        On = O + Ts * vel
+        On[:, 2] = np.clip(On[:, 2], params.lmin, params.le)
+        # shark heading update
+        dist = np.linalg.norm(H[None] - S[:, None, :2], axis=2)
+        near = H[np.argmin(dist, axis=1)]
+        desired = np.arctan2(near[:, 1] - S[:, 1], near[:, 0] - S[:, 0])
+        for j in range(s):
+            if mode[j] == 1 and t >= flee_until[j]:
+                mode[j] = 0 if g.random() < behaviour.return_prob else 2
+            if mode[j] == 0:
+                err = (desired[j] - heading[j] + np.pi) % (2 * np.pi) - np.pi
+                heading[j] += np.clip(err, -behaviour.turn_rate * Ts, behaviour.turn_rate * Ts)
+        V = np.c_[behaviour.speed * np.cos(heading), behaviour.speed * np.sin(heading), np.zeros(s)]
+        Sn = S + Ts * V
+        # field contacts (end of step) and reactions
+        contact = inside_field(Sn[None, :, :], On[:, None, :], params) <= 0  # (n, s)
+        for j in range(s):
+            if contact[:, j].any() and mode[j] != 2:
+                if t - last_react[j] < behaviour.desensitise_time:
+                    ignored[j] += 1
+                    continue
+                i = int(np.argmax(contact[:, j]))
+                away = math.atan2(Sn[j, 1] - On[i, 1], Sn[j, 0] - On[i, 0])
+                heading[j] = away + g.uniform(-behaviour.flee_spread, behaviour.flee_spread)
+                mode[j] = 1
+                flee_until[j] = t + behaviour.flee_time
+                last_react[j] = t
+                reactions[j] += 1
+        S, O = Sn, On
+        contact_prev = contact
+        ts.append(t + Ts)
+        Ss.append(S.copy())
+        Os.append(O.copy())
+        Ms.append(mode.copy())
+        dist = np.linalg.norm(H[None] - S[:, None, :2], axis=2)
+        if (dist.min(axis=1) < behaviour.bite_radius).any():
+            attacked = True
+            break
+        if (dist.min(axis=1) > behaviour.safety_distance).all():
+            break
+    dist = np.linalg.norm(H[None] - S[:, None, :2], axis=2).min(axis=1)
+    return RepellingTrace(np.array(ts), np.array(Ss), np.array(Os), np.array(Ms), reactions, ignored, attacked,
+                          dist > behaviour.safety_distance, ts[-1], seed if isinstance(seed, int) else None)
