@@ -1,0 +1,400 @@
+"""Collision-free allocation of steering points to barking drones (thesis §6.4.3).
+
+The drones and the steering points live on the extended hull, a closed curve of
+perimeter ``M``; positions are arc lengths in ``[0, M)`` (increasing = the
+thesis's counter-clockwise / "right flying on the z axis"). An allocation sends
+drone ``j`` to steering point ``target[j]`` in direction ``direction[j]``
+(+1 increasing arc length, -1 decreasing). The thesis's problem (6.21)-(6.23):
+
+    minimise   max_j gamma_j                                   (6.21)
+    subject to 0 < z*_n - z*_1 < M                             (6.22)
+               z*_j < z*_{j+1},  j = 1..n-1                    (6.23)
+
+where drones are relabelled counter-clockwise from drone 1 (``z_1 = 0``), ``z'_j``
+is the steering point of drone j on the z axis, ``z*_j`` its unwrapped
+destination (6.19) and ``gamma_j = |z*_j - z_j|`` its travel (6.20). For n = 1
+(6.22) would read ``0 < 0``; the order constraints are vacuous for one drone and
+we drop them (a single drone cannot collide).
+
+Two exact methods are provided and must agree:
+
+* ``method="cp-sat"``: the explicit assignment model of (6.21)-(6.23) (Booleans
+  for drone x steering point x direction, as in the thesis's (S', Sigma)) solved
+  by CP-SAT, see :func:`build_allocation_model`;
+* ``method="exact"``: an O(n^2) combinatorial algorithm, see :func:`_exact`.
+
+Structure theorem (proof of the exact algorithm)
+------------------------------------------------
+Let drones be sorted so ``0 = z_1 < ... < z_n < M`` and let ``t_0 < ... < t_{n-1}``
+be the steering points' z coordinates in ``[0, M)`` (distinct; equal steering
+points make the problem infeasible because destinations must differ by (6.23)
+and by less than M by (6.22)).
+
+1. *A feasible allocation is a cyclic shift.* By (6.23) and (6.22) the
+   destinations satisfy ``z*_1 < z*_2 < ... < z*_n < z*_1 + M``: they lie in one
+   half-open window of length M, so their residues ``z*_j mod M`` are distinct
+   and, read from ``z*_1 mod M`` upwards (wrapping at M), appear in index order.
+   The residues are exactly the steering points ``t``. Hence if ``z*_1 mod M =
+   t_r``, drone j (0-based) must go to ``t_{(j + r) mod n}``: the assignment is
+   the cyclic shift ``r``.
+2. *The wraps are determined by the shift and one integer.* Write
+   ``z*_j = t_{(j+r) mod n} + k_j M``. Inside the window ``[z*_1, z*_1 + M)`` the
+   values ``t_r, ..., t_{n-1}`` come first and ``t_0, ..., t_{r-1}`` after the
+   wrap, so ``k_j = k_1 + [j + r >= n]``.
+3. *k_1 has two candidates.* (6.19) gives ``z*_j in (z_j - M, z_j + M)`` (one
+   direction, less than one lap). With ``z_1 = 0`` and ``t in [0, M)`` this
+   leaves ``k_1 in {-1, 0}``.
+4. *The direction is implied.* ``k_j`` must be one of the two values (6.19)
+   allows for drone j (``sigma=0``: 0 if ``z' <= z`` else -1; ``sigma=1``: 0 if
+   ``z' >= z`` else +1); the direction is the sign of ``z*_j - z_j`` (either when
+   they are equal; we report +1).
+
+So the feasible set is contained in the 2n candidates (r, k_1); each is checked
+against (6.19), (6.22), (6.23) in O(n), and the one of least maximum travel is
+optimal: O(n^2) time (vectorised as a 2n x n array). Conversely every candidate
+passing the checks is a feasible point of (6.21)-(6.23), so the minimum over the
+candidates equals the optimum. The hypothesis tests compare it with the CP-SAT
+model and with Algorithm 3 (``planners.herding.allocate_bruteforce``).
+
+Fewer steering points than drones
+---------------------------------
+When the hull has fewer vertices than there are drones (``len(steer_s) <
+len(drone_s)``), :func:`pad_steering_points` adds points by repeatedly splitting
+the longest arc gap between consecutive steering points at its midpoint (ties:
+the lowest gap start), so every drone still gets a distinct destination spread
+over the hull. The padded positions are returned in ``Allocation.points`` and
+target indices ``>= len(steer_s)`` refer to them. More steering points than
+drones is a ValueError (the caller chooses which n steering points to use).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+from ortools.sat.python import cp_model
+
+from solvers.cpsat import solve_cpsat
+from solvers.result import SolveResult, Status
+
+METHODS = ("exact", "cp-sat")
+
+
+@dataclass(frozen=True)
+class Allocation:
+    """Which drone goes to which steering point, in which direction (Definition 6.4.1)."""
+
+    target: np.ndarray
+    """(n,) int: index of the steering point of drone j (input order of ``drone_s``)."""
+    direction: np.ndarray
+    """(n,) int: +1 (increasing arc length) or -1 (decreasing) for drone j."""
+    travel: np.ndarray
+    """(n,) float, m: distance drone j flies along the hull, gamma_j of (6.20)."""
+    points: np.ndarray
+    """(n,) float, m: arc positions of the steering points ``target`` indexes (input + padding)."""
+
+    @property
+    def destination(self) -> np.ndarray:
+        """(n,) float, m: arc position each drone flies to, ``points[target]``."""
+        return self.points[self.target]
+
+
+# --------------------------------------------------------------------------- validation
+def _as_positions(name: str, values, perimeter: float) -> np.ndarray:
+    arr = np.asarray(values, dtype=float)
+    if arr.ndim != 1:
+        raise ValueError(f"{name} must be a 1-D array of arc lengths, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite")
+    if np.any(arr < 0) or np.any(arr >= perimeter):
+        raise ValueError(f"{name} must lie in [0, perimeter) = [0, {perimeter})")
+    return arr
+
+
+def validate_allocation_input(drone_s, steer_s, perimeter) -> tuple[np.ndarray, np.ndarray, float]:
+    """Check the inputs of an allocation problem; returns (drone_s, steer_s, perimeter) as floats.
+
+    Raises ValueError for a non-positive or non-finite perimeter, no drones, no
+    steering points, more steering points than drones, or positions outside
+    ``[0, perimeter)`` or non-finite.
+    """
+    if isinstance(perimeter, bool) or not np.isscalar(perimeter):
+        raise ValueError(f"perimeter must be a number, got {perimeter!r}")
+    perimeter = float(perimeter)
+    if not np.isfinite(perimeter) or perimeter <= 0:
+        raise ValueError(f"perimeter must be finite and > 0, got {perimeter}")
+    d = _as_positions("drone_s", drone_s, perimeter)
+    s = _as_positions("steer_s", steer_s, perimeter)
+    if d.size < 1:
+        raise ValueError("drone_s must hold at least one drone (n_drones >= 1)")
+    if s.size < 1:
+        raise ValueError("steer_s must hold at least one steering point")
+    if s.size > d.size:
+        raise ValueError(
+            f"mismatched lengths: {s.size} steering points for {d.size} drones (need len(steer_s) <= len(drone_s))"
+        )
+    return d, s, perimeter
+
+
+def pad_steering_points(steer_s, n: int, perimeter: float) -> np.ndarray:
+    """Extend ``steer_s`` to ``n`` points by splitting the longest arc gap at its midpoint.
+
+    The documented rule for hulls with fewer vertices than drones (see module
+    docstring). Returns the input points followed by the added ones (m).
+    """
+    pts = [float(v) for v in np.asarray(steer_s, dtype=float)]
+    while len(pts) < n:
+        order = sorted(pts)
+        gaps = [(order[(i + 1) % len(order)] - order[i]) % perimeter or perimeter for i in range(len(order))]
+        i = int(np.argmax(gaps))
+        pts.append((order[i] + gaps[i] / 2.0) % perimeter)
+    return np.asarray(pts, dtype=float)
+
+
+def z_coordinates(drone_s: np.ndarray, steer_s: np.ndarray, perimeter: float):
+    """The thesis's z axis: drones relabelled ccw from the first one at z = 0.
+
+    Returns ``(order, z, zp)``: ``order`` the drone indices sorted by arc position
+    (stable), ``z`` their z coordinates (``z[0] = 0``) and ``zp`` the steering
+    points' z coordinates (input order), all in ``[0, M)``.
+    """
+    order = np.argsort(drone_s, kind="stable")
+    origin = drone_s[order[0]]
+    z = drone_s[order] - origin
+    zp = np.mod(steer_s - origin, perimeter)
+    zp[zp >= perimeter] = 0.0  # guard against fmod rounding up to M
+    return order, z, zp
+
+
+def allowed_wraps(z: np.ndarray, zp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(6.17)-(6.19): the wrap k (z* = z' + k M) for left (sigma=0) and right (sigma=1) flying."""
+    k_left = np.where(zp > z, -1, 0)
+    k_right = np.where(zp < z, 1, 0)
+    return k_left, k_right
+
+
+def check_allocation(drone_s, steer_s, perimeter, allocation: Allocation, *, tol: float = 1e-9) -> float:
+    """Verify an allocation against (6.19)-(6.23); return its max travel (m).
+
+    Independent of how the allocation was found: recomputes each destination from
+    the target and direction, the travel, and the order constraints on the z* axis.
+    Raises AssertionError naming the violated condition.
+    """
+    d = np.asarray(drone_s, dtype=float)
+    pts = np.asarray(allocation.points, dtype=float)
+    n, M = d.size, float(perimeter)
+    tgt = np.asarray(allocation.target)
+    assert sorted(tgt.tolist()) == list(range(n)), "every steering point gets exactly one drone"
+    order, z, zp_all = z_coordinates(d, pts, M)
+    zstar = np.empty(n)
+    for rank, j in enumerate(order):
+        zj, zpj = z[rank], zp_all[tgt[j]]
+        if allocation.direction[j] > 0:
+            zs = zpj + (M if zpj < zj else 0.0)
+        else:
+            zs = zpj - (M if zpj > zj else 0.0)
+        zstar[rank] = zs
+        assert abs(abs(zs - zj) - allocation.travel[j]) <= tol * max(1.0, M), "travel matches (6.20)"
+    if n > 1:
+        assert np.all(np.diff(zstar) > 0), "(6.23) destinations keep the drones' order"
+        assert zstar[-1] < zstar[0] + M, "(6.22) destinations span less than one perimeter"
+    return float(np.max(allocation.travel))
+
+
+# --------------------------------------------------------------------------- exact O(n^2)
+def _exact(d: np.ndarray, s: np.ndarray, M: float):
+    """The O(n^2) algorithm of the module docstring; returns (Allocation, max travel) or None."""
+    n = d.size
+    order, z, zp = z_coordinates(d, s, M)
+    sidx = np.argsort(zp, kind="stable")
+    t = zp[sidx]
+    if n > 1 and np.any(np.diff(t) <= 0):
+        return None  # coincident steering points: (6.22)-(6.23) cannot both hold
+    j = np.arange(n)
+    r = np.arange(n)[:, None]  # shift
+    pos = (j[None, :] + r) % n  # (n, n): sorted-steering index of sorted drone j
+    wrap = (j[None, :] + r >= n).astype(int)
+    best = None
+    for k1 in (-1, 0):
+        k = k1 + wrap  # (n, n)
+        tz = t[pos]
+        zstar = tz + k * M
+        k_left, k_right = allowed_wraps(z[None, :], tz)
+        ok = (k == k_left) | (k == k_right)
+        if n > 1:
+            ok_rows = ok.all(axis=1) & np.all(np.diff(zstar, axis=1) > 0, axis=1) & (zstar[:, -1] < zstar[:, 0] + M)
+        else:
+            ok_rows = ok.all(axis=1)
+        if not ok_rows.any():
+            continue
+        travel = np.abs(zstar - z[None, :])
+        worst = np.where(ok_rows, travel.max(axis=1), np.inf)
+        rr = int(np.argmin(worst))
+        if best is None or worst[rr] < best[0]:
+            best = (worst[rr], rr, k[rr], zstar[rr], travel[rr])
+    if best is None:
+        return None
+    worst, rr, _, zstar, travel = best
+    target = np.empty(n, dtype=int)
+    direction = np.empty(n, dtype=int)
+    tr = np.empty(n)
+    target[order] = sidx[pos[rr]]
+    direction[order] = np.where(zstar >= z, 1, -1)
+    tr[order] = travel
+    return Allocation(target, direction, tr, s.copy()), float(worst)
+
+
+# --------------------------------------------------------------------------- CP-SAT model
+@dataclass
+class AllocationModel:
+    """A built CP-SAT model of (6.21)-(6.23) and the data to decode its solution."""
+
+    model: cp_model.CpModel
+    """The CP-SAT model (objective: rank of the maximum travel)."""
+    choices: list
+    """Per decision variable: (drone index, steering index, direction +-1, z*, travel)."""
+    variables: list
+    """Boolean x[j, i, sigma], aligned with ``choices``."""
+    travel_values: np.ndarray
+    """Sorted distinct travel values (m); the objective variable is an index into it."""
+    points: np.ndarray
+    """Arc positions of the steering points (after padding), m."""
+
+
+def build_allocation_model(drone_s, steer_s, perimeter) -> AllocationModel:
+    """Build the explicit assignment model of (6.21)-(6.23) (does not solve).
+
+    Variables: Boolean ``x[j,i,sigma]`` = drone j flies to steering point i in
+    direction sigma (thesis (S', Sigma)); z*_j and gamma_j follow from (6.19),
+    (6.20) as constants of the chosen (i, sigma). Constraints: each drone one
+    choice, each steering point one drone, (6.23) ``z*_j < z*_{j+1}``, (6.22)
+    ``z*_n < z*_1 + M``; objective ``min T`` with ``T >= gamma_j``.
+
+    Exactness without rounding: CP-SAT needs integer coefficients, so every
+    destination value and every ``destination + M`` is replaced by its rank in
+    one sorted list of all of them, and every travel by its rank among the
+    travels. Comparisons between ranks are the comparisons between the real
+    numbers, so the integer model has exactly the feasible set and the argmin of
+    the real one; the objective rank is mapped back to metres.
+    """
+    d, s, M = validate_allocation_input(drone_s, steer_s, perimeter)
+    n = d.size
+    pts = pad_steering_points(s, n, M)
+    order, z, zp = z_coordinates(d, pts, M)
+    k_left, k_right = allowed_wraps(z[:, None], zp[None, :])  # (n drones sorted, n points)
+    choices = []
+    for rank in range(n):
+        for i in range(n):
+            for sigma, k in ((-1, k_left[rank, i]), (1, k_right[rank, i])):
+                if sigma == -1 and k_left[rank, i] == 0 and k_right[rank, i] == 0:
+                    continue  # z' == z: both directions give the same destination; keep sigma=+1 only
+                zs = zp[i] + k * M
+                choices.append((rank, i, sigma, zs, abs(zs - z[rank])))
+    zs_all = np.array([c[3] for c in choices])
+    grid = np.unique(np.concatenate([zs_all, zs_all + M]))
+    zrank = np.searchsorted(grid, zs_all)
+    zrank_plus = np.searchsorted(grid, zs_all + M)
+    travel_values = np.unique(np.array([c[4] for c in choices]))
+    trank = np.searchsorted(travel_values, np.array([c[4] for c in choices]))
+
+    model = cp_model.CpModel()
+    x = [model.new_bool_var(f"x_{c[0]}_{c[1]}_{c[2]:+d}") for c in choices]
+    by_drone = [[] for _ in range(n)]
+    by_point = [[] for _ in range(n)]
+    for idx, c in enumerate(choices):
+        by_drone[c[0]].append(idx)
+        by_point[c[1]].append(idx)
+    for lst in by_drone:
+        model.add_exactly_one(x[i] for i in lst)
+    for lst in by_point:
+        model.add_exactly_one(x[i] for i in lst)
+    zr = [sum(int(zrank[i]) * x[i] for i in lst) for lst in by_drone]
+    for rank in range(n - 1):  # (6.23)
+        model.add(zr[rank] + 1 <= zr[rank + 1])
+    if n > 1:  # (6.22): z*_n < z*_1 + M
+        first_plus = sum(int(zrank_plus[i]) * x[i] for i in by_drone[0])
+        model.add(zr[n - 1] + 1 <= first_plus)
+    T = model.new_int_var(0, len(travel_values) - 1, "T")
+    for lst in by_drone:  # (6.21)
+        model.add(T >= sum(int(trank[i]) * x[i] for i in lst))
+    model.minimize(T)
+    # report choices in the caller's drone indexing
+    choices = [(int(order[c[0]]), c[1], c[2], c[3], c[4]) for c in choices]
+    return AllocationModel(model, choices, x, travel_values, pts)
+
+
+def _decode(am: AllocationModel, values: np.ndarray, n: int) -> Allocation:
+    target = np.full(n, -1, dtype=int)
+    direction = np.zeros(n, dtype=int)
+    travel = np.zeros(n)
+    for c, v in zip(am.choices, values):
+        if v:
+            target[c[0]], direction[c[0]], travel[c[0]] = c[1], c[2], c[4]
+    return Allocation(target, direction, travel, am.points)
+
+
+def _hint(am: AllocationModel, hint: Allocation) -> dict:
+    chosen = {(j, int(hint.target[j]), int(hint.direction[j])) for j in range(len(hint.target))}
+    out = {}
+    for c, var in zip(am.choices, am.variables):
+        key = (c[0], c[1], c[2])
+        # sigma=-1 for z'==z was merged into sigma=+1
+        out[var] = int(key in chosen or (c[2] == 1 and (c[0], c[1], -1) in chosen and c[4] == 0.0))
+    return out
+
+
+# --------------------------------------------------------------------------- public solve
+def solve_allocation(
+    drone_s,
+    steer_s,
+    perimeter: float,
+    *,
+    method: str = "exact",
+    time_limit: float | None = None,
+    workers: int = 1,
+    hint: Allocation | None = None,
+) -> SolveResult:
+    """Optimal collision-free allocation of steering points (6.21)-(6.23).
+
+    drone_s: (n,) drone arc positions on the extended hull, m, in [0, perimeter), any order.
+    steer_s: (m,) steering-point arc positions, m, in [0, perimeter), 1 <= m <= n;
+        m < n is padded by :func:`pad_steering_points`.
+    perimeter: extended-hull perimeter M, m (> 0).
+    method: "exact" (O(n^2) combinatorial algorithm) or "cp-sat" (explicit model).
+    time_limit, workers, hint: CP-SAT only (seconds; search workers; a warm-start Allocation).
+
+    Returns a SolveResult with ``x`` an :class:`Allocation`, ``objective`` the
+    maximum travel (m), ``bound`` a proven lower bound (= objective when OPTIMAL).
+    Coincident steering points make the problem INFEASIBLE (a returned status).
+    """
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    d, s, M = validate_allocation_input(drone_s, steer_s, perimeter)
+    n = d.size
+    padded = s.size < n
+    if method == "exact":
+        t0 = time.perf_counter()
+        pts = pad_steering_points(s, n, M)
+        out = _exact(d, pts, M)
+        elapsed = time.perf_counter() - t0
+        msg = f"steering points padded from {s.size} to {n}" if padded else ""
+        if out is None:
+            return SolveResult(Status.INFEASIBLE, backend="exact-cyclic-shift", backend_status="infeasible",
+                               message=("coincident steering points; " + msg).strip("; "), solve_time=elapsed)
+        alloc, worst = out
+        return SolveResult(Status.OPTIMAL, objective=worst, bound=worst, x=alloc, backend="exact-cyclic-shift",
+                           backend_status="optimal", message=msg, solve_time=elapsed, iterations=2 * n)
+    am = build_allocation_model(d, s, M)
+    res = solve_cpsat(am.model, variables=am.variables, time_limit=time_limit, workers=workers,
+                      hint=_hint(am, hint) if hint is not None else None)
+    if not res.has_solution:
+        return res
+    alloc = _decode(am, res.x, n)
+    obj = float(am.travel_values[int(round(res.objective))])
+    b = int(np.ceil(res.bound - 1e-9))
+    bound = float(am.travel_values[min(max(b, 0), len(am.travel_values) - 1)])
+    msg = "objective/bound mapped back from travel ranks (exact, no rounding)"
+    if padded:
+        msg += f"; steering points padded from {s.size} to {n}"
+    return replace(res, x=alloc, objective=obj, bound=bound, message=msg)
