@@ -22,7 +22,7 @@ import numpy as np  # noqa: E402
 from formulations.shark import optimal_altitude  # noqa: E402
 from planners.shark import (ClassicalPursuit, OCPInterceptor, RepellingOperator,  # noqa: E402
                             VirtualSharkInterceptor, allocate_operators, optimal_interception, thesis_altitude)
-from scenarios.shark import (THESIS_TABLE_5_1, SharkBehaviour, operator_start, random_trajectory,  # noqa: E402
+from scenarios.shark import (THESIS_TABLE_5_1, SharkBehaviour, operator_start, random_trajectory,  # noqa: E402, F401
                              simulate_interception, simulate_repelling, thesis_trajectories)
 from studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
 
@@ -298,3 +298,60 @@ def bench(*, quick: bool, out: Path) -> None:
     t.add("OCP T / virtual-shark T on random paths (worst)", "—", float(np.max(ratios_rand)), "")
     t.add("paths without both times", "—", len(missing), "; ".join(missing) or "none")
     t.emit(out, "bench_shark")
+
+
+# --------------------------------------------------------------------------- notebook helpers
+def compare_interceptors(path="d", *, bearing_deg: float | None = None) -> dict:
+    """Run classical pursuit, the virtual shark and the online OCP on one path.
+
+    path: "a"-"d" or a `SharkTrajectory`. Returns {name: InterceptionTrace}.
+    """
+    tr = thesis_trajectories()[path] if isinstance(path, str) else path
+    kw = {} if bearing_deg is None else {"bearing_deg": bearing_deg}
+    return {
+        "classical pursuit": simulate_interception(tr, ClassicalPursuit(), **kw),
+        "virtual shark": simulate_interception(tr, VirtualSharkInterceptor(), **kw),
+        "online OCP": simulate_interception(tr, OCPInterceptor(N=20), **kw),
+    }
+
+
+def plot_interception(traces: dict):
+    """Top view and depth plot of several runs on the same path; returns the figure."""
+    fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))
+    first = next(iter(traces.values()))
+    ax[0].plot(first.shark[:, 0], first.shark[:, 1], "k", lw=2, label="shark")
+    th = np.linspace(0, 2 * np.pi, 60)
+    for name, tr in traces.items():
+        (line,) = ax[0].plot(tr.operator[:, 0], tr.operator[:, 1], label=f"{name} (contact {tr.frontal_angle:.0f} deg)"
+                             if tr.intercepted else name)
+        if tr.intercepted:
+            ax[0].plot(tr.operator[-1, 0] + tr.eps[-1] * np.cos(th), tr.operator[-1, 1] + tr.eps[-1] * np.sin(th),
+                       color=line.get_color(), lw=0.8)
+        ax[1].plot(tr.t, tr.operator[:, 2], color=line.get_color(), label=f"z_o {name}")
+        ax[2].plot(tr.t, tr.D_h - tr.eps, color=line.get_color(), label=name)
+    ax[1].plot(first.t, first.shark[:, 2], "k", lw=2, label="z_s shark")
+    ax[0].set_aspect("equal")
+    ax[0].set_title("top view (m)")
+    ax[1].set_title("depth / altitude (m)")
+    ax[2].axhline(0, color="k", lw=0.5)
+    ax[2].set_title("D_h - eps(h) (m): contact at 0")
+    for a in ax:
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def time_comparison(n_random: int = 5, *, N: int = 40):
+    """Virtual-shark vs OCP time to the interception point on a-d and n_random random paths (DataFrame)."""
+    import pandas as pd
+    paths = dict(thesis_trajectories())
+    paths.update({f"random-{s}": random_trajectory(s) for s in range(n_random)})
+    rows = []
+    for name, tr in paths.items():
+        res = optimal_interception(tr, operator_start(tr), N=N)
+        rows.append(dict(path=name, virtual_shark_T=res.info["virtual_shark_T"],
+                         ocp_T=res.objective if res.status.has_solution else np.nan, status=res.status.name))
+    df = pd.DataFrame(rows)
+    df["ratio"] = df["ocp_T"] / df["virtual_shark_T"]
+    return df
