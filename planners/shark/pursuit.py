@@ -14,6 +14,10 @@ Discretisation and documented fixes (DESIGN §4):
   kept and 5.16 is replaced by its limit -p'_unit * VoMxy.
 - Out of reach (eps* = 0): the geometry uses eps_o so the operator keeps station ahead
   of the shark at lmin and waits for it to rise (thesis, case (d)).
+- Reversal: step 2 (5.16) only moves the operator across the shark's path, so if the shark
+  reverses or turns sharply during step 2 the along-path gap to S2 is never closed and the
+  operator shadows the shark forever. With ``restart_step1=True`` (default) the interceptor
+  returns to step 1 when that gap exceeds eps' (``False``: the thesis's law alone).
 - Step 3 ("immediately slows down"): horizontal velocity 0, altitude kept at z_o*;
   if the shark has not touched the field after ``hold_timeout`` s (it turned away),
   the interceptor starts again from step 1.
@@ -83,13 +87,15 @@ class VirtualSharkInterceptor:
         heading) or -1 (right) to force the side of the approach.
     speed_eps: shark speed (m/s) below which the last heading is kept.
     hold_timeout: time (s) in step 3 without contact before restarting at step 1.
+    restart_step1: return to step 1 when S2 is no longer beside the operator (see module doc).
 
     Attributes: ``phase`` (1, 2, 3), ``at_interception`` (phase 3), ``capture_time`` (s,
     time step 3 was entered, i.e. the interception point was reached).
     """
 
     def __init__(self, params: SharkParams = THESIS_TABLE_5_1, *, altitude: str = "exact",
-                 side: int | None = None, speed_eps: float = 0.05, hold_timeout: float = 1.0):
+                 side: int | None = None, speed_eps: float = 0.05, hold_timeout: float = 1.0,
+                 restart_step1: bool = True):
         if altitude not in ("exact", "thesis"):
             raise ValueError(f"altitude must be 'exact' or 'thesis', got {altitude!r}")
         if side not in (None, 1, -1):
@@ -103,6 +109,7 @@ class VirtualSharkInterceptor:
         self.side = side
         self.speed_eps = speed_eps
         self.hold_timeout = hold_timeout
+        self.restart_step1 = bool(restart_step1)
         self.reset(np.zeros(3), params)
 
     def reset(self, operator: np.ndarray, params: SharkParams) -> None:
@@ -165,6 +172,10 @@ class VirtualSharkInterceptor:
         if self.phase == 1 and np.linalg.norm(S1 - O) <= p.gamma:  # 5.15
             self.phase = 2
             self._side2 = side
+        if self.phase == 2 and self.restart_step1:
+            e1 = np.linalg.norm(S2[:2] - np.asarray(shark_pos, float)[:2])
+            if abs(float((O[:2] - S2[:2]) @ u)) > e1:  # S2 no longer beside the operator
+                self.phase = 1
         if self.phase == 2 and np.linalg.norm(S2 - O) <= p.gamma:  # 5.19
             self.phase = 3
             self.capture_time = t

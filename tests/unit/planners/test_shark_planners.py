@@ -178,3 +178,14 @@ def test_repelling_bad_input():
         SharkBehaviour(return_prob=2)
     with pytest.raises(ValueError):
         simulate_repelling(np.zeros((1, 2)), np.zeros((1, 3)), np.ones((1, 2)), [])
+
+
+def test_reversing_shark_literal_step_2_never_closes_restart_does():
+    rev = make_trajectory(lambda t: np.where(t < 2.0, 0.0, np.pi), lambda t: 4.5 + 0 * t, lambda t: -3 + 0 * t,
+                          duration=30)
+    literal = simulate_interception(rev, VirtualSharkInterceptor(restart_step1=False), bearing_deg=-60)
+    assert not literal.intercepted and np.all(literal.phase[-50:] == 2)  # stuck in step 2
+    fixed = simulate_interception(rev, VirtualSharkInterceptor(), bearing_deg=-60)
+    assert fixed.intercepted
+    for b in (-105, 0, 90, 180):  # other start bearings: still frontal and not early
+        _check_props(simulate_interception(rev, VirtualSharkInterceptor(), bearing_deg=b))
