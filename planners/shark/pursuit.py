@@ -7,7 +7,9 @@ Discretisation and documented fixes (DESIGN §4):
 - Speed limits: eq. 5.14/5.5 command VoM along the 3-D line of sight; the command is
   then clipped to |v_xy| <= VoMxy, |v_z| <= VoMz (the limits of §5.3.2).
 - Final step: when a pursued point is reachable within one Ts the operator moves
-  onto it (instead of overshooting and chattering around the capture ball gamma).
+  onto it (instead of overshooting and chattering around the capture ball gamma), and
+  5.14 aims at S1's position at the end of the step (S1 + Ts v_s) rather than the current
+  one, which otherwise chatters around S1 when the step is comparable to the distance.
 - Side rule (5.12, 5.20): p is the perpendicular of the shark's horizontal velocity on
   the operator's side of the shark's path (line through S for p, through S2 for p').
 - Shark speed -> 0 (5.16 divides by |v_sxy|): below ``speed_eps`` the last heading is
@@ -190,7 +192,8 @@ class VirtualSharkInterceptor:
             d = target_next - O
             if np.hypot(d[0], d[1]) <= p.VoMxy * p.Ts and abs(d[2]) <= p.VoMz * p.Ts:
                 return d / p.Ts
-            d = S1 - O
+            # aim at where S1 will be after this step: pursuing the current point with steps
+            # comparable to the distance chatters around S1 without closing in
             return clip_velocity(p.VoM * d / np.linalg.norm(d), p)[0]
         if self.phase == 2:  # 5.16-5.18
             rel = O[:2] - S2[:2]
