@@ -128,6 +128,8 @@ def simulate_interception(trajectory: SharkTrajectory, controller: InterceptionC
     """
     if trajectory.dt != params.Ts and not math.isclose(trajectory.dt, params.Ts, rel_tol=1e-9):
         raise ValueError(f"trajectory dt={trajectory.dt} must equal Ts={params.Ts}")
+    if t_max is not None and not (math.isfinite(t_max) and t_max > 0):
+        raise ValueError(f"t_max must be finite and > 0, got {t_max}")
     if not (0 < frontal_tol_deg < 180):
         raise ValueError("frontal_tol_deg must be in (0, 180)")
     O = operator_start(trajectory, params, bearing_deg=bearing_deg) if operator0 is None \

@@ -108,3 +108,17 @@ def test_simulator_contact_geometry_with_hovering_operator():
     # beside the path (offset 4 m > eps) it is never touched
     miss = simulate_interception(tr, _Hover(), operator0=np.array([30.0, 4.0, 1.5]), t_max=10)
     assert miss.intercept_time is None and not miss.frontal
+
+
+def test_simulator_rejects_non_finite_input():
+    tr = thesis_trajectories()["a"]
+    with pytest.raises(ValueError, match="t_max"):
+        simulate_interception(tr, _Hover(), t_max=float("inf"))
+    with pytest.raises(ValueError, match="operator0"):
+        simulate_interception(tr, _Hover(), operator0=[np.nan, 0.0, 1.0])
+
+    class _Bad(_Hover):
+        def step(self, t, operator, shark_pos, shark_vel):
+            return np.array([np.nan, 0.0, 0.0])
+    with pytest.raises(ValueError, match="non-finite"):
+        simulate_interception(tr, _Bad())
