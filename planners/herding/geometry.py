@@ -1,0 +1,202 @@
+"""Hull geometry for herding: convex hull, extended hull (Definition 6.3.1), arc lengths,
+minimum enclosing circle. Vectorised with numpy; degenerate herds never raise."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """Counter-clockwise convex-hull vertices of (n, 2) points, m.
+
+    Degenerate input gives 1 vertex (all points coincide) or 2 (all collinear:
+    the two extreme points); a hull thinner than 1e-9 of its extent counts as collinear.
+    """
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 1:
+        raise ValueError(f"points must be an (n, 2) array with n >= 1, got shape {pts.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise ValueError("points must be finite")
+    if pts.shape[0] >= 3:
+        try:
+            hull = ConvexHull(pts)
+            if hull.volume > 1e-9 * hull.area * hull.area:  # 2-D: volume = area, area = perimeter
+                return pts[hull.vertices]
+        except QhullError:
+            pass
+    c = pts.mean(axis=0)
+    extent = float(np.max(np.abs(pts - c))) if pts.shape[0] > 1 else 0.0
+    if extent <= 1e-12:
+        return pts[:1].copy()
+    # collinear: extremes along the principal direction
+    _, _, vt = np.linalg.svd(pts - c, full_matrices=False)
+    proj = (pts - c) @ vt[0]
+    return pts[[int(np.argmin(proj)), int(np.argmax(proj))]]
+
+
+def extended_hull_vertices(hull: np.ndarray, d_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Extended hull (Definition 6.3.1): the hull offset outward by ``d_s`` with mitred corners.
+
+    hull: (h, 2) ccw convex-hull vertices, m; d_s: offset, m (> 0).
+    Returns (E, P): E (n_e, 2) ccw extended-hull vertices and P (n_e, 2) the animal
+    (hull vertex) each one corresponds to. For h >= 3, ``E_i = P_i + d_s (n_{i-1} +
+    n_i) / (1 + n_{i-1}.n_i)`` with n_i the outward unit normal of edge P_i P_{i+1}:
+    the intersection of the two offset edge lines, so n_e = h and every edge is
+    parallel to its hull edge at distance d_s (the same polygon as shapely's mitre
+    buffer with an unlimited mitre). Degenerate hulls (our rule, which the thesis
+    does not cover): a point becomes the square of half-side d_s around it (its four
+    corners correspond to the point), a segment the rectangle d_s around it with
+    square caps (corners correspond to the nearer end).
+    """
+    if not (math.isfinite(d_s) and d_s > 0):
+        raise ValueError(f"d_s must be a finite number > 0, got {d_s}")
+    P = np.asarray(hull, dtype=float)
+    h = P.shape[0]
+    if h == 1:
+        corners = np.array([[1.0, -1.0], [1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0]])
+        return P[0] + d_s * corners, np.repeat(P, 4, axis=0)
+    if h == 2:
+        u = P[1] - P[0]
+        u = u / np.linalg.norm(u)
+        nrm = np.array([-u[1], u[0]])
+        E = np.array([P[0] - d_s * (u + nrm), P[1] + d_s * (u - nrm), P[1] + d_s * (u + nrm), P[0] + d_s * (nrm - u)])
+        return E, P[[0, 1, 1, 0]]
+    e = np.roll(P, -1, axis=0) - P
+    n = np.column_stack([e[:, 1], -e[:, 0]]) / np.linalg.norm(e, axis=1)[:, None]
+    n_prev = np.roll(n, 1, axis=0)
+    denom = 1.0 + np.sum(n_prev * n, axis=1)
+    E = P + d_s * (n_prev + n) / denom[:, None]
+    return E, P.copy()
+
+
+@dataclass
+class ExtendedHull:
+    """A closed ccw polygon with arc-length parametrisation (m)."""
+
+    vertices: np.ndarray
+    """(n_e, 2) ccw vertices E_i, m."""
+    animals: np.ndarray
+    """(n_e, 2) hull vertex (animal) each E_i corresponds to, m."""
+    cum: np.ndarray
+    """(n_e + 1,) arc length of each vertex from E_0; cum[-1] = perimeter, m."""
+
+    @classmethod
+    def from_points(cls, animals: np.ndarray, d_s: float) -> "ExtendedHull":
+        """Extended hull of a herd (n, 2) at offset d_s (m)."""
+        E, P = extended_hull_vertices(convex_hull(animals), d_s)
+        return cls.from_vertices(E, P)
+
+    @classmethod
+    def from_vertices(cls, E: np.ndarray, P: np.ndarray | None = None) -> "ExtendedHull":
+        E = np.asarray(E, dtype=float)
+        AB = np.concatenate([E[1:], E[:1]]) - E
+        seg = np.sqrt(np.sum(AB * AB, axis=1))
+        return cls(E, E.copy() if P is None else np.asarray(P, dtype=float), np.concatenate([[0.0], np.cumsum(seg)]))
+
+    def __post_init__(self) -> None:
+        E = self.vertices
+        self._AB = np.concatenate([E[1:], E[:1]]) - E
+        self._L2 = np.sum(self._AB * self._AB, axis=1)
+        self._L = np.sqrt(self._L2)
+
+    @property
+    def perimeter(self) -> float:
+        return float(self.cum[-1])
+
+    @property
+    def vertex_s(self) -> np.ndarray:
+        """(n_e,) arc positions of the vertices, m."""
+        return self.cum[:-1]
+
+    def point_at(self, s) -> np.ndarray:
+        """Points at arc positions ``s`` (any shape, taken mod perimeter), shape (..., 2)."""
+        s = np.mod(np.asarray(s, dtype=float), self.perimeter)
+        i = np.clip(np.searchsorted(self.cum, s, side="right") - 1, 0, len(self.vertices) - 1)
+        L = self._L[i]
+        t = np.divide(s - self.cum[i], L, out=np.zeros_like(s), where=L > 0)
+        return self.vertices[i] + t[..., None] * self._AB[i]
+
+    def project(self, q: np.ndarray):
+        """Closest points on the polygon to points q (k, 2) (Remark 6.4.2, eq. 6.11).
+
+        Returns (s, closest, edge): arc positions (k,), closest points (k, 2) and
+        the index i of the closest edge E_i E_{i+1} (k,).
+        """
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        A, AB, L2 = self.vertices, self._AB, self._L2
+        rel = q[:, None, :] - A[None, :, :]
+        t = np.einsum("qek,ek->qe", rel, AB) / np.maximum(L2, 1e-300)[None, :]
+        t = np.clip(t, 0.0, 1.0)
+        close = A[None] + t[..., None] * AB[None]
+        diff = q[:, None, :] - close
+        d2 = np.einsum("qek,qek->qe", diff, diff)
+        i = np.argmin(d2, axis=1)
+        k = np.arange(q.shape[0])
+        s = np.mod(self.cum[i] + t[k, i] * self._L[i], self.perimeter)
+        return s, close[k, i], i
+
+    def ray_s(self, origin: np.ndarray, angle: float) -> float:
+        """Arc position where the ray from ``origin`` (inside) at ``angle`` (rad) leaves the polygon."""
+        o = np.asarray(origin, dtype=float)
+        u = np.array([math.cos(angle), math.sin(angle)])
+        A = self.vertices
+        AB = np.roll(A, -1, axis=0) - A
+        den = u[0] * AB[:, 1] - u[1] * AB[:, 0]
+        rel = A - o
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lam = (rel[:, 0] * AB[:, 1] - rel[:, 1] * AB[:, 0]) / den
+            mu = (rel[:, 0] * u[1] - rel[:, 1] * u[0]) / den
+        ok = np.isfinite(lam) & (lam >= 0) & (mu >= -1e-12) & (mu <= 1 + 1e-12)
+        if not ok.any():
+            return float(self.project(o + u)[0][0])
+        i = int(np.flatnonzero(ok)[np.argmin(lam[ok])])
+        return float(np.mod(self.cum[i] + np.clip(mu[i], 0, 1) * (self.cum[i + 1] - self.cum[i]), self.perimeter))
+
+
+def min_enclosing_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """Smallest circle containing the points (n, 2): (centre, radius), m.
+
+    Welzl's randomised incremental algorithm (expected O(n)); apply it to the hull
+    vertices for speed. Deterministic order (no shuffling) keeps it reproducible.
+    """
+    P = [np.asarray(p, dtype=float) for p in np.asarray(points, dtype=float)]
+    if not P:
+        raise ValueError("points must hold at least one point")
+
+    def circ2(a, b):
+        c = (a + b) / 2
+        return c, float(np.linalg.norm(a - c))
+
+    def circ3(a, b, c):
+        ax, ay = a
+        bx, by = b
+        cx, cy = c
+        d = 2 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by))
+        if abs(d) < 1e-12:  # collinear: the widest pair
+            best = max((circ2(a, b), circ2(a, c), circ2(b, c)), key=lambda t: t[1])
+            return best
+        ux = ((ax * ax + ay * ay) * (by - cy) + (bx * bx + by * by) * (cy - ay) + (cx * cx + cy * cy) * (ay - by)) / d
+        uy = ((ax * ax + ay * ay) * (cx - bx) + (bx * bx + by * by) * (ax - cx) + (cx * cx + cy * cy) * (bx - ax)) / d
+        u = np.array([ux, uy])
+        return u, float(np.linalg.norm(a - u))
+
+    def inside(circle, p):
+        return np.linalg.norm(p - circle[0]) <= circle[1] * (1 + 1e-12) + 1e-9
+
+    c = (P[0], 0.0)
+    for i in range(1, len(P)):
+        if inside(c, P[i]):
+            continue
+        c = (P[i], 0.0)
+        for j in range(i):
+            if inside(c, P[j]):
+                continue
+            c = circ2(P[i], P[j])
+            for k in range(j):
+                if not inside(c, P[k]):
+                    c = circ3(P[i], P[j], P[k])
+    return np.asarray(c[0], dtype=float), float(c[1])

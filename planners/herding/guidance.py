@@ -1,0 +1,110 @@
+"""Sliding-mode guidance laws of §6.4.1-6.4.2: Fly to edge (6.7)-(6.13), Fly on edge (6.14)-(6.16).
+
+Commands are (v, omega): speed along the heading a (m/s) and heading rate
+(rad/s), with u = omega a_perp, |u| = |omega| (6.4)-(6.6).
+
+Discrete-time saturation (our addition, as DESIGN §4 allows for chattering): the
+literal laws command |v| = V_max and |u| = U_max until the target is reached,
+which in a sampled simulation overshoots and chatters by V_max*dt around O*. We
+cap |v| at |(a, b)|/dt (the step along the heading never overshoots the
+projection of the target, so the distance to it never grows) and the turn at the
+angle to go divided by dt, so a drone stops on O* ("enables the drone to stay at
+O*", §6.4.2). Signs are the thesis's:
+v = V_max g(a, b), u = U_max g(a, b) F(a, b).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from planners.herding.geometry import ExtendedHull
+
+OVERSHOOT_TOL = 1.0
+"""m: a target less than this far behind the drone (along its direction) counts as reached."""
+
+
+def F(w1: np.ndarray, w2: np.ndarray) -> np.ndarray:
+    """(6.7): unit vector orthogonal to unit ``w1`` towards ``w2`` (0 if w2 is parallel to w1); rows."""
+    w1 = np.atleast_2d(w1)
+    w2 = np.atleast_2d(w2)
+    f = w2 - np.sum(w1 * w2, axis=1, keepdims=True) * w1
+    n = np.linalg.norm(f, axis=1, keepdims=True)
+    return np.divide(f, n, out=np.zeros_like(f), where=n > 1e-12)
+
+
+def g(w1: np.ndarray, w2: np.ndarray) -> np.ndarray:
+    """(6.8): +1 where (w1, w2) > 0, else -1; rows."""
+    return np.where(np.sum(np.atleast_2d(w1) * np.atleast_2d(w2), axis=1) > 0, 1.0, -1.0)
+
+
+def steer(headings: np.ndarray, b: np.ndarray, V_max: float, U_max: float, dt: float):
+    """The law (6.12)-(6.13) (or (6.15)-(6.16) with b*) for each drone, with saturation.
+
+    headings: (n,) heading angles, rad; b: (n, 2) vectors to the target, m.
+    Returns (v (n,), omega (n,)).
+    """
+    a = np.column_stack([np.cos(headings), np.sin(headings)])
+    gg = g(a, b)
+    u_dir = F(a, b)  # unit, orthogonal to a, towards b
+    # sign of rotation of u = U_max g F:  +1 if u points to a rotated by +90 deg
+    a_perp = np.column_stack([-a[:, 1], a[:, 0]])
+    turn_sign = gg * np.sign(np.sum(u_dir * a_perp, axis=1))
+    # angle between the flying direction g*a and b: the turn needed
+    ga = gg[:, None] * a
+    nb = np.linalg.norm(b, axis=1)
+    cosang = np.divide(np.sum(ga * b, axis=1), nb, out=np.ones_like(nb), where=nb > 1e-12)
+    ang = np.arccos(np.clip(cosang, -1.0, 1.0))
+    omega = turn_sign * np.minimum(U_max, ang / dt)
+    along = np.abs(np.sum(a * b, axis=1))  # progress available along the heading
+    v = gg * np.minimum(V_max, along / dt)
+    return v, omega
+
+
+def fly_to_edge(drones: np.ndarray, headings: np.ndarray, hull: ExtendedHull, V_max: float, U_max: float,
+                dt: float):
+    """Fly to edge (6.11)-(6.13): head for the closest point O of the closest edge.
+
+    Returns (v, omega, b) with b (n, 2) the vector from each drone to O, m.
+    """
+    _, close, _ = hull.project(drones)
+    b = close - drones
+    v, omega = steer(headings, b, V_max, U_max, dt)
+    return v, omega, b
+
+
+def next_waypoint(hull: ExtendedHull, s_drone: np.ndarray, edge: np.ndarray, s_target: np.ndarray,
+                  direction: np.ndarray) -> np.ndarray:
+    """O* of (6.14): the target if it lies before the next vertex in ``direction``, else that vertex.
+
+    s_drone, s_target: (n,) arc positions, m; edge: (n,) current edge index; direction: (n,) +-1.
+    The drone "may fly to the vertex of the adjacent edge in the given direction
+    multiple times ... until reaching the selected vertex" (§6.4.2).
+    """
+    M = hull.perimeter
+    n_e = len(hull.vertices)
+    rem = np.mod((s_target - s_drone) * direction, M)
+    # a target just behind (rounding, or a one-step overshoot) is reached, not a lap ahead
+    rem = np.where(rem > M - OVERSHOOT_TOL, 0.0, rem)
+    nxt = np.where(direction > 0, hull.cum[edge + 1], hull.cum[edge])
+    to_v = np.mod((nxt - s_drone) * direction, M)
+    # standing on the vertex already: the next one along the direction
+    at_v = to_v < 1e-9
+    nxt2 = np.where(direction > 0, hull.cum[(edge + 2) % n_e], hull.cum[(edge - 1) % n_e])
+    nxt = np.where(at_v, nxt2, nxt)
+    to_v = np.where(at_v, np.mod((nxt - s_drone) * direction, M), to_v)
+    s_star = np.where(rem <= to_v, s_target, nxt)
+    return hull.point_at(s_star)
+
+
+def fly_on_edge(drones: np.ndarray, headings: np.ndarray, hull: ExtendedHull, s_target: np.ndarray,
+                direction: np.ndarray, V_max: float, U_max: float, dt: float):
+    """Fly on edge (6.14)-(6.16): b* = b + o*, b keeping the drone on the hull, o* to O*.
+
+    s_target: (n,) arc positions to reach, m; direction: (n,) +1 (increasing arc) or -1.
+    Returns (v, omega, s_drone) with s_drone the drones' current arc positions.
+    """
+    s, close, edge = hull.project(drones)
+    b = close - drones
+    o_star = next_waypoint(hull, s, edge, np.asarray(s_target, dtype=float), np.asarray(direction)) - drones
+    v, omega = steer(headings, b + o_star, V_max, U_max, dt)
+    return v, omega, s

@@ -1,0 +1,432 @@
+"""The herding world of thesis ch. 6: animals (Strömbom flocking), barking drones, simulator.
+
+Animal model (thesis (6.1), weights of Table 6.2; the model of Strömbom et al.,
+"Solving the shepherding problem", J. R. Soc. Interface 11, 2014, which the
+thesis cites as [199]). Every step of ``dt`` seconds:
+
+* an animal inside the barking cone of at least one drone (within ``R_b`` of the
+  drone and within ``beta/2`` of the drone's axis, which points at the herd
+  centroid ``C_o``) moves ``V_animal * dt`` along the unit vector of
+  ``eta_d R_d + eta_L C + eta_r R_a + eta_i H + eta_e eps`` with ``R_d`` the unit
+  sum of the unit vectors from the barking drones to it, ``C`` the unit vector to
+  the centre of mass of its ``n_neighbours`` nearest neighbours, ``R_a`` the unit
+  sum of the unit vectors away from neighbours closer than ``r_a``, ``H`` its
+  previous heading and ``eps`` a random unit vector;
+* any other animal grazes: with probability ``graze_prob`` per step it moves
+  ``graze_speed * dt`` along the unit vector of ``eta_r R_a + eta_e eps``
+  (Strömbom's grazing; repulsion keeps animals apart); otherwise it stays.
+
+So no animal ever moves faster than ``V_animal`` (``graze_speed <= V_animal``).
+
+Drone model (6.3)-(6.6): ``d' = v a``, ``a' = u`` with ``|a| = 1``, ``(a, u) = 0``,
+``|u| <= U_max``; we write ``u = omega a_perp`` and integrate the heading angle by
+rotation so ``|a| = 1`` exactly (DESIGN §4: ``U_max`` is the heading rate,
+rad/s). The thesis's guidance laws (6.13)/(6.16) command ``v = -V_max`` when the
+target is behind the drone, contradicting ``v in [0, V_max]`` of (6.5); the laws
+are implemented literally, so the simulator accepts ``|v| <= V_max``.
+
+A herder (planner) is any object with
+
+* ``reset(scenario)`` — called once before the run;
+* ``observe(t, animals, centroid, phase, drones, headings)`` — every animal step
+  (``dt`` = the thesis's re-allocation period Delta = 0.2 s), ``phase`` is
+  ``"gathering"`` or ``"driving"``;
+* ``control(t, drones, headings, dt) -> (v, omega)`` — every drone sub-step,
+  returning speeds (m/s) and heading rates (rad/s) per drone (clipped to the limits).
+
+This module imports no other layer of droneplan.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+# --------------------------------------------------------------------------- parameters
+
+
+def _positive(name: str, value: float) -> None:
+    if not (isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+
+
+def _nonneg(name: str, value: float) -> None:
+    if not (isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value) and value >= 0):
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class HerdingParams:
+    """Table 6.2 and the settings the thesis leaves open (units: m, s, rad)."""
+
+    eta_d: float = 1.0
+    """Weight of the repulsion from barking drones (Strömbom rho_s)."""
+    eta_L: float = 1.05
+    """Weight of the attraction to the local centre of mass (Strömbom c)."""
+    eta_r: float = 2.0
+    """Weight of the repulsion from close animals (Strömbom rho_a)."""
+    eta_i: float = 0.5
+    """Weight of the inertia, the previous heading (Strömbom h)."""
+    eta_e: float = 0.3
+    """Weight of the noise (Strömbom e)."""
+    delta: float = 0.2
+    """Re-allocation period Delta, s; also the animal time step."""
+    V_max: float = 25.0
+    """Maximum drone speed, m/s."""
+    U_max: float = 5.0
+    """Maximum heading rate |u| of (6.5), rad/s (DESIGN §4)."""
+    V_animal: float = 4.0
+    """Maximum animal speed (animals in a barking cone move at this speed), m/s."""
+    beta: float = 2 * math.pi / 3
+    """Barking-cone angle, rad."""
+    R_b: float = 100.0
+    """Barking-cone radius, m."""
+    d_s: float = 30.0
+    """Drone-to-animal distance: offset of the extended hull, m."""
+    R_c: float = 60.0
+    """Gathering ends when every animal is within R_c of the centroid, m (60 for 200, 110 for 1000 animals)."""
+    V_driving: float = 3.8
+    """Speed of the driving formation towards G, m/s (3.8 for 200, 1.9 for 1000 animals)."""
+    n_drones: int = 4
+    """Number of barking drones n_d."""
+    r_a: float = 2.0
+    """Animal-animal repulsion distance, m (Strömbom r_a)."""
+    n_neighbours: int = 20
+    """Nearest neighbours whose centre of mass attracts an animal (Strömbom n; not in the thesis)."""
+    graze_prob: float = 0.05
+    """Probability per step that an animal outside every barking cone moves (Strömbom)."""
+    graze_speed: float = 1.0
+    """Speed of a grazing move, m/s (<= V_animal; not in the thesis)."""
+    drone_substeps: int = 1
+    """Drone control/integration sub-steps per animal step (drone step = delta / drone_substeps;
+    1: the controller is sampled at the thesis's Delta)."""
+    goal_radius: float = 50.0
+    """Driving ends when the herd centroid is within this distance of G, m (not in the thesis)."""
+
+    def __post_init__(self) -> None:
+        for name in ("eta_d", "eta_L", "eta_r", "eta_i", "eta_e"):
+            _nonneg(name, getattr(self, name))
+        for name in ("delta", "V_max", "U_max", "V_animal", "R_b", "d_s", "R_c", "V_driving", "r_a",
+                     "graze_speed", "goal_radius"):
+            _positive(name, getattr(self, name))
+        if not (0 < self.beta <= 2 * math.pi):
+            raise ValueError(f"beta must be in (0, 2*pi], got {self.beta}")
+        if not (0 <= self.graze_prob <= 1):
+            raise ValueError(f"graze_prob must be in [0, 1], got {self.graze_prob}")
+        if self.graze_speed > self.V_animal:
+            raise ValueError(f"graze_speed must be <= V_animal, got {self.graze_speed} > {self.V_animal}")
+        if self.V_driving > self.V_animal:
+            raise ValueError(f"V_driving must be <= V_animal (thesis §6.4.4), got {self.V_driving} > {self.V_animal}")
+        for name in ("n_drones", "n_neighbours", "drone_substeps"):
+            v = getattr(self, name)
+            if not isinstance(v, (int, np.integer)) or v < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
+
+
+THESIS_TABLE_6_2 = HerdingParams()
+"""Table 6.2 with n_s = 200 (R_c = 60 m, V_driving = 3.8 m/s)."""
+
+
+def table_6_2_for(n_animals: int) -> tuple[float, float]:
+    """(R_c, V_driving) for a herd size: Table 6.2's values at 200 and 1000 animals,
+    linear in n between them and clamped outside (our rule for other sizes)."""
+    w = min(max((n_animals - 200) / 800.0, 0.0), 1.0)
+    return 60.0 + w * (110.0 - 60.0), 3.8 + w * (1.9 - 3.8)
+
+
+@dataclass(frozen=True)
+class HerdingScenario:
+    """An initial state and its parameters."""
+
+    params: HerdingParams
+    """Model and drone parameters."""
+    animals: np.ndarray
+    """(n_s, 2) initial animal positions, m."""
+    drones: np.ndarray
+    """(n_d, 2) initial drone positions, m."""
+    headings: np.ndarray
+    """(n_d,) initial drone heading angles, rad."""
+    goal: np.ndarray
+    """(2,) designated location G, m."""
+    field: tuple[float, float, float, float] = (0.0, 0.0, 1200.0, 600.0)
+    """Initial field (xmin, ymin, xmax, ymax), m."""
+
+    def __post_init__(self) -> None:
+        a = np.asarray(self.animals, dtype=float)
+        if a.ndim != 2 or a.shape[1] != 2 or a.shape[0] < 1:
+            raise ValueError(f"animals must be an (n, 2) array with n >= 1, got shape {a.shape}")
+        d = np.asarray(self.drones, dtype=float)
+        if d.ndim != 2 or d.shape[1] != 2 or d.shape[0] < 1:
+            raise ValueError(f"drones must be an (n_d, 2) array with n_d >= 1, got shape {d.shape}")
+        h = np.asarray(self.headings, dtype=float).reshape(-1)
+        if h.shape[0] != d.shape[0]:
+            raise ValueError(f"mismatched lengths: {h.shape[0]} headings for {d.shape[0]} drones")
+        if d.shape[0] != self.params.n_drones:
+            raise ValueError(f"mismatched lengths: {d.shape[0]} drones but params.n_drones = {self.params.n_drones}")
+        g = np.asarray(self.goal, dtype=float).reshape(-1)
+        if g.shape != (2,):
+            raise ValueError(f"goal must be a 2-vector, got shape {g.shape}")
+        for name, arr in (("animals", a), ("drones", d), ("headings", h), ("goal", g)):
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"{name} must be finite")
+        object.__setattr__(self, "animals", a)
+        object.__setattr__(self, "drones", d)
+        object.__setattr__(self, "headings", h)
+        object.__setattr__(self, "goal", g)
+
+    @property
+    def n_animals(self) -> int:
+        return int(self.animals.shape[0])
+
+
+def as_generator(seed) -> np.random.Generator:
+    """A numpy Generator from an int seed, a Generator (returned as is) or None."""
+    if isinstance(seed, np.random.Generator):
+        return seed
+    return np.random.default_rng(seed)
+
+
+def thesis_scenario(
+    n_animals: int = 200,
+    seed=0,
+    *,
+    field_size: tuple[float, float] = (1200.0, 600.0),
+    goal: tuple[float, float] | None = None,
+    n_drones: int = 4,
+    **overrides,
+) -> HerdingScenario:
+    """The §6.5 set-up: animals uniform in a field, drones lined up 80 m to its right, 50 m apart.
+
+    n_animals: herd size n_s (>= 1).
+    seed: int or numpy Generator.
+    field_size: (width, height) of the initial field, m (thesis: 1200 x 600; Fig. 6.8a uses squares).
+    goal: designated location G, m. Default: 900 m to the left of the field centre
+        (the thesis gives no coordinates; 900 m matches its driving times, 3.9 min at
+        3.8 m/s and 8.1 min at 1.9 m/s).
+    n_drones: number of barking drones (thesis: 4).
+    overrides: any HerdingParams field (R_c and V_driving default to Table 6.2 for the herd size).
+    """
+    if not isinstance(n_animals, (int, np.integer)) or n_animals < 1:
+        raise ValueError(f"n_animals must be an integer >= 1, got {n_animals!r}")
+    w, h = (float(v) for v in field_size)
+    _positive("field width", w)
+    _positive("field height", h)
+    rng = as_generator(seed)
+    R_c, V_drv = table_6_2_for(int(n_animals))
+    kw = {"R_c": R_c, "V_driving": V_drv, "n_drones": n_drones}
+    kw.update(overrides)
+    params = HerdingParams(**kw)
+    animals = rng.uniform((0.0, 0.0), (w, h), size=(int(n_animals), 2))
+    ys = h / 2 + 50.0 * (np.arange(n_drones) - (n_drones - 1) / 2)
+    drones = np.column_stack([np.full(n_drones, w + 80.0), ys])
+    headings = np.full(n_drones, math.pi)  # facing the field
+    g = np.array(goal if goal is not None else (w / 2 - 900.0, h / 2), dtype=float)
+    return HerdingScenario(params, animals, drones, headings, g, (0.0, 0.0, w, h))
+
+
+# --------------------------------------------------------------------------- dynamics
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
+    return v / np.maximum(n, 1e-12)
+
+
+def barking_mask(animals: np.ndarray, drones: np.ndarray, centroid: np.ndarray, R_b: float, beta: float,
+                 barking: np.ndarray | None = None) -> np.ndarray:
+    """(n_s, n_d) bool: animal i lies in the barking cone of drone j (axis towards ``centroid``)."""
+    rel = animals[:, None, :] - drones[None, :, :]  # (n, d, 2)
+    dist2 = np.einsum("ndk,ndk->nd", rel, rel)
+    axis = _unit(centroid[None, :] - drones)  # (d, 2)
+    proj = np.einsum("ndk,dk->nd", rel, axis)
+    cos_half = math.cos(beta / 2)
+    inside = (dist2 <= R_b * R_b) & (proj >= cos_half * np.sqrt(dist2))
+    if barking is not None:
+        inside &= np.asarray(barking, dtype=bool)[None, :]
+    return inside
+
+
+def animal_step(
+    animals: np.ndarray,
+    heading: np.ndarray,
+    drones: np.ndarray,
+    params: HerdingParams,
+    rng: np.random.Generator,
+    dt: float | None = None,
+    barking: np.ndarray | None = None,
+    centroid: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One animal step (module docstring); vectorised over animals, cKDTree for neighbours.
+
+    animals: (n, 2) positions, m; heading: (n, 2) previous unit headings (zero rows allowed);
+    drones: (n_d, 2) drone positions, m; dt: step, s (default params.delta);
+    barking: (n_d,) bool mask of drones that bark (default all);
+    centroid: the herd centroid if already known (default: computed).
+    Returns (new positions, new headings, affected mask (n,)).
+    """
+    dt = params.delta if dt is None else dt
+    n = animals.shape[0]
+    centroid = animals.mean(axis=0) if centroid is None else centroid
+    cone = barking_mask(animals, drones, centroid, params.R_b, params.beta, barking)
+    affected = cone.any(axis=1)
+    grazing = (~affected) & (rng.random(n) < params.graze_prob)
+    movers = np.flatnonzero(affected | grazing)
+    new_pos = animals.copy()
+    new_head = heading.copy()
+    if movers.size == 0:
+        return new_pos, new_head, affected
+    pos = animals[movers]
+    eps = _unit(rng.normal(size=(movers.size, 2)))
+    if n > 1:
+        k = min(params.n_neighbours, n - 1) + 1
+        dist, idx = cKDTree(animals, balanced_tree=False, compact_nodes=False).query(pos, k=k)
+        dist, idx = dist[:, 1:], idx[:, 1:]  # drop self (distance 0 ranks first)
+        nb = animals[idx]  # (m, k-1, 2)
+        away = pos[:, None, :] - nb
+        w = np.where(dist < params.r_a, 1.0 / np.maximum(dist, 1e-12), 0.0)  # unit vectors of close ones
+        R_a = _unit(np.einsum("mk,mkc->mc", w, away))
+        C = _unit(nb.mean(axis=1) - pos)
+    else:
+        R_a = C = np.zeros((movers.size, 2))
+    aff = affected[movers]
+    # repulsion from the barking drones whose cone holds the animal
+    rel = pos[:, None, :] - drones[None, :, :]
+    wd = cone[movers] / np.maximum(np.sqrt(np.sum(rel * rel, axis=2)), 1e-12)
+    R_d = _unit(np.einsum("md,mdc->mc", wd, rel))
+    herd = (params.eta_d * R_d + params.eta_L * C + params.eta_r * R_a
+            + params.eta_i * heading[movers] + params.eta_e * eps)
+    graze = params.eta_r * R_a + params.eta_e * eps
+    direction = _unit(np.where(aff[:, None], herd, graze))
+    speed = np.where(aff, params.V_animal, params.graze_speed)
+    new_pos[movers] = pos + (speed * dt)[:, None] * direction
+    new_head[movers] = direction
+    return new_pos, new_head, affected
+
+
+def drone_step(drones: np.ndarray, headings: np.ndarray, v: np.ndarray, omega: np.ndarray,
+               params: HerdingParams, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Integrate (6.3)-(6.6) over ``dt`` with |v| <= V_max, |omega| <= U_max (clipped)."""
+    v = np.clip(np.asarray(v, dtype=float), -params.V_max, params.V_max)
+    omega = np.clip(np.asarray(omega, dtype=float), -params.U_max, params.U_max)
+    a = np.column_stack([np.cos(headings), np.sin(headings)])
+    return drones + (v * dt)[:, None] * a, headings + omega * dt
+
+
+# --------------------------------------------------------------------------- simulation
+@dataclass
+class HerdingTrace:
+    """What :func:`simulate` records (times in s, distances in m)."""
+
+    t: np.ndarray
+    """(T,) times of the animal steps, s."""
+    footprint_radius: np.ndarray
+    """(T,) max animal-to-centroid distance, m."""
+    centroid: np.ndarray
+    """(T, 2) herd centroid, m."""
+    drones: np.ndarray
+    """(T, n_d, 2) drone positions, m."""
+    gather_time: float | None
+    """First time every animal was within R_c of the centroid, s (None: not reached)."""
+    total_time: float | None
+    """Time the herd centroid reached G (gathering + driving), s (None: not reached)."""
+    max_animal_speed: float
+    """Largest displacement / dt of any animal over the run, m/s."""
+    snapshots: dict = field(default_factory=dict)
+    """{requested time: (animals (n,2), drones (n_d,2))} at the first step >= that time."""
+    frames: list = field(default_factory=list)
+    """[(t, animals, drones)] every ``frame_every`` seconds, for animations."""
+    wall_time: float = 0.0
+    """Wall-clock time of the run, s."""
+    seed: object = None
+    """The seed the run used."""
+
+
+def footprint_radius(animals: np.ndarray) -> float:
+    """Max distance of an animal to the herd centroid, m."""
+    c = animals.mean(axis=0)
+    return float(np.sqrt(np.max(np.sum((animals - c) ** 2, axis=1))))
+
+
+def simulate(
+    scenario: HerdingScenario,
+    herder,
+    *,
+    t_max: float = 1800.0,
+    seed=None,
+    snapshot_times=(),
+    frame_every: float | None = None,
+    stop_after_gathering: bool = False,
+) -> HerdingTrace:
+    """Run gathering then driving with ``herder`` until the herd reaches G or ``t_max``.
+
+    scenario: initial state and parameters; herder: see module docstring.
+    t_max: simulated time limit, s (> 0). seed: int or Generator for the animals' noise.
+    snapshot_times: times (s) at which to keep full snapshots (Fig. 6.7 b-f).
+    frame_every: keep an animation frame every this many seconds (None: none).
+    stop_after_gathering: end the run when gathering finishes (the sweeps of Figs 6.8-6.10).
+    """
+    _positive("t_max", t_max)
+    if frame_every is not None:
+        _positive("frame_every", frame_every)
+    p = scenario.params
+    rng = as_generator(seed)
+    dt = p.delta
+    sub = p.drone_substeps
+    dts = dt / sub
+    animals = scenario.animals.copy()
+    heading = np.zeros_like(animals)
+    drones = scenario.drones.copy()
+    headings = scenario.headings.copy()
+    herder.reset(scenario)
+    n_steps = int(math.ceil(t_max / dt))
+    ts, radii, cents, dpos = [], [], [], []
+    snaps_todo = sorted(float(s) for s in snapshot_times)
+    snapshots: dict = {}
+    frames: list = []
+    next_frame = 0.0
+    gather_time = total_time = None
+    phase = "gathering"
+    vmax_seen = 0.0
+    t0 = time.perf_counter()
+    for step in range(n_steps + 1):
+        t = step * dt
+        c = animals.mean(axis=0)
+        r = float(np.sqrt(np.max(np.sum((animals - c) ** 2, axis=1))))
+        ts.append(t)
+        radii.append(r)
+        cents.append(c)
+        dpos.append(drones.copy())
+        while snaps_todo and t >= snaps_todo[0] - 1e-9:
+            snapshots[snaps_todo.pop(0)] = (animals.copy(), drones.copy())
+        if frame_every is not None and t >= next_frame - 1e-9:
+            frames.append((t, animals.copy(), drones.copy()))
+            next_frame += frame_every
+        if phase == "gathering" and r <= p.R_c:
+            gather_time = t
+            phase = "driving"
+            if stop_after_gathering:
+                break
+        if phase == "driving" and np.linalg.norm(c - scenario.goal) <= p.goal_radius:
+            total_time = t
+            break
+        if step == n_steps:
+            break
+        herder.observe(t, animals, c, phase, drones, headings)
+        for k in range(sub):
+            v, omega = herder.control(t + k * dts, drones, headings, dts)
+            drones, headings = drone_step(drones, headings, v, omega, p, dts)
+        new, heading, _ = animal_step(animals, heading, drones, p, rng, dt, centroid=c)
+        vmax_seen = max(vmax_seen, float(np.sqrt(np.max(np.sum((new - animals) ** 2, axis=1)))) / dt)
+        animals = new
+    return HerdingTrace(
+        t=np.array(ts), footprint_radius=np.array(radii), centroid=np.array(cents), drones=np.array(dpos),
+        gather_time=gather_time, total_time=total_time, max_animal_speed=vmax_seen, snapshots=snapshots,
+        frames=frames, wall_time=time.perf_counter() - t0, seed=seed,
+    )
+
+
+def with_params(scenario: HerdingScenario, **changes) -> HerdingScenario:
+    """A copy of ``scenario`` with some HerdingParams fields changed (validated)."""
+    return replace(scenario, params=replace(scenario.params, **changes))

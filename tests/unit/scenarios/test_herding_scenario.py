@@ -1,0 +1,120 @@
+"""Herding world: animal model limits and cones, drone model, scenario, bad input."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from scenarios.herding import (
+    HerdingParams,
+    HerdingScenario,
+    animal_step,
+    barking_mask,
+    drone_step,
+    footprint_radius,
+    table_6_2_for,
+    thesis_scenario,
+)
+
+
+def test_thesis_scenario_layout():
+    sc = thesis_scenario(200, seed=3)
+    assert sc.animals.shape == (200, 2)
+    assert np.all((sc.animals >= 0) & (sc.animals <= [1200, 600]))
+    assert np.allclose(sc.drones[:, 0], 1280.0)  # 80 m right of the field
+    assert np.allclose(np.diff(sc.drones[:, 1]), 50.0)  # 50 m apart
+    assert sc.params.R_c == 60.0 and sc.params.V_driving == 3.8
+    big = thesis_scenario(1000, seed=3)
+    assert big.params.R_c == 110.0 and big.params.V_driving == 1.9
+    assert table_6_2_for(600) == pytest.approx((85.0, 2.85))
+    # reproducible
+    assert np.array_equal(thesis_scenario(50, seed=7).animals, thesis_scenario(50, seed=7).animals)
+    assert not np.array_equal(thesis_scenario(50, seed=7).animals, thesis_scenario(50, seed=8).animals)
+
+
+def test_barking_cone_matches_scalar_definition():
+    rng = np.random.default_rng(0)
+    animals = rng.uniform(-150, 150, (400, 2))
+    drones = rng.uniform(-150, 150, (3, 2))
+    c = animals.mean(axis=0)
+    mask = barking_mask(animals, drones, c, 100.0, 2 * math.pi / 3)
+    for i in range(0, 400, 7):
+        for j in range(3):
+            rel = animals[i] - drones[j]
+            axis = c - drones[j]
+            ang = math.acos(np.clip(rel @ axis / (np.linalg.norm(rel) * np.linalg.norm(axis)), -1, 1))
+            expect = np.linalg.norm(rel) <= 100.0 and ang <= math.pi / 3
+            assert mask[i, j] == expect
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(1, 120), st.integers(0, 10_000), st.floats(0.5, 6.0))
+def test_no_animal_exceeds_V_animal(n, seed, v_animal):
+    rng = np.random.default_rng(seed)
+    p = HerdingParams(V_animal=v_animal, graze_speed=min(1.0, v_animal), V_driving=min(3.8, v_animal))
+    animals = rng.uniform(0, 200, (n, 2))
+    if n > 3:
+        animals[:3] = animals[3]  # coincident animals
+    heading = np.zeros_like(animals)
+    drones = rng.uniform(-50, 250, (4, 2))
+    moved_any = False
+    for _ in range(5):
+        new, heading, affected = animal_step(animals, heading, drones, p, rng)
+        step = np.linalg.norm(new - animals, axis=1)
+        assert np.all(step <= p.V_animal * p.delta * (1 + 1e-9))
+        # animals in a cone move at exactly V_animal (the unit direction is never 0 here)
+        assert np.all(np.isfinite(new))
+        moved_any |= bool(affected.any())
+        animals = new
+    assert np.allclose(np.linalg.norm(heading, axis=1)[np.linalg.norm(heading, axis=1) > 0], 1.0)
+
+
+def test_repulsed_animals_move_away_from_a_lone_drone():
+    p = HerdingParams(eta_L=0.0, eta_r=0.0, eta_i=0.0, eta_e=0.0)
+    animals = np.array([[0.0, 0.0], [5.0, 1.0], [-5.0, -1.0], [-300.0, 0.0]])
+    drones = np.array([[60.0, 0.0], [900, 0], [900, 10], [900, 20]])
+    new, _, aff = animal_step(animals, np.zeros_like(animals), drones, p, np.random.default_rng(0))
+    assert aff[:3].all() and not aff[3]  # the far animal is outside R_b
+    assert np.all(new[:3, 0] < animals[:3, 0])  # pushed away from the drone (to -x)
+    assert np.allclose(np.linalg.norm(new[:3] - animals[:3], axis=1), p.V_animal * p.delta)
+
+
+def test_drone_step_limits_and_unit_heading():
+    p = HerdingParams()
+    d, h = drone_step(np.zeros((4, 2)), np.zeros(4), np.array([100.0, -100, 10, 0]),
+                      np.array([50.0, -50, 1, 0]), p, 0.2)
+    assert np.allclose(np.linalg.norm(d, axis=1), [5.0, 5.0, 2.0, 0.0])  # |v| clipped to V_max
+    assert np.allclose(h, [1.0, -1.0, 0.2, 0.0])  # |omega| clipped to U_max
+
+
+def test_footprint_radius():
+    assert footprint_radius(np.array([[0.0, 0.0], [2.0, 0.0]])) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize(
+    "kw, match",
+    [({"V_max": 0.0}, "V_max"), ({"U_max": -1.0}, "U_max"), ({"R_b": float("nan")}, "R_b"),
+     ({"d_s": 0}, "d_s"), ({"V_animal": -4.0}, "V_animal"), ({"beta": 0.0}, "beta"),
+     ({"n_drones": 0}, "n_drones"), ({"V_driving": 5.0}, "V_driving"), ({"graze_prob": 1.5}, "graze_prob"),
+     ({"R_c": 0.0}, "R_c"), ({"delta": -0.2}, "delta")],
+)
+def test_params_bad_input(kw, match):
+    with pytest.raises(ValueError, match=match):
+        HerdingParams(**kw)
+
+
+def test_scenario_bad_input():
+    with pytest.raises(ValueError, match="n_animals"):
+        thesis_scenario(0)
+    with pytest.raises(ValueError, match="n_drones"):
+        thesis_scenario(10, n_drones=0)
+    sc = thesis_scenario(10, seed=0)
+    with pytest.raises(ValueError, match="mismatched lengths"):
+        HerdingScenario(sc.params, sc.animals, sc.drones, sc.headings[:2], sc.goal)
+    with pytest.raises(ValueError, match="animals"):
+        HerdingScenario(sc.params, np.zeros((0, 2)), sc.drones, sc.headings, sc.goal)
+    with pytest.raises(ValueError, match="finite"):
+        HerdingScenario(sc.params, sc.animals + np.nan, sc.drones, sc.headings, sc.goal)
+    with pytest.raises(ValueError, match="field width"):
+        thesis_scenario(10, field_size=(0.0, 10.0))
