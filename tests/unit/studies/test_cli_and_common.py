@@ -89,3 +89,13 @@ def test_all_dependencies_import_in_one_process():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip().endswith("ok")
+
+
+def test_dask_executor_maps_rows(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        store = ResumableCSV(tmp_path / "rows.csv", key=["seed"])
+        with make_executor(dask_address=cluster.scheduler_address) as ex:
+            df = map_rows(_square, [{"seed": s} for s in range(3)], executor=ex, store=store)
+    assert sorted(df["value"]) == [0, 1, 4]
