@@ -1,0 +1,409 @@
+"""Herding with barking drones (thesis ch. 6): reproduction, allocation gap and benchmarks.
+
+`droneplan reproduce herding` — Fig. 6.7 (footprint radius vs time, 200 and 1000 animals,
+proposed vs benchmark; gathering/total times beside the thesis), snapshots like Fig. 6.7(b-f),
+and the sweeps of Figs. 6.8-6.10 (field size, n_d, V_max, V_animal, R_b, d_s) in reduced form.
+`droneplan gap herding` — steering-point allocation: thesis Algorithm 3 (the benchmark
+allocator), CP-SAT and the collision-blind bottleneck against the exact O(n^2) optimum.
+`droneplan bench herding` — exact allocation at n = 64, Algorithm 3 / exact at n = 7,
+simulated seconds per wall second for 1000 animals and 4 drones, proposed vs benchmark gathering.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from formulations.herding import solve_allocation  # noqa: E402
+from planners.herding import (BenchmarkHerder, ExtendedHull, HerderSettings, ProposedHerder,  # noqa: E402
+                              allocate_bruteforce, allocate_collision_blind)
+from scenarios.herding import simulate, thesis_scenario  # noqa: E402
+from studies.common import ComparisonTable, ResumableCSV, make_executor, map_rows, timed  # noqa: E402
+
+FIG_6_7 = {200: {"gather": 11.1, "total": 15.0, "bench_extra": 3.3},
+           1000: {"gather": 10.1, "total": 18.2, "bench_extra": 4.1}}
+"""Thesis §6.5 (Fig. 6.7a): proposed gathering / total time (min) and the benchmark's extra minutes."""
+
+SWEEPS = {
+    # name: (parameter, full values, quick values, thesis statement, scenario keyword)
+    "field": ("square field side (m)", [400, 800, 1200], [400, 1000],
+              "Fig 6.8a: gathering time grows strongly with the field side; benchmark more sensitive", "field"),
+    "n_drones": ("n_d", [2, 3, 4, 6, 8], [2, 6], "Fig 6.8b: gathering time falls with n_d; gap grows for n_d >= 4",
+                 "n_drones"),
+    "V_max": ("V_max (m/s)", [10, 15, 25, 35], [10, 25],
+              "Fig 6.9a: slower drones gather slower; benchmark fails for V_max <= 10", "V_max"),
+    "V_animal": ("V_animal (m/s)", [2, 3, 4, 5], [2, 5],
+                 "Fig 6.9b: proposed 14.7 -> 9.1 min, benchmark 20.8 -> 12.7 min for V_animal 2 -> 5", "V_animal"),
+    "R_b": ("R_b (m)", [60, 100, 140], [60, 140], "Fig 6.10a: fastest near R_b = 100 m", "R_b"),
+    "d_s": ("d_s (m)", [10, 30, 50], [10, 50], "Fig 6.10b: fastest near d_s = 30 m", "d_s"),
+}
+
+
+def _workers() -> int:
+    return max(1, min(2, os.cpu_count() or 1))
+
+
+# --------------------------------------------------------------------------- one run
+def run_once(task: dict) -> dict:
+    """One closed-loop run (module-level so process pools can pickle it).
+
+    task keys: n (animals), seed, method ("proposed"/"benchmark"), t_max (s), and optionally
+    field (square side, m), params (dict of HerdingParams overrides), n_drones,
+    gather_only (bool), snapshots (list of s), curve_every (s).
+    """
+    kw = dict(task.get("params", {}))
+    n_drones = int(task.get("n_drones", 4))
+    field = task.get("field")
+    size = (float(field), float(field)) if field else (1200.0, 600.0)
+    sc = thesis_scenario(int(task["n"]), seed=int(task["seed"]), field_size=size, n_drones=n_drones, **kw)
+    herder = ProposedHerder() if task["method"] == "proposed" else BenchmarkHerder()
+    c0 = time.process_time()
+    tr = simulate(sc, herder, t_max=float(task["t_max"]), seed=int(task["seed"]) + 10_000,
+                  snapshot_times=task.get("snapshots", ()), stop_after_gathering=bool(task.get("gather_only")))
+    cpu = time.process_time() - c0
+    every = max(1, int(round(float(task.get("curve_every", 5.0)) / sc.params.delta)))
+    hull_t = herder.all_on_hull_time
+    return {
+        **{k: task[k] for k in task if k not in ("params", "snapshots")},
+        "params": json.dumps(kw, sort_keys=True),
+        "gather_time": tr.gather_time, "total_time": tr.total_time, "on_hull_time": hull_t,
+        "gather_after_hull": (tr.gather_time - hull_t) if (tr.gather_time is not None and hull_t is not None) else None,
+        "sim_time": float(tr.t[-1]), "wall_time": tr.wall_time, "cpu_time": cpu,
+        "max_animal_speed": tr.max_animal_speed, "R_c": sc.params.R_c,
+        "curve_t": tr.t[::every], "curve_r": tr.footprint_radius[::every],
+        "snapshots": {float(k): (a, d) for k, (a, d) in tr.snapshots.items()},
+        "n_crossing_allocations": herder.n_crossing_allocations,
+    }
+
+
+def _mean(values) -> float | None:
+    vals = [v for v in values if v is not None and np.isfinite(v)]
+    return float(np.mean(vals)) if vals else None
+
+
+def _minutes(v) -> float | None:
+    return None if v is None else v / 60.0
+
+
+# --------------------------------------------------------------------------- reproduce
+def _fig_6_7(out: Path, quick: bool, executor) -> None:
+    plan = {200: list(range(2)), 1000: list(range(1))} if quick else {200: list(range(20)), 1000: list(range(20))}
+    snaps = [0.0, 300.0, 480.0]
+    tasks = [{"fig": "6.7", "n": n, "seed": s, "method": m, "t_max": 2700.0,
+              "snapshots": snaps if (n == 1000 and s == 0) else []}
+             for n, seeds in plan.items() for s in seeds for m in ("proposed", "benchmark")]
+    rows = list(executor.map(run_once, tasks))
+    table = ComparisonTable("Fig. 6.7: gathering and total herding time (4 drones, 1200 m x 600 m field)")
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    csv_rows = []
+    for n in plan:
+        for m, style in (("proposed", "-"), ("benchmark", "--")):
+            rs = [r for r in rows if r["n"] == n and r["method"] == m]
+            g = [r["gather_time"] for r in rs]
+            tot = [r["total_time"] for r in rs]
+            how = (f"mean over {len(rs)} seeds of simulate(); gathering ends when every animal is within "
+                   f"R_c = {rs[0]['R_c']:.0f} m of the centroid; {sum(v is None for v in g)} runs did not gather "
+                   f"within 45 min")
+            if m == "proposed":
+                table.add(f"{n} animals: proposed gathering time (min)", FIG_6_7[n]["gather"], _minutes(_mean(g)), how)
+                table.add(f"{n} animals: proposed total time (min)", FIG_6_7[n]["total"], _minutes(_mean(tot)),
+                          "gathering + driving until the centroid is within goal_radius of G (900 m away)")
+            else:
+                prop = [r for r in rows if r["n"] == n and r["method"] == "proposed"]
+                pairs = [(b["total_time"], p["total_time"]) for b, p in zip(rs, prop)
+                         if b["total_time"] is not None and p["total_time"] is not None]
+                extra = _minutes(_mean([b - p for b, p in pairs])) if pairs else None
+                table.add(f"{n} animals: benchmark minus proposed, total (min)", FIG_6_7[n]["bench_extra"], extra,
+                          f"paired by seed over {len(pairs)} seeds where both finished")
+                gpairs = [(b["gather_time"], p["gather_time"]) for b, p in zip(rs, prop)
+                          if b["gather_time"] is not None and p["gather_time"] is not None]
+                table.add(f"{n} animals: benchmark minus proposed, gathering (min)", "—",
+                          _minutes(_mean([b - p for b, p in gpairs])) if gpairs else None,
+                          f"paired by seed over {len(gpairs)} seeds")
+            # mean footprint curve (runs end at different times: hold the last value)
+            T = max(len(r["curve_r"]) for r in rs)
+            curves = np.array([np.pad(r["curve_r"], (0, T - len(r["curve_r"])), mode="edge") for r in rs])
+            t = max((r["curve_t"] for r in rs), key=len)
+            ax.plot(t / 60.0, curves.mean(axis=0), style, label=f"{n} animals, {m}")
+            for r in rs:
+                csv_rows.append({k: r[k] for k in ("n", "seed", "method", "gather_time", "total_time",
+                                                    "on_hull_time", "wall_time", "max_animal_speed")})
+    ax.set_xlabel("t (min)")
+    ax.set_ylabel("footprint radius (m)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title("Fig. 6.7a: animals' footprint radius vs time")
+    fig.tight_layout()
+    fig.savefig(out / "fig_6_7a_footprint.png", dpi=120)
+    plt.close(fig)
+    import pandas as pd
+
+    pd.DataFrame(csv_rows).to_csv(out / "fig_6_7_runs.csv", index=False)
+    table.emit(out, "fig_6_7")
+    # snapshots (Fig. 6.7 b-f)
+    snap = {r["method"]: r["snapshots"] for r in rows if r["n"] == 1000 and r["seed"] == 0}
+    fig, axes = plt.subplots(1, 5, figsize=(20, 4))
+    panels = [("proposed", 0.0, "(b) t = 0"), ("proposed", 300.0, "(c) 5 min, proposed"),
+              ("proposed", 480.0, "(d) 8 min, proposed"), ("benchmark", 300.0, "(e) 5 min, benchmark"),
+              ("benchmark", 480.0, "(f) 8 min, benchmark")]
+    for a, (m, t, title) in zip(axes, panels):
+        if t in snap.get(m, {}):
+            an, dr = snap[m][t]
+            a.scatter(an[:, 0], an[:, 1], s=2)
+            a.scatter(dr[:, 0], dr[:, 1], marker="s", c="r", s=20)
+            a.set_aspect("equal")
+        else:
+            a.text(0.5, 0.5, "run ended before this time", ha="center", transform=a.transAxes)
+        a.set_title(title)
+    fig.tight_layout()
+    fig.savefig(out / "fig_6_7bf_snapshots.png", dpi=100)
+    plt.close(fig)
+
+
+def _sweeps(out: Path, quick: bool, executor) -> None:
+    n_animals = 100 if quick else 200
+    seeds = range(1) if quick else range(5)
+    tasks = []
+    for name, (label, full, qv, _, key) in SWEEPS.items():
+        for value in (qv if quick else full):
+            for s in seeds:
+                for m in ("proposed", "benchmark"):
+                    t = {"sweep": name, "value": value, "n": n_animals, "seed": s, "method": m, "t_max": 2400.0,
+                         "gather_only": True, "curve_every": 30.0}
+                    if key == "field":
+                        t["field"] = value
+                    elif key == "n_drones":
+                        t["n_drones"] = value
+                    else:
+                        t["params"] = {key: float(value)}
+                    tasks.append(t)
+    rows = list(executor.map(run_once, tasks))
+    table = ComparisonTable(f"Figs. 6.8-6.10 (reduced: {n_animals} animals, {len(seeds)} seed(s) per point): "
+                            "gathering time after the drones reach the hull (min)")
+    fig, axes = plt.subplots(2, 3, figsize=(13, 7))
+    import pandas as pd
+
+    flat = []
+    for a, (name, (label, full, qv, statement, _)) in zip(axes.flat, SWEEPS.items()):
+        values = qv if quick else full
+        parts = []
+        for m, style in (("proposed", "o-"), ("benchmark", "s--")):
+            ys = []
+            for v in values:
+                rs = [r for r in rows if r["sweep"] == name and r["value"] == v and r["method"] == m]
+                g = [r["gather_after_hull"] for r in rs]
+                ys.append(_minutes(_mean(g)))
+                fails = sum(x is None for x in g)
+                parts.append(f"{m[0]}:{'—' if ys[-1] is None else f'{ys[-1]:.1f}'}{'*' * fails}")
+                for r in rs:
+                    flat.append({"sweep": name, "value": v, "method": m, "seed": r["seed"],
+                                 "gather_after_hull": r["gather_after_hull"], "gather_time": r["gather_time"]})
+            a.plot(values, [np.nan if y is None else y for y in ys], style, label=m)
+        a.set_xlabel(label)
+        a.set_ylabel("gathering time (min)")
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7)
+        table.add(f"{label} = {values}", statement, " ".join(parts),
+                  "p = proposed, b = benchmark, per value in order; * = a run that did not gather in 40 min")
+    fig.suptitle("Figs. 6.8-6.10 (reduced sweeps)")
+    fig.tight_layout()
+    fig.savefig(out / "fig_6_8_to_6_10_sweeps.png", dpi=110)
+    plt.close(fig)
+    pd.DataFrame(flat).to_csv(out / "sweeps_runs.csv", index=False)
+    table.emit(out, "fig_6_8_to_6_10")
+
+
+def reproduce(*, quick: bool, out: Path) -> None:
+    """Fig. 6.7 (footprint, times, snapshots) and reduced Figs. 6.8-6.10 sweeps; CSV + PNG in ``out``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with make_executor(_workers()) as ex:
+        _fig_6_7(out, quick, ex)
+        _sweeps(out, quick, ex)
+
+
+# --------------------------------------------------------------------------- gap
+def _random_instance(n: int, seed: int):
+    """Drones and steering points on the extended hull of a random herd (arc lengths, m)."""
+    rng = np.random.default_rng(seed)
+    herd = rng.uniform((0, 0), (1200, 600), size=(200, 2))
+    hull = ExtendedHull.from_points(herd, 30.0)
+    M = hull.perimeter
+    drones = np.sort(rng.uniform(0, M, n))
+    k = len(hull.vertex_s)
+    steer = rng.choice(hull.vertex_s, size=min(n, k), replace=False) if k >= n else hull.vertex_s
+    if len(steer) < n:
+        steer = np.concatenate([steer, rng.uniform(0, M, n - len(steer))])
+    return drones, np.mod(steer, M), M
+
+
+def gap_row(task: dict) -> dict:
+    """One allocation instance: every allocator against the exact optimum (module-level for pools)."""
+    n, seed = int(task["n"]), int(task["seed"])
+    d, s, M = _random_instance(n, seed)
+    ex = solve_allocation(d, s, M)
+    row = {"n": n, "seed": seed, "exact": ex.objective, "exact_s": ex.solve_time, "alg3": None, "alg3_s": None,
+           "cpsat": None, "cpsat_bound": None, "cpsat_status": None, "cpsat_s": None}
+    if n <= 7:
+        bf = allocate_bruteforce(d, s, M)
+        row.update(alg3=bf.objective, alg3_s=bf.solve_time)
+    if n <= 16:
+        cp = solve_allocation(d, s, M, method="cp-sat", time_limit=30.0)
+        row.update(cpsat=cp.objective, cpsat_bound=cp.bound, cpsat_status=cp.status.value, cpsat_s=cp.solve_time)
+    cb = allocate_collision_blind(d, s, M)
+    row.update(blind=cb.objective, blind_crosses=bool(cb.info["crosses"]), blind_s=cb.solve_time)
+    return row
+
+
+def gap(*, seeds: int, executor, out: Path) -> None:
+    """Allocation gap: Algorithm 3, CP-SAT and collision-blind vs exact on hull instances."""
+    out = Path(out)
+    sizes = [2, 4, 6, 7, 8, 16, 64]
+    store = ResumableCSV(out / "gap_allocation.csv", key=("n", "seed"))
+    tasks = [{"n": n, "seed": s} for n in sizes for s in range(seeds)]
+    df = map_rows(gap_row, tasks, executor=executor, store=store, desc="herding allocation gap")
+    table = ComparisonTable("Steering-point allocation vs the exact optimum (max travel, m)")
+    for n in sizes:
+        sub = df[df["n"] == n]
+        if sub.empty:
+            continue
+        if "alg3" in sub and sub["alg3"].notna().any():
+            s3 = sub[sub["alg3"].notna()]
+            agree = np.isclose(s3["alg3"], s3["exact"], rtol=1e-9, atol=1e-9).mean()
+            table.add(f"n={n}: Algorithm 3 = exact", "Alg. 3 is exact (n!·2^n)", f"{agree:.0%} of {len(s3)}",
+                      f"median time alg3 {s3['alg3_s'].median() * 1e3:.2f} ms vs exact {s3['exact_s'].median() * 1e3:.3f} ms")
+        if "cpsat" in sub and sub["cpsat"].notna().any():
+            sc = sub[sub["cpsat"].notna()]
+            agree = np.isclose(sc["cpsat"], sc["exact"], rtol=1e-9, atol=1e-9).mean()
+            table.add(f"n={n}: CP-SAT model = exact", "—", f"{agree:.0%} of {len(sc)}",
+                      f"median CP-SAT {sc['cpsat_s'].median() * 1e3:.1f} ms, statuses {sorted(set(sc['cpsat_status']))}")
+        ratio = (sub["blind"] / sub["exact"]).replace([np.inf], np.nan)
+        table.add(f"n={n}: collision-blind crosses", "— (thesis requires no crossing)",
+                  f"{sub['blind_crosses'].astype(bool).mean():.0%} of {len(sub)}",
+                  f"bottleneck without (6.22)-(6.23); its max travel / exact = {ratio.mean():.3f} on average")
+    table.emit(out, "gap_allocation_summary")
+
+
+# --------------------------------------------------------------------------- bench
+def bench(*, quick: bool, out: Path) -> None:
+    """Allocation timings (exact n=64, Alg.3/exact n=7), simulation speed (1000 animals), proposed vs benchmark."""
+    out = Path(out)
+    table = ComparisonTable("Herding benchmarks (measured in this run)")
+    d, s, M = _random_instance(64, 0)
+    res, t64 = timed(solve_allocation, d, s, M, repeat=50)
+    table.add("exact allocation, n = 64 (ms)", "target < 10", t64 * 1e3, "median of 50 solves, random hull instance")
+    d, s, M = _random_instance(7, 1)
+    _, t_bf = timed(allocate_bruteforce, d, s, M, repeat=3)
+    _, t_ex = timed(solve_allocation, d, s, M, repeat=50)
+    table.add("Algorithm 3 / exact time ratio, n = 7", "n!·2^n = 645120 allocations", t_bf / t_ex,
+              f"medians: Alg. 3 {t_bf * 1e3:.1f} ms, exact {t_ex * 1e3:.3f} ms")
+    d, s, M = _random_instance(12, 2)
+    cp, t_cp = timed(solve_allocation, d, s, M, method="cp-sat", repeat=3)
+    table.add("CP-SAT / exact time ratio, n = 12", "—", t_cp / t_ex, f"CP-SAT {t_cp * 1e3:.1f} ms (1 worker)")
+    t_sim = 300.0 if quick else 1200.0
+    r = run_once({"n": 1000, "seed": 0, "method": "proposed", "t_max": t_sim, "gather_only": False})
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    table.add("simulation, 1000 animals + 4 drones (sim s / wall s)", "target >= 50", r["sim_time"] / r["wall_time"],
+              f"{r['sim_time']:.0f} s simulated in {r['wall_time']:.1f} s wall; load average {load:.1f} on "
+              f"{os.cpu_count()} cores")
+    table.add("simulation, 1000 animals + 4 drones (sim s / CPU s)", "—", r["sim_time"] / r["cpu_time"],
+              "process CPU time: the speed without other processes competing")
+    seeds = 4 if quick else 20
+    tasks = [{"n": 200, "seed": k, "method": m, "t_max": 2400.0, "gather_only": True}
+             for k in range(seeds) for m in ("proposed", "benchmark")]
+    with make_executor(_workers()) as ex:
+        rows = list(ex.map(run_once, tasks))
+    gp = [r["gather_time"] for r in rows if r["method"] == "proposed"]
+    gb = [r["gather_time"] for r in rows if r["method"] == "benchmark"]
+    pairs = [(p, b) for p, b in zip(gp, gb) if p is not None and b is not None]
+    faster = (1 - np.mean([p for p, _ in pairs]) / np.mean([b for _, b in pairs])) if pairs else None
+    table.add(f"proposed gathers faster than benchmark ({seeds} seeds, 200 animals)", "~25% (11.1 vs ~14.4 min)",
+              None if faster is None else f"{faster:.0%}",
+              f"1 - mean(proposed)/mean(benchmark) gathering time over {len(pairs)} paired seeds; "
+              f"proposed faster in {sum(p < b for p, b in pairs)}/{len(pairs)}")
+    table.emit(out, "bench")
+
+
+# --------------------------------------------------------------------------- notebook helpers
+def compare_runs(n_animals: int, *, seed: int = 0, field: float | None = None, t_max: float = 2700.0,
+                 frame_every: float | None = None) -> dict:
+    """Run the proposed and the benchmark herder on one scenario; {method: HerdingTrace}.
+
+    n_animals: herd size; field: square field side (m) or None for the thesis's 1200 x 600 m;
+    frame_every: keep animation frames every this many seconds.
+    """
+    size = (float(field), float(field)) if field else (1200.0, 600.0)
+    goal = (size[0] / 2 - (900.0 if field is None else 1.5 * field), size[1] / 2)
+    out = {}
+    for name, herder in (("proposed", ProposedHerder()), ("benchmark", BenchmarkHerder())):
+        sc = thesis_scenario(n_animals, seed=seed, field_size=size, goal=goal)
+        out[name] = simulate(sc, herder, t_max=t_max, seed=seed + 10_000, frame_every=frame_every)
+    return out
+
+
+def footprint_figure(traces: dict, *, R_c: float | None = None):
+    """Footprint radius vs time (Fig. 6.7a style) for {label: HerdingTrace}; returns the figure."""
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for label, tr in traces.items():
+        ax.plot(tr.t / 60.0, tr.footprint_radius, label=label)
+        if tr.gather_time is not None:
+            ax.axvline(tr.gather_time / 60.0, ls=":", lw=0.8, color=ax.lines[-1].get_color())
+    if R_c is not None:
+        ax.axhline(R_c, color="k", lw=0.6, label="R_c")
+    ax.set_xlabel("t (min)")
+    ax.set_ylabel("footprint radius (m)")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    return fig
+
+
+def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
+    """Write an animated GIF of a run's frames (needs ``simulate(..., frame_every=...)``); returns the path."""
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    if not trace.frames:
+        raise ValueError("trace has no frames: run simulate(..., frame_every=...)")
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    allpts = np.concatenate([np.concatenate([a, d]) for _, a, d in trace.frames])
+    lo, hi = allpts.min(axis=0) - 20, allpts.max(axis=0) + 20
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_aspect("equal")
+    herd = ax.scatter([], [], s=3)
+    drones = ax.scatter([], [], marker="s", c="r", s=25)
+    if goal is not None:
+        ax.plot(*goal, "k*", ms=12)
+    title = ax.set_title("")
+
+    def update(k):
+        t, a, d = trace.frames[k]
+        herd.set_offsets(a)
+        drones.set_offsets(d)
+        title.set_text(f"t = {t / 60:.1f} min")
+        return herd, drones, title
+
+    anim = FuncAnimation(fig, update, frames=len(trace.frames), blit=False)
+    anim.save(path, writer=PillowWriter(fps=fps))
+    plt.close(fig)
+    return path
+
+
+def summary_table(traces: dict):
+    """Gathering and total time (min) per run of {label: HerdingTrace}, as a DataFrame."""
+    import pandas as pd
+
+    return pd.DataFrame(
+        [{"method": k, "gather (min)": _minutes(tr.gather_time), "total (min)": _minutes(tr.total_time),
+          "max animal speed (m/s)": tr.max_animal_speed} for k, tr in traces.items()]
+    ).set_index("method")
