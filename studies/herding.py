@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 from formulations.herding import solve_allocation  # noqa: E402
 from planners.herding import (BenchmarkHerder, ExtendedHull, HerderSettings, ProposedHerder,  # noqa: E402
                               allocate_bruteforce, allocate_collision_blind)
-from scenarios.herding import simulate, thesis_scenario  # noqa: E402
+from scenarios.herding import simulate, table_6_2_for, thesis_scenario  # noqa: E402
 from studies.common import ComparisonTable, ResumableCSV, make_executor, map_rows, timed  # noqa: E402
 
 FIG_6_7 = {200: {"gather": 11.1, "total": 15.0, "bench_extra": 3.3},
@@ -182,6 +182,9 @@ def _sweeps(out: Path, quick: bool, executor) -> None:
                         t["field"] = value
                     elif key == "n_drones":
                         t["n_drones"] = value
+                    elif key == "V_animal":  # keep V_driving <= V_animal and grazing <= V_animal valid
+                        t["params"] = {"V_animal": float(value), "V_driving": min(table_6_2_for(n_animals)[1], value),
+                                       "graze_speed": min(1.0, float(value))}
                     else:
                         t["params"] = {key: float(value)}
                     tasks.append(t)
