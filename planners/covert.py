@@ -16,7 +16,7 @@ All controllers follow the protocol of :func:`scenarios.covert.simulate`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -32,6 +32,8 @@ __all__ = [
     "turn_command",
     "SlidingModeObserver",
     "HoverBenchmark",
+    "MPCObserver",
+    "MPCObserverSettings",
 ]
 
 TO_SPHERE, ON_SPHERE, RETREAT, DONE = "to-sphere", "on-sphere", "retreat", "done"
@@ -308,3 +310,232 @@ class HoverBenchmark(_PhasedController):
         else:
             v = _cap_speed(v, obs.heading, b, np.linalg.norm(b), p.dt)
         return u, v
+
+
+# --------------------------------------------------------------------------- MPC
+@dataclass(frozen=True)
+class MPCObserverSettings:
+    """Settings of the receding-horizon controller around the bearing MPC."""
+
+    backend: str = "ipopt"
+    """"ipopt" (NLP solved by IPOPT every period) or "osqp" (SQP / real-time iteration with OSQP)."""
+    progress: float = 0.7
+    """Transit phases must close the distance to their goal (sphere, D_s) at progress * V_max
+    on a schedule fixed when the phase starts (after 1 s to turn)."""
+    window: int = 10
+    """Number of past measurements in the constant-velocity fit of each target."""
+    idle_speed: float = 0.5
+    """If the warm-started plan never flies faster than this (m/s), the MPC is re-solved from
+    the sliding-mode rollout and the better plan is kept (escapes the v = 0 stationary point)."""
+
+    def __post_init__(self) -> None:
+        if self.backend not in ("ipopt", "osqp"):
+            raise ValueError(f"backend must be 'ipopt' or 'osqp', got {self.backend!r}")
+        if not (0 < self.progress <= 1):
+            raise ValueError(f"progress must be in (0, 1], got {self.progress}")
+        if self.window < 2:
+            raise ValueError(f"window must be >= 2, got {self.window}")
+
+
+class MPCObserver(_PhasedController):
+    """Min-max bearing MPC (formulations.covert) in closed loop, with the sliding-mode phases.
+
+    Each period: fit a constant-velocity model to the last ``window`` measured positions
+    of each observable target, predict them over the horizon, solve the MPC warm-started
+    from the previous plan shifted by one period (the first period: the sliding-mode
+    rollout), apply the first command. A failed solve applies the sliding-mode command
+    instead and is counted in ``fallbacks``. Within home_radius of D_s the drone flies
+    straight home as in the sliding-mode Retreat.
+    """
+
+    def __init__(self, settings: SlidingSettings | None = None, mpc: Any = None,
+                 observer: MPCObserverSettings | None = None):
+        super().__init__(settings)
+        from formulations.covert import MPCSettings
+
+        self.mpc_settings = mpc if mpc is not None else MPCSettings()
+        self.observer = observer if observer is not None else MPCObserverSettings()
+        self._solver = None
+        self.statuses: list[str] = []
+        self.predicted_beta: list[float] = []
+
+    def reset(self, scenario: CovertScenario) -> None:
+        from formulations.covert import RecedingBearingMPC, build_bearing_mpc
+
+        super().reset(scenario)
+        key = (scenario.params, scenario.n_targets)
+        if self._solver is None or self._key != key:
+            model = build_bearing_mpc(scenario.params, scenario.n_targets, self.mpc_settings)
+            self._solver = RecedingBearingMPC(model, backend=self.observer.backend)
+            self._key = key
+        self._hist_t: list[float] = []
+        self._hist_A: list[np.ndarray] = []
+        self._prev = None
+        self._prev_phase = None
+        self._phase_start = (0.0, 0.0)
+        self.statuses = []
+        self.predicted_beta = []
+        self.restarts = 0
+        self._hold = None
+
+    # -- target prediction
+    def _predict(self, obs: Observation, times: np.ndarray) -> np.ndarray:
+        A_meas = obs.drone + obs.rel  # NaN rows for unobservable targets
+        self._hist_t.append(obs.t)
+        self._hist_A.append(A_meas)
+        W_ = self.observer.window
+        self._hist_t, self._hist_A = self._hist_t[-W_:], self._hist_A[-W_:]
+        T = np.asarray(self._hist_t)
+        H = np.asarray(self._hist_A)  # (w, n, 3)
+        n = A_meas.shape[0]
+        pred = np.tile(self.params.F_arr, (times.size, n, 1)).astype(float)
+        for j in range(n):
+            ok = ~np.isnan(H[:, j, 0])
+            if not ok[-1]:
+                continue
+            tj, Aj = T[ok] - obs.t, H[ok, j]
+            if tj.size >= 2:
+                X = np.column_stack([np.ones_like(tj), tj])
+                coef, *_ = np.linalg.lstsq(X, Aj, rcond=None)
+                pos, vel = coef[0], coef[1]
+                speed = np.linalg.norm(vel)
+                if speed > self.params.V_T * 1.5:  # noisy fit: cap at a plausible speed
+                    vel = vel * (self.params.V_T * 1.5 / speed)
+            else:
+                pos, vel = Aj[-1], np.zeros(3)
+            pred[:, j] = pos + np.outer(times, vel)
+        return pred
+
+    # -- phase constraints
+    def _phase_bounds(self, obs: Observation, node_t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        p = self.params
+        N = node_t.size
+        d0 = float(np.linalg.norm(p.F_arr - obs.drone))
+        s0 = float(np.linalg.norm(p.D_s_arr - obs.drone))
+        if self.phase != self._prev_phase:
+            self._phase_start = (obs.t, d0 if self.phase == TO_SPHERE else s0)
+            self._prev_phase = self.phase
+        t_start, dist_start = self._phase_start
+        rate = self.observer.progress * p.V_max
+        sched = dist_start - rate * np.maximum(0.0, obs.t + node_t - t_start - 1.0)
+        # behind the schedule: close the distance at the scheduled rate from now on
+        catch_up = (d0 if self.phase == TO_SPHERE else s0) - rate * node_t
+        inf = np.full(N, np.inf)
+        if self.phase == TO_SPHERE:
+            hi = np.maximum(p.L_u, np.maximum(sched, catch_up))
+            return np.full(N, p.L_u), hi, inf
+        if self.phase == ON_SPHERE:
+            return np.full(N, p.L_u), np.full(N, p.L_u), inf
+        home = np.maximum(self.settings.home_radius * 0.5, np.maximum(sched, catch_up))
+        return np.zeros(N), inf, home
+
+    def _shifted_guess(self, model, data) -> np.ndarray | None:
+        from formulations.covert import rollout_guess
+
+        prev = self._prev
+        N = model.settings.horizon
+        times = np.concatenate([[0.0], np.cumsum(model.durations)])
+        if prev is None or not prev.has_solution:
+            # first step (or after a failure): roll out the sliding-mode law on the predictions
+            u, v = self._sliding_rollout(model, data, times)
+            return rollout_guess(model, data, u, v)
+        plan = prev.x
+        tq = times[:-1] + model.durations[0]  # command times in the old plan's clock
+        idx = np.clip(np.searchsorted(plan.times, tq, side="right") - 1, 0, N - 1)
+        return rollout_guess(model, data, plan.u[idx], plan.v[idx])
+
+    def _sliding_rollout(self, model, data, times) -> tuple[np.ndarray, np.ndarray]:
+        from scenarios.covert import rotate_heading
+
+        p = self.params
+        D, h = np.asarray(data.D0, float), np.asarray(data.h0, float)
+        us, vs = [], []
+        mask = np.asarray(data.mask, bool)
+        for k, dt in enumerate(model.durations):
+            A = np.asarray(data.targets[max(k - 1, 0)])[mask]
+            b = sliding_steering(self.phase, D, A, p, self.settings)
+            u, v = turn_command(h, b, p, self.settings, float(dt), throttle=self.phase == ON_SPHERE)
+            us.append(u)
+            vs.append(v)
+            h_new, integral = rotate_heading(h, u, float(dt))
+            D, h = D + v * integral, h_new
+        return np.array(us), np.array(vs)
+
+    def command(self, obs: Observation) -> tuple[np.ndarray, float]:
+        """u (3,) (rad/s) and v (m/s) for this control period."""
+        from formulations.covert import MPCData
+
+        phase_before = self.phase
+        self._update_phase_mpc(obs)
+        p = self.params
+        solver = self._solver
+        model = solver.model
+        node_t = np.cumsum(model.durations)
+        pred = self._predict(obs, node_t)
+        if self.phase == DONE:
+            return np.zeros(3), 0.0
+        if self._hold is not None and self._hold[2] > 0 and self.phase == phase_before:
+            # between solves: keep turning at the planned rate about the planned axis
+            axis, rate, left, v_hold = self._hold
+            self._hold = (axis, rate, left - 1, v_hold)
+            return rate * np.cross(axis, obs.heading), v_hold
+        self._hold = None
+        home = self.phase == RETREAT and np.linalg.norm(p.D_s_arr - obs.drone) <= self.settings.home_radius
+        if home or not obs.observable.any():
+            self._prev = None
+            return self.sliding_command(obs)
+        lo, hi, home_hi = self._phase_bounds(obs, node_t)
+        tangent = np.zeros(node_t.size, bool)
+        if self.phase == ON_SPHERE:
+            tangent[1:] = True
+        data = MPCData(D0=obs.drone, h0=obs.heading, targets=pred, mask=obs.observable.copy(),
+                       sphere_lo=lo, sphere_hi=hi, home_hi=home_hi, tangent=tangent)
+        x0 = self._shifted_guess(model, data)
+        res = solver.solve(data, x0=x0, warm=self._prev)
+        elapsed = res.solve_time
+        if (self.observer.backend == "ipopt" and self._prev is not None
+                and (not res.has_solution or np.max(np.abs(res.x.v)) < self.observer.idle_speed)):
+            # the shifted plan is stationary (v = 0 is a KKT point of the bilinear dynamics when
+            # the heading points off the sphere): restart from the sliding-mode rollout, keep the best
+            u_s, v_s = self._sliding_rollout(model, data, None)
+            from formulations.covert import rollout_guess
+
+            res2 = solver.solve(data, x0=rollout_guess(model, data, u_s, v_s))
+            elapsed += res2.solve_time
+            if res2.has_solution and (not res.has_solution or res2.objective < res.objective - 1e-9):
+                res = res2
+            self.restarts += 1
+        res = replace(res, solve_time=elapsed)
+        self.solve_times.append(res.solve_time)
+        self.statuses.append(res.status.value)
+        if not res.has_solution:
+            self.fallbacks += 1
+            self._prev = None
+            return self.sliding_command(obs)  # and re-solve at the next period
+        self._prev = res
+        self.predicted_beta.append(res.objective)
+        plan = res.x
+        u = np.asarray(plan.u[0], float)
+        u = u - np.dot(u, obs.heading) * obs.heading
+        nu = np.linalg.norm(u)
+        if nu > p.U_max:
+            u = u * (p.U_max / nu)
+        v = float(np.clip(plan.v[0], -p.V_max, p.V_max))
+        nu = float(np.linalg.norm(u))
+        axis = np.cross(obs.heading, u / nu) if nu > 1e-12 else np.zeros(3)
+        self._hold = (axis, nu, model.settings.replan_every - 1, v)
+        return u, v
+
+    def _update_phase_mpc(self, obs: Observation) -> None:
+        """As the sliding mode, but the return flight is planned at progress * V_max."""
+        p, st = self.params, self.settings
+        D = obs.drone
+        speed = self.observer.progress * p.V_max
+        leave_at = p.duration - (np.linalg.norm(p.D_s_arr - D) / speed + st.return_margin + 1.0)
+        if self.phase == TO_SPHERE and np.linalg.norm(p.F_arr - D) <= p.L_u + st.arrival_tol:
+            self.phase = ON_SPHERE
+        if self.phase in (TO_SPHERE, ON_SPHERE) and obs.t >= leave_at:
+            self.phase = RETREAT
+        if self.phase == RETREAT and np.linalg.norm(p.D_s_arr - D) <= st.arrival_tol:
+            self.phase = DONE
+            self.finished = True

@@ -126,3 +126,48 @@ def test_settings_validation():
         SlidingSettings(eps_line=0.0)
     with pytest.raises(ValueError, match="cos_sat"):
         SlidingSettings(cos_sat=2.0)
+
+
+# --------------------------------------------------------------------------- MPC observer
+from planners.covert import MPCObserver, MPCObserverSettings  # noqa: E402
+from solvers.result import SolveResult, Status  # noqa: E402
+
+
+@pytest.mark.parametrize("backend", ["ipopt", "osqp"])
+def test_mpc_commands_within_plant_bounds(backend):
+    sc = thesis_case(1)
+    ctl = MPCObserver(observer=MPCObserverSettings(backend=backend))
+    tr = simulate(sc, ctl, max_time=14.0)
+    ok = ~np.isnan(tr.v)
+    assert np.all(np.abs(tr.v[ok]) <= sc.params.V_max + 1e-9)
+    assert np.all(np.linalg.norm(tr.u[ok], axis=1) <= sc.params.U_max + 1e-9)
+    # the commands respect (3.5): orthogonal to the heading they were issued for
+    assert np.all(np.abs(np.sum(tr.u[ok] * tr.heading[ok], axis=1)) <= 1e-9)
+    assert len(tr.solve_times) > 0 and tr.fallbacks == ctl.fallbacks
+    assert tr.t_a is not None  # reached the sphere on its approach schedule
+    on = tr.t >= tr.t_a
+    assert np.all(np.abs(tr.distance_to_F[on] - sc.params.L_u) <= 1.0)
+
+
+def test_mpc_falls_back_to_sliding_mode_and_counts(monkeypatch):
+    import formulations.covert as fc
+
+    def failing(self, data, **kw):
+        return SolveResult(Status.ERROR, backend="stub", message="forced failure")
+
+    monkeypatch.setattr(fc.RecedingBearingMPC, "solve", failing)
+    p = replace(THESIS_TABLE_3_2)
+    sc = thesis_case(1)
+    ctl = MPCObserver()
+    tr = simulate(sc, ctl, max_time=20.0)
+    ref = simulate(sc, SlidingModeObserver(), max_time=20.0)
+    assert np.allclose(tr.drone, ref.drone)
+    assert tr.fallbacks == len(tr.solve_times) > 100
+    assert p == THESIS_TABLE_3_2
+
+
+def test_mpc_observer_settings_validation():
+    with pytest.raises(ValueError, match="backend"):
+        MPCObserverSettings(backend="gurobi")
+    with pytest.raises(ValueError, match="progress"):
+        MPCObserverSettings(progress=0.0)

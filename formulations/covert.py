@@ -1,0 +1,524 @@
+"""The min-max bearing-change MPC of covert observation (thesis ch. 3, objective (3.7)).
+
+Over a horizon of N intervals (the first of length ``params.dt``, the others of
+length ``settings.step``) the model chooses heading-rate commands u_k and speeds v_k
+for the drone model (3.2)-(3.5) to
+
+    minimise  tau + w_stage * mean_k tau_k + w_smooth * sum_k |Delta command|^2
+    s.t.      sin^2 beta_jk <= tau_k^2 cos^2 beta_jk,  tau_k <= tau,  tau_k >= 0
+              (epigraph of max_{j,k} tan beta_jk, smooth form)
+              D_{k+1}, h_{k+1} = exact rotation step of (D_k, h_k) under (u_k, v_k)
+              h_k . u_k = 0,  |u_k|^2 <= U_max^2,  -V_max <= v_k <= V_max        (3.4)-(3.5)
+              lo_k <= |D_{k+1} - F| <= hi_k,  |D_{k+1} - D_s| <= home_k   (phase constraints)
+              |(D_k - F) . h_k| <= L_u sin 5deg on the sphere from the second node on (heading ~tangent)
+
+where cos beta_jk = c_jk . (A_jk - D_k) / |A_jk - D_k| and sin beta_jk = |c_jk x (A_jk -
+D_k)| / |A_jk - D_k|, with c_jk the unit vector from R to the predicted target position
+A_jk (3.6). For beta <= 90 deg the constraint says tan beta_jk <= tau_k, so minimising tau
+minimises the maximum bearing change (tan is increasing), with polynomial (smooth)
+constraints. We first used the epigraph of the minimum cosine: it is smooth too, but
+flat near beta = 0 (1 - cos beta ~ beta^2/2), so IPOPT stopped ~1.5 deg short of the
+camouflage line; tan beta ~ beta is not flat there. The dynamics are the plant's exact zero-order-hold rotation
+(:func:`scenarios.covert.rotate_heading`), written with power series of
+theta^2 = |u|^2 Delta^2 so that they are smooth at u = 0; on the first interval they
+are the plant's step exactly.
+
+Two ways to solve it:
+- IPOPT through :class:`solvers.nlp.IpoptSolver` (warm-started from the shifted
+  previous solution, with its duals);
+- sequential QPs through :class:`solvers.qp.OsqpSolver` (real-time iteration: one
+  QP per control step linearised at the shifted previous solution, with a proximal
+  term; the QP matrices keep one sparsity pattern and are updated in place).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+from typing import Any
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+
+from scenarios.covert import CovertParams
+from solvers.nlp import IpoptSolver
+from solvers.qp import OsqpSolver
+from solvers.result import SolveResult, Status
+
+__all__ = [
+    "MPCSettings",
+    "MPCData",
+    "MPCPlan",
+    "BearingMPC",
+    "build_bearing_mpc",
+    "solve_bearing_mpc",
+    "RecedingBearingMPC",
+    "cos_bearing_symbolic",
+]
+
+_SERIES_TERMS = 20  # accurate to 1e-15 for theta = |u| Delta <= 6 rad
+TANGENT_TOL_DEG = 5.0  # on the sphere, nodes 2..N keep the heading within this angle of the tangent plane
+TAU_PROX, H_PROX = 1e2, 1e-2  # SQP proximal weights of the cosines and headings (relative to prox)
+
+
+@dataclass(frozen=True)
+class MPCSettings:
+    """Settings of the bearing MPC."""
+
+    horizon: int = 8
+    """Number of intervals N."""
+    step: float = 0.5
+    """Length of intervals 2..N (s)."""
+    replan_every: int = 5
+    """The first interval lasts replan_every control periods (s = replan_every * params.dt): the
+    controller re-solves every replan_every periods and in between holds the planned constant-rate
+    turn and speed, which the plant then follows exactly."""
+    stage_weight: float = 0.2
+    """Weight of the mean per-node minimum cosine (keeps near-term nodes optimised when the
+    worst node of the horizon is out of reach)."""
+    smooth_weight: float = 1e-3
+    """Weight of the squared command changes, normalised by U_max^2 and V_max^2."""
+    max_iter: int = 80
+    """IPOPT iteration limit per warm-started solve."""
+    cold_max_iter: int = 400
+    """IPOPT iteration limit of a solve without duals to reuse (the first step)."""
+    time_limit: float | None = None
+    """Wall-clock limit per solve (s), None: none."""
+    prox: float = 0.1
+    """SQP proximal weight on the step (per variable, scaled to the variable's range)."""
+    sqp_iters: int = 1
+    """QPs per control step in the SQP variant (1: real-time iteration)."""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.horizon, bool) or not isinstance(self.horizon, int) or self.horizon < 1:
+            raise ValueError(f"horizon must be an int >= 1, got {self.horizon!r}")
+        for name in ("step", "prox"):
+            v = getattr(self, name)
+            if not math.isfinite(v) or v <= 0:
+                raise ValueError(f"{name} must be > 0, got {v}")
+        for name in ("stage_weight", "smooth_weight"):
+            v = getattr(self, name)
+            if not math.isfinite(v) or v < 0:
+                raise ValueError(f"{name} must be >= 0, got {v}")
+        if isinstance(self.replan_every, bool) or not isinstance(self.replan_every, int) or self.replan_every < 1:
+            raise ValueError(f"replan_every must be an int >= 1, got {self.replan_every!r}")
+        if self.max_iter < 1 or self.cold_max_iter < 1 or self.sqp_iters < 1:
+            raise ValueError("max_iter, cold_max_iter and sqp_iters must be >= 1")
+
+
+@dataclass(frozen=True)
+class MPCData:
+    """The numbers of one MPC instance (one control step)."""
+
+    D0: np.ndarray
+    """Current drone position (3,) (m)."""
+    h0: np.ndarray
+    """Current unit heading (3,)."""
+    targets: np.ndarray
+    """(N, n, 3) predicted target positions at the horizon nodes 1..N (m)."""
+    mask: np.ndarray
+    """(n,) bool: target counted in the objective (observable)."""
+    sphere_lo: np.ndarray
+    """(N,) lower bounds on |D_k - F| (m)."""
+    sphere_hi: np.ndarray
+    """(N,) upper bounds on |D_k - F| (m)."""
+    home_hi: np.ndarray
+    """(N,) upper bounds on |D_k - D_s| (m) (inf: none)."""
+    tangent: np.ndarray | None = None
+    """(N,) bool: heading at node k must be (nearly, TANGENT_TOL_DEG) tangent to the sphere,
+    (D_k - F) . h_k ~ 0 (implied by keeping |D - F| constant in continuous time while moving);
+    None: nowhere."""
+
+
+@dataclass(frozen=True)
+class MPCPlan:
+    """A solution of the MPC: commands and predicted states on the horizon."""
+
+    times: np.ndarray
+    """(N+1,) node times from now (s)."""
+    u: np.ndarray
+    """(N, 3) heading-rate commands (rad/s)."""
+    v: np.ndarray
+    """(N,) speeds (m/s)."""
+    D: np.ndarray
+    """(N+1, 3) predicted positions (m), D[0] the current one."""
+    h: np.ndarray
+    """(N+1, 3) predicted headings."""
+    tau: float
+    """Epigraph value: maximum over the horizon of tan(predicted bearing change)."""
+
+    @property
+    def beta_max(self) -> float:
+        """Predicted maximum bearing change over the horizon (rad) = arctan(tau)."""
+        return float(math.atan(max(0.0, self.tau)))
+
+
+def _series(theta2: Any, offset: int, terms: int = _SERIES_TERMS) -> Any:
+    """sum_k (-1)^k theta2^k / (2k + offset)!  (offset 0: cos, 1: sin(x)/x, 2: (1-cos x)/x^2)."""
+    out = 0
+    term_pow = 1
+    for k in range(terms):
+        out = out + ((-1) ** k) * term_pow / math.factorial(2 * k + offset)
+        term_pow = term_pow * theta2
+    return out
+
+
+def cos_bearing_symbolic(D: Any, A: Any, R: np.ndarray, eps: float = 1e-6) -> Any:
+    """CasADi expression of cos beta (3.6) for drone D and target A (3-vectors): the twin of
+    :func:`scenarios.covert.bearing_changes` (beta = arccos of this)."""
+    c = A - R
+    c = c / ca.sqrt(ca.dot(c, c))
+    a = A - D
+    return ca.dot(c, a) / ca.sqrt(ca.dot(a, a) + eps)
+
+
+@dataclass
+class BearingMPC:
+    """The symbolic model: decision vector, constraints, parameters and their layout."""
+
+    params: CovertParams
+    settings: MPCSettings
+    n_targets: int
+    nlp: dict
+    """{"x", "f", "g", "p"} CasADi SX expressions."""
+    durations: np.ndarray
+    """(N,) interval lengths (s)."""
+    idx: dict
+    """Index arrays into x: "u" (N,3), "v" (N,), "D" (N,3), "h" (N,3), "tau_k" (N,), "tau" ()."""
+    gidx: dict
+    """Index arrays into g: "dyn", "orth", "unorm", "sphere", "home", "epi" (N,n), "link", "tangent"."""
+
+    @property
+    def n_x(self) -> int:
+        return int(self.nlp["x"].numel())
+
+    @property
+    def n_g(self) -> int:
+        return int(self.nlp["g"].numel())
+
+    def pack_params(self, data: MPCData) -> np.ndarray:
+        """The parameter vector p of ``data``; masked-out targets get a harmless position (F)."""
+        A = np.array(data.targets, dtype=float).reshape(self.settings.horizon, self.n_targets, 3)
+        mask = np.asarray(data.mask, bool)
+        A[:, ~mask, :] = self.params.F_arr
+        if not np.isfinite(A).all():
+            raise ValueError("predicted positions of observable targets must be finite")
+        return np.concatenate([np.asarray(data.D0, float), np.asarray(data.h0, float), A.ravel()])
+
+    def bounds(self, data: MPCData) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(lbx, ubx, lbg, ubg) for ``data``."""
+        p, N = self.params, self.settings.horizon
+        lbx = np.full(self.n_x, -np.inf)
+        ubx = np.full(self.n_x, np.inf)
+        lbx[self.idx["u"]] = -p.U_max
+        ubx[self.idx["u"]] = p.U_max
+        lbx[self.idx["v"]] = -p.V_max
+        ubx[self.idx["v"]] = p.V_max
+        for name in ("tau_k", "tau"):  # tangents of bearing changes: >= 0
+            lbx[self.idx[name]] = 0.0
+        lbg = np.zeros(self.n_g)
+        ubg = np.zeros(self.n_g)
+        gi = self.gidx
+        lbg[gi["unorm"]] = -np.inf
+        ubg[gi["unorm"]] = p.U_max ** 2
+        lbg[gi["sphere"]] = np.asarray(data.sphere_lo, float)
+        ubg[gi["sphere"]] = np.asarray(data.sphere_hi, float)
+        lbg[gi["home"]] = -np.inf
+        ubg[gi["home"]] = np.asarray(data.home_hi, float)
+        mask = np.asarray(data.mask, bool)
+        lbg[gi["epi"]] = -np.inf
+        ubg[gi["epi"]] = np.where(mask[None, :], 0.0, np.inf) * np.ones((N, 1))
+        ubg[gi["link"]] = np.inf
+        tan = np.zeros(N, bool) if data.tangent is None else np.asarray(data.tangent, bool)
+        band = self.params.L_u * math.sin(math.radians(TANGENT_TOL_DEG))
+        lbg[gi["tangent"]] = np.where(tan, -band, -np.inf)
+        ubg[gi["tangent"]] = np.where(tan, band, np.inf)
+        return lbx, ubx, lbg, ubg
+
+    def unpack(self, x: np.ndarray, data: MPCData) -> MPCPlan:
+        """The plan held in the decision vector ``x``."""
+        x = np.asarray(x, float)
+        D = np.vstack([data.D0, x[self.idx["D"]]])
+        h = np.vstack([data.h0, x[self.idx["h"]]])
+        return MPCPlan(times=np.concatenate([[0.0], np.cumsum(self.durations)]), u=x[self.idx["u"]],
+                       v=x[self.idx["v"]], D=D, h=h, tau=float(x[self.idx["tau"]]))
+
+    def pack(self, plan_u: np.ndarray, plan_v: np.ndarray, D: np.ndarray, h: np.ndarray,
+             tau_k: np.ndarray | None = None) -> np.ndarray:
+        """A decision vector from commands (N,3),(N,) and node states D, h (N,3) (nodes 1..N)."""
+        x = np.zeros(self.n_x)
+        x[self.idx["u"]] = plan_u
+        x[self.idx["v"]] = plan_v
+        x[self.idx["D"]] = D
+        x[self.idx["h"]] = h
+        tk = np.zeros(self.settings.horizon) if tau_k is None else tau_k
+        x[self.idx["tau_k"]] = tk
+        x[self.idx["tau"]] = float(np.max(tk))
+        return x
+
+
+def build_bearing_mpc(params: CovertParams, n_targets: int, settings: MPCSettings | None = None) -> BearingMPC:
+    """Build the symbolic min-max bearing MPC for ``n_targets`` targets (no solving)."""
+    st = settings if settings is not None else MPCSettings()
+    if isinstance(n_targets, bool) or not isinstance(n_targets, (int, np.integer)) or n_targets < 0:
+        raise ValueError(f"n_targets must be an int >= 0, got {n_targets!r}")
+    N, n = st.horizon, int(n_targets)
+    durations = np.array([params.dt * st.replan_every] + [st.step] * (N - 1))
+    if params.U_max * durations.max() > 6.0:
+        raise ValueError(f"U_max * step must be <= 6 rad for the series dynamics, got {params.U_max * durations.max()}")
+    F, Ds, R = params.F_arr, params.D_s_arr, params.R_arr
+    per = 10  # u(3) v D(3) h(3)
+    nx = per * N + N + 1
+    x = ca.SX.sym("x", nx)
+    pv = ca.SX.sym("p", 6 + N * n * 3)
+    D_prev, h_prev = pv[0:3], pv[3:6]
+    idx = {"u": np.zeros((N, 3), int), "v": np.zeros(N, int), "D": np.zeros((N, 3), int), "h": np.zeros((N, 3), int)}
+    g_dyn, g_orth, g_un, g_sph, g_home, g_epi, g_link, g_tan = [], [], [], [], [], [], [], []
+    tau_k = x[per * N: per * N + N]
+    tau = x[per * N + N]
+    idx["tau_k"] = np.arange(per * N, per * N + N)
+    idx["tau"] = per * N + N
+    smooth = 0
+    u_last = v_last = None
+    for k in range(N):
+        b = per * k
+        idx["u"][k] = np.arange(b, b + 3)
+        idx["v"][k] = b + 3
+        idx["D"][k] = np.arange(b + 4, b + 7)
+        idx["h"][k] = np.arange(b + 7, b + 10)
+        u, v, Dn, hn = x[b:b + 3], x[b + 3], x[b + 4:b + 7], x[b + 7:b + 10]
+        dt = float(durations[k])
+        th2 = ca.dot(u, u) * dt * dt
+        c0, s1, c2 = _series(th2, 0), _series(th2, 1), _series(th2, 2)
+        g_dyn.append(Dn - (D_prev + v * (dt * s1 * h_prev + dt * dt * c2 * u)))
+        g_dyn.append(hn - (c0 * h_prev + dt * s1 * u))
+        g_orth.append(ca.dot(h_prev, u))
+        g_un.append(ca.dot(u, u))
+        g_sph.append(ca.sqrt(ca.dot(Dn - F, Dn - F) + 1e-9))
+        g_home.append(ca.sqrt(ca.dot(Dn - Ds, Dn - Ds) + 1e-9))
+        g_tan.append(ca.dot(Dn - F, hn))
+        for j in range(n):
+            o = 6 + (k * n + j) * 3
+            A = pv[o:o + 3]
+            c = A - R
+            c = c / ca.sqrt(ca.dot(c, c))
+            a = A - Dn
+            na2 = ca.dot(a, a) + 1e-6
+            cr = ca.cross(c, a)
+            g_epi.append((ca.dot(cr, cr) - tau_k[k] ** 2 * ca.dot(c, a) ** 2) / na2)
+        g_link.append(tau - tau_k[k])
+        if u_last is not None:
+            smooth = smooth + ca.dot(u - u_last, u - u_last) / params.U_max ** 2 + (v - v_last) ** 2 / params.V_max ** 2
+        u_last, v_last = u, v
+        D_prev, h_prev = Dn, hn
+    f = tau + st.stage_weight * ca.sum1(tau_k) / N + st.smooth_weight * smooth
+    groups = [("dyn", g_dyn), ("orth", g_orth), ("unorm", g_un), ("sphere", g_sph), ("home", g_home),
+              ("epi", g_epi), ("link", g_link), ("tangent", g_tan)]
+    gs, gidx, off = [], {}, 0
+    for name, items in groups:
+        expr = ca.vertcat(*items) if items else ca.SX(0, 1)
+        m = int(expr.numel())
+        gidx[name] = np.arange(off, off + m)
+        off += m
+        gs.append(expr)
+    gidx["epi"] = gidx["epi"].reshape(N, n)
+    nlp = {"x": x, "f": f, "g": ca.vertcat(*gs), "p": pv}
+    return BearingMPC(params, st, n, nlp, durations, idx, gidx)
+
+
+def rollout_guess(model: BearingMPC, data: MPCData, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """A decision vector consistent with the dynamics for commands u (N,3), v (N,).
+
+    Each u_k is first made admissible (orthogonal to the node's heading, |u| <= U_max).
+    """
+    from scenarios.covert import rotate_heading
+
+    p = model.params
+    D, h = np.asarray(data.D0, float), np.asarray(data.h0, float)
+    us, vs, Ds, hs = [], [], [], []
+    for k, dt in enumerate(model.durations):
+        uk = np.asarray(u[k], float)
+        uk = uk - (uk @ h) * h
+        nu = np.linalg.norm(uk)
+        if nu > p.U_max:
+            uk *= p.U_max / nu
+        vk = float(np.clip(v[k], -p.V_max, p.V_max))
+        h_new, integral = rotate_heading(h, uk, float(dt))
+        D = D + vk * integral
+        h = h_new
+        us.append(uk), vs.append(vk), Ds.append(D), hs.append(h)
+    x = model.pack(np.array(us), np.array(vs), np.array(Ds), np.array(hs))
+    tk = _node_max_tan(model, data, np.array(Ds))
+    x[model.idx["tau_k"]] = tk
+    x[model.idx["tau"]] = tk.max()
+    return x
+
+
+def _node_max_tan(model: BearingMPC, data: MPCData, D: np.ndarray) -> np.ndarray:
+    mask = np.asarray(data.mask, bool)
+    if not mask.any():
+        return np.zeros(len(D))
+    A = np.asarray(data.targets)[:, mask, :]
+    c = A - model.params.R_arr
+    c /= np.linalg.norm(c, axis=-1, keepdims=True)
+    a = A - D[:, None, :]
+    cos = np.sum(c * a, axis=-1)
+    sin = np.linalg.norm(np.cross(c, a), axis=-1)
+    tan = sin / np.maximum(np.abs(cos), 1e-9)
+    return np.minimum(tan, 1e3).max(axis=1)
+
+
+def _result_with_plan(model: BearingMPC, data: MPCData, res: SolveResult, how: str) -> SolveResult:
+    if not res.has_solution:
+        return res
+    plan = model.unpack(res.x, data)
+    return replace(res, x=plan, objective=plan.beta_max, bound=None,
+                   message=f"{how}; objective = predicted max bearing change over the horizon (rad), "
+                           f"local solution (no bound). {res.message}",
+                   info={**res.info, "z": np.asarray(res.x, float)})
+
+
+def solve_bearing_mpc(params: CovertParams, data: MPCData, settings: MPCSettings | None = None, *,
+                      x0: np.ndarray | None = None) -> SolveResult:
+    """Build the MPC for ``data`` and solve it once with IPOPT (x = :class:`MPCPlan`).
+
+    x0: starting decision vector (default: straight flight at V_max / 2 rolled out).
+    """
+    model = build_bearing_mpc(params, np.asarray(data.mask).size, settings)
+    solver = RecedingBearingMPC(model, backend="ipopt")
+    return solver.solve(data, x0=x0)
+
+
+class RecedingBearingMPC:
+    """A built model and its solver adapter, re-solved every control step.
+
+    backend: "ipopt" (IpoptSolver, warm-started with the previous duals) or
+    "osqp" (sequential QPs by OsqpSolver with the QP matrices updated in place).
+    """
+
+    def __init__(self, model: BearingMPC, backend: str = "ipopt"):
+        if backend not in ("ipopt", "osqp"):
+            raise ValueError(f"backend must be 'ipopt' or 'osqp', got {backend!r}")
+        self.soft_penalty = 10.0
+        """SQP only: L1 penalty per metre of violated sphere/home bound (objective units per m)."""
+        self.model = model
+        self.backend = backend
+        st = model.settings
+        if backend == "ipopt":
+            opts = {"max_iter": st.max_iter, "tol": 1e-5, "acceptable_tol": 1e-3, "acceptable_iter": 5}
+            self._ipopt = IpoptSolver(model.nlp, options=opts, time_limit=st.time_limit)
+            self._ipopt_cold = IpoptSolver(model.nlp, options={**opts, "max_iter": st.cold_max_iter},
+                                           time_limit=st.time_limit)
+        else:
+            self._build_qp(model)
+        self._last: SolveResult | None = None
+
+    # -- SQP / real-time iteration with OSQP
+    def _build_qp(self, model: BearingMPC) -> None:
+        """Symbolic QP data: rows of the linearised constraints, with the sphere, home and tangent rows
+        made soft by two slacks each (L1 penalty soft_penalty per metre), so every QP is feasible."""
+        x, pv, g, f = model.nlp["x"], model.nlp["p"], model.nlp["g"], model.nlp["f"]
+        st = model.settings
+        nx, ng = model.n_x, model.n_g
+        soft = np.concatenate([model.gidx["sphere"], model.gidx["home"], model.gidx["tangent"]])
+        ns = soft.size
+        self._soft = soft
+        gd = g
+        Js = ca.jacobian(g, x)
+        E = np.zeros((ng, ns))
+        E[soft, np.arange(ns)] = 1.0
+        top = ca.horzcat(Js, ca.SX(ca.DM(E)), ca.SX(ca.DM(-E)))
+        A_expr = ca.vertcat(top, ca.SX.eye(nx + 2 * ns))
+        self._gA = ca.Function("gA", [x, pv], [gd, A_expr, g])
+        self._sparsity = A_expr.sparsity()
+        grad = ca.gradient(f, x)
+        self._grad = ca.Function("grad", [x, pv], [grad])
+        H0 = ca.Function("H", [x, pv], [ca.hessian(f, x)[0]])(np.zeros(nx), np.zeros(pv.numel()))
+        H = np.asarray(ca.DM(H0).full())  # the objective is quadratic: constant Hessian
+        prox = np.ones(nx)
+        prox[model.idx["u"].ravel()] = 1.0 / model.params.U_max ** 2
+        prox[model.idx["v"]] = 1.0 / model.params.V_max ** 2
+        prox[model.idx["D"].ravel()] = 1e-2
+        prox[model.idx["tau_k"]] = TAU_PROX
+        prox[model.idx["tau"]] = TAU_PROX
+        prox[model.idx["h"].ravel()] = H_PROX
+        Pfull = np.zeros((nx + 2 * ns, nx + 2 * ns))
+        Pfull[:nx, :nx] = H + np.diag(st.prox * prox)
+        Pfull[nx:, nx:] = np.eye(2 * ns) * 1e-6
+        self._P = sp.csc_matrix(Pfull)
+        self._nq = nx + 2 * ns
+        self._ns = ns
+        self._qp: OsqpSolver | None = None
+
+    def _osqp_step(self, z: np.ndarray, p: np.ndarray, lbx, ubx, lbg, ubg) -> SolveResult:
+        nx, ng, ns = self.model.n_x, self.model.n_g, self._ns
+        gd, Aval, _ = self._gA(z, p)
+        gd = np.asarray(gd, float).ravel()
+        colind, row = self._sparsity.get_ccs()
+        Adata = np.asarray(ca.DM(Aval).nonzeros(), float)
+        lo, hi = lbg, ubg
+        q = np.concatenate([np.asarray(self._grad(z, p), float).ravel(), np.full(2 * ns, self.soft_penalty)])
+        l = np.concatenate([lo - gd, lbx - z, np.zeros(2 * ns)])
+        u = np.concatenate([hi - gd, ubx - z, np.full(2 * ns, np.inf)])
+        l = np.where(np.isfinite(l), l, -1e30)
+        u = np.where(np.isfinite(u), u, 1e30)
+        if self._qp is None:
+            A = sp.csc_matrix((Adata, np.asarray(row), np.asarray(colind)), shape=(ng + nx + 2 * ns, self._nq))
+            self._qp = OsqpSolver(self._P, q, A, l, u,
+                                  settings={"eps_abs": 1e-3, "eps_rel": 1e-3, "polishing": False, "scaling": 25,
+                                            "max_iter": 4000, "check_termination": 10,
+                                            "eps_prim_inf": 1e-9, "eps_dual_inf": 1e-9})
+            res = self._qp.solve()
+        else:
+            self._qp.update(q=q, l=l, u=u, Ax=Adata)
+            y = None if self._last is None else self._last.info.get("y")
+            res = self._qp.solve(warm_start=(np.zeros(self._nq), y) if y is not None else None)
+        if res.has_solution:
+            res = replace(res, x=res.x[:nx], info={**res.info, "slack": float(res.x[nx:].sum())})
+        return res
+
+    def solve(self, data: MPCData, *, x0: np.ndarray | None = None, warm: SolveResult | None = None) -> SolveResult:
+        """Solve for ``data`` from the starting vector ``x0`` (duals of ``warm`` reused by IPOPT).
+
+        Returns a SolveResult whose x is an :class:`MPCPlan` (info["z"]: the raw vector).
+        """
+        m = self.model
+        p = m.pack_params(data)
+        lbx, ubx, lbg, ubg = m.bounds(data)
+        if x0 is None:  # straight flight at half speed (v = 0 is a stationary point of the dynamics)
+            N = m.settings.horizon
+            x0 = rollout_guess(m, data, np.zeros((N, 3)), np.full(N, 0.5 * m.params.V_max))
+        if self.backend == "ipopt":
+            ws = warm if (warm is not None and warm.has_solution and "lam_x" in warm.info) else None
+            solver = self._ipopt if ws is not None else self._ipopt_cold
+            res = solver.solve(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=p, warm_start=ws)
+            return _result_with_plan(m, data, res, "IPOPT")
+        t0 = time.perf_counter()
+        z = np.asarray(x0, float)
+        z = rollout_guess(m, data, z[m.idx["u"]], z[m.idx["v"]])
+        res = None
+        iters = 0
+        for _ in range(m.settings.sqp_iters):
+            res = self._osqp_step(z, p, lbx, ubx, lbg, ubg)
+            iters += res.iterations or 0
+            if not res.has_solution:
+                break
+            self._last = res
+            z = z + res.x
+            # project the iterate on the plant: admissible commands, states re-simulated exactly
+            z = rollout_guess(m, data, z[m.idx["u"]], z[m.idx["v"]])
+        elapsed = time.perf_counter() - t0
+        if res is None or not res.has_solution:
+            return replace(res, solve_time=elapsed, backend="osqp-sqp",
+                           message=f"SQP: QP failed ({res.backend_status})")
+        gval = np.asarray(self._gA(z, p)[2], float).ravel()
+        viol = float(max(np.max(np.maximum(lbg - gval, 0)), np.max(np.maximum(gval - ubg, 0))))
+        out = SolveResult(Status.FEASIBLE, objective=None, x=z, backend="osqp-sqp",
+                          backend_status=res.backend_status,
+                          message=f"{m.settings.sqp_iters} QP(s) linearised at the warm start "
+                                  f"(real-time iteration); constraint violation of the iterate {viol:.2e}",
+                          solve_time=elapsed, iterations=iters, warm_started=x0 is not None,
+                          info={"violation": viol, "y": res.info.get("y")})
+        return _result_with_plan(m, data, out, "OSQP SQP")
