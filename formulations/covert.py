@@ -56,6 +56,7 @@ __all__ = [
     "solve_bearing_mpc",
     "RecedingBearingMPC",
     "cos_bearing_symbolic",
+    "sphere_minmax_bearing",
 ]
 
 _SERIES_TERMS = 20  # accurate to 1e-15 for theta = |u| Delta <= 6 rad
@@ -522,3 +523,74 @@ class RecedingBearingMPC:
                           solve_time=elapsed, iterations=iters, warm_started=x0 is not None,
                           info={"violation": viol, "y": res.info.get("y")})
         return _result_with_plan(m, data, out, "OSQP SQP")
+
+
+# --------------------------------------------------------------------------- instantaneous oracle
+def sphere_minmax_bearing(params: CovertParams, targets: Any, *, tol: float = math.radians(0.05),
+                          max_cells: int = 400_000) -> SolveResult:
+    """Global min over the observation sphere of max_j beta_j for fixed targets, with a proven bound.
+
+    Branch and bound on a latitude-longitude partition of the sphere |D - F| = L_u: a cell
+    with centre C and covering radius rho (every point of the cell is within rho of C)
+    satisfies max_j beta_j(D) >= max_j beta_j(C) - rho * max_j 1 / (|C - A_j| - rho), because
+    |grad_D beta_j| <= 1 / |D - A_j| (the angle at A_j subtended by a displacement of D).
+    Cells whose lower bound is not below the best value found minus ``tol`` are discarded; the
+    others are split in four until the gap is below ``tol`` (rad) or ``max_cells`` cells were
+    evaluated. Returns objective = best value found (rad; x = that point (3,)), bound = a
+    proven lower bound (rad): no point of the sphere has a smaller maximum bearing change.
+    targets: (n, 3) positions (m), n >= 1, none on the sphere.
+    """
+    A = np.asarray(targets, dtype=float).reshape(-1, 3)
+    if A.shape[0] == 0 or not np.isfinite(A).all():
+        raise ValueError("targets must be a non-empty finite (n, 3) array")
+    from scenarios.covert import bearing_changes
+
+    t0 = time.perf_counter()
+    F, L, R = params.F_arr, params.L_u, params.R_arr
+    # cells: (theta0, theta1, phi0, phi1), theta polar angle from +z in [0, pi]
+    nt, npf = 36, 72
+    th = np.linspace(0.0, math.pi, nt + 1)
+    ph = np.linspace(-math.pi, math.pi, npf + 1)
+    T0, P0 = np.meshgrid(th[:-1], ph[:-1], indexing="ij")
+    cells = np.column_stack([T0.ravel(), (T0 + th[1]).ravel(), P0.ravel(), (P0 + ph[1] - ph[0]).ravel()])
+    best, best_pt, evaluated = math.inf, None, 0
+    lower = -math.inf
+    while cells.size:
+        tc = 0.5 * (cells[:, 0] + cells[:, 1])
+        pc = 0.5 * (cells[:, 2] + cells[:, 3])
+        C = F + L * np.column_stack([np.sin(tc) * np.cos(pc), np.sin(tc) * np.sin(pc), np.cos(tc)])
+        # covering radius: half a meridian arc plus half the widest parallel arc (a path within the cell)
+        smax = np.where((cells[:, 0] <= math.pi / 2) & (cells[:, 1] >= math.pi / 2), 1.0,
+                        np.maximum(np.sin(cells[:, 0]), np.sin(cells[:, 1])))
+        dth = cells[:, 1] - cells[:, 0]
+        dph = cells[:, 3] - cells[:, 2]
+        rho = 0.5 * L * (dth + smax * dph)
+        vals = bearing_changes(C, np.broadcast_to(A, (len(C),) + A.shape), R).max(axis=1)
+        dist = np.linalg.norm(C[:, None, :] - A[None], axis=-1).min(axis=1)
+        lip_ok = dist > rho
+        lb = np.where(lip_ok, vals - rho / np.where(lip_ok, dist - rho, 1.0), -math.inf)
+        lb = np.maximum(lb, 0.0)
+        evaluated += len(C)
+        i = int(np.argmin(vals))
+        if vals[i] < best:
+            best, best_pt = float(vals[i]), C[i]
+        keep = lb < best - tol
+        if not keep.any():
+            break
+        if evaluated + 4 * int(keep.sum()) > max_cells:
+            lower = float(lb[keep].min())
+            break
+        k = cells[keep]
+        tm = 0.5 * (k[:, 0] + k[:, 1])
+        pm = 0.5 * (k[:, 2] + k[:, 3])
+        cells = np.vstack([
+            np.column_stack([k[:, 0], tm, k[:, 2], pm]), np.column_stack([k[:, 0], tm, pm, k[:, 3]]),
+            np.column_stack([tm, k[:, 1], k[:, 2], pm]), np.column_stack([tm, k[:, 1], pm, k[:, 3]])])
+    # a discarded cell had lb >= (best at that time) - tol >= best - tol; if the cell budget
+    # stopped the search, the cells still open have lb >= lower
+    bound = max(0.0, min(best - tol, lower) if math.isfinite(lower) else best - tol)
+    status = Status.OPTIMAL if best - bound <= tol + 1e-12 else Status.FEASIBLE
+    return SolveResult(status, objective=best, bound=bound, x=best_pt, backend="sphere-bnb",
+                       message=f"branch and bound on the sphere, {evaluated} cells; bound = proven "
+                               f"lower bound on min max beta over the sphere (rad)",
+                       solve_time=time.perf_counter() - t0, iterations=evaluated)

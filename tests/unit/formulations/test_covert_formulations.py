@@ -154,3 +154,24 @@ def test_settings_and_inputs_validation():
     bad = replace(bad, targets=np.full_like(bad.targets, np.nan))
     with pytest.raises(ValueError, match="finite"):
         model.pack_params(bad)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_sphere_minmax_bound_against_dense_sampling(seed):
+    from formulations.covert import sphere_minmax_bearing
+
+    rng = np.random.default_rng(seed)
+    A = np.column_stack([rng.uniform(90, 190, 4), rng.uniform(90, 190, 4), rng.uniform(0, 20, 4)])
+    res = sphere_minmax_bearing(P, A)
+    assert res.has_solution and res.bound <= res.objective
+    assert abs(np.linalg.norm(res.x - P.F_arr) - P.L_u) < 1e-9
+    assert res.objective == pytest.approx(bearing_changes(res.x, A, P.R).max())
+    # brute force: many random points of the sphere, densest near the best one
+    d = rng.normal(size=(200_000, 3))
+    pts = P.F_arr + P.L_u * d / np.linalg.norm(d, axis=1, keepdims=True)
+    local = res.x + rng.normal(scale=3.0, size=(50_000, 3))
+    local = P.F_arr + P.L_u * (local - P.F_arr) / np.linalg.norm(local - P.F_arr, axis=1, keepdims=True)
+    pts = np.vstack([pts, local])
+    vals = bearing_changes(pts, np.broadcast_to(A, (len(pts), 4, 3)), P.R).max(axis=1)
+    assert vals.min() >= res.bound - 1e-12  # the bound is valid
+    assert res.objective <= vals.min() + 1e-3  # and the search found (nearly) the best
