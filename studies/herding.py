@@ -197,7 +197,7 @@ def _sweeps(out: Path, quick: bool, executor) -> None:
     flat = []
     for a, (name, (label, full, qv, statement, _)) in zip(axes.flat, SWEEPS.items()):
         values = qv if quick else full
-        parts = []
+        cells = {v: [] for v in values}
         for m, style in (("proposed", "o-"), ("benchmark", "s--")):
             ys = []
             for v in values:
@@ -205,7 +205,7 @@ def _sweeps(out: Path, quick: bool, executor) -> None:
                 g = [r["gather_after_hull"] for r in rs]
                 ys.append(_minutes(_mean(g)))
                 fails = sum(x is None for x in g)
-                parts.append(f"{m[0]}:{'—' if ys[-1] is None else f'{ys[-1]:.1f}'}{'*' * fails}")
+                cells[v].append(f"{m[0]} {'—' if ys[-1] is None else f'{ys[-1]:.1f}'}{'*' * fails}")
                 for r in rs:
                     flat.append({"sweep": name, "value": v, "method": m, "seed": r["seed"],
                                  "gather_after_hull": r["gather_after_hull"], "gather_time": r["gather_time"]})
@@ -214,8 +214,8 @@ def _sweeps(out: Path, quick: bool, executor) -> None:
         a.set_ylabel("gathering time (min)")
         a.grid(alpha=0.3)
         a.legend(fontsize=7)
-        table.add(f"{label} = {values}", statement, " ".join(parts),
-                  "p = proposed, b = benchmark, per value in order; * = a run that did not gather in 40 min")
+        table.add(label, statement, "; ".join(f"{v}: {' / '.join(c)}" for v, c in cells.items()),
+                  "value: p = proposed / b = benchmark mean; * = a run that did not gather in 40 min")
     fig.suptitle("Figs. 6.8-6.10 (reduced sweeps)")
     fig.tight_layout()
     fig.savefig(out / "fig_6_8_to_6_10_sweeps.png", dpi=110)

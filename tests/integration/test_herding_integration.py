@@ -61,3 +61,19 @@ def test_degenerate_herds_do_not_crash(animals, cls):
                          base.headings, np.array([-300.0, 0.0]))
     tr = simulate(sc, cls(), t_max=20.0, seed=0)
     assert np.all(np.isfinite(tr.footprint_radius)) and np.all(np.isfinite(tr.drones))
+
+
+@pytest.mark.slow
+def test_cli_reproduce_quick_writes_tables_and_figures(tmp_path):
+    from studies.cli import main
+
+    assert main(["reproduce", "herding", "--quick", "--out", str(tmp_path)]) == 0
+    out = tmp_path / "herding"
+    for name in ("fig_6_7.csv", "fig_6_7a_footprint.png", "fig_6_7bf_snapshots.png", "fig_6_8_to_6_10.csv",
+                 "fig_6_8_to_6_10_sweeps.png", "fig_6_7_runs.csv"):
+        assert (out / name).exists(), name
+    import pandas as pd
+
+    runs = pd.read_csv(out / "fig_6_7_runs.csv")
+    assert runs["gather_time"].notna().all()
+    assert (runs["max_animal_speed"] <= 4.0 + 1e-9).all()
