@@ -1,0 +1,68 @@
+"""Covert observation of moving animals with motion camouflage (thesis ch. 3).
+
+The world of chapter 3: the Table 3.2 parameters, an uneven terrain over the
+200 m x 200 m zone, animals (targets) walking on it, occlusions, measurement
+noise, the drone's non-holonomic kinematics (3.2)-(3.5), the bearing change
+(3.6) and a closed-loop simulator.
+
+Units: metres, seconds, radians. ``U_max`` is the bound on ``|u|`` with
+``dh/dt = u`` and ``|h| = 1`` (DESIGN §4), i.e. a heading turn rate in rad/s
+(the thesis table prints m/s^2).
+
+Controllers plug into :func:`simulate` through a small protocol (duck-typed):
+
+- ``reset(scenario)`` before the run;
+- ``command(obs: Observation) -> (u, v)`` once per control period ``params.dt``;
+- attributes ``phase`` (``"to-sphere"``, ``"on-sphere"``, ``"retreat"`` or
+  ``"done"``) and ``finished`` (bool), read after every command;
+- optional ``fallbacks`` (int) and ``solve_times`` (list of s), copied to the trace.
+"""
+
+
+from scenarios.covert.dynamics import (
+    Controller,
+    CovertTrace,
+    Observation,
+    bearing_changes,
+    measure,
+    nearest_on_line,
+    rotate_heading,
+    simulate,
+    step_drone,
+)
+from scenarios.covert.world import (
+    CASE1_TERRAIN,
+    HABITAT,
+    THESIS_TABLE_3_2,
+    ZONE,
+    CovertParams,
+    CovertScenario,
+    Occlusion,
+    TargetPath,
+    Terrain,
+    random_case,
+    thesis_case,
+)
+
+__all__ = [
+    "CovertParams",
+    "THESIS_TABLE_3_2",
+    "Terrain",
+    "TargetPath",
+    "Occlusion",
+    "CovertScenario",
+    "Observation",
+    "Controller",
+    "CovertTrace",
+    "thesis_case",
+    "random_case",
+    "bearing_changes",
+    "nearest_on_line",
+    "rotate_heading",
+    "step_drone",
+    "measure",
+    "simulate",
+    "ZONE",
+    "HABITAT",
+    "CASE1_TERRAIN",
+]

@@ -1,0 +1,293 @@
+"""Covert observation physics: bearing changes (3.6), the drone model (3.2)-(3.5), simulation."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from scenarios.covert.world import CovertParams, CovertScenario, _as_rng
+
+
+# --------------------------------------------------------------------------- geometry
+def bearing_changes(drone: Any, targets: Any, R: Any) -> np.ndarray:
+    """Bearing changes beta_j (3.6) in radians, vectorised.
+
+    drone: (..., 3) drone positions D (m); targets: (..., n, 3) target positions A_j (m),
+    broadcast against drone[..., None, :]; R: (3,) reference point (m).
+    beta_j is the angle at A_j between the directions to R and to D, i.e. the angle
+    between a_j = A_j - D and a_j - r = A_j - R (computed with atan2, stable near 0 and pi).
+    Raises ValueError when a target coincides with R or with the drone, or on non-finite input.
+    """
+    D = np.asarray(drone, dtype=float)
+    A = np.asarray(targets, dtype=float)
+    Rv = np.asarray(R, dtype=float)
+    if D.shape[-1:] != (3,) or A.shape[-1:] != (3,) or Rv.shape != (3,):
+        raise ValueError(f"drone (...,3), targets (...,n,3), R (3,) expected; got {D.shape}, {A.shape}, {Rv.shape}")
+    if not (np.isfinite(D).all() and np.isfinite(A).all() and np.isfinite(Rv).all()):
+        raise ValueError("drone, targets and R must be finite")
+    a = A - D[..., None, :]
+    c = A - Rv
+    na = np.linalg.norm(a, axis=-1)
+    nc = np.linalg.norm(c, axis=-1)
+    if A.size and np.min(nc) < 1e-9:
+        raise ValueError("a target coincides with the reference point R")
+    if A.size and np.min(na) < 1e-9:
+        raise ValueError("a target coincides with the drone")
+    cross = np.linalg.norm(np.cross(a, c), axis=-1)
+    dot = np.sum(a * c, axis=-1)
+    return np.arctan2(cross, dot)
+
+
+def nearest_on_line(a: Any, r: Any) -> np.ndarray:
+    """p_j of (3.11): vector from the drone to the nearest point of the line through A_j and R.
+
+    a: (..., 3) vectors a_j = A_j - D; r: (3,) or (..., 3) vector r = R - D (m). Returns (..., 3) (m).
+    """
+    a = np.asarray(a, dtype=float)
+    r = np.asarray(r, dtype=float)
+    ra = np.sum(r * a, axis=-1, keepdims=True)
+    aa = np.sum(a * a, axis=-1, keepdims=True)
+    rr = np.sum(r * r, axis=-1, keepdims=True)
+    den = rr + aa - 2.0 * ra
+    if np.any(den < 1e-18):
+        raise ValueError("a target coincides with the reference point R")
+    return ((aa - ra) * r + (rr - ra) * a) / den
+
+
+def rotate_heading(h: Any, u: Any, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact zero-order-hold step of dh/dt = u, dD/dt = h over dt with u orthogonal to h.
+
+    The heading rotates at the constant rate |u| (rad/s) in the plane of (h, u):
+    h(dt) = cos(w dt) h + sin(w dt) u/w, and the returned integral
+    int_0^dt h = sin(w dt)/w h + (1 - cos(w dt))/w^2 u (s), so D += v * integral.
+    Returns (new heading with |h| = 1 up to rounding, integral). u must be orthogonal to h.
+    """
+    h = np.asarray(h, dtype=float)
+    u = np.asarray(u, dtype=float)
+    w = float(np.linalg.norm(u))
+    th = w * dt
+    if th < 1e-6:
+        s_over = dt * (1.0 - th * th / 6.0)
+        c_over = dt * dt * (0.5 - th * th / 24.0)
+        cth = 1.0 - th * th / 2.0
+        sth_w = s_over
+    else:
+        s_over = math.sin(th) / w
+        c_over = (1.0 - math.cos(th)) / (w * w)
+        cth = math.cos(th)
+        sth_w = s_over
+    h_new = cth * h + sth_w * u
+    h_new = h_new / np.linalg.norm(h_new)
+    return h_new, s_over * h + c_over * u
+
+
+def step_drone(D: Any, h: Any, u: Any, v: float, dt: float, params: CovertParams) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """One plant step of (3.2)-(3.5): actuator limits, then the exact rotation of the heading.
+
+    The command is made admissible first: u is projected on the plane orthogonal to h
+    (3.5) and scaled to |u| <= U_max, v is clipped to [-V_max, V_max] (3.4).
+    Returns (D_next, h_next, u_applied, v_applied).
+    """
+    h = np.asarray(h, dtype=float)
+    u = np.asarray(u, dtype=float)
+    if not (np.isfinite(u).all() and math.isfinite(v)):
+        raise ValueError(f"command must be finite, got u={u}, v={v}")
+    u = u - np.dot(u, h) * h
+    nu = np.linalg.norm(u)
+    if nu > params.U_max:
+        u = u * (params.U_max / nu)
+    v = float(np.clip(v, -params.V_max, params.V_max))
+    h_new, integral = rotate_heading(h, u, dt)
+    return np.asarray(D, float) + v * integral, h_new, u, v
+
+
+def measure(true_rel: np.ndarray, noise: float, rng: np.random.Generator) -> np.ndarray:
+    """Noisy measurement of the vectors a_j: each component times (1 + noise * U(-1, 1)).
+
+    noise: amplitude as a fraction of the true measurement (thesis: 0.02 to 0.10).
+    """
+    if noise == 0.0:
+        return true_rel.copy()
+    return true_rel * (1.0 + noise * rng.uniform(-1.0, 1.0, size=true_rel.shape))
+
+
+# --------------------------------------------------------------------------- simulation
+@dataclass(frozen=True)
+class Observation:
+    """What the drone knows at one control instant."""
+
+    t: float
+    """Time (s)."""
+    drone: np.ndarray
+    """Drone position D (3,) (m), from GPS."""
+    heading: np.ndarray
+    """Drone heading h (3,), unit."""
+    rel: np.ndarray
+    """Measured vectors a_j = A_j - D (n, 3) (m); rows of unobservable targets are NaN."""
+    observable: np.ndarray
+    """(n,) bool: target j is observable (line of sight)."""
+
+    @property
+    def targets(self) -> np.ndarray:
+        """Measured absolute positions of the observable targets (k, 3) (m)."""
+        return self.drone + self.rel[self.observable]
+
+
+class Controller(Protocol):
+    phase: str
+    finished: bool
+
+    def reset(self, scenario: CovertScenario) -> None: ...
+
+    def command(self, obs: Observation) -> tuple[np.ndarray, float]: ...
+
+
+@dataclass(frozen=True)
+class CovertTrace:
+    """A closed-loop run. Arrays are sampled at the control instants t_k = k dt."""
+
+    t: np.ndarray
+    """(T,) times (s)."""
+    drone: np.ndarray
+    """(T, 3) drone positions (m)."""
+    heading: np.ndarray
+    """(T, 3) headings (unit)."""
+    targets: np.ndarray
+    """(T, n, 3) true target positions (m)."""
+    beta: np.ndarray
+    """(T, n) true bearing changes (rad); NaN where the target is not observable."""
+    beta_max: float
+    """Maximum recorded beta_m over the run (rad); the thesis's headline metric (nan if no target)."""
+    sphere_error: float
+    """max | |D - F| - L_u | for t_a <= t <= t_f (m); nan if the sphere was never reached."""
+    t_a: float | None
+    """Arrival time on the observation sphere (s)."""
+    t_f: float | None
+    """Time the drone leaves the sphere (start of the retreat) (s)."""
+    phase: np.ndarray
+    """(T,) phase of the controller after each command."""
+    u: np.ndarray
+    """(T, 3) commanded u as returned by the controller (NaN on the last row)."""
+    v: np.ndarray
+    """(T,) commanded v (m/s) (NaN on the last row)."""
+    finished: bool
+    """The controller reported that it was back at D_s."""
+    fallbacks: int = 0
+    """Control steps where a solver failed and a fallback command was used."""
+    solve_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """Per-step solver times reported by the controller (s)."""
+
+    @property
+    def beta_m(self) -> np.ndarray:
+        """(T,) maximum bearing change over the observable targets (rad; NaN if none)."""
+        out = np.full(self.beta.shape[0], np.nan)
+        if self.beta.shape[1]:
+            ok = ~np.all(np.isnan(self.beta), axis=1)
+            out[ok] = np.nanmax(self.beta[ok], axis=1)
+        return out
+
+    @property
+    def distance_to_F(self) -> np.ndarray:
+        """(T,) |D - F| (m)."""
+        return self.distance_to(self.F)
+
+    def distance_to(self, point: Any) -> np.ndarray:
+        """(T,) distance from the drone to a point (m)."""
+        return np.linalg.norm(self.drone - np.asarray(point, float), axis=1)
+
+    F: tuple[float, float, float] = (200.0, 200.0, 0.0)
+    """Centre of the observation sphere of the run (m)."""
+
+
+def simulate(scenario: CovertScenario, controller: Controller, *, noise: float = 0.0,
+             seed: int | np.random.Generator | None = None, max_time: float | None = None,
+             initial_heading: Any = None) -> CovertTrace:
+    """Run ``controller`` on ``scenario`` in closed loop from D_s until it reports it is back.
+
+    noise: measurement noise amplitude as a fraction of each measured component (>= 0).
+    seed: seed for the noise.
+    max_time: hard stop (s); default duration + 60 s.
+    initial_heading: initial h (default: towards F).
+    Returns a :class:`CovertTrace` (beta is computed from the true positions).
+    """
+    if not isinstance(scenario, CovertScenario):
+        raise TypeError(f"scenario must be a CovertScenario, got {type(scenario).__name__}")
+    if not math.isfinite(noise) or noise < 0:
+        raise ValueError(f"noise must be a finite fraction >= 0, got {noise}")
+    p = scenario.params
+    rng = _as_rng(seed)
+    t_stop = p.duration + 60.0 if max_time is None else float(max_time)
+    if not t_stop > 0:
+        raise ValueError(f"max_time must be > 0, got {max_time}")
+    D = p.D_s_arr.copy()
+    h = p.F_arr - D if initial_heading is None else np.asarray(initial_heading, float)
+    if not np.isfinite(h).all() or np.linalg.norm(h) == 0:
+        raise ValueError("initial_heading must be a finite non-zero vector")
+    h = h / np.linalg.norm(h)
+    controller.reset(scenario)
+    n = scenario.n_targets
+    steps = int(math.ceil(t_stop / p.dt - 1e-9))
+    ts, Ds, hs, us, vs, phases = [], [], [], [], [], []
+    finished = False
+    for k in range(steps + 1):
+        t = k * p.dt
+        A = scenario.targets_at(t)
+        obsmask = scenario.observable_at(t)
+        rel = measure(A - D, noise, rng)
+        rel[~obsmask] = np.nan
+        ts.append(t)
+        Ds.append(D.copy())
+        hs.append(h.copy())
+        if k == steps:
+            us.append(np.full(3, np.nan))
+            vs.append(np.nan)
+            phases.append(controller.phase)
+            break
+        u, v = controller.command(Observation(t, D.copy(), h.copy(), rel, obsmask))
+        u = np.asarray(u, dtype=float)
+        us.append(u.copy())
+        vs.append(float(v))
+        phases.append(controller.phase)
+        D, h, _, _ = step_drone(D, h, u, float(v), p.dt, p)
+        if controller.finished:
+            finished = True
+            # record the final state
+            t = (k + 1) * p.dt
+            ts.append(t)
+            Ds.append(D.copy())
+            hs.append(h.copy())
+            us.append(np.full(3, np.nan))
+            vs.append(np.nan)
+            phases.append("done")
+            break
+    t_arr = np.asarray(ts)
+    drone = np.asarray(Ds)
+    targets = scenario.targets_at(t_arr)
+    if n:
+        beta = bearing_changes(drone, targets, p.R)
+        beta[~scenario.observable_at(t_arr)] = np.nan
+    else:
+        beta = np.zeros((t_arr.size, 0))
+    phase = np.asarray(phases)
+    on = np.nonzero(phase == "on-sphere")[0]
+    ret = np.nonzero((phase == "retreat") | (phase == "done"))[0]
+    t_a = float(t_arr[on[0]]) if on.size else None
+    t_f = float(t_arr[ret[0]]) if ret.size and on.size else None
+    if on.size:
+        i1 = ret[0] if ret.size else len(t_arr) - 1
+        dist = np.linalg.norm(drone[on[0]:i1 + 1] - p.F_arr, axis=1)
+        sphere_error = float(np.max(np.abs(dist - p.L_u)))
+    else:
+        sphere_error = math.nan
+    bm = beta[~np.isnan(beta)]
+    trace = CovertTrace(
+        t=t_arr, drone=drone, heading=np.asarray(hs), targets=targets, beta=beta,
+        beta_max=float(bm.max()) if bm.size else math.nan, sphere_error=sphere_error,
+        t_a=t_a, t_f=t_f, phase=phase, u=np.asarray(us), v=np.asarray(vs), finished=finished,
+        fallbacks=int(getattr(controller, "fallbacks", 0)),
+        solve_times=np.asarray(getattr(controller, "solve_times", []), dtype=float), F=p.F,
+    )
+    return trace
