@@ -253,7 +253,7 @@ def animal_step(
     heading: np.ndarray,
     drones: np.ndarray,
     params: HerdingParams,
-    rng: np.random.Generator,
+    seed=None,
     dt: float | None = None,
     barking: np.ndarray | None = None,
     centroid: np.ndarray | None = None,
@@ -261,12 +261,14 @@ def animal_step(
     """One animal step (module docstring); vectorised over animals, cKDTree for neighbours.
 
     animals: (n, 2) positions, m; heading: (n, 2) previous unit headings (zero rows allowed);
-    drones: (n_d, 2) drone positions, m; dt: step, s (default params.delta);
+    drones: (n_d, 2) drone positions, m; seed: int or Generator for the noise and grazing draws;
+    dt: step, s (default params.delta);
     barking: (n_d,) bool mask of drones that bark (default all);
     centroid: the herd centroid if already known (default: computed).
     Returns (new positions, new headings, affected mask (n,)).
     """
     dt = params.delta if dt is None else dt
+    rng = as_generator(seed)
     n = animals.shape[0]
     centroid = animals.mean(axis=0) if centroid is None else centroid
     cone = barking_mask(animals, drones, centroid, params.R_b, params.beta, barking)

@@ -234,7 +234,7 @@ def reproduce(*, quick: bool, out: Path) -> None:
 
 
 # --------------------------------------------------------------------------- gap
-def _random_instance(n: int, seed: int):
+def random_allocation_instance(n: int, seed: int):
     """Drones and steering points on the extended hull of a random herd (arc lengths, m)."""
     rng = np.random.default_rng(seed)
     herd = rng.uniform((0, 0), (1200, 600), size=(200, 2))
@@ -251,7 +251,7 @@ def _random_instance(n: int, seed: int):
 def gap_row(task: dict) -> dict:
     """One allocation instance: every allocator against the exact optimum (module-level for pools)."""
     n, seed = int(task["n"]), int(task["seed"])
-    d, s, M = _random_instance(n, seed)
+    d, s, M = random_allocation_instance(n, seed)
     ex = solve_allocation(d, s, M)
     row = {"n": n, "seed": seed, "exact": ex.objective, "exact_s": ex.solve_time, "alg3": None, "alg3_s": None,
            "cpsat": None, "cpsat_bound": None, "cpsat_status": None, "cpsat_s": None}
@@ -300,15 +300,15 @@ def bench(*, quick: bool, out: Path) -> None:
     """Allocation timings (exact n=64, Alg.3/exact n=7), simulation speed (1000 animals), proposed vs benchmark."""
     out = Path(out)
     table = ComparisonTable("Herding benchmarks (measured in this run)")
-    d, s, M = _random_instance(64, 0)
+    d, s, M = random_allocation_instance(64, 0)
     res, t64 = timed(solve_allocation, d, s, M, repeat=50)
     table.add("exact allocation, n = 64 (ms)", "target < 10", t64 * 1e3, "median of 50 solves, random hull instance")
-    d, s, M = _random_instance(7, 1)
+    d, s, M = random_allocation_instance(7, 1)
     _, t_bf = timed(allocate_bruteforce, d, s, M, repeat=3)
     _, t_ex = timed(solve_allocation, d, s, M, repeat=50)
     table.add("Algorithm 3 / exact time ratio, n = 7", "n!·2^n = 645120 allocations", t_bf / t_ex,
               f"medians: Alg. 3 {t_bf * 1e3:.1f} ms, exact {t_ex * 1e3:.3f} ms")
-    d, s, M = _random_instance(12, 2)
+    d, s, M = random_allocation_instance(12, 2)
     cp, t_cp = timed(solve_allocation, d, s, M, method="cp-sat", repeat=3)
     table.add("CP-SAT / exact time ratio, n = 12", "—", t_cp / t_ex, f"CP-SAT {t_cp * 1e3:.1f} ms (1 worker)")
     t_sim = 300.0 if quick else 1200.0
