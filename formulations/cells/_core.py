@@ -1,0 +1,228 @@
+"""CellProblem evaluation and the candidate-site geometry (thesis ch. 4)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from scenarios.cells import CellProblem
+
+TOL = 1e-6
+"""Absolute geometric tolerance (m): a user at distance <= R_d + TOL is covered, a
+separation >= 2 R_d - TOL does not overlap, a link of length <= r + TOL exists.
+Candidate points built as circle intersections sit on circles up to rounding error,
+so every test in this package uses the same tolerance."""
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Outcome of :func:`evaluate`."""
+
+    covered: int
+    """Number of active users (not served by a GBS) within R_d of some drone-cell."""
+    feasible: bool
+    """True when every constraint of (4.7)-(4.8) and backhaul connectivity holds."""
+    violations: tuple[str, ...]
+    """Human-readable description of each violated constraint (empty when feasible)."""
+    connected: np.ndarray
+    """(k,) bool: drone-cell i reaches a GBS through backhaul links (relays allowed)."""
+    covered_mask: np.ndarray
+    """(n,) bool over ``problem.users``: user covered by a drone-cell (inactive users False)."""
+
+
+def as_positions(problem: CellProblem, positions) -> np.ndarray:
+    """Validate and return drone-cell positions as a float (k, 2) array, 0 <= k <= n_cells."""
+    try:
+        p = np.array(positions, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError("positions must be an array of shape (k, 2) of numbers") from exc
+    if p.size == 0:
+        p = p.reshape(0, 2)
+    if p.ndim == 1 and p.shape[0] == 2:
+        p = p.reshape(1, 2)
+    if p.ndim != 2 or p.shape[1] != 2:
+        raise ValueError(f"positions must have shape (k, 2), got {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise ValueError("positions must contain only finite coordinates")
+    return p
+
+
+def _dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.sqrt(((a[:, None, :] - b[None, :, :]) ** 2).sum(-1))
+
+
+def connected_mask(problem: CellProblem, positions: np.ndarray, usable: np.ndarray | None = None) -> np.ndarray:
+    """(k,) bool: which drone-cells reach a GBS through links <= r1 (to a GBS) / <= r2
+    (between drone-cells), relaying only through drone-cells flagged ``usable``."""
+    k = len(positions)
+    if k == 0:
+        return np.zeros(0, dtype=bool)
+    usable = np.ones(k, dtype=bool) if usable is None else usable
+    direct = np.any(_dist(positions, problem.gbs) <= problem.r1 + TOL, axis=1) & usable
+    adj = (_dist(positions, positions) <= problem.r2 + TOL) & usable[:, None] & usable[None, :]
+    reach = direct.copy()
+    for _ in range(k):
+        new = reach | np.any(adj & reach[None, :], axis=1)
+        if np.array_equal(new, reach):
+            break
+        reach = new
+    return reach
+
+
+def evaluate(problem: CellProblem, positions) -> Evaluation:
+    """Covered users and feasibility of drone-cells at ``positions`` ((k, 2) m, k <= m allowed).
+
+    Feasible (eqs. 4.7-4.8 with relays): |D_i - G_h| >= R_g + R_d for all i, h;
+    |D_i - D_h| >= 2 R_d for i != h; every drone-cell reaches some GBS through
+    backhaul links (drone-GBS <= r1, drone-drone <= r2); at most ``n_cells`` drone-cells;
+    inside ``bounds`` when given. ``covered`` counts active users within R_d of any
+    drone-cell whether or not the placement is feasible.
+    """
+    if not isinstance(problem, CellProblem):
+        raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    pos = as_positions(problem, positions)
+    k = len(pos)
+    v: list[str] = []
+    if k > problem.n_cells:
+        v.append(f"{k} drone-cells placed but n_cells = {problem.n_cells}")
+    if problem.bounds is not None and k:
+        xmin, xmax, ymin, ymax = problem.bounds
+        out = (pos[:, 0] < xmin - TOL) | (pos[:, 0] > xmax + TOL) | (pos[:, 1] < ymin - TOL) | (pos[:, 1] > ymax + TOL)
+        v += [f"drone-cell {i} outside bounds" for i in np.flatnonzero(out)]
+    if k:
+        dg = _dist(pos, problem.gbs)
+        for i, h in zip(*np.nonzero(dg < problem.R_g + problem.R_d - TOL)):
+            v.append(f"drone-cell {i} overlaps GBS {h} cell: distance {dg[i, h]:.3f} < R_g + R_d (4.7)")
+        dd = _dist(pos, pos)
+        for i, h in zip(*np.nonzero(np.triu(dd < 2 * problem.R_d - TOL, 1))):
+            v.append(f"drone-cells {i} and {h} overlap: distance {dd[i, h]:.3f} < 2 R_d (4.8)")
+    conn = connected_mask(problem, pos)
+    v += [f"drone-cell {i} has no backhaul path to a GBS" for i in np.flatnonzero(~conn)]
+    mask = np.zeros(len(problem.users), dtype=bool)
+    if k and len(problem.users):
+        mask = np.any(_dist(problem.users, pos) <= problem.R_d + TOL, axis=1) & problem.active
+    return Evaluation(covered=int(mask.sum()), feasible=not v, violations=tuple(v), connected=conn,
+                      covered_mask=mask)
+
+
+# --------------------------------------------------------------------------- geometry
+def circle_intersections(c1: np.ndarray, r1: np.ndarray | float, c2: np.ndarray, r2: np.ndarray | float) -> np.ndarray:
+    """Intersection points of circles (c1[i], r1) and (c2[i], r2), vectorised over i.
+
+    Returns an (2q, 2) array holding both points of every pair that intersects
+    (tangent pairs give a repeated point; concentric or disjoint pairs give none).
+    """
+    c1 = np.asarray(c1, float).reshape(-1, 2)
+    c2 = np.asarray(c2, float).reshape(-1, 2)
+    r1 = np.broadcast_to(np.asarray(r1, float), (len(c1),))
+    r2 = np.broadcast_to(np.asarray(r2, float), (len(c1),))
+    d_vec = c2 - c1
+    d = np.hypot(d_vec[:, 0], d_vec[:, 1])
+    ok = (d > 0) & (d <= r1 + r2) & (d >= np.abs(r1 - r2))
+    c1, c2, r1, r2, d_vec, d = c1[ok], c2[ok], r1[ok], r2[ok], d_vec[ok], d[ok]
+    a = (r1**2 - r2**2 + d**2) / (2 * d)
+    h = np.sqrt(np.maximum(r1**2 - a**2, 0.0))
+    u = d_vec / d[:, None]
+    base = c1 + a[:, None] * u
+    perp = np.column_stack([-u[:, 1], u[:, 0]])
+    return np.concatenate([base + h[:, None] * perp, base - h[:, None] * perp], axis=0)
+
+
+def merge_points(points: np.ndarray, resolution: float = 1e-3) -> np.ndarray:
+    """Points with duplicates (equal after rounding to ``resolution`` m) merged, order kept."""
+    if len(points) == 0:
+        return points.reshape(0, 2)
+    key = np.round(points / resolution).astype(np.int64)
+    _, idx = np.unique(key, axis=0, return_index=True)
+    return points[np.sort(idx)]
+
+
+def pair_intersections(users: np.ndarray, R_d: float) -> np.ndarray:
+    """Intersection points of the radius-R_d circles around every pair of users < 2 R_d apart."""
+    if len(users) < 2:
+        return np.zeros((0, 2))
+    pairs = cKDTree(users).query_pairs(2 * R_d, output_type="ndarray")
+    if len(pairs) == 0:
+        return np.zeros((0, 2))
+    return circle_intersections(users[pairs[:, 0]], R_d, users[pairs[:, 1]], R_d)
+
+
+def coverage_lists(points: np.ndarray, users: np.ndarray, R_d: float) -> list[np.ndarray]:
+    """For every point, the sorted indices of ``users`` within R_d + TOL of it."""
+    if len(points) == 0:
+        return []
+    if len(users) == 0:
+        return [np.zeros(0, dtype=np.int64) for _ in points]
+    tree = cKDTree(users)
+    return [np.asarray(sorted(ix), dtype=np.int64) for ix in tree.query_ball_point(points, R_d + TOL)]
+
+
+@dataclass(frozen=True)
+class Candidates:
+    """Candidate drone-cell sites of a :class:`CellProblem` (all feasible one at a time)."""
+
+    points: np.ndarray
+    """(c, 2) candidate positions (m)."""
+    cover: list
+    """cover[i]: indices into ``problem.targets`` (active users) covered by site i."""
+    direct: np.ndarray
+    """(c,) bool: site within r1 of some GBS (a direct backhaul link)."""
+    n_generated: int
+    """Number of distinct points generated before the feasibility filter."""
+
+
+def raw_candidate_points(problem: CellProblem) -> np.ndarray:
+    """Every active user location, the intersection points of the radius-R_d circles
+    around pairs of active users, and the points where those circles meet each GBS's
+    r1 circle and (R_g + R_d) circle and the edges of ``bounds`` (duplicates merged)."""
+    t = problem.targets
+    R = problem.R_d
+    parts = [t, pair_intersections(t, R)]
+    if len(t):
+        for g in problem.gbs:
+            for rad in (problem.r1, problem.R_g + problem.R_d):
+                parts.append(circle_intersections(t, R, np.broadcast_to(g, t.shape), rad))
+        if problem.bounds is not None:
+            xmin, xmax, ymin, ymax = problem.bounds
+            for axis, val in ((0, xmin), (0, xmax), (1, ymin), (1, ymax)):
+                off = t[:, axis] - val
+                ok = np.abs(off) <= R
+                h = np.sqrt(np.maximum(R**2 - off[ok] ** 2, 0.0))
+                for s in (1.0, -1.0):
+                    q = t[ok].copy()
+                    q[:, axis] = val
+                    q[:, 1 - axis] += s * h
+                    parts.append(q)
+    return merge_points(np.concatenate(parts, axis=0))
+
+
+def site_feasible(problem: CellProblem, points: np.ndarray) -> np.ndarray:
+    """(c,) bool: a single drone-cell may sit at each point: inside ``bounds``, at least
+    R_g + R_d from every GBS (4.7) and within r1 + (m - 1) r2 of some GBS (the
+    farthest a chain of m drone-cells can reach)."""
+    if len(points) == 0:
+        return np.zeros(0, dtype=bool)
+    dg = _dist(points, problem.gbs)
+    ok = np.all(dg >= problem.R_g + problem.R_d - TOL, axis=1)
+    ok &= np.any(dg <= problem.r1 + (problem.n_cells - 1) * problem.r2 + TOL, axis=1)
+    if problem.bounds is not None:
+        xmin, xmax, ymin, ymax = problem.bounds
+        ok &= (points[:, 0] >= xmin - TOL) & (points[:, 0] <= xmax + TOL)
+        ok &= (points[:, 1] >= ymin - TOL) & (points[:, 1] <= ymax + TOL)
+    return ok
+
+
+def candidate_sites(problem: CellProblem, extra=None) -> Candidates:
+    """The candidate set of :func:`raw_candidate_points` plus ``extra`` positions
+    ((q, 2) m, e.g. a heuristic's placement), restricted to feasible single sites."""
+    pts = raw_candidate_points(problem)
+    if extra is not None:
+        ex = as_positions(problem, extra)
+        pts = merge_points(np.concatenate([ex, pts], axis=0)) if len(pts) else merge_points(ex)
+    n_gen = len(pts)
+    pts = pts[site_feasible(problem, pts)]
+    cover = coverage_lists(pts, problem.targets, problem.R_d)
+    direct = np.any(_dist(pts, problem.gbs) <= problem.r1 + TOL, axis=1) if len(pts) else np.zeros(0, bool)
+    return Candidates(points=pts, cover=cover, direct=direct, n_generated=n_gen)

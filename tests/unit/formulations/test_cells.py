@@ -1,0 +1,150 @@
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from formulations.cells import (CellProblem, build_milp, candidate_sites, circle_intersections,
+                                coverage_upper_bound, evaluate, solve_milp)
+from solvers.result import Status
+
+
+def small(users, m=2, gbs=((0.0, 0.0),), R_d=1.0, R_g=1.0, r1=2.5, r2=2.5, bounds=None):
+    return CellProblem(users=np.asarray(users, float), gbs=np.asarray(gbs, float), n_cells=m, R_d=R_d, R_g=R_g,
+                       r1=r1, r2=r2, bounds=bounds)
+
+
+# ----------------------------------------------------------------- evaluate on hand-built cases
+def test_evaluate_direct_cell():
+    p = small([[2.5, 0.0], [2.9, 0.3], [0.5, 0.0]], m=1)  # third user is served by the GBS
+    ev = evaluate(p, [[2.5, 0.0]])
+    assert ev.feasible and ev.covered == 2 and ev.connected.tolist() == [True]
+    assert not p.active[2]
+
+
+def test_evaluate_overlap_between_cells():
+    p = small([[2.5, 0.0], [0.0, 2.5]], m=2)
+    ev = evaluate(p, [[2.5, 0.0], [2.5, 1.5]])  # 1.5 < 2 R_d
+    assert not ev.feasible and any("overlap" in v for v in ev.violations)
+    assert evaluate(p, [[2.5, 0.0], [2.5, 2.0]]).feasible  # touching discs are allowed
+
+
+def test_evaluate_overlap_with_gbs_cell():
+    p = small([[1.9, 0.0]], m=1)
+    ev = evaluate(p, [[1.9, 0.0]])
+    assert not ev.feasible and any("GBS" in v for v in ev.violations) and ev.covered == 1
+
+
+def test_evaluate_chain_of_relays():
+    users = [[2.5, 0.0], [7.5, 0.0]]
+    p = small(users, m=3)
+    chain = [[2.5, 0.0], [5.0, 0.0], [7.5, 0.0]]  # links 2.5 <= r2, first within r1
+    ev = evaluate(p, chain)
+    assert ev.feasible and ev.covered == 2 and ev.connected.all()
+    ev2 = evaluate(p, [[2.5, 0.0], [7.5, 0.0]])  # relay missing: 5.0 > r2
+    assert not ev2.feasible and ev2.connected.tolist() == [True, False]
+
+
+def test_evaluate_unreachable_cell():
+    p = small([[10.0, 0.0]], m=1)
+    ev = evaluate(p, [[10.0, 0.0]])
+    assert not ev.feasible and "no backhaul" in ev.violations[0] and ev.covered == 1
+
+
+def test_evaluate_too_many_and_bounds():
+    p = small([[2.5, 0.0]], m=1, bounds=(-3, 3, -3, 3))
+    assert not evaluate(p, [[2.5, 0.0], [-2.5, 0.0]]).feasible
+    assert not evaluate(p, [[3.5, 0.0]]).feasible
+    with pytest.raises(ValueError, match="positions"):
+        evaluate(p, [[1.0, np.nan]])
+    assert evaluate(p, np.zeros((0, 2))).feasible
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.floats(-3, 3), st.floats(-3, 3), st.floats(0.2, 2.5), st.floats(-3, 3), st.floats(-3, 3),
+       st.floats(0.2, 2.5))
+def test_circle_intersections_lie_on_both_circles(x1, y1, r1, x2, y2, r2):
+    pts = circle_intersections(np.array([x1, y1]), r1, np.array([x2, y2]), r2)
+    for p in pts:
+        assert abs(np.hypot(p[0] - x1, p[1] - y1) - r1) < 1e-6
+        assert abs(np.hypot(p[0] - x2, p[1] - y2) - r2) < 1e-6
+
+
+# ----------------------------------------------------------------- MILP vs brute force (same candidates)
+def brute_force(problem):
+    cand = candidate_sites(problem)
+    best = 0
+    for k in range(1, problem.n_cells + 1):
+        for combo in itertools.combinations(range(len(cand.points)), k):
+            pos = cand.points[list(combo)]
+            ev = evaluate(problem, pos)
+            if ev.feasible and ev.covered > best:
+                best = ev.covered
+    return best
+
+
+def random_small(seed, n, m):
+    rng = np.random.default_rng(seed)
+    users = rng.uniform(-6, 6, size=(n, 2))
+    return small(users, m=m, r1=3.0, r2=2.5)
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("backend", ["cp-sat", "highs"])
+def test_milp_equals_brute_force_m2(seed, backend):
+    p = random_small(seed, 14, 2)
+    res = solve_milp(p, backend=backend, time_limit=60)
+    assert res.status is Status.OPTIMAL
+    assert res.objective == brute_force(p)
+    ev = evaluate(p, res.x)
+    assert ev.feasible and ev.covered == res.objective
+    assert res.objective <= res.bound <= res.info["continuous_bound"]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_milp_equals_brute_force_m3(seed):
+    p = random_small(seed, 9, 3)
+    res = solve_milp(p, time_limit=60)
+    assert res.status is Status.OPTIMAL and res.objective == brute_force(p)
+    assert evaluate(p, res.x).feasible
+
+
+def test_cut_loop_is_exercised():
+    # on these instances the first relaxed model violates overlap/backhaul: cuts are needed
+    rounds = [solve_milp(random_small(s, 14, 2)).info["rounds"] for s in range(4)]
+    assert max(rounds) >= 2
+
+
+def test_warm_start_is_kept_and_used():
+    p = random_small(3, 7, 2)
+    res = solve_milp(p, backend="highs")
+    warm = solve_milp(p, backend="scip", warm_start=res.x)
+    assert warm.status is Status.OPTIMAL and warm.objective == res.objective
+
+
+def test_no_users_and_no_feasible_site():
+    p = small(np.zeros((0, 2)), m=2)
+    r = solve_milp(p)
+    assert r.status is Status.OPTIMAL and r.objective == 0 and len(r.x) == 0
+    far = small([[50.0, 50.0]], m=1)  # beyond r1 + (m-1) r2
+    r = solve_milp(far)
+    assert r.status is Status.OPTIMAL and r.objective == 0 and len(r.x) == 0
+
+
+def test_continuous_bound_is_valid_against_a_dense_grid():
+    p = random_small(5, 8, 1)
+    b = coverage_upper_bound(p).bound
+    g = np.linspace(-7, 7, 141)
+    xx, yy = np.meshgrid(g, g)
+    pts = np.column_stack([xx.ravel(), yy.ravel()])
+    d = np.hypot(pts[:, None, 0] - p.targets[None, :, 0], pts[:, None, 1] - p.targets[None, :, 1])
+    assert (d <= p.R_d).sum(1).max() <= b
+
+
+def test_build_milp_rejects_backend():
+    with pytest.raises(ValueError, match="backend"):
+        build_milp(random_small(0, 3, 1), backend="gurobi")
+    with pytest.raises(ValueError, match="backend"):
+        solve_milp(random_small(0, 3, 1), backend="x")
+    with pytest.raises(ValueError, match="time_limit"):
+        solve_milp(random_small(0, 3, 1), time_limit=-1)
