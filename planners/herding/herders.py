@@ -140,11 +140,7 @@ class _Herder:
                 tgt, dirn = s_now, np.ones(on.sum(), dtype=int)
             v_n, w_n, _ = fly_on_edge(drones[on], headings[on], self.hull, tgt, dirn, p.V_max, p.U_max, dt)
             v[on], omega[on] = v_n, w_n
-        self._after_control(drones)
         return v, omega
-
-    def _after_control(self, drones) -> None:
-        pass
 
     def _plan_gathering(self, drones) -> None:
         raise NotImplementedError
