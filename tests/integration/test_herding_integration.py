@@ -51,16 +51,20 @@ def test_allocators_drive_identical_runs():
 @pytest.mark.parametrize(
     "animals",
     [np.full((30, 2), 100.0), np.column_stack([np.linspace(0, 200, 30), np.full(30, 50.0)]),
-     np.array([[50.0, 50.0]]), np.array([[0.0, 0.0], [40.0, 30.0]])],
-    ids=["one-point", "collinear", "single", "two"],
+     np.array([[50.0, 50.0]]), np.array([[0.0, 0.0], [40.0, 30.0]]),
+     np.array([[-300.0, 0.0], [0.0, 0.0], [-150.0, 200.0]])],
+    ids=["one-point", "collinear", "single", "two", "triangle-3-vertices-4-drones"],
 )
 @pytest.mark.parametrize("cls", [ProposedHerder, BenchmarkHerder])
 def test_degenerate_herds_do_not_crash(animals, cls):
     base = thesis_scenario(5, seed=0)
     sc = HerdingScenario(base.params, animals, np.array([[300.0, 0], [300, 50], [300, 100], [300, 150]]),
                          base.headings, np.array([-300.0, 0.0]))
-    tr = simulate(sc, cls(), t_max=20.0, seed=0)
+    herder = cls()
+    tr = simulate(sc, herder, t_max=40.0, seed=0)
     assert np.all(np.isfinite(tr.footprint_radius)) and np.all(np.isfinite(tr.drones))
+    if cls is ProposedHerder and len(animals) == 3:
+        assert herder.n_allocations > 0  # steering points padded to 4 (fewer hull vertices than drones)
 
 
 @pytest.mark.slow
