@@ -402,8 +402,10 @@ class RecedingBearingMPC:
     def __init__(self, model: BearingMPC, backend: str = "ipopt"):
         if backend not in ("ipopt", "osqp"):
             raise ValueError(f"backend must be 'ipopt' or 'osqp', got {backend!r}")
-        self.soft_penalty = 10.0
-        """SQP only: L1 penalty per metre of violated sphere/home bound (objective units per m)."""
+        self.soft_weight = 1e2
+        """SQP only: quadratic penalty weight on the slack of the linearised sphere, home and
+        tangent rows (objective units per m^2); a quadratic (not L1) penalty keeps the QP
+        strongly convex, which OSQP needs to converge in few iterations."""
         self.model = model
         self.backend = backend
         st = model.settings
@@ -419,7 +421,7 @@ class RecedingBearingMPC:
     # -- SQP / real-time iteration with OSQP
     def _build_qp(self, model: BearingMPC) -> None:
         """Symbolic QP data: rows of the linearised constraints, with the sphere, home and tangent rows
-        made soft by two slacks each (L1 penalty soft_penalty per metre), so every QP is feasible."""
+        made soft by one free slack each (quadratic penalty soft_weight), so every QP is feasible."""
         x, pv, g, f = model.nlp["x"], model.nlp["p"], model.nlp["g"], model.nlp["f"]
         st = model.settings
         nx, ng = model.n_x, model.n_g
@@ -430,8 +432,8 @@ class RecedingBearingMPC:
         Js = ca.jacobian(g, x)
         E = np.zeros((ng, ns))
         E[soft, np.arange(ns)] = 1.0
-        top = ca.horzcat(Js, ca.SX(ca.DM(E)), ca.SX(ca.DM(-E)))
-        A_expr = ca.vertcat(top, ca.SX.eye(nx + 2 * ns))
+        top = ca.horzcat(Js, ca.SX(ca.DM(E)))
+        A_expr = ca.vertcat(top, ca.SX.eye(nx + ns))
         self._gA = ca.Function("gA", [x, pv], [gd, A_expr, g])
         self._sparsity = A_expr.sparsity()
         grad = ca.gradient(f, x)
@@ -445,11 +447,11 @@ class RecedingBearingMPC:
         prox[model.idx["tau_k"]] = TAU_PROX
         prox[model.idx["tau"]] = TAU_PROX
         prox[model.idx["h"].ravel()] = H_PROX
-        Pfull = np.zeros((nx + 2 * ns, nx + 2 * ns))
+        Pfull = np.zeros((nx + ns, nx + ns))
         Pfull[:nx, :nx] = H + np.diag(st.prox * prox)
-        Pfull[nx:, nx:] = np.eye(2 * ns) * 1e-6
+        Pfull[nx:, nx:] = np.eye(ns) * self.soft_weight
         self._P = sp.csc_matrix(Pfull)
-        self._nq = nx + 2 * ns
+        self._nq = nx + ns
         self._ns = ns
         self._qp: OsqpSolver | None = None
 
@@ -460,13 +462,13 @@ class RecedingBearingMPC:
         colind, row = self._sparsity.get_ccs()
         Adata = np.asarray(ca.DM(Aval).nonzeros(), float)
         lo, hi = lbg, ubg
-        q = np.concatenate([np.asarray(self._grad(z, p), float).ravel(), np.full(2 * ns, self.soft_penalty)])
-        l = np.concatenate([lo - gd, lbx - z, np.zeros(2 * ns)])
-        u = np.concatenate([hi - gd, ubx - z, np.full(2 * ns, np.inf)])
+        q = np.concatenate([np.asarray(self._grad(z, p), float).ravel(), np.zeros(ns)])
+        l = np.concatenate([lo - gd, lbx - z, np.full(ns, -np.inf)])
+        u = np.concatenate([hi - gd, ubx - z, np.full(ns, np.inf)])
         l = np.where(np.isfinite(l), l, -1e30)
         u = np.where(np.isfinite(u), u, 1e30)
         if self._qp is None:
-            A = sp.csc_matrix((Adata, np.asarray(row), np.asarray(colind)), shape=(ng + nx + 2 * ns, self._nq))
+            A = sp.csc_matrix((Adata, np.asarray(row), np.asarray(colind)), shape=(ng + nx + ns, self._nq))
             self._qp = OsqpSolver(self._P, q, A, l, u,
                                   settings={"eps_abs": 1e-3, "eps_rel": 1e-3, "polishing": False, "scaling": 25,
                                             "max_iter": 4000, "check_termination": 10,
