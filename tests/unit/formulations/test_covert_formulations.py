@@ -85,8 +85,8 @@ def test_ipopt_plan_is_admissible_and_epigraph_tight(on_sphere):
     plan = res.x
     assert np.all(np.linalg.norm(plan.u, axis=1) <= P.U_max + 1e-6)
     assert np.all(np.abs(plan.v) <= P.V_max + 1e-9)
-    assert np.allclose(np.linalg.norm(plan.h, axis=1), 1.0, atol=1e-6)
-    assert np.all(np.abs(np.sum(plan.h[:-1] * plan.u, axis=1)) <= 1e-6)
+    assert np.allclose(np.linalg.norm(plan.h, axis=1), 1.0, atol=1e-5)
+    assert np.all(np.abs(np.sum(plan.h[:-1] * plan.u, axis=1)) <= 1e-5)
     dist = np.linalg.norm(plan.D[1:] - P.F_arr, axis=1)
     if on_sphere:
         assert np.allclose(dist, P.L_u, atol=1e-5)
