@@ -1,0 +1,403 @@
+"""Thesis ch. 4 heuristics: the genetic algorithm with restarts (§4.3.2, Table 4.1) and
+the exhaustive search of Algorithm 2 with a constrained single-disc maximum coverage.
+
+Decisions where the thesis is not explicit (DESIGN §4):
+
+* **Fitness of infeasible chromosomes.** A drone-cell *contributes* when it lies in the
+  area, clears every GBS cell (|D - G| >= R_g + R_d), overlaps no other drone-cell
+  (|D_i - D_h| >= 2 R_d; both overlapping cells are discarded) and reaches a GBS through
+  contributing drone-cells (links <= r1 / r2). The fitness is the number of users
+  covered by contributing drone-cells, so the contributing subset is always a
+  feasible placement and the reported plan is that subset.
+* **Mutation (4.10)** ``g' = g [1 +- rnd (1 - f/f_best)^2]`` acts on coordinates
+  relative to the first GBS (the thesis's origin) with a random sign; when
+  ``f_best = 0`` the factor ``(1 - f/f_best)`` is taken as 1. Mutated coordinates are
+  clipped to the operating area.
+* **Crossover (4.11)** exchanges the y coordinate of one randomly chosen drone-cell
+  between two chromosomes; chromosomes are paired at random and each pair crosses
+  with the adaptive probability (4.12) (``P_c2`` when ``f_max = f_avg``).
+* Each restart is an independent run of ``iter_max`` generations from a fresh
+  random population (temperature reset to T); the final population's best is the
+  restart's result and the best over restarts is returned.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from formulations.cells import TOL, CellProblem, circle_intersections, evaluate
+from scenarios.cells import THESIS_GA_TABLE_4_1, THESIS_TABLE_4_3
+from solvers.result import SolveResult, Status
+
+__all__ = ["GASettings", "genetic", "fitness", "exhaustive", "max_coverage_in_region", "Region",
+           "thesis_ga_settings"]
+
+
+# =========================================================================== GA
+@dataclass(frozen=True)
+class GASettings:
+    """GA parameters (thesis Table 4.1 defaults)."""
+
+    T: float = THESIS_GA_TABLE_4_1["T"]
+    """Initial simulated-annealing temperature (fitness units, users)."""
+    alpha: float = THESIS_GA_TABLE_4_1["alpha"]
+    """Cooling factor per generation, in (0, 1]."""
+    p_m: float = THESIS_GA_TABLE_4_1["p_m"]
+    """Mutation probability per gene (coordinate), in [0, 1]."""
+    p_c1: float = THESIS_GA_TABLE_4_1["p_c1"]
+    """Crossover probability for below-average pairs (4.12), in [0, 1]."""
+    p_c2: float = THESIS_GA_TABLE_4_1["p_c2"]
+    """Crossover probability for the best pair (4.12), in [0, 1]."""
+    replace_frac: float = 0.2
+    """Fraction of worst chromosomes replaced by the best each generation, in [0, 1)."""
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.T) and self.T > 0):
+            raise ValueError(f"T must be > 0, got {self.T}")
+        if not (0 < self.alpha <= 1):
+            raise ValueError(f"alpha must be in (0, 1], got {self.alpha}")
+        for name in ("p_m", "p_c1", "p_c2"):
+            v = getattr(self, name)
+            if not (0 <= v <= 1):
+                raise ValueError(f"{name} must be in [0, 1], got {v}")
+        if not (0 <= self.replace_frac < 1):
+            raise ValueError(f"replace_frac must be in [0, 1), got {self.replace_frac}")
+
+
+def thesis_ga_settings(m: int) -> tuple[int, int]:
+    """(population size, restarts) of thesis Table 4.3 for m drone-cells (m > 4: the m = 4 row)."""
+    row = THESIS_TABLE_4_3[min(max(int(m), 1), 4)]
+    return int(row[3]), int(row[4])
+
+
+def _area(problem: CellProblem) -> tuple[float, float, float, float]:
+    if problem.bounds is not None:
+        return problem.bounds
+    reach = problem.r1 + (problem.n_cells - 1) * problem.r2
+    g = problem.gbs
+    return (g[:, 0].min() - reach, g[:, 0].max() + reach, g[:, 1].min() - reach, g[:, 1].max() + reach)
+
+
+def _contributing(problem: CellProblem, pop: np.ndarray) -> np.ndarray:
+    """(P, m) bool: drone-cells that count towards the fitness (module docstring)."""
+    P, m, _ = pop.shape
+    xmin, xmax, ymin, ymax = _area(problem)
+    ok = (pop[..., 0] >= xmin - TOL) & (pop[..., 0] <= xmax + TOL) & (pop[..., 1] >= ymin - TOL) & (
+        pop[..., 1] <= ymax + TOL)
+    dg = np.sqrt(((pop[:, :, None, :] - problem.gbs[None, None, :, :]) ** 2).sum(-1))  # (P, m, k)
+    ok &= np.all(dg >= problem.R_g + problem.R_d - TOL, axis=2)
+    dd = np.sqrt(((pop[:, :, None, :] - pop[:, None, :, :]) ** 2).sum(-1))  # (P, m, m)
+    eye = np.eye(m, dtype=bool)[None]
+    ok &= ~np.any((dd < 2 * problem.R_d - TOL) & ~eye, axis=2)
+    reach = ok & np.any(dg <= problem.r1 + TOL, axis=2)
+    adj = (dd <= problem.r2 + TOL) & ok[:, :, None] & ok[:, None, :]
+    for _ in range(m):
+        new = reach | np.any(adj & reach[:, None, :], axis=2)
+        if np.array_equal(new, reach):
+            break
+        reach = new
+    return reach
+
+
+def fitness(problem: CellProblem, pop: np.ndarray, *, chunk: int = 2048) -> np.ndarray:
+    """GA fitness of a population (..., m, 2) in metres -> (...) covered users (int),
+    counting only contributing drone-cells (module docstring). Vectorised over the
+    population (in chunks of ``chunk`` chromosomes to bound memory)."""
+    pop = np.asarray(pop, dtype=float)
+    if pop.ndim == 2:
+        pop = pop[None]
+    lead = pop.shape[:-2]
+    flat = pop.reshape(-1, *pop.shape[-2:])
+    t = problem.targets
+    out = np.zeros(len(flat), dtype=np.int64)
+    if len(t) == 0:
+        return out.reshape(lead)
+    tt = (t**2).sum(-1)
+    for a in range(0, len(flat), chunk):
+        blk = flat[a:a + chunk]
+        contrib = _contributing(problem, blk)
+        q = blk.reshape(-1, 2)
+        d2 = ((q**2).sum(-1)[:, None] + tt[None, :] - 2.0 * (q @ t.T)).reshape(len(blk), blk.shape[1], len(t))
+        cov = (d2 <= (problem.R_d + TOL) ** 2) & contrib[:, :, None]
+        out[a:a + chunk] = cov.any(axis=1).sum(axis=1)
+    return out.reshape(lead)
+
+
+def _run_batch(problem: CellProblem, N: int, P: int, iter_max: int, s: GASettings, rng: np.random.Generator):
+    """N independent GA runs (the restarts) advanced together: arrays are (N, P, m, 2).
+    Every operator acts within its own run only, so this equals N sequential restarts."""
+    m = problem.n_cells
+    xmin, xmax, ymin, ymax = _area(problem)
+    lo = np.array([xmin, ymin])
+    hi = np.array([xmax, ymax])
+    origin = problem.gbs[0]
+    pop = rng.uniform(lo, hi, size=(N, P, m, 2))
+    f = fitness(problem, pop)
+    T = s.T
+    n_rep = int(math.floor(s.replace_frac * P))
+    runs = np.arange(N)[:, None]
+    for _ in range(iter_max):
+        # --- mutation (4.10) with simulated-annealing acceptance (per run's f_best)
+        fbest = f.max(axis=1, keepdims=True).astype(float)
+        scale = np.where(fbest > 0, (1.0 - f / np.maximum(fbest, 1e-12)) ** 2, 1.0)
+        mask = rng.random((N, P, m, 2)) < s.p_m
+        sign = rng.choice([-1.0, 1.0], size=(N, P, m, 2))
+        factor = 1.0 + sign * rng.random((N, P, m, 2)) * scale[..., None, None]
+        cand = np.where(mask, origin + (pop - origin) * factor, pop)
+        cand = np.clip(cand, lo, hi)
+        changed = mask.any(axis=(2, 3))
+        fc = f.copy()
+        if changed.any():
+            fc[changed] = fitness(problem, cand[changed])
+        delta = fc - f
+        accept = changed & ((delta >= 0) | (rng.random((N, P)) < np.exp(np.minimum(delta, 0) / T)))
+        pop = np.where(accept[..., None, None], cand, pop)
+        f = np.where(accept, fc, f)
+        # --- adaptive crossover (4.11)-(4.12), pairs drawn within each run
+        perm = np.argsort(rng.random((N, P)), axis=1)
+        half = P // 2
+        a, b = perm[:, 0:2 * half:2], perm[:, 1:2 * half:2]
+        fmax = f.max(axis=1, keepdims=True).astype(float)
+        favg = f.mean(axis=1, keepdims=True)
+        fp = np.maximum(np.take_along_axis(f, a, 1), np.take_along_axis(f, b, 1))
+        spread = fmax - favg
+        pc = np.where(fp >= favg, s.p_c1 - (s.p_c1 - s.p_c2) * (fp - favg) / np.where(spread > 0, spread, 1.0),
+                      s.p_c1)
+        pc = np.where(spread > 0, pc, s.p_c2)
+        do = rng.random((N, half)) < pc
+        rows = rng.integers(0, m, size=(N, half))
+        rr, cc = np.nonzero(do)
+        ia, ib, r = a[rr, cc], b[rr, cc], rows[rr, cc]
+        ya = pop[rr, ia, r, 1].copy()
+        pop[rr, ia, r, 1] = pop[rr, ib, r, 1]
+        pop[rr, ib, r, 1] = ya
+        # --- select: worst 20% of each run replaced by its best
+        f = fitness(problem, pop)
+        if n_rep:
+            order = np.argsort(f, axis=1, kind="stable")
+            best = order[:, -1]
+            worst = order[:, :n_rep]
+            pop[runs, worst] = pop[np.arange(N), best][:, None]
+            f[runs, worst] = f[np.arange(N), best][:, None]
+        T *= s.alpha
+    i = np.argmax(f, axis=1)
+    return pop[np.arange(N), i].copy(), f[np.arange(N), i].astype(int)
+
+
+def genetic(problem: CellProblem, *, pop_size: int | None = None, iter_max: int = 50, restarts: int | None = None,
+            seed: int | np.random.Generator | None = None, settings: GASettings | None = None) -> SolveResult:
+    """Thesis GA with the restart strategy (§4.3.2, Tables 4.1 and 4.3).
+
+    pop_size: population size P_size (default: Table 4.3 row for m).
+    iter_max: generations per restart (thesis: 50).
+    restarts: number of independent restarts N_start (default: Table 4.3 row for m).
+    seed: int or Generator; the run is reproducible from it.
+    settings: :class:`GASettings` (default Table 4.1).
+
+    Returns a SolveResult with status FEASIBLE (no bound), ``x`` the contributing
+    drone-cells (k, 2) of the best chromosome (m), ``objective`` their covered users,
+    ``iterations`` = restarts * iter_max, and ``info``: ``restart_bests`` (best fitness of
+    each restart), ``chromosome`` (the full m x 2 best chromosome), ``seed``.
+    """
+    if not isinstance(problem, CellProblem):
+        raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    P0, N0 = thesis_ga_settings(problem.n_cells)
+    P = P0 if pop_size is None else pop_size
+    N = N0 if restarts is None else restarts
+    for name, v, lo in (("pop_size", P, 2), ("iter_max", iter_max, 0), ("restarts", N, 1)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+            raise ValueError(f"{name} must be an int >= {lo}, got {v!r}")
+    s = settings or GASettings()
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    t0 = time.perf_counter()
+    chromos, fvals = _run_batch(problem, int(N), int(P), int(iter_max), s, rng)
+    bests = [int(v) for v in fvals]
+    k = int(np.argmax(bests))
+    chrom = chromos[k]
+    contrib = _contributing(problem, chrom[None])[0]
+    x = chrom[contrib]
+    obj = evaluate(problem, x).covered
+    return SolveResult(Status.FEASIBLE, objective=float(obj), bound=None, x=x, backend="ga",
+                       message=f"thesis GA: {N} restarts x {iter_max} generations, population {P}",
+                       solve_time=time.perf_counter() - t0, iterations=int(N * iter_max),
+                       info={"restart_bests": bests, "chromosome": chrom, "seed": seed if not isinstance(
+                           seed, np.random.Generator) else None, "pop_size": int(P), "restarts": int(N)})
+
+
+# =========================================================================== exhaustive search
+@dataclass(frozen=True)
+class Region:
+    """A deployment region (Definition 4.3.1): points p with |p - c| >= r for every
+    (c, r) in ``exclude``, |p - c| <= r for at least one (c, r) in ``link``, and inside
+    ``box`` (xmin, xmax, ymin, ymax) when given. Lengths in metres."""
+
+    exclude: tuple[tuple[float, float, float], ...]
+    """(cx, cy, r): keep-out discs (GBS cells with r = R_g + R_d, drone-cells with r = 2 R_d)."""
+    link: tuple[tuple[float, float, float], ...]
+    """(cx, cy, r): backhaul discs (GBS with r1, placed drone-cells with r2); the union counts."""
+    box: tuple[float, float, float, float] | None = None
+    """Operating area, or None."""
+
+    def contains(self, pts: np.ndarray) -> np.ndarray:
+        """(q,) bool for points (q, 2), with the package tolerance."""
+        pts = np.asarray(pts, float).reshape(-1, 2)
+        ok = np.ones(len(pts), dtype=bool)
+        for cx, cy, r in self.exclude:
+            ok &= np.hypot(pts[:, 0] - cx, pts[:, 1] - cy) >= r - TOL
+        if self.link:
+            lk = np.zeros(len(pts), dtype=bool)
+            for cx, cy, r in self.link:
+                lk |= np.hypot(pts[:, 0] - cx, pts[:, 1] - cy) <= r + TOL
+            ok &= lk
+        else:
+            ok[:] = False
+        if self.box is not None:
+            xmin, xmax, ymin, ymax = self.box
+            ok &= (pts[:, 0] >= xmin - TOL) & (pts[:, 0] <= xmax + TOL) & (pts[:, 1] >= ymin - TOL) & (
+                pts[:, 1] <= ymax + TOL)
+        return ok
+
+    def circles(self) -> list[tuple[float, float, float]]:
+        return list(self.exclude) + list(self.link)
+
+
+def _region(problem: CellProblem, placed: np.ndarray) -> Region:
+    ex = [(g[0], g[1], problem.R_g + problem.R_d) for g in problem.gbs]
+    ex += [(d[0], d[1], 2 * problem.R_d) for d in placed]
+    lk = [(g[0], g[1], problem.r1) for g in problem.gbs] + [(d[0], d[1], problem.r2) for d in placed]
+    return Region(tuple(ex), tuple(lk), problem.bounds)
+
+
+def _circle_line_angles(ox, oy, rho, box) -> np.ndarray:
+    out = []
+    if box is None:
+        return np.zeros(0)
+    for axis, val in ((0, box[0]), (0, box[1]), (1, box[2]), (1, box[3])):
+        c = (val - (ox if axis == 0 else oy)) / rho
+        if -1 <= c <= 1:
+            a = math.acos(c)
+            out += [a, -a] if axis == 0 else [math.pi / 2 - math.asin(c) + 0 * a, math.asin(c)]
+    return np.array(out)
+
+
+def max_coverage_in_region(users: np.ndarray, R_d: float, region: Region) -> tuple[int, np.ndarray | None]:
+    """Maximum number of ``users`` ((n, 2) m) one radius-R_d disc centred in ``region``
+    can cover, and a centre attaining it (None when the region is empty).
+
+    Angular sweep (the thesis uses Chazelle & Lee's method [141] for this step): an
+    optimal covered set S leaves a compact set A = (intersection of B(u, R_d), u in S)
+    intersected with the region, and some point of A lies on a user circle or on a
+    region boundary circle (or is a box corner). On each such circle, the angles at
+    which a user disc or a region constraint starts or stops holding are the only
+    places where the count or feasibility changes, and closed sets attain their
+    maximum at one of those angles, so we evaluate the count at every such event angle.
+    Circles whose neighbourhood holds no more users than the best count so far are
+    skipped (they cannot improve it).
+    """
+    users = np.asarray(users, float).reshape(-1, 2)
+    best, best_p = -1, None
+    circles = [(u[0], u[1], R_d) for u in users] + region.circles()
+    if len(users):
+        from scipy.spatial import cKDTree
+        tree = cKDTree(users)
+    extra = []
+    if region.box is not None:
+        xmin, xmax, ymin, ymax = region.box
+        extra += [(xmin, ymin), (xmin, ymax), (xmax, ymin), (xmax, ymax)]
+    for p in list(users) + extra:  # user points and box corners
+        if region.contains(np.asarray(p))[0]:
+            c = int((np.hypot(users[:, 0] - p[0], users[:, 1] - p[1]) <= R_d + TOL).sum()) if len(users) else 0
+            if c > best:
+                best, best_p = c, np.asarray(p, float)
+    all_c = np.array(circles) if circles else np.zeros((0, 3))
+    for ox, oy, rho in circles:
+        near = tree.query_ball_point((ox, oy), rho + R_d + TOL) if len(users) else []
+        if len(near) <= best:
+            continue
+        lu = users[near]
+        ang = [np.zeros(1)]
+        # events of user discs and region circles on this circle
+        for cs, rs in ((lu, np.full(len(lu), R_d)), (all_c[:, :2], all_c[:, 2])):
+            dx, dy = cs[:, 0] - ox, cs[:, 1] - oy
+            d = np.hypot(dx, dy)
+            ok = d > 0
+            kappa = np.full(len(d), 2.0)
+            kappa[ok] = (rho**2 + d[ok] ** 2 - rs[ok] ** 2) / (2 * rho * d[ok])
+            ok &= np.abs(kappa) <= 1
+            phi = np.arctan2(dy[ok], dx[ok])
+            al = np.arccos(np.clip(kappa[ok], -1, 1))
+            ang += [phi + al, phi - al]
+        ang.append(_circle_line_angles(ox, oy, rho, region.box))
+        th = np.concatenate(ang)
+        pts = np.column_stack([ox + rho * np.cos(th), oy + rho * np.sin(th)])
+        feas = region.contains(pts)
+        if not feas.any():
+            continue
+        pts = pts[feas]
+        cnt = ((pts[:, None, 0] - lu[None, :, 0]) ** 2 + (pts[:, None, 1] - lu[None, :, 1]) ** 2
+               <= (R_d + TOL) ** 2).sum(1)
+        j = int(np.argmax(cnt))
+        if cnt[j] > best:
+            best, best_p = int(cnt[j]), pts[j]
+    if best_p is None:
+        return 0, None
+    return best, best_p
+
+
+def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> SolveResult:
+    """Algorithm 2 (thesis §4.3.1): drone-cells 1..m-1 visit every user location inside
+    their deployment region (which depends on the GBSs and the cells placed before);
+    the m-th is placed by :func:`max_coverage_in_region` in its region; the best
+    combination is returned. Quasi-optimal (thesis) and O(n^(2m)) in the worst case.
+
+    time_limit: stop enumerating after this many seconds (s) and return the best found
+        with status FEASIBLE and ``info["complete"] = False``.
+
+    Returns a SolveResult (no bound): ``x`` positions (k, 2), ``objective`` covered users.
+    """
+    if not isinstance(problem, CellProblem):
+        raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    t0 = time.perf_counter()
+    users = problem.targets
+    m = problem.n_cells
+    best = {"val": 0, "pos": np.zeros((0, 2)), "complete": True, "visited": 0}
+
+    def rec(placed: np.ndarray, covered: np.ndarray) -> None:
+        if time_limit is not None and time.perf_counter() - t0 > time_limit:
+            best["complete"] = False
+            return
+        region = _region(problem, placed)
+        left = users[~covered]
+        if len(placed) == m - 1:
+            c, p = max_coverage_in_region(left, problem.R_d, region)
+            best["visited"] += 1
+            if p is not None:
+                val = int(covered.sum()) + c
+                if val > best["val"]:
+                    best["val"], best["pos"] = val, np.vstack([placed, p[None]])
+            return
+        inside = np.flatnonzero(region.contains(users))
+        for j in inside:
+            newcov = covered | (np.hypot(users[:, 0] - users[j, 0], users[:, 1] - users[j, 1]) <= problem.R_d + TOL)
+            pl = np.vstack([placed, users[j][None]])
+            if int(newcov.sum()) > best["val"]:
+                best["val"], best["pos"] = int(newcov.sum()), pl
+            rec(pl, newcov)
+            if not best["complete"]:
+                return
+
+    rec(np.zeros((0, 2)), np.zeros(len(users), dtype=bool))
+    ev = evaluate(problem, best["pos"])
+    if not ev.feasible:  # cannot happen by construction; never report an infeasible plan
+        return SolveResult(Status.ERROR, backend="exhaustive", message=f"internal: infeasible plan {ev.violations}",
+                           solve_time=time.perf_counter() - t0)
+    msg = "Algorithm 2 (exhaustive search, quasi-optimal)"
+    if not best["complete"]:
+        msg += f"; stopped at the time limit {time_limit} s before finishing the enumeration"
+    return SolveResult(Status.FEASIBLE, objective=float(ev.covered), x=best["pos"], backend="exhaustive",
+                       message=msg, solve_time=time.perf_counter() - t0,
+                       info={"complete": best["complete"], "last_cell_searches": best["visited"]})

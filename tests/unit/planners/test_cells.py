@@ -1,0 +1,126 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from formulations.cells import CellProblem, circle_intersections, evaluate, solve_milp
+from planners.cells import GASettings, Region, exhaustive, fitness, genetic, max_coverage_in_region
+
+
+def small(users, m=2, r1=3.0, r2=2.5, bounds=None):
+    return CellProblem(users=np.asarray(users, float), gbs=np.zeros((1, 2)), n_cells=m, R_d=1.0, R_g=1.0,
+                       r1=r1, r2=r2, bounds=bounds)
+
+
+def random_small(seed, n, m, bounds=(-6, 6, -6, 6)):
+    rng = np.random.default_rng(seed)
+    return small(rng.uniform(-6, 6, size=(n, 2)), m=m, bounds=bounds)
+
+
+# ----------------------------------------------------------------- GA
+def test_fitness_matches_evaluate_of_contributing_cells():
+    p = random_small(0, 25, 3)
+    rng = np.random.default_rng(1)
+    pop = rng.uniform(-5, 5, size=(200, 3, 2))
+    f = fitness(p, pop)
+    for chrom, fv in zip(pop, f):
+        # brute force: the largest feasible subset of cells that the fitness rule keeps
+        ev = evaluate(p, chrom)
+        if ev.feasible:
+            assert fv == ev.covered
+        else:
+            assert fv <= ev.covered
+    assert f.max() > 0
+
+
+def test_ga_reproducible_and_feasible():
+    p = random_small(2, 20, 2)
+    a = genetic(p, pop_size=12, iter_max=10, restarts=4, seed=7)
+    b = genetic(p, pop_size=12, iter_max=10, restarts=4, seed=7)
+    assert a.objective == b.objective and np.array_equal(a.x, b.x)
+    assert a.info["restart_bests"] == b.info["restart_bests"] and len(a.info["restart_bests"]) == 4
+    assert max(a.info["restart_bests"]) == a.objective
+    ev = evaluate(p, a.x)
+    assert ev.feasible and ev.covered == a.objective
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_milp_at_least_ga_and_exhaustive(seed):
+    p = random_small(seed, 20, 2)
+    ga = genetic(p, pop_size=20, iter_max=20, restarts=5, seed=seed)
+    es = exhaustive(p)
+    milp = solve_milp(p, backend="highs")
+    for h in (ga, es):
+        assert evaluate(p, h.x).feasible
+        assert h.objective <= milp.info["continuous_bound"]
+        warm = solve_milp(p, backend="highs", warm_start=h.x)
+        assert warm.objective >= h.objective and warm.objective <= warm.bound
+
+
+def test_ga_settings_validation():
+    with pytest.raises(ValueError, match="alpha"):
+        GASettings(alpha=1.5)
+    with pytest.raises(ValueError, match="p_m"):
+        GASettings(p_m=-0.1)
+    with pytest.raises(ValueError, match="pop_size"):
+        genetic(random_small(0, 5, 1), pop_size=1, restarts=1)
+    with pytest.raises(ValueError, match="restarts"):
+        genetic(random_small(0, 5, 1), pop_size=4, restarts=0)
+
+
+# ----------------------------------------------------------------- sweep
+def brute_region(users, R_d, region):
+    circles = [(u[0], u[1], R_d) for u in users] + region.circles()
+    pts = [np.asarray(users).reshape(-1, 2)]
+    for i in range(len(circles)):
+        ci = circles[i]
+        pts.append(np.array([[ci[0] + ci[2], ci[1]]]))
+        for j in range(i + 1, len(circles)):
+            cj = circles[j]
+            pts.append(circle_intersections(np.array(ci[:2]), ci[2], np.array(cj[:2]), cj[2]))
+    pts = np.concatenate(pts)
+    ok = region.contains(pts)
+    if not ok.any():
+        return 0
+    pts = pts[ok]
+    d = np.hypot(pts[:, None, 0] - users[None, :, 0], pts[:, None, 1] - users[None, :, 1])
+    return int((d <= R_d + 1e-6).sum(1).max()) if len(users) else 0
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000), st.integers(3, 14), st.integers(0, 2))
+def test_sweep_equals_brute_force(seed, n, n_placed):
+    rng = np.random.default_rng(seed)
+    users = rng.uniform(-5, 5, size=(n, 2))
+    placed = rng.uniform(-4, 4, size=(n_placed, 2))
+    region = Region(exclude=((0.0, 0.0, 2.0),) + tuple((x, y, 2.0) for x, y in placed),
+                    link=((0.0, 0.0, 3.0),) + tuple((x, y, 2.5) for x, y in placed))
+    c, p = max_coverage_in_region(users, 1.0, region)
+    assert c == brute_region(users, 1.0, region)
+    if p is not None:
+        assert region.contains(p)[0]
+        assert (np.hypot(*(users - p).T) <= 1.0 + 1e-6).sum() == c
+    # a dense grid of feasible points never beats it
+    g = np.linspace(-6, 6, 97)
+    xx, yy = np.meshgrid(g, g)
+    grid = np.column_stack([xx.ravel(), yy.ravel()])
+    grid = grid[region.contains(grid)]
+    if len(grid):
+        d = np.hypot(grid[:, None, 0] - users[None, :, 0], grid[:, None, 1] - users[None, :, 1])
+        assert (d <= 1.0).sum(1).max() <= c
+
+
+# ----------------------------------------------------------------- exhaustive
+def test_exhaustive_single_cell_is_optimal():
+    # m = 1: Algorithm 2 is exactly the constrained single-disc maximum coverage
+    for seed in range(3):
+        p = random_small(seed, 15, 1, bounds=None)
+        es = exhaustive(p)
+        region = Region(exclude=((0.0, 0.0, 2.0),), link=((0.0, 0.0, 3.0),))
+        assert es.objective == brute_region(p.targets, 1.0, region)
+        assert solve_milp(p).objective == es.objective  # both optimal for one cell
+
+
+def test_exhaustive_time_limit_reports_incomplete():
+    p = random_small(0, 40, 3)
+    r = exhaustive(p, time_limit=0.05)
+    assert r.info["complete"] is False and evaluate(p, r.x).feasible
