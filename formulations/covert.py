@@ -375,10 +375,11 @@ def _result_with_plan(model: BearingMPC, data: MPCData, res: SolveResult, how: s
     if not res.has_solution:
         return res
     plan = model.unpack(res.x, data)
+    f = res.objective
     return replace(res, x=plan, objective=plan.beta_max, bound=None,
                    message=f"{how}; objective = predicted max bearing change over the horizon (rad), "
                            f"local solution (no bound). {res.message}",
-                   info={**res.info, "z": np.asarray(res.x, float)})
+                   info={**res.info, "z": np.asarray(res.x, float), "f": f})
 
 
 def solve_bearing_mpc(params: CovertParams, data: MPCData, settings: MPCSettings | None = None, *,

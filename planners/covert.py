@@ -325,8 +325,9 @@ class MPCObserverSettings:
     window: int = 10
     """Number of past measurements in the constant-velocity fit of each target."""
     idle_speed: float = 0.5
-    """If the warm-started plan never flies faster than this (m/s), the MPC is re-solved from
-    the sliding-mode rollout and the better plan is kept (escapes the v = 0 stationary point)."""
+    """If the warm-started plan's first speed is below this (m/s) while the sliding-mode law
+    would fly, the MPC is re-solved from the sliding-mode rollout and the plan with the lower
+    NLP objective is kept (escapes the v = 0 stationary point)."""
 
     def __post_init__(self) -> None:
         if self.backend not in ("ipopt", "osqp"):
@@ -493,18 +494,21 @@ class MPCObserver(_PhasedController):
         x0 = self._shifted_guess(model, data)
         res = solver.solve(data, x0=x0, warm=self._prev)
         elapsed = res.solve_time
-        if (self.observer.backend == "ipopt" and self._prev is not None
-                and (not res.has_solution or np.max(np.abs(res.x.v)) < self.observer.idle_speed)):
-            # the shifted plan is stationary (v = 0 is a KKT point of the bilinear dynamics when
-            # the heading points off the sphere): restart from the sliding-mode rollout, keep the best
+        idle = not res.has_solution or abs(res.x.v[0]) < self.observer.idle_speed
+        if self.observer.backend == "ipopt" and self._prev is not None and idle:
+            # the plan does not move now: v = 0 with a heading orthogonal to the descent direction
+            # is a stationary point of the bilinear dynamics, and a min-max objective dominated by
+            # a later node does not push the first move. If the sliding-mode law would move,
+            # restart from its rollout and keep the plan with the lower NLP objective.
             u_s, v_s = self._sliding_rollout(model, data, None)
-            from formulations.covert import rollout_guess
+            if abs(v_s[0]) >= self.observer.idle_speed:
+                from formulations.covert import rollout_guess
 
-            res2 = solver.solve(data, x0=rollout_guess(model, data, u_s, v_s))
-            elapsed += res2.solve_time
-            if res2.has_solution and (not res.has_solution or res2.objective < res.objective - 1e-9):
-                res = res2
-            self.restarts += 1
+                res2 = solver.solve(data, x0=rollout_guess(model, data, u_s, v_s))
+                elapsed += res2.solve_time
+                if res2.has_solution and (not res.has_solution or res2.info["f"] < res.info["f"] - 1e-12):
+                    res = res2
+                self.restarts += 1
         res = replace(res, solve_time=elapsed)
         self.solve_times.append(res.solve_time)
         self.statuses.append(res.status.value)
