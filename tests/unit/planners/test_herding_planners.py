@@ -16,6 +16,7 @@ from planners.herding import (
     convex_hull,
     extended_hull_vertices,
     fly_on_edge,
+    fly_to_edge,
     g,
     min_enclosing_circle,
     steering_points,
@@ -210,3 +211,34 @@ def test_herder_settings_validate():
         HerderSettings(arrive_tol=0.0)
     with pytest.raises(ValueError, match="allocation"):
         HerderSettings(allocation="greedy")
+
+
+def _b_6_11(d, E_next, E_j):
+    """(6.9)-(6.11) literally: vector from the drone to the closest point of edge E_{j+1}E_j."""
+    q = E_j - E_next
+    p = d - E_next
+    pq = float(np.dot(p, q))
+    if pq < 0:
+        return -p
+    o_len = pq / np.linalg.norm(q)  # (6.9)
+    if o_len <= np.linalg.norm(q):
+        return o_len * q / np.linalg.norm(q) - p  # (6.10)
+    return q - p
+
+
+@settings(max_examples=40, deadline=None)
+@given(clouds, st.tuples(st.floats(-900, 900), st.floats(-900, 900)))
+def test_fly_to_edge_vector_matches_6_11_and_remark_6_4_2(pts, drone):
+    hull = ExtendedHull.from_points(pts, 30.0)
+    d = np.array(drone)
+    E = hull.vertices
+    # Remark 6.4.2: the closest edge is the one of minimum |b| over all edges
+    bs = [_b_6_11(d, E[(i + 1) % len(E)], E[i]) for i in range(len(E))]
+    best = min(bs, key=np.linalg.norm)
+    _, close, _ = hull.project(d[None, :])
+    assert np.linalg.norm(close[0] - d) == pytest.approx(np.linalg.norm(best), rel=1e-9, abs=1e-7)
+    v, w, b = fly_to_edge(d[None, :], np.array([0.3]), hull, 25.0, 5.0, 0.2)
+    # same length (the closest point may be tied between two edges), and it lands on the hull
+    assert np.linalg.norm(b[0]) == pytest.approx(np.linalg.norm(best), rel=1e-9, abs=1e-7)
+    assert hull.project((d + b[0])[None, :])[1] == pytest.approx((d + b[0])[None, :], abs=1e-6)
+    assert abs(v[0]) <= 25.0 and abs(w[0]) <= 5.0
