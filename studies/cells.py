@@ -34,7 +34,9 @@ def _ga_runs(problem, runs: int, *, pop_size=None, restarts=None, iter_max=50, s
     return res
 
 
-def _map_plot(ax, problem, pos, title):
+def plot_map(ax, problem, pos, title: str = "") -> None:
+    """Fig. 4.4-style map on ``ax``: users (grey: served by a GBS), GBS cell (blue) and
+    r1 backhaul range (red dashed), drone-cells ``pos`` (m) with coverage (black) and r2 range (red dotted)."""
     t = problem.targets
     ax.scatter(problem.users[:, 0], problem.users[:, 1], s=3, c="0.6")
     ax.scatter(t[:, 0], t[:, 1], s=3, c="k")
@@ -98,7 +100,7 @@ def reproduce(*, quick: bool, out: Path) -> None:
     fig, axes = plt.subplots(1, len(ms), figsize=(4 * len(ms), 4))
     for ax, m in zip(np.atleast_1d(axes), ms):
         p, r = milp_sol[m]
-        _map_plot(ax, p, r.x, f"m={m}: {r.objective:g} users ({r.status.name})")
+        plot_map(ax, p, r.x, f"m={m}: {r.objective:g} users ({r.status.name})")
     fig.savefig(out / "fig_4_4_maps.png", dpi=110)
     plt.close(fig)
     # ---------------------------------------------------------------- Fig 4.3 restart strategy, m = 2
