@@ -11,6 +11,23 @@
   sliding-mode command when a solve fails.
 
 All controllers follow the protocol of :func:`scenarios.covert.simulate`.
+
+Decisions where the thesis is silent or its literal law fails in discrete time (all in
+:class:`SlidingSettings`; the literal law stays available with ``saturation=False``):
+
+- W(mu1, mu2) normalises mu1 (the projection (3.9) needs a unit mu1; the thesis applies W to f).
+- Saturation (§3.5 "piecewise linear continuous saturation"): the direction-to-the-line terms
+  are saturated within ``eps_line`` of the constraint line, the worst-target switch (3.13) is
+  replaced by weights over the targets within ``delta_beta`` of the maximum (without it the
+  drone chatters between two lines near R and never leaves D_s), the turn rate is
+  min(U_max, angle / dt), the speed is V_max cos(angle) (and times |b| on the sphere: the
+  throttle of §3.5), the arrival on the sphere and at D_s is not overshot.
+- The literal (3.17) adds p_m (metres) to a unit vector; with ``saturation=False`` the
+  default enters p_m by its direction (``unit_p``), see that field.
+- The observation ends when the remaining period equals the straight return time plus
+  ``return_margin``; within ``home_radius`` of D_s the Retreat flies straight home
+  (Remark 3.4.2: D_s is outside the targets' visual field).
+- Initial heading: towards F. U_max is a turn rate (rad/s), DESIGN §4.
 """
 
 from __future__ import annotations
