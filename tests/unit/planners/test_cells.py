@@ -124,3 +124,17 @@ def test_exhaustive_time_limit_reports_incomplete():
     p = random_small(0, 40, 3)
     r = exhaustive(p, time_limit=0.05)
     assert r.info["complete"] is False and evaluate(p, r.x).feasible
+
+
+def test_polish_keeps_feasibility_and_never_loses():
+    from planners.cells import genetic_polished, polish
+    for seed in range(3):
+        p = random_small(seed, 20, 2)
+        ga = genetic(p, pop_size=10, iter_max=5, restarts=2, seed=seed)
+        x = polish(p, ga.x)
+        ev = evaluate(p, x)
+        assert ev.feasible and ev.covered >= ga.objective
+        gp = genetic_polished(p, pop_size=10, iter_max=5, restarts=2, seed=seed)
+        assert gp.objective == ev.covered and gp.info["ga_objective"] == ga.objective
+    with pytest.raises(ValueError, match="feasible"):
+        polish(small([[2.5, 0.0]], m=1), [[0.0, 0.0]])
