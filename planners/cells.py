@@ -280,7 +280,7 @@ def _circle_line_angles(ox, oy, rho, box) -> np.ndarray:
         c = (val - (ox if axis == 0 else oy)) / rho
         if -1 <= c <= 1:
             a = math.acos(c)
-            out += [a, -a] if axis == 0 else [math.pi / 2 - math.asin(c) + 0 * a, math.asin(c)]
+            out += [a, -a] if axis == 0 else [math.asin(c), math.pi - math.asin(c)]
     return np.array(out)
 
 

@@ -25,11 +25,11 @@ and ~3*10^6 pairs within r2, far too many to write out):
    candidate model (either z, attained by the kept incumbent, or a better value
    reached only by unpruned sites).
 2. **Non-overlap as cliques.** Points in one half-open square of side
-   2 R_d / sqrt(2) are pairwise closer than 2 R_d, so each square gives an
+   (2 R_d - TOL) / sqrt(2) are pairwise closer than 2 R_d - TOL (they overlap), so each square gives an
    at-most-one constraint; four grids shifted by half a square cover most
    conflicting pairs. Conflicting pairs that share no square are written as
    pairs when few, and otherwise added lazily (a clique around the midpoint of a
-   violated pair: all sites within (R_d + d/2)/2 of it are pairwise < 2 R_d apart).
+   violated pair: all sites within (d + 2 R_d - TOL)/4 of it are pairwise < 2 R_d - TOL apart).
 3. **Connectivity by lazily added cuts (exact).** A site c that is not within r1
    of a GBS needs a chosen neighbour within r2: ``x_c <= sum_{d in N(c)} x_d``
    (written up front for every non-direct site). That alone admits chosen groups
@@ -238,7 +238,7 @@ class _Lin:
 
 
 def _grid_cliques(points: np.ndarray, R_d: float) -> list[np.ndarray]:
-    side = 2 * R_d / math.sqrt(2) * (1 - 1e-9)
+    side = (2 * R_d - TOL) / math.sqrt(2)  # same half-open square => distance < 2 R_d - TOL
     out = []
     for sx, sy in ((0, 0), (0.5, 0), (0, 0.5), (0.5, 0.5)):
         key = np.floor(points / side - np.array([sx, sy])).astype(np.int64)
@@ -260,7 +260,7 @@ def _uncovered_pairs(points: np.ndarray, R_d: float, cliques: list[np.ndarray]) 
         return pairs.reshape(0, 2)
     d = np.hypot(*(points[pairs[:, 0]] - points[pairs[:, 1]]).T)
     pairs = pairs[d < 2 * R_d - TOL]
-    side = 2 * R_d / math.sqrt(2) * (1 - 1e-9)
+    side = (2 * R_d - TOL) / math.sqrt(2)  # same half-open square => distance < 2 R_d - TOL
     covered = np.zeros(len(pairs), dtype=bool)
     for sx, sy in ((0, 0), (0.5, 0), (0, 0.5), (0.5, 0.5)):
         key = np.floor(points / side - np.array([sx, sy])).astype(np.int64)
@@ -505,7 +505,8 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
             d = np.hypot(pos[:, None, 0] - pos[None, :, 0], pos[:, None, 1] - pos[None, :, 1])
             for a, b in zip(*np.nonzero(np.triu(d < 2 * problem.R_d - TOL, 1))):
                 mid = (pos[a] + pos[b]) / 2
-                rho = (problem.R_d + d[a, b] / 2) / 2
+                # d/2 < rho and 2 rho < 2 R_d - TOL: the ball holds both sites and is a clique
+                rho = (d[a, b] + 2 * problem.R_d - TOL) / 4
                 cuts.append(("clique", np.array(sorted(tree.query_ball_point(mid, rho)), dtype=np.int64)))
             for comp in _components_without_gbs(problem, pos):
                 for delta in (0.0, problem.R_d):

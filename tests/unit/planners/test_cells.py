@@ -77,6 +77,18 @@ def brute_region(users, R_d, region):
         for j in range(i + 1, len(circles)):
             cj = circles[j]
             pts.append(circle_intersections(np.array(ci[:2]), ci[2], np.array(cj[:2]), cj[2]))
+    if region.box is not None:
+        xmin, xmax, ymin, ymax = region.box
+        pts.append(np.array([[xmin, ymin], [xmin, ymax], [xmax, ymin], [xmax, ymax]]))
+        for cx, cy, r in circles:
+            for xv in (xmin, xmax):
+                if abs(xv - cx) <= r:
+                    h = np.sqrt(r**2 - (xv - cx) ** 2)
+                    pts.append(np.array([[xv, cy + h], [xv, cy - h]]))
+            for yv in (ymin, ymax):
+                if abs(yv - cy) <= r:
+                    h = np.sqrt(r**2 - (yv - cy) ** 2)
+                    pts.append(np.array([[cx + h, yv], [cx - h, yv]]))
     pts = np.concatenate(pts)
     ok = region.contains(pts)
     if not ok.any():
@@ -86,14 +98,16 @@ def brute_region(users, R_d, region):
     return int((d <= R_d + 1e-6).sum(1).max()) if len(users) else 0
 
 
-@settings(max_examples=25, deadline=None)
-@given(st.integers(0, 10_000), st.integers(3, 14), st.integers(0, 2))
-def test_sweep_equals_brute_force(seed, n, n_placed):
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 10_000), st.integers(3, 14), st.integers(0, 2), st.booleans())
+def test_sweep_equals_brute_force(seed, n, n_placed, boxed):
     rng = np.random.default_rng(seed)
     users = rng.uniform(-5, 5, size=(n, 2))
     placed = rng.uniform(-4, 4, size=(n_placed, 2))
+    box = tuple(rng.uniform(-4, -1, 2).tolist() + rng.uniform(1, 4, 2).tolist()) if boxed else None
+    box = None if box is None else (box[0], box[2], box[1], box[3])
     region = Region(exclude=((0.0, 0.0, 2.0),) + tuple((x, y, 2.0) for x, y in placed),
-                    link=((0.0, 0.0, 3.0),) + tuple((x, y, 2.5) for x, y in placed))
+                    link=((0.0, 0.0, 3.0),) + tuple((x, y, 2.5) for x, y in placed), box=box)
     c, p = max_coverage_in_region(users, 1.0, region)
     assert c == brute_region(users, 1.0, region)
     if p is not None:
