@@ -55,8 +55,8 @@ import numpy as np
 from ortools.sat.python import cp_model
 from scipy.spatial import cKDTree
 
-from formulations.cells._core import TOL, Candidates, as_positions, candidate_sites, coverage_lists, evaluate, \
-    merge_points, pair_intersections
+from formulations.cells._core import (TOL, Candidates, as_positions, candidate_sites, coverage_lists, evaluate,
+                                      merge_points, pair_intersections)
 from scenarios.cells import CellProblem
 from solvers.cpsat import solve_cpsat
 from solvers.mip import new_mip, solve_mip
@@ -562,5 +562,4 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
     return SolveResult(status, objective=obj, bound=float(best_bound), x=inc, backend=backend, backend_status=raw,
                        message=msg, solve_time=time.perf_counter() - t0, iterations=rounds,
                        warm_started=warm_used,
-                       info={**info, "global_optimal": glob, "rounds": rounds, "model_stats": last_stats,
-                             "incumbent_pruning_value": None})
+                       info={**info, "global_optimal": glob, "rounds": rounds, "model_stats": last_stats})
