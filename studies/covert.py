@@ -24,7 +24,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from formulations.covert import MPCSettings, sphere_minmax_bearing  # noqa: E402
-from planners.covert import HoverBenchmark, MPCObserver, MPCObserverSettings, SlidingModeObserver  # noqa: E402
+from planners.covert import (HoverBenchmark, MPCObserver, MPCObserverSettings, SafeguardedMPCObserver,  # noqa: E402
+                             SlidingModeObserver)
 from scenarios.covert import CovertTrace, random_case, simulate, thesis_case  # noqa: E402
 from studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
 
@@ -36,11 +37,13 @@ def _controllers(backend: str = "ipopt") -> dict:
             "mpc": MPCObserver(observer=MPCObserverSettings(backend=backend))}
 
 
-def _run_all(scenario, *, backend: str = "ipopt") -> dict[str, CovertTrace]:
+def _run_all(scenario, *, backend: str = "ipopt") -> tuple[dict[str, CovertTrace], SafeguardedMPCObserver]:
     traces = {name: simulate(scenario, ctl) for name, ctl in _controllers(backend).items()}
     traces["mpc-osqp"] = simulate(scenario, MPCObserver(observer=MPCObserverSettings(backend="osqp")))
     traces["mpc-slow"] = simulate(scenario, MPCObserver(observer=MPCObserverSettings(progress=0.3)))
-    return traces
+    safe = SafeguardedMPCObserver()
+    traces["mpc-safe"] = simulate(scenario, safe)
+    return traces, safe
 
 
 def _pct(a: float, b: float) -> float:
@@ -133,7 +136,7 @@ def _plot_beta(traces: dict[str, CovertTrace], path: Path, title: str, per_targe
 
 
 # --------------------------------------------------------------------------- reproduce
-def _case_table(case: int, traces, scenario, thesis: dict, out: Path) -> dict:
+def _case_table(case: int, traces, scenario, thesis: dict, out: Path, safe: SafeguardedMPCObserver) -> dict:
     h, s, m = traces["hover"], traces["sliding"], traces["mpc"]
     lb, best = _oracle_on_sphere(s, scenario, every=5.0)
     tab = ComparisonTable(f"Case {case}: maximum recorded bearing change (Fig. 3.{10 if case == 1 else 14})")
@@ -147,6 +150,15 @@ def _case_table(case: int, traces, scenario, thesis: dict, out: Path) -> dict:
     tab.add("beta_max MPC, OSQP SQP (deg)", None, mo.beta_max * DEG, f"one QP per replan; {mo.fallbacks} fallbacks")
     tab.add("beta_max MPC, approach at 0.3 V_max (deg)", None, ms.beta_max * DEG,
             f"IPOPT; later arrival t_a = {ms.t_a:.1f} s")
+    g = traces["mpc-safe"]
+    tab.add("beta_max safeguarded MPC (deg)", None, g.beta_max * DEG,
+            f"per replan: MPC plan or sliding rollout, lower predicted max beta (margin "
+            f"{safe.safeguard.margin * DEG:.2f} deg); MPC executed at {safe.choices.count('mpc')}/{len(safe.choices)} replans")
+    tab.add("safeguarded MPC vs sliding (%)", None, _pct(g.beta_max, s.beta_max), "(safeguarded - sliding) / sliding")
+    tab.add("t_a safeguarded MPC / its arrival deadline (s)", thesis.get("t_a"),
+            f"{g.t_a:.1f} / {safe.arrival_deadline:.1f}",
+            f"deadline = predicted sliding arrival + {safe.safeguard.arrival_tolerance:.1f} s; "
+            f"{g.fallbacks} fallbacks, {safe.late_sliding} late sliding steps")
     tab.add("t_a sliding / MPC (s)", thesis.get("t_a"), f"{s.t_a:.1f} / {m.t_a:.1f}", "first time on the sphere")
     tab.add("t_f sliding / MPC (s)", thesis.get("t_f"), f"{s.t_f:.1f} / {m.t_f:.1f}", "start of the retreat")
     tab.add("sphere error sliding / MPC (m)", 0.0, f"{s.sphere_error:.3f} / {m.sphere_error:.3f}",
@@ -157,7 +169,8 @@ def _case_table(case: int, traces, scenario, thesis: dict, out: Path) -> dict:
             _sliding_excess(s, scenario) * DEG, "max over sampled on-sphere t of beta_m(sliding) - best point")
     tab.add("back at D_s (sliding / MPC)", True, f"{s.finished} / {m.finished}", "|D - D_s| <= 5 cm at the end")
     tab.emit(out, f"case{case}")
-    return {"hover": h.beta_max, "sliding": s.beta_max, "mpc": m.beta_max, "oracle_lb": lb}
+    return {"hover": h.beta_max, "sliding": s.beta_max, "mpc": m.beta_max, "oracle_lb": lb, "safe": g.beta_max,
+            "t_a_safe": g.t_a, "t_a_sliding": s.t_a}
 
 
 def _sliding_excess(tr: CovertTrace, scenario, every: float = 5.0) -> float:
@@ -221,8 +234,8 @@ def reproduce(*, quick: bool, out: Path) -> None:
     for case, thesis in ((1, {"hover": 21.8, "sliding": 15.5, "red": -28.9, "t_a": 7.4, "t_f": 113.2}),
                          (2, {"hover": 32.2, "sliding": 22.2, "red": -33.1})):
         sc = thesis_case(case, 0)
-        traces = _run_all(sc)
-        results[case] = _case_table(case, traces, sc, thesis, out)
+        traces, safe = _run_all(sc)
+        results[case] = _case_table(case, traces, sc, thesis, out, safe)
         main = {k: traces[k] for k in ("hover", "sliding", "mpc")}
         _plot_3d(sc, main, out / f"case{case}_3d.png", f"Case {case}: drone paths (Fig. 3.{9 if case == 1 else 14}a)")
         _plot_beta(main, out / f"case{case}_beta.png", f"Case {case}: beta_m", per_target="sliding")
@@ -257,6 +270,8 @@ def reproduce(*, quick: bool, out: Path) -> None:
     for case, r in results.items():
         summary.add(f"case {case}: MPC margin over sliding (%)", None, -_pct(r["mpc"], r["sliding"]),
                     "positive = MPC lower max recorded beta")
+        summary.add(f"case {case}: safeguarded MPC margin over sliding (%)", None, -_pct(r["safe"], r["sliding"]),
+                    f"positive = lower max recorded beta; arrives {r['t_a_safe']:.1f} s vs {r['t_a_sliding']:.1f} s")
     summary.add("wall time of reproduce (s)", None, time.perf_counter() - t0, "this run")
     summary.emit(out, "summary")
 
@@ -342,6 +357,27 @@ def bench(*, quick: bool, out: Path) -> None:
             tab.add(f"{name}: fallbacks", None, f"{tr.fallbacks}/{st.size}", "failed solves -> sliding command")
             tab.add(f"{name}: MPC margin over sliding (%)", ">= 15 (aim)", -_pct(tr.beta_max, sl.beta_max),
                     f"beta_max {tr.beta_max * DEG:.2f} vs {sl.beta_max * DEG:.2f} deg")
+    # the safeguarded MPC: MPC plan or sliding rollout per replan (its solve time includes both scores)
+    for case in (1, 2):
+        sc = thesis_case(case, 0)
+        ctl = SafeguardedMPCObserver()
+        t0 = time.perf_counter()
+        tr = simulate(sc, ctl)
+        wall = time.perf_counter() - t0
+        sl = sliding[case]
+        tab.add(f"case {case} safeguarded ipopt @ 0.5 s: MPC margin over sliding (%)", ">= 15 (aim)",
+                -_pct(tr.beta_max, sl.beta_max),
+                f"beta_max {tr.beta_max * DEG:.2f} vs {sl.beta_max * DEG:.2f} deg; MPC plan executed at "
+                f"{ctl.choices.count('mpc')}/{len(ctl.choices)} replans")
+        tab.add(f"case {case} safeguarded: arrival t_a (s)", "7.4 (case 1)",
+                f"{tr.t_a:.1f} (deadline {ctl.arrival_deadline:.1f}, sliding {sl.t_a:.1f})",
+                "deadline = predicted sliding arrival + tolerance")
+        tab.add(f"case {case} safeguarded: wall time / simulated time", None, wall / tr.t[-1],
+                "whole closed loop incl. both candidates' scoring")
+        rows.append({"case": case, "backend": "ipopt-safeguarded", "period_s": 0.5,
+                     "median_s": float(np.median(tr.solve_times)), "p90_s": float(np.quantile(tr.solve_times, 0.9)),
+                     "fallbacks": tr.fallbacks, "solves": tr.solve_times.size, "beta_mpc_deg": tr.beta_max * DEG,
+                     "beta_sliding_deg": sl.beta_max * DEG, "wall_s": wall})
     # what a later arrival buys (the margin's only lever, see the on-sphere bound in reproduce)
     for case in (1, 2):
         sc = thesis_case(case, 0)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from formulations.covert import sphere_minmax_bearing
-from planners.covert import HoverBenchmark, MPCObserver, SlidingModeObserver
+from planners.covert import HoverBenchmark, MPCObserver, SafeguardedMPCObserver, SlidingModeObserver
 from scenarios.covert import random_case, simulate, thesis_case
 
 
@@ -44,3 +44,22 @@ def test_mpc_against_sliding_on_thesis_cases(case):
     assert mp.finished and mp.fallbacks <= 5
     assert mp.sphere_error <= 1.0
     assert abs(mp.beta_max - sl.beta_max) <= 0.03 * sl.beta_max
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", [1, 2])
+def test_safeguarded_mpc_no_worse_than_sliding_on_thesis_cases(case):
+    """Issue 6: beta_max(MPC) <= beta_max(sliding) on both thesis cases, for the safeguarded MPC
+    (per replan: MPC plan or sliding rollout, whichever is predicted lower), arriving on the
+    sphere by its deadline (predicted sliding arrival + 2 s), keeping it, and returning home."""
+    sc = thesis_case(case, 0)
+    sl = simulate(sc, SlidingModeObserver())
+    ctl = SafeguardedMPCObserver()
+    mp = simulate(sc, ctl)
+    assert mp.finished and mp.fallbacks <= 5
+    assert mp.beta_max <= sl.beta_max
+    assert mp.t_a <= ctl.arrival_deadline + 0.5
+    assert mp.t_a <= sl.t_a + ctl.safeguard.arrival_tolerance + 0.5
+    assert mp.sphere_error <= 1.0
+    # back home within the period (the MPC's retreat is planned at 0.7 V_max and starts early)
+    assert sc.params.duration - 6.0 <= mp.t[-1] <= sc.params.duration + 5.0

@@ -171,3 +171,65 @@ def test_mpc_observer_settings_validation():
         MPCObserverSettings(backend="gurobi")
     with pytest.raises(ValueError, match="progress"):
         MPCObserverSettings(progress=0.0)
+
+
+# --------------------------------------------------------------------------- safeguarded MPC
+from planners.covert import SafeguardedMPCObserver, SafeguardSettings, rollout_sliding  # noqa: E402
+
+
+def test_rollout_sliding_reproduces_the_closed_loop_on_true_targets():
+    """Fed the true target positions, the open-loop rollout is the closed-loop sliding observer
+    (approach, arrival switch and on-sphere law) up to rounding."""
+    sc = thesis_case(1)
+    tr = simulate(sc, SlidingModeObserver(), max_time=15.0)
+    K = tr.t.size - 1
+    D, h, phases = rollout_sliding("to-sphere", tr.drone[0], tr.heading[0], tr.targets[:K], sc.params)
+    assert np.allclose(D, tr.drone, atol=1e-7)
+    assert np.allclose(h, tr.heading, atol=1e-9)
+    assert phases[0] == "to-sphere" and phases[-1] == "on-sphere"
+    assert list(tr.phase[:K]) == phases
+    with pytest.raises(ValueError, match="targets"):
+        rollout_sliding("to-sphere", tr.drone[0], tr.heading[0], tr.targets[0], sc.params)
+
+
+def test_safeguard_with_a_huge_margin_is_the_sliding_mode():
+    """If the MPC plan must beat the sliding rollout by more than any angle, every replan flies
+    the sliding-mode law: the trajectory is the sliding observer's."""
+    sc = thesis_case(1)
+    ctl = SafeguardedMPCObserver(safeguard=SafeguardSettings(margin=10.0))
+    tr = simulate(sc, ctl, max_time=12.0)
+    ref = simulate(sc, SlidingModeObserver(), max_time=12.0)
+    assert len(ctl.choices) > 10 and set(ctl.choices) == {"sliding"}
+    assert np.allclose(tr.drone, ref.drone, atol=1e-9)
+
+
+def test_safeguarded_mpc_bounds_deadline_and_choice_rule():
+    sc = thesis_case(1)
+    ctl = SafeguardedMPCObserver()
+    tr = simulate(sc, ctl, max_time=16.0)
+    p = sc.params
+    ok = ~np.isnan(tr.v)
+    assert np.all(np.abs(tr.v[ok]) <= p.V_max + 1e-9)
+    assert np.all(np.linalg.norm(tr.u[ok], axis=1) <= p.U_max + 1e-9)
+    # arrives by its deadline (+ one replan interval), which is at most tolerance + the
+    # predicted sliding arrival, and keeps the sphere once there
+    assert ctl.arrival_deadline is not None and tr.t_a is not None
+    assert tr.t_a <= ctl.arrival_deadline + 0.5
+    assert np.all(np.abs(tr.distance_to_F[tr.t >= tr.t_a] - p.L_u) <= 1.0)
+    # every executed candidate has a predicted score no worse than the other one (minus the margin)
+    assert len(ctl.choices) == len(ctl.predicted_scores) > 10
+    for (s_mpc, s_sl), c in zip(ctl.predicted_scores, ctl.choices):
+        assert (c == "mpc") == (s_mpc <= s_sl - ctl.safeguard.margin)
+
+
+def test_safeguard_settings_validation():
+    with pytest.raises(ValueError, match="arrival_tolerance"):
+        SafeguardSettings(arrival_tolerance=-1.0)
+    with pytest.raises(ValueError, match="margin"):
+        SafeguardSettings(margin=math.nan)
+    with pytest.raises(ValueError, match="score_horizon"):
+        SafeguardSettings(score_horizon=0.0)
+    with pytest.raises(ValueError, match="envelope_speed"):
+        SafeguardSettings(envelope_speed=1.5)
+    with pytest.raises(TypeError):
+        SafeguardedMPCObserver(safeguard=MPCObserverSettings())

@@ -1,4 +1,4 @@
-"""Controllers for covert observation (thesis ch. 3).
+"""Sliding-mode controllers for covert observation (thesis ch. 3).
 
 - :class:`SlidingModeObserver`: the thesis's sliding-mode navigation laws, To-sphere
   (3.16)-(3.17), On-sphere (3.8)-(3.15) and the Retreat strategy (3.18)-(3.19), with
@@ -6,9 +6,7 @@
   sign-type law.
 - :class:`HoverBenchmark`: the thesis benchmark (fly towards F to the sphere, hover,
   fly straight back to D_s).
-- :class:`MPCObserver`: receding-horizon min-max bearing control built on
-  :mod:`formulations.covert` (IPOPT or OSQP-based SQP), falling back to the
-  sliding-mode command when a solve fails.
+(the MPC controllers are in :mod:`planners.covert.mpc`.)
 
 All controllers follow the protocol of :func:`scenarios.covert.simulate`.
 
@@ -33,12 +31,13 @@ Decisions where the thesis is silent or its literal law fails in discrete time (
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from scenarios.covert import CovertParams, CovertScenario, Observation, bearing_changes, nearest_on_line
+from scenarios.covert import (CovertParams, CovertScenario, Observation, bearing_changes, nearest_on_line,
+                              step_drone)
 
 __all__ = [
     "W",
@@ -49,8 +48,7 @@ __all__ = [
     "turn_command",
     "SlidingModeObserver",
     "HoverBenchmark",
-    "MPCObserver",
-    "MPCObserverSettings",
+    "rollout_sliding",
 ]
 
 TO_SPHERE, ON_SPHERE, RETREAT, DONE = "to-sphere", "on-sphere", "retreat", "done"
@@ -329,234 +327,44 @@ class HoverBenchmark(_PhasedController):
         return u, v
 
 
-# --------------------------------------------------------------------------- MPC
-@dataclass(frozen=True)
-class MPCObserverSettings:
-    """Settings of the receding-horizon controller around the bearing MPC."""
 
-    backend: str = "ipopt"
-    """"ipopt" (NLP solved by IPOPT every period) or "osqp" (SQP / real-time iteration with OSQP)."""
-    progress: float = 0.7
-    """Transit phases must close the distance to their goal (sphere, D_s) at progress * V_max
-    on a schedule fixed when the phase starts (after 1 s to turn)."""
-    window: int = 10
-    """Number of past measurements in the constant-velocity fit of each target."""
-    idle_speed: float = 0.5
-    """If the warm-started plan's first speed is below this (m/s) while the sliding-mode law
-    would fly, the MPC is re-solved from the sliding-mode rollout and the plan with the lower
-    NLP objective is kept (escapes the v = 0 stationary point)."""
+def rollout_sliding(phase: str, D: Any, h: Any, targets: Any, params: CovertParams,
+                    settings: SlidingSettings | None = None) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """Open-loop prediction of the :class:`SlidingModeObserver` from (D, h) in ``phase``.
 
-    def __post_init__(self) -> None:
-        if self.backend not in ("ipopt", "osqp"):
-            raise ValueError(f"backend must be 'ipopt' or 'osqp', got {self.backend!r}")
-        if not (0 < self.progress <= 1):
-            raise ValueError(f"progress must be in (0, 1], got {self.progress}")
-        if self.window < 2:
-            raise ValueError(f"window must be >= 2, got {self.window}")
-
-
-class MPCObserver(_PhasedController):
-    """Min-max bearing MPC (formulations.covert) in closed loop, with the sliding-mode phases.
-
-    Each period: fit a constant-velocity model to the last ``window`` measured positions
-    of each observable target, predict them over the horizon, solve the MPC warm-started
-    from the previous plan shifted by one period (the first period: the sliding-mode
-    rollout), apply the first command. A failed solve applies the sliding-mode command
-    instead and is counted in ``fallbacks``. Within home_radius of D_s the drone flies
-    straight home as in the sliding-mode Retreat.
+    targets: (K, k, 3) positions (m) of the observable targets at the K control instants
+    t = 0, dt, ..., (K-1) dt (e.g. a constant-velocity prediction). Applies the same law,
+    saturation caps and plant step as the closed-loop observer, period by period, with the
+    to-sphere -> on-sphere and retreat -> done switches; the switch to the retreat (a
+    clock decision) is not made inside the rollout. Returns positions (K+1, 3) (m),
+    headings (K+1, 3) and the phase used in each of the K periods.
     """
-
-    def __init__(self, settings: SlidingSettings | None = None, mpc: Any = None,
-                 observer: MPCObserverSettings | None = None):
-        super().__init__(settings)
-        from formulations.covert import MPCSettings
-
-        self.mpc_settings = mpc if mpc is not None else MPCSettings()
-        self.observer = observer if observer is not None else MPCObserverSettings()
-        self._solver = None
-        self.statuses: list[str] = []
-        self.predicted_beta: list[float] = []
-
-    def reset(self, scenario: CovertScenario) -> None:
-        from formulations.covert import RecedingBearingMPC, build_bearing_mpc
-
-        super().reset(scenario)
-        key = (scenario.params, scenario.n_targets)
-        if self._solver is None or self._key != key:
-            model = build_bearing_mpc(scenario.params, scenario.n_targets, self.mpc_settings)
-            self._solver = RecedingBearingMPC(model, backend=self.observer.backend)
-            self._key = key
-        self._hist_t: list[float] = []
-        self._hist_A: list[np.ndarray] = []
-        self._prev = None
-        self._prev_phase = None
-        self._phase_start = (0.0, 0.0)
-        self.statuses = []
-        self.predicted_beta = []
-        self.restarts = 0
-        self._hold = None
-
-    # -- target prediction
-    def _predict(self, obs: Observation, times: np.ndarray) -> np.ndarray:
-        A_meas = obs.drone + obs.rel  # NaN rows for unobservable targets
-        self._hist_t.append(obs.t)
-        self._hist_A.append(A_meas)
-        W_ = self.observer.window
-        self._hist_t, self._hist_A = self._hist_t[-W_:], self._hist_A[-W_:]
-        T = np.asarray(self._hist_t)
-        H = np.asarray(self._hist_A)  # (w, n, 3)
-        n = A_meas.shape[0]
-        pred = np.tile(self.params.F_arr, (times.size, n, 1)).astype(float)
-        for j in range(n):
-            ok = ~np.isnan(H[:, j, 0])
-            if not ok[-1]:
-                continue
-            tj, Aj = T[ok] - obs.t, H[ok, j]
-            if tj.size >= 2:
-                X = np.column_stack([np.ones_like(tj), tj])
-                coef, *_ = np.linalg.lstsq(X, Aj, rcond=None)
-                pos, vel = coef[0], coef[1]
-                speed = np.linalg.norm(vel)
-                if speed > self.params.V_T * 1.5:  # noisy fit: cap at a plausible speed
-                    vel = vel * (self.params.V_T * 1.5 / speed)
-            else:
-                pos, vel = Aj[-1], np.zeros(3)
-            pred[:, j] = pos + np.outer(times, vel)
-        return pred
-
-    # -- phase constraints
-    def _phase_bounds(self, obs: Observation, node_t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        p = self.params
-        N = node_t.size
-        d0 = float(np.linalg.norm(p.F_arr - obs.drone))
-        s0 = float(np.linalg.norm(p.D_s_arr - obs.drone))
-        if self.phase != self._prev_phase:
-            self._phase_start = (obs.t, d0 if self.phase == TO_SPHERE else s0)
-            self._prev_phase = self.phase
-        t_start, dist_start = self._phase_start
-        rate = self.observer.progress * p.V_max
-        sched = dist_start - rate * np.maximum(0.0, obs.t + node_t - t_start - 1.0)
-        # behind the schedule: close the distance at the scheduled rate from now on
-        catch_up = (d0 if self.phase == TO_SPHERE else s0) - rate * node_t
-        inf = np.full(N, np.inf)
-        if self.phase == TO_SPHERE:
-            hi = np.maximum(p.L_u, np.maximum(sched, catch_up))
-            return np.full(N, p.L_u), hi, inf
-        if self.phase == ON_SPHERE:
-            return np.full(N, p.L_u), np.full(N, p.L_u), inf
-        home = np.maximum(self.settings.home_radius * 0.5, np.maximum(sched, catch_up))
-        return np.zeros(N), inf, home
-
-    def _shifted_guess(self, model, data) -> np.ndarray | None:
-        from formulations.covert import rollout_guess
-
-        prev = self._prev
-        N = model.settings.horizon
-        times = np.concatenate([[0.0], np.cumsum(model.durations)])
-        if prev is None or not prev.has_solution:
-            # first step (or after a failure): roll out the sliding-mode law on the predictions
-            u, v = self._sliding_rollout(model, data, times)
-            return rollout_guess(model, data, u, v)
-        plan = prev.x
-        tq = times[:-1] + model.durations[0]  # command times in the old plan's clock
-        idx = np.clip(np.searchsorted(plan.times, tq, side="right") - 1, 0, N - 1)
-        return rollout_guess(model, data, plan.u[idx], plan.v[idx])
-
-    def _sliding_rollout(self, model, data, times) -> tuple[np.ndarray, np.ndarray]:
-        from scenarios.covert import rotate_heading
-
-        p = self.params
-        D, h = np.asarray(data.D0, float), np.asarray(data.h0, float)
-        us, vs = [], []
-        mask = np.asarray(data.mask, bool)
-        for k, dt in enumerate(model.durations):
-            A = np.asarray(data.targets[max(k - 1, 0)])[mask]
-            b = sliding_steering(self.phase, D, A, p, self.settings)
-            u, v = turn_command(h, b, p, self.settings, float(dt), throttle=self.phase == ON_SPHERE)
-            us.append(u)
-            vs.append(v)
-            h_new, integral = rotate_heading(h, u, float(dt))
-            D, h = D + v * integral, h_new
-        return np.array(us), np.array(vs)
-
-    def command(self, obs: Observation) -> tuple[np.ndarray, float]:
-        """u (3,) (rad/s) and v (m/s) for this control period."""
-        from formulations.covert import MPCData
-
-        phase_before = self.phase
-        self._update_phase_mpc(obs)
-        p = self.params
-        solver = self._solver
-        model = solver.model
-        node_t = np.cumsum(model.durations)
-        pred = self._predict(obs, node_t)
-        if self.phase == DONE:
-            return np.zeros(3), 0.0
-        if self._hold is not None and self._hold[2] > 0 and self.phase == phase_before:
-            # between solves: keep turning at the planned rate about the planned axis
-            axis, rate, left, v_hold = self._hold
-            self._hold = (axis, rate, left - 1, v_hold)
-            return rate * np.cross(axis, obs.heading), v_hold
-        self._hold = None
-        home = self.phase == RETREAT and np.linalg.norm(p.D_s_arr - obs.drone) <= self.settings.home_radius
-        if home or not obs.observable.any():
-            self._prev = None
-            return self.sliding_command(obs)
-        lo, hi, home_hi = self._phase_bounds(obs, node_t)
-        tangent = np.zeros(node_t.size, bool)
-        if self.phase == ON_SPHERE:
-            tangent[1:] = True
-        data = MPCData(D0=obs.drone, h0=obs.heading, targets=pred, mask=obs.observable.copy(),
-                       sphere_lo=lo, sphere_hi=hi, home_hi=home_hi, tangent=tangent)
-        x0 = self._shifted_guess(model, data)
-        res = solver.solve(data, x0=x0, warm=self._prev)
-        elapsed = res.solve_time
-        idle = not res.has_solution or abs(res.x.v[0]) < self.observer.idle_speed
-        if self.observer.backend == "ipopt" and self._prev is not None and idle:
-            # the plan does not move now: v = 0 with a heading orthogonal to the descent direction
-            # is a stationary point of the bilinear dynamics, and a min-max objective dominated by
-            # a later node does not push the first move. If the sliding-mode law would move,
-            # restart from its rollout and keep the plan with the lower NLP objective.
-            u_s, v_s = self._sliding_rollout(model, data, None)
-            if abs(v_s[0]) >= self.observer.idle_speed:
-                from formulations.covert import rollout_guess
-
-                res2 = solver.solve(data, x0=rollout_guess(model, data, u_s, v_s))
-                elapsed += res2.solve_time
-                if res2.has_solution and (not res.has_solution or res2.info["f"] < res.info["f"] - 1e-12):
-                    res = res2
-                self.restarts += 1
-        res = replace(res, solve_time=elapsed)
-        self.solve_times.append(res.solve_time)
-        self.statuses.append(res.status.value)
-        if not res.has_solution:
-            self.fallbacks += 1
-            self._prev = None
-            return self.sliding_command(obs)  # and re-solve at the next period
-        self._prev = res
-        self.predicted_beta.append(res.objective)
-        plan = res.x
-        u = np.asarray(plan.u[0], float)
-        u = u - np.dot(u, obs.heading) * obs.heading
-        nu = np.linalg.norm(u)
-        if nu > p.U_max:
-            u = u * (p.U_max / nu)
-        v = float(np.clip(plan.v[0], -p.V_max, p.V_max))
-        nu = float(np.linalg.norm(u))
-        axis = np.cross(obs.heading, u / nu) if nu > 1e-12 else np.zeros(3)
-        self._hold = (axis, nu, model.settings.replan_every - 1, v)
-        return u, v
-
-    def _update_phase_mpc(self, obs: Observation) -> None:
-        """As the sliding mode, but the return flight is planned at progress * V_max."""
-        p, st = self.params, self.settings
-        D = obs.drone
-        speed = self.observer.progress * p.V_max
-        leave_at = p.duration - (np.linalg.norm(p.D_s_arr - D) / speed + st.return_margin + 1.0)
-        if self.phase == TO_SPHERE and np.linalg.norm(p.F_arr - D) <= p.L_u + st.arrival_tol:
-            self.phase = ON_SPHERE
-        if self.phase in (TO_SPHERE, ON_SPHERE) and obs.t >= leave_at:
-            self.phase = RETREAT
-        if self.phase == RETREAT and np.linalg.norm(p.D_s_arr - D) <= st.arrival_tol:
-            self.phase = DONE
-            self.finished = True
+    st = settings if settings is not None else SlidingSettings()
+    p = params
+    A_all = np.asarray(targets, dtype=float)
+    if A_all.ndim != 3 or A_all.shape[2] != 3:
+        raise ValueError(f"targets must have shape (K, k, 3), got {A_all.shape}")
+    D = np.asarray(D, dtype=float).copy()
+    h = np.asarray(h, dtype=float).copy()
+    Ds, hs, phases = [D.copy()], [h.copy()], []
+    for k in range(A_all.shape[0]):
+        if phase == TO_SPHERE and np.linalg.norm(p.F_arr - D) <= p.L_u + st.arrival_tol:
+            phase = ON_SPHERE
+        if phase == RETREAT and np.linalg.norm(p.D_s_arr - D) <= st.arrival_tol:
+            phase = DONE
+        phases.append(phase)
+        if phase == DONE:
+            u, v = np.zeros(3), 0.0
+        else:
+            b = sliding_steering(phase, D, A_all[k], p, st)
+            u, v = turn_command(h, b, p, st, p.dt, throttle=phase == ON_SPHERE)
+            if st.saturation and phase == TO_SPHERE:
+                f = p.F_arr - D
+                v = _cap_speed(v, h, f, np.linalg.norm(f) - p.L_u, p.dt)
+            elif st.saturation and phase == RETREAT:
+                s = p.D_s_arr - D
+                v = _cap_speed(v, h, s, np.linalg.norm(s), p.dt)
+        D, h, _, _ = step_drone(D, h, u, v, p.dt, p)
+        Ds.append(D.copy())
+        hs.append(h.copy())
+    return np.asarray(Ds), np.asarray(hs), phases
