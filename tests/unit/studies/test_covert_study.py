@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pandas as pd
+import pytest
 
 import studies.covert as sc
 from studies.common import make_executor
@@ -28,4 +29,8 @@ def test_gap_rows_are_consistent_and_resumable(tmp_path, monkeypatch):
     # the proven on-sphere lower bound is below what the sliding mode recorded on the sphere
     assert row.onsphere_lower_bound_deg <= row.sliding_onsphere_max_deg + 1e-9
     assert row.sliding_onsphere_max_deg <= row.beta_sliding_deg + 1e-9
+    # the safeguarded MPC reaches the sphere by its deadline (predicted sliding arrival + 2 s)
+    assert row.t_a_mpc_safe_s <= row.t_a_sliding_s + 2.5
+    assert row.mpc_safe_vs_sliding_pct == pytest.approx(
+        100 * (row.beta_mpc_safe_deg - row.beta_sliding_deg) / row.beta_sliding_deg)
     assert (tmp_path / "gap_summary.csv").exists()
