@@ -32,6 +32,7 @@ def solve_cpsat(
     hint: Mapping[Any, int] | None = None,
     seed: int | None = None,
     log: bool = False,
+    parameters: Mapping[str, Any] | None = None,
 ) -> SolveResult:
     """Solve a CP-SAT model.
 
@@ -42,6 +43,8 @@ def solve_cpsat(
     hint: a starting assignment {variable: value}; handed to CP-SAT as solution hints.
     seed: CP-SAT's random seed.
     log: print CP-SAT's search log.
+    parameters: further CP-SAT parameters by their SatParameters field name, e.g.
+        ``{"subsolvers": ["max_lp", "core"]}`` (a list sets a repeated field).
 
     Returns a SolveResult: ``x`` is an int64 array of the values of ``variables``
     (None without a solution), ``objective`` the objective value and ``bound`` CP-SAT's
@@ -65,6 +68,18 @@ def solve_cpsat(
     if seed is not None:
         params.random_seed = int(seed)
     params.log_search_progress = bool(log)
+    for name, value in (parameters or {}).items():
+        if not hasattr(params, name):
+            raise ValueError(f"unknown CP-SAT parameter {name!r}")
+        if isinstance(value, (list, tuple)):
+            field = getattr(params, name)
+            field.clear()
+            field.extend(value)
+        else:
+            try:
+                setattr(params, name, value)
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"CP-SAT parameter {name}={value!r}: {exc}") from exc
 
     t0 = time.perf_counter()
     try:

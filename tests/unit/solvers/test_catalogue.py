@@ -92,6 +92,17 @@ def test_knapsack_mip(backend):
 FEASIBLE_START = [1, 0, 1, 0, 0, 1, 0]  # weight 6, value 21: feasible, not optimal
 
 
+def test_knapsack_cpsat_with_parameters():
+    m, x = _knapsack_cpsat()
+    res = solve_cpsat(m, variables=x, workers=2,
+                      parameters={"subsolvers": ["max_lp", "core"], "linearization_level": 2})
+    _check_knapsack(res)
+    with pytest.raises(ValueError, match="unknown CP-SAT parameter"):
+        solve_cpsat(m, parameters={"no_such_field": 1})
+    with pytest.raises(ValueError, match="linearization_level"):
+        solve_cpsat(m, parameters={"linearization_level": "high"})
+
+
 def test_knapsack_cpsat_warm_start_used_and_optimum_unchanged():
     m, x = _knapsack_cpsat()
     res = solve_cpsat(m, variables=x, workers=1, hint=dict(zip(x, FEASIBLE_START)))
