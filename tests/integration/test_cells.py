@@ -18,13 +18,13 @@ def test_reproduce_quick_writes_tables_and_orders_methods(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("m", [3, 4])
-def test_thesis_scale_milp_proven_optimal(m):
+@pytest.mark.parametrize("m,backend", [(3, "cp-sat"), (4, "cp-sat"), (4, "highs")])
+def test_thesis_scale_milp_proven_optimal(m, backend):
     from formulations.cells import evaluate, solve_milp
     from scenarios.cells import thesis_problem
     from solvers.result import Status
 
     p = thesis_problem(m, study.INSTANCE_SEED)
-    r = solve_milp(p, backend="highs", time_limit=900)
+    r = solve_milp(p, backend=backend, time_limit=900)
     assert r.status is Status.OPTIMAL and r.objective == r.bound
     assert evaluate(p, r.x).feasible and evaluate(p, r.x).covered == r.objective
