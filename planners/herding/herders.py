@@ -24,6 +24,7 @@ herd inside.
 
 from __future__ import annotations
 
+import abc
 import math
 from dataclasses import dataclass
 
@@ -78,7 +79,7 @@ def _allocate(method: str, drone_s, steer_s, M):
     return solve_allocation(drone_s, steer_s, M, method=method, workers=1)
 
 
-class _Herder:
+class _Herder(abc.ABC):
     """Shared state: the hull each Delta, Fly-to-edge arrival, the driving formation."""
 
     name = "herder"
@@ -142,8 +143,9 @@ class _Herder:
             v[on], omega[on] = v_n, w_n
         return v, omega
 
+    @abc.abstractmethod
     def _plan_gathering(self, drones) -> None:
-        raise NotImplementedError
+        """Set each drone's gathering target (steering point and direction) for this period."""
 
     # -- driving (§6.4.4), shared
     def _plan_driving(self, animals, drones) -> None:
