@@ -263,17 +263,7 @@ class MPCObserver(_PhasedController):
 
     def _update_phase_mpc(self, obs: Observation) -> None:
         """As the sliding mode, but the return flight is planned at progress * V_max."""
-        p, st = self.params, self.settings
-        D = obs.drone
-        speed = self.observer.progress * p.V_max
-        leave_at = p.duration - (np.linalg.norm(p.D_s_arr - D) / speed + st.return_margin + 1.0)
-        if self.phase == TO_SPHERE and np.linalg.norm(p.F_arr - D) <= p.L_u + st.arrival_tol:
-            self.phase = ON_SPHERE
-        if self.phase in (TO_SPHERE, ON_SPHERE) and obs.t >= leave_at:
-            self.phase = RETREAT
-        if self.phase == RETREAT and np.linalg.norm(p.D_s_arr - D) <= st.arrival_tol:
-            self.phase = DONE
-            self.finished = True
+        self._update_phase(obs, return_speed=self.observer.progress * self.params.V_max, extra_margin=1.0)
 
 
 # --------------------------------------------------------------------------- safeguarded MPC

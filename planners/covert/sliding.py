@@ -252,10 +252,14 @@ class _PhasedController:
         self.fallbacks = 0
         self.solve_times = []
 
-    def _update_phase(self, obs: Observation) -> None:
+    def _update_phase(self, obs: Observation, *, return_speed: float | None = None,
+                      extra_margin: float = 0.0) -> None:
+        """Advance to-sphere -> on-sphere -> retreat -> done; the retreat starts when a
+        flight home at ``return_speed`` (m/s, default V_max) would end at the duration."""
         p, st = self.params, self.settings
         D = obs.drone
-        leave_at = p.duration - (np.linalg.norm(p.D_s_arr - D) / p.V_max + st.return_margin)
+        speed = p.V_max if return_speed is None else return_speed
+        leave_at = p.duration - (np.linalg.norm(p.D_s_arr - D) / speed + st.return_margin + extra_margin)
         if self.phase == TO_SPHERE and np.linalg.norm(p.F_arr - D) <= p.L_u + st.arrival_tol:
             self.phase = ON_SPHERE
         if self.phase in (TO_SPHERE, ON_SPHERE) and obs.t >= leave_at:
