@@ -27,7 +27,7 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
             if hull.volume > 1e-9 * hull.area * hull.area:  # 2-D: volume = area, area = perimeter
                 return pts[hull.vertices]
         except QhullError:
-            pass
+            pass  # Qhull rejects flat input: collinear or coincident points are handled below
     c = pts.mean(axis=0)
     extent = float(np.max(np.abs(pts - c))) if pts.shape[0] > 1 else 0.0
     if extent <= 1e-12:
