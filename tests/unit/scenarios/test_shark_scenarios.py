@@ -89,7 +89,7 @@ class _Hover:
     phase = 0
 
     def reset(self, operator, params):
-        pass
+        """A hovering operator keeps no state between runs."""
 
     def step(self, t, operator, shark_pos, shark_vel):
         return np.zeros(3)

@@ -61,8 +61,7 @@ def test_process_pool_executor(tmp_path):
 
 def test_bad_arguments():
     with pytest.raises(ValueError, match="workers"):
-        with make_executor(workers=0):
-            pass
+        make_executor(workers=0).__enter__()
     with pytest.raises(ValueError, match="key"):
         ResumableCSV("x.csv", key=[])
 
