@@ -42,10 +42,10 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
-from scenarios.covert import CovertParams
-from solvers.nlp import IpoptSolver
-from solvers.qp import OsqpSolver
-from solvers.result import SolveResult, Status
+from droneplan.scenarios.covert import CovertParams
+from droneplan.solvers.nlp import IpoptSolver
+from droneplan.solvers.qp import OsqpSolver
+from droneplan.solvers.result import SolveResult, Status
 
 __all__ = [
     "MPCSettings",
@@ -334,7 +334,7 @@ def rollout_guess(model: BearingMPC, data: MPCData, u: np.ndarray, v: np.ndarray
 
     Each u_k is first made admissible (orthogonal to the node's heading, |u| <= U_max).
     """
-    from scenarios.covert import rotate_heading
+    from droneplan.scenarios.covert import rotate_heading
 
     p = model.params
     D, h = np.asarray(data.D0, float), np.asarray(data.h0, float)
@@ -546,7 +546,7 @@ def sphere_minmax_bearing(params: CovertParams, targets: Any, *, tol: float = ma
     A = np.asarray(targets, dtype=float).reshape(-1, 3)
     if A.shape[0] == 0 or not np.isfinite(A).all():
         raise ValueError("targets must be a non-empty finite (n, 3) array")
-    from scenarios.covert import bearing_changes
+    from droneplan.scenarios.covert import bearing_changes
 
     t0 = time.perf_counter()
     F, L, R = params.F_arr, params.L_u, params.R_arr

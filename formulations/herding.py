@@ -75,8 +75,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from ortools.sat.python import cp_model
 
-from solvers.cpsat import solve_cpsat
-from solvers.result import SolveResult, Status
+from droneplan.solvers.cpsat import solve_cpsat
+from droneplan.solvers.result import SolveResult, Status
 
 METHODS = ("exact", "cp-sat")
 

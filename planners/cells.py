@@ -29,9 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from formulations.cells import TOL, CellProblem, circle_intersections, evaluate
-from scenarios.cells import THESIS_GA_TABLE_4_1, THESIS_TABLE_4_3
-from solvers.result import SolveResult, Status
+from droneplan.formulations.cells import TOL, CellProblem, circle_intersections, evaluate
+from droneplan.scenarios.cells import THESIS_GA_TABLE_4_1, THESIS_TABLE_4_3
+from droneplan.solvers.result import SolveResult, Status
 
 __all__ = ["GASettings", "genetic", "genetic_polished", "polish", "fitness", "exhaustive", "max_coverage_in_region", "Region",
            "thesis_ga_settings"]

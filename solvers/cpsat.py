@@ -8,8 +8,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from ortools.sat.python import cp_model
 
-from solvers.result import SolveResult, Status, map_status
-from solvers.validation import check_time_limit
+from droneplan.solvers.result import SolveResult, Status, map_status
+from droneplan.solvers.validation import check_time_limit
 
 BACKEND = "cp-sat"
 

@@ -12,8 +12,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from ortools.linear_solver import pywraplp
 
-from solvers.result import SolveResult, Status, map_status
-from solvers.validation import check_time_limit
+from droneplan.solvers.result import SolveResult, Status, map_status
+from droneplan.solvers.validation import check_time_limit
 
 BACKENDS: dict[str, str] = {"highs": "HIGHS", "scip": "SCIP"}
 """Our backend names -> pywraplp solver ids."""

@@ -14,8 +14,8 @@ from typing import Any, Mapping
 import casadi as ca
 import numpy as np
 
-from solvers.result import SolveResult, Status, map_status
-from solvers.validation import check_time_limit
+from droneplan.solvers.result import SolveResult, Status, map_status
+from droneplan.solvers.validation import check_time_limit
 
 BACKEND = "ipopt"
 

@@ -15,8 +15,8 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
-from solvers.result import SolveResult, Status, map_status
-from solvers.validation import check_time_limit
+from droneplan.solvers.result import SolveResult, Status, map_status
+from droneplan.solvers.validation import check_time_limit
 
 BACKEND = "osqp"
 

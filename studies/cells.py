@@ -16,11 +16,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from formulations.cells import evaluate, solve_milp  # noqa: E402
-from planners.cells import exhaustive, genetic, genetic_polished, polish, thesis_ga_settings  # noqa: E402
-from scenarios.cells import THESIS_TABLE_4_3, thesis_problem  # noqa: E402
-from solvers.result import Status  # noqa: E402
-from studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
+from droneplan.formulations.cells import evaluate, solve_milp  # noqa: E402
+from droneplan.planners.cells import exhaustive, genetic, genetic_polished, polish, thesis_ga_settings  # noqa: E402
+from droneplan.scenarios.cells import THESIS_TABLE_4_3, thesis_problem  # noqa: E402
+from droneplan.solvers.result import Status  # noqa: E402
+from droneplan.studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
 
 INSTANCE_SEED = 0
 """Seed of the thesis-scale user snapshot used by reproduce and bench."""

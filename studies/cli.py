@@ -1,6 +1,6 @@
 """The ``droneplan`` command line: ``reproduce``, ``gap`` and ``bench``.
 
-A problem is available when its study module ``studies.<problem>`` exists; such
+A problem is available when its study module ``droneplan.studies.<problem>`` exists; such
 a module defines ``reproduce(*, quick, out)``, ``gap(*, seeds, executor, out)``
 and ``bench(*, quick, out)``. Problems whose module has not landed are listed
 as unavailable rather than answered with placeholder output.
@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
-from studies.common import make_executor
+from droneplan.studies.common import make_executor
 
 PROBLEMS = ("covert", "cells", "shark", "herding")
 """The four problems, in thesis chapter order (ch. 3-6)."""
@@ -25,11 +25,11 @@ _CHAPTER = {"covert": 3, "cells": 4, "shark": 5, "herding": 6}
 
 def available_problems() -> list[str]:
     """Problems whose study module is installed, in chapter order."""
-    return [p for p in PROBLEMS if importlib.util.find_spec(f"studies.{p}") is not None]
+    return [p for p in PROBLEMS if importlib.util.find_spec(f"droneplan.studies.{p}") is not None]
 
 
 def _load(problem: str) -> ModuleType:
-    return importlib.import_module(f"studies.{problem}")
+    return importlib.import_module(f"droneplan.studies.{problem}")
 
 
 def _resolve(problem: str) -> list[str]:

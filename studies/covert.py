@@ -24,11 +24,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from formulations.covert import MPCSettings, sphere_minmax_bearing  # noqa: E402
-from planners.covert import (HoverBenchmark, MPCObserver, MPCObserverSettings, SafeguardedMPCObserver,  # noqa: E402
+from droneplan.formulations.covert import MPCSettings, sphere_minmax_bearing  # noqa: E402
+from droneplan.planners.covert import (HoverBenchmark, MPCObserver, MPCObserverSettings, SafeguardedMPCObserver,  # noqa: E402
                              SlidingModeObserver)
-from scenarios.covert import CovertTrace, random_case, simulate, thesis_case  # noqa: E402
-from studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
+from droneplan.scenarios.covert import CovertTrace, random_case, simulate, thesis_case  # noqa: E402
+from droneplan.studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
 
 DEG = 180.0 / math.pi
 

@@ -22,11 +22,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from formulations.herding import solve_allocation  # noqa: E402
-from planners.herding import (BenchmarkHerder, ExtendedHull, HerderSettings, ProposedHerder,  # noqa: E402
+from droneplan.formulations.herding import solve_allocation  # noqa: E402
+from droneplan.planners.herding import (BenchmarkHerder, ExtendedHull, HerderSettings, ProposedHerder,  # noqa: E402
                               allocate_bruteforce, allocate_collision_blind)
-from scenarios.herding import simulate, table_6_2_for, thesis_scenario  # noqa: E402
-from studies.common import ComparisonTable, ResumableCSV, make_executor, map_rows, timed  # noqa: E402
+from droneplan.scenarios.herding import simulate, table_6_2_for, thesis_scenario  # noqa: E402
+from droneplan.studies.common import ComparisonTable, ResumableCSV, make_executor, map_rows, timed  # noqa: E402
 
 FIG_6_7 = {200: {"gather": 11.1, "total": 15.0, "bench_extra": 3.3},
            1000: {"gather": 10.1, "total": 18.2, "bench_extra": 4.1}}

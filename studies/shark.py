@@ -19,12 +19,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from formulations.shark import optimal_altitude  # noqa: E402
-from planners.shark import (ClassicalPursuit, OCPInterceptor, RepellingOperator,  # noqa: E402
+from droneplan.formulations.shark import optimal_altitude  # noqa: E402
+from droneplan.planners.shark import (ClassicalPursuit, OCPInterceptor, RepellingOperator,  # noqa: E402
                             VirtualSharkInterceptor, allocate_operators, optimal_interception, thesis_altitude)
-from scenarios.shark import (THESIS_TABLE_5_1, SharkBehaviour, operator_start, random_trajectory,  # noqa: E402, F401
+from droneplan.scenarios.shark import (THESIS_TABLE_5_1, SharkBehaviour, operator_start, random_trajectory,  # noqa: E402, F401
                              simulate_interception, simulate_repelling, thesis_trajectories)
-from studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
+from droneplan.studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
 
 P = THESIS_TABLE_5_1
 TABLE_5_2 = {"a": (5.34, 29.70), "b": (5.48, 30.50), "c": (5.55, 19.79), "d": (5.78, 21.26)}

@@ -4,10 +4,10 @@
 build instances without importing this one) and re-exported here.
 """
 
-from scenarios.cells import CellProblem, problem_from_instance, thesis_problem
-from formulations.cells._core import (TOL, Candidates, Evaluation, candidate_sites, circle_intersections,
+from droneplan.scenarios.cells import CellProblem, problem_from_instance, thesis_problem
+from droneplan.formulations.cells._core import (TOL, Candidates, Evaluation, candidate_sites, circle_intersections,
                                       connected_mask, evaluate, raw_candidate_points)
-from formulations.cells._milp import (BACKENDS, CellModel, build_milp, coverage_upper_bound, greedy_placement,
+from droneplan.formulations.cells._milp import (BACKENDS, CellModel, build_milp, coverage_upper_bound, greedy_placement,
                                       reduce_candidates, solve_milp)
 
 __all__ = ["CellProblem", "Evaluation", "Candidates", "CellModel", "TOL", "BACKENDS", "evaluate",

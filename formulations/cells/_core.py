@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from scenarios.cells import CellProblem
+from droneplan.scenarios.cells import CellProblem
 
 TOL = 1e-6
 """Absolute geometric tolerance (m): a user at distance <= R_d + TOL is covered, a

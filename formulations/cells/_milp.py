@@ -55,12 +55,12 @@ import numpy as np
 from ortools.sat.python import cp_model
 from scipy.spatial import cKDTree
 
-from formulations.cells._core import (TOL, Candidates, as_positions, candidate_sites, coverage_lists, evaluate,
+from droneplan.formulations.cells._core import (TOL, Candidates, as_positions, candidate_sites, coverage_lists, evaluate,
                                       merge_points, pair_intersections)
-from scenarios.cells import CellProblem
-from solvers.cpsat import solve_cpsat
-from solvers.mip import new_mip, solve_mip
-from solvers.result import SolveResult, Status
+from droneplan.scenarios.cells import CellProblem
+from droneplan.solvers.cpsat import solve_cpsat
+from droneplan.solvers.mip import new_mip, solve_mip
+from droneplan.solvers.result import SolveResult, Status
 
 BACKENDS = ("cp-sat", "highs", "scip")
 

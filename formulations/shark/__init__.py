@@ -1,14 +1,14 @@
 """Shark interception models (thesis ch. 5): exact optimal altitude, time-optimal interception OCP, assignment."""
 
-from formulations.shark.altitude import optimal_altitude
+from droneplan.formulations.shark.altitude import optimal_altitude
 
 __all__ = ["optimal_altitude"]
-from formulations.shark.ocp import (InterceptionOCP, InterceptionPlan, build_interception_nlp,  # noqa: E402
+from droneplan.formulations.shark.ocp import (InterceptionOCP, InterceptionPlan, build_interception_nlp,  # noqa: E402
                                     casadi_optimal_altitude, solve_interception)
 
 __all__ += ["InterceptionOCP", "InterceptionPlan", "build_interception_nlp", "casadi_optimal_altitude",
             "solve_interception"]
-from formulations.shark.assignment import (Assignment, assignment_cost, build_assignment_model,  # noqa: E402
+from droneplan.formulations.shark.assignment import (Assignment, assignment_cost, build_assignment_model,  # noqa: E402
                                            greedy_assignment, select_sharks, solve_assignment)
 
 __all__ += ["Assignment", "assignment_cost", "build_assignment_model", "greedy_assignment", "select_sharks",

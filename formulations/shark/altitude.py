@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from scenarios.shark import THESIS_TABLE_5_1, SharkParams
+from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams
 
 __all__ = ["optimal_altitude"]
 

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 from ortools.sat.python import cp_model
 
-from solvers.cpsat import solve_cpsat
-from solvers.result import SolveResult, Status
+from droneplan.solvers.cpsat import solve_cpsat
+from droneplan.solvers.result import SolveResult, Status
 
 __all__ = ["Assignment", "select_sharks", "build_assignment_model", "solve_assignment", "greedy_assignment",
            "assignment_cost"]

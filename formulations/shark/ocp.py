@@ -29,9 +29,9 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
-from solvers.nlp import IpoptSolver
-from solvers.result import SolveResult, Status
+from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
+from droneplan.solvers.nlp import IpoptSolver
+from droneplan.solvers.result import SolveResult, Status
 
 __all__ = ["InterceptionPlan", "InterceptionOCP", "build_interception_nlp", "solve_interception",
            "casadi_optimal_altitude"]

@@ -6,8 +6,8 @@
   (:class:`MPCObserver`) and its safeguarded variant (:class:`SafeguardedMPCObserver`).
 """
 
-from planners.covert.mpc import MPCObserver, MPCObserverSettings, SafeguardedMPCObserver, SafeguardSettings
-from planners.covert.sliding import (
+from droneplan.planners.covert.mpc import MPCObserver, MPCObserverSettings, SafeguardedMPCObserver, SafeguardSettings
+from droneplan.planners.covert.sliding import (
     HoverBenchmark,
     SlidingModeObserver,
     SlidingSettings,

@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from planners.covert.sliding import (DONE, ON_SPHERE, RETREAT, TO_SPHERE, SlidingSettings, _PhasedController,
+from droneplan.planners.covert.sliding import (DONE, ON_SPHERE, RETREAT, TO_SPHERE, SlidingSettings, _PhasedController,
                                      rollout_sliding, sliding_steering, turn_command)
-from scenarios.covert import CovertScenario, Observation, bearing_changes, rotate_heading
+from droneplan.scenarios.covert import CovertScenario, Observation, bearing_changes, rotate_heading
 
 __all__ = ["MPCObserverSettings", "MPCObserver", "SafeguardSettings", "SafeguardedMPCObserver"]
 
@@ -63,7 +63,7 @@ class MPCObserver(_PhasedController):
     def __init__(self, settings: SlidingSettings | None = None, mpc: Any = None,
                  observer: MPCObserverSettings | None = None):
         super().__init__(settings)
-        from formulations.covert import MPCSettings
+        from droneplan.formulations.covert import MPCSettings
 
         self.mpc_settings = mpc if mpc is not None else MPCSettings()
         self.observer = observer if observer is not None else MPCObserverSettings()
@@ -72,7 +72,7 @@ class MPCObserver(_PhasedController):
         self.predicted_beta: list[float] = []
 
     def reset(self, scenario: CovertScenario) -> None:
-        from formulations.covert import RecedingBearingMPC, build_bearing_mpc
+        from droneplan.formulations.covert import RecedingBearingMPC, build_bearing_mpc
 
         super().reset(scenario)
         key = (scenario.params, scenario.n_targets)
@@ -152,7 +152,7 @@ class MPCObserver(_PhasedController):
         return np.zeros(N), inf, home
 
     def _shifted_guess(self, model, data) -> np.ndarray | None:
-        from formulations.covert import rollout_guess
+        from droneplan.formulations.covert import rollout_guess
 
         prev = self._prev
         N = model.settings.horizon
@@ -167,7 +167,7 @@ class MPCObserver(_PhasedController):
         return rollout_guess(model, data, plan.u[idx], plan.v[idx])
 
     def _sliding_rollout(self, model, data, times) -> tuple[np.ndarray, np.ndarray]:
-        from scenarios.covert import rotate_heading
+        from droneplan.scenarios.covert import rotate_heading
 
         p = self.params
         D, h = np.asarray(data.D0, float), np.asarray(data.h0, float)
@@ -185,7 +185,7 @@ class MPCObserver(_PhasedController):
 
     def command(self, obs: Observation) -> tuple[np.ndarray, float]:
         """u (3,) (rad/s) and v (m/s) for this control period."""
-        from formulations.covert import MPCData
+        from droneplan.formulations.covert import MPCData
 
         phase_before = self.phase
         self._update_phase_mpc(obs)
@@ -226,7 +226,7 @@ class MPCObserver(_PhasedController):
             # restart from its rollout and keep the plan with the lower NLP objective.
             u_s, v_s = self._sliding_rollout(model, data, None)
             if abs(v_s[0]) >= self.observer.idle_speed:
-                from formulations.covert import rollout_guess
+                from droneplan.formulations.covert import rollout_guess
 
                 res2 = solver.solve(data, x0=rollout_guess(model, data, u_s, v_s))
                 elapsed += res2.solve_time

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from scenarios.covert import (CovertParams, CovertScenario, Observation, bearing_changes, nearest_on_line,
+from droneplan.scenarios.covert import (CovertParams, CovertScenario, Observation, bearing_changes, nearest_on_line,
                               step_drone)
 
 __all__ = [

@@ -14,14 +14,14 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import maximum_bipartite_matching
 
-from formulations.herding import (
+from droneplan.formulations.herding import (
     Allocation,
     allowed_wraps,
     pad_steering_points,
     validate_allocation_input,
     z_coordinates,
 )
-from solvers.result import SolveResult, Status
+from droneplan.solvers.result import SolveResult, Status
 
 _CHUNK = 720  # permutations evaluated per vectorised block
 

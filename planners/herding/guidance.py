@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planners.herding.geometry import ExtendedHull
+from droneplan.planners.herding.geometry import ExtendedHull
 
 OVERSHOOT_TOL = 1.0
 """m: a target less than this far behind the drone (along its direction) counts as reached."""

@@ -30,10 +30,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from formulations.herding import solve_allocation
-from planners.herding.allocation import allocate_bruteforce, allocate_collision_blind, crosses
-from planners.herding.geometry import ExtendedHull, convex_hull, extended_hull_vertices, min_enclosing_circle
-from planners.herding.guidance import fly_on_edge, fly_to_edge, steer
+from droneplan.formulations.herding import solve_allocation
+from droneplan.planners.herding.allocation import allocate_bruteforce, allocate_collision_blind, crosses
+from droneplan.planners.herding.geometry import ExtendedHull, convex_hull, extended_hull_vertices, min_enclosing_circle
+from droneplan.planners.herding.guidance import fly_on_edge, fly_to_edge, steer
 
 ALLOCATORS = ("exact", "cp-sat", "bruteforce", "collision-blind")
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from scenarios.shark import THESIS_TABLE_5_1, SharkParams, field_radius
+from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, field_radius
 
 __all__ = ["thesis_altitude"]
 

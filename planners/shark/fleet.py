@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from formulations.shark import greedy_assignment, solve_assignment, solve_interception
-from planners.shark.pursuit import VirtualSharkInterceptor
-from scenarios.shark import THESIS_TABLE_5_1, SharkParams, constant_velocity_trajectory, simulate_interception
-from solvers.result import SolveResult
+from droneplan.formulations.shark import greedy_assignment, solve_assignment, solve_interception
+from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
+from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, constant_velocity_trajectory, simulate_interception
+from droneplan.solvers.result import SolveResult
 
 __all__ = ["interception_time_matrix", "allocate_operators"]
 

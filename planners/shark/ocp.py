@@ -7,10 +7,10 @@ import math
 
 import numpy as np
 
-from formulations.shark import InterceptionOCP, InterceptionPlan, solve_interception
-from planners.shark.pursuit import VirtualSharkInterceptor
-from scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory, clip_velocity, simulate_interception
-from solvers.result import SolveResult, Status
+from droneplan.formulations.shark import InterceptionOCP, InterceptionPlan, solve_interception
+from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
+from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory, clip_velocity, simulate_interception
+from droneplan.solvers.result import SolveResult, Status
 
 __all__ = ["virtual_shark_plan", "optimal_interception", "OCPInterceptor"]
 

@@ -31,9 +31,9 @@ import math
 
 import numpy as np
 
-from formulations.shark import optimal_altitude
-from planners.shark.altitude import thesis_altitude
-from scenarios.shark import THESIS_TABLE_5_1, SharkParams, clip_velocity
+from droneplan.formulations.shark import optimal_altitude
+from droneplan.planners.shark.altitude import thesis_altitude
+from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, clip_velocity
 
 __all__ = ["ClassicalPursuit", "VirtualSharkInterceptor"]
 

@@ -17,10 +17,10 @@ import math
 
 import numpy as np
 
-from formulations.shark import optimal_altitude
-from planners.shark.ocp import OCPInterceptor
-from planners.shark.pursuit import VirtualSharkInterceptor
-from scenarios.shark import THESIS_TABLE_5_1, SharkParams, clip_velocity
+from droneplan.formulations.shark import optimal_altitude
+from droneplan.planners.shark.ocp import OCPInterceptor
+from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
+from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, clip_velocity
 
 __all__ = ["RepellingOperator"]
 

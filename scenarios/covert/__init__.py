@@ -19,7 +19,7 @@ Controllers plug into :func:`simulate` through a small protocol (duck-typed):
 """
 
 
-from scenarios.covert.dynamics import (
+from droneplan.scenarios.covert.dynamics import (
     Controller,
     CovertTrace,
     Observation,
@@ -30,7 +30,7 @@ from scenarios.covert.dynamics import (
     simulate,
     step_drone,
 )
-from scenarios.covert.world import (
+from droneplan.scenarios.covert.world import (
     CASE1_TERRAIN,
     HABITAT,
     THESIS_TABLE_3_2,

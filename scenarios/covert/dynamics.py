@@ -8,7 +8,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from scenarios.covert.world import CovertParams, CovertScenario, _as_rng
+from droneplan.scenarios.covert.world import CovertParams, CovertScenario, _as_rng
 
 
 # --------------------------------------------------------------------------- geometry

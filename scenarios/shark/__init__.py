@@ -1,10 +1,10 @@
 """Shark interception world (thesis ch. 5): Table 5.1, field model, shark paths, simulator, repelling."""
 
-from scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, field_radius, inside_field, touches
-from scenarios.shark.repel import RepellingTrace, SharkBehaviour, simulate_repelling
-from scenarios.shark.simulate import (DEFAULT_BEARING_DEG, FRONTAL_TOL_DEG, InterceptionController, InterceptionTrace, clip_velocity,
+from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, field_radius, inside_field, touches
+from droneplan.scenarios.shark.repel import RepellingTrace, SharkBehaviour, simulate_repelling
+from droneplan.scenarios.shark.simulate import (DEFAULT_BEARING_DEG, FRONTAL_TOL_DEG, InterceptionController, InterceptionTrace, clip_velocity,
                                       operator_start, simulate_interception)
-from scenarios.shark.trajectories import (SharkTrajectory, constant_velocity_trajectory, make_trajectory,
+from droneplan.scenarios.shark.trajectories import (SharkTrajectory, constant_velocity_trajectory, make_trajectory,
                                           random_trajectory, thesis_trajectories)
 
 __all__ = [

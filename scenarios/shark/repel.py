@@ -17,9 +17,9 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
-from scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, inside_field
-from scenarios.shark.simulate import clip_velocity
-from scenarios.shark.trajectories import _rng
+from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, inside_field
+from droneplan.scenarios.shark.simulate import clip_velocity
+from droneplan.scenarios.shark.trajectories import _rng
 
 __all__ = ["SharkBehaviour", "RepellingTrace", "simulate_repelling"]
 

@@ -8,8 +8,8 @@ from typing import Protocol
 
 import numpy as np
 
-from scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, field_radius, inside_field
-from scenarios.shark.trajectories import SharkTrajectory
+from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, field_radius, inside_field
+from droneplan.scenarios.shark.trajectories import SharkTrajectory
 
 __all__ = ["InterceptionController", "InterceptionTrace", "simulate_interception", "operator_start",
            "clip_velocity", "FRONTAL_TOL_DEG", "DEFAULT_BEARING_DEG"]

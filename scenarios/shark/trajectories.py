@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scenarios.shark.params import THESIS_TABLE_5_1, SharkParams
+from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams
 
 __all__ = ["SharkTrajectory", "make_trajectory", "thesis_trajectories", "random_trajectory",
            "constant_velocity_trajectory"]

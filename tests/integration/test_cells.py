@@ -1,7 +1,7 @@
 import pandas as pd
 import pytest
 
-from studies import cells as study
+from droneplan.studies import cells as study
 
 
 @pytest.mark.slow
@@ -20,9 +20,9 @@ def test_reproduce_quick_writes_tables_and_orders_methods(tmp_path):
 @pytest.mark.slow
 @pytest.mark.parametrize("m,backend", [(3, "cp-sat"), (4, "cp-sat"), (4, "highs")])
 def test_thesis_scale_milp_proven_optimal(m, backend):
-    from formulations.cells import evaluate, solve_milp
-    from scenarios.cells import thesis_problem
-    from solvers.result import Status
+    from droneplan.formulations.cells import evaluate, solve_milp
+    from droneplan.scenarios.cells import thesis_problem
+    from droneplan.solvers.result import Status
 
     p = thesis_problem(m, study.INSTANCE_SEED)
     r = solve_milp(p, backend=backend, time_limit=900)

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from formulations.covert import sphere_minmax_bearing
-from planners.covert import HoverBenchmark, MPCObserver, SafeguardedMPCObserver, SlidingModeObserver
-from scenarios.covert import random_case, simulate, thesis_case
+from droneplan.formulations.covert import sphere_minmax_bearing
+from droneplan.planners.covert import HoverBenchmark, MPCObserver, SafeguardedMPCObserver, SlidingModeObserver
+from droneplan.scenarios.covert import random_case, simulate, thesis_case
 
 
 def test_random_group_sliding_beats_hover_and_is_near_the_proven_optimum():

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from planners.herding import BenchmarkHerder, HerderSettings, ProposedHerder
-from scenarios.herding import HerdingScenario, simulate, thesis_scenario
+from droneplan.planners.herding import BenchmarkHerder, HerderSettings, ProposedHerder
+from droneplan.scenarios.herding import HerdingScenario, simulate, thesis_scenario
 
 
 def _small(n=50, seed=0):
@@ -69,7 +69,7 @@ def test_degenerate_herds_do_not_crash(animals, cls):
 
 @pytest.mark.slow
 def test_cli_reproduce_quick_writes_tables_and_figures(tmp_path):
-    from studies.cli import main
+    from droneplan.studies.cli import main
 
     assert main(["reproduce", "herding", "--quick", "--out", str(tmp_path)]) == 0
     out = tmp_path / "herding"

@@ -29,7 +29,13 @@ def _imported_layers(path: Path) -> set[str]:
             names = [node.module]
         else:
             continue
-        found |= {n.split(".")[0] for n in names if n.split(".")[0] in LAYERS}
+        for name in names:
+            parts = name.split(".")
+            if parts[0] in LAYERS:
+                raise AssertionError(f"{path}: imports {name!r} outside the droneplan namespace")
+            if parts[0] == "droneplan" and len(parts) > 1:
+                # the front doors (droneplan.cells, ...) sit above every layer
+                found.add(parts[1] if parts[1] in LAYERS else "droneplan")
     return found
 
 
@@ -43,6 +49,12 @@ def test_layer_imports_point_one_way(layer):
         if wrong:
             bad[str(path.relative_to(ROOT))] = sorted(wrong)
     assert not bad, f"{layer} imports layers it must not: {bad}"
+
+
+def test_layers_do_not_import_the_front_doors():
+    for layer in LAYERS:
+        for path in (ROOT / layer).rglob("*.py"):
+            assert "droneplan" not in _imported_layers(path), path
 
 
 def test_nothing_imports_studies_outside_studies():

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from formulations.cells import (CellProblem, build_milp, candidate_sites, circle_intersections,
+from droneplan.formulations.cells import (CellProblem, build_milp, candidate_sites, circle_intersections,
                                 coverage_upper_bound, evaluate, solve_milp)
-from solvers.result import Status
+from droneplan.solvers.result import Status
 
 
 def small(users, m=2, gbs=((0.0, 0.0),), R_d=1.0, R_g=1.0, r1=2.5, r2=2.5, bounds=None):

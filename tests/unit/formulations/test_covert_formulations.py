@@ -9,7 +9,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from formulations.covert import (
+from droneplan.formulations.covert import (
     MPCData,
     MPCSettings,
     RecedingBearingMPC,
@@ -18,7 +18,7 @@ from formulations.covert import (
     rollout_guess,
     solve_bearing_mpc,
 )
-from scenarios.covert import THESIS_TABLE_3_2, bearing_changes, step_drone, thesis_case
+from droneplan.scenarios.covert import THESIS_TABLE_3_2, bearing_changes, step_drone, thesis_case
 
 P = THESIS_TABLE_3_2
 SET = MPCSettings(horizon=5, step=0.5, replan_every=2)
@@ -158,7 +158,7 @@ def test_settings_and_inputs_validation():
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_sphere_minmax_bound_against_dense_sampling(seed):
-    from formulations.covert import sphere_minmax_bearing
+    from droneplan.formulations.covert import sphere_minmax_bearing
 
     rng = np.random.default_rng(seed)
     A = np.column_stack([rng.uniform(90, 190, 4), rng.uniform(90, 190, 4), rng.uniform(0, 20, 4)])

@@ -4,14 +4,14 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from formulations.herding import (
+from droneplan.formulations.herding import (
     Allocation,
     check_allocation,
     pad_steering_points,
     solve_allocation,
 )
-from planners.herding import allocate_bruteforce, allocate_collision_blind, crosses
-from solvers.result import Status
+from droneplan.planners.herding import allocate_bruteforce, allocate_collision_blind, crosses
+from droneplan.solvers.result import Status
 
 
 @st.composite

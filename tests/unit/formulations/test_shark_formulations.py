@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from formulations.shark import optimal_altitude
-from scenarios.shark import THESIS_TABLE_5_1 as P, field_radius
+from droneplan.formulations.shark import optimal_altitude
+from droneplan.scenarios.shark import THESIS_TABLE_5_1 as P, field_radius
 
 
 @settings(max_examples=80, deadline=None)
@@ -32,9 +32,9 @@ def test_optimal_altitude_vectorised_and_bad_input():
 
 
 # ---------------------------------------------------------------- interception OCP
-from formulations.shark import InterceptionOCP, build_interception_nlp, solve_interception  # noqa: E402
-from scenarios.shark import inside_field, random_trajectory, thesis_trajectories  # noqa: E402
-from solvers.result import Status  # noqa: E402
+from droneplan.formulations.shark import InterceptionOCP, build_interception_nlp, solve_interception  # noqa: E402
+from droneplan.scenarios.shark import inside_field, random_trajectory, thesis_trajectories  # noqa: E402
+from droneplan.solvers.result import Status  # noqa: E402
 
 
 def _check_plan(res, shark_at, O0):
@@ -92,7 +92,7 @@ def test_ocp_bad_input():
 # ---------------------------------------------------------------- assignment
 import itertools  # noqa: E402
 
-from formulations.shark import assignment_cost, greedy_assignment, select_sharks, solve_assignment  # noqa: E402
+from droneplan.formulations.shark import assignment_cost, greedy_assignment, select_sharks, solve_assignment  # noqa: E402
 
 
 def _brute(cost, sharks):

@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from formulations.cells import CellProblem, circle_intersections, evaluate, solve_milp
-from planners.cells import GASettings, Region, exhaustive, fitness, genetic, max_coverage_in_region
+from droneplan.formulations.cells import CellProblem, circle_intersections, evaluate, solve_milp
+from droneplan.planners.cells import GASettings, Region, exhaustive, fitness, genetic, max_coverage_in_region
 
 
 def small(users, m=2, r1=3.0, r2=2.5, bounds=None):
@@ -141,7 +141,7 @@ def test_exhaustive_time_limit_reports_incomplete():
 
 
 def test_polish_keeps_feasibility_and_never_loses():
-    from planners.cells import genetic_polished, polish
+    from droneplan.planners.cells import genetic_polished, polish
     for seed in range(3):
         p = random_small(seed, 20, 2)
         ga = genetic(p, pop_size=10, iter_max=5, restarts=2, seed=seed)

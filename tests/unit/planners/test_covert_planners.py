@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from planners.covert import HoverBenchmark, SlidingModeObserver, SlidingSettings, W, g, selection_weights
-from scenarios.covert import THESIS_TABLE_3_2, CovertScenario, Terrain, simulate, thesis_case
+from droneplan.planners.covert import HoverBenchmark, SlidingModeObserver, SlidingSettings, W, g, selection_weights
+from droneplan.scenarios.covert import THESIS_TABLE_3_2, CovertScenario, Terrain, simulate, thesis_case
 
 coord = st.floats(-100, 100, allow_nan=False, allow_infinity=False)
 vec3 = st.tuples(coord, coord, coord).map(np.array)
@@ -129,8 +129,8 @@ def test_settings_validation():
 
 
 # --------------------------------------------------------------------------- MPC observer
-from planners.covert import MPCObserver, MPCObserverSettings  # noqa: E402
-from solvers.result import SolveResult, Status  # noqa: E402
+from droneplan.planners.covert import MPCObserver, MPCObserverSettings  # noqa: E402
+from droneplan.solvers.result import SolveResult, Status  # noqa: E402
 
 
 @pytest.mark.parametrize("backend", ["ipopt", "osqp"])
@@ -150,7 +150,7 @@ def test_mpc_commands_within_plant_bounds(backend):
 
 
 def test_mpc_falls_back_to_sliding_mode_and_counts(monkeypatch):
-    import formulations.covert as fc
+    import droneplan.formulations.covert as fc
 
     def failing(self, data, **kw):
         return SolveResult(Status.ERROR, backend="stub", message="forced failure")
@@ -174,7 +174,7 @@ def test_mpc_observer_settings_validation():
 
 
 # --------------------------------------------------------------------------- safeguarded MPC
-from planners.covert import SafeguardedMPCObserver, SafeguardSettings, rollout_sliding  # noqa: E402
+from droneplan.planners.covert import SafeguardedMPCObserver, SafeguardSettings, rollout_sliding  # noqa: E402
 
 
 def test_rollout_sliding_reproduces_the_closed_loop_on_true_targets():

@@ -7,8 +7,8 @@ import pytest
 import shapely
 from hypothesis import given, settings, strategies as st
 
-from formulations.herding import solve_allocation, z_coordinates
-from planners.herding import (
+from droneplan.formulations.herding import solve_allocation, z_coordinates
+from droneplan.planners.herding import (
     F,
     ExtendedHull,
     HerderSettings,
@@ -21,7 +21,7 @@ from planners.herding import (
     min_enclosing_circle,
     steering_points,
 )
-from scenarios.herding import drone_step, thesis_scenario
+from droneplan.scenarios.herding import drone_step, thesis_scenario
 
 clouds = st.lists(st.tuples(st.floats(-500, 500), st.floats(-500, 500)), min_size=3, max_size=40).map(np.array)
 

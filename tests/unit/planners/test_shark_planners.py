@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from formulations.shark import optimal_altitude
-from planners.shark import ClassicalPursuit, VirtualSharkInterceptor, thesis_altitude
-from scenarios.shark import (THESIS_TABLE_5_1 as P, field_radius, make_trajectory, random_trajectory,
+from droneplan.formulations.shark import optimal_altitude
+from droneplan.planners.shark import ClassicalPursuit, VirtualSharkInterceptor, thesis_altitude
+from droneplan.scenarios.shark import (THESIS_TABLE_5_1 as P, field_radius, make_trajectory, random_trajectory,
                              simulate_interception, thesis_trajectories)
 
 
@@ -91,9 +91,9 @@ def test_virtual_shark_bad_options():
 
 
 # ---------------------------------------------------------------- OCP vs virtual shark
-from planners.shark import OCPInterceptor, optimal_interception  # noqa: E402
-from scenarios.shark import operator_start  # noqa: E402
-from solvers.result import Status  # noqa: E402
+from droneplan.planners.shark import OCPInterceptor, optimal_interception  # noqa: E402
+from droneplan.scenarios.shark import operator_start  # noqa: E402
+from droneplan.solvers.result import Status  # noqa: E402
 
 
 @pytest.mark.parametrize("name", "abcd")
@@ -122,7 +122,7 @@ def test_online_ocp_interceptor_intercepts_frontally_on_a():
 
 
 def test_allocation_optimal_not_worse_than_greedy():
-    from planners.shark import allocate_operators
+    from droneplan.planners.shark import allocate_operators
     g = np.random.default_rng(5)
     O = np.c_[g.uniform(-40, 40, (3, 2)), np.full(3, 2.0)]
     S = np.c_[g.uniform(-40, 40, (3, 2)), np.full(3, -3.0)]
@@ -134,8 +134,8 @@ def test_allocation_optimal_not_worse_than_greedy():
 
 
 # ---------------------------------------------------------------- repelling (procedure 1-5 of §5.3.1)
-from planners.shark import RepellingOperator  # noqa: E402
-from scenarios.shark import SharkBehaviour, simulate_repelling  # noqa: E402
+from droneplan.planners.shark import RepellingOperator  # noqa: E402
+from droneplan.scenarios.shark import SharkBehaviour, simulate_repelling  # noqa: E402
 
 
 class _Idle:
@@ -157,7 +157,7 @@ def test_repelling_drives_shark_away_where_idle_operator_lets_it_bite(seed):
 
 
 def test_two_sharks_two_operators_with_allocation():
-    from planners.shark import allocate_operators
+    from droneplan.planners.shark import allocate_operators
     H = np.array([[0.0, 0.0]])
     S0 = np.array([[90.0, 40.0, -3.0], [-80.0, 50.0, -3.0]])
     O0 = np.array([[-10.0, -20.0, 2.0], [10.0, -20.0, 2.0]])

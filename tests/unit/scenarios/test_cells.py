@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from scenarios.cells import (THESIS_TABLE_4_2, CellParams, CellProblem, expected_user_count, matern_users,
+from droneplan.scenarios.cells import (THESIS_TABLE_4_2, CellParams, CellProblem, expected_user_count, matern_users,
                              thesis_problem, uniform_users)
 
 

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from scenarios.covert import (
+from droneplan.scenarios.covert import (
     THESIS_TABLE_3_2,
     CovertParams,
     CovertScenario,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from scenarios.herding import (
+from droneplan.scenarios.herding import (
     HerdingParams,
     HerdingScenario,
     animal_step,

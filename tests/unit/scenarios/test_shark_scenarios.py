@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from scenarios.shark import (THESIS_TABLE_5_1, SharkParams, field_radius, inside_field, random_trajectory,
+from droneplan.scenarios.shark import (THESIS_TABLE_5_1, SharkParams, field_radius, inside_field, random_trajectory,
                              simulate_interception, thesis_trajectories, touches, operator_start)
 
 P = THESIS_TABLE_5_1

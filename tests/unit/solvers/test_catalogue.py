@@ -11,11 +11,11 @@ import pytest
 import scipy.sparse as sp
 from ortools.sat.python import cp_model
 
-from solvers.cpsat import solve_cpsat
-from solvers.mip import new_mip, solve_mip
-from solvers.nlp import IpoptSolver
-from solvers.qp import OsqpSolver
-from solvers.result import SolveResult, Status
+from droneplan.solvers.cpsat import solve_cpsat
+from droneplan.solvers.mip import new_mip, solve_mip
+from droneplan.solvers.nlp import IpoptSolver
+from droneplan.solvers.qp import OsqpSolver
+from droneplan.solvers.result import SolveResult, Status
 
 MIP_BACKENDS = ["highs", "scip"]
 

@@ -4,8 +4,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from formulations.cells import CellProblem  # noqa: E402
-from studies import cells as study  # noqa: E402
+from droneplan.formulations.cells import CellProblem  # noqa: E402
+from droneplan.studies import cells as study  # noqa: E402
 
 
 def test_study_entry_points_exist():

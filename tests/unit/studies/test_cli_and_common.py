@@ -8,12 +8,12 @@ import sys
 import pandas as pd
 import pytest
 
-from studies import cli
-from studies.common import ComparisonTable, ResumableCSV, make_executor, map_rows
+from droneplan.studies import cli
+from droneplan.studies.common import ComparisonTable, ResumableCSV, make_executor, map_rows
 
 
 def test_help_runs_and_names_available_problems():
-    out = subprocess.run([sys.executable, "-m", "studies.cli", "--help"], capture_output=True, text=True,
+    out = subprocess.run([sys.executable, "-m", "droneplan.studies.cli", "--help"], capture_output=True, text=True,
                          check=True).stdout
     for sub in ("reproduce", "gap", "bench"):
         assert sub in out

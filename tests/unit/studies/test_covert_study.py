@@ -5,8 +5,8 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-import studies.covert as sc
-from studies.common import make_executor
+import droneplan.studies.covert as sc
+from droneplan.studies.common import make_executor
 
 
 def test_gap_rows_are_consistent_and_resumable(tmp_path, monkeypatch):

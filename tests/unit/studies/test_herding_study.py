@@ -4,8 +4,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from studies import herding as study
-from studies.common import make_executor
+from droneplan.studies import herding as study
+from droneplan.studies.common import make_executor
 
 
 @pytest.mark.parametrize("n", [2, 5, 7])

@@ -2,8 +2,8 @@ import math
 
 import numpy as np
 
-from studies import shark as study
-from studies.common import ComparisonTable
+from droneplan.studies import shark as study
+from droneplan.studies.common import ComparisonTable
 
 
 def test_fig_5_10_records_the_infeasible_range(tmp_path):

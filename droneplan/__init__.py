@@ -1,0 +1,23 @@
+"""droneplan: four drone planning problems of the thesis *Some Problems of Deployment
+and Navigation of Civilian Aerial Drones* (ch. 3-6) as explicit optimisation models,
+with the thesis's heuristics as baselines and warm starts.
+
+Front doors, one per problem (each re-exports what a user of that problem needs)::
+
+    import droneplan as dp
+    dp.covert    # ch. 3, covert observation of moving animals
+    dp.cells     # ch. 4, backhaul-aware drone-cell placement
+    dp.shark     # ch. 5, shark interception
+    dp.herding   # ch. 6, herding with barking drones
+
+The layers (``droneplan.scenarios``, ``.formulations``, ``.solvers``, ``.planners``,
+``.studies``) hold the implementation; ``SolveResult``/``Status`` are the result
+contract every solve returns.
+"""
+
+from droneplan import cells, covert, herding, shark
+from droneplan.solvers.result import SolveResult, Status
+
+__version__ = "0.1.0"
+
+__all__ = ["cells", "covert", "herding", "shark", "SolveResult", "Status", "__version__"]

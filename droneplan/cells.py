@@ -1,0 +1,61 @@
+"""Drone-cell placement (thesis ch. 4): scenarios, the candidate MILP, the thesis GA and
+exhaustive search, plotting. Positions in metres.
+
+    import droneplan as dp
+    problem = dp.cells.thesis_problem(n_cells=2, seed=0)
+    ga = dp.cells.genetic(problem, seed=0)
+    opt = dp.cells.solve_milp(problem, time_limit=60)
+"""
+
+from droneplan.formulations.cells import (
+    BACKENDS,
+    Candidates,
+    CellModel,
+    Evaluation,
+    build_milp,
+    candidate_sites,
+    connected_mask,
+    coverage_upper_bound,
+    evaluate,
+    greedy_placement,
+    solve_milp,
+)
+from droneplan.planners.cells import (
+    GASettings,
+    exhaustive,
+    fitness,
+    genetic,
+    genetic_polished,
+    max_coverage_in_region,
+    polish,
+    thesis_ga_settings,
+)
+from droneplan.scenarios.cells import (
+    THESIS_GA_TABLE_4_1,
+    THESIS_TABLE_4_2,
+    THESIS_TABLE_4_3,
+    CellParams,
+    CellProblem,
+    Instance,
+    matern_users,
+    problem_from_instance,
+    thesis_instance,
+    thesis_problem,
+    uniform_users,
+)
+from droneplan.solvers.result import SolveResult, Status
+from droneplan.studies.cells import plot_map
+
+__all__ = [
+    # scenarios and presets
+    "CellParams", "CellProblem", "Instance", "THESIS_TABLE_4_2", "THESIS_TABLE_4_3", "THESIS_GA_TABLE_4_1",
+    "matern_users", "uniform_users", "thesis_instance", "thesis_problem", "problem_from_instance",
+    # the model
+    "Evaluation", "evaluate", "connected_mask", "Candidates", "candidate_sites", "CellModel", "build_milp",
+    "solve_milp", "coverage_upper_bound", "greedy_placement", "BACKENDS",
+    # thesis heuristics and the improved variant
+    "GASettings", "genetic", "genetic_polished", "polish", "fitness", "exhaustive", "max_coverage_in_region",
+    "thesis_ga_settings",
+    # results and plots
+    "SolveResult", "Status", "plot_map",
+]

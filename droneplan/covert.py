@@ -1,0 +1,59 @@
+"""Covert observation of moving animals with motion camouflage (thesis ch. 3): the world
+and simulator, the min-max bearing MPC and its per-instant bound, the sliding-mode
+laws and the hover benchmark. Metres, seconds, radians.
+
+    import droneplan as dp
+    scenario = dp.covert.thesis_case(1, seed=0)
+    trace = dp.covert.simulate(scenario, dp.covert.SlidingModeObserver())
+    print(trace.beta_max)
+"""
+
+from droneplan.formulations.covert import (
+    BearingMPC,
+    MPCData,
+    MPCPlan,
+    MPCSettings,
+    RecedingBearingMPC,
+    build_bearing_mpc,
+    solve_bearing_mpc,
+    sphere_minmax_bearing,
+)
+from droneplan.planners.covert import (
+    HoverBenchmark,
+    MPCObserver,
+    MPCObserverSettings,
+    SafeguardedMPCObserver,
+    SafeguardSettings,
+    SlidingModeObserver,
+    SlidingSettings,
+    rollout_sliding,
+)
+from droneplan.scenarios.covert import (
+    THESIS_TABLE_3_2,
+    Controller,
+    CovertParams,
+    CovertScenario,
+    CovertTrace,
+    Observation,
+    Occlusion,
+    TargetPath,
+    Terrain,
+    bearing_changes,
+    random_case,
+    simulate,
+    thesis_case,
+)
+from droneplan.solvers.result import SolveResult, Status
+
+__all__ = [
+    # world, presets, simulator
+    "CovertParams", "THESIS_TABLE_3_2", "CovertScenario", "Terrain", "TargetPath", "Occlusion", "thesis_case",
+    "random_case", "bearing_changes", "Observation", "Controller", "CovertTrace", "simulate",
+    # the model
+    "MPCSettings", "MPCData", "MPCPlan", "BearingMPC", "build_bearing_mpc", "solve_bearing_mpc",
+    "RecedingBearingMPC", "sphere_minmax_bearing",
+    # thesis laws and solver-backed controllers
+    "SlidingSettings", "SlidingModeObserver", "HoverBenchmark", "rollout_sliding", "MPCObserver",
+    "MPCObserverSettings", "SafeguardSettings", "SafeguardedMPCObserver",
+    "SolveResult", "Status",
+]

@@ -1,0 +1,53 @@
+"""Herding with barking drones (thesis ch. 6): the animal world and simulator, the
+steering-point allocation model (exact algorithm and CP-SAT), Algorithm 3, the hull
+guidance laws and the proposed and benchmark herders. Metres, seconds.
+
+    import droneplan as dp
+    scenario = dp.herding.thesis_scenario(n_animals=100, seed=0)
+    trace = dp.herding.simulate(scenario, dp.herding.ProposedHerder(), t_max=1800, seed=0)
+    print(trace.gather_time, trace.total_time)
+"""
+
+from droneplan.formulations.herding import (
+    Allocation,
+    AllocationModel,
+    build_allocation_model,
+    check_allocation,
+    solve_allocation,
+)
+from droneplan.planners.herding import (
+    BenchmarkHerder,
+    ExtendedHull,
+    HerderSettings,
+    ProposedHerder,
+    allocate_bruteforce,
+    allocate_collision_blind,
+    convex_hull,
+    min_enclosing_circle,
+    steering_points,
+)
+from droneplan.scenarios.herding import (
+    THESIS_TABLE_6_2,
+    HerdingParams,
+    HerdingScenario,
+    HerdingTrace,
+    footprint_radius,
+    simulate,
+    thesis_scenario,
+    with_params,
+)
+from droneplan.solvers.result import SolveResult, Status
+from droneplan.studies.herding import footprint_figure, write_gif
+
+__all__ = [
+    # world, presets, simulator
+    "HerdingParams", "THESIS_TABLE_6_2", "HerdingScenario", "thesis_scenario", "with_params", "HerdingTrace",
+    "simulate", "footprint_radius",
+    # the allocation model
+    "Allocation", "AllocationModel", "build_allocation_model", "solve_allocation", "check_allocation",
+    # thesis methods and herders
+    "allocate_bruteforce", "allocate_collision_blind", "ExtendedHull", "convex_hull", "min_enclosing_circle",
+    "steering_points", "HerderSettings", "ProposedHerder", "BenchmarkHerder",
+    # results and plots
+    "SolveResult", "Status", "footprint_figure", "write_gif",
+]

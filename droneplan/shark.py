@@ -1,0 +1,69 @@
+"""Shark interception with an electric-field repellent (thesis ch. 5): Table 5.1, shark
+paths, the simulator, the exact optimal altitude, the time-optimal interception OCP,
+operator-to-shark assignment, and the thesis controllers. Metres, seconds.
+
+    import droneplan as dp
+    paths = dp.shark.thesis_trajectories()
+    trace = dp.shark.simulate(paths["a"], dp.shark.VirtualSharkInterceptor(), dp.shark.THESIS_TABLE_5_1)
+    print(trace.intercept_time, trace.frontal)
+"""
+
+from droneplan.formulations.shark import (
+    Assignment,
+    InterceptionOCP,
+    InterceptionPlan,
+    build_assignment_model,
+    build_interception_nlp,
+    greedy_assignment,
+    optimal_altitude,
+    solve_assignment,
+    solve_interception,
+)
+from droneplan.planners.shark import (
+    ClassicalPursuit,
+    OCPInterceptor,
+    RepellingOperator,
+    VirtualSharkInterceptor,
+    allocate_operators,
+    interception_time_matrix,
+    optimal_interception,
+    thesis_altitude,
+    virtual_shark_plan,
+)
+from droneplan.scenarios.shark import (
+    THESIS_TABLE_5_1,
+    InterceptionController,
+    InterceptionTrace,
+    RepellingTrace,
+    SharkBehaviour,
+    SharkParams,
+    SharkTrajectory,
+    constant_velocity_trajectory,
+    field_radius,
+    make_trajectory,
+    operator_start,
+    random_trajectory,
+    simulate_interception,
+    simulate_repelling,
+    thesis_trajectories,
+    touches,
+)
+from droneplan.solvers.result import SolveResult, Status
+
+simulate = simulate_interception
+"""The closed-loop simulator under the name every problem shares (alias of ``simulate_interception``)."""
+
+__all__ = [
+    # world, presets, simulator
+    "SharkParams", "THESIS_TABLE_5_1", "field_radius", "touches", "SharkTrajectory", "make_trajectory",
+    "thesis_trajectories", "random_trajectory", "constant_velocity_trajectory", "operator_start",
+    "InterceptionController", "InterceptionTrace", "simulate", "simulate_interception", "SharkBehaviour",
+    "RepellingTrace", "simulate_repelling",
+    # models
+    "optimal_altitude", "InterceptionOCP", "InterceptionPlan", "build_interception_nlp", "solve_interception",
+    "Assignment", "build_assignment_model", "solve_assignment", "greedy_assignment",
+    # thesis methods and controllers
+    "thesis_altitude", "ClassicalPursuit", "VirtualSharkInterceptor", "OCPInterceptor", "optimal_interception",
+    "virtual_shark_plan", "allocate_operators", "interception_time_matrix", "RepellingOperator",
+    "SolveResult", "Status",
+]
