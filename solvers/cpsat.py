@@ -1,15 +1,18 @@
-"""Adapter for OR-Tools CP-SAT: solve a built ``cp_model.CpModel`` into a SolveResult."""
+"""Adapter for OR-Tools CP-SAT: native CP-SAT models ("cp") and the LinearModel builder ("linear")."""
 
 from __future__ import annotations
 
-import time
 from typing import Any, Mapping, Sequence
 
 import numpy as np
 from ortools.sat.python import cp_model
 
-from droneplan.solvers.result import SolveResult, Status, map_status
+from droneplan.solvers.base import BackendAdapter, CpBackend, LinearBackend, NativeReadout, run_native
+from droneplan.solvers.linear import LinearModel
+from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_time_limit
+
+__all__ = ["BACKEND", "STATUS_MAP", "CpSatAdapter", "CpSatLinearModel", "solve_cpsat"]
 
 BACKEND = "cp-sat"
 
@@ -23,97 +26,149 @@ STATUS_MAP: dict[int, Status] = {
 }
 
 
-def solve_cpsat(
-    model: cp_model.CpModel,
-    *,
-    variables: Sequence[Any] = (),
-    time_limit: float | None = None,
-    workers: int | None = None,
-    hint: Mapping[Any, int] | None = None,
-    seed: int | None = None,
-    log: bool = False,
-    parameters: Mapping[str, Any] | None = None,
-) -> SolveResult:
-    """Solve a CP-SAT model.
-
-    model: the model, as a builder left it (objective optional).
-    variables: integer/Boolean variables whose solution values form ``x`` (in order).
-    time_limit: wall-clock limit in seconds (None: no limit).
-    workers: number of search workers (None: CP-SAT's default, all cores).
-    hint: a starting assignment {variable: value}; handed to CP-SAT as solution hints.
-    seed: CP-SAT's random seed.
-    log: print CP-SAT's search log.
-    parameters: further CP-SAT parameters by their SatParameters field name, e.g.
-        ``{"subsolvers": ["max_lp", "core"]}`` (a list sets a repeated field).
-
-    Returns a SolveResult: ``x`` is an int64 array of the values of ``variables``
-    (None without a solution), ``objective`` the objective value and ``bound`` CP-SAT's
-    best objective bound (both None for a model without objective or solution).
-    """
-    if not isinstance(model, cp_model.CpModel):
-        raise TypeError(f"model must be a cp_model.CpModel, got {type(model).__name__}")
-    check_time_limit(time_limit)
-    if workers is not None and (not isinstance(workers, int) or workers < 1):
+def _check_workers(workers: int | None) -> None:
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise ValueError(f"workers must be a positive int, got {workers!r}")
-    model.clear_hints()
-    if hint:
-        for var, value in hint.items():
-            model.add_hint(var, int(value))
-    solver = cp_model.CpSolver()
-    params = solver.parameters
-    if time_limit is not None:
-        params.max_time_in_seconds = float(time_limit)
-    if workers is not None:
-        params.num_workers = workers
-    if seed is not None:
-        params.random_seed = int(seed)
-    params.log_search_progress = bool(log)
-    for name, value in (parameters or {}).items():
-        if not hasattr(params, name):
-            raise ValueError(f"unknown CP-SAT parameter {name!r}")
-        if isinstance(value, (list, tuple)):
-            field = getattr(params, name)
-            field.clear()
-            field.extend(value)
-        else:
-            try:
-                setattr(params, name, value)
-            except (TypeError, ValueError) as exc:
-                raise ValueError(f"CP-SAT parameter {name}={value!r}: {exc}") from exc
 
-    t0 = time.perf_counter()
-    try:
-        code = solver.solve(model)
-    except Exception as exc:  # the backend failed: report, never a result that looks valid
-        return SolveResult(Status.ERROR, backend=BACKEND, backend_status="exception",
-                           message=f"CP-SAT raised {exc!r}", solve_time=time.perf_counter() - t0,
-                           warm_started=bool(hint))
-    elapsed = time.perf_counter() - t0
-    status = map_status(code, STATUS_MAP)
-    has_objective = model.has_objective()
-    objective = bound = None
-    x = None
-    if status.has_solution:
-        x = np.array([solver.value(v) for v in variables], dtype=np.int64)
-        if has_objective:
-            objective = float(solver.objective_value)
-            bound = float(solver.best_objective_bound)
-    message = ""
-    if status is Status.ERROR:
-        message = f"CP-SAT: {solver.status_name(code)}; model validation: {model.validate() or 'ok'}"
-    elif status is Status.NO_SOLUTION:
-        message = "CP-SAT stopped (time limit) before finding a solution"
-    return SolveResult(
-        status=status,
-        objective=objective,
-        bound=bound,
-        x=x,
-        backend=BACKEND,
-        backend_status=solver.status_name(code),
-        message=message,
-        solve_time=elapsed,
-        iterations=int(solver.num_branches),
-        warm_started=bool(hint),
-        info={"num_branches": int(solver.num_branches), "num_conflicts": int(solver.num_conflicts),
-              "wall_time": float(solver.wall_time)},
-    )
+
+class CpSatAdapter(BackendAdapter, CpBackend, LinearBackend):
+    """OR-Tools CP-SAT (a lazy clause generation CP/SAT solver with LP relaxations)."""
+
+    name = BACKEND
+    status_map = STATUS_MAP
+    description = "OR-Tools CP-SAT: integer/Boolean models, proven bounds"
+
+    def status_name(self, code: Any) -> str:
+        try:
+            return cp_model.CpSolver().status_name(code)
+        except Exception:  # not a CP-SAT code
+            return str(code)
+
+    def new_model(self) -> CpSatLinearModel:
+        return CpSatLinearModel()
+
+    def solve_cp(self, model: cp_model.CpModel, *, variables: Sequence[Any] = (), time_limit: float | None = None,
+                 workers: int | None = None, hint: Mapping[Any, int] | None = None, verbose: bool = False,
+                 seed: int | None = None, parameters: Mapping[str, Any] | None = None) -> SolveResult:
+        """Solve a CP-SAT model.
+
+        model: the model, as a builder left it (objective optional).
+        variables: integer/Boolean variables whose solution values form ``x`` (in order).
+        time_limit: wall-clock limit in seconds (None: no limit).
+        workers: number of search workers (None: CP-SAT's default, all cores).
+        hint: a starting assignment {variable: value}; handed to CP-SAT as solution hints.
+        verbose: print CP-SAT's search log (default quiet).
+        seed: CP-SAT's random seed.
+        parameters: further CP-SAT parameters by their SatParameters field name, e.g.
+            ``{"subsolvers": ["max_lp", "core"]}`` (a list sets a repeated field).
+
+        Returns a SolveResult: ``x`` is an int64 array of the values of ``variables``
+        (None without a solution), ``objective`` the objective value and ``bound`` CP-SAT's
+        best objective bound (both None for a model without objective or solution).
+        """
+        if not isinstance(model, cp_model.CpModel):
+            raise TypeError(f"model must be a cp_model.CpModel, got {type(model).__name__}")
+        check_time_limit(time_limit)
+        _check_workers(workers)
+        model.clear_hints()
+        if hint:
+            for var, value in hint.items():
+                model.add_hint(var, int(value))
+        solver = cp_model.CpSolver()
+        params = solver.parameters
+        if time_limit is not None:
+            params.max_time_in_seconds = float(time_limit)
+        if workers is not None:
+            params.num_workers = workers
+        if seed is not None:
+            params.random_seed = int(seed)
+        params.log_search_progress = bool(verbose)
+        for name, value in (parameters or {}).items():
+            if not hasattr(params, name):
+                raise ValueError(f"unknown CP-SAT parameter {name!r}")
+            if isinstance(value, (list, tuple)):
+                field = getattr(params, name)
+                field.clear()
+                field.extend(value)
+            else:
+                try:
+                    setattr(params, name, value)
+                except (TypeError, ValueError) as exc:
+                    raise ValueError(f"CP-SAT parameter {name}={value!r}: {exc}") from exc
+
+        def read(code: Any, _payload: Any, status: Status, _elapsed: float) -> NativeReadout:
+            objective = bound = x = None
+            if status.has_solution:
+                x = np.array([solver.value(v) for v in variables], dtype=np.int64)
+                if model.has_objective():
+                    objective = float(solver.objective_value)
+                    bound = float(solver.best_objective_bound)
+            message = ""
+            if status is Status.ERROR:
+                message = f"CP-SAT: {self.status_name(code)}; model validation: {model.validate() or 'ok'}"
+            elif status is Status.NO_SOLUTION:
+                message = "CP-SAT stopped (time limit) before finding a solution"
+            return NativeReadout(objective=objective, bound=bound, x=x, iterations=int(solver.num_branches),
+                                 message=message,
+                                 info={"num_branches": int(solver.num_branches),
+                                       "num_conflicts": int(solver.num_conflicts),
+                                       "wall_time": float(solver.wall_time)})
+
+        return run_native(self, lambda: (solver.solve(model), None), read, warm_started=bool(hint))
+
+
+class CpSatLinearModel(LinearModel):
+    """LinearModel on CP-SAT (Booleans and integers only; ``unit_var`` is Boolean)."""
+
+    backend = BACKEND
+    takes_hint = True
+
+    def __init__(self) -> None:
+        self._model = cp_model.CpModel()
+
+    @property
+    def native(self) -> cp_model.CpModel:
+        return self._model
+
+    def bool_var(self, name: str = "") -> Any:
+        return self._model.new_bool_var(name)
+
+    def int_var(self, lb: int, ub: int, name: str = "") -> Any:
+        return self._model.new_int_var(int(lb), int(ub), name)
+
+    def unit_var(self, name: str = "") -> Any:
+        return self._model.new_bool_var(name)
+
+    def add(self, constraint: Any) -> None:
+        self._model.add(constraint)
+
+    def add_at_most_one(self, variables: Sequence[Any]) -> None:
+        if len(variables) >= 2:
+            self._model.add_at_most_one(variables)
+
+    def add_exactly_one(self, variables: Sequence[Any]) -> None:
+        self._model.add_exactly_one(variables)
+
+    def sum(self, terms: Any) -> Any:
+        return cp_model.LinearExpr.sum(list(terms))
+
+    def maximize(self, expr: Any) -> None:
+        self._model.maximize(expr)
+
+    def minimize(self, expr: Any) -> None:
+        self._model.minimize(expr)
+
+    def solve(self, *, variables: Sequence[Any] = (), time_limit: float | None = None, workers: int | None = None,
+              hint: Mapping[Any, float] | None = None, verbose: bool = False,
+              options: Mapping[str, Any] | None = None) -> SolveResult:
+        """Solve on CP-SAT; ``options`` are SatParameters fields (see CpSatAdapter.solve_cp)."""
+        return CpSatAdapter().solve_cp(self._model, variables=variables, time_limit=time_limit, workers=workers,
+                                       hint=hint, verbose=verbose, parameters=options)
+
+
+def solve_cpsat(model: cp_model.CpModel, *, variables: Sequence[Any] = (), time_limit: float | None = None,
+                workers: int | None = None, hint: Mapping[Any, int] | None = None, seed: int | None = None,
+                log: bool = False, parameters: Mapping[str, Any] | None = None) -> SolveResult:
+    """Solve a CP-SAT model (same as ``get_backend("cp-sat").solve_cp``; ``log`` = ``verbose``)."""
+    return CpSatAdapter().solve_cp(model, variables=variables, time_limit=time_limit, workers=workers, hint=hint,
+                                   verbose=log, seed=seed, parameters=parameters)

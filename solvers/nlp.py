@@ -8,13 +8,13 @@ controller needs.
 
 from __future__ import annotations
 
-import time
 from typing import Any, Mapping
 
 import casadi as ca
 import numpy as np
 
-from droneplan.solvers.result import SolveResult, Status, map_status
+from droneplan.solvers.base import BackendAdapter, NativeReadout, NlpBackend, run_native
+from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_time_limit
 
 BACKEND = "ipopt"
@@ -59,10 +59,11 @@ class IpoptSolver:
     time_limit: default wall-clock limit per solve, in seconds (None: none).
     feasibility_tol: maximum constraint violation for a point returned at a limit
         to count as FEASIBLE (otherwise NO_SOLUTION).
+    verbose: let IPOPT print its banner and iteration log (default quiet).
     """
 
     def __init__(self, nlp: Mapping[str, Any], *, options: Mapping[str, Any] | None = None,
-                 time_limit: float | None = None, feasibility_tol: float = 1e-6):
+                 time_limit: float | None = None, feasibility_tol: float = 1e-6, verbose: bool = False):
         if not isinstance(nlp, Mapping) or "x" not in nlp or "f" not in nlp:
             raise ValueError("nlp must be a mapping with at least 'x' and 'f' CasADi expressions")
         unknown = set(nlp) - {"x", "f", "g", "p"}
@@ -78,19 +79,21 @@ class IpoptSolver:
         self.time_limit = time_limit
         self.feasibility_tol = feasibility_tol
         self._options = dict(options or {})
+        self.verbose = bool(verbose)
         self._solvers: dict[tuple[bool, float | None], ca.Function] = {}
 
     def _solver(self, warm: bool, time_limit: float | None) -> ca.Function:
         key = (warm, time_limit)
         if key not in self._solvers:
-            ipopt = {"print_level": 0, "sb": "yes"}
+            # quiet unless asked: sb=yes drops IPOPT's banner, print_time=False CasADi's timing table
+            ipopt = {} if self.verbose else {"print_level": 0, "sb": "yes"}
             ipopt.update(self._options)
             if time_limit is not None:
                 ipopt["max_wall_time"] = float(time_limit)
             if warm:
                 ipopt.update({"warm_start_init_point": "yes", "warm_start_bound_push": 1e-6,
                               "warm_start_mult_bound_push": 1e-6, "mu_init": 1e-4})
-            opts = {"ipopt": ipopt, "print_time": False, "error_on_fail": False}
+            opts = {"ipopt": ipopt, "print_time": self.verbose, "error_on_fail": False}
             self._solvers[key] = ca.nlpsol("droneplan_ipopt", "ipopt", self._nlp, opts)
         return self._solvers[key]
 
@@ -144,48 +147,42 @@ class IpoptSolver:
                 args["lam_g0"] = self._vec("lam_g0", warm_start.info["lam_g"], self.n_g, 0.0)
 
         solver = self._solver(use_warm, limit)
-        t0 = time.perf_counter()
-        try:
+
+        def call() -> tuple[str, Any]:
             sol = solver(**args)
-        except RuntimeError as exc:
-            return SolveResult(Status.ERROR, backend=BACKEND, backend_status="exception",
-                               message=f"IPOPT raised {exc}", solve_time=time.perf_counter() - t0,
-                               warm_started=use_warm)
-        elapsed = time.perf_counter() - t0
-        stats = solver.stats()
-        code = str(stats.get("return_status", "unknown"))
-        status = map_status(code, STATUS_MAP)
-        x = np.asarray(sol["x"], dtype=float).ravel()
-        g = np.asarray(sol["g"], dtype=float).ravel() if self.n_g else np.zeros(0)
-        violation = self._violation(x, g, args)
-        message = ""
-        if status is Status.OPTIMAL:
-            message = "local optimum (KKT point); no global bound"
-        if code in _LIMIT_STATUSES or status is Status.FEASIBLE:
-            if violation <= self.feasibility_tol and np.isfinite(x).all():
-                status = Status.FEASIBLE
-                message = f"IPOPT stopped with {code}; point feasible (violation {violation:.2e})"
-            else:
-                status = Status.NO_SOLUTION
-                message = f"IPOPT stopped with {code}; point infeasible (violation {violation:.2e})"
-        if status is Status.ERROR and code not in STATUS_MAP:
-            message = f"unknown IPOPT status {code!r}"
-        has = status.has_solution
-        return SolveResult(
-            status=status,
-            objective=float(sol["f"]) if has else None,
-            bound=None,
-            x=x if has else None,
-            backend=BACKEND,
-            backend_status=code,
-            message=message,
-            solve_time=elapsed,
-            iterations=int(stats.get("iter_count", 0)),
-            warm_started=use_warm,
-            info={"lam_x": np.asarray(sol["lam_x"], dtype=float).ravel(),
-                  "lam_g": np.asarray(sol["lam_g"], dtype=float).ravel(),
-                  "g": g, "violation": violation, "x_last": x},
-        )
+            return str(solver.stats().get("return_status", "unknown")), sol
+
+        def read(code: str, sol: Any, status: Status, _elapsed: float) -> NativeReadout:
+            stats = solver.stats()
+            x = np.asarray(sol["x"], dtype=float).ravel()
+            g = np.asarray(sol["g"], dtype=float).ravel() if self.n_g else np.zeros(0)
+            violation = self._violation(x, g, args)
+            message = ""
+            if status is Status.OPTIMAL:
+                message = "local optimum (KKT point); no global bound"
+            if code in _LIMIT_STATUSES or status is Status.FEASIBLE:
+                # a point returned at a limit counts only if it satisfies the constraints
+                if violation <= self.feasibility_tol and np.isfinite(x).all():
+                    status = Status.FEASIBLE
+                    message = f"IPOPT stopped with {code}; point feasible (violation {violation:.2e})"
+                else:
+                    status = Status.NO_SOLUTION
+                    message = f"IPOPT stopped with {code}; point infeasible (violation {violation:.2e})"
+            if status is Status.ERROR and code not in STATUS_MAP:
+                message = f"unknown IPOPT status {code!r}"
+            has = status.has_solution
+            return NativeReadout(
+                status=status,
+                objective=float(sol["f"]) if has else None,
+                x=x if has else None,
+                message=message,
+                iterations=int(stats.get("iter_count", 0)),
+                info={"lam_x": np.asarray(sol["lam_x"], dtype=float).ravel(),
+                      "lam_g": np.asarray(sol["lam_g"], dtype=float).ravel(),
+                      "g": g, "violation": violation, "x_last": x},
+            )
+
+        return run_native(_ADAPTER, call, read, warm_started=use_warm)
 
     @staticmethod
     def _violation(x: np.ndarray, g: np.ndarray, args: Mapping[str, np.ndarray]) -> float:
@@ -194,3 +191,25 @@ class IpoptSolver:
             parts += [np.maximum(args["lbg"] - g, 0), np.maximum(g - args["ubg"], 0)]
         finite = [np.nan_to_num(p, nan=np.inf) for p in parts]
         return float(max((p.max() if p.size else 0.0) for p in finite))
+
+
+class IpoptAdapter(BackendAdapter, NlpBackend):
+    """IPOPT (interior point, local) through CasADi's nlpsol."""
+
+    name = BACKEND
+    status_map = STATUS_MAP
+    description = "IPOPT through CasADi: local NLP solutions, warm start with duals"
+    reuses_duals = True
+
+    def create_nlp(self, nlp: Mapping[str, Any], *, options: Mapping[str, Any] | None = None,
+                   structure: Any = None, time_limit: float | None = None,
+                   verbose: bool = False) -> IpoptSolver:
+        """An :class:`IpoptSolver`; ``options`` are IPOPT options, plus ``feasibility_tol``
+        (see IpoptSolver). ``structure`` is not needed by IPOPT and ignored."""
+        opts = dict(options or {})
+        feasibility_tol = opts.pop("feasibility_tol", 1e-6)
+        return IpoptSolver(nlp, options=opts, time_limit=time_limit, feasibility_tol=feasibility_tol,
+                           verbose=verbose)
+
+
+_ADAPTER = IpoptAdapter()

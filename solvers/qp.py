@@ -8,14 +8,14 @@ sequential-QP / real-time-iteration controller needs.
 
 from __future__ import annotations
 
-import time
 from typing import Any, Mapping
 
 import numpy as np
 import osqp
 import scipy.sparse as sp
 
-from droneplan.solvers.result import SolveResult, Status, map_status
+from droneplan.solvers.base import BackendAdapter, NativeReadout, QpBackend, run_native
+from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_time_limit
 
 BACKEND = "osqp"
@@ -46,10 +46,12 @@ class OsqpSolver:
     A: (m, n) constraint matrix; l, u: (m,) bounds (±inf allowed).
     settings: OSQP settings overriding ours (eps_abs=eps_rel=1e-6, polishing on).
     time_limit: wall-clock limit per solve in seconds (None: none).
+    verbose: let OSQP print its log (default quiet; ``settings["verbose"]`` also works).
     """
 
     def __init__(self, P: Any, q: Any, A: Any, l: Any, u: Any, *,
-                 settings: Mapping[str, Any] | None = None, time_limit: float | None = None):
+                 settings: Mapping[str, Any] | None = None, time_limit: float | None = None,
+                 verbose: bool = False):
         check_time_limit(time_limit)
         P = sp.csc_matrix(P, dtype=float)
         A = sp.csc_matrix(A, dtype=float)
@@ -64,7 +66,7 @@ class OsqpSolver:
         u = self._vec("u", u, self.m)
         if np.any(l > u):
             raise ValueError("l must be <= u elementwise")
-        opts = dict(_DEFAULT_SETTINGS)
+        opts = dict(_DEFAULT_SETTINGS, verbose=bool(verbose))
         # osqp 1.x renamed "polish" to "polishing"; accept either spelling from callers.
         if settings:
             opts.update(settings)
@@ -124,35 +126,47 @@ class OsqpSolver:
                 else:
                     self._solver.warm_start(x=xw, y=yw)
                 warm_used = True
-        t0 = time.perf_counter()
-        try:
-            res = self._solver.solve(raise_error=False)
-        except TypeError:  # osqp < 1.0 has no raise_error argument
-            res = self._solver.solve()
-        except Exception as exc:
-            return SolveResult(Status.ERROR, backend=BACKEND, backend_status="exception",
-                               message=f"OSQP raised {exc!r}", solve_time=time.perf_counter() - t0,
-                               warm_started=warm_used)
-        elapsed = time.perf_counter() - t0
-        code = str(res.info.status).lower()
-        status = map_status(code, STATUS_MAP)
-        has = status.has_solution and res.x is not None and np.isfinite(res.x).all()
-        if status.has_solution and not has:
-            status = Status.ERROR
-        objective = float(res.info.obj_val) if has else None
-        return SolveResult(
-            status=status,
-            objective=objective,
-            bound=objective if status is Status.OPTIMAL else None,
-            x=np.asarray(res.x, dtype=float).copy() if has else None,
-            backend=BACKEND,
-            backend_status=str(res.info.status),
-            message="" if has else f"OSQP: {res.info.status}",
-            solve_time=elapsed,
-            iterations=int(res.info.iter),
-            warm_started=warm_used,
-            info={"y": np.asarray(res.y, dtype=float).copy() if res.y is not None else None},
-        )
+
+        def call() -> tuple[str, Any]:
+            try:
+                res = self._solver.solve(raise_error=False)
+            except TypeError:  # osqp < 1.0 has no raise_error argument
+                res = self._solver.solve()
+            return str(res.info.status).lower(), res
+
+        def read(_code: str, res: Any, status: Status, _elapsed: float) -> NativeReadout:
+            has = status.has_solution and res.x is not None and np.isfinite(res.x).all()
+            if status.has_solution and not has:
+                status = Status.ERROR
+            objective = float(res.info.obj_val) if has else None
+            return NativeReadout(
+                status=status,
+                objective=objective,
+                bound=objective if status is Status.OPTIMAL else None,
+                x=np.asarray(res.x, dtype=float).copy() if has else None,
+                backend_status=str(res.info.status),
+                message="" if has else f"OSQP: {res.info.status}",
+                iterations=int(res.info.iter),
+                info={"y": np.asarray(res.y, dtype=float).copy() if res.y is not None else None},
+            )
+
+        return run_native(_ADAPTER, call, read, warm_started=warm_used)
+
+
+class OsqpAdapter(BackendAdapter, QpBackend):
+    """OSQP (ADMM for convex QPs)."""
+
+    name = BACKEND
+    status_map = STATUS_MAP
+    description = "OSQP: convex QPs by ADMM, warm start with primal and duals"
+
+    def create_qp(self, P: Any, q: Any, A: Any, l: Any, u: Any, *, settings: Mapping[str, Any] | None = None,
+                  time_limit: float | None = None, verbose: bool = False) -> OsqpSolver:
+        """An :class:`OsqpSolver` (see its docstring)."""
+        return OsqpSolver(P, q, A, l, u, settings=settings, time_limit=time_limit, verbose=verbose)
+
+
+_ADAPTER = OsqpAdapter()
 
 
 def osqp_inf() -> float:

@@ -1,0 +1,109 @@
+"""Backends by name: formulations ask the registry, never ``if backend == ...``.
+
+The built-in adapters are listed in ``_BUILTIN`` as ``name -> "module:Class"`` and
+imported on first use (so importing droneplan does not load every solver library).
+Adding a backend is one adapter file in ``solvers/`` plus one line in ``_BUILTIN``
+(or, from user code, one :func:`register_backend` call).
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from droneplan.solvers.base import KINDS, BackendAdapter
+
+__all__ = ["available_backends", "get_backend", "register_backend", "registered_backends", "unregister_backend"]
+
+_BUILTIN: dict[str, str] = {
+    "cp-sat": "droneplan.solvers.cpsat:CpSatAdapter",
+    "highs": "droneplan.solvers.mip:HighsAdapter",
+    "scip": "droneplan.solvers.mip:ScipAdapter",
+    "ipopt": "droneplan.solvers.nlp:IpoptAdapter",
+    "osqp": "droneplan.solvers.qp:OsqpAdapter",
+}
+
+_LOADED: dict[str, BackendAdapter] = {}
+_USER: dict[str, BackendAdapter] = {}
+
+
+def _check_kind(kind: str | None) -> None:
+    if kind is not None and kind not in KINDS:
+        raise ValueError(f"kind must be one of {KINDS} or None, got {kind!r}")
+
+
+def register_backend(name: str, adapter: BackendAdapter, *, replace: bool = False) -> None:
+    """Make ``adapter`` available as ``name``.
+
+    name: registry name (lower case; must equal ``adapter.name``).
+    adapter: an instance of a :class:`BackendAdapter` subclass.
+    replace: allow replacing an existing entry (default: a clash raises ValueError).
+    """
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"name must be a non-empty str, got {name!r}")
+    if not isinstance(adapter, BackendAdapter):
+        raise TypeError(f"adapter must be a BackendAdapter instance, got {type(adapter).__name__}")
+    if adapter.name != name:
+        raise ValueError(f"adapter.name is {adapter.name!r} but it is registered as {name!r}")
+    if not adapter.kinds:
+        raise ValueError(f"adapter {name!r} implements no capability (LinearBackend, CpBackend, NlpBackend, QpBackend)")
+    if not replace and (name in _USER or name in _BUILTIN):
+        raise ValueError(f"a backend named {name!r} is already registered (pass replace=True)")
+    _USER[name] = adapter
+
+
+def unregister_backend(name: str) -> None:
+    """Remove a backend added by :func:`register_backend` (built-in entries cannot be removed;
+    a user entry that replaced a built-in one is removed and the built-in one returns)."""
+    if name not in _USER:
+        raise ValueError(f"{name!r} was not added by register_backend; user-registered: {sorted(_USER)}")
+    del _USER[name]
+
+
+def _load(name: str) -> BackendAdapter:
+    if name in _USER:
+        return _USER[name]
+    if name not in _LOADED:
+        module, cls = _BUILTIN[name].split(":")
+        _LOADED[name] = getattr(importlib.import_module(module), cls)()
+    return _LOADED[name]
+
+
+def registered_backends() -> list[str]:
+    """Every registered name, available in this installation or not."""
+    return sorted(set(_BUILTIN) | set(_USER))
+
+
+def get_backend(name: str, kind: str | None = None) -> Any:
+    """The adapter registered as ``name``.
+
+    kind: if given, the adapter must offer this capability ("linear", "cp", "nlp", "qp").
+    Raises ValueError for an unknown name (listing the known ones), a missing
+    capability, or a backend that is not available in this installation.
+    """
+    _check_kind(kind)
+    if not isinstance(name, str):
+        raise TypeError(f"backend must be a str, got {type(name).__name__}")
+    key = name.lower()
+    if key not in _BUILTIN and key not in _USER:
+        known = available_backends(kind) if kind else registered_backends()
+        raise ValueError(f"unknown backend {name!r}; known{f' {kind}' if kind else ''} backends: {known}")
+    adapter = _load(key)
+    if kind is not None and kind not in adapter.kinds:
+        raise ValueError(f"backend {name!r} does not offer {kind!r} (it offers {sorted(adapter.kinds)}); "
+                         f"{kind} backends: {available_backends(kind)}")
+    if not adapter.is_available():
+        raise ValueError(f"backend {name!r} is not available in this installation; "
+                         f"available{f' {kind}' if kind else ''} backends: {available_backends(kind)}")
+    return adapter
+
+
+def available_backends(kind: str | None = None) -> list[str]:
+    """Names of the backends usable here, optionally only those offering ``kind``."""
+    _check_kind(kind)
+    out = []
+    for name in registered_backends():
+        adapter = _load(name)
+        if (kind is None or kind in adapter.kinds) and adapter.is_available():
+            out.append(name)
+    return out

@@ -1,0 +1,75 @@
+"""Item 8 of issue 9: no solver writes to stdout unless verbose=True (checked at the fd level)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+import casadi as ca
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from droneplan.solvers import Status, get_backend
+
+LINEAR = ["cp-sat", "highs", "scip"]
+
+
+def _linear(backend, verbose):
+    lin = get_backend(backend, kind="linear").new_model()
+    x = [lin.bool_var(f"x{i}") for i in range(4)]
+    y = lin.unit_var("y")
+    lin.add(y <= x[0] + x[1])
+    lin.add(lin.sum(x) <= 2)
+    lin.maximize(y + 2 * x[2] + x[3])
+    return lin.solve(variables=x, workers=1, verbose=verbose)
+
+
+def _nlp(verbose):
+    x = ca.SX.sym("x", 2)
+    solver = get_backend("ipopt", kind="nlp").create_nlp(
+        {"x": x, "f": (x[0] - 1) ** 2 + (x[1] - 2) ** 2, "g": x[0] + x[1]}, verbose=verbose)
+    return solver.solve(x0=[0, 0], lbg=-np.inf, ubg=2.0)
+
+
+def _qp(verbose):
+    qp = get_backend("osqp", kind="qp").create_qp(sp.eye(2), [-1.0, -1.0], sp.eye(2), [0, 0], [0.5, 2],
+                                                  verbose=verbose)
+    return qp.solve()
+
+
+SOLVES = {**{b: (lambda v, b=b: _linear(b, v)) for b in LINEAR}, "ipopt": _nlp, "osqp": _qp}
+
+
+@pytest.mark.parametrize("backend", list(SOLVES))
+def test_quiet_by_default(backend, capfd):
+    res = SOLVES[backend](False)
+    assert res.status is Status.OPTIMAL
+    out, _ = capfd.readouterr()
+    assert out == ""
+
+
+@pytest.mark.parametrize("backend", ["highs", "ipopt", "osqp"])
+def test_verbose_reaches_stdout(backend, capfd):
+    """The counterpart: with verbose=True the same solve does print (so the capture works)."""
+    SOLVES[backend](True)
+    out, _ = capfd.readouterr()
+    assert out.strip()
+
+
+def test_fresh_process_prints_no_banner():
+    """Banners printed once per process (IPOPT, HiGHS) get their chance in a fresh interpreter."""
+    code = textwrap.dedent("""
+        import tests_quiet_solves as t
+        for name, solve in t.SOLVES.items():
+            assert solve(False).status.name == "OPTIMAL", name
+    """)
+    from pathlib import Path
+
+    here = Path(__file__).with_name("test_quiet.py")
+    prog = f"import importlib.util, sys\nspec = importlib.util.spec_from_file_location('tests_quiet_solves', {str(here)!r})\n" \
+           "m = importlib.util.module_from_spec(spec); spec.loader.exec_module(m); sys.modules['tests_quiet_solves'] = m\n" + code
+    proc = subprocess.run([sys.executable, "-c", prog], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout == ""
