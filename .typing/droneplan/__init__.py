@@ -1,0 +1,1 @@
+../../droneplan/__init__.py

@@ -1,0 +1,1 @@
+../../droneplan/herding.py
