@@ -75,6 +75,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from ortools.sat.python import cp_model
 
+from droneplan.solvers.validation import check_array, check_positive
 from droneplan.solvers.cpsat import solve_cpsat
 from droneplan.solvers.result import SolveResult, Status
 
@@ -102,11 +103,7 @@ class Allocation:
 
 # --------------------------------------------------------------------------- validation
 def _as_positions(name: str, values, perimeter: float) -> np.ndarray:
-    arr = np.asarray(values, dtype=float)
-    if arr.ndim != 1:
-        raise ValueError(f"{name} must be a 1-D array of arc lengths, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite")
+    arr = check_array(name, values, ndim=1)
     if np.any(arr < 0) or np.any(arr >= perimeter):
         raise ValueError(f"{name} must lie in [0, perimeter) = [0, {perimeter})")
     return arr
@@ -119,11 +116,7 @@ def validate_allocation_input(drone_s, steer_s, perimeter) -> tuple[np.ndarray, 
     steering points, more steering points than drones, or positions outside
     ``[0, perimeter)`` or non-finite.
     """
-    if isinstance(perimeter, bool) or not np.isscalar(perimeter):
-        raise ValueError(f"perimeter must be a number, got {perimeter!r}")
-    perimeter = float(perimeter)
-    if not np.isfinite(perimeter) or perimeter <= 0:
-        raise ValueError(f"perimeter must be finite and > 0, got {perimeter}")
+    perimeter = check_positive("perimeter", perimeter)
     d = _as_positions("drone_s", drone_s, perimeter)
     s = _as_positions("steer_s", steer_s, perimeter)
     if d.size < 1:

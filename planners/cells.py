@@ -32,6 +32,15 @@ import numpy as np
 from droneplan.formulations.cells import TOL, CellProblem, circle_intersections, evaluate
 from droneplan.scenarios.cells import THESIS_GA_TABLE_4_1, THESIS_TABLE_4_3
 from droneplan.solvers.result import SolveResult, Status
+from droneplan.solvers.validation import (
+    check_array,
+    check_in_range,
+    check_int,
+    check_positive,
+    check_size,
+    check_time_limit,
+    resolve_seed,
+)
 
 __all__ = ["GASettings", "genetic", "genetic_polished", "polish", "fitness", "exhaustive", "max_coverage_in_region", "Region",
            "thesis_ga_settings"]
@@ -56,16 +65,11 @@ class GASettings:
     """Fraction of worst chromosomes replaced by the best each generation, in [0, 1)."""
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.T) and self.T > 0):
-            raise ValueError(f"T must be > 0, got {self.T}")
-        if not (0 < self.alpha <= 1):
-            raise ValueError(f"alpha must be in (0, 1], got {self.alpha}")
+        check_positive("T", self.T)
+        check_in_range("alpha", self.alpha, 0.0, 1.0, lo_open=True)
         for name in ("p_m", "p_c1", "p_c2"):
-            v = getattr(self, name)
-            if not (0 <= v <= 1):
-                raise ValueError(f"{name} must be in [0, 1], got {v}")
-        if not (0 <= self.replace_frac < 1):
-            raise ValueError(f"replace_frac must be in [0, 1), got {self.replace_frac}")
+            check_in_range(name, getattr(self, name), 0.0, 1.0)
+        check_in_range("replace_frac", self.replace_frac, 0.0, 1.0, hi_open=True)
 
 
 def thesis_ga_settings(m: int) -> tuple[int, int]:
@@ -107,7 +111,12 @@ def fitness(problem: CellProblem, pop: np.ndarray, *, chunk: int = 2048) -> np.n
     """GA fitness of a population (..., m, 2) in metres -> (...) covered users (int),
     counting only contributing drone-cells (module docstring). Vectorised over the
     population (in chunks of ``chunk`` chromosomes to bound memory)."""
-    pop = np.asarray(pop, dtype=float)
+    if not isinstance(problem, CellProblem):
+        raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    chunk = check_int("chunk", chunk, min_value=1)
+    pop = check_array("pop", pop)
+    if pop.ndim < 2 or pop.shape[-1] != 2:
+        raise ValueError(f"pop must have shape (..., m, 2) (positions in metres), got {pop.shape}")
     if pop.ndim == 2:
         pop = pop[None]
     lead = pop.shape[:-2]
@@ -209,10 +218,13 @@ def genetic(problem: CellProblem, *, pop_size: int | None = None, iter_max: int 
     P = P0 if pop_size is None else pop_size
     N = N0 if restarts is None else restarts
     for name, v, lo in (("pop_size", P, 2), ("iter_max", iter_max, 0), ("restarts", N, 1)):
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-            raise ValueError(f"{name} must be an int >= {lo}, got {v!r}")
+        check_int(name, v, min_value=lo)
+    check_size("restarts x pop_size x n_cells x users", int(N) * int(P) * problem.n_cells * max(len(problem.targets), 1))
+    if settings is not None and not isinstance(settings, GASettings):
+        raise TypeError(f"settings must be GASettings or None, got {type(settings).__name__}")
     s = settings or GASettings()
-    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    rng, drawn = resolve_seed(seed)
+    seed = seed if drawn is None else drawn  # the seed drawn for seed=None is recorded
     t0 = time.perf_counter()
     chromos, fvals = _run_batch(problem, int(N), int(P), int(iter_max), s, rng)
     bests = [int(v) for v in fvals]
@@ -361,6 +373,7 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> Solv
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    time_limit = check_time_limit(time_limit)
     t0 = time.perf_counter()
     users = problem.targets
     m = problem.n_cells
@@ -409,7 +422,10 @@ def polish(problem: CellProblem, positions, *, max_passes: int = 10) -> np.ndarr
     at a time to the best point of its deployment region given the others (the
     constrained single-disc sweep), keeping the move only when the whole placement
     stays feasible and covers more users. Returns the improved positions (k, 2)."""
-    pos = np.array(positions, dtype=float).reshape(-1, 2)
+    if not isinstance(problem, CellProblem):
+        raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    max_passes = check_int("max_passes", max_passes, min_value=0)
+    pos = check_array("positions", positions, shape=(None, 2))
     if not evaluate(problem, pos).feasible:
         raise ValueError("positions must be a feasible placement to polish")
     val = evaluate(problem, pos).covered

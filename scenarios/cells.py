@@ -20,6 +20,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from droneplan.solvers.validation import (
+    as_generator,
+    check_array,
+    check_int,
+    check_nonneg,
+    check_positive,
+    check_size,
+)
+
 __all__ = [
     "CellParams",
     "THESIS_TABLE_4_2",
@@ -34,12 +43,6 @@ __all__ = [
     "problem_from_instance",
     "CellProblem",
 ]
-
-
-def _rng(seed: int | np.random.Generator | None) -> np.random.Generator:
-    if isinstance(seed, np.random.Generator):
-        return seed
-    return np.random.default_rng(seed)
 
 
 @dataclass(frozen=True)
@@ -69,18 +72,15 @@ class CellParams:
 
     def __post_init__(self) -> None:
         for name in ("half_width", "R_c", "R_d", "R_g", "r1", "r2"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
+            check_positive(name, getattr(self, name))
         for name in ("lambda_c", "lambda_nc"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
-        if not (isinstance(self.n_clusters, int) and self.n_clusters >= 0):
-            raise ValueError(f"n_clusters must be an int >= 0, got {self.n_clusters!r}")
-        g = np.asarray(self.gbs, dtype=float)
-        if g.ndim != 2 or g.shape[1] != 2 or not np.all(np.isfinite(g)):
-            raise ValueError(f"gbs must be a sequence of finite (x, y) pairs, got {self.gbs!r}")
+            check_nonneg(name, getattr(self, name))
+        check_int("n_clusters", self.n_clusters, min_value=0)
+        check_size("n_clusters", 2 * self.n_clusters)
+        check_array("gbs", self.gbs, shape=(None, 2), min_rows=1)
+        # refuse up front a density that asks for more users than fit in memory
+        expected = self.n_clusters * self.lambda_c * math.pi * self.R_c**2 / 3 + self.lambda_nc * self.area
+        check_size("lambda_c, lambda_nc (expected users)", int(2 * expected))
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:
@@ -149,7 +149,9 @@ def matern_users(
     Returns users (n, 2) in metres (clipped to nothing: clusters near the border may
     put users outside the square, which are discarded), optionally with the centres.
     """
-    rng = _rng(seed)
+    if not isinstance(params, CellParams):
+        raise TypeError(f"params must be CellParams, got {type(params).__name__}")
+    rng = as_generator(seed)
     nc = int(rng.poisson(params.n_clusters)) if poisson_clusters else params.n_clusters
     centres = _uniform_in_square(rng, nc, params)
     radii = params.R_c * (1.0 - rng.uniform(0.0, 1.0, nc))  # U(0, R_c]
@@ -185,17 +187,20 @@ def uniform_users(seed: int | np.random.Generator | None, params: CellParams = T
     so the clustered and non-clustered scenarios have the same expected total.
     Returns users (n, 2) in metres.
     """
-    rng = _rng(seed)
-    mean = expected_user_count(params) if mean_count is None else float(mean_count)
-    if not (math.isfinite(mean) and mean >= 0):
-        raise ValueError(f"mean_count must be a finite number >= 0, got {mean_count!r}")
+    if not isinstance(params, CellParams):
+        raise TypeError(f"params must be CellParams, got {type(params).__name__}")
+    mean = expected_user_count(params) if mean_count is None else check_nonneg("mean_count", mean_count)
+    check_size("mean_count (expected users)", int(2 * mean))
+    rng = as_generator(seed)
     return _uniform_in_square(rng, int(rng.poisson(mean)), params)
 
 
 def thesis_instance(seed: int | np.random.Generator | None, params: CellParams = THESIS_TABLE_4_2,
                     *, clustered: bool = True) -> Instance:
     """A Table 4.2 user snapshot (clustered, or non-clustered with the same expected count)."""
-    rng = _rng(seed)
+    if not isinstance(params, CellParams):
+        raise TypeError(f"params must be CellParams, got {type(params).__name__}")
+    rng = as_generator(seed)
     if clustered:
         users, centres = matern_users(rng, params, return_centres=True)
     else:
@@ -210,28 +215,17 @@ def thesis_problem(n_cells: int, seed: int | np.random.Generator | None, *, clus
     seed: int or Generator for the user snapshot; clustered: Matérn users (True) or the
     non-clustered process with the same expected count (Fig. 4.6).
     """
+    check_int("n_cells", n_cells, min_value=1)  # before drawing users
     return problem_from_instance(thesis_instance(seed, params, clustered=clustered), n_cells)
 
 
 def problem_from_instance(inst: Instance, n_cells: int) -> "CellProblem":
     """A :class:`CellProblem` for a generated snapshot with ``n_cells`` drone-cells."""
+    if not isinstance(inst, Instance):
+        raise TypeError(f"inst must be an Instance, got {type(inst).__name__}")
     p = inst.params
     return CellProblem(users=inst.users, gbs=np.asarray(p.gbs, dtype=float), n_cells=n_cells,
                        R_d=p.R_d, R_g=p.R_g, r1=p.r1, r2=p.r2, bounds=p.bounds)
-
-
-def _finite_array(name: str, value, *, width: int = 2) -> np.ndarray:
-    try:
-        a = np.array(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be an array of shape (k, {width}) of numbers") from exc
-    if a.ndim == 1 and a.size == 0:
-        a = a.reshape(0, width)
-    if a.ndim != 2 or a.shape[1] != width:
-        raise ValueError(f"{name} must have shape (k, {width}), got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must contain only finite coordinates (no NaN/inf)")
-    return a
 
 
 class CellProblem:
@@ -253,35 +247,19 @@ class CellProblem:
     __slots__ = ("users", "gbs", "n_cells", "R_d", "R_g", "r1", "r2", "bounds", "active")
 
     def __init__(self, users, gbs, n_cells, R_d, R_g, r1, r2, bounds=None):
-        users = _finite_array("users", users)
-        gbs = _finite_array("gbs", gbs)
-        if gbs.shape[0] < 1:
-            raise ValueError("gbs must hold at least one GBS position")
-        if isinstance(n_cells, bool) or not isinstance(n_cells, (int, np.integer)):
-            raise ValueError(f"n_cells must be an int >= 1, got {n_cells!r}")
-        if n_cells < 1:
-            raise ValueError(f"n_cells must be >= 1, got {n_cells}")
-        radii = {}
-        for name, v in (("R_d", R_d), ("R_g", R_g), ("r1", r1), ("r2", r2)):
-            try:
-                fv = float(v)
-            except (TypeError, ValueError) as exc:
-                raise ValueError(f"{name} must be a number, got {v!r}") from exc
-            if not (math.isfinite(fv) and fv > 0):
-                raise ValueError(f"{name} must be a finite radius > 0 (m), got {v!r}")
-            radii[name] = fv
+        users = check_array("users", users, shape=(None, 2))
+        gbs = check_array("gbs", gbs, shape=(None, 2), min_rows=1)
+        check_size("users x gbs", users.shape[0] * gbs.shape[0])
+        n_cells = check_int("n_cells", n_cells, min_value=1)
+        check_size("n_cells", 2 * n_cells)
+        radii = {name: check_positive(name, v) for name, v in (("R_d", R_d), ("R_g", R_g), ("r1", r1), ("r2", r2))}
         if radii["r1"] < radii["R_g"] + radii["R_d"]:
             raise ValueError(f"r1 must satisfy r1 >= R_g + R_d (eq. 4.3): {radii['r1']} < "
                              f"{radii['R_g']} + {radii['R_d']}")
         if radii["r2"] < 2 * radii["R_d"]:
             raise ValueError(f"r2 must satisfy r2 >= 2 R_d (eq. 4.4): {radii['r2']} < 2 * {radii['R_d']}")
         if bounds is not None:
-            try:
-                b = tuple(float(v) for v in bounds)
-            except (TypeError, ValueError) as exc:
-                raise ValueError(f"bounds must be (xmin, xmax, ymin, ymax), got {bounds!r}") from exc
-            if len(b) != 4 or not all(math.isfinite(v) for v in b):
-                raise ValueError(f"bounds must be 4 finite numbers (xmin, xmax, ymin, ymax), got {bounds!r}")
+            b = tuple(float(v) for v in check_array("bounds (xmin, xmax, ymin, ymax)", bounds, shape=(4,)))
             if not (b[0] < b[1] and b[2] < b[3]):
                 raise ValueError(f"bounds must satisfy xmin < xmax and ymin < ymax, got {b}")
             bounds = b

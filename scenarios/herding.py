@@ -46,17 +46,19 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
+from droneplan.solvers.validation import (
+    as_generator,
+    check_array,
+    check_in_range,
+    check_int,
+    check_nonneg,
+    check_positive,
+    check_methods,
+    check_size,
+    resolve_seed,
+)
+
 # --------------------------------------------------------------------------- parameters
-
-
-def _positive(name: str, value: float) -> None:
-    if not (isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-
-
-def _nonneg(name: str, value: float) -> None:
-    if not (isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value) and value >= 0):
-        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -109,22 +111,18 @@ class HerdingParams:
 
     def __post_init__(self) -> None:
         for name in ("eta_d", "eta_L", "eta_r", "eta_i", "eta_e"):
-            _nonneg(name, getattr(self, name))
+            check_nonneg(name, getattr(self, name))
         for name in ("delta", "V_max", "U_max", "V_animal", "R_b", "d_s", "R_c", "V_driving", "r_a",
                      "graze_speed", "goal_radius"):
-            _positive(name, getattr(self, name))
-        if not (0 < self.beta <= 2 * math.pi):
-            raise ValueError(f"beta must be in (0, 2*pi], got {self.beta}")
-        if not (0 <= self.graze_prob <= 1):
-            raise ValueError(f"graze_prob must be in [0, 1], got {self.graze_prob}")
+            check_positive(name, getattr(self, name))
+        check_in_range("beta", self.beta, 0.0, 2 * math.pi, lo_open=True)
+        check_in_range("graze_prob", self.graze_prob, 0.0, 1.0)
         if self.graze_speed > self.V_animal:
             raise ValueError(f"graze_speed must be <= V_animal, got {self.graze_speed} > {self.V_animal}")
         if self.V_driving > self.V_animal:
             raise ValueError(f"V_driving must be <= V_animal (thesis §6.4.4), got {self.V_driving} > {self.V_animal}")
         for name in ("n_drones", "n_neighbours", "drone_substeps"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, np.integer)) or v < 1:
-                raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
+            check_int(name, getattr(self, name), min_value=1)
 
 
 THESIS_TABLE_6_2 = HerdingParams()
@@ -156,23 +154,16 @@ class HerdingScenario:
     """Initial field (xmin, ymin, xmax, ymax), m."""
 
     def __post_init__(self) -> None:
-        a = np.asarray(self.animals, dtype=float)
-        if a.ndim != 2 or a.shape[1] != 2 or a.shape[0] < 1:
-            raise ValueError(f"animals must be an (n, 2) array with n >= 1, got shape {a.shape}")
-        d = np.asarray(self.drones, dtype=float)
-        if d.ndim != 2 or d.shape[1] != 2 or d.shape[0] < 1:
-            raise ValueError(f"drones must be an (n_d, 2) array with n_d >= 1, got shape {d.shape}")
-        h = np.asarray(self.headings, dtype=float).reshape(-1)
+        if not isinstance(self.params, HerdingParams):
+            raise TypeError(f"params must be HerdingParams, got {type(self.params).__name__}")
+        a = check_array("animals", self.animals, shape=(None, 2), min_rows=1)
+        d = check_array("drones", self.drones, shape=(None, 2), min_rows=1)
+        h = check_array("headings", self.headings, ndim=1)
         if h.shape[0] != d.shape[0]:
             raise ValueError(f"mismatched lengths: {h.shape[0]} headings for {d.shape[0]} drones")
         if d.shape[0] != self.params.n_drones:
             raise ValueError(f"mismatched lengths: {d.shape[0]} drones but params.n_drones = {self.params.n_drones}")
-        g = np.asarray(self.goal, dtype=float).reshape(-1)
-        if g.shape != (2,):
-            raise ValueError(f"goal must be a 2-vector, got shape {g.shape}")
-        for name, arr in (("animals", a), ("drones", d), ("headings", h), ("goal", g)):
-            if not np.all(np.isfinite(arr)):
-                raise ValueError(f"{name} must be finite")
+        g = check_array("goal", self.goal, shape=(2,))
         object.__setattr__(self, "animals", a)
         object.__setattr__(self, "drones", d)
         object.__setattr__(self, "headings", h)
@@ -181,13 +172,6 @@ class HerdingScenario:
     @property
     def n_animals(self) -> int:
         return int(self.animals.shape[0])
-
-
-def as_generator(seed) -> np.random.Generator:
-    """A numpy Generator from an int seed, a Generator (returned as is) or None."""
-    if isinstance(seed, np.random.Generator):
-        return seed
-    return np.random.default_rng(seed)
 
 
 def thesis_scenario(
@@ -210,11 +194,15 @@ def thesis_scenario(
     n_drones: number of barking drones (thesis: 4).
     overrides: any HerdingParams field (R_c and V_driving default to Table 6.2 for the herd size).
     """
-    if not isinstance(n_animals, (int, np.integer)) or n_animals < 1:
-        raise ValueError(f"n_animals must be an integer >= 1, got {n_animals!r}")
-    w, h = (float(v) for v in field_size)
-    _positive("field width", w)
-    _positive("field height", h)
+    n_animals = check_int("n_animals", n_animals, min_value=1)
+    n_drones = check_int("n_drones", n_drones, min_value=1)
+    check_size("n_animals", 2 * n_animals)
+    check_size("n_drones", 2 * n_drones)
+    fs = check_array("field_size", field_size, shape=(2,))
+    w = check_positive("field_size[0] (field width)", fs[0])
+    h = check_positive("field_size[1] (field height)", fs[1])
+    if goal is not None:
+        goal = check_array("goal", goal, shape=(2,))
     rng = as_generator(seed)
     R_c, V_drv = table_6_2_for(int(n_animals))
     kw = {"R_c": R_c, "V_driving": V_drv, "n_drones": n_drones}
@@ -369,11 +357,16 @@ def simulate(
     frame_every: keep an animation frame every this many seconds (None: none).
     stop_after_gathering: end the run when gathering finishes (the sweeps of Figs 6.8-6.10).
     """
-    _positive("t_max", t_max)
+    if not isinstance(scenario, HerdingScenario):
+        raise TypeError(f"scenario must be a HerdingScenario, got {type(scenario).__name__}")
+    check_methods("herder", herder, ("reset", "observe", "control"))
+    t_max = check_positive("t_max", t_max)
+    check_size("t_max", int(math.ceil(t_max / scenario.params.delta)) * scenario.animals.shape[0])
     if frame_every is not None:
-        _positive("frame_every", frame_every)
+        check_positive("frame_every", frame_every)
     p = scenario.params
-    rng = as_generator(seed)
+    rng, drawn = resolve_seed(seed)
+    seed = seed if drawn is None else drawn  # record the seed drawn for seed=None
     dt = p.delta
     sub = p.drone_substeps
     dts = dt / sub

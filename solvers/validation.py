@@ -1,15 +1,186 @@
-"""Argument checks shared by the adapters (misuse raises; solver failures do not)."""
+"""Argument checks and seeds shared by every layer (misuse raises; solver failures do not).
+
+One place for the checks every settings dataclass and public entry needs: a number
+that is not a bool, finite, positive, non-negative, an int, inside a range, an array
+of a given shape with finite entries, a size that fits in memory; and one seed
+helper. Each check raises ``TypeError`` (wrong type) or ``ValueError`` (wrong value)
+whose message starts with the parameter's name and states the violated condition,
+and returns the value converted (``float``, ``int``, ``numpy.ndarray``).
+
+This module knows nothing of drones or solvers and imports nothing of droneplan, so
+every layer may import it (``tests/unit/test_layering.py`` allows exactly this one
+module below the layer order).
+"""
 
 from __future__ import annotations
 
 import math
+import numbers
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "MAX_ELEMENTS",
+    "check_real",
+    "check_positive",
+    "check_nonneg",
+    "check_in_range",
+    "check_int",
+    "check_bool",
+    "check_array",
+    "check_size",
+    "check_time_limit",
+    "check_methods",
+    "resolve_seed",
+    "as_generator",
+]
+
+MAX_ELEMENTS = 50_000_000
+"""Largest number of array elements a public entry agrees to allocate (400 MB of float64)."""
 
 
-def check_time_limit(time_limit: float | None) -> None:
-    """Raise unless ``time_limit`` is None or a finite number of seconds > 0."""
+def _describe(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def check_real(name: str, value: Any, *, finite: bool = True) -> float:
+    """``value`` as a float; TypeError unless it is a real number (bools are refused),
+    ValueError if ``finite`` and it is NaN or infinite."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {_describe(value)}")
+    out = float(value)
+    if math.isnan(out) or (finite and not math.isfinite(out)):
+        raise ValueError(f"{name} must be finite, got {out}")
+    return out
+
+
+def check_positive(name: str, value: Any) -> float:
+    """``value`` as a float; it must be a finite real number > 0."""
+    out = check_real(name, value)
+    if out <= 0:
+        raise ValueError(f"{name} must be > 0, got {out}")
+    return out
+
+
+def check_nonneg(name: str, value: Any) -> float:
+    """``value`` as a float; it must be a finite real number >= 0."""
+    out = check_real(name, value)
+    if out < 0:
+        raise ValueError(f"{name} must be >= 0, got {out}")
+    return out
+
+
+def check_in_range(name: str, value: Any, lo: float | None = None, hi: float | None = None, *,
+                   lo_open: bool = False, hi_open: bool = False) -> float:
+    """``value`` as a float inside [lo, hi] (``lo_open``/``hi_open`` exclude the end; None: no end)."""
+    out = check_real(name, value)
+    if lo is not None and (out < lo or (lo_open and out == lo)):
+        raise ValueError(f"{name} must be {'>' if lo_open else '>='} {lo}, got {out}")
+    if hi is not None and (out > hi or (hi_open and out == hi)):
+        raise ValueError(f"{name} must be {'<' if hi_open else '<='} {hi}, got {out}")
+    return out
+
+
+def check_int(name: str, value: Any, *, min_value: int | None = None, max_value: int | None = None) -> int:
+    """``value`` as an int (Python or numpy integer; bools and floats are refused) in
+    [min_value, max_value]."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be an int, got {type(value).__name__} {_describe(value)}")
+    out = int(value)
+    if min_value is not None and out < min_value:
+        raise ValueError(f"{name} must be >= {min_value}, got {out}")
+    if max_value is not None and out > max_value:
+        raise ValueError(f"{name} must be <= {max_value}, got {out}")
+    return out
+
+
+def check_bool(name: str, value: Any) -> bool:
+    """``value`` as a bool; TypeError unless it is a Python or numpy bool."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool, got {type(value).__name__} {_describe(value)}")
+    return bool(value)
+
+
+def check_size(name: str, n_elements: int, limit: int = MAX_ELEMENTS) -> None:
+    """Refuse up front (before allocating) a request for more than ``limit`` array elements."""
+    if n_elements > limit:
+        raise ValueError(f"{name} asks for {n_elements} array elements, more than the limit of {limit}")
+
+
+def check_array(name: str, value: Any, *, shape: Sequence[int | None] | None = None, finite: bool = True,
+                min_rows: int = 0, ndim: int | None = None) -> np.ndarray:
+    """``value`` as a float ndarray (a copy), checked for type, shape and finiteness.
+
+    shape: expected shape, ``None`` entries match any length (e.g. ``(None, 2)`` for an
+    (n, 2) array of points); ndim: expected number of dimensions when ``shape`` is not
+    given; min_rows: least length of the first axis; finite: refuse NaN/inf.
+    Bools, strings, objects and ragged nesting raise TypeError naming ``name``.
+    """
+    if isinstance(value, (str, bytes)) or value is None:
+        raise TypeError(f"{name} must be an array of numbers, got {type(value).__name__}")
+    try:
+        raw = np.asarray(value)
+    except (ValueError, TypeError) as exc:  # ragged nesting
+        raise TypeError(f"{name} must be a rectangular array of numbers ({exc})") from None
+    if raw.dtype == bool or raw.dtype.kind not in "iuf":
+        if raw.size == 0 and raw.dtype.kind in "Of":
+            raw = raw.astype(float)
+        else:
+            raise TypeError(f"{name} must be an array of real numbers, got dtype {raw.dtype}")
+    arr = np.array(raw, dtype=float)
+    if shape is not None:
+        if arr.ndim == 1 and arr.size == 0 and len(shape) == 2 and shape[0] is None:
+            arr = arr.reshape(0, shape[1] if shape[1] is not None else 0)
+        wanted = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
+        if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
+            raise ValueError(f"{name} must have shape {wanted}, got {arr.shape}")
+    elif ndim is not None and arr.ndim != ndim:
+        raise ValueError(f"{name} must be a {ndim}-D array, got shape {arr.shape}")
+    if arr.ndim and arr.shape[0] < min_rows:
+        raise ValueError(f"{name} must have at least {min_rows} row(s), got {arr.shape[0]}")
+    if finite and not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite (no NaN or inf)")
+    return arr
+
+
+def check_time_limit(time_limit: Any, name: str = "time_limit") -> float | None:
+    """None, or a finite number of seconds > 0 (bools refused) as a float."""
     if time_limit is None:
-        return
-    if isinstance(time_limit, bool) or not isinstance(time_limit, (int, float)):
-        raise TypeError(f"time_limit must be a number of seconds or None, got {type(time_limit).__name__}")
+        return None
+    if isinstance(time_limit, (bool, np.bool_)) or not isinstance(time_limit, numbers.Real):
+        raise TypeError(f"{name} must be a number of seconds or None, got {type(time_limit).__name__}")
     if not math.isfinite(time_limit) or time_limit <= 0:
-        raise ValueError(f"time_limit must be a finite number of seconds > 0, got {time_limit}")
+        raise ValueError(f"{name} must be a finite number of seconds > 0, got {time_limit}")
+    return float(time_limit)
+
+
+def check_methods(name: str, obj: Any, methods: Sequence[str]) -> None:
+    """TypeError unless ``obj`` has every callable in ``methods`` (e.g. a controller protocol)."""
+    missing = [m for m in methods if not callable(getattr(obj, m, None))]
+    if missing:
+        raise TypeError(f"{name} must provide {', '.join(methods)}(); {type(obj).__name__} lacks "
+                        f"{', '.join(missing)}")
+
+
+def resolve_seed(seed: Any, name: str = "seed") -> tuple[np.random.Generator, int | None]:
+    """The random generator for ``seed`` and the seed to record, so a run can be repeated.
+
+    seed: an int >= 0 (the generator is ``numpy.random.default_rng(seed)``, recorded as
+    is), a ``numpy.random.Generator`` (used as is; its state belongs to the caller, so
+    the recorded seed is None) or None (a fresh seed is drawn from the OS's entropy,
+    used and recorded). Anything else raises TypeError naming ``name``.
+    """
+    if isinstance(seed, np.random.Generator):
+        return seed, None
+    if seed is None:
+        seed = int(np.random.SeedSequence().generate_state(1, dtype=np.uint64)[0] >> np.uint64(1))
+    seed = check_int(name, seed, min_value=0)
+    return np.random.default_rng(seed), seed
+
+
+def as_generator(seed: Any, name: str = "seed") -> np.random.Generator:
+    """The random generator for ``seed`` (int >= 0, Generator or None); see ``resolve_seed``."""
+    return resolve_seed(seed, name)[0]

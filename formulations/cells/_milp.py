@@ -60,6 +60,7 @@ from droneplan.formulations.cells._core import (TOL, Candidates, as_positions, c
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.cpsat import solve_cpsat
 from droneplan.solvers.mip import new_mip, solve_mip
+from droneplan.solvers.validation import check_time_limit
 from droneplan.solvers.result import SolveResult, Status
 
 BACKENDS = ("cp-sat", "highs", "scip")
@@ -430,9 +431,7 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
-    if time_limit is not None and not (isinstance(time_limit, (int, float)) and math.isfinite(time_limit)
-                                       and time_limit > 0):
-        raise ValueError(f"time_limit must be a finite number of seconds > 0, got {time_limit!r}")
+    time_limit = check_time_limit(time_limit)
     t0 = time.perf_counter()
     warm = None if warm_start is None else as_positions(problem, warm_start)
 

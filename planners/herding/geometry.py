@@ -9,6 +9,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from droneplan.solvers.validation import check_array, check_positive
+
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
     """Counter-clockwise convex-hull vertices of (n, 2) points, m.
@@ -16,11 +18,7 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
     Degenerate input gives 1 vertex (all points coincide) or 2 (all collinear:
     the two extreme points); a hull thinner than 1e-9 of its extent counts as collinear.
     """
-    pts = np.asarray(points, dtype=float)
-    if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 1:
-        raise ValueError(f"points must be an (n, 2) array with n >= 1, got shape {pts.shape}")
-    if not np.all(np.isfinite(pts)):
-        raise ValueError("points must be finite")
+    pts = check_array("points", points, shape=(None, 2), min_rows=1)
     if pts.shape[0] >= 3:
         try:
             hull = ConvexHull(pts)
@@ -52,9 +50,8 @@ def extended_hull_vertices(hull: np.ndarray, d_s: float) -> tuple[np.ndarray, np
     corners correspond to the point), a segment the rectangle d_s around it with
     square caps (corners correspond to the nearer end).
     """
-    if not (math.isfinite(d_s) and d_s > 0):
-        raise ValueError(f"d_s must be a finite number > 0, got {d_s}")
-    P = np.asarray(hull, dtype=float)
+    d_s = check_positive("d_s", d_s)
+    P = check_array("hull", hull, shape=(None, 2), min_rows=1)
     h = P.shape[0]
     if h == 1:
         corners = np.array([[1.0, -1.0], [1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0]])
@@ -163,9 +160,7 @@ def min_enclosing_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
     Welzl's randomised incremental algorithm (expected O(n)); apply it to the hull
     vertices for speed. Deterministic order (no shuffling) keeps it reproducible.
     """
-    P = [np.asarray(p, dtype=float) for p in np.asarray(points, dtype=float)]
-    if not P:
-        raise ValueError("points must hold at least one point")
+    P = list(check_array("points", points, shape=(None, 2), min_rows=1))
 
     def circ2(a, b):
         c = (a + b) / 2

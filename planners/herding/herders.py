@@ -34,6 +34,7 @@ from droneplan.formulations.herding import solve_allocation
 from droneplan.planners.herding.allocation import allocate_bruteforce, allocate_collision_blind, crosses
 from droneplan.planners.herding.geometry import ExtendedHull, convex_hull, extended_hull_vertices, min_enclosing_circle
 from droneplan.planners.herding.guidance import fly_on_edge, fly_to_edge, steer
+from droneplan.solvers.validation import check_array, check_int, check_positive
 
 ALLOCATORS = ("exact", "cp-sat", "bruteforce", "collision-blind")
 
@@ -51,9 +52,7 @@ class HerderSettings:
 
     def __post_init__(self) -> None:
         for name in ("arrive_tol", "turn_tol"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
+            check_positive(name, getattr(self, name))
         if self.allocation not in ALLOCATORS:
             raise ValueError(f"allocation must be one of {ALLOCATORS}, got {self.allocation!r}")
 
@@ -65,6 +64,10 @@ def steering_points(hull: ExtendedHull, centroid: np.ndarray, n_drones: int) -> 
     n_drones of them (fewer when the hull has fewer vertices: the allocation then
     pads them by ``formulations.herding.pad_steering_points``).
     """
+    if not isinstance(hull, ExtendedHull):
+        raise TypeError(f"hull must be an ExtendedHull, got {type(hull).__name__}")
+    centroid = check_array("centroid", centroid, shape=(2,))
+    n_drones = check_int("n_drones", n_drones, min_value=1)
     dist = np.linalg.norm(hull.animals - centroid, axis=1)
     k = min(n_drones, len(dist))
     idx = np.argsort(-dist, kind="stable")[:k]

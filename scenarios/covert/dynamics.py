@@ -8,7 +8,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from droneplan.scenarios.covert.world import CovertParams, CovertScenario, _as_rng
+from droneplan.scenarios.covert.world import CovertParams, CovertScenario
+from droneplan.solvers.validation import as_generator, check_array, check_methods, check_nonneg, check_positive
 
 
 # --------------------------------------------------------------------------- geometry
@@ -215,17 +216,17 @@ def simulate(scenario: CovertScenario, controller: Controller, *, noise: float =
     """
     if not isinstance(scenario, CovertScenario):
         raise TypeError(f"scenario must be a CovertScenario, got {type(scenario).__name__}")
-    if not math.isfinite(noise) or noise < 0:
-        raise ValueError(f"noise must be a finite fraction >= 0, got {noise}")
+    check_methods("controller", controller, ("reset", "command"))
+    noise = check_nonneg("noise", noise)
     p = scenario.params
-    rng = _as_rng(seed)
-    t_stop = p.duration + 60.0 if max_time is None else float(max_time)
-    if not t_stop > 0:
-        raise ValueError(f"max_time must be > 0, got {max_time}")
+    rng = as_generator(seed)
+    t_stop = p.duration + 60.0 if max_time is None else check_positive("max_time", max_time)
+    if t_stop / p.dt > 1e7:
+        raise ValueError(f"max_time asks for {t_stop / p.dt:.3g} steps of dt = {p.dt} s, more than 1e7")
     D = p.D_s_arr.copy()
-    h = p.F_arr - D if initial_heading is None else np.asarray(initial_heading, float)
-    if not np.isfinite(h).all() or np.linalg.norm(h) == 0:
-        raise ValueError("initial_heading must be a finite non-zero vector")
+    h = p.F_arr - D if initial_heading is None else check_array("initial_heading", initial_heading, shape=(3,))
+    if np.linalg.norm(h) == 0:
+        raise ValueError("initial_heading must be a non-zero vector")
     h = h / np.linalg.norm(h)
     controller.reset(scenario)
     n = scenario.n_targets

@@ -8,23 +8,20 @@ from typing import Any
 
 import numpy as np
 
+from droneplan.solvers.validation import (
+    as_generator,
+    check_array,
+    check_int,
+    check_nonneg,
+    check_positive,
+    check_real,
+    resolve_seed,
+)
+
 ZONE = 200.0
 """Side of the square zone the targets move in (m), thesis §3.5."""
 HABITAT = (80.0, 195.0)
 """Random targets stay in [HABITAT[0], HABITAT[1]]^2 (m): the habitat part of the zone near F."""
-
-
-def _as_rng(seed: int | np.random.Generator | None) -> np.random.Generator:
-    return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-
-
-def _finite_vec(name: str, value: Any, n: int = 3) -> tuple[float, ...]:
-    arr = np.asarray(value, dtype=float).ravel()
-    if arr.size != n:
-        raise ValueError(f"{name} must have {n} entries, got {arr.size}")
-    if not np.isfinite(arr).all():
-        raise ValueError(f"{name} must be finite, got {arr.tolist()}")
-    return tuple(float(x) for x in arr)
 
 
 # --------------------------------------------------------------------------- parameters
@@ -53,13 +50,10 @@ class CovertParams:
 
     def __post_init__(self) -> None:
         for name in ("V_max", "U_max", "L_u", "V_T", "duration", "dt"):
-            val = getattr(self, name)
-            if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val):
-                raise ValueError(f"{name} must be a finite number, got {val!r}")
-            if val <= 0:
-                raise ValueError(f"{name} must be > 0, got {val}")
+            check_positive(name, getattr(self, name))
         for name in ("F", "R", "D_s"):
-            object.__setattr__(self, name, _finite_vec(name, getattr(self, name)))
+            vec = check_array(name, getattr(self, name), shape=(3,))
+            object.__setattr__(self, name, tuple(float(x) for x in vec))
         if self.dt > self.duration:
             raise ValueError(f"dt must be <= duration, got dt={self.dt}, duration={self.duration}")
         if np.linalg.norm(np.subtract(self.D_s, self.F)) <= self.L_u:
@@ -101,9 +95,7 @@ class Terrain:
     """Hill centres, heights and widths (m)."""
 
     def __post_init__(self) -> None:
-        arr = np.asarray(self.hills, dtype=float).reshape(-1, 4) if len(self.hills) else np.zeros((0, 4))
-        if not np.isfinite(arr).all():
-            raise ValueError("hills must be finite")
+        arr = check_array("hills", self.hills, shape=(None, 4))
         if (arr[:, 3] <= 0).any():
             raise ValueError("hills: every sigma must be > 0")
         object.__setattr__(self, "hills", tuple(tuple(float(v) for v in row) for row in arr))
@@ -130,11 +122,7 @@ class TargetPath:
     """(m, 3) samples of the path on the terrain (m)."""
 
     def __post_init__(self) -> None:
-        pts = np.asarray(self.points, dtype=float)
-        if pts.ndim != 2 or pts.shape[1] != 3 or pts.shape[0] < 2:
-            raise ValueError(f"points must have shape (m >= 2, 3), got {pts.shape}")
-        if not np.isfinite(pts).all():
-            raise ValueError("points must be finite")
+        pts = check_array("points", self.points, shape=(None, 3), min_rows=2)
         seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
         keep = np.concatenate([[True], seg > 1e-12])
         pts = pts[keep]
@@ -173,10 +161,10 @@ class Occlusion:
     """End of the occlusion (s); inf: until the end of the run."""
 
     def __post_init__(self) -> None:
-        if self.target < 0:
-            raise ValueError(f"target must be >= 0, got {self.target}")
-        if not math.isfinite(self.start) or math.isnan(self.end) or self.end <= self.start:
-            raise ValueError(f"need finite start < end, got start={self.start}, end={self.end}")
+        check_int("target", self.target, min_value=0)
+        check_real("start", self.start)
+        if check_real("end", self.end, finite=False) <= self.start:
+            raise ValueError(f"end must be > start, got start={self.start}, end={self.end}")
 
 
 @dataclass(frozen=True)
@@ -195,8 +183,34 @@ class CovertScenario:
     """Human-readable label."""
     seed: int | None = None
     """Seed the scenario was generated from (None: deterministic layout)."""
+    targets_stop: bool = False
+    """Allow target paths shorter than the mission (``params.V_T * params.duration``): such a
+    target stands still at its path's end once it gets there. False (default): a short
+    path is refused, so a path cut short by mistake does not silently stop a target."""
 
     def __post_init__(self) -> None:
+        if not isinstance(self.params, CovertParams):
+            raise TypeError(f"params must be CovertParams, got {type(self.params).__name__}")
+        if not isinstance(self.terrain, Terrain):
+            raise TypeError(f"terrain must be a Terrain, got {type(self.terrain).__name__}")
+        paths = tuple(self.paths)
+        for j, path in enumerate(paths):
+            if not isinstance(path, TargetPath):
+                raise TypeError(f"paths[{j}] must be a TargetPath, got {type(path).__name__}")
+        object.__setattr__(self, "paths", paths)
+        occlusions = tuple(self.occlusions)
+        for j, occ in enumerate(occlusions):
+            if not isinstance(occ, Occlusion):
+                raise TypeError(f"occlusions[{j}] must be an Occlusion, got {type(occ).__name__}")
+        object.__setattr__(self, "occlusions", occlusions)
+        if not isinstance(self.targets_stop, (bool, np.bool_)):
+            raise TypeError(f"targets_stop must be a bool, got {type(self.targets_stop).__name__}")
+        mission = self.params.V_T * self.params.duration
+        for j, path in enumerate(paths):  # (shorter by less than one step's walk does not count)
+            if not self.targets_stop and path.length < mission - self.params.V_T * self.params.dt:
+                raise ValueError(
+                    f"paths[{j}] is {path.length:.3f} m long, shorter than the mission's V_T * duration = "
+                    f"{mission:.3f} m (the target would stop); pass targets_stop=True to allow it")
         R = self.params.R_arr
         for occ in self.occlusions:
             if occ.target >= len(self.paths):
@@ -256,8 +270,10 @@ def _scale_to_length(xy: np.ndarray, terrain: Terrain, length: float) -> TargetP
     """Drape a planar curve and cut (or extend linearly) it to 3D length ``length``."""
     path = TargetPath(_drape(xy, terrain))
     if path.length >= length:
-        s = np.linspace(0.0, length, xy.shape[0])
-        return TargetPath(path.at(s))
+        # cut at arc length ``length``, keeping the vertices (resampling would cut corners
+        # and leave the path shorter than the mission, so the target would stop early)
+        keep = path.points[path._s < length]  # type: ignore[attr-defined]
+        return TargetPath(np.vstack([keep, path.at(length)[None, :]]))
     # extend along the last direction on the ground
     d = xy[-1] - xy[-2]
     d = d / np.linalg.norm(d)
@@ -284,9 +300,15 @@ def thesis_case(case: int, seed: int | np.random.Generator | None = 0, *, V_T: f
     params: override the Table 3.2 parameters (V_T and duration are set here).
     """
     base = params if params is not None else THESIS_TABLE_3_2
-    speed = base.V_T if V_T is None else float(V_T)
-    if not math.isfinite(speed) or speed <= 0:
-        raise ValueError(f"V_T must be > 0, got {V_T}")
+    if not isinstance(base, CovertParams):
+        raise TypeError(f"params must be CovertParams or None, got {type(params).__name__}")
+    if seed is not None and not isinstance(seed, np.random.Generator):
+        check_int("seed", seed, min_value=0)  # checked for case 1 too, where it is unused
+    speed = base.V_T if V_T is None else check_positive("V_T", V_T)
+    if not isinstance(occlusion, (bool, np.bool_)):
+        raise TypeError(f"occlusion must be a bool, got {type(occlusion).__name__}")
+    if isinstance(case, (bool, np.bool_)) or case not in (1, 2):
+        raise ValueError(f"case must be 1 or 2, got {case!r}")
     path_len = THESIS_TABLE_3_2.V_T * THESIS_TABLE_3_2.duration  # 240 m walked in the thesis period
     duration = path_len / speed
     from dataclasses import replace
@@ -301,10 +323,9 @@ def thesis_case(case: int, seed: int | np.random.Generator | None = 0, *, V_T: f
     if case == 2:
         if occlusion:
             raise ValueError("occlusion is defined for case 1 only (Fig. 3.13)")
-        rng = _as_rng(seed)
+        rng, used = resolve_seed(seed)
         sc = random_case(10, rng, params=p)
-        return CovertScenario(sc.params, sc.terrain, sc.paths, (), name="case 2",
-                              seed=seed if isinstance(seed, int) else None)
+        return CovertScenario(sc.params, sc.terrain, sc.paths, (), name="case 2", seed=used)
     raise ValueError(f"case must be 1 or 2, got {case!r}")
 
 
@@ -318,10 +339,12 @@ def random_case(n_targets: int, seed: int | np.random.Generator | None = None, *
     turn rate) and turn back at the border of [LO, 195]^2 (LO = 80 m); each walks
     params.V_T * params.duration metres.
     """
-    if isinstance(n_targets, bool) or not isinstance(n_targets, (int, np.integer)) or n_targets < 1:
-        raise ValueError(f"n_targets must be an int >= 1, got {n_targets!r}")
+    n_targets = check_int("n_targets", n_targets, min_value=1, max_value=10_000)
+    n_hills = check_int("n_hills", n_hills, min_value=0, max_value=10_000)
     p = params if params is not None else THESIS_TABLE_3_2
-    rng = _as_rng(seed)
+    if not isinstance(p, CovertParams):
+        raise TypeError(f"params must be CovertParams or None, got {type(params).__name__}")
+    rng, used = resolve_seed(seed)
     hills = np.column_stack([
         rng.uniform(30.0, 190.0, n_hills), rng.uniform(30.0, 190.0, n_hills),
         rng.uniform(5.0, 25.0, n_hills), rng.uniform(15.0, 35.0, n_hills)])
@@ -349,7 +372,6 @@ def random_case(n_targets: int, seed: int | np.random.Generator | None = None, *
                 nxt = np.clip(pos + ds * np.array([math.cos(heading), math.sin(heading)]), lo, hi)
             pos = nxt
         paths.append(_scale_to_length(xy, terrain, length))
-    return CovertScenario(p, terrain, tuple(paths), (), name=f"random {n_targets} targets",
-                          seed=seed if isinstance(seed, int) else None)
+    return CovertScenario(p, terrain, tuple(paths), (), name=f"random {n_targets} targets", seed=used)
 
 

@@ -21,6 +21,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from droneplan.solvers.validation import check_array, check_positive, check_real
+
 __all__ = ["SharkParams", "THESIS_TABLE_5_1", "field_radius", "touches", "inside_field"]
 
 
@@ -66,12 +68,9 @@ class SharkParams:
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"{f.name} must be a finite number, got {v!r}")
+            check_real(f.name, getattr(self, f.name))
         for name in ("lmin", "eps_o", "VoMxy", "VoMz", "VsMxy", "VsMz", "Ts", "gamma", "Di"):
-            if getattr(self, name) <= 0:
-                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+            check_positive(name, getattr(self, name))
         if not self.lmin < self.le:
             raise ValueError(f"lmin < le violated (eq. 5.1): lmin={self.lmin}, le={self.le}")
         if not self.l1 < self.l2:
@@ -112,9 +111,9 @@ def field_radius(h, params: SharkParams = THESIS_TABLE_5_1) -> np.ndarray:
 
     0 where neither ball reaches the plane.
     """
-    h = np.asarray(h, dtype=float)
-    if not np.all(np.isfinite(h)):
-        raise ValueError("h must be finite")
+    if not isinstance(params, SharkParams):
+        raise TypeError(f"params must be SharkParams, got {type(params).__name__}")
+    h = check_array("h", h)
     d = h[..., None] - params.ball_depths
     r2 = params.eps_o**2 - d**2
     return np.sqrt(np.clip(r2, 0.0, None)).max(axis=-1)
@@ -125,8 +124,17 @@ def inside_field(shark, operator, params: SharkParams = THESIS_TABLE_5_1) -> np.
 
     shark, operator: arrays (..., 3) in metres (broadcast together).
     """
-    s = np.asarray(shark, dtype=float)
-    o = np.asarray(operator, dtype=float)
+    if not isinstance(params, SharkParams):
+        raise TypeError(f"params must be SharkParams, got {type(params).__name__}")
+    s = check_array("shark", shark)
+    o = check_array("operator", operator)
+    for name, arr in (("shark", s), ("operator", o)):
+        if arr.ndim == 0 or arr.shape[-1] != 3:
+            raise ValueError(f"{name} must have shape (..., 3), got {arr.shape}")
+    try:
+        np.broadcast_shapes(s.shape, o.shape)
+    except ValueError:
+        raise ValueError(f"shark {s.shape} and operator {o.shape} must broadcast together") from None
     out = None
     for lk in (params.l1, params.l2):
         c = np.array(o, dtype=float)

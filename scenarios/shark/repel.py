@@ -19,7 +19,7 @@ import numpy as np
 
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, inside_field
 from droneplan.scenarios.shark.simulate import clip_velocity
-from droneplan.scenarios.shark.trajectories import _rng
+from droneplan.solvers.validation import as_generator, check_real
 
 __all__ = ["SharkBehaviour", "RepellingTrace", "simulate_repelling"]
 
@@ -49,9 +49,7 @@ class SharkBehaviour:
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            v = getattr(self, f.name)
-            if not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"{f.name} must be finite, got {v!r}")
+            check_real(f.name, getattr(self, f.name))
         for name in ("speed", "turn_rate", "flee_time", "bite_radius", "safety_distance"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be > 0")
@@ -98,7 +96,7 @@ def simulate_repelling(sharks0, operators0, swimmers, controllers, params: Shark
     """
     if not isinstance(params, SharkParams) or not isinstance(behaviour, SharkBehaviour):
         raise TypeError("params must be SharkParams and behaviour SharkBehaviour")
-    g = _rng(seed)
+    g = as_generator(seed)
     if behaviour.speed > params.VsMxy:
         raise ValueError(f"behaviour.speed must be <= VsMxy={params.VsMxy}")
     S = np.array(sharks0, float).reshape(-1, np.shape(sharks0)[-1])

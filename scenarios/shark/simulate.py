@@ -10,6 +10,7 @@ import numpy as np
 
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, field_radius, inside_field
 from droneplan.scenarios.shark.trajectories import SharkTrajectory
+from droneplan.solvers.validation import check_array, check_in_range, check_int, check_methods, check_real
 
 __all__ = ["InterceptionController", "InterceptionTrace", "simulate_interception", "operator_start",
            "clip_velocity", "FRONTAL_TOL_DEG", "DEFAULT_BEARING_DEG"]
@@ -104,13 +105,14 @@ def operator_start(trajectory: SharkTrajectory, params: SharkParams = THESIS_TAB
 
     bearing 0 = straight ahead, -90 = to the right of the shark (default DEFAULT_BEARING_DEG); altitude defaults to le.
     """
-    if not math.isfinite(bearing_deg):
-        raise ValueError("bearing_deg must be finite")
+    if not isinstance(trajectory, SharkTrajectory):
+        raise TypeError(f"trajectory must be a SharkTrajectory, got {type(trajectory).__name__}")
+    if not isinstance(params, SharkParams):
+        raise TypeError(f"params must be SharkParams, got {type(params).__name__}")
+    bearing_deg = check_real("bearing_deg", bearing_deg)
     s0, v0 = trajectory.pos[0], trajectory.vel[0]
     psi = math.atan2(v0[1], v0[0]) + math.radians(bearing_deg)
-    z = params.le if altitude is None else float(altitude)
-    if not params.lmin <= z <= params.le:
-        raise ValueError(f"altitude must be in [lmin, le] = [{params.lmin}, {params.le}], got {z}")
+    z = params.le if altitude is None else check_in_range("altitude", altitude, params.lmin, params.le)
     return np.array([s0[0] + params.Di * math.cos(psi), s0[1] + params.Di * math.sin(psi), z])
 
 
@@ -126,16 +128,24 @@ def simulate_interception(trajectory: SharkTrajectory, controller: InterceptionC
     both within a step). The run stops at the first contact or at ``t_max`` (s; default the
     path's duration).
     """
+    if not isinstance(trajectory, SharkTrajectory):
+        raise TypeError(f"trajectory must be a SharkTrajectory, got {type(trajectory).__name__}")
+    if not isinstance(params, SharkParams):
+        raise TypeError(f"params must be SharkParams, got {type(params).__name__}")
+    check_methods("controller", controller, ("reset", "step"))
     if trajectory.dt != params.Ts and not math.isclose(trajectory.dt, params.Ts, rel_tol=1e-9):
         raise ValueError(f"trajectory dt={trajectory.dt} must equal Ts={params.Ts}")
-    if t_max is not None and not (math.isfinite(t_max) and t_max > 0):
-        raise ValueError(f"t_max must be finite and > 0, got {t_max}")
-    if not (0 < frontal_tol_deg < 180):
-        raise ValueError("frontal_tol_deg must be in (0, 180)")
-    O = operator_start(trajectory, params, bearing_deg=bearing_deg) if operator0 is None \
-        else np.array(operator0, dtype=float)
-    if O.shape != (3,) or not np.all(np.isfinite(O)):
-        raise ValueError("operator0 must be a finite (3,) position")
+    if t_max is not None:
+        check_in_range("t_max", t_max, 0.0, lo_open=True)
+    frontal_tol_deg = check_in_range("frontal_tol_deg", frontal_tol_deg, 0.0, 180.0, lo_open=True, hi_open=True)
+    substeps = check_int("substeps", substeps, min_value=1, max_value=10_000)
+    if operator0 is None:
+        O = operator_start(trajectory, params, bearing_deg=bearing_deg)
+    else:
+        O = check_array("operator0", operator0, shape=(3,))
+        # the simulator keeps the altitude in [lmin, le]; a start outside would be recorded
+        # as a jump at an impossible speed
+        check_in_range("operator0[2] (altitude)", O[2], params.lmin, params.le)
     if np.hypot(*(O[:2] - trajectory.pos[0, :2])) <= params.eps_o:
         raise ValueError(f"initial horizontal separation must exceed eps_o={params.eps_o} (Prop. 5.3.2)")
     n_max = len(trajectory.t) - 1 if t_max is None else min(len(trajectory.t) - 1, int(round(t_max / params.Ts)))

@@ -15,17 +15,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams
+from droneplan.solvers.validation import (
+    check_array,
+    check_bool,
+    check_positive,
+    check_size,
+    resolve_seed,
+)
 
 __all__ = ["SharkTrajectory", "make_trajectory", "thesis_trajectories", "random_trajectory",
            "constant_velocity_trajectory"]
-
-
-def _rng(seed) -> np.random.Generator:
-    if isinstance(seed, np.random.Generator):
-        return seed
-    if seed is None or isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-        raise ValueError(f"seed must be an int or numpy Generator, got {seed!r}")
-    return np.random.default_rng(int(seed))
 
 
 @dataclass(frozen=True)
@@ -43,12 +42,10 @@ class SharkTrajectory:
     seed: int | None = None
 
     def __post_init__(self) -> None:
-        if self.pos.shape != (len(self.t), 3) or self.vel.shape != (len(self.t), 3):
-            raise ValueError("pos and vel must have shape (len(t), 3)")
-        if len(self.t) < 2:
-            raise ValueError("a trajectory needs at least 2 samples")
-        if not (np.all(np.isfinite(self.pos)) and np.all(np.isfinite(self.vel)) and np.all(np.isfinite(self.t))):
-            raise ValueError("trajectory contains non-finite values")
+        t = check_array("t", self.t, ndim=1, min_rows=2)
+        object.__setattr__(self, "t", t)
+        object.__setattr__(self, "pos", check_array("pos", self.pos, shape=(len(t), 3)))
+        object.__setattr__(self, "vel", check_array("vel", self.vel, shape=(len(t), 3)))
         if np.any(np.diff(self.t) <= 0):
             raise ValueError("t must be strictly increasing")
 
@@ -77,25 +74,53 @@ class SharkTrajectory:
 
 def make_trajectory(heading, speed, depth, *, duration: float = 40.0, dt: float = 0.1,
                     start=(0.0, 0.0), name: str = "", seed: int | None = None) -> SharkTrajectory:
-    """Integrate a unicycle path from callables heading(t) (rad), speed(t) (m/s, horizontal), depth(t) (m, <= 0)."""
-    if not (np.isfinite(duration) and duration > 0 and np.isfinite(dt) and dt > 0):
-        raise ValueError("duration and dt must be finite and > 0")
+    """Integrate a unicycle path from heading(t) (rad), speed(t) (m/s, horizontal), depth(t) (m, <= 0).
+
+    heading, speed, depth: each a function of time (vectorised over a numpy array of s) or
+    a number (held constant). duration, dt: horizon and sampling step (s, > 0);
+    start: (x, y) of the first sample (m).
+    """
+    duration = check_positive("duration", duration)
+    dt = check_positive("dt", dt)
+    check_size("duration / dt", int(min(duration / dt, 1e15)) * 10 * 9)
+    start = check_array("start", start, shape=(2,))
+    profiles = []
+    for name, f in (("heading", heading), ("speed", speed), ("depth", depth)):
+        if callable(f):
+            profiles.append(f)
+        else:
+            value = check_array(name, f, shape=())  # a number: held constant
+            profiles.append(lambda t, value=float(value): np.full(np.shape(t), value))
+    heading, speed, depth = profiles
     n = int(round(duration / dt)) + 1
     t = np.arange(n) * dt
     # integrate on a 10x finer grid (midpoint rule) then subsample
     sub = 10
     tf = np.arange((n - 1) * sub + 1) * (dt / sub)
-    psi = np.asarray(heading(tf), float) * np.ones_like(tf)
-    v = np.asarray(speed(tf), float) * np.ones_like(tf)
+    psi = _profile("heading", heading, tf)
+    v = _profile("speed", speed, tf)
     vx, vy = v * np.cos(psi), v * np.sin(psi)
     x = start[0] + np.concatenate([[0.0], np.cumsum(0.5 * (vx[1:] + vx[:-1]) * dt / sub)])
     y = start[1] + np.concatenate([[0.0], np.cumsum(0.5 * (vy[1:] + vy[:-1]) * dt / sub)])
-    z = np.asarray(depth(tf), float) * np.ones_like(tf)
+    z = _profile("depth", depth, tf)
     vz = np.gradient(z, tf)
     idx = np.arange(n) * sub
     pos = np.stack([x[idx], y[idx], z[idx]], axis=1)
     vel = np.stack([vx[idx], vy[idx], vz[idx]], axis=1)
     return SharkTrajectory(t, pos, vel, name=name, seed=seed)
+
+
+def _profile(name: str, f, tf: np.ndarray) -> np.ndarray:
+    """f(tf) broadcast to tf's shape, checked finite."""
+    try:
+        out = np.asarray(f(tf), dtype=float) * np.ones_like(tf)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must map a numpy array of times (s) to numbers of the same shape ({exc})") from None
+    if out.shape != tf.shape:
+        raise ValueError(f"{name}(t) must have the shape of t {tf.shape}, got {out.shape}")
+    if not np.all(np.isfinite(out)):
+        raise ValueError(f"{name}(t) must be finite")
+    return out
 
 
 def thesis_trajectories(*, duration: float = 40.0, dt: float = THESIS_TABLE_5_1.Ts) -> dict[str, SharkTrajectory]:
@@ -130,7 +155,10 @@ def random_trajectory(seed, *, duration: float = 40.0, dt: float = THESIS_TABLE_
     speed: mean 4.5-6.0 m/s +- up to 0.5 m/s (always <= VsMxy); depth: mean -1.5..-6 m
     +- up to 1 m, kept <= -0.3 m, vertical speed <= VsMz.
     """
-    g = _rng(seed)
+    check_bool("curvy", curvy)
+    if not isinstance(params, SharkParams):
+        raise TypeError(f"params must be SharkParams, got {type(params).__name__}")
+    g, s = resolve_seed(seed)
     psi0 = g.uniform(-np.pi, np.pi)
     a1, a2 = g.uniform(0, 0.8, 2) * (1.0 if curvy else 0.0)
     w1, w2 = g.uniform(0.2, 0.8, 2)
@@ -142,7 +170,6 @@ def random_trajectory(seed, *, duration: float = 40.0, dt: float = THESIS_TABLE_
     za = g.uniform(0, min(1.0, -0.3 - zm))
     zw = g.uniform(0.1, min(0.8, 0.9 * params.VsMz / max(za, 1e-9)))
     zph = g.uniform(0, 2 * np.pi)
-    s = int(seed) if not isinstance(seed, np.random.Generator) else None
     return make_trajectory(
         lambda t: psi0 + a1 * np.sin(w1 * t + ph1) - a1 * np.sin(ph1) + a2 * np.sin(w2 * t + ph2) - a2 * np.sin(ph2),
         lambda t: vm + va * np.sin(vw * t + vph),
@@ -153,8 +180,11 @@ def random_trajectory(seed, *, duration: float = 40.0, dt: float = THESIS_TABLE_
 def constant_velocity_trajectory(pos, vel, *, duration: float = 40.0, dt: float = THESIS_TABLE_5_1.Ts,
                                  name: str = "const") -> SharkTrajectory:
     """A straight path at constant velocity from ``pos`` (m) with ``vel`` (m/s)."""
-    pos = np.asarray(pos, float)
-    vel = np.asarray(vel, float)
+    pos = check_array("pos", pos, shape=(3,))
+    vel = check_array("vel", vel, shape=(3,))
+    duration = check_positive("duration", duration)
+    dt = check_positive("dt", dt)
+    check_size("duration / dt", int(min(duration / dt, 1e15)) * 9)
     n = int(round(duration / dt)) + 1
     t = np.arange(n) * dt
     return SharkTrajectory(t, pos + t[:, None] * vel, np.tile(vel, (n, 1)), name=name)

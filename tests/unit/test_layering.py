@@ -1,5 +1,9 @@
 """DESIGN §1: imports point one way between the layers. Checked on the source text
-(AST), so it holds for every module in the tree, including ones added later."""
+(AST), so it holds for every module in the tree, including ones added later.
+
+One module sits below the layer order: ``droneplan.solvers.validation`` (the shared
+argument checks and seed helper, issue 9 item 7) knows nothing of drones or solvers
+and imports nothing of droneplan, so every layer may import it."""
 
 from __future__ import annotations
 
@@ -17,6 +21,7 @@ ALLOWED = {
     "planners": {"solvers", "scenarios", "formulations"},
     "studies": {"solvers", "scenarios", "formulations", "planners"},
 }
+BASE_MODULE = "droneplan.solvers.validation"
 
 
 def _imported_layers(path: Path) -> set[str]:
@@ -33,6 +38,8 @@ def _imported_layers(path: Path) -> set[str]:
             parts = name.split(".")
             if parts[0] in LAYERS:
                 raise AssertionError(f"{path}: imports {name!r} outside the droneplan namespace")
+            if name == BASE_MODULE:
+                continue
             if parts[0] == "droneplan" and len(parts) > 1:
                 # the front doors (droneplan.cells, ...) sit above every layer
                 found.add(parts[1] if parts[1] in LAYERS else "droneplan")
@@ -61,3 +68,13 @@ def test_nothing_imports_studies_outside_studies():
     for layer in LAYERS[:-1]:
         for path in (ROOT / layer).rglob("*.py"):
             assert "studies" not in _imported_layers(path), path
+
+
+def test_the_base_module_imports_nothing_of_droneplan():
+    path = ROOT / "solvers" / "validation.py"
+    tree = ast.parse(path.read_text(), filename=str(path))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            assert node.level == 0 and not (node.module or "").startswith("droneplan"), ast.dump(node)
+        elif isinstance(node, ast.Import):
+            assert not any(a.name.startswith("droneplan") for a in node.names), ast.dump(node)

@@ -70,7 +70,7 @@ def test_random_trajectory_reproducible_and_limited():
         t = random_trajectory(s)
         assert np.hypot(t.vel[:, 0], t.vel[:, 1]).max() <= P.VsMxy
         assert np.abs(t.vel[:, 2]).max() <= P.VsMz and t.pos[:, 2].max() <= -0.3 + 1e-9
-    with pytest.raises(ValueError):
+    with pytest.raises(TypeError, match="seed"):
         random_trajectory("x")
 
 
@@ -79,7 +79,7 @@ def test_operator_start_and_bad_start():
     o = operator_start(tr)
     assert math.isclose(np.hypot(*(o[:2] - tr.pos[0, :2])), P.Di)
     with pytest.raises(ValueError, match="exceed eps_o"):
-        simulate_interception(tr, object(), operator0=tr.pos[0] + [1.0, 0, 5.0])
+        simulate_interception(tr, _Hover(), operator0=tr.pos[0] + [1.0, 0, 5.0])
     with pytest.raises(ValueError):
         operator_start(tr, bearing_deg=float("nan"))
 
