@@ -31,10 +31,13 @@ from droneplan.planners.covert import (
 from droneplan.scenarios.covert import (
     THESIS_TABLE_3_2,
     Controller,
+    CovertCommand,
+    CovertFrame,
+    CovertObservation,
     CovertParams,
+    CovertPhase,
     CovertScenario,
     CovertTrace,
-    Observation,
     Occlusion,
     TargetPath,
     Terrain,
@@ -48,7 +51,8 @@ from droneplan.solvers.result import SolveResult, Status
 __all__ = [
     # world, presets, simulator
     "CovertParams", "THESIS_TABLE_3_2", "CovertScenario", "Terrain", "TargetPath", "Occlusion", "thesis_case",
-    "random_case", "bearing_changes", "Observation", "Controller", "CovertTrace", "simulate",
+    "random_case", "bearing_changes", "CovertObservation", "CovertCommand", "CovertPhase", "CovertFrame", "Controller",
+    "CovertTrace", "simulate",
     # the model
     "MPCSettings", "MPCData", "MPCPlan", "BearingMPC", "build_bearing_mpc", "solve_bearing_mpc",
     "RecedingBearingMPC", "sphere_minmax_bearing",

@@ -28,7 +28,11 @@ from droneplan.planners.herding import (
 )
 from droneplan.scenarios.herding import (
     THESIS_TABLE_6_2,
+    HerdingCommand,
+    HerdingFrame,
+    HerdingObservation,
     HerdingParams,
+    HerdingPhase,
     HerdingScenario,
     HerdingTrace,
     footprint_radius,
@@ -42,7 +46,7 @@ from droneplan.studies.herding import footprint_figure, write_gif
 __all__ = [
     # world, presets, simulator
     "HerdingParams", "THESIS_TABLE_6_2", "HerdingScenario", "thesis_scenario", "with_params", "HerdingTrace",
-    "simulate", "footprint_radius",
+    "HerdingObservation", "HerdingCommand", "HerdingPhase", "HerdingFrame", "simulate", "footprint_radius",
     # the allocation model
     "Allocation", "AllocationModel", "build_allocation_model", "solve_allocation", "check_allocation",
     # thesis methods and herders

@@ -4,7 +4,8 @@ operator-to-shark assignment, and the thesis controllers. Metres, seconds.
 
     import droneplan as dp
     paths = dp.shark.thesis_trajectories()
-    trace = dp.shark.simulate(paths["a"], dp.shark.VirtualSharkInterceptor(), dp.shark.THESIS_TABLE_5_1)
+    scenario = dp.shark.InterceptionScenario(paths["a"], dp.shark.THESIS_TABLE_5_1)
+    trace = dp.shark.simulate(scenario, dp.shark.VirtualSharkInterceptor())
     print(trace.intercept_time, trace.frontal)
 """
 
@@ -33,16 +34,22 @@ from droneplan.planners.shark import (
 from droneplan.scenarios.shark import (
     THESIS_TABLE_5_1,
     InterceptionController,
+    InterceptionScenario,
     InterceptionTrace,
     RepellingTrace,
     SharkBehaviour,
+    SharkCommand,
+    SharkFrame,
+    SharkObservation,
     SharkParams,
+    SharkPhase,
     SharkTrajectory,
     constant_velocity_trajectory,
     field_radius,
     make_trajectory,
     operator_start,
     random_trajectory,
+    simulate,
     simulate_interception,
     simulate_repelling,
     thesis_trajectories,
@@ -50,14 +57,12 @@ from droneplan.scenarios.shark import (
 )
 from droneplan.solvers.result import SolveResult, Status
 
-simulate = simulate_interception
-"""The closed-loop simulator under the name every problem shares (alias of ``simulate_interception``)."""
-
 __all__ = [
     # world, presets, simulator
     "SharkParams", "THESIS_TABLE_5_1", "field_radius", "touches", "SharkTrajectory", "make_trajectory",
     "thesis_trajectories", "random_trajectory", "constant_velocity_trajectory", "operator_start",
-    "InterceptionController", "InterceptionTrace", "simulate", "simulate_interception", "SharkBehaviour",
+    "InterceptionScenario", "SharkObservation", "SharkCommand", "SharkPhase", "SharkFrame", "InterceptionController",
+    "InterceptionTrace", "simulate", "simulate_interception", "SharkBehaviour",
     "RepellingTrace", "simulate_repelling",
     # models
     "optimal_altitude", "InterceptionOCP", "InterceptionPlan", "build_interception_nlp", "solve_interception",

@@ -25,27 +25,32 @@ rad/s). The thesis's guidance laws (6.13)/(6.16) command ``v = -V_max`` when the
 target is behind the drone, contradicting ``v in [0, V_max]`` of (6.5); the laws
 are implemented literally, so the simulator accepts ``|v| <= V_max``.
 
-A herder (planner) is any object with
+A herder (planner) follows the closed-loop contract shared by every problem
+(:mod:`droneplan.scenarios.loop`):
 
-* ``reset(scenario)`` — called once before the run;
-* ``observe(t, animals, centroid, phase, drones, headings)`` — every animal step
-  (``dt`` = the thesis's re-allocation period Delta = 0.2 s), ``phase`` is
-  ``"gathering"`` or ``"driving"``;
-* ``control(t, drones, headings, dt) -> (v, omega)`` — every drone sub-step,
-  returning speeds (m/s) and heading rates (rad/s) per drone (clipped to the limits).
+* ``reset(scenario, *, seed=None)`` — called once before the run;
+* ``command(obs: HerdingObservation) -> HerdingCommand`` — every drone sub-step
+  (``params.drone_substeps`` per animal step of ``delta`` = the thesis's re-allocation
+  period Delta = 0.2 s); ``obs.replan`` is True on the first sub-step of each animal step,
+  when the animals have just been observed; the command holds speeds (m/s) and heading
+  rates (rad/s) per drone (clipped to the limits);
+* ``phase`` — a :class:`HerdingPhase`; optional ``fallbacks``, ``statuses``, ``solve_times``.
 
-This module imports no other layer of droneplan.
+This module imports no other layer of droneplan (only the shared closed-loop contract).
 """
 
 from __future__ import annotations
 
+import enum
 import math
 import time
 from dataclasses import dataclass, field, replace
+from typing import Any, NamedTuple
 
 import numpy as np
 from scipy.spatial import cKDTree
 
+from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
 from droneplan.solvers.validation import (
     as_generator,
     check_array,
@@ -305,32 +310,90 @@ def drone_step(drones: np.ndarray, headings: np.ndarray, v: np.ndarray, omega: n
 
 
 # --------------------------------------------------------------------------- simulation
-@dataclass
-class HerdingTrace:
-    """What :func:`simulate` records (times in s, distances in m)."""
+class HerdingPhase(enum.StrEnum):
+    """Phases of a herding run (thesis §6.4), in order."""
 
-    t: np.ndarray
-    """(T,) times of the animal steps, s."""
+    GATHERING = "gathering"
+    """Bringing the herd together until every animal is within R_c of the centroid."""
+    DRIVING = "driving"
+    """Driving the gathered herd towards G."""
+    DONE = "done"
+    """The herd has reached G."""
+
+
+@dataclass(frozen=True)
+class HerdingObservation:
+    """What a herder knows at one drone sub-step (the argument of ``command``)."""
+
+    t: float
+    """Time of this sub-step (s)."""
+    animals: np.ndarray
+    """(n_s, 2) animal positions at the start of the current animal step (m)."""
+    centroid: np.ndarray
+    """(2,) herd centroid C_o (m)."""
+    phase: HerdingPhase
+    """Phase decided by the simulator (gathering or driving)."""
+    drones: np.ndarray
+    """(n_d, 2) drone positions now (m)."""
+    headings: np.ndarray
+    """(n_d,) drone heading angles now (rad)."""
+    dt: float
+    """Length of this drone sub-step (s)."""
+    replan: bool
+    """True on the first sub-step of an animal step (the animals were just observed; plan now)."""
+
+
+class HerdingCommand(NamedTuple):
+    """Drone commands for one sub-step (6.3)-(6.6); the simulator clips them to the limits."""
+
+    v: np.ndarray
+    """(n_d,) speeds (m/s), |v| <= V_max."""
+    omega: np.ndarray
+    """(n_d,) heading rates (rad/s), |omega| <= U_max."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class HerdingFrame(Frame):
+    """The state of a herding run at one instant."""
+
+    animals: np.ndarray
+    """(n_s, 2) animal positions (m)."""
+    drones: np.ndarray
+    """(n_d, 2) drone positions (m)."""
+    headings: np.ndarray
+    """(n_d,) drone heading angles (rad)."""
+    phase: HerdingPhase
+    """Phase of the run."""
+
+
+@dataclass(kw_only=True)
+class HerdingTrace(LoopTrace):
+    """What :func:`simulate` records (times in s, distances in m); ``final`` holds the last state."""
+
     footprint_radius: np.ndarray
     """(T,) max animal-to-centroid distance, m."""
     centroid: np.ndarray
     """(T, 2) herd centroid, m."""
     drones: np.ndarray
     """(T, n_d, 2) drone positions, m."""
+    phase: np.ndarray
+    """(T,) :class:`HerdingPhase` at each recorded time (object array)."""
+    goal: np.ndarray
+    """(2,) designated location G, m."""
     gather_time: float | None
     """First time every animal was within R_c of the centroid, s (None: not reached)."""
     total_time: float | None
     """Time the herd centroid reached G (gathering + driving), s (None: not reached)."""
     max_animal_speed: float
     """Largest displacement / dt of any animal over the run, m/s."""
-    snapshots: dict = field(default_factory=dict)
-    """{requested time: (animals (n,2), drones (n_d,2))} at the first step >= that time."""
-    frames: list = field(default_factory=list)
-    """[(t, animals, drones)] every ``frame_every`` seconds, for animations."""
+    snapshots: dict[float, HerdingFrame] = field(default_factory=dict)
+    """{requested time (s): state at the first step >= that time} (Fig. 6.7 b-f)."""
+    frames: list[HerdingFrame] = field(default_factory=list)
+    """States every ``frame_every`` seconds, for animations."""
     wall_time: float = 0.0
     """Wall-clock time of the run, s."""
-    seed: object = None
-    """The seed the run used."""
+    solve_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """Per-solve times reported by the herder (s)."""
 
 
 def footprint_radius(animals: np.ndarray) -> float:
@@ -351,8 +414,8 @@ def simulate(
 ) -> HerdingTrace:
     """Run gathering then driving with ``herder`` until the herd reaches G or ``t_max``.
 
-    scenario: initial state and parameters; herder: see module docstring.
-    t_max: simulated time limit, s (> 0). seed: int or Generator for the animals' noise.
+    scenario: initial state and parameters; herder: see module docstring (``reset``, ``command``).
+    t_max: simulated time limit, s (> 0). seed: int or Generator for the animals' noise (recorded).
     snapshot_times: times (s) at which to keep full snapshots (Fig. 6.7 b-f).
     frame_every: keep an animation frame every this many seconds (None: none).
     stop_after_gathering: end the run when gathering finishes (the sweeps of Figs 6.8-6.10).
@@ -374,15 +437,15 @@ def simulate(
     heading = np.zeros_like(animals)
     drones = scenario.drones.copy()
     headings = scenario.headings.copy()
-    herder.reset(scenario)
+    herder.reset(scenario, seed=seed)
     n_steps = int(math.ceil(t_max / dt))
-    ts, radii, cents, dpos = [], [], [], []
+    ts, radii, cents, dpos, phases = [], [], [], [], []
     snaps_todo = sorted(float(s) for s in snapshot_times)
     snapshots: dict = {}
     frames: list = []
     next_frame = 0.0
     gather_time = total_time = None
-    phase = "gathering"
+    phase = HerdingPhase.GATHERING
     vmax_seen = 0.0
     t0 = time.perf_counter()
     for step in range(n_steps + 1):
@@ -393,32 +456,38 @@ def simulate(
         radii.append(r)
         cents.append(c)
         dpos.append(drones.copy())
-        while snaps_todo and t >= snaps_todo[0] - 1e-9:
-            snapshots[snaps_todo.pop(0)] = (animals.copy(), drones.copy())
-        if frame_every is not None and t >= next_frame - 1e-9:
-            frames.append((t, animals.copy(), drones.copy()))
-            next_frame += frame_every
-        if phase == "gathering" and r <= p.R_c:
+        stop = False
+        if phase == HerdingPhase.GATHERING and r <= p.R_c:
             gather_time = t
-            phase = "driving"
-            if stop_after_gathering:
-                break
-        if phase == "driving" and np.linalg.norm(c - scenario.goal) <= p.goal_radius:
+            phase = HerdingPhase.DRIVING
+            stop = stop_after_gathering
+        if not stop and phase == HerdingPhase.DRIVING and np.linalg.norm(c - scenario.goal) <= p.goal_radius:
             total_time = t
+            phase = HerdingPhase.DONE
+        phases.append(phase)
+        while snaps_todo and t >= snaps_todo[0] - 1e-9:
+            snapshots[snaps_todo.pop(0)] = HerdingFrame(t=t, animals=animals.copy(), drones=drones.copy(),
+                                                        headings=headings.copy(), phase=phase)
+        if frame_every is not None and t >= next_frame - 1e-9:
+            frames.append(HerdingFrame(t=t, animals=animals.copy(), drones=drones.copy(), headings=headings.copy(),
+                                       phase=phase))
+            next_frame += frame_every
+        if stop or phase == HerdingPhase.DONE or step == n_steps:
             break
-        if step == n_steps:
-            break
-        herder.observe(t, animals, c, phase, drones, headings)
         for k in range(sub):
-            v, omega = herder.control(t + k * dts, drones, headings, dts)
-            drones, headings = drone_step(drones, headings, v, omega, p, dts)
+            cmd = herder.command(HerdingObservation(t + k * dts, animals, c, phase, drones, headings, dts, k == 0))
+            drones, headings = drone_step(drones, headings, cmd[0], cmd[1], p, dts)
         new, heading, _ = animal_step(animals, heading, drones, p, rng, dt, centroid=c)
         vmax_seen = max(vmax_seen, float(np.sqrt(np.max(np.sum((new - animals) ** 2, axis=1)))) / dt)
         animals = new
+    phase_arr = np.empty(len(phases), dtype=object)
+    phase_arr[:] = phases
+    final = HerdingFrame(t=ts[-1], animals=animals.copy(), drones=drones.copy(), headings=headings.copy(), phase=phase)
     return HerdingTrace(
-        t=np.array(ts), footprint_radius=np.array(radii), centroid=np.array(cents), drones=np.array(dpos),
+        t=np.array(ts), final=final, seed=seed, **controller_counters(herder), footprint_radius=np.array(radii),
+        centroid=np.array(cents), drones=np.array(dpos), phase=phase_arr, goal=scenario.goal.copy(),
         gather_time=gather_time, total_time=total_time, max_animal_speed=vmax_seen, snapshots=snapshots,
-        frames=frames, wall_time=time.perf_counter() - t0, seed=seed,
+        frames=frames, wall_time=time.perf_counter() - t0,
     )
 
 

@@ -79,7 +79,7 @@ def run_once(task: dict) -> dict:
         "sim_time": float(tr.t[-1]), "wall_time": tr.wall_time, "cpu_time": cpu,
         "max_animal_speed": tr.max_animal_speed, "R_c": sc.params.R_c,
         "curve_t": tr.t[::every], "curve_r": tr.footprint_radius[::every],
-        "snapshots": {float(k): (a, d) for k, (a, d) in tr.snapshots.items()},
+        "snapshots": {float(k): (f.animals, f.drones) for k, f in tr.snapshots.items()},
         "n_crossing_allocations": herder.n_crossing_allocations,
     }
 
@@ -386,7 +386,7 @@ def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
         raise ValueError("trace has no frames: run simulate(..., frame_every=...)")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    allpts = np.concatenate([np.concatenate([a, d]) for _, a, d in trace.frames])
+    allpts = np.concatenate([np.concatenate([f.animals, f.drones]) for f in trace.frames])
     lo, hi = allpts.min(axis=0) - 20, allpts.max(axis=0) + 20
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.set_xlim(lo[0], hi[0])
@@ -399,10 +399,10 @@ def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
     title = ax.set_title("")
 
     def update(k):
-        t, a, d = trace.frames[k]
-        herd.set_offsets(a)
-        drones.set_offsets(d)
-        title.set_text(f"t = {t / 60:.1f} min")
+        f = trace.frames[k]
+        herd.set_offsets(f.animals)
+        drones.set_offsets(f.drones)
+        title.set_text(f"t = {f.t / 60:.1f} min")
         return herd, drones, title
 
     anim = FuncAnimation(fig, update, frames=len(trace.frames), blit=False)

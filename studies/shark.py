@@ -23,7 +23,7 @@ from droneplan.formulations.shark import optimal_altitude  # noqa: E402
 from droneplan.planners.shark import (ClassicalPursuit, OCPInterceptor, RepellingOperator,  # noqa: E402
                             VirtualSharkInterceptor, allocate_operators, optimal_interception, thesis_altitude)
 from droneplan.scenarios.shark import (THESIS_TABLE_5_1, SharkBehaviour, operator_start, random_trajectory,  # noqa: E402, F401
-                             simulate_interception, simulate_repelling, thesis_trajectories)
+                             simulate, simulate_repelling, thesis_trajectories)
 from droneplan.studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
 
 P = THESIS_TABLE_5_1
@@ -64,8 +64,8 @@ def _fig_5_10(out: Path, table: ComparisonTable) -> None:
 
 def _fig_5_11(out: Path, table: ComparisonTable) -> None:
     tr = thesis_trajectories()["a"]
-    cp = simulate_interception(tr, ClassicalPursuit())
-    lit = simulate_interception(tr, ClassicalPursuit(aim="shark"), t_max=20)
+    cp = simulate(tr, ClassicalPursuit())
+    lit = simulate(tr, ClassicalPursuit(aim="shark"), t_max=20)
     fig, ax = plt.subplots(1, 2, figsize=(10, 4))
     ax[0].plot(cp.shark[:, 0], cp.shark[:, 1], "r", label="shark")
     ax[0].plot(cp.operator[:, 0], cp.operator[:, 1], "b", label="operator (classical pursuit)")
@@ -96,12 +96,12 @@ def _table_5_2(out: Path, table: ComparisonTable, quick: bool) -> dict:
     for name, tr in thesis_trajectories().items():
         O0 = operator_start(tr)
         vs_ctl = VirtualSharkInterceptor()
-        vs = simulate_interception(tr, vs_ctl)
+        vs = simulate(tr, vs_ctl)
         on_ctl = OCPInterceptor(N=20)
-        on = simulate_interception(tr, on_ctl)
+        on = simulate(tr, on_ctl)
         off = optimal_interception(tr, O0, N=40 if quick else 60)
         off_ctl = OCPInterceptor(N=30 if quick else 40, path=tr)
-        offsim = simulate_interception(tr, off_ctl)
+        offsim = simulate(tr, off_ctl)
         runs[name] = (tr, vs, on, offsim)
         sp, dist = TABLE_5_2[name]
         table.add(f"Table 5.2 ({name}): average shark speed (m/s)", sp, tr.average_speed(vs.intercept_time),
@@ -217,7 +217,7 @@ def _gap_task(task: dict) -> dict:
         bearing = float(np.random.default_rng(seed).uniform(-180, 180))
         O0 = operator_start(tr, bearing_deg=bearing)
         vs_ctl = VirtualSharkInterceptor()
-        vs = simulate_interception(tr, vs_ctl, bearing_deg=bearing)
+        vs = simulate(tr, vs_ctl, bearing_deg=bearing)
         t0 = time.perf_counter()
         res = optimal_interception(tr, O0, N=50)
         dt = time.perf_counter() - t0
@@ -275,7 +275,7 @@ def bench(*, quick: bool, out: Path) -> None:
     for name, tr in paths.items():
         if name in "abcd" or (not quick and name in ("r0", "r1", "r2", "r3")) or (quick and name == "r0"):
             ctl = OCPInterceptor(N=20)
-            simulate_interception(tr, ctl)
+            simulate(tr, ctl)
             solve_times += ctl.solve_times
             warm_times += ctl.solve_times[2:]  # after the two cold starts
         O0 = operator_start(tr)
@@ -284,7 +284,7 @@ def bench(*, quick: bool, out: Path) -> None:
         if res.status.has_solution and vsT:
             (ratios_abcd if name in "abcd" else ratios_rand).append(res.objective / vsT)
         else:
-            vs = simulate_interception(tr, VirtualSharkInterceptor())
+            vs = simulate(tr, VirtualSharkInterceptor())
             why = (f"touched early at {vs.intercept_time:.1f} s in step {vs.phase[-1]}" if vs.touched_early
                    else "no contact" if not vs.intercepted else "no capture")
             missing.append(f"{name}: virtual shark {why}, OCP {res.status.name}")
@@ -313,9 +313,9 @@ def compare_interceptors(path="d", *, bearing_deg: float | None = None) -> dict:
     tr = thesis_trajectories()[path] if isinstance(path, str) else path
     kw = {} if bearing_deg is None else {"bearing_deg": bearing_deg}
     return {
-        "classical pursuit": simulate_interception(tr, ClassicalPursuit(), **kw),
-        "virtual shark": simulate_interception(tr, VirtualSharkInterceptor(), **kw),
-        "online OCP": simulate_interception(tr, OCPInterceptor(N=20), **kw),
+        "classical pursuit": simulate(tr, ClassicalPursuit(), **kw),
+        "virtual shark": simulate(tr, VirtualSharkInterceptor(), **kw),
+        "online OCP": simulate(tr, OCPInterceptor(N=20), **kw),
     }
 
 

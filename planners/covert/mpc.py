@@ -20,7 +20,7 @@ import numpy as np
 
 from droneplan.planners.covert.sliding import (DONE, ON_SPHERE, RETREAT, TO_SPHERE, SlidingSettings, _PhasedController,
                                      rollout_sliding, sliding_steering, turn_command)
-from droneplan.scenarios.covert import CovertScenario, Observation, bearing_changes, rotate_heading
+from droneplan.scenarios.covert import CovertCommand, CovertObservation, CovertScenario, bearing_changes, rotate_heading
 
 __all__ = ["MPCObserverSettings", "MPCObserver", "SafeguardSettings", "SafeguardedMPCObserver"]
 
@@ -71,10 +71,10 @@ class MPCObserver(_PhasedController):
         self.statuses: list[str] = []
         self.predicted_beta: list[float] = []
 
-    def reset(self, scenario: CovertScenario) -> None:
+    def reset(self, scenario: CovertScenario, *, seed: Any = None) -> None:
         from droneplan.formulations.covert import RecedingBearingMPC, build_bearing_mpc
 
-        super().reset(scenario)
+        super().reset(scenario, seed=seed)
         key = (scenario.params, scenario.n_targets)
         if self._solver is None or self._key != key:
             model = build_bearing_mpc(scenario.params, scenario.n_targets, self.mpc_settings)
@@ -91,7 +91,7 @@ class MPCObserver(_PhasedController):
         self._hold = None
 
     # -- target prediction
-    def _fit(self, obs: Observation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _fit(self, obs: CovertObservation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Record this measurement; constant-velocity fit (position (n,3) m, velocity (n,3) m/s,
         fitted (n,) bool) of each target over the last ``window`` measurements, at time obs.t."""
         A_meas = obs.drone + obs.rel  # NaN rows for unobservable targets
@@ -123,13 +123,13 @@ class MPCObserver(_PhasedController):
         self._fitted = (pos, vel)
         return pos, vel, fitted
 
-    def _predict(self, obs: Observation, times: np.ndarray) -> np.ndarray:
+    def _predict(self, obs: CovertObservation, times: np.ndarray) -> np.ndarray:
         """(len(times), n, 3) predicted positions at obs.t + times (F for targets not seen now)."""
         pos, vel, _ = self._fit(obs)
         return pos[None] + times[:, None, None] * vel[None]
 
     # -- phase constraints
-    def _phase_bounds(self, obs: Observation, node_t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _phase_bounds(self, obs: CovertObservation, node_t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         p = self.params
         N = node_t.size
         d0 = float(np.linalg.norm(p.F_arr - obs.drone))
@@ -183,7 +183,7 @@ class MPCObserver(_PhasedController):
             D, h = D + v * integral, h_new
         return np.array(us), np.array(vs)
 
-    def command(self, obs: Observation) -> tuple[np.ndarray, float]:
+    def command(self, obs: CovertObservation) -> CovertCommand:
         """u (3,) (rad/s) and v (m/s) for this control period."""
         from droneplan.formulations.covert import MPCData
 
@@ -195,7 +195,7 @@ class MPCObserver(_PhasedController):
         node_t = np.cumsum(model.durations)
         pred = self._predict(obs, node_t)
         if self.phase == DONE:
-            return np.zeros(3), 0.0
+            return CovertCommand(np.zeros(3), 0.0)
         if self._hold is not None and self._hold[2] > 0 and self.phase == phase_before:
             # between solves: keep turning at the planned rate about the planned axis
             # (axis None: the safeguard chose the sliding-mode law for this replan interval)
@@ -203,7 +203,7 @@ class MPCObserver(_PhasedController):
             self._hold = (axis, rate, left - 1, v_hold)
             if axis is None:
                 return self.sliding_command(obs)
-            return rate * np.cross(axis, obs.heading), v_hold
+            return CovertCommand(rate * np.cross(axis, obs.heading), v_hold)
         self._hold = None
         home = self.phase == RETREAT and np.linalg.norm(p.D_s_arr - obs.drone) <= self.settings.home_radius
         if home or not obs.observable.any():
@@ -255,13 +255,13 @@ class MPCObserver(_PhasedController):
         nu = float(np.linalg.norm(u))
         axis = np.cross(obs.heading, u / nu) if nu > 1e-12 else np.zeros(3)
         self._hold = (axis, nu, model.settings.replan_every - 1, v)
-        return u, v
+        return CovertCommand(u, v)
 
-    def _prefer_sliding(self, obs: Observation, res: Any, model: Any) -> bool:
+    def _prefer_sliding(self, obs: CovertObservation, res: Any, model: Any) -> bool:
         """Whether to fly the sliding-mode law instead of the solved plan (never, here)."""
         return False
 
-    def _update_phase_mpc(self, obs: Observation) -> None:
+    def _update_phase_mpc(self, obs: CovertObservation) -> None:
         """As the sliding mode, but the return flight is planned at progress * V_max."""
         self._update_phase(obs, return_speed=self.observer.progress * self.params.V_max, extra_margin=1.0)
 
@@ -336,8 +336,8 @@ class SafeguardedMPCObserver(MPCObserver):
         if not isinstance(self.safeguard, SafeguardSettings):
             raise TypeError("safeguard must be a SafeguardSettings")
 
-    def reset(self, scenario: CovertScenario) -> None:
-        super().reset(scenario)
+    def reset(self, scenario: CovertScenario, *, seed: Any = None) -> None:
+        super().reset(scenario, seed=seed)
         self.arrival_deadline: float | None = None
         self.choices: list[str] = []
         self.predicted_scores: list[tuple[float, float]] = []
@@ -353,7 +353,7 @@ class SafeguardedMPCObserver(MPCObserver):
         """max over instants 1..K and targets of beta (rad) for positions D (K+1,3), targets A (K+1,k,3)."""
         return float(np.max(bearing_changes(D[1:], A[1:], self.params.R)))
 
-    def _replay_plan(self, obs: Observation, plan: Any, model: Any) -> np.ndarray:
+    def _replay_plan(self, obs: CovertObservation, plan: Any, model: Any) -> np.ndarray:
         """Positions (K+1, 3) at the control instants when the controller applies ``plan``."""
         p = self.params
         D, h = obs.drone.copy(), obs.heading.copy()
@@ -372,14 +372,14 @@ class SafeguardedMPCObserver(MPCObserver):
                 out.append(D.copy())
         return np.asarray(out)
 
-    def _prefer_sliding(self, obs: Observation, res: Any, model: Any) -> bool:
+    def _prefer_sliding(self, obs: CovertObservation, res: Any, model: Any) -> bool:
         t0 = time.perf_counter()
         try:
             return self._choose(obs, res, model)
         finally:  # the scoring is part of this replan's computing time
             self.solve_times[-1] += time.perf_counter() - t0
 
-    def _choose(self, obs: Observation, res: Any, model: Any) -> bool:
+    def _choose(self, obs: CovertObservation, res: Any, model: Any) -> bool:
         mask = obs.observable
         D_mpc = self._replay_plan(obs, res.x, model)
         K = D_mpc.shape[0] - 1
@@ -402,7 +402,7 @@ class SafeguardedMPCObserver(MPCObserver):
         return choice == "sliding"
 
     # -- the approach: deadline instead of a schedule
-    def _predicted_sliding_arrival(self, obs: Observation) -> float:
+    def _predicted_sliding_arrival(self, obs: CovertObservation) -> float:
         """Time (s) the sliding-mode law needs to reach the sphere on the current prediction
         (rolled out for at most 3 straight-flight times + 10 s)."""
         p = self.params
@@ -413,7 +413,7 @@ class SafeguardedMPCObserver(MPCObserver):
         on = [k for k, ph in enumerate(phases) if ph != TO_SPHERE]
         return (on[0] if on else steps) * p.dt
 
-    def _phase_bounds(self, obs: Observation, node_t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _phase_bounds(self, obs: CovertObservation, node_t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         lo, hi, home = super()._phase_bounds(obs, node_t)
         tol = self.safeguard.arrival_tolerance
         if self.phase != TO_SPHERE or tol is None:
@@ -430,7 +430,7 @@ class SafeguardedMPCObserver(MPCObserver):
         catch_up = d0 - rate * node_t  # behind the envelope: close in at its rate from now on
         return lo, np.maximum(p.L_u, np.maximum(envelope, catch_up)), home
 
-    def command(self, obs: Observation) -> tuple[np.ndarray, float]:
+    def command(self, obs: CovertObservation) -> CovertCommand:
         """u (3,) (rad/s) and v (m/s) for this control period."""
         if (self.phase == TO_SPHERE and self.arrival_deadline is not None and obs.t > self.arrival_deadline
                 and float(np.linalg.norm(self.params.F_arr - obs.drone)) > self.params.L_u + self.settings.arrival_tol):

@@ -36,8 +36,8 @@ from typing import Any
 
 import numpy as np
 
-from droneplan.scenarios.covert import (CovertParams, CovertScenario, Observation, bearing_changes, nearest_on_line,
-                              step_drone)
+from droneplan.scenarios.covert import (CovertCommand, CovertObservation, CovertParams, CovertPhase, CovertScenario,
+                                        bearing_changes, nearest_on_line, step_drone)
 
 __all__ = [
     "W",
@@ -51,7 +51,7 @@ __all__ = [
     "rollout_sliding",
 ]
 
-TO_SPHERE, ON_SPHERE, RETREAT, DONE = "to-sphere", "on-sphere", "retreat", "done"
+TO_SPHERE, ON_SPHERE, RETREAT, DONE = CovertPhase.TO_SPHERE, CovertPhase.ON_SPHERE, CovertPhase.RETREAT, CovertPhase.DONE
 
 
 # --------------------------------------------------------------------------- W and g
@@ -244,7 +244,8 @@ class _PhasedController:
         self.fallbacks = 0
         self.solve_times: list[float] = []
 
-    def reset(self, scenario: CovertScenario) -> None:
+    def reset(self, scenario: CovertScenario, *, seed: Any = None) -> None:
+        """Start a run on ``scenario`` (the laws are deterministic: ``seed`` is unused)."""
         self.params = scenario.params
         self.scenario = scenario
         self.phase = TO_SPHERE
@@ -252,7 +253,7 @@ class _PhasedController:
         self.fallbacks = 0
         self.solve_times = []
 
-    def _update_phase(self, obs: Observation, *, return_speed: float | None = None,
+    def _update_phase(self, obs: CovertObservation, *, return_speed: float | None = None,
                       extra_margin: float = 0.0) -> None:
         """Advance to-sphere -> on-sphere -> retreat -> done; the retreat starts when a
         flight home at ``return_speed`` (m/s, default V_max) would end at the duration."""
@@ -268,11 +269,11 @@ class _PhasedController:
             self.phase = DONE
             self.finished = True
 
-    def _limit(self, u: np.ndarray, v: float, obs: Observation) -> tuple[np.ndarray, float]:
+    def _limit(self, u: np.ndarray, v: float, obs: CovertObservation) -> CovertCommand:
         """Saturated variant only: do not cross the sphere on arrival, do not overshoot D_s."""
         p = self.params
         if not self.settings.saturation:
-            return u, v
+            return CovertCommand(u, v)
         D, h = obs.drone, obs.heading
         if self.phase == TO_SPHERE:
             f = p.F_arr - D
@@ -280,12 +281,12 @@ class _PhasedController:
         elif self.phase == RETREAT:
             s = p.D_s_arr - D
             v = _cap_speed(v, h, s, np.linalg.norm(s), p.dt)
-        return u, v
+        return CovertCommand(u, v)
 
-    def sliding_command(self, obs: Observation) -> tuple[np.ndarray, float]:
+    def sliding_command(self, obs: CovertObservation) -> CovertCommand:
         """The sliding-mode command for this observation in the current phase."""
         if self.phase == DONE:
-            return np.zeros(3), 0.0
+            return CovertCommand(np.zeros(3), 0.0)
         A = obs.targets
         b = sliding_steering(self.phase, obs.drone, A, self.params, self.settings)
         u, v = turn_command(obs.heading, b, self.params, self.settings, self.params.dt,
@@ -299,7 +300,7 @@ class SlidingModeObserver(_PhasedController):
     settings: :class:`SlidingSettings` (saturation variant by default, as simulated in §3.5).
     """
 
-    def command(self, obs: Observation) -> tuple[np.ndarray, float]:
+    def command(self, obs: CovertObservation) -> CovertCommand:
         """u (3,) (rad/s) and v (m/s) for this control period."""
         self._update_phase(obs)
         return self.sliding_command(obs)
@@ -311,7 +312,7 @@ class HoverBenchmark(_PhasedController):
     Uses the same turn/speed law as the saturated sliding mode with b = f, 0, s.
     """
 
-    def command(self, obs: Observation) -> tuple[np.ndarray, float]:
+    def command(self, obs: CovertObservation) -> CovertCommand:
         """u (3,) (rad/s) and v (m/s) for this control period."""
         self._update_phase(obs)
         p = self.params
@@ -320,7 +321,7 @@ class HoverBenchmark(_PhasedController):
         elif self.phase == RETREAT:
             b = p.D_s_arr - obs.drone
         else:
-            return np.zeros(3), 0.0
+            return CovertCommand(np.zeros(3), 0.0)
         sat = SlidingSettings(**{**self.settings.__dict__, "saturation": True})
         u, v = turn_command(obs.heading, b, p, sat, p.dt)
         f = p.F_arr - obs.drone
@@ -328,12 +329,12 @@ class HoverBenchmark(_PhasedController):
             v = _cap_speed(v, obs.heading, f, np.linalg.norm(f) - p.L_u, p.dt)
         else:
             v = _cap_speed(v, obs.heading, b, np.linalg.norm(b), p.dt)
-        return u, v
+        return CovertCommand(u, v)
 
 
 
-def rollout_sliding(phase: str, D: Any, h: Any, targets: Any, params: CovertParams,
-                    settings: SlidingSettings | None = None) -> tuple[np.ndarray, np.ndarray, list[str]]:
+def rollout_sliding(phase: CovertPhase | str, D: Any, h: Any, targets: Any, params: CovertParams,
+                    settings: SlidingSettings | None = None) -> tuple[np.ndarray, np.ndarray, list[CovertPhase]]:
     """Open-loop prediction of the :class:`SlidingModeObserver` from (D, h) in ``phase``.
 
     targets: (K, k, 3) positions (m) of the observable targets at the K control instants

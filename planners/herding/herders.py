@@ -1,5 +1,9 @@
 """Herders (controllers) for ``scenarios.herding.simulate``: the proposed method and the benchmark.
 
+Both follow the closed-loop contract (``reset(scenario, *, seed)``, ``command(HerdingObservation)
+-> HerdingCommand``, ``phase``): on an observation with ``replan`` (every Delta) they plan
+(hull, steering points, allocation or driving formation), and every sub-step they steer.
+
 Both gather with the drones restricted to the extended hull and drive with the
 same side-to-side strategy (§6.4.4):
 
@@ -34,6 +38,7 @@ from droneplan.formulations.herding import solve_allocation
 from droneplan.planners.herding.allocation import allocate_bruteforce, allocate_collision_blind, crosses
 from droneplan.planners.herding.geometry import ExtendedHull, convex_hull, extended_hull_vertices, min_enclosing_circle
 from droneplan.planners.herding.guidance import fly_on_edge, fly_to_edge, steer
+from droneplan.scenarios.herding import HerdingCommand, HerdingObservation, HerdingPhase
 from droneplan.solvers.validation import check_array, check_int, check_positive
 
 ALLOCATORS = ("exact", "cp-sat", "bruteforce", "collision-blind")
@@ -90,14 +95,15 @@ class _Herder(abc.ABC):
     def __init__(self, settings: HerderSettings | None = None):
         self.settings = settings or HerderSettings()
 
-    # -- simulate() protocol
-    def reset(self, scenario) -> None:
+    # -- the closed-loop contract
+    def reset(self, scenario, *, seed=None) -> None:
+        """Start a run on ``scenario`` (the herders are deterministic: ``seed`` is unused)."""
         self.p = scenario.params
         self.goal = np.asarray(scenario.goal, dtype=float)
         n = self.p.n_drones
         self.on_hull = np.zeros(n, dtype=bool)
         self.hull: ExtendedHull | None = None
-        self.phase = "gathering"
+        self.phase = HerdingPhase.GATHERING
         self.s_target = np.zeros(n)
         self.direction = np.ones(n, dtype=int)
         self.allocated = False
@@ -107,21 +113,29 @@ class _Herder(abc.ABC):
         self.drive_centre = None
         self.drive_slot = None
         self.drive_toggle = np.zeros(n, dtype=bool)
+        self.fallbacks = 0  # allocations without a solution (the drones then hold position)
+        self.statuses: list[str] = []  # status of every allocation solve
 
-    def observe(self, t, animals, centroid, phase, drones, headings) -> None:
+    def command(self, obs: HerdingObservation) -> HerdingCommand:
+        """Speeds (m/s) and heading rates (rad/s) of the drones for this sub-step (replanning on ``obs.replan``)."""
+        if obs.replan:
+            self._observe(obs.animals, obs.centroid, obs.phase, obs.drones)
+        return HerdingCommand(*self._control(obs.t, obs.drones, obs.headings, obs.dt))
+
+    def _observe(self, animals, centroid, phase, drones) -> None:
         self.centroid = np.asarray(centroid, dtype=float)
-        if phase == "gathering":
+        if phase == HerdingPhase.GATHERING:
             self.hull = ExtendedHull.from_points(animals, self.p.d_s)
             if self.on_hull.all():
                 self._plan_gathering(drones)
         else:
-            if self.phase != "driving":
-                self.phase = "driving"
+            if self.phase != HerdingPhase.DRIVING:
+                self.phase = HerdingPhase.DRIVING
             self._plan_driving(animals, drones)
 
-    def control(self, t, drones, headings, dt):
+    def _control(self, t, drones, headings, dt):
         p = self.p
-        if self.phase == "driving":
+        if self.phase == HerdingPhase.DRIVING:
             b = self.Q_target - drones
             return steer(headings, b, p.V_max, p.U_max, dt)
         v = np.zeros(len(drones))
@@ -203,7 +217,9 @@ class ProposedHerder(_Herder):
         steer_s = steering_points(hull, self.centroid, self.p.n_drones)
         s_d = np.where(s_d >= M, 0.0, s_d)
         res = _allocate(self.settings.allocation, s_d, steer_s, M)
+        self.statuses.append(res.status.name)
         if not res.has_solution:  # cannot happen for distinct vertices; hold position
+            self.fallbacks += 1
             self.s_target, self.direction = s_d, np.ones(len(s_d), dtype=int)
             return
         alloc = res.x
@@ -221,8 +237,8 @@ class BenchmarkHerder(_Herder):
 
     name = "benchmark"
 
-    def reset(self, scenario) -> None:
-        super().reset(scenario)
+    def reset(self, scenario, *, seed=None) -> None:
+        super().reset(scenario, seed=seed)
         self.segment = None
         self.heading_to_end = np.ones(self.p.n_drones, dtype=int)
 

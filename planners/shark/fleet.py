@@ -6,7 +6,7 @@ import numpy as np
 
 from droneplan.formulations.shark import greedy_assignment, solve_assignment, solve_interception
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
-from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, constant_velocity_trajectory, simulate_interception
+from droneplan.scenarios.shark import THESIS_TABLE_5_1, InterceptionScenario, SharkParams, constant_velocity_trajectory, simulate
 from droneplan.solvers.result import SolveResult
 
 __all__ = ["interception_time_matrix", "allocate_operators"]
@@ -36,7 +36,7 @@ def interception_time_matrix(operators, sharks_pos, sharks_vel, params: SharkPar
                 continue
             if method == "virtual-shark":
                 vs = VirtualSharkInterceptor(params)
-                simulate_interception(path, vs, params, operator0=O[i])
+                simulate(InterceptionScenario(path, params, O[i]), vs)
                 if vs.capture_time is not None:
                     C[i, j] = vs.capture_time
             else:

@@ -9,7 +9,8 @@ import numpy as np
 
 from droneplan.formulations.shark import InterceptionOCP, InterceptionPlan, solve_interception
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
-from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory, clip_velocity, simulate_interception
+from droneplan.scenarios.shark import (THESIS_TABLE_5_1, InterceptionScenario, SharkCommand, SharkObservation, SharkParams,
+                                      SharkPhase, SharkTrajectory, clip_velocity, simulate)
 from droneplan.solvers.result import SolveResult, Status
 
 __all__ = ["virtual_shark_plan", "optimal_interception", "OCPInterceptor"]
@@ -23,7 +24,7 @@ def virtual_shark_plan(trajectory: SharkTrajectory, operator0, params: SharkPara
     ``capture_time`` is the virtual-shark interception time comparable with the OCP's T).
     """
     vs = VirtualSharkInterceptor(params, side=side)
-    tr = simulate_interception(trajectory, vs, params, operator0=operator0)
+    tr = simulate(InterceptionScenario(trajectory, params, operator0), vs)
     if vs.capture_time is None:
         return None, vs
     k = int(round(vs.capture_time / params.Ts))
@@ -55,33 +56,40 @@ class OCPInterceptor:
 
     params: problem parameters; N: OCP intervals; path: the shark's known path (None: predict
     it at constant velocity from each measurement — the online controller); margin: clearance
-    margin (m); time_limit: IPOPT wall-clock limit per replan (s); hold_timeout: s in the final
-    hold without contact before replanning again.
+    margin (m); time_limit: IPOPT wall-clock limit per solve (s); max_iter: IPOPT iteration limit
+    per solve; hold_timeout: s in the final hold without contact before replanning again.
 
     The first solve starts from the virtual-shark rollout (known path) or the formulation's
     crude starts on both sides (best kept); later solves start from the previous plan shifted
     by Ts, reusing its duals after a successful solve. ``solve_times`` (s) and ``statuses``
-    record every replan. Once the remaining time is below Ts the operator steps onto the
-    terminal point and holds (``at_interception``), as the thesis's step 3.
+    record every solve. When no solve of a replan gives a plan, the operator flies at VoMxy
+    towards the point one second ahead of the shark (a pursuit fallback) and ``fallbacks``
+    counts that replan; the simulator copies both counts into the trace (``trace.fallbacks``,
+    ``trace.status_counts``). Once the remaining time is below Ts the operator steps onto the
+    terminal point and holds (``at_interception``, ``SharkPhase.HOLD``), as the thesis's step 3.
     """
 
     def __init__(self, params: SharkParams = THESIS_TABLE_5_1, *, N: int = 20,
                  path: SharkTrajectory | None = None, margin: float = 0.05, time_limit: float | None = None,
-                 hold_timeout: float = 1.0):
+                 max_iter: int = 300, hold_timeout: float = 1.0):
         if not (math.isfinite(hold_timeout) and hold_timeout > 0):
             raise ValueError("hold_timeout must be > 0")
         self.params, self.N, self.path, self.margin = params, N, path, margin
         self.time_limit = time_limit
         self.hold_timeout = hold_timeout
-        self.ocp = InterceptionOCP(params, N=N, path=path, margin=margin, time_limit=time_limit)
-        self.reset(np.zeros(3), params)
+        self.ocp = InterceptionOCP(params, N=N, path=path, margin=margin, time_limit=time_limit, max_iter=max_iter)
+        self._start()
 
-    def reset(self, operator, params: SharkParams) -> None:
-        """Start a new run."""
-        if params != self.params:
-            raise ValueError("OCPInterceptor was built for other params")
-        self.phase = 1
+    def reset(self, scenario: InterceptionScenario, *, seed=None) -> None:
+        """Start a new run (``seed`` unused: the controller is deterministic)."""
+        if scenario.params != self.params:
+            raise ValueError("OCPInterceptor was built for other params than the scenario's")
+        self._start()
+
+    def _start(self) -> None:
+        self.phase = SharkPhase.APPROACH
         self.at_interception = False
+        self.fallbacks = 0
         self.capture_time = None
         self._last: SolveResult | None = None
         self._hold_since = None
@@ -127,24 +135,29 @@ class OCPInterceptor:
                 best = r
         return best
 
-    def step(self, t: float, operator, shark_pos, shark_vel) -> np.ndarray:
-        """Velocity command (m/s) for the next Ts."""
+    def command(self, obs: SharkObservation) -> SharkCommand:
+        """Velocity command (m/s) for the next Ts; ``at_interception`` once holding at the terminal point."""
+        v = self._velocity(obs.t, obs.operator, obs.shark_pos, obs.shark_vel)
+        return SharkCommand(v, self.at_interception)
+
+    def _velocity(self, t: float, operator, shark_pos, shark_vel) -> np.ndarray:
         p = self.params
         O = np.asarray(operator, float)
-        if self.phase == 3:
+        if self.phase == SharkPhase.HOLD:
             if t - self._hold_since <= self.hold_timeout + 1e-9:
                 return np.zeros(3)
-            self.phase, self._last, self.at_interception = 1, None, False
+            self.phase, self._last, self.at_interception = SharkPhase.APPROACH, None, False
         res = self._solve(t, O, np.asarray(shark_pos, float), np.asarray(shark_vel, float))
         self._last = res
         if res is None:  # no plan: close in on the shark's front as a fallback
+            self.fallbacks += 1
             d = np.asarray(shark_pos, float) + np.r_[np.asarray(shark_vel, float)[:2], 0.0] - O
             d[2] = 0.0
             return clip_velocity(p.VoMxy * d / (np.linalg.norm(d) + 1e-9), p)[0]
         plan = res.x
         self.plans.append(plan)
         if plan.T <= p.Ts + 1e-9:  # reach the terminal point within this step, then hold
-            self.phase, self.at_interception = 3, True
+            self.phase, self.at_interception = SharkPhase.HOLD, True
             self.capture_time = t + plan.T
             self._hold_since = t
             return clip_velocity((plan.operator[-1] - O) / p.Ts, p)[0]

@@ -1,7 +1,7 @@
 """Classical pursuit (eq. 5.5) and the two-phase virtual-shark interceptor (eqs. 5.8-5.20).
 
-Both implement the simulator's controller protocol (``reset``/``step``, ``phase``,
-``at_interception``) of `scenarios.shark.simulate_interception`.
+Both implement the closed-loop controller contract (``reset(scenario, *, seed)``,
+``command(SharkObservation) -> SharkCommand``, ``phase``) of `scenarios.shark.simulate`.
 
 Discretisation and documented fixes (DESIGN §4):
 - Speed limits: eq. 5.14/5.5 command VoM along the 3-D line of sight; the command is
@@ -33,7 +33,8 @@ import numpy as np
 
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark.altitude import thesis_altitude
-from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, clip_velocity
+from droneplan.scenarios.shark import (THESIS_TABLE_5_1, InterceptionScenario, SharkCommand, SharkObservation, SharkParams,
+                                      SharkPhase, clip_velocity)
 
 __all__ = ["ClassicalPursuit", "VirtualSharkInterceptor"]
 
@@ -47,11 +48,11 @@ class ClassicalPursuit:
         stalls where VoM*cos(elevation) = |v_s| (on path a it hovers 3.59 m behind the
         shark and never touches, while the thesis's Fig. 5.11 shows a contact).
     It has no notion of an interception point: ``at_interception`` is always True (any
-    contact is the one it aims for), ``phase`` is 0.
+    contact is the one it aims for), ``phase`` is ``SharkPhase.PURSUIT``.
     """
 
     at_interception = True
-    phase = 0
+    phase = SharkPhase.PURSUIT
 
     def __init__(self, params: SharkParams = THESIS_TABLE_5_1, *, aim: str = "above"):
         if aim not in ("above", "shark"):
@@ -59,20 +60,20 @@ class ClassicalPursuit:
         self.params = params
         self.aim = aim
 
-    def reset(self, operator: np.ndarray, params: SharkParams) -> None:
-        """Start a run (the simulator's params replace the constructor's)."""
-        self.params = params
+    def reset(self, scenario: InterceptionScenario, *, seed=None) -> None:
+        """Start a run (the scenario's params replace the constructor's; deterministic, ``seed`` unused)."""
+        self.params = scenario.params
 
-    def step(self, t: float, operator, shark_pos, shark_vel) -> np.ndarray:
+    def command(self, obs: SharkObservation) -> SharkCommand:
         """Velocity command (m/s) of eq. 5.5."""
-        A = np.array(shark_pos, dtype=float)
+        A = np.array(obs.shark_pos, dtype=float)
         if self.aim == "above":
             A[2] = optimal_altitude(min(A[2], 0.0), self.params)[0]
-        d = A - np.asarray(operator, float)
+        d = A - np.asarray(obs.operator, float)
         n = np.linalg.norm(d)
         if n < 1e-12:
-            return np.zeros(3)
-        return clip_velocity(self.params.VoM * d / n, self.params)[0]
+            return SharkCommand(np.zeros(3), True)
+        return SharkCommand(clip_velocity(self.params.VoM * d / n, self.params)[0], True)
 
 
 def _rot_left(u: np.ndarray) -> np.ndarray:
@@ -91,7 +92,8 @@ class VirtualSharkInterceptor:
     hold_timeout: time (s) in step 3 without contact before restarting at step 1.
     restart_step1: return to step 1 when S2 is no longer beside the operator (see module doc).
 
-    Attributes: ``phase`` (1, 2, 3), ``at_interception`` (phase 3), ``capture_time`` (s,
+    Attributes: ``phase`` (``SharkPhase.APPROACH``, ``CROSS``, ``HOLD`` = the thesis's steps 1, 2, 3),
+    ``at_interception`` (step 3), ``capture_time`` (s,
     time step 3 was entered, i.e. the interception point was reached).
     """
 
@@ -112,12 +114,15 @@ class VirtualSharkInterceptor:
         self.speed_eps = speed_eps
         self.hold_timeout = hold_timeout
         self.restart_step1 = bool(restart_step1)
-        self.reset(np.zeros(3), params)
+        self._start(params)
 
-    def reset(self, operator: np.ndarray, params: SharkParams) -> None:
-        """Start a new run at step 1."""
+    def reset(self, scenario: InterceptionScenario, *, seed=None) -> None:
+        """Start a new run at step 1 (the scenario's params replace the constructor's; ``seed`` unused)."""
+        self._start(scenario.params)
+
+    def _start(self, params: SharkParams) -> None:
         self.params = params
-        self.phase = 1
+        self.phase = SharkPhase.APPROACH
         self.at_interception = False
         self.capture_time: float | None = None
         self._heading = np.array([1.0, 0.0])
@@ -163,31 +168,35 @@ class VirtualSharkInterceptor:
             return dz / self.params.Ts
         return math.copysign(lim, dz)  # 5.17
 
-    def step(self, t: float, operator, shark_pos, shark_vel) -> np.ndarray:
-        """Velocity command (m/s) for the next Ts."""
+    def command(self, obs: SharkObservation) -> SharkCommand:
+        """Velocity command (m/s) for the next Ts; ``at_interception`` once in step 3."""
+        v = self._velocity(obs.t, obs.operator, obs.shark_pos, obs.shark_vel)
+        return SharkCommand(v, self.at_interception)
+
+    def _velocity(self, t: float, operator, shark_pos, shark_vel) -> np.ndarray:
         p = self.params
         O = np.asarray(operator, float)
         Vs = np.asarray(shark_vel, float)
         S1, S2, u, side = self.virtual_sharks(O, shark_pos, shark_vel)
         vxy = Vs[:2]
         sp = float(np.linalg.norm(vxy))
-        if self.phase == 1 and np.linalg.norm(S1 - O) <= p.gamma:  # 5.15
-            self.phase = 2
+        if self.phase == SharkPhase.APPROACH and np.linalg.norm(S1 - O) <= p.gamma:  # 5.15
+            self.phase = SharkPhase.CROSS
             self._side2 = side
-        if self.phase == 2 and self.restart_step1:
+        if self.phase == SharkPhase.CROSS and self.restart_step1:
             e1 = np.linalg.norm(S2[:2] - np.asarray(shark_pos, float)[:2])
             if abs(float((O[:2] - S2[:2]) @ u)) > e1:  # S2 no longer beside the operator
-                self.phase = 1
-        if self.phase == 2 and np.linalg.norm(S2 - O) <= p.gamma:  # 5.19
-            self.phase = 3
+                self.phase = SharkPhase.APPROACH
+        if self.phase == SharkPhase.CROSS and np.linalg.norm(S2 - O) <= p.gamma:  # 5.19
+            self.phase = SharkPhase.HOLD
             self.capture_time = t
             self._hold_since = t
-        if self.phase == 3 and t - self._hold_since > self.hold_timeout + 1e-9:
-            self.phase = 1
+        if self.phase == SharkPhase.HOLD and t - self._hold_since > self.hold_timeout + 1e-9:
+            self.phase = SharkPhase.APPROACH
             self._hold_since = None
-        self.at_interception = self.phase == 3
+        self.at_interception = self.phase == SharkPhase.HOLD
 
-        if self.phase == 1:  # 5.14 with the final-step saturation
+        if self.phase == SharkPhase.APPROACH:  # 5.14 with the final-step saturation
             target_next = S1 + p.Ts * np.r_[vxy, 0.0]
             d = target_next - O
             if np.hypot(d[0], d[1]) <= p.VoMxy * p.Ts and abs(d[2]) <= p.VoMz * p.Ts:
@@ -195,7 +204,7 @@ class VirtualSharkInterceptor:
             # aim at where S1 will be after this step: pursuing the current point with steps
             # comparable to the distance chatters around S1 without closing in
             return clip_velocity(p.VoM * d / np.linalg.norm(d), p)[0]
-        if self.phase == 2:  # 5.16-5.18
+        if self.phase == SharkPhase.CROSS:  # 5.16-5.18
             rel = O[:2] - S2[:2]
             cross = u[0] * rel[1] - u[1] * rel[0]
             if abs(cross) > 1e-9:

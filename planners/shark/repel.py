@@ -20,7 +20,8 @@ import numpy as np
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark.ocp import OCPInterceptor
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
-from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, clip_velocity
+from droneplan.scenarios.shark import (THESIS_TABLE_5_1, InterceptionScenario, SharkObservation, SharkParams, clip_velocity,
+                                      constant_velocity_trajectory)
 
 __all__ = ["RepellingOperator"]
 
@@ -107,6 +108,8 @@ class RepellingOperator:
             return self._goto(O, np.r_[S[:2] + self.follow_distance * u, p.le], V[:2])
         if self._ctl is None:
             self._ctl = self._new_interceptor()
-            self._ctl.reset(O, p)
+            # the interceptors read only the parameters from the scenario; the shark's path is unknown here
+            flat_v = np.r_[V[:2], 0.0]
+            self._ctl.reset(InterceptionScenario(constant_velocity_trajectory(S, flat_v, duration=p.Ts, dt=p.Ts), p, O))
         self.mode = "intercept"
-        return self._ctl.step(t, O, S, V)
+        return self._ctl.command(SharkObservation(t, O, S, V)).velocity

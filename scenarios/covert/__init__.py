@@ -9,20 +9,25 @@ Units: metres, seconds, radians. ``U_max`` is the bound on ``|u|`` with
 ``dh/dt = u`` and ``|h| = 1`` (DESIGN §4), i.e. a heading turn rate in rad/s
 (the thesis table prints m/s^2).
 
-Controllers plug into :func:`simulate` through a small protocol (duck-typed):
+Controllers plug into :func:`simulate` through the closed-loop contract shared by
+every problem (:mod:`droneplan.scenarios.loop`):
 
-- ``reset(scenario)`` before the run;
-- ``command(obs: Observation) -> (u, v)`` once per control period ``params.dt``;
-- attributes ``phase`` (``"to-sphere"``, ``"on-sphere"``, ``"retreat"`` or
-  ``"done"``) and ``finished`` (bool), read after every command;
-- optional ``fallbacks`` (int) and ``solve_times`` (list of s), copied to the trace.
+- ``reset(scenario, *, seed=None)`` before the run;
+- ``command(obs: CovertObservation) -> CovertCommand`` (``u``, ``v``) once per control
+  period ``params.dt``;
+- attributes ``phase`` (a :class:`CovertPhase`) and ``finished`` (bool), read after
+  every command;
+- optional ``fallbacks`` (int), ``statuses`` and ``solve_times`` (list of s), counted in the trace.
 """
 
 
 from droneplan.scenarios.covert.dynamics import (
     Controller,
+    CovertCommand,
+    CovertFrame,
+    CovertObservation,
+    CovertPhase,
     CovertTrace,
-    Observation,
     bearing_changes,
     measure,
     nearest_on_line,
@@ -51,7 +56,10 @@ __all__ = [
     "TargetPath",
     "Occlusion",
     "CovertScenario",
-    "Observation",
+    "CovertObservation",
+    "CovertCommand",
+    "CovertPhase",
+    "CovertFrame",
     "Controller",
     "CovertTrace",
     "thesis_case",

@@ -2,14 +2,29 @@
 
 from __future__ import annotations
 
+import enum
 import math
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
 from droneplan.scenarios.covert.world import CovertParams, CovertScenario
-from droneplan.solvers.validation import as_generator, check_array, check_methods, check_nonneg, check_positive
+from droneplan.solvers.validation import check_array, check_methods, check_nonneg, check_positive, resolve_seed
+from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
+
+
+class CovertPhase(enum.StrEnum):
+    """Phases of a covert-observation mission (thesis §3.4), in order."""
+
+    TO_SPHERE = "to-sphere"
+    """Flying from D_s to the observation sphere (To-sphere law)."""
+    ON_SPHERE = "on-sphere"
+    """On the sphere |D - F| = L_u, observing (On-sphere law)."""
+    RETREAT = "retreat"
+    """Flying back to D_s (Retreat law)."""
+    DONE = "done"
+    """Back at D_s; the mission is over."""
 
 
 # --------------------------------------------------------------------------- geometry
@@ -117,8 +132,8 @@ def measure(true_rel: np.ndarray, noise: float, rng: np.random.Generator) -> np.
 
 # --------------------------------------------------------------------------- simulation
 @dataclass(frozen=True)
-class Observation:
-    """What the drone knows at one control instant."""
+class CovertObservation:
+    """What the drone knows at one control instant (the argument of ``Controller.command``)."""
 
     t: float
     """Time (s)."""
@@ -137,21 +152,47 @@ class Observation:
         return self.drone + self.rel[self.observable]
 
 
+class CovertCommand(NamedTuple):
+    """A drone command for one control period (3.2)-(3.5); the simulator makes it admissible."""
+
+    u: np.ndarray
+    """(3,) heading rate dh/dt (rad/s), orthogonal to the heading."""
+    v: float
+    """Speed along the heading (m/s)."""
+
+
 class Controller(Protocol):
-    phase: str
+    """A covert-observation controller (the closed-loop contract of :mod:`droneplan.scenarios.loop`)."""
+
+    phase: CovertPhase
+    """Phase after the last command."""
     finished: bool
+    """True once the drone is back at D_s (the run then ends)."""
 
-    def reset(self, scenario: CovertScenario) -> None: ...
+    def reset(self, scenario: CovertScenario, *, seed: Any = None) -> None: ...
 
-    def command(self, obs: Observation) -> tuple[np.ndarray, float]: ...
+    def command(self, obs: CovertObservation) -> CovertCommand: ...
 
 
-@dataclass(frozen=True)
-class CovertTrace:
-    """A closed-loop run. Arrays are sampled at the control instants t_k = k dt."""
+@dataclass(frozen=True, kw_only=True)
+class CovertFrame(Frame):
+    """The state of a covert run at one instant."""
 
-    t: np.ndarray
-    """(T,) times (s)."""
+    drone: np.ndarray
+    """(3,) drone position D (m)."""
+    heading: np.ndarray
+    """(3,) unit heading h."""
+    targets: np.ndarray
+    """(n, 3) true target positions (m)."""
+    phase: CovertPhase
+    """Controller phase."""
+
+
+@dataclass(kw_only=True)
+class CovertTrace(LoopTrace):
+    """A closed-loop run. Arrays are sampled at the control instants t_k = k dt (``t``, s);
+    ``final`` is the last recorded instant."""
+
     drone: np.ndarray
     """(T, 3) drone positions (m)."""
     heading: np.ndarray
@@ -169,17 +210,25 @@ class CovertTrace:
     t_f: float | None
     """Time the drone leaves the sphere (start of the retreat) (s)."""
     phase: np.ndarray
-    """(T,) phase of the controller after each command."""
+    """(T,) :class:`CovertPhase` of the controller after each command (object array)."""
     u: np.ndarray
     """(T, 3) commanded u as returned by the controller (NaN on the last row)."""
     v: np.ndarray
     """(T,) commanded v (m/s) (NaN on the last row)."""
     finished: bool
     """The controller reported that it was back at D_s."""
-    fallbacks: int = 0
-    """Control steps where a solver failed and a fallback command was used."""
     solve_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     """Per-step solver times reported by the controller (s)."""
+
+    def frame(self, k: int) -> CovertFrame:
+        """The state at recorded instant ``k`` (negative counts from the end)."""
+        return CovertFrame(t=float(self.t[k]), drone=self.drone[k], heading=self.heading[k], targets=self.targets[k],
+                           phase=self.phase[k])
+
+    @property
+    def frames(self) -> list[CovertFrame]:
+        """Every recorded instant as a :class:`CovertFrame`."""
+        return [self.frame(k) for k in range(len(self.t))]
 
     @property
     def beta_m(self) -> np.ndarray:
@@ -208,8 +257,10 @@ def simulate(scenario: CovertScenario, controller: Controller, *, noise: float =
              initial_heading: Any = None) -> CovertTrace:
     """Run ``controller`` on ``scenario`` in closed loop from D_s until it reports it is back.
 
+    controller: a :class:`Controller` (``reset(scenario, seed=...)``, ``command(CovertObservation)
+        -> CovertCommand``, ``phase``, ``finished``; optional ``fallbacks``, ``statuses``, ``solve_times``).
     noise: measurement noise amplitude as a fraction of each measured component (>= 0).
-    seed: seed for the noise.
+    seed: seed for the noise (int, Generator or None: a seed is drawn; recorded in the trace).
     max_time: hard stop (s); default duration + 60 s.
     initial_heading: initial h (default: towards F).
     Returns a :class:`CovertTrace` (beta is computed from the true positions).
@@ -219,7 +270,8 @@ def simulate(scenario: CovertScenario, controller: Controller, *, noise: float =
     check_methods("controller", controller, ("reset", "command"))
     noise = check_nonneg("noise", noise)
     p = scenario.params
-    rng = as_generator(seed)
+    rng, drawn = resolve_seed(seed)
+    seed = seed if drawn is None else drawn  # record the seed drawn for seed=None
     t_stop = p.duration + 60.0 if max_time is None else check_positive("max_time", max_time)
     if t_stop / p.dt > 1e7:
         raise ValueError(f"max_time asks for {t_stop / p.dt:.3g} steps of dt = {p.dt} s, more than 1e7")
@@ -228,7 +280,7 @@ def simulate(scenario: CovertScenario, controller: Controller, *, noise: float =
     if np.linalg.norm(h) == 0:
         raise ValueError("initial_heading must be a non-zero vector")
     h = h / np.linalg.norm(h)
-    controller.reset(scenario)
+    controller.reset(scenario, seed=seed)
     n = scenario.n_targets
     steps = int(math.ceil(t_stop / p.dt - 1e-9))
     ts, Ds, hs, us, vs, phases = [], [], [], [], [], []
@@ -247,7 +299,7 @@ def simulate(scenario: CovertScenario, controller: Controller, *, noise: float =
             vs.append(np.nan)
             phases.append(controller.phase)
             break
-        u, v = controller.command(Observation(t, D.copy(), h.copy(), rel, obsmask))
+        u, v = controller.command(CovertObservation(t, D.copy(), h.copy(), rel, obsmask))
         u = np.asarray(u, dtype=float)
         us.append(u.copy())
         vs.append(float(v))
@@ -262,7 +314,7 @@ def simulate(scenario: CovertScenario, controller: Controller, *, noise: float =
             hs.append(h.copy())
             us.append(np.full(3, np.nan))
             vs.append(np.nan)
-            phases.append("done")
+            phases.append(CovertPhase.DONE)
             break
     t_arr = np.asarray(ts)
     drone = np.asarray(Ds)
@@ -272,9 +324,10 @@ def simulate(scenario: CovertScenario, controller: Controller, *, noise: float =
         beta[~scenario.observable_at(t_arr)] = np.nan
     else:
         beta = np.zeros((t_arr.size, 0))
-    phase = np.asarray(phases)
-    on = np.nonzero(phase == "on-sphere")[0]
-    ret = np.nonzero((phase == "retreat") | (phase == "done"))[0]
+    phase = np.empty(len(phases), dtype=object)
+    phase[:] = [CovertPhase(ph) for ph in phases]
+    on = np.nonzero(phase == CovertPhase.ON_SPHERE)[0]
+    ret = np.nonzero((phase == CovertPhase.RETREAT) | (phase == CovertPhase.DONE))[0]
     t_a = float(t_arr[on[0]]) if on.size else None
     t_f = float(t_arr[ret[0]]) if ret.size and on.size else None
     if on.size:
@@ -284,11 +337,10 @@ def simulate(scenario: CovertScenario, controller: Controller, *, noise: float =
     else:
         sphere_error = math.nan
     bm = beta[~np.isnan(beta)]
-    trace = CovertTrace(
-        t=t_arr, drone=drone, heading=np.asarray(hs), targets=targets, beta=beta,
-        beta_max=float(bm.max()) if bm.size else math.nan, sphere_error=sphere_error,
-        t_a=t_a, t_f=t_f, phase=phase, u=np.asarray(us), v=np.asarray(vs), finished=finished,
-        fallbacks=int(getattr(controller, "fallbacks", 0)),
-        solve_times=np.asarray(getattr(controller, "solve_times", []), dtype=float), F=p.F,
+    final = CovertFrame(t=float(t_arr[-1]), drone=drone[-1], heading=np.asarray(hs[-1]), targets=targets[-1],
+                        phase=phase[-1])
+    return CovertTrace(
+        t=t_arr, final=final, seed=seed, **controller_counters(controller), drone=drone, heading=np.asarray(hs),
+        targets=targets, beta=beta, beta_max=float(bm.max()) if bm.size else math.nan, sphere_error=sphere_error,
+        t_a=t_a, t_f=t_f, phase=phase, u=np.asarray(us), v=np.asarray(vs), finished=finished, F=p.F,
     )
-    return trace

@@ -2,17 +2,20 @@
 
 from __future__ import annotations
 
+import enum
 import math
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
+from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, field_radius, inside_field
 from droneplan.scenarios.shark.trajectories import SharkTrajectory
 from droneplan.solvers.validation import check_array, check_in_range, check_int, check_methods, check_real
 
-__all__ = ["InterceptionController", "InterceptionTrace", "simulate_interception", "operator_start",
+__all__ = ["SharkPhase", "InterceptionScenario", "SharkObservation", "SharkCommand", "SharkFrame",
+           "InterceptionController", "InterceptionTrace", "simulate", "simulate_interception", "operator_start",
            "clip_velocity", "FRONTAL_TOL_DEG", "DEFAULT_BEARING_DEG"]
 
 DEFAULT_BEARING_DEG = -105.0
@@ -26,39 +29,125 @@ FRONTAL_TOL_DEG = 10.0
 """Tolerance (deg) on the angle between the shark's horizontal heading and the shark->operator direction."""
 
 
-class InterceptionController(Protocol):
-    """What the simulator needs from a controller (planners implement it).
+class SharkPhase(enum.IntEnum):
+    """Phases of an interception controller (thesis §5.3.2; values are the thesis's step numbers)."""
 
-    ``reset(operator, params)`` before a run; ``step(t, operator, shark_pos, shark_vel)``
-    returns the commanded operator velocity (3,) in m/s; ``at_interception`` is True
-    once the controller has reached its interception point (its first field contact
-    is then intended); ``phase`` is an int logged for plots.
+    PURSUIT = 0
+    """No phases: classical pursuit (eq. 5.5) aims at the shark throughout."""
+    APPROACH = 1
+    """Step 1: approach the first virtual shark S1 (eq. 5.14), or follow the OCP plan."""
+    CROSS = 2
+    """Step 2: cross in front of the shark to the second virtual shark S2 (eqs. 5.16-5.18)."""
+    HOLD = 3
+    """Step 3: at the interception point, slow down and wait for the shark to touch the field."""
+
+
+@dataclass(frozen=True)
+class InterceptionScenario:
+    """One interception run's set-up: the shark's path, Table 5.1 parameters and the operator's start."""
+
+    trajectory: SharkTrajectory
+    """The shark's path, sampled at ``params.Ts``."""
+    params: SharkParams = THESIS_TABLE_5_1
+    """Problem parameters (Table 5.1)."""
+    operator0: Any = None
+    """Operator start (3,) (m); None: :func:`operator_start` at ``bearing_deg``."""
+    bearing_deg: float = DEFAULT_BEARING_DEG
+    """Start bearing (deg) from the shark's initial heading when ``operator0`` is None."""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.trajectory, SharkTrajectory):
+            raise TypeError(f"trajectory must be a SharkTrajectory, got {type(self.trajectory).__name__}")
+        if not isinstance(self.params, SharkParams):
+            raise TypeError(f"params must be SharkParams, got {type(self.params).__name__}")
+        if self.trajectory.dt != self.params.Ts and not math.isclose(self.trajectory.dt, self.params.Ts, rel_tol=1e-9):
+            raise ValueError(f"trajectory dt={self.trajectory.dt} must equal Ts={self.params.Ts}")
+        if self.operator0 is not None:
+            O = check_array("operator0", self.operator0, shape=(3,))
+            # the simulator keeps the altitude in [lmin, le]; a start outside would be recorded
+            # as a jump at an impossible speed
+            check_in_range("operator0[2] (altitude)", O[2], self.params.lmin, self.params.le)
+            object.__setattr__(self, "operator0", O)
+        check_real("bearing_deg", self.bearing_deg)
+
+    @property
+    def operator(self) -> np.ndarray:
+        """The operator's start position (3,) (m)."""
+        if self.operator0 is None:
+            return operator_start(self.trajectory, self.params, bearing_deg=self.bearing_deg)
+        return np.array(self.operator0, dtype=float)
+
+
+@dataclass(frozen=True)
+class SharkObservation:
+    """What the operator's controller knows at one control instant (the argument of ``command``)."""
+
+    t: float
+    """Time (s)."""
+    operator: np.ndarray
+    """(3,) operator position O (m)."""
+    shark_pos: np.ndarray
+    """(3,) shark snout position S (m)."""
+    shark_vel: np.ndarray
+    """(3,) shark velocity (m/s)."""
+
+
+class SharkCommand(NamedTuple):
+    """An operator command for the next Ts."""
+
+    velocity: np.ndarray
+    """(3,) operator velocity (m/s); the simulator clips it to |v_xy| <= VoMxy, |v_z| <= VoMz."""
+    at_interception: bool = True
+    """The controller has reached its interception point, so a field contact during this step is
+    the one it aims for (a contact while False counts as ``touched_early``)."""
+
+
+class InterceptionController(Protocol):
+    """A shark-interception controller (the closed-loop contract of :mod:`droneplan.scenarios.loop`).
+
+    ``reset(scenario, *, seed=None)`` before a run (``scenario`` an :class:`InterceptionScenario`);
+    ``command(SharkObservation) -> SharkCommand`` every Ts; ``phase`` a :class:`SharkPhase`;
+    optional ``fallbacks``, ``statuses``, ``solve_times`` are counted in the trace.
     """
 
-    at_interception: bool
-    phase: int
+    phase: SharkPhase
 
-    def reset(self, operator: np.ndarray, params: SharkParams) -> None: ...
+    def reset(self, scenario: InterceptionScenario, *, seed: Any = None) -> None: ...
 
-    def step(self, t: float, operator: np.ndarray, shark_pos: np.ndarray, shark_vel: np.ndarray) -> np.ndarray: ...
+    def command(self, obs: SharkObservation) -> SharkCommand: ...
 
 
-@dataclass
-class InterceptionTrace:
+@dataclass(frozen=True, kw_only=True)
+class SharkFrame(Frame):
+    """The state of an interception run at one instant."""
+
+    operator: np.ndarray
+    """(3,) operator position (m)."""
+    shark: np.ndarray
+    """(3,) shark position (m)."""
+    shark_vel: np.ndarray
+    """(3,) shark velocity (m/s)."""
+    phase: SharkPhase
+    """Controller phase."""
+
+
+@dataclass(kw_only=True)
+class InterceptionTrace(LoopTrace):
     """Time series and outcome of one interception run.
 
     t (K,) s; operator, shark (K,3) m; operator_vel, shark_vel (K,3) m/s;
     eps (K,) field radius on the shark's plane eps(z_o - z_s) (m); D_h (K,) horizontal
-    operator-shark distance (m); phase (K,) controller phase.
+    operator-shark distance (m); phase (K,) :class:`SharkPhase` (object array).
     intercept_time: first field contact (s) or None; interception_distance: |S(contact) - S(0)|
     (m, Table 5.2's metric) or None; frontal: the shark's horizontal heading points at the
     operator within ``frontal_tol_deg`` at first contact; frontal_angle (deg);
     touched_early: first contact came before the controller reached its interception point;
     contact_eps: eps on the shark's plane at contact (m); clipped_steps: commands the
-    simulator had to clip to the speed limits.
+    simulator had to clip to the speed limits; ``final`` the last recorded instant (the step
+    that ended with the contact); fallbacks / status_counts: the controller's solver fallbacks
+    and solve statuses.
     """
 
-    t: np.ndarray
     operator: np.ndarray
     shark: np.ndarray
     operator_vel: np.ndarray
@@ -76,6 +165,19 @@ class InterceptionTrace:
     frontal_tol_deg: float = FRONTAL_TOL_DEG
     name: str = ""
     info: dict = field(default_factory=dict)
+
+    solve_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """Per-solve times reported by the controller (s)."""
+
+    def frame(self, k: int) -> SharkFrame:
+        """The state at recorded instant ``k`` (negative counts from the end)."""
+        return SharkFrame(t=float(self.t[k]), operator=self.operator[k], shark=self.shark[k],
+                          shark_vel=self.shark_vel[k], phase=self.phase[k])
+
+    @property
+    def frames(self) -> list[SharkFrame]:
+        """Every recorded instant as a :class:`SharkFrame`."""
+        return [self.frame(k) for k in range(len(self.t))]
 
     @property
     def intercepted(self) -> bool:
@@ -116,51 +218,51 @@ def operator_start(trajectory: SharkTrajectory, params: SharkParams = THESIS_TAB
     return np.array([s0[0] + params.Di * math.cos(psi), s0[1] + params.Di * math.sin(psi), z])
 
 
-def simulate_interception(trajectory: SharkTrajectory, controller: InterceptionController,
-                          params: SharkParams = THESIS_TABLE_5_1, *, operator0=None,
-                          bearing_deg: float = DEFAULT_BEARING_DEG, t_max: float | None = None,
-                          frontal_tol_deg: float = FRONTAL_TOL_DEG, substeps: int = 10) -> InterceptionTrace:
+def simulate(scenario: InterceptionScenario | SharkTrajectory, controller: InterceptionController,
+             params: SharkParams | None = None, *, seed: Any = None, operator0=None, bearing_deg: float | None = None,
+             t_max: float | None = None, frontal_tol_deg: float = FRONTAL_TOL_DEG,
+             substeps: int = 10) -> InterceptionTrace:
     """Run ``controller`` against the shark's path with the integrator dynamics (5.4) at Ts.
 
+    scenario: an :class:`InterceptionScenario`, or a :class:`SharkTrajectory` with ``params``
+        (default Table 5.1), ``operator0`` and ``bearing_deg`` given here (the older call).
+    controller: an :class:`InterceptionController`.
+    seed: passed to ``controller.reset`` and recorded (the simulation itself is deterministic).
     The operator starts at ``operator0`` (m) or at ``operator_start(trajectory, params,
     bearing_deg=...)``; commands are clipped to the speed limits and the altitude to
     [lmin, le]; field contact is checked on ``substeps`` points per step (linear motion of
     both within a step). The run stops at the first contact or at ``t_max`` (s; default the
     path's duration).
     """
-    if not isinstance(trajectory, SharkTrajectory):
-        raise TypeError(f"trajectory must be a SharkTrajectory, got {type(trajectory).__name__}")
-    if not isinstance(params, SharkParams):
-        raise TypeError(f"params must be SharkParams, got {type(params).__name__}")
-    check_methods("controller", controller, ("reset", "step"))
-    if trajectory.dt != params.Ts and not math.isclose(trajectory.dt, params.Ts, rel_tol=1e-9):
-        raise ValueError(f"trajectory dt={trajectory.dt} must equal Ts={params.Ts}")
+    if isinstance(scenario, InterceptionScenario):
+        if params is not None or operator0 is not None or bearing_deg is not None:
+            raise ValueError("params, operator0 and bearing_deg are already set by the InterceptionScenario")
+    elif isinstance(scenario, SharkTrajectory):
+        scenario = InterceptionScenario(scenario, THESIS_TABLE_5_1 if params is None else params, operator0,
+                                        DEFAULT_BEARING_DEG if bearing_deg is None else bearing_deg)
+    else:
+        raise TypeError(f"scenario must be an InterceptionScenario or a SharkTrajectory, got {type(scenario).__name__}")
+    check_methods("controller", controller, ("reset", "command"))
+    trajectory, params = scenario.trajectory, scenario.params
     if t_max is not None:
         check_in_range("t_max", t_max, 0.0, lo_open=True)
     frontal_tol_deg = check_in_range("frontal_tol_deg", frontal_tol_deg, 0.0, 180.0, lo_open=True, hi_open=True)
     substeps = check_int("substeps", substeps, min_value=1, max_value=10_000)
-    if operator0 is None:
-        O = operator_start(trajectory, params, bearing_deg=bearing_deg)
-    else:
-        O = check_array("operator0", operator0, shape=(3,))
-        # the simulator keeps the altitude in [lmin, le]; a start outside would be recorded
-        # as a jump at an impossible speed
-        check_in_range("operator0[2] (altitude)", O[2], params.lmin, params.le)
+    O = scenario.operator
     if np.hypot(*(O[:2] - trajectory.pos[0, :2])) <= params.eps_o:
         raise ValueError(f"initial horizontal separation must exceed eps_o={params.eps_o} (Prop. 5.3.2)")
     n_max = len(trajectory.t) - 1 if t_max is None else min(len(trajectory.t) - 1, int(round(t_max / params.Ts)))
-    controller.reset(O.copy(), params)
+    controller.reset(scenario, seed=seed)
     ops, ovs, phases = [O.copy()], [], []
     clipped_steps = 0
     contact = None
     fr = np.linspace(0.0, 1.0, substeps + 1)[1:]
     for k in range(n_max):
         S, V = trajectory.pos[k], trajectory.vel[k]
-        v = controller.step(float(trajectory.t[k]), O.copy(), S.copy(), V.copy())
-        # the command covers [t_k, t_k + Ts]: the controller's flag after deciding it tells
-        # whether a contact during this step is intended
-        ready = bool(getattr(controller, "at_interception", True))
-        phases.append(int(getattr(controller, "phase", 0)))
+        cmd = controller.command(SharkObservation(float(trajectory.t[k]), O.copy(), S.copy(), V.copy()))
+        # the command covers [t_k, t_k + Ts]: its flag tells whether a contact during this step is intended
+        v, ready = (cmd.velocity, bool(cmd.at_interception)) if isinstance(cmd, SharkCommand) else (cmd, True)
+        phases.append(SharkPhase(getattr(controller, "phase", SharkPhase.PURSUIT)))
         v, c = clip_velocity(v, params)
         clipped_steps += c
         On = O + params.Ts * v
@@ -188,10 +290,16 @@ def simulate_interception(trajectory: SharkTrajectory, controller: InterceptionC
     sv = trajectory.vel[:K]
     eps = field_radius(op[:, 2] - sh[:, 2], params)
     D_h = np.hypot(*(op[:, :2] - sh[:, :2]).T)
-    phase = np.array(phases + [phases[-1] if phases else 0])
+    phase = np.empty(K, dtype=object)
+    phase[:] = phases + [phases[-1] if phases else SharkPhase(getattr(controller, "phase", SharkPhase.PURSUIT))]
+    common = dict(t=t, final=SharkFrame(t=float(t[-1]), operator=op[-1], shark=sh[-1], shark_vel=sv[-1],
+                                        phase=phase[-1]),
+                  seed=seed, **controller_counters(controller), operator=op, shark=sh, operator_vel=ov,
+                  shark_vel=sv, eps=eps, D_h=D_h, phase=phase, clipped_steps=clipped_steps,
+                  frontal_tol_deg=frontal_tol_deg, name=trajectory.name)
     if contact is None:
-        return InterceptionTrace(t, op, sh, ov, sv, eps, D_h, phase, None, None, False, None, False, None,
-                                 clipped_steps, frontal_tol_deg, trajectory.name)
+        return InterceptionTrace(**common, intercept_time=None, interception_distance=None, frontal=False,
+                                 frontal_angle=None, touched_early=False, contact_eps=None)
     _, tc, Sc, Vc, Oc, ready = contact
     rel = Oc[:2] - Sc[:2]
     hv = Vc[:2]
@@ -201,6 +309,10 @@ def simulate_interception(trajectory: SharkTrajectory, controller: InterceptionC
         cosang = np.dot(rel, hv) / (np.linalg.norm(rel) * np.linalg.norm(hv))
         angle = math.degrees(math.acos(max(-1.0, min(1.0, cosang))))
     return InterceptionTrace(
-        t, op, sh, ov, sv, eps, D_h, phase, tc, float(np.linalg.norm(Sc - trajectory.pos[0])),
-        angle <= frontal_tol_deg, angle, not ready, float(field_radius(Oc[2] - Sc[2], params)),
-        clipped_steps, frontal_tol_deg, trajectory.name)
+        **common, intercept_time=tc, interception_distance=float(np.linalg.norm(Sc - trajectory.pos[0])),
+        frontal=angle <= frontal_tol_deg, frontal_angle=angle, touched_early=not ready,
+        contact_eps=float(field_radius(Oc[2] - Sc[2], params)))
+
+
+simulate_interception = simulate
+"""The older name of :func:`simulate` (same function)."""

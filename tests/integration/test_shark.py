@@ -4,15 +4,15 @@ import numpy as np
 import pytest
 
 from droneplan.planners.shark import OCPInterceptor, VirtualSharkInterceptor
-from droneplan.scenarios.shark import random_trajectory, simulate_interception
+from droneplan.scenarios.shark import random_trajectory, simulate
 
 
 def test_online_ocp_fixes_the_curvy_counterexample():
     tr = random_trajectory(9)
-    vs = simulate_interception(tr, VirtualSharkInterceptor(), bearing_deg=133)
+    vs = simulate(tr, VirtualSharkInterceptor(), bearing_deg=133)
     assert vs.touched_early  # the thesis algorithm touches the shark before its interception point
     ctl = OCPInterceptor(N=20)
-    oc = simulate_interception(tr, ctl, bearing_deg=133)
+    oc = simulate(tr, ctl, bearing_deg=133)
     assert oc.intercepted and oc.frontal and not oc.touched_early
     assert ctl.solve_times and all(s in ("OPTIMAL", "FEASIBLE") for s in ctl.statuses)
 
@@ -21,7 +21,7 @@ def test_online_ocp_fixes_the_curvy_counterexample():
 def test_online_ocp_frontal_without_early_touch_on_random_curvy_paths(seed):
     tr = random_trajectory(seed)
     bearing = float(np.random.default_rng(seed).uniform(-180, 180))
-    oc = simulate_interception(tr, OCPInterceptor(N=20), bearing_deg=bearing)
+    oc = simulate(tr, OCPInterceptor(N=20), bearing_deg=bearing)
     assert oc.intercepted and oc.frontal and not oc.touched_early
 
 

@@ -7,7 +7,7 @@ from hypothesis import given, settings, strategies as st
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark import ClassicalPursuit, VirtualSharkInterceptor, thesis_altitude
 from droneplan.scenarios.shark import (THESIS_TABLE_5_1 as P, field_radius, make_trajectory, random_trajectory,
-                             simulate_interception, thesis_trajectories)
+                             simulate, thesis_trajectories)
 
 
 def test_thesis_altitude_is_eq_5_6_5_7():
@@ -44,7 +44,7 @@ def _check_props(trace):
 
 @pytest.mark.parametrize("name", "abcd")
 def test_virtual_shark_props_on_thesis_paths(name):
-    _check_props(simulate_interception(thesis_trajectories()[name], VirtualSharkInterceptor()))
+    _check_props(simulate(thesis_trajectories()[name], VirtualSharkInterceptor()))
 
 
 @settings(max_examples=25, deadline=None)
@@ -52,23 +52,23 @@ def test_virtual_shark_props_on_thesis_paths(name):
 def test_virtual_shark_props_on_random_flat_paths(seed, bearing):
     # the proofs treat S, S1, S2 as relatively static: a constant heading (speed, depth vary)
     tr = random_trajectory(seed, curvy=False)
-    _check_props(simulate_interception(tr, VirtualSharkInterceptor(), bearing_deg=bearing))
+    _check_props(simulate(tr, VirtualSharkInterceptor(), bearing_deg=bearing))
 
 
 def test_virtual_shark_prop_5_3_3_fails_on_a_curvy_path():
     # recorded counterexample: the shark turns during step 2 so the operator crosses inside eps'
     tr = random_trajectory(9)
-    trace = simulate_interception(tr, VirtualSharkInterceptor(), bearing_deg=133)
+    trace = simulate(tr, VirtualSharkInterceptor(), bearing_deg=133)
     assert trace.touched_early
 
 
 def test_classical_pursuit_not_frontal_on_a():
-    trace = simulate_interception(thesis_trajectories()["a"], ClassicalPursuit())
+    trace = simulate(thesis_trajectories()["a"], ClassicalPursuit())
     assert trace.intercepted and not trace.frontal and trace.frontal_angle > 90  # from behind
 
 
 def test_literal_classical_pursuit_stalls_under_altitude_floor():
-    trace = simulate_interception(thesis_trajectories()["a"], ClassicalPursuit(aim="shark"), t_max=20)
+    trace = simulate(thesis_trajectories()["a"], ClassicalPursuit(aim="shark"), t_max=20)
     assert not trace.intercepted and trace.D_h[-1] > field_radius(trace.operator[-1, 2] - trace.shark[-1, 2])
 
 
@@ -76,10 +76,10 @@ def test_virtual_shark_handles_stopping_and_deep_shark():
     # shark slows to a stop: the heading is kept, no NaN, interception still frontal
     stop = make_trajectory(lambda t: 0 * t, lambda t: np.maximum(5.0 - 1.0 * t, 0.0), lambda t: -3 + 0 * t,
                            duration=20)
-    _check_props(simulate_interception(stop, VirtualSharkInterceptor()))
+    _check_props(simulate(stop, VirtualSharkInterceptor()))
     # a shark below the field's reach: operator waits at lmin, never touches
     deep = make_trajectory(lambda t: 0 * t, lambda t: 4 + 0 * t, lambda t: -10.5 + 0 * t, duration=15)
-    tr = simulate_interception(deep, VirtualSharkInterceptor())
+    tr = simulate(deep, VirtualSharkInterceptor())
     assert not tr.intercepted and np.allclose(tr.operator[-20:, 2], P.lmin)
 
 
@@ -114,11 +114,25 @@ def test_ocp_time_not_worse_than_virtual_shark_on_random_paths(seed):
 
 def test_online_ocp_interceptor_intercepts_frontally_on_a():
     ctl = OCPInterceptor(N=15)
-    trace = simulate_interception(thesis_trajectories()["a"], ctl)
+    trace = simulate(thesis_trajectories()["a"], ctl)
     _check_props(trace)
     assert all(s == "OPTIMAL" for s in ctl.statuses)
-    vs = simulate_interception(thesis_trajectories()["a"], VirtualSharkInterceptor())
+    assert trace.fallbacks == 0 and trace.status_counts == {"OPTIMAL": len(ctl.statuses)}
+    vs = simulate(thesis_trajectories()["a"], VirtualSharkInterceptor())
     assert trace.intercept_time < vs.intercept_time
+
+
+@pytest.mark.parametrize("budget", [{"max_iter": 2}, {"time_limit": 1e-4}])
+def test_online_ocp_counts_its_pursuit_fallbacks_in_the_trace(budget):
+    # issue 12 item 3: an OCP that cannot solve in its budget falls back to pursuit on every replan,
+    # and the trace says so (same name as the covert MPC's counter)
+    ctl = OCPInterceptor(N=15, **budget)
+    trace = simulate(thesis_trajectories()["a"], ctl, t_max=2.0)
+    replans = len(trace.t) - 1
+    assert trace.fallbacks == replans == ctl.fallbacks
+    # two crude starts per replan, none with a plan
+    assert trace.status_counts == {"NO_SOLUTION": 2 * replans}
+    assert not trace.intercepted
 
 
 def test_allocation_optimal_not_worse_than_greedy():
@@ -183,9 +197,9 @@ def test_repelling_bad_input():
 def test_reversing_shark_literal_step_2_never_closes_restart_does():
     rev = make_trajectory(lambda t: np.where(t < 2.0, 0.0, np.pi), lambda t: 4.5 + 0 * t, lambda t: -3 + 0 * t,
                           duration=30)
-    literal = simulate_interception(rev, VirtualSharkInterceptor(restart_step1=False), bearing_deg=-60)
+    literal = simulate(rev, VirtualSharkInterceptor(restart_step1=False), bearing_deg=-60)
     assert not literal.intercepted and np.all(literal.phase[-50:] == 2)  # stuck in step 2
-    fixed = simulate_interception(rev, VirtualSharkInterceptor(), bearing_deg=-60)
+    fixed = simulate(rev, VirtualSharkInterceptor(), bearing_deg=-60)
     assert fixed.intercepted
     for b in (-105, 0, 90, 180):  # other start bearings: still frontal and not early
-        _check_props(simulate_interception(rev, VirtualSharkInterceptor(), bearing_deg=b))
+        _check_props(simulate(rev, VirtualSharkInterceptor(), bearing_deg=b))

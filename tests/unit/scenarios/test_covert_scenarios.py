@@ -12,7 +12,9 @@ from hypothesis import strategies as st
 
 from droneplan.scenarios.covert import (
     THESIS_TABLE_3_2,
+    CovertCommand,
     CovertParams,
+    CovertPhase,
     CovertScenario,
     Terrain,
     bearing_changes,
@@ -181,15 +183,15 @@ def test_measurement_noise_amplitude():
 class _Circle:
     """Constant turn at U_max and V_max for 10 s: a circle of radius V/U."""
 
-    phase = "to-sphere"
+    phase = CovertPhase.TO_SPHERE
     finished = False
 
-    def reset(self, scenario):
+    def reset(self, scenario, *, seed=None):
         self.p = scenario.params
 
     def command(self, obs):
         w = np.cross(obs.heading, [0.0, 0.0, 1.0])
-        return self.p.U_max * w / np.linalg.norm(w), self.p.V_max
+        return CovertCommand(self.p.U_max * w / np.linalg.norm(w), self.p.V_max)
 
 
 def test_simulate_heading_stays_unit_and_circle_radius():

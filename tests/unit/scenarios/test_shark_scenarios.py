@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from droneplan.scenarios.shark import (THESIS_TABLE_5_1, SharkParams, field_radius, inside_field, random_trajectory,
-                             simulate_interception, thesis_trajectories, touches, operator_start)
+from droneplan.scenarios.shark import (THESIS_TABLE_5_1, InterceptionScenario, SharkCommand, SharkFrame, SharkParams,
+                                      SharkPhase, field_radius, inside_field, random_trajectory,
+                             simulate, thesis_trajectories, touches, operator_start)
 
 P = THESIS_TABLE_5_1
 
@@ -79,46 +80,62 @@ def test_operator_start_and_bad_start():
     o = operator_start(tr)
     assert math.isclose(np.hypot(*(o[:2] - tr.pos[0, :2])), P.Di)
     with pytest.raises(ValueError, match="exceed eps_o"):
-        simulate_interception(tr, _Hover(), operator0=tr.pos[0] + [1.0, 0, 5.0])
+        simulate(tr, _Hover(), operator0=tr.pos[0] + [1.0, 0, 5.0])
     with pytest.raises(ValueError):
         operator_start(tr, bearing_deg=float("nan"))
 
 
 class _Hover:
-    at_interception = True
-    phase = 0
+    phase = SharkPhase.PURSUIT
 
-    def reset(self, operator, params):
+    def reset(self, scenario, *, seed=None):
         """A hovering operator keeps no state between runs."""
 
-    def step(self, t, operator, shark_pos, shark_vel):
-        return np.zeros(3)
+    def command(self, obs):
+        return SharkCommand(np.zeros(3), True)
 
 
 def test_simulator_contact_geometry_with_hovering_operator():
     # a hovering operator straight ahead of path a at the optimal plane-1 altitude is hit head-on
     tr = thesis_trajectories()["a"]
     o0 = np.array([30.0, 0.0, 1.5])
-    tr_ = simulate_interception(tr, _Hover(), operator0=o0)
+    tr_ = simulate(tr, _Hover(), operator0=o0)
     # shark at z=-3, operator at 1.5: h = 4.5 = l1, eps = 3.5; contact when x_s = 26.5
     assert math.isclose(tr_.intercept_time, 26.5 / 5.34, abs_tol=0.011)
     assert math.isclose(tr_.interception_distance, 26.5, abs_tol=0.06)
     assert tr_.frontal and tr_.frontal_angle < 1e-6 and not tr_.touched_early
     assert math.isclose(tr_.contact_eps, 3.5)
     # beside the path (offset 4 m > eps) it is never touched
-    miss = simulate_interception(tr, _Hover(), operator0=np.array([30.0, 4.0, 1.5]), t_max=10)
+    miss = simulate(tr, _Hover(), operator0=np.array([30.0, 4.0, 1.5]), t_max=10)
     assert miss.intercept_time is None and not miss.frontal
+
+
+def test_simulate_takes_a_scenario_and_fills_the_shared_trace_fields():
+    tr = thesis_trajectories()["a"]
+    o0 = np.array([30.0, 0.0, 1.5])
+    old = simulate(tr, _Hover(), P, operator0=o0)
+    new = simulate(InterceptionScenario(tr, P, operator0=o0), _Hover(), seed=7)
+    assert new.intercept_time == old.intercept_time and np.array_equal(new.operator, old.operator)
+    assert new.seed == 7 and new.fallbacks == 0 and new.status_counts == {}
+    # the final state is the last recorded instant, frames are SharkFrame objects
+    assert isinstance(new.final, SharkFrame) and new.final.t == new.t[-1]
+    assert np.array_equal(new.final.operator, new.operator[-1]) and np.array_equal(new.final.shark, new.shark[-1])
+    assert len(new.frames) == len(new.t) and all(f.phase is SharkPhase.PURSUIT for f in new.frames)
+    with pytest.raises(ValueError, match="already set"):
+        simulate(InterceptionScenario(tr, P), _Hover(), P)
+    with pytest.raises(TypeError, match="scenario"):
+        simulate("a", _Hover())
 
 
 def test_simulator_rejects_non_finite_input():
     tr = thesis_trajectories()["a"]
     with pytest.raises(ValueError, match="t_max"):
-        simulate_interception(tr, _Hover(), t_max=float("inf"))
+        simulate(tr, _Hover(), t_max=float("inf"))
     with pytest.raises(ValueError, match="operator0"):
-        simulate_interception(tr, _Hover(), operator0=[np.nan, 0.0, 1.0])
+        simulate(tr, _Hover(), operator0=[np.nan, 0.0, 1.0])
 
     class _Bad(_Hover):
-        def step(self, t, operator, shark_pos, shark_vel):
-            return np.array([np.nan, 0.0, 0.0])
+        def command(self, obs):
+            return SharkCommand(np.array([np.nan, 0.0, 0.0]))
     with pytest.raises(ValueError, match="non-finite"):
-        simulate_interception(tr, _Bad())
+        simulate(tr, _Bad())
