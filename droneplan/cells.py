@@ -44,7 +44,7 @@ from droneplan.scenarios.cells import (
     uniform_users,
 )
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.studies.cells import plot_map
+from droneplan.studies.plots import plot_map
 
 __all__ = [
     # scenarios and presets

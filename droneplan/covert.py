@@ -47,6 +47,7 @@ from droneplan.scenarios.covert import (
     thesis_case,
 )
 from droneplan.solvers.result import SolveResult, Status
+from droneplan.studies.plots import plot_path, plot_bearing
 
 __all__ = [
     # world, presets, simulator
@@ -59,5 +60,6 @@ __all__ = [
     # thesis laws and solver-backed controllers
     "SlidingSettings", "SlidingModeObserver", "HoverBenchmark", "rollout_sliding", "MPCObserver",
     "MPCObserverSettings", "SafeguardSettings", "SafeguardedMPCObserver",
-    "SolveResult", "Status",
+    # results and plots
+    "SolveResult", "Status", "plot_path", "plot_bearing",
 ]

@@ -41,7 +41,8 @@ from droneplan.scenarios.herding import (
     with_params,
 )
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.studies.herding import footprint_figure, write_gif
+from droneplan.studies.plots import plot_state, plot_final, plot_footprint
+from droneplan.studies.herding import write_gif
 
 __all__ = [
     # world, presets, simulator
@@ -53,5 +54,5 @@ __all__ = [
     "allocate_bruteforce", "allocate_collision_blind", "ExtendedHull", "convex_hull", "min_enclosing_circle",
     "steering_points", "HerderSettings", "ProposedHerder", "BenchmarkHerder",
     # results and plots
-    "SolveResult", "Status", "footprint_figure", "write_gif",
+    "SolveResult", "Status", "plot_state", "plot_final", "plot_footprint", "write_gif",
 ]

@@ -56,6 +56,7 @@ from droneplan.scenarios.shark import (
     touches,
 )
 from droneplan.solvers.result import SolveResult, Status
+from droneplan.studies.plots import plot_top_view, plot_time_series
 
 __all__ = [
     # world, presets, simulator
@@ -70,5 +71,6 @@ __all__ = [
     # thesis methods and controllers
     "thesis_altitude", "ClassicalPursuit", "VirtualSharkInterceptor", "OCPInterceptor", "optimal_interception",
     "virtual_shark_plan", "allocate_operators", "interception_time_matrix", "RepellingOperator",
-    "SolveResult", "Status",
+    # results and plots
+    "SolveResult", "Status", "plot_top_view", "plot_time_series",
 ]

@@ -77,7 +77,7 @@ class LoopTrace:
 
 
 def controller_counters(controller: Any) -> dict[str, Any]:
-    """``fallbacks``, ``status_counts`` and ``solve_times`` (s, array) read from a controller's optional counters."""
+    """``fallbacks``, ``status_counts``, ``solve_times`` (s, array) from a controller's optional counters."""
     statuses = getattr(controller, "statuses", None)
     solve_times = getattr(controller, "solve_times", None)
     return {

@@ -21,6 +21,7 @@ from droneplan.planners.cells import exhaustive, genetic, genetic_polished, poli
 from droneplan.scenarios.cells import THESIS_TABLE_4_3, thesis_problem  # noqa: E402
 from droneplan.solvers.result import Status  # noqa: E402
 from droneplan.studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
+from droneplan.studies.plots.cells import plot_map  # noqa: E402
 
 INSTANCE_SEED = 0
 """Seed of the thesis-scale user snapshot used by reproduce and bench."""
@@ -31,27 +32,6 @@ def _ga_runs(problem, runs: int, *, pop_size=None, restarts=None, iter_max=50, s
     res = [genetic(problem, pop_size=pop_size, restarts=restarts, iter_max=iter_max, seed=seed0 + r)
            for r in range(runs)]
     return res
-
-
-def plot_map(ax, problem, pos, title: str = "") -> None:
-    """Fig. 4.4-style map on ``ax``: users (grey: served by a GBS), GBS cell (blue) and
-    r1 backhaul range (red dashed), drone-cells ``pos`` (m) with coverage (black) and r2 range (red dotted)."""
-    t = problem.targets
-    ax.scatter(problem.users[:, 0], problem.users[:, 1], s=3, c="0.6")
-    ax.scatter(t[:, 0], t[:, 1], s=3, c="k")
-    for g in problem.gbs:
-        ax.add_patch(plt.Circle(g, problem.R_g, fill=False, color="b"))
-        ax.add_patch(plt.Circle(g, problem.r1, fill=False, color="r", ls="--"))
-        ax.plot(*g, "b^")
-    for d in pos:
-        ax.add_patch(plt.Circle(d, problem.R_d, fill=False, color="k"))
-        ax.add_patch(plt.Circle(d, problem.r2, fill=False, color="r", ls=":", lw=0.6))
-        ax.plot(*d, "k.")
-    ax.set_aspect("equal")
-    ax.set_title(title, fontsize=8)
-    if problem.bounds:
-        ax.set_xlim(problem.bounds[0], problem.bounds[1])
-        ax.set_ylim(problem.bounds[2], problem.bounds[3])
 
 
 def reproduce(*, quick: bool, out: Path) -> None:
@@ -100,10 +80,10 @@ def reproduce(*, quick: bool, out: Path) -> None:
     import pandas as pd
     pd.DataFrame(rows).to_csv(out / "table_4_3_raw.csv", index=False)
     # ---------------------------------------------------------------- Fig 4.4 maps
-    fig, axes = plt.subplots(1, len(ms), figsize=(4 * len(ms), 4))
+    fig, axes = plt.subplots(1, len(ms), figsize=(5.5 * len(ms), 5.5))
     for ax, m in zip(np.atleast_1d(axes), ms):
         p, r = milp_sol[m]
-        plot_map(ax, p, r.x, f"m={m}: {r.objective:g} users ({r.status.name})")
+        plot_map(p, r.x, ax=ax, title=f"m={m}: {r.objective:g} users ({r.status.name})")
     fig.savefig(out / "fig_4_4_maps.png", dpi=110)
     plt.close(fig)
     # ---------------------------------------------------------------- Fig 4.3 restart strategy, m = 2
@@ -121,7 +101,8 @@ def reproduce(*, quick: bool, out: Path) -> None:
     fig, ax = plt.subplots(figsize=(5, 3))
     ax.hist([[g.objective for g in no_restart], [g.objective for g in restart]], label=["1x2000", "40x50"])
     ax.axvline(opt2, color="k", ls="--", label="MILP optimum")
-    ax.set_xlabel("covered users")
+    ax.set_xlabel("covered users (count)")
+    ax.set_ylabel("GA runs (count)")
     ax.legend()
     fig.savefig(out / "fig_4_3.png", dpi=110)
     plt.close(fig)
@@ -141,8 +122,8 @@ def reproduce(*, quick: bool, out: Path) -> None:
     fig, ax = plt.subplots(figsize=(5, 3))
     for i, P in enumerate(Ps):
         ax.plot(Ns, grid[i], marker="o", label=f"P={P}")
-    ax.set_xlabel("N_start")
-    ax.set_ylabel("P_Global")
+    ax.set_xlabel("restarts N_start (count)")
+    ax.set_ylabel("P_Global (fraction of runs at the optimum)")
     ax.legend()
     fig.savefig(out / "fig_4_5.png", dpi=110)
     plt.close(fig)
@@ -160,8 +141,8 @@ def reproduce(*, quick: bool, out: Path) -> None:
     fig, ax = plt.subplots(figsize=(5, 3))
     ax.plot(ms, cl, "o-", label="clustered")
     ax.plot(ms, nc, "s-", label="non-clustered")
-    ax.set_xlabel("m")
-    ax.set_ylabel("N_total")
+    ax.set_xlabel("drone-cells m (count)")
+    ax.set_ylabel("N_total, covered users (count)")
     ax.legend()
     fig.savefig(out / "fig_4_6.png", dpi=110)
     plt.close(fig)

@@ -29,6 +29,7 @@ from droneplan.planners.covert import (HoverBenchmark, MPCObserver, MPCObserverS
                              SlidingModeObserver)
 from droneplan.scenarios.covert import CovertTrace, random_case, simulate, thesis_case  # noqa: E402
 from droneplan.studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
+from droneplan.studies.plots.covert import plot_bearing, plot_path  # noqa: E402
 
 DEG = 180.0 / math.pi
 
@@ -75,37 +76,8 @@ def _oracle_on_sphere(tr: CovertTrace, scenario, every: float = 2.0) -> tuple[fl
 
 
 # --------------------------------------------------------------------------- plots
-def _sphere_mesh(params, n: int = 30):
-    u = np.linspace(math.pi, 1.5 * math.pi, n)
-    v = np.linspace(0.25 * math.pi, 0.5 * math.pi, n)
-    F = params.F_arr
-    x = F[0] + params.L_u * np.outer(np.cos(u), np.sin(v))
-    y = F[1] + params.L_u * np.outer(np.sin(u), np.sin(v))
-    z = F[2] + params.L_u * np.outer(np.ones_like(u), np.cos(v))
-    return x, y, z
-
-
 def _plot_3d(scenario, traces: dict[str, CovertTrace], path: Path, title: str) -> None:
-    fig = plt.figure(figsize=(8, 6))
-    ax = fig.add_subplot(projection="3d")
-    X, Y = np.meshgrid(np.linspace(0, 200, 40), np.linspace(0, 200, 40))
-    ax.plot_surface(X, Y, scenario.terrain.height(X, Y), cmap="YlGn", alpha=0.35, linewidth=0)
-    sx, sy, sz = _sphere_mesh(scenario.params)
-    ax.plot_wireframe(sx, sy, sz, color="0.7", linewidth=0.3, alpha=0.5)
-    first = next(iter(traces.values()))
-    for j in range(first.targets.shape[1]):
-        ax.plot(*first.targets[:, j].T, color="tab:brown", linewidth=1)
-        ax.scatter(*first.targets[0, j], color="c", s=15)
-    colors = {"hover": "tab:gray", "sliding": "tab:red", "mpc": "tab:blue"}
-    for name, tr in traces.items():
-        ax.plot(*tr.drone.T, color=colors.get(name, "k"), label=name, linewidth=1.5)
-    R = scenario.params.R_arr
-    ax.scatter(*R, color="k", marker="^", s=30, label="R")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.set_zlabel("z (m)")
-    ax.set_title(title)
-    ax.legend(loc="upper left", fontsize=8)
+    fig = plot_path(scenario, traces, title=title)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -113,12 +85,7 @@ def _plot_3d(scenario, traces: dict[str, CovertTrace], path: Path, title: str) -
 
 def _plot_beta(traces: dict[str, CovertTrace], path: Path, title: str, per_target: str | None = None) -> None:
     fig, ax = plt.subplots(1, 2 if per_target else 1, figsize=(11 if per_target else 6, 4), squeeze=False)
-    for name, tr in traces.items():
-        ax[0, 0].plot(tr.t, tr.beta_m * DEG, label=f"{name} (max {tr.beta_max * DEG:.1f} deg)")
-    ax[0, 0].set_xlabel("t (s)")
-    ax[0, 0].set_ylabel("beta_m (deg)")
-    ax[0, 0].set_title(title)
-    ax[0, 0].legend(fontsize=8)
+    plot_bearing(traces, ax=ax[0, 0], title=title)
     if per_target:
         tr = traces[per_target]
         for j in range(tr.beta.shape[1]):
@@ -129,8 +96,8 @@ def _plot_beta(traces: dict[str, CovertTrace], path: Path, title: str, per_targe
         ax[0, 1].set_xlabel("t (s)")
         ax[0, 1].set_ylabel("beta_j (deg)")
         ax[0, 1].set_title(f"{per_target}: per-target bearing changes")
-        if tr.beta.shape[1] <= 3:
-            ax[0, 1].legend(fontsize=8)
+        lines = ax[0, 1].get_lines() + ax2.get_lines()
+        ax[0, 1].legend(lines, [ln.get_label() for ln in lines], fontsize=6, ncol=2 if tr.beta.shape[1] > 3 else 1)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

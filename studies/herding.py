@@ -27,6 +27,7 @@ from droneplan.planners.herding import (BenchmarkHerder, ExtendedHull, HerderSet
                               allocate_bruteforce, allocate_collision_blind)
 from droneplan.scenarios.herding import simulate, table_6_2_for, thesis_scenario  # noqa: E402
 from droneplan.studies.common import ComparisonTable, ResumableCSV, make_executor, map_rows, timed  # noqa: E402
+from droneplan.studies.plots.herding import plot_state  # noqa: E402
 
 FIG_6_7 = {200: {"gather": 11.1, "total": 15.0, "bench_extra": 3.3},
            1000: {"gather": 10.1, "total": 18.2, "bench_extra": 4.1}}
@@ -79,7 +80,8 @@ def run_once(task: dict) -> dict:
         "sim_time": float(tr.t[-1]), "wall_time": tr.wall_time, "cpu_time": cpu,
         "max_animal_speed": tr.max_animal_speed, "R_c": sc.params.R_c,
         "curve_t": tr.t[::every], "curve_r": tr.footprint_radius[::every],
-        "snapshots": {float(k): (f.animals, f.drones) for k, f in tr.snapshots.items()},
+        "snapshots": {float(k): f for k, f in tr.snapshots.items()},
+        "goal": tuple(float(g) for g in sc.goal),
         "n_crossing_allocations": herder.n_crossing_allocations,
     }
 
@@ -156,19 +158,18 @@ def _fig_6_7(out: Path, quick: bool, executor) -> None:
     table.emit(out, "fig_6_7")
     # snapshots (Fig. 6.7 b-f)
     snap = {r["method"]: r["snapshots"] for r in rows if r["n"] == 1000 and r["seed"] == 0}
-    fig, axes = plt.subplots(1, 5, figsize=(20, 4))
+    fig, axes = plt.subplots(1, 5, figsize=(22, 4.5))
     panels = [("proposed", 0.0, "(b) t = 0"), ("proposed", 300.0, "(c) 5 min, proposed"),
               ("proposed", 480.0, "(d) 8 min, proposed"), ("benchmark", 300.0, "(e) 5 min, benchmark"),
               ("benchmark", 480.0, "(f) 8 min, benchmark")]
+    goal = next((r["goal"] for r in rows if r["n"] == 1000 and r["seed"] == 0), None)
     for a, (m, t, title) in zip(axes, panels):
         if t in snap.get(m, {}):
-            an, dr = snap[m][t]
-            a.scatter(an[:, 0], an[:, 1], s=2)
-            a.scatter(dr[:, 0], dr[:, 1], marker="s", c="r", s=20)
-            a.set_aspect("equal")
+            plot_state(snap[m][t], goal=goal, ax=a, title=title)
         else:
             a.text(0.5, 0.5, "run ended before this time", ha="center", transform=a.transAxes)
-        a.set_title(title)
+            a.set_title(title)
+            a.set_axis_off()
     fig.tight_layout()
     fig.savefig(out / "fig_6_7bf_snapshots.png", dpi=100)
     plt.close(fig)
@@ -216,8 +217,8 @@ def _sweeps(out: Path, quick: bool, executor) -> None:
                     flat.append({"sweep": name, "value": v, "method": m, "seed": r["seed"],
                                  "gather_after_hull": r["gather_after_hull"], "gather_time": r["gather_time"]})
             a.plot(values, [np.nan if y is None else y for y in ys], style, label=m)
-        a.set_xlabel(label)
-        a.set_ylabel("gathering time (min)")
+        a.set_xlabel(label if "(" in label else f"{label} (count)")
+        a.set_ylabel("gathering time after reaching the hull (min)")
         a.grid(alpha=0.3)
         a.legend(fontsize=7)
         table.add(label, statement, "; ".join(f"{v}: {' / '.join(c)}" for v, c in cells.items()),
@@ -359,23 +360,6 @@ def compare_runs(n_animals: int, *, seed: int = 0, field: float | None = None, t
         sc = thesis_scenario(n_animals, seed=seed, field_size=size, goal=goal)
         out[name] = simulate(sc, herder, t_max=t_max, seed=seed + 10_000, frame_every=frame_every)
     return out
-
-
-def footprint_figure(traces: dict, *, R_c: float | None = None):
-    """Footprint radius vs time (Fig. 6.7a style) for {label: HerdingTrace}; returns the figure."""
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for label, tr in traces.items():
-        ax.plot(tr.t / 60.0, tr.footprint_radius, label=label)
-        if tr.gather_time is not None:
-            ax.axvline(tr.gather_time / 60.0, ls=":", lw=0.8, color=ax.lines[-1].get_color())
-    if R_c is not None:
-        ax.axhline(R_c, color="k", lw=0.6, label="R_c")
-    ax.set_xlabel("t (min)")
-    ax.set_ylabel("footprint radius (m)")
-    ax.grid(alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    return fig
 
 
 def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:

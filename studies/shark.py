@@ -25,6 +25,7 @@ from droneplan.planners.shark import (ClassicalPursuit, OCPInterceptor, Repellin
 from droneplan.scenarios.shark import (THESIS_TABLE_5_1, SharkBehaviour, operator_start, random_trajectory,  # noqa: E402, F401
                              simulate, simulate_repelling, thesis_trajectories)
 from droneplan.studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
+from droneplan.studies.plots.shark import plot_time_series, plot_top_view  # noqa: E402
 
 P = THESIS_TABLE_5_1
 TABLE_5_2 = {"a": (5.34, 29.70), "b": (5.48, 30.50), "c": (5.55, 19.79), "d": (5.78, 21.26)}
@@ -66,18 +67,9 @@ def _fig_5_11(out: Path, table: ComparisonTable) -> None:
     tr = thesis_trajectories()["a"]
     cp = simulate(tr, ClassicalPursuit())
     lit = simulate(tr, ClassicalPursuit(aim="shark"), t_max=20)
-    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-    ax[0].plot(cp.shark[:, 0], cp.shark[:, 1], "r", label="shark")
-    ax[0].plot(cp.operator[:, 0], cp.operator[:, 1], "b", label="operator (classical pursuit)")
-    th = np.linspace(0, 2 * np.pi, 60)
-    ax[0].plot(cp.operator[-1, 0] + cp.eps[-1] * np.cos(th), cp.operator[-1, 1] + cp.eps[-1] * np.sin(th), "k")
-    ax[0].set_aspect("equal")
-    ax[0].legend(fontsize=7)
-    ax[0].set_title("top view")
-    ax[1].plot(cp.t, cp.eps, label="eps(h)")
-    ax[1].plot(cp.t, cp.D_h, label="D_h")
-    ax[1].set_xlabel("t (s)")
-    ax[1].legend(fontsize=7)
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4.5))
+    plot_top_view({"classical pursuit": cp}, ax=ax[0], title="top view")
+    plot_time_series({"classical pursuit": cp}, ax=ax[1], title="clearance D_h - eps(h)")
     fig.suptitle("Fig. 5.11: classical pursuit touches the shark from behind")
     fig.tight_layout()
     fig.savefig(out / "fig_5_11.png", dpi=120)
@@ -126,27 +118,16 @@ def _table_5_2(out: Path, table: ComparisonTable, quick: bool) -> dict:
 
 
 def _fig_5_12(out: Path, runs: dict) -> None:
-    fig, ax = plt.subplots(4, 4, figsize=(16, 13))
+    fig, ax = plt.subplots(4, 4, figsize=(17, 14))
     for r, (name, (tr, vs, on, off)) in enumerate(runs.items()):
         a = ax[r]
-        a[0].plot(vs.shark[:, 0], vs.shark[:, 1], "r", label="shark")
-        a[0].plot(vs.operator[:, 0], vs.operator[:, 1], "b", label="virtual shark")
-        a[0].plot(off.operator[:, 0], off.operator[:, 1], "g--", label="offline OCP")
-        th = np.linspace(0, 2 * np.pi, 60)
-        a[0].plot(vs.operator[-1, 0] + vs.eps[-1] * np.cos(th), vs.operator[-1, 1] + vs.eps[-1] * np.sin(th), "k")
-        a[0].set_aspect("equal")
-        a[0].set_title(f"({name}) top view")
-        a[1].plot(vs.t, vs.shark[:, 2], "r", label="z_s")
-        a[1].plot(vs.t, vs.operator[:, 2], "b", label="z_o")
-        a[1].set_title("altitudes (m)")
-        a[2].plot(vs.t, vs.eps, label="eps(h)")
-        a[2].plot(vs.t, vs.D_h, label="D_h")
-        a[2].set_title("eps(h) vs D_h (m)")
-        a[3].plot(vs.t, np.linalg.norm(vs.shark_vel, axis=1), "r", label="|v_s|")
-        a[3].plot(vs.t[:-1], np.linalg.norm(vs.operator_vel[:-1], axis=1), "b", label="|v_o|")
-        a[3].set_title("speeds (m/s)")
+        pair = {"virtual shark": vs, "offline OCP": off}
+        plot_top_view(pair, ax=a[0], title=f"({name}) top view")
+        plot_time_series({"virtual shark": vs}, "altitude", ax=a[1], title=f"({name}) altitudes")
+        plot_time_series(pair, ax=a[2], title=f"({name}) eps(h) vs D_h")
+        plot_time_series({"virtual shark": vs}, "speed", ax=a[3], title=f"({name}) speeds")
         for x in a:
-            x.grid(alpha=0.3)
+            x.title.set_fontsize(9)
             x.legend(fontsize=6)
     fig.suptitle("Fig. 5.12: virtual-shark interception on paths a-d (offline OCP dashed)")
     fig.tight_layout()
@@ -320,28 +301,11 @@ def compare_interceptors(path="d", *, bearing_deg: float | None = None) -> dict:
 
 
 def plot_interception(traces: dict):
-    """Top view and depth plot of several runs on the same path; returns the figure."""
-    fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))
-    first = next(iter(traces.values()))
-    ax[0].plot(first.shark[:, 0], first.shark[:, 1], "k", lw=2, label="shark")
-    th = np.linspace(0, 2 * np.pi, 60)
-    for name, tr in traces.items():
-        (line,) = ax[0].plot(tr.operator[:, 0], tr.operator[:, 1], label=f"{name} (contact {tr.frontal_angle:.0f} deg)"
-                             if tr.intercepted else name)
-        if tr.intercepted:
-            ax[0].plot(tr.operator[-1, 0] + tr.eps[-1] * np.cos(th), tr.operator[-1, 1] + tr.eps[-1] * np.sin(th),
-                       color=line.get_color(), lw=0.8)
-        ax[1].plot(tr.t, tr.operator[:, 2], color=line.get_color(), label=f"z_o {name}")
-        ax[2].plot(tr.t, tr.D_h - tr.eps, color=line.get_color(), label=name)
-    ax[1].plot(first.t, first.shark[:, 2], "k", lw=2, label="z_s shark")
-    ax[0].set_aspect("equal")
-    ax[0].set_title("top view (m)")
-    ax[1].set_title("depth / altitude (m)")
-    ax[2].axhline(0, color="k", lw=0.5)
-    ax[2].set_title("D_h - eps(h) (m): contact at 0")
-    for a in ax:
-        a.grid(alpha=0.3)
-        a.legend(fontsize=7)
+    """Top view, altitudes and clearance of several runs on the same path (three panels); returns the figure."""
+    fig, ax = plt.subplots(1, 3, figsize=(16, 4.8))
+    plot_top_view(traces, ax=ax[0], title="top view")
+    plot_time_series(traces, "altitude", ax=ax[1], title="depth / altitude")
+    plot_time_series(traces, ax=ax[2], title="clearance: contact at 0")
     fig.tight_layout()
     return fig
 

@@ -13,10 +13,13 @@ def test_study_entry_points_exist():
         assert callable(getattr(study, name))
 
 
-def test_plot_map_draws_every_range():
+def test_plot_map_draws_every_range_and_the_backhaul_links():
     p = CellProblem(users=[[2.5, 0.0], [7.0, 0.0]], gbs=[[0.0, 0.0]], n_cells=2, R_d=1.0, R_g=1.0, r1=3.0, r2=2.5)
     fig, ax = plt.subplots()
-    study.plot_map(ax, p, np.array([[2.5, 0.0], [4.5, 0.0]]), "t")
-    # GBS cell + r1 range, and coverage + r2 range per drone-cell
-    assert len(ax.patches) == 2 + 2 * 2
+    assert study.plot_map(p, np.array([[2.5, 0.0], [4.5, 0.0]]), ax=ax, title="t", ranges=True) is fig
+    # GBS cell + r1 range, and the coverage disk of each drone-cell
+    assert len(ax.patches) == 2 + 2
+    # links: drone 0 - GBS (2.5 <= r1), drone 0 - drone 1 (2 <= r2); drone 1 - GBS is 4.5 > r1
+    links = [ln for ln in ax.lines if ln.get_color() == "tab:green" and len(ln.get_xdata()) == 2]
+    assert len(links) == 2
     plt.close(fig)

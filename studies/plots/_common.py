@@ -1,0 +1,58 @@
+"""Shared pieces of the plotting helpers: the optional-axes convention and keeping points in view."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import matplotlib.axes
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.figure import Figure
+
+__all__ = ["figure_axes", "keep_in_view", "as_trace_dict"]
+
+
+def figure_axes(ax: Any = None, *, figsize: tuple[float, float] = (6.0, 4.5), projection: str | None = None):
+    """(figure, axes): ``ax`` and its figure, or a new figure with one axes of ``projection``.
+
+    Raises TypeError when ``ax`` is not a matplotlib Axes, ValueError when it has the wrong projection.
+    """
+    if ax is None:
+        fig = plt.figure(figsize=figsize)
+        return fig, fig.add_subplot(projection=projection)
+    if not isinstance(ax, matplotlib.axes.Axes):
+        raise TypeError(f"ax must be a matplotlib Axes or None, got {type(ax).__name__}")
+    want = projection or "rectilinear"
+    if ax.name != want:
+        raise ValueError(f"ax must be a {want!r} axes, got {ax.name!r}")
+    fig = ax.get_figure()
+    assert isinstance(fig, Figure)
+    return fig, ax
+
+
+def keep_in_view(ax: Any, points: Any, *, margin: float = 0.05) -> None:
+    """Widen the x/y limits of a 2-D ``ax`` so all ``points`` ((k, 2), m) are inside, with a margin."""
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    if not len(pts):
+        return
+    x0, x1 = ax.get_xlim()
+    y0, y1 = ax.get_ylim()
+    lo = np.minimum(pts.min(axis=0), [x0, y0])
+    hi = np.maximum(pts.max(axis=0), [x1, y1])
+    pad = margin * np.maximum(hi - lo, 1.0)
+    if pts[:, 0].min() < x0 or pts[:, 0].max() > x1:
+        ax.set_xlim(lo[0] - pad[0], hi[0] + pad[0])
+    if pts[:, 1].min() < y0 or pts[:, 1].max() > y1:
+        ax.set_ylim(lo[1] - pad[1], hi[1] + pad[1])
+
+
+def as_trace_dict(traces: Any, trace_type: type, name: str = "traces") -> dict[str, Any]:
+    """{label: trace} from one trace (labelled by its ``name`` or "run") or a dict of them."""
+    if isinstance(traces, trace_type):
+        return {getattr(traces, "name", "") or "run": traces}
+    if isinstance(traces, dict) and traces and all(isinstance(v, trace_type) for v in traces.values()):
+        return {str(k): v for k, v in traces.items()}
+    raise TypeError(
+        f"{name} must be a {trace_type.__name__} or a non-empty dict of them, got {type(traces).__name__}"
+    )

@@ -1,0 +1,80 @@
+"""Drone-cell placement maps (thesis Fig. 4.4 style)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from matplotlib.lines import Line2D
+from matplotlib.patches import Circle
+
+from droneplan.formulations.cells import CellProblem, evaluate
+from droneplan.studies.plots._common import figure_axes, keep_in_view
+
+__all__ = ["plot_map"]
+
+
+def plot_map(
+    problem: CellProblem, positions: Any, *, ax: Any = None, title: str | None = None, ranges: bool = False
+):
+    """Map of a drone-cell placement; returns the figure.
+
+    problem: the :class:`CellProblem`; positions: (k, 2) drone-cell positions (m).
+    Draws the users (grey: served by a GBS already, light: not covered, black: covered by a
+    drone-cell), each GBS with its cell of radius R_g, the drone-cells with their coverage disk
+    of radius R_d, and the backhaul links in use (drone-GBS within r1, drone-drone within r2;
+    solid when the drone-cell reaches a GBS, dashed red when it does not). ``ranges`` also draws
+    the r1 circles around the GBSs. ax: a 2-D matplotlib axes, or None for a new figure.
+    The view covers ``problem.bounds`` (or all users, GBSs and drone-cells).
+    """
+    if not isinstance(problem, CellProblem):
+        raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    ev = evaluate(problem, positions)
+    pos = np.asarray(positions, dtype=float).reshape(-1, 2)
+    fig, ax = figure_axes(ax, figsize=(5.5, 5.5))
+    users = problem.users
+    served = ~problem.active
+    covered = ev.covered_mask
+    uncovered = problem.active & ~covered
+    ax.scatter(*users[served].T, s=3, c="0.75", label="users served by a GBS")
+    ax.scatter(*users[uncovered].T, s=3, c="tab:orange", label="users not covered")
+    ax.scatter(*users[covered].T, s=4, c="k", label=f"covered users ({ev.covered})")
+    for g in problem.gbs:
+        ax.add_patch(Circle(g, problem.R_g, fill=False, color="tab:blue", lw=1.0))
+        if ranges:
+            ax.add_patch(Circle(g, problem.r1, fill=False, color="tab:blue", ls="--", lw=0.6))
+    ax.scatter(*problem.gbs.T, marker="^", s=60, c="tab:blue", zorder=3, label="GBS (cell radius R_g)")
+    # backhaul links in use
+    link_ok = dict(color="tab:green", lw=1.2)
+    link_bad = dict(color="tab:red", lw=1.2, ls="--")
+    for i, d in enumerate(pos):
+        style = link_ok if ev.connected[i] else link_bad
+        for g in problem.gbs:
+            if np.hypot(*(d - g)) <= problem.r1:
+                ax.plot(*np.c_[d, g], **style)
+        for j in range(i + 1, len(pos)):
+            if np.hypot(*(d - pos[j])) <= problem.r2:
+                ax.plot(*np.c_[d, pos[j]], **style)
+    for d in pos:
+        ax.add_patch(Circle(d, problem.R_d, fill=False, color="k", lw=1.0))
+    if len(pos):
+        ax.scatter(*pos.T, marker="s", s=30, c="k", zorder=3, label="drone-cells (coverage radius R_d)")
+    handles, labels = ax.get_legend_handles_labels()
+    handles.append(Line2D([], [], **link_ok))
+    labels.append("backhaul link (drone-GBS <= r1, drone-drone <= r2)")
+    if len(pos) and not ev.connected.all():
+        handles.append(Line2D([], [], **link_bad))
+        labels.append("link of a drone-cell without backhaul")
+    ax.set_aspect("equal")
+    if problem.bounds is not None:
+        ax.set_xlim(problem.bounds[0], problem.bounds[1])
+        ax.set_ylim(problem.bounds[2], problem.bounds[3])
+    else:
+        ax.autoscale_view()
+    keep_in_view(ax, np.concatenate([problem.gbs, pos]))
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend(handles, labels, fontsize=7, loc="upper right")
+    if title is not None:
+        ax.set_title(title, fontsize=9)
+    return fig

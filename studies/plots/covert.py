@@ -1,0 +1,113 @@
+"""Covert-observation plots: the drone's 3-D path with the observation sphere and targets, and beta_m(t)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from droneplan.scenarios.covert import CovertScenario, CovertTrace
+from droneplan.studies.plots._common import as_trace_dict, figure_axes
+
+__all__ = ["plot_path", "plot_bearing"]
+
+
+def _sphere_patch(scenario: CovertScenario, drone_paths: list[np.ndarray], n: int = 20):
+    """Wireframe (x, y, z in m) of the part of the observation sphere |D - F| = L_u the drones fly near:
+    their azimuth range about F widened by 0.3 rad, elevations from 0 up to theirs plus 0.3 rad."""
+    p = scenario.params
+    F = p.F_arr
+    rel = np.concatenate(drone_paths) - F
+    mean_az = math.atan2(rel[:, 1].mean(), rel[:, 0].mean())
+    az = mean_az + np.angle(np.exp(1j * (np.arctan2(rel[:, 1], rel[:, 0]) - mean_az)))
+    el = np.arctan2(rel[:, 2], np.hypot(rel[:, 0], rel[:, 1]))
+    u = np.linspace(az.min() - 0.3, az.max() + 0.3, n)
+    v = np.linspace(0.0, min(float(el.max()) + 0.3, 0.5 * math.pi), max(n // 2, 2))
+    return (
+        F[0] + p.L_u * np.outer(np.cos(u), np.cos(v)),
+        F[1] + p.L_u * np.outer(np.sin(u), np.cos(v)),
+        F[2] + p.L_u * np.outer(np.ones_like(u), np.sin(v)),
+    )
+
+
+def plot_path(
+    scenario: CovertScenario, traces: Any, *, ax: Any = None, title: str | None = None, terrain: bool = True
+):
+    """3-D view of covert-observation runs; returns the figure.
+
+    scenario: the :class:`CovertScenario` the runs share; traces: a :class:`CovertTrace` or
+    {label: CovertTrace}. Draws the drone paths, the observation sphere |D - F| = L_u (its upper
+    half), the target paths (first trace) with their start and end, the reference point R, the
+    centre F and the start D_s, and the terrain (``terrain``). ax: a 3-D axes
+    (``fig.add_subplot(projection="3d")``) or None for a new figure. Axes in m.
+    """
+    if not isinstance(scenario, CovertScenario):
+        raise TypeError(f"scenario must be a CovertScenario, got {type(scenario).__name__}")
+    runs = as_trace_dict(traces, CovertTrace)
+    fig, ax = figure_axes(ax, figsize=(8, 6), projection="3d")
+    p = scenario.params
+    pts = [p.F_arr[None], p.D_s_arr[None], p.R_arr[None]]
+    first = next(iter(runs.values()))
+    for j in range(first.targets.shape[1]):
+        path = first.targets[:, j]
+        ax.plot(*path.T, color="tab:brown", lw=1, label="target paths" if j == 0 else None)
+        ax.scatter(
+            *path[0], color="tab:brown", marker="o", s=12, label="targets at start" if j == 0 else None
+        )
+        ax.scatter(*path[-1], color="tab:brown", marker="x", s=16, label="targets at end" if j == 0 else None)
+        pts.append(path)
+    for name, tr in runs.items():
+        ax.plot(*tr.drone.T, lw=1.5, label=f"drone: {name}")
+        pts.append(tr.drone)
+    sx, sy, sz = _sphere_patch(scenario, [tr.drone for tr in runs.values()])
+    ax.plot_wireframe(
+        sx, sy, sz, color="0.6", lw=0.3, alpha=0.6, label=f"observation sphere (L_u = {p.L_u:g} m)"
+    )
+    ax.scatter(*p.F_arr, color="k", marker="+", s=40, label="sphere centre F")
+    ax.scatter(*p.R_arr, color="k", marker="^", s=30, label="reference point R")
+    ax.scatter(*p.D_s_arr, color="tab:green", marker="s", s=30, label="start D_s")
+    allp = np.concatenate(
+        [np.asarray(a, float).reshape(-1, 3) for a in pts] + [np.c_[sx.ravel(), sy.ravel(), sz.ravel()]]
+    )
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    if terrain:
+        X, Y = np.meshgrid(np.linspace(lo[0], hi[0], 30), np.linspace(lo[1], hi[1], 30))
+        Z = scenario.terrain.height(X, Y)
+        ax.plot_surface(X, Y, Z, cmap="YlGn", alpha=0.3, linewidth=0)
+        lo[2] = min(lo[2], float(Z.min()))
+    pad = 0.03 * np.maximum(hi - lo, 1.0)
+    ax.set_xlim(lo[0] - pad[0], hi[0] + pad[0])
+    ax.set_ylim(lo[1] - pad[1], hi[1] + pad[1])
+    ax.set_zlim(lo[2] - pad[2], hi[2] + pad[2])
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_zlabel("z (m)")
+    ax.legend(loc="upper left", fontsize=7)
+    if title is not None:
+        ax.set_title(title)
+    return fig
+
+
+def plot_bearing(traces: Any, *, ax: Any = None, title: str | None = None):
+    """Maximum bearing change beta_m (deg) against time (s) for one or several runs; returns the figure.
+
+    traces: a :class:`CovertTrace` or {label: CovertTrace}; the legend gives each run's beta_max.
+    Arrival on and departure from the sphere are marked with dotted lines. ax: a 2-D axes or None.
+    """
+    runs = as_trace_dict(traces, CovertTrace)
+    fig, ax = figure_axes(ax, figsize=(7, 4))
+    for name, tr in runs.items():
+        (line,) = ax.plot(
+            tr.t, np.degrees(tr.beta_m), label=f"{name} (max {math.degrees(tr.beta_max):.2f} deg)"
+        )
+        for t_mark in (tr.t_a, tr.t_f):
+            if t_mark is not None:
+                ax.axvline(t_mark, color=line.get_color(), ls=":", lw=0.8)
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("max bearing change beta_m (deg)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, title="dotted: on the sphere from / until", title_fontsize=7)
+    if title is not None:
+        ax.set_title(title)
+    return fig
