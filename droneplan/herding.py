@@ -42,7 +42,7 @@ from droneplan.scenarios.herding import (
 )
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.plots import plot_state, plot_final, plot_footprint
-from droneplan.studies.herding import write_gif
+from droneplan.studies.herding import summary_table, write_gif
 
 __all__ = [
     # world, presets, simulator
@@ -55,4 +55,5 @@ __all__ = [
     "steering_points", "HerderSettings", "ProposedHerder", "BenchmarkHerder",
     # results and plots
     "SolveResult", "Status", "plot_state", "plot_final", "plot_footprint", "write_gif",
+    "summary_table",
 ]

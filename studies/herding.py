@@ -346,40 +346,30 @@ def bench(*, quick: bool, out: Path) -> None:
 
 
 # --------------------------------------------------------------------------- notebook helpers
-def compare_runs(n_animals: int, *, seed: int = 0, field: float | None = None, t_max: float = 2700.0,
-                 frame_every: float | None = None) -> dict:
-    """Run the proposed and the benchmark herder on one scenario; {method: HerdingTrace}.
-
-    n_animals: herd size; field: square field side (m) or None for the thesis's 1200 x 600 m;
-    frame_every: keep animation frames every this many seconds.
-    """
-    size = (float(field), float(field)) if field else (1200.0, 600.0)
-    goal = (size[0] / 2 - (900.0 if field is None else 1.5 * field), size[1] / 2)
-    out = {}
-    for name, herder in (("proposed", ProposedHerder()), ("benchmark", BenchmarkHerder())):
-        sc = thesis_scenario(n_animals, seed=seed, field_size=size, goal=goal)
-        out[name] = simulate(sc, herder, t_max=t_max, seed=seed + 10_000, frame_every=frame_every)
-    return out
-
-
 def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
-    """Write an animated GIF of a run's frames (needs ``simulate(..., frame_every=...)``); returns the path."""
+    """Write an animated GIF of a run's frames (needs ``simulate(..., frame_every=...)``); returns the path.
+
+    goal: G (2,) in m, kept in view (default: the trace's goal). fps: frames per second of the GIF.
+    """
     from matplotlib.animation import FuncAnimation, PillowWriter
 
     if not trace.frames:
         raise ValueError("trace has no frames: run simulate(..., frame_every=...)")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    allpts = np.concatenate([np.concatenate([f.animals, f.drones]) for f in trace.frames])
+    goal = trace.goal if goal is None else np.asarray(goal, float)
+    allpts = np.concatenate([np.concatenate([f.animals, f.drones]) for f in trace.frames] + [goal.reshape(1, 2)])
     lo, hi = allpts.min(axis=0) - 20, allpts.max(axis=0) + 20
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
-    herd = ax.scatter([], [], s=3)
-    drones = ax.scatter([], [], marker="s", c="r", s=25)
-    if goal is not None:
-        ax.plot(*goal, "k*", ms=12)
+    herd = ax.scatter([], [], s=3, c="tab:brown", label="animals")
+    drones = ax.scatter([], [], marker="s", c="tab:red", s=25, label="drones")
+    ax.plot(*goal, "*", color="tab:green", ms=12, label="goal G")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend(fontsize=7, loc="upper right")
     title = ax.set_title("")
 
     def update(k):
@@ -396,7 +386,8 @@ def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
 
 
 def summary_table(traces: dict):
-    """Gathering and total time (min) per run of {label: HerdingTrace}, as a DataFrame."""
+    """Gathering and total time per run of {label: HerdingTrace}, as a DataFrame with units in the
+    column names (times in min, speeds in m/s; the traces themselves hold seconds)."""
     import pandas as pd
 
     return pd.DataFrame(
