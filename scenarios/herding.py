@@ -404,7 +404,7 @@ def footprint_radius(animals: np.ndarray) -> float:
 
 def simulate(
     scenario: HerdingScenario,
-    herder,
+    controller,
     *,
     t_max: float = 1800.0,
     seed=None,
@@ -412,9 +412,9 @@ def simulate(
     frame_every: float | None = None,
     stop_after_gathering: bool = False,
 ) -> HerdingTrace:
-    """Run gathering then driving with ``herder`` until the herd reaches G or ``t_max``.
+    """Run gathering then driving with ``controller`` (a herder) until the herd reaches G or ``t_max``.
 
-    scenario: initial state and parameters; herder: see module docstring (``reset``, ``command``).
+    scenario: initial state and parameters; controller: a herder (module docstring: ``reset``, ``command``).
     t_max: simulated time limit, s (> 0). seed: int or Generator for the animals' noise (recorded).
     snapshot_times: times (s) at which to keep full snapshots (Fig. 6.7 b-f).
     frame_every: keep an animation frame every this many seconds (None: none).
@@ -437,7 +437,7 @@ def simulate(
     heading = np.zeros_like(animals)
     drones = scenario.drones.copy()
     headings = scenario.headings.copy()
-    herder.reset(scenario, seed=seed)
+    controller.reset(scenario, seed=seed)
     n_steps = int(math.ceil(t_max / dt))
     ts, radii, cents, dpos, phases = [], [], [], [], []
     snaps_todo = sorted(float(s) for s in snapshot_times)
@@ -475,7 +475,7 @@ def simulate(
         if stop or phase == HerdingPhase.DONE or step == n_steps:
             break
         for k in range(sub):
-            cmd = herder.command(HerdingObservation(t + k * dts, animals, c, phase, drones, headings, dts, k == 0))
+            cmd = controller.command(HerdingObservation(t + k * dts, animals, c, phase, drones, headings, dts, k == 0))
             drones, headings = drone_step(drones, headings, cmd[0], cmd[1], p, dts)
         new, heading, _ = animal_step(animals, heading, drones, p, rng, dt, centroid=c)
         vmax_seen = max(vmax_seen, float(np.sqrt(np.max(np.sum((new - animals) ** 2, axis=1)))) / dt)
@@ -484,7 +484,7 @@ def simulate(
     phase_arr[:] = phases
     final = HerdingFrame(t=ts[-1], animals=animals.copy(), drones=drones.copy(), headings=headings.copy(), phase=phase)
     return HerdingTrace(
-        t=np.array(ts), final=final, seed=seed, **controller_counters(herder), footprint_radius=np.array(radii),
+        t=np.array(ts), final=final, seed=seed, **controller_counters(controller), footprint_radius=np.array(radii),
         centroid=np.array(cents), drones=np.array(dpos), phase=phase_arr, goal=scenario.goal.copy(),
         gather_time=gather_time, total_time=total_time, max_animal_speed=vmax_seen, snapshots=snapshots,
         frames=frames, wall_time=time.perf_counter() - t0,

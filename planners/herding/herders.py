@@ -94,6 +94,7 @@ class _Herder(abc.ABC):
 
     def __init__(self, settings: HerderSettings | None = None):
         self.settings = settings or HerderSettings()
+        self.phase = HerdingPhase.GATHERING
 
     # -- the closed-loop contract
     def reset(self, scenario, *, seed=None) -> None:
