@@ -422,7 +422,7 @@ def simulate(
     """
     if not isinstance(scenario, HerdingScenario):
         raise TypeError(f"scenario must be a HerdingScenario, got {type(scenario).__name__}")
-    check_methods("herder", herder, ("reset", "observe", "control"))
+    check_methods("controller", controller, ("reset", "command"))
     t_max = check_positive("t_max", t_max)
     check_size("t_max", int(math.ceil(t_max / scenario.params.delta)) * scenario.animals.shape[0])
     if frame_every is not None:
