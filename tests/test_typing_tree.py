@@ -22,7 +22,9 @@ def test_typing_tree_mirrors_the_installed_package():
     present = {p.name: p for p in TREE.iterdir()}
     missing = sorted(set(expected) - set(present))
     extra = sorted(set(present) - set(expected))
-    fix = "cd .typing/droneplan && ln -s ../../droneplan/NAME.py . (a front-door module) or ln -s ../../LAYER ."
+    fix = (
+        "cd .typing/droneplan && ln -s ../../droneplan/NAME.py . (a front-door module) or ln -s ../../LAYER ."
+    )
     assert not missing, f"add symlinks for {missing} to .typing/droneplan ({fix})"
     assert not extra, f"remove {extra} from .typing/droneplan (no such module or layer any more)"
     for name, link in present.items():
