@@ -70,7 +70,7 @@ def assignment_cost(cost, sharks, operator) -> tuple[float, float]:
 
 
 def build_assignment_model(cost, sharks):
-    """Build (only) the CP-SAT model for the selected sharks; returns (model, x[i][j] vars, Z)."""
+    """Build (only) the CP-SAT model for the selected sharks; returns (model, ``x[i][j]`` vars, Z)."""
     c = _check_cost(cost)
     n = c.shape[0]
     sharks = np.asarray(sharks, int)

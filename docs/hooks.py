@@ -1,0 +1,91 @@
+"""mkdocs hooks: the API pages list every ``__all__`` name of the front doors, and the last
+reproduction report (``droneplan reproduce --report``) is published under ``report/``.
+
+- A page line ``<!-- api: droneplan.cells -->`` expands to one mkdocstrings block per name in
+  ``droneplan.cells.__all__`` (read statically from the source), so a new public name appears
+  in the reference without editing the docs.
+- If ``results/report.html`` exists (or the directory named by ``DRONEPLAN_REPORT_DIR``), it and
+  every file it references are added to the site as ``report/...``; the reproduction page links it.
+"""
+
+from __future__ import annotations
+
+import ast
+import os
+import re
+from pathlib import Path
+
+from mkdocs.structure.files import File
+
+ROOT = Path(__file__).resolve().parents[1]
+API_MARKER = re.compile(r"^<!-- api: (droneplan(?:\.\w+)?) -->$", re.MULTILINE)
+REPORT_MARKER = "<!-- report-link -->"
+
+
+def front_door_all(module: str) -> list[str]:
+    """The ``__all__`` list of a front-door module, read from its source without importing it."""
+    parts = module.split(".")
+    path = ROOT / "droneplan" / ("__init__.py" if len(parts) == 1 else f"{parts[1]}.py")
+    for node in ast.parse(path.read_text(encoding="utf-8")).body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "__all__" for t in node.targets):
+            return list(ast.literal_eval(node.value))
+    raise ValueError(f"{path} defines no __all__")
+
+
+def _api_blocks(match: re.Match[str]) -> str:
+    module = match.group(1)
+    blocks = []
+    for name in front_door_all(module):
+        if name.startswith("__") or name in ("cells", "covert", "shark", "herding"):
+            continue
+        blocks.append(f"::: {module}.{name}\n")
+    return "\n".join(blocks)
+
+
+def report_dir() -> Path:
+    return Path(os.environ.get("DRONEPLAN_REPORT_DIR", ROOT / "results"))
+
+
+def report_files(directory: Path) -> list[Path]:
+    """report.html and the local files it references (images, CSV), relative to ``directory``."""
+    html = directory / "report.html"
+    if not html.is_file():
+        return []
+    refs = re.findall(r'(?:src|href)="([^"#:]+)"', html.read_text(encoding="utf-8"))
+    files = [Path("report.html")]
+    files += [Path(r) for r in dict.fromkeys(refs) if (directory / r).is_file()]
+    return files
+
+
+def on_files(files, config):
+    directory = report_dir()
+    for rel in report_files(directory):
+        files.append(
+            File(
+                path=str(rel),
+                src_dir=str(directory),
+                dest_dir=str(Path(config["site_dir"]) / "report"),
+                use_directory_urls=False,
+                dest_uri=f"report/{rel.as_posix()}",
+            )
+        )
+    return files
+
+
+def on_page_markdown(markdown, page, config, files):
+    markdown = API_MARKER.sub(_api_blocks, markdown)
+    if REPORT_MARKER in markdown:
+        if report_files(report_dir()):
+            link = (
+                "The last report built on this machine: "
+                "**[open the reproduction report](report/report.html)** "
+                "(every thesis table beside this run, and every figure)."
+            )
+        else:
+            link = (
+                '!!! note "No report in this build"\n'
+                "    No `results/report.html` was found when this site was built. Run "
+                "`droneplan reproduce --quick --report` and rebuild the site to include it."
+            )
+        markdown = markdown.replace(REPORT_MARKER, link)
+    return markdown
