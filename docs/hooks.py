@@ -1,6 +1,8 @@
 """mkdocs hooks: the API pages list every ``__all__`` name of the front doors, and the last
 reproduction report (``droneplan reproduce --report``) is published under ``report/``.
 
+- ``<!-- deviations: cells -->`` expands to the table of deliberate deviations from the thesis
+  (``droneplan.studies.report.DEVIATIONS``, shared with the reproduction report).
 - A page line ``<!-- api: droneplan.cells -->`` expands to one mkdocstrings block per name in
   ``droneplan.cells.__all__`` (read statically from the source), so a new public name appears
   in the reference without editing the docs.
@@ -20,6 +22,7 @@ from mkdocs.structure.files import File
 ROOT = Path(__file__).resolve().parents[1]
 API_MARKER = re.compile(r"^<!-- api: (droneplan(?:\.\w+)?) -->$", re.MULTILINE)
 REPORT_MARKER = "<!-- report-link -->"
+DEVIATIONS_MARKER = re.compile(r"^<!-- deviations: (\w+) -->$", re.MULTILINE)
 
 
 def front_door_all(module: str) -> list[str]:
@@ -74,6 +77,10 @@ def on_files(files, config):
 
 def on_page_markdown(markdown, page, config, files):
     markdown = API_MARKER.sub(_api_blocks, markdown)
+    if DEVIATIONS_MARKER.search(markdown):
+        from droneplan.studies.report import deviations_markdown  # one source for docs and report
+
+        markdown = DEVIATIONS_MARKER.sub(lambda m: deviations_markdown(m.group(1)), markdown)
     if REPORT_MARKER in markdown:
         if report_files(report_dir()):
             link = (

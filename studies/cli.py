@@ -68,6 +68,7 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("problem", nargs="?", default="all", choices=choices)
     rep.add_argument("--quick", action="store_true", help="reduced sizes/seeds; finishes in minutes on 2 cores")
     rep.add_argument("--out", type=Path, default=Path("results"), help="directory for CSV and PNG (default: results)")
+    rep.add_argument("--report", action="store_true", help="also write OUT/report.html (tables beside the thesis, figures)")
 
     gap = sub.add_parser("gap", help="heuristic vs solver optimum per instance (resumable CSV)", epilog=epilog)
     gap.add_argument("problem", nargs="?", default="all", choices=choices)
@@ -103,6 +104,10 @@ def main(argv: list[str] | None = None) -> int:
                 module.gap(seeds=args.seeds, executor=executor, out=out)
         else:
             module.bench(quick=args.quick, out=out)
+    if args.command == "reproduce" and args.report:
+        from droneplan.studies.report import write_report
+
+        print(f"report: {write_report(args.out, problems=problems)}", flush=True)
     return 0
 
 
