@@ -7,6 +7,7 @@ install pages include README.md's command blocks) and an API entry mkdocstrings 
 from __future__ import annotations
 
 import ast
+import html
 import os
 import re
 import shutil
@@ -67,12 +68,19 @@ def test_api_pages_name_every_public_name(site):
         assert not missing, f"api/{door}.html does not document {missing}"
 
 
-def test_quickstart_includes_the_readme_commands(site):
+def test_quickstart_includes_the_readme_blocks(site):
+    """The quickstart shows the README's install command and every README Python block verbatim."""
     readme = (ROOT / "README.md").read_text()
-    install = re.search(r"\[start:install-run\] -->\n```bash\n(.+?)\n```", readme, re.S)
-    assert install, "README.md lost its install-run snippet markers"
-    text = re.sub(r"<[^>]+>", "", (site / "quickstart.html").read_text()).replace("&amp;", "&")
-    assert install.group(1).strip() in text
+    blocks = re.findall(r"\[start:(?:install-run|quickstart-\w+)\] -->\n```\w+\n(.+?)\n```", readme, re.S)
+    quickstart = readme.split("## Python quickstart", 1)[1].split("\n## ", 1)[0]
+    marked = len(re.findall(r"\[start:quickstart-\w+\]", quickstart))
+    assert marked == len(re.findall(r"^```python$", quickstart, re.M)) == len(blocks) - 1 >= 4, (
+        "every Python block of the README's quickstart needs quickstart-<name> snippet markers"
+    )
+    text = html.unescape(re.sub(r"<[^>]+>", "", (site / "quickstart.html").read_text()))
+    for block in blocks:
+        for line in block.splitlines():
+            assert line.strip() in text, f"quickstart.html lacks README line {line!r}"
 
 
 @pytest.mark.slow
