@@ -77,20 +77,20 @@ class MPCSettings:
     controller re-solves every replan_every periods and in between holds the planned constant-rate
     turn and speed, which the plant then follows exactly."""
     stage_weight: float = 0.2
-    """Weight of the mean per-node minimum cosine (keeps near-term nodes optimised when the
+    """Weight (dimensionless) of the mean per-node minimum cosine (keeps near-term nodes optimised when the
     worst node of the horizon is out of reach)."""
     smooth_weight: float = 1e-3
-    """Weight of the squared command changes, normalised by U_max^2 and V_max^2."""
+    """Weight (dimensionless) of the squared command changes, normalised by U_max^2 and V_max^2."""
     max_iter: int = 80
-    """IPOPT iteration limit per warm-started solve."""
+    """IPOPT iteration limit per warm-started solve (count)."""
     cold_max_iter: int = 400
-    """IPOPT iteration limit of a solve without duals to reuse (the first step)."""
+    """IPOPT iteration limit of a solve without duals to reuse (the first step; count)."""
     time_limit: float | None = None
     """Wall-clock limit per solve (s), None: none."""
     prox: float = 0.1
-    """SQP proximal weight on the step (per variable, scaled to the variable's range)."""
+    """SQP proximal weight on the step (dimensionless; per variable, scaled to the variable's range)."""
     sqp_iters: int = 1
-    """QPs per control step in the SQP variant (1: real-time iteration)."""
+    """QPs per control step in the SQP variant (count; 1: real-time iteration)."""
 
     def __post_init__(self) -> None:
         if isinstance(self.horizon, bool) or not isinstance(self.horizon, int) or self.horizon < 1:
@@ -180,8 +180,11 @@ class BearingMPC:
     """The symbolic model: decision vector, constraints, parameters and their layout."""
 
     params: CovertParams
+    """The problem parameters the model was built for (Table 3.2)."""
     settings: MPCSettings
+    """The MPC settings the model was built with."""
     n_targets: int
+    """Number of targets in the model (count)."""
     nlp: dict
     """{"x", "f", "g", "p"} CasADi SX expressions."""
     durations: np.ndarray
@@ -261,7 +264,11 @@ class BearingMPC:
 
 
 def build_bearing_mpc(params: CovertParams, n_targets: int, settings: MPCSettings | None = None) -> BearingMPC:
-    """Build the symbolic min-max bearing MPC for ``n_targets`` targets (no solving)."""
+    """Build the symbolic min-max bearing MPC for ``n_targets`` targets (no solving).
+
+    params: problem parameters, CovertParams (Table 3.2).
+    settings: MPCSettings (default: MPCSettings()).
+    """
     st = settings if settings is not None else MPCSettings()
     if isinstance(n_targets, bool) or not isinstance(n_targets, (int, np.integer)) or n_targets < 0:
         raise ValueError(f"n_targets must be an int >= 0, got {n_targets!r}")
@@ -387,6 +394,9 @@ def solve_bearing_mpc(params: CovertParams, data: MPCData, settings: MPCSettings
     """Build the MPC for ``data`` and solve it once with IPOPT (x = :class:`MPCPlan`).
 
     x0: starting decision vector (default: straight flight at V_max / 2 rolled out).
+
+    params: problem parameters, CovertParams (Table 3.2).
+    settings: MPCSettings (default: MPCSettings()).
     """
     model = build_bearing_mpc(params, np.asarray(data.mask).size, settings)
     solver = RecedingBearingMPC(model, backend="ipopt")
@@ -542,6 +552,8 @@ def sphere_minmax_bearing(params: CovertParams, targets: Any, *, tol: float = ma
     evaluated. Returns objective = best value found (rad; x = that point (3,)), bound = a
     proven lower bound (rad): no point of the sphere has a smaller maximum bearing change.
     targets: (n, 3) positions (m), n >= 1, none on the sphere.
+
+    params: problem parameters, CovertParams (F, R, L_u in metres).
     """
     A = np.asarray(targets, dtype=float).reshape(-1, 3)
     if A.shape[0] == 0 or not np.isfinite(A).all():

@@ -173,6 +173,10 @@ def check_allocation(drone_s, steer_s, perimeter, allocation: Allocation, *, tol
     Independent of how the allocation was found: recomputes each destination from
     the target and direction, the travel, and the order constraints on the z* axis.
     Raises AssertionError naming the violated condition.
+
+    drone_s, steer_s: drone and steering-point arc positions on the extended hull (m), in [0, perimeter).
+    perimeter: extended-hull perimeter M (m).
+    tol: tolerance of the order checks (m).
     """
     d = np.asarray(drone_s, dtype=float)
     pts = np.asarray(allocation.points, dtype=float)
@@ -270,6 +274,9 @@ def build_allocation_model(drone_s, steer_s, perimeter) -> AllocationModel:
     travels. Comparisons between ranks are the comparisons between the real
     numbers, so the integer model has exactly the feasible set and the argmin of
     the real one; the objective rank is mapped back to metres.
+
+    drone_s, steer_s: drone and steering-point arc positions on the extended hull (m), in [0, perimeter).
+    perimeter: extended-hull perimeter M (m).
     """
     d, s, M = validate_allocation_input(drone_s, steer_s, perimeter)
     n = d.size

@@ -54,7 +54,7 @@ class GASettings:
     T: float = THESIS_GA_TABLE_4_1["T"]
     """Initial simulated-annealing temperature (fitness units, users)."""
     alpha: float = THESIS_GA_TABLE_4_1["alpha"]
-    """Cooling factor per generation, in (0, 1]."""
+    """Cooling factor of the temperature per generation, in (0, 1] (dimensionless)."""
     p_m: float = THESIS_GA_TABLE_4_1["p_m"]
     """Mutation probability per gene (coordinate), in [0, 1]."""
     p_c1: float = THESIS_GA_TABLE_4_1["p_c1"]
@@ -110,7 +110,12 @@ def _contributing(problem: CellProblem, pop: np.ndarray) -> np.ndarray:
 def fitness(problem: CellProblem, pop: np.ndarray, *, chunk: int = 2048) -> np.ndarray:
     """GA fitness of a population (..., m, 2) in metres -> (...) covered users (int),
     counting only contributing drone-cells (module docstring). Vectorised over the
-    population (in chunks of ``chunk`` chromosomes to bound memory)."""
+    population (in chunks of ``chunk`` chromosomes to bound memory).
+
+    problem: the CellProblem (users, GBSs, m, radii in metres).
+    pop: (..., m, 2) chromosomes, drone-cell positions (m).
+    chunk: chromosomes evaluated per vectorised block (count).
+    """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
     chunk = check_int("chunk", chunk, min_value=1)
@@ -211,6 +216,8 @@ def genetic(problem: CellProblem, *, pop_size: int | None = None, iter_max: int 
     drone-cells (k, 2) of the best chromosome (m), ``objective`` their covered users,
     ``iterations`` = restarts * iter_max, and ``info``: ``restart_bests`` (best fitness of
     each restart), ``chromosome`` (the full m x 2 best chromosome), ``seed``.
+
+    problem: the CellProblem (users, GBSs, m, radii in metres).
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
@@ -370,6 +377,8 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> Solv
         with status FEASIBLE and ``info["complete"] = False``.
 
     Returns a SolveResult (no bound): ``x`` positions (k, 2), ``objective`` covered users.
+
+    problem: the CellProblem (users, GBSs, m, radii in metres).
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
@@ -421,7 +430,11 @@ def polish(problem: CellProblem, positions, *, max_passes: int = 10) -> np.ndarr
     """Coordinate ascent on a feasible placement (not in the thesis): move one drone-cell
     at a time to the best point of its deployment region given the others (the
     constrained single-disc sweep), keeping the move only when the whole placement
-    stays feasible and covers more users. Returns the improved positions (k, 2)."""
+    stays feasible and covers more users. Returns the improved positions (k, 2).
+
+    problem: the CellProblem (users, GBSs, m, radii in metres).
+    max_passes: maximum sweeps over all drone-cells (count).
+    """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
     max_passes = check_int("max_passes", max_passes, min_value=0)
@@ -453,7 +466,11 @@ def polish(problem: CellProblem, positions, *, max_passes: int = 10) -> np.ndarr
 
 def genetic_polished(problem: CellProblem, **kwargs) -> SolveResult:
     """The thesis GA (:func:`genetic`, same arguments) followed by :func:`polish` of its
-    best plan. An improved variant beside the faithful baseline, not the thesis method."""
+    best plan. An improved variant beside the faithful baseline, not the thesis method.
+
+    problem: the CellProblem (users, GBSs, m, radii in metres).
+    kwargs: passed on to genetic (pop_size, iter_max, restarts, seed, settings).
+    """
     t0 = time.perf_counter()
     ga = genetic(problem, **kwargs)
     x = polish(problem, ga.x)

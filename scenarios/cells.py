@@ -186,6 +186,9 @@ def uniform_users(seed: int | np.random.Generator | None, params: CellParams = T
     mean_count: expected number of users; default :func:`expected_user_count(params)`
     so the clustered and non-clustered scenarios have the same expected total.
     Returns users (n, 2) in metres.
+
+    seed: int, numpy Generator or None (fresh entropy).
+    params: scenario parameters, CellParams (default: THESIS_TABLE_4_2).
     """
     if not isinstance(params, CellParams):
         raise TypeError(f"params must be CellParams, got {type(params).__name__}")
@@ -197,7 +200,12 @@ def uniform_users(seed: int | np.random.Generator | None, params: CellParams = T
 
 def thesis_instance(seed: int | np.random.Generator | None, params: CellParams = THESIS_TABLE_4_2,
                     *, clustered: bool = True) -> Instance:
-    """A Table 4.2 user snapshot (clustered, or non-clustered with the same expected count)."""
+    """A Table 4.2 user snapshot (clustered, or non-clustered with the same expected count).
+
+    seed: int, numpy Generator or None for the user snapshot.
+    params: scenario parameters, CellParams (default: THESIS_TABLE_4_2).
+    clustered: Matérn users (True) or the non-clustered process.
+    """
     if not isinstance(params, CellParams):
         raise TypeError(f"params must be CellParams, got {type(params).__name__}")
     rng = as_generator(seed)
@@ -214,13 +222,19 @@ def thesis_problem(n_cells: int, seed: int | np.random.Generator | None, *, clus
 
     seed: int or Generator for the user snapshot; clustered: Matérn users (True) or the
     non-clustered process with the same expected count (Fig. 4.6).
+
+    params: scenario parameters, CellParams (default: THESIS_TABLE_4_2).
     """
     check_int("n_cells", n_cells, min_value=1)  # before drawing users
     return problem_from_instance(thesis_instance(seed, params, clustered=clustered), n_cells)
 
 
 def problem_from_instance(inst: Instance, n_cells: int) -> "CellProblem":
-    """A :class:`CellProblem` for a generated snapshot with ``n_cells`` drone-cells."""
+    """A :class:`CellProblem` for a generated snapshot with ``n_cells`` drone-cells.
+
+    inst: a generated Instance (users and their CellParams).
+    n_cells: number of drone-cells m (count).
+    """
     if not isinstance(inst, Instance):
         raise TypeError(f"inst must be an Instance, got {type(inst).__name__}")
     p = inst.params

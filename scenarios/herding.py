@@ -71,15 +71,15 @@ class HerdingParams:
     """Table 6.2 and the settings the thesis leaves open (units: m, s, rad)."""
 
     eta_d: float = 1.0
-    """Weight of the repulsion from barking drones (Strömbom rho_s)."""
+    """Weight of the repulsion from barking drones (dimensionless; Strömbom rho_s)."""
     eta_L: float = 1.05
-    """Weight of the attraction to the local centre of mass (Strömbom c)."""
+    """Weight of the attraction to the local centre of mass (dimensionless; Strömbom c)."""
     eta_r: float = 2.0
-    """Weight of the repulsion from close animals (Strömbom rho_a)."""
+    """Weight of the repulsion from close animals (dimensionless; Strömbom rho_a)."""
     eta_i: float = 0.5
-    """Weight of the inertia, the previous heading (Strömbom h)."""
+    """Weight of the inertia, the previous heading (dimensionless; Strömbom h)."""
     eta_e: float = 0.3
-    """Weight of the noise (Strömbom e)."""
+    """Weight of the noise (dimensionless; Strömbom e)."""
     delta: float = 0.2
     """Re-allocation period Delta, s; also the animal time step."""
     V_max: float = 25.0
@@ -103,13 +103,14 @@ class HerdingParams:
     r_a: float = 2.0
     """Animal-animal repulsion distance, m (Strömbom r_a)."""
     n_neighbours: int = 20
-    """Nearest neighbours whose centre of mass attracts an animal (Strömbom n; not in the thesis)."""
+    """Number of nearest neighbours whose centre of mass attracts an animal (Strömbom n; not in
+    the thesis)."""
     graze_prob: float = 0.05
     """Probability per step that an animal outside every barking cone moves (Strömbom)."""
     graze_speed: float = 1.0
     """Speed of a grazing move, m/s (<= V_animal; not in the thesis)."""
     drone_substeps: int = 1
-    """Drone control/integration sub-steps per animal step (drone step = delta / drone_substeps;
+    """Number of drone control/integration sub-steps per animal step (drone step = delta / drone_substeps;
     1: the controller is sampled at the thesis's Delta)."""
     goal_radius: float = 50.0
     """Driving ends when the herd centroid is within this distance of G, m (not in the thesis)."""
@@ -397,7 +398,10 @@ class HerdingTrace(LoopTrace):
 
 
 def footprint_radius(animals: np.ndarray) -> float:
-    """Max distance of an animal to the herd centroid, m."""
+    """Max distance of an animal to the herd centroid, m.
+
+    animals: (n, 2) animal positions (m).
+    """
     c = animals.mean(axis=0)
     return float(np.sqrt(np.max(np.sum((animals - c) ** 2, axis=1))))
 
@@ -492,5 +496,8 @@ def simulate(
 
 
 def with_params(scenario: HerdingScenario, **changes) -> HerdingScenario:
-    """A copy of ``scenario`` with some HerdingParams fields changed (validated)."""
+    """A copy of ``scenario`` with some HerdingParams fields changed (validated).
+
+    changes: HerdingParams field names and their new values (units of those fields).
+    """
     return replace(scenario, params=replace(scenario.params, **changes))

@@ -46,85 +46,7 @@ UNITLESS_TYPES = ("bool", "str", "Literal", "Callable", "Generator", "Enum")
 # Gaps found on main when this test was added (2026-11-22), while six other branches were
 # still editing these modules. Each is a strict xfail: fixing the docstring makes the test pass
 # and then fail as XPASS until its entry is removed here, so the list can only shrink.
-KNOWN_GAPS: dict[str, set[str]] = {
-    "test_class_documents_its_constructor_parameters": {
-        "droneplan.covert.MPCObserver",
-        "droneplan.covert.SafeguardedMPCObserver",
-        "droneplan.shark.ClassicalPursuit",
-        "droneplan.shark.RepellingOperator",
-    },
-    "test_constant_has_an_attribute_docstring": {
-        "droneplan.cells.BACKENDS",
-    },
-    "test_dataclass_documents_every_field": {
-        "droneplan.covert.BearingMPC",
-        "droneplan.shark.InterceptionPlan",
-        "droneplan.shark.InterceptionTrace",
-        "droneplan.shark.RepellingTrace",
-    },
-    "test_function_documents_every_parameter": {
-        "droneplan.covert.plot_path",
-        "droneplan.covert.plot_bearing",
-        "droneplan.shark.plot_top_view",
-        "droneplan.shark.plot_time_series",
-        "droneplan.herding.plot_state",
-        "droneplan.herding.plot_final",
-        "droneplan.herding.plot_footprint",
-        "droneplan.cells.candidate_sites",
-        "droneplan.cells.connected_mask",
-        "droneplan.cells.coverage_upper_bound",
-        "droneplan.cells.evaluate",
-        "droneplan.cells.exhaustive",
-        "droneplan.cells.fitness",
-        "droneplan.cells.genetic",
-        "droneplan.cells.genetic_polished",
-        "droneplan.cells.greedy_placement",
-        "droneplan.cells.plot_map",
-        "droneplan.cells.polish",
-        "droneplan.cells.problem_from_instance",
-        "droneplan.cells.solve_milp",
-        "droneplan.cells.thesis_instance",
-        "droneplan.cells.thesis_problem",
-        "droneplan.cells.uniform_users",
-        "droneplan.covert.build_bearing_mpc",
-        "droneplan.covert.random_case",
-        "droneplan.covert.rollout_sliding",
-        "droneplan.covert.solve_bearing_mpc",
-        "droneplan.covert.sphere_minmax_bearing",
-        "droneplan.herding.allocate_collision_blind",
-        "droneplan.herding.build_allocation_model",
-        "droneplan.herding.check_allocation",
-        "droneplan.herding.footprint_radius",
-        "droneplan.herding.with_params",
-        "droneplan.shark.allocate_operators",
-        "droneplan.shark.build_assignment_model",
-        "droneplan.shark.build_interception_nlp",
-        "droneplan.shark.constant_velocity_trajectory",
-        "droneplan.shark.field_radius",
-        "droneplan.shark.greedy_assignment",
-        "droneplan.shark.interception_time_matrix",
-        "droneplan.shark.make_trajectory",
-        "droneplan.shark.operator_start",
-        "droneplan.shark.optimal_altitude",
-        "droneplan.shark.optimal_interception",
-        "droneplan.shark.random_trajectory",
-        "droneplan.shark.simulate",
-        "droneplan.shark.simulate_interception",
-        "droneplan.shark.simulate_repelling",
-        "droneplan.shark.solve_assignment",
-        "droneplan.shark.solve_interception",
-        "droneplan.shark.thesis_altitude",
-        "droneplan.shark.thesis_trajectories",
-        "droneplan.shark.touches",
-        "droneplan.shark.virtual_shark_plan",
-    },
-    "test_public_name_has_its_own_docstring": set(),
-    "test_settings_field_has_a_docstring_with_its_unit": {
-        "droneplan.cells.GASettings",
-        "droneplan.covert.MPCSettings",
-        "droneplan.herding.HerdingParams",
-    },
-}
+KNOWN_GAPS: dict[str, set[str]] = {}
 
 
 def _public_names() -> list[tuple[str, str, object]]:
@@ -307,16 +229,18 @@ def _front_door_sources(door: str) -> dict[str, str]:
     }
 
 
-def _constant_doc(module_name: str, name: str) -> str:
+def _constant_doc(module_name: str, name: str, depth: int = 0) -> str:
+    """The attribute docstring of ``name`` where it is assigned, following re-exports."""
     tree = ast.parse(Path(importlib.import_module(module_name).__file__).read_text())
     for stmt, nxt in zip(tree.body, [*tree.body[1:], None], strict=True):
         targets = stmt.targets if isinstance(stmt, ast.Assign) else [getattr(stmt, "target", None)]
-        if any(isinstance(t, ast.Name) and t.id == name for t in targets) and (
-            isinstance(nxt, ast.Expr)
-            and isinstance(nxt.value, ast.Constant)
-            and isinstance(nxt.value.value, str)
-        ):
-            return nxt.value.value
+        if any(isinstance(t, ast.Name) and t.id == name for t in targets):
+            is_doc = isinstance(nxt, ast.Expr) and isinstance(nxt.value, ast.Constant)
+            return nxt.value.value if is_doc and isinstance(nxt.value.value, str) else ""
+    for stmt in tree.body:  # re-exported: look where it comes from
+        names = [a.asname or a.name for a in stmt.names] if isinstance(stmt, ast.ImportFrom) else []
+        if name in names and stmt.module and depth < 5:
+            return _constant_doc(stmt.module, name, depth + 1)
     return ""
 
 

@@ -55,7 +55,12 @@ def _dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def connected_mask(problem: CellProblem, positions: np.ndarray, usable: np.ndarray | None = None) -> np.ndarray:
     """(k,) bool: which drone-cells reach a GBS through links <= r1 (to a GBS) / <= r2
-    (between drone-cells), relaying only through drone-cells flagged ``usable``."""
+    (between drone-cells), relaying only through drone-cells flagged ``usable``.
+
+    problem: the CellProblem (users, GBSs, m, radii in metres).
+    positions: (k, 2) drone-cell positions (m).
+    usable: (k,) bool, drone-cells allowed to relay (default: all).
+    """
     k = len(positions)
     if k == 0:
         return np.zeros(0, dtype=bool)
@@ -79,6 +84,8 @@ def evaluate(problem: CellProblem, positions) -> Evaluation:
     backhaul links (drone-GBS <= r1, drone-drone <= r2); at most ``n_cells`` drone-cells;
     inside ``bounds`` when given. ``covered`` counts active users within R_d of any
     drone-cell whether or not the placement is feasible.
+
+    problem: the CellProblem (users, GBSs, m, radii in metres).
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
@@ -216,7 +223,10 @@ def site_feasible(problem: CellProblem, points: np.ndarray) -> np.ndarray:
 
 def candidate_sites(problem: CellProblem, extra=None) -> Candidates:
     """The candidate set of :func:`raw_candidate_points` plus ``extra`` positions
-    ((q, 2) m, e.g. a heuristic's placement), restricted to feasible single sites."""
+    ((q, 2) m, e.g. a heuristic's placement), restricted to feasible single sites.
+
+    problem: the CellProblem (users, GBSs, m, radii in metres).
+    """
     pts = raw_candidate_points(problem)
     if extra is not None:
         ex = as_positions(problem, extra)

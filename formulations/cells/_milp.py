@@ -64,6 +64,7 @@ from droneplan.solvers.validation import check_time_limit
 from droneplan.solvers.result import SolveResult, Status
 
 BACKENDS = ("cp-sat", "highs", "scip")
+"""Backend names ``solve_milp(backend=...)`` accepts (CP-SAT, and HiGHS/SCIP through OR-Tools)."""
 
 
 # --------------------------------------------------------------------------- relaxation bound
@@ -103,6 +104,9 @@ def coverage_upper_bound(problem: CellProblem, n_discs: int | None = None, *, ba
 
     Returns a SolveResult (objective = bound when proven optimal; ``bound`` is valid
     for the continuous problem in any case).
+
+    backend: linear backend name ("highs", "cp-sat", "scip").
+    time_limit: wall-clock limit of the bound's solve (s), None: none.
     """
     m = problem.n_cells if n_discs is None else int(n_discs)
     t0 = time.perf_counter()
@@ -153,7 +157,11 @@ def coverage_upper_bound(problem: CellProblem, n_discs: int | None = None, *, ba
 def greedy_placement(problem: CellProblem, cand: Candidates) -> np.ndarray:
     """A feasible placement built greedily over the candidates (primal heuristic used
     for pruning): repeatedly add the site covering most new users among those that
-    keep the placement feasible (no overlap, linked to a GBS or a placed site)."""
+    keep the placement feasible (no overlap, linked to a GBS or a placed site).
+
+    problem: the CellProblem (users, GBSs, m, radii in metres).
+    cand: the Candidates of ``problem`` (candidate_sites).
+    """
     pts = cand.points
     if len(pts) == 0:
         return np.zeros((0, 2))
@@ -426,6 +434,8 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
     ``continuous_bound`` (valid for the continuous problem: max coverage by m discs
     without overlap/backhaul constraints), ``global_optimal`` (objective equals the
     continuous bound), ``rounds``, ``model_stats``. ``message`` says which bound is which.
+
+    max_rounds: maximum lazy-cut rounds (count); reaching it ends the solve without a proof of optimality.
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")

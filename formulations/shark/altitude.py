@@ -18,6 +18,8 @@ def optimal_altitude(z_s, params: SharkParams = THESIS_TABLE_5_1) -> tuple[np.nd
     best altitude is that peak clipped to [lmin, le]; the better ball wins (ball 1 on a
     tie, as the thesis chooses plane 1). When no ball reaches the shark, eps* = 0 and the
     operator waits at lmin (thesis, case (d)).
+
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     """
     z = np.asarray(z_s, dtype=float)
     if not np.all(np.isfinite(z)):

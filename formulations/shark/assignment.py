@@ -70,7 +70,11 @@ def assignment_cost(cost, sharks, operator) -> tuple[float, float]:
 
 
 def build_assignment_model(cost, sharks):
-    """Build (only) the CP-SAT model for the selected sharks; returns (model, ``x[i][j]`` vars, Z)."""
+    """Build (only) the CP-SAT model for the selected sharks; returns (model, ``x[i][j]`` vars, Z).
+
+    cost: (n_operators, n_sharks) interception times (s); inf where impossible.
+    sharks: indices of the selected sharks (columns of ``cost``).
+    """
     c = _check_cost(cost)
     n = c.shape[0]
     sharks = np.asarray(sharks, int)
@@ -104,6 +108,9 @@ def solve_assignment(cost, *, shark_to_human=None, time_limit: float | None = 10
     shark_to_human: (s,) distances (m) to the nearest human; required when s > n to pick the
     n sharks closest to humans (thesis); ignored otherwise.
     Returns x = `Assignment`, objective = latest interception (s), bound = CP-SAT's bound on it.
+
+    time_limit: CP-SAT wall-clock limit (s), None: none.
+    workers: CP-SAT search workers (count).
     """
     c = _check_cost(cost)
     n, s = c.shape
@@ -136,6 +143,8 @@ def greedy_assignment(operators, sharks_pos, shark_to_human, cost) -> SolveResul
     """Baseline: sharks in order of distance to humans each take the nearest free operator.
 
     operators (n,3), sharks_pos (s,3) in m; cost as in `solve_assignment` (used only to score).
+
+    shark_to_human: (s,) distance of each shark to its nearest human (m); closer sharks choose first.
     """
     c = _check_cost(cost)
     O = np.asarray(operators, float)

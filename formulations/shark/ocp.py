@@ -50,6 +50,7 @@ class InterceptionPlan:
     t: np.ndarray
     operator: np.ndarray
     velocity: np.ndarray
+    """(N, 3) piecewise-constant operator velocities (m/s), one per interval."""
     T: float
     side: int = 0
 
@@ -118,6 +119,9 @@ def build_interception_nlp(params: SharkParams = THESIS_TABLE_5_1, *, N: int = 4
     x = [T, O_0..O_N (3 each), U_0..U_{N-1} (3 each)]; p = [t0] (known path) or
     [S0 (3), V0 (2)] (constant-velocity prediction). g layout: dynamics (3N), horizontal
     speed (N), clearance (2(N-1) nodes + 2N midpoints), terminal (3).
+
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
+    margin: clearance added to eps_o in the no-touch constraints (m).
     """
     if not isinstance(N, int) or N < 2:
         raise ValueError(f"N must be an int >= 2, got {N!r}")
@@ -293,6 +297,12 @@ def solve_interception(shark, operator0, params: SharkParams = THESIS_TABLE_5_1,
         sides of the path); when empty, two crude plans (one per side) are used.
     Returns the best result (objective = T in s, x = `InterceptionPlan`); info["tried"] lists
     (side, status, T) of every start; status FEASIBLE/NO_SOLUTION etc. if no start converged.
+
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
+    N: number of control intervals (count).
+    margin: clearance added to eps_o in the no-touch constraints (m).
+    t_max: upper bound on the interception time T (s).
+    time_limit: wall-clock limit per IPOPT solve (s), None: none.
     """
     if isinstance(shark, SharkTrajectory):
         ocp = InterceptionOCP(params, N=N, path=shark, margin=margin, t_max=t_max, time_limit=time_limit)

@@ -58,6 +58,10 @@ class MPCObserver(_PhasedController):
     rollout), apply the first command. A failed solve applies the sliding-mode command
     instead and is counted in ``fallbacks``. Within home_radius of D_s the drone flies
     straight home as in the sliding-mode Retreat.
+
+    settings: SlidingSettings of the phase logic and the fallback law (default: SlidingSettings()).
+    mpc: MPCSettings of the bearing MPC (default: MPCSettings()).
+    observer: MPCObserverSettings of the receding-horizon loop (default: MPCObserverSettings()).
     """
 
     def __init__(self, settings: SlidingSettings | None = None, mpc: Any = None,
@@ -327,6 +331,9 @@ class SafeguardedMPCObserver(MPCObserver):
     to V_max). ``arrival_deadline`` holds the deadline (s); ``choices`` lists the candidate
     executed at each replan ("mpc" / "sliding"); ``predicted_scores`` the (mpc, sliding) scores
     (rad).
+
+    settings, mpc, observer: as for MPCObserver.
+    safeguard: SafeguardSettings (default: SafeguardSettings()).
     """
 
     def __init__(self, settings: SlidingSettings | None = None, mpc: Any = None,

@@ -343,6 +343,9 @@ def rollout_sliding(phase: CovertPhase | str, D: Any, h: Any, targets: Any, para
     to-sphere -> on-sphere and retreat -> done switches; the switch to the retreat (a
     clock decision) is not made inside the rollout. Returns positions (K+1, 3) (m),
     headings (K+1, 3) and the phase used in each of the K periods.
+
+    params: problem parameters, CovertParams (Table 3.2).
+    settings: SlidingSettings (default: SlidingSettings()).
     """
     st = settings if settings is not None else SlidingSettings()
     p = params

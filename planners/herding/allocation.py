@@ -113,6 +113,9 @@ def allocate_collision_blind(drone_s, steer_s, perimeter: float) -> SolveResult:
     It is a relaxation of (6.21)-(6.23), so its objective is a lower bound on the
     collision-free optimum; ``info["crosses"]`` says whether its drones would pass
     each other (violating (6.22)-(6.23)).
+
+    drone_s, steer_s: drone and steering-point arc positions on the extended hull (m), in [0, perimeter).
+    perimeter: extended-hull perimeter M (m).
     """
     d, s, M = validate_allocation_input(drone_s, steer_s, perimeter)
     t0 = time.perf_counter()

@@ -15,7 +15,10 @@ __all__ = ["thesis_altitude"]
 
 
 def thesis_altitude(z_s, params: SharkParams = THESIS_TABLE_5_1) -> tuple[np.ndarray, np.ndarray]:
-    """(z_o*, eps*) of eqs. 5.6 and 5.7 for shark altitude(s) z_s (m, <= 0), verbatim."""
+    """(z_o*, eps*) of eqs. 5.6 and 5.7 for shark altitude(s) z_s (m, <= 0), verbatim.
+
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
+    """
     z = np.asarray(z_s, dtype=float)
     if not np.all(np.isfinite(z)):
         raise ValueError("z_s must be finite")

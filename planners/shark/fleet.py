@@ -18,6 +18,12 @@ def interception_time_matrix(operators, sharks_pos, sharks_vel, params: SharkPar
 
     Sharks are predicted at constant velocity. method: "virtual-shark" (capture time of the
     thesis algorithm) or "ocp" (time-optimal OCP, best of both sides).
+
+    operators: (n, 3) operator positions (m).
+    sharks_pos: (s, 3) shark positions (m).
+    sharks_vel: (s, 3) shark velocities (m/s).
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
+    t_max: prediction horizon (s); longer interceptions count as inf.
     """
     if method not in ("virtual-shark", "ocp"):
         raise ValueError(f"method must be 'virtual-shark' or 'ocp', got {method!r}")
@@ -52,6 +58,11 @@ def allocate_operators(operators, sharks_pos, sharks_vel, humans, params: SharkP
 
     humans: (m, 2 or 3) swimmer positions (m); a shark's priority is its horizontal distance
     to the nearest human (s > n: the n closest sharks are served, thesis §5.3.1).
+
+    sharks_pos: (s, 3) shark positions (m).
+    sharks_vel: (s, 3) shark velocities (m/s).
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
+    method: how interception times are predicted ("virtual-shark" or "ocp").
     """
     H = np.asarray(humans, float)
     Sp = np.asarray(sharks_pos, float).reshape(-1, 3)

@@ -22,6 +22,12 @@ def virtual_shark_plan(trajectory: SharkTrajectory, operator0, params: SharkPara
 
     Returns (plan or None if it never reached S2, the controller after the run; its
     ``capture_time`` is the virtual-shark interception time comparable with the OCP's T).
+
+    trajectory: the shark's known SharkTrajectory.
+    operator0: (3,) operator start (m).
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
+    side: +1 (left of the shark's heading) or -1 (right) to force the side of the approach,
+        None: the thesis rule (the operator's side).
     """
     vs = VirtualSharkInterceptor(params, side=side)
     tr = simulate(InterceptionScenario(trajectory, params, operator0), vs)
@@ -38,6 +44,12 @@ def optimal_interception(trajectory: SharkTrajectory, operator0, params: SharkPa
 
     Also tries the formulation's two crude starts; ``info["virtual_shark_T"]`` holds the thesis
     algorithm's capture time (s) with its own side rule.
+
+    trajectory: the shark's known SharkTrajectory.
+    operator0: (3,) operator start (m).
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
+    N: number of control intervals (count).
+    time_limit: wall-clock limit per IPOPT solve (s), None: none.
     """
     starts = []
     ref_plan, ref = virtual_shark_plan(trajectory, operator0, params)

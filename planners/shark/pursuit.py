@@ -49,6 +49,8 @@ class ClassicalPursuit:
         shark and never touches, while the thesis's Fig. 5.11 shows a contact).
     It has no notion of an interception point: ``at_interception`` is always True (any
     contact is the one it aims for), ``phase`` is ``SharkPhase.PURSUIT``.
+
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     """
 
     at_interception = True

@@ -38,6 +38,8 @@ class RepellingOperator:
     counts as "approaching" (m/s); safety_distance: distance at which the shark has left (m);
     base: (3,) return position (m); interceptor: "virtual-shark" or "ocp" (online OCP).
     ``mode`` is one of MODES; ``interceptions`` counts field contacts with its shark.
+
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     """
 
     def __init__(self, shark: int, params: SharkParams = THESIS_TABLE_5_1, *, T_w: float = 4.0,

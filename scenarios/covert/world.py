@@ -338,6 +338,9 @@ def random_case(n_targets: int, seed: int | np.random.Generator | None = None, *
     the zone, towards F), walk with a smoothly varying heading (Ornstein-Uhlenbeck
     turn rate) and turn back at the border of [LO, 195]^2 (LO = 80 m); each walks
     params.V_T * params.duration metres.
+
+    seed: int, numpy Generator or None (fresh entropy).
+    n_hills: number of Gaussian hills of the terrain (count).
     """
     n_targets = check_int("n_targets", n_targets, min_value=1, max_value=10_000)
     n_hills = check_int("n_hills", n_hills, min_value=0, max_value=10_000)

@@ -110,6 +110,8 @@ def field_radius(h, params: SharkParams = THESIS_TABLE_5_1) -> np.ndarray:
     """Radius eps(h) (m) of the field on the plane h metres below the operator (vectorised, eq. 5.2).
 
     0 where neither ball reaches the plane.
+
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     """
     if not isinstance(params, SharkParams):
         raise TypeError(f"params must be SharkParams, got {type(params).__name__}")
@@ -145,5 +147,9 @@ def inside_field(shark, operator, params: SharkParams = THESIS_TABLE_5_1) -> np.
 
 
 def touches(shark, operator, params: SharkParams = THESIS_TABLE_5_1) -> np.ndarray:
-    """True where the shark's snout (a point) is inside either ball of the field (DESIGN §4)."""
+    """True where the shark's snout (a point) is inside either ball of the field (DESIGN §4).
+
+    operator: (..., 3) operator positions (m).
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
+    """
     return inside_field(shark, operator, params) <= 0.0

@@ -82,6 +82,7 @@ class RepellingTrace:
     end_time: float
     seed: int | None = None
     info: dict = field(default_factory=dict)
+    """Extra per-episode data (e.g. per-operator counters)."""
 
 
 def simulate_repelling(sharks0, operators0, swimmers, controllers, params: SharkParams = THESIS_TABLE_5_1,
@@ -93,6 +94,10 @@ def simulate_repelling(sharks0, operators0, swimmers, controllers, params: Shark
     ``step(t, operator, sharks_pos, sharks_vel, swimmers, contact) -> velocity (3,)`` where
     contact is a bool array over sharks (this operator's field touched that shark in the last
     step). Stops when every shark has left, a swimmer is attacked, or at t_max (s).
+
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
+    behaviour: SharkBehaviour, the reacting-shark model (our choices).
+    seed: int, numpy Generator or None for the sharks' random reactions.
     """
     if not isinstance(params, SharkParams) or not isinstance(behaviour, SharkBehaviour):
         raise TypeError("params must be SharkParams and behaviour SharkBehaviour")

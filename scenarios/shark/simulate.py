@@ -164,7 +164,9 @@ class InterceptionTrace(LoopTrace):
     clipped_steps: int
     frontal_tol_deg: float = FRONTAL_TOL_DEG
     name: str = ""
+    """The shark path's label (SharkTrajectory.name)."""
     info: dict = field(default_factory=dict)
+    """Extra per-run data from the controller and simulator."""
 
     solve_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     """Per-solve times reported by the controller (s)."""
@@ -206,6 +208,9 @@ def operator_start(trajectory: SharkTrajectory, params: SharkParams = THESIS_TAB
     """Operator start: Di metres from the shark horizontally, at ``bearing_deg`` from its initial heading.
 
     bearing 0 = straight ahead, -90 = to the right of the shark (default DEFAULT_BEARING_DEG); altitude defaults to le.
+
+    trajectory: the shark's SharkTrajectory (its first sample is used).
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     """
     if not isinstance(trajectory, SharkTrajectory):
         raise TypeError(f"trajectory must be a SharkTrajectory, got {type(trajectory).__name__}")
@@ -233,6 +238,9 @@ def simulate(scenario: InterceptionScenario | SharkTrajectory, controller: Inter
     [lmin, le]; field contact is checked on ``substeps`` points per step (linear motion of
     both within a step). The run stops at the first contact or at ``t_max`` (s; default the
     path's duration).
+
+    frontal_tol_deg: tolerance (deg) on the shark's heading pointing at the operator at first
+        contact, for ``frontal``.
     """
     if isinstance(scenario, InterceptionScenario):
         if params is not None or operator0 is not None or bearing_deg is not None:

@@ -79,6 +79,9 @@ def make_trajectory(heading, speed, depth, *, duration: float = 40.0, dt: float 
     heading, speed, depth: each a function of time (vectorised over a numpy array of s) or
     a number (held constant). duration, dt: horizon and sampling step (s, > 0);
     start: (x, y) of the first sample (m).
+
+    name: a label for plots and tables.
+    seed: the seed the path was drawn with, recorded on the trajectory (None: not random).
     """
     duration = check_positive("duration", duration)
     dt = check_positive("dt", dt)
@@ -129,6 +132,9 @@ def thesis_trajectories(*, duration: float = 40.0, dt: float = THESIS_TABLE_5_1.
     a: flat, constant depth (-3 m) and speed; b: flat, varying depth, constant speed;
     c: curvy, constant depth, varying speed; d: curvy, varying depth and speed.
     Depths stay in [-4.2, -1.8] m where the optimal operator altitude is continuous.
+
+    duration: length of each path (s).
+    dt: sampling time (s).
     """
     c0 = lambda t: 0.0 * t  # noqa: E731
     return {
@@ -154,6 +160,11 @@ def random_trajectory(seed, *, duration: float = 40.0, dt: float = THESIS_TABLE_
     Heading: psi0 + two sinusoids (amplitudes <= 0.8 rad, frequencies 0.2-0.8 rad/s);
     speed: mean 4.5-6.0 m/s +- up to 0.5 m/s (always <= VsMxy); depth: mean -1.5..-6 m
     +- up to 1 m, kept <= -0.3 m, vertical speed <= VsMz.
+
+    seed: int, numpy Generator or None (fresh entropy).
+    duration: length of the path (s).
+    dt: sampling time (s).
+    params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     """
     check_bool("curvy", curvy)
     if not isinstance(params, SharkParams):
@@ -179,7 +190,12 @@ def random_trajectory(seed, *, duration: float = 40.0, dt: float = THESIS_TABLE_
 
 def constant_velocity_trajectory(pos, vel, *, duration: float = 40.0, dt: float = THESIS_TABLE_5_1.Ts,
                                  name: str = "const") -> SharkTrajectory:
-    """A straight path at constant velocity from ``pos`` (m) with ``vel`` (m/s)."""
+    """A straight path at constant velocity from ``pos`` (m) with ``vel`` (m/s).
+
+    duration: length of the path (s).
+    dt: sampling time (s).
+    name: a label for plots and tables.
+    """
     pos = check_array("pos", pos, shape=(3,))
     vel = check_array("vel", vel, shape=(3,))
     duration = check_positive("duration", duration)

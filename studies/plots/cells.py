@@ -26,6 +26,8 @@ def plot_map(
     solid when the drone-cell reaches a GBS, dashed red when it does not). ``ranges`` also draws
     the r1 circles around the GBSs. ax: a 2-D matplotlib axes, or None for a new figure.
     The view covers ``problem.bounds`` (or all users, GBSs and drone-cells).
+
+    title: axes title (None: a default title).
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")

@@ -27,6 +27,8 @@ def plot_state(
     run's frames, snapshots and final state; None: the final state), a :class:`HerdingFrame`,
     or a :class:`HerdingScenario` (its initial state). goal: G (2,) in m (default: the trace's or
     scenario's goal). Drones are drawn with their heading. ax: a 2-D axes or None. Axes in m.
+
+    title: axes title (None: a default title).
     """
     if isinstance(source, HerdingTrace):
         frame = source.final if t is None else _frame_at(source, float(t))
@@ -84,7 +86,12 @@ def plot_state(
 
 
 def plot_final(trace: HerdingTrace, *, ax: Any = None, title: str | None = None):
-    """The final state of a run (herd, drones, goal G); returns the figure (see :func:`plot_state`)."""
+    """The final state of a run (herd, drones, goal G); returns the figure (see :func:`plot_state`).
+
+    trace: the HerdingTrace of a run.
+    ax: matplotlib axes to draw on (None: a new figure).
+    title: axes title (None: a default title).
+    """
     if not isinstance(trace, HerdingTrace):
         raise TypeError(f"trace must be a HerdingTrace, got {type(trace).__name__}")
     return plot_state(trace, None, ax=ax, title=title)
@@ -95,6 +102,8 @@ def plot_footprint(traces: Any, *, R_c: float | None = None, ax: Any = None, tit
 
     traces: a :class:`HerdingTrace` or {label: HerdingTrace}; a dotted line marks each run's end
     of gathering; R_c (m) draws the gathering threshold. Returns the figure. ax: a 2-D axes or None.
+
+    title: axes title (None: a default title).
     """
     runs = as_trace_dict(traces, HerdingTrace)
     fig, ax = figure_axes(ax, figsize=(7, 4))

@@ -25,6 +25,8 @@ def plot_top_view(traces: Any, *, ax: Any = None, title: str | None = None):
     Draws the shark's path (from the longest run) with its start, each operator's path with its
     start, and at first contact the field's circle of radius eps on the shark's plane and the
     contact angle in the legend. ax: a 2-D axes or None for a new figure.
+
+    title: axes title (None: a default title).
     """
     runs = as_trace_dict(traces, InterceptionTrace)
     fig, ax = figure_axes(ax, figsize=(6.5, 5))
@@ -72,6 +74,8 @@ def plot_time_series(traces: Any, quantity: str = "clearance", *, ax: Any = None
     D_h - eps(h), m: the field touches the shark at 0), "altitude" (operator z_o and shark z_s,
     m) or "speed" (|v_o| and |v_s|, m/s). traces: an :class:`InterceptionTrace` or {label: trace}.
     Each run's contact time is marked with a dotted line. ax: a 2-D axes or None.
+
+    title: axes title (None: a default title).
     """
     if quantity not in _QUANTITIES:
         raise ValueError(f"quantity must be one of {sorted(_QUANTITIES)}, got {quantity!r}")
