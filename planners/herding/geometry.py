@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from droneplan.solvers.validation import check_array, check_positive
+from droneplan.solvers.validation import check_array, check_positive, check_real
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
@@ -36,7 +36,13 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
     return pts[[int(np.argmin(proj)), int(np.argmax(proj))]]
 
 
-def extended_hull_vertices(hull: np.ndarray, d_s: float) -> tuple[np.ndarray, np.ndarray]:
+MITRE_LIMIT = 2.0
+"""Largest distance of an extended-hull vertex from its animal, in units of d_s (a corner
+sharper than 60 degrees is cut there; 2 * d_s = 60 m stays within Table 6.2's R_b = 100 m)."""
+
+
+def extended_hull_vertices(hull: np.ndarray, d_s: float, *,
+                           mitre_limit: float = MITRE_LIMIT) -> tuple[np.ndarray, np.ndarray]:
     """Extended hull (Definition 6.3.1): the hull offset outward by ``d_s`` with mitred corners.
 
     hull: (h, 2) ccw convex-hull vertices, m; d_s: offset, m (> 0).
@@ -45,12 +51,20 @@ def extended_hull_vertices(hull: np.ndarray, d_s: float) -> tuple[np.ndarray, np
     n_i) / (1 + n_{i-1}.n_i)`` with n_i the outward unit normal of edge P_i P_{i+1}:
     the intersection of the two offset edge lines, so n_e = h and every edge is
     parallel to its hull edge at distance d_s (the same polygon as shapely's mitre
-    buffer with an unlimited mitre). Degenerate hulls (our rule, which the thesis
+    buffer with an unlimited mitre) -- except at corners sharper than the mitre limit:
+    there the mitre would run off far beyond the herd (a thin, nearly collinear herd has
+    hairpin corners whose mitre is hundreds of metres long, and drones sent there bark at
+    nothing: issue 12 item 7), so E_i is put on the corner's outward bisector at
+    ``mitre_limit * d_s`` from P_i (our rule; the thesis does not cover it). mitre_limit >= 1
+    (inf: the unlimited mitre of Definition 6.3.1). Degenerate hulls (our rule, which the thesis
     does not cover): a point becomes the square of half-side d_s around it (its four
     corners correspond to the point), a segment the rectangle d_s around it with
     square caps (corners correspond to the nearer end).
     """
     d_s = check_positive("d_s", d_s)
+    mitre_limit = check_real("mitre_limit", mitre_limit, finite=False)
+    if not mitre_limit >= 1:
+        raise ValueError(f"mitre_limit must be >= 1, got {mitre_limit}")
     P = check_array("hull", hull, shape=(None, 2), min_rows=1)
     h = P.shape[0]
     if h == 1:
@@ -63,10 +77,17 @@ def extended_hull_vertices(hull: np.ndarray, d_s: float) -> tuple[np.ndarray, np
         E = np.array([P[0] - d_s * (u + nrm), P[1] + d_s * (u - nrm), P[1] + d_s * (u + nrm), P[0] + d_s * (nrm - u)])
         return E, P[[0, 1, 1, 0]]
     e = np.roll(P, -1, axis=0) - P
-    n = np.column_stack([e[:, 1], -e[:, 0]]) / np.linalg.norm(e, axis=1)[:, None]
+    e_hat = e / np.linalg.norm(e, axis=1)[:, None]
+    n = np.column_stack([e_hat[:, 1], -e_hat[:, 0]])
     n_prev = np.roll(n, 1, axis=0)
-    denom = 1.0 + np.sum(n_prev * n, axis=1)
-    E = P + d_s * (n_prev + n) / denom[:, None]
+    # outward bisector (incoming minus outgoing edge direction: defined at hairpins too)
+    bisector = np.roll(e_hat, 1, axis=0) - e_hat
+    bisector /= np.linalg.norm(bisector, axis=1)[:, None]
+    cos_half = np.sqrt(np.clip((1.0 + np.sum(n_prev * n, axis=1)) / 2.0, 0.0, 1.0))
+    # mitre length d_s / cos(half the turn); capped at mitre_limit * d_s (our rule for sharp
+    # corners of thin herds, where the mitre runs off beyond any barking range)
+    reach = d_s * np.minimum(1.0 / np.maximum(cos_half, 1e-12), mitre_limit)
+    E = P + reach[:, None] * bisector
     return E, P.copy()
 
 
@@ -82,9 +103,9 @@ class ExtendedHull:
     """(n_e + 1,) arc length of each vertex from E_0; cum[-1] = perimeter, m."""
 
     @classmethod
-    def from_points(cls, animals: np.ndarray, d_s: float) -> "ExtendedHull":
-        """Extended hull of a herd (n, 2) at offset d_s (m)."""
-        E, P = extended_hull_vertices(convex_hull(animals), d_s)
+    def from_points(cls, animals: np.ndarray, d_s: float, *, mitre_limit: float = MITRE_LIMIT) -> "ExtendedHull":
+        """Extended hull of a herd (n, 2) at offset d_s (m); mitre_limit: see :func:`extended_hull_vertices`."""
+        E, P = extended_hull_vertices(convex_hull(animals), d_s, mitre_limit=mitre_limit)
         return cls.from_vertices(E, P)
 
     @classmethod
