@@ -46,6 +46,7 @@ from droneplan.scenarios.covert import CovertParams
 from droneplan.solvers.nlp import IpoptSolver
 from droneplan.solvers.qp import OsqpSolver
 from droneplan.solvers.result import SolveResult, Status
+from droneplan.solvers.validation import check_array, check_instance, check_int, check_nonneg, check_positive
 
 __all__ = [
     "MPCSettings",
@@ -93,20 +94,12 @@ class MPCSettings:
     """QPs per control step in the SQP variant (count; 1: real-time iteration)."""
 
     def __post_init__(self) -> None:
-        if isinstance(self.horizon, bool) or not isinstance(self.horizon, int) or self.horizon < 1:
-            raise ValueError(f"horizon must be an int >= 1, got {self.horizon!r}")
+        for name in ("horizon", "replan_every", "max_iter", "cold_max_iter", "sqp_iters"):
+            check_int(name, getattr(self, name), min_value=1, max_value=1_000_000)
         for name in ("step", "prox"):
-            v = getattr(self, name)
-            if not math.isfinite(v) or v <= 0:
-                raise ValueError(f"{name} must be > 0, got {v}")
+            check_positive(name, getattr(self, name))
         for name in ("stage_weight", "smooth_weight"):
-            v = getattr(self, name)
-            if not math.isfinite(v) or v < 0:
-                raise ValueError(f"{name} must be >= 0, got {v}")
-        if isinstance(self.replan_every, bool) or not isinstance(self.replan_every, int) or self.replan_every < 1:
-            raise ValueError(f"replan_every must be an int >= 1, got {self.replan_every!r}")
-        if self.max_iter < 1 or self.cold_max_iter < 1 or self.sqp_iters < 1:
-            raise ValueError("max_iter, cold_max_iter and sqp_iters must be >= 1")
+            check_nonneg(name, getattr(self, name))
 
 
 @dataclass(frozen=True)
@@ -269,6 +262,8 @@ def build_bearing_mpc(params: CovertParams, n_targets: int, settings: MPCSetting
     params: problem parameters, CovertParams (Table 3.2).
     settings: MPCSettings (default: MPCSettings()).
     """
+    check_instance("params", params, CovertParams)
+    check_instance("settings", settings, MPCSettings, optional=True)
     st = settings if settings is not None else MPCSettings()
     if isinstance(n_targets, bool) or not isinstance(n_targets, (int, np.integer)) or n_targets < 0:
         raise ValueError(f"n_targets must be an int >= 0, got {n_targets!r}")
@@ -555,9 +550,8 @@ def sphere_minmax_bearing(params: CovertParams, targets: Any, *, tol: float = ma
 
     params: problem parameters, CovertParams (F, R, L_u in metres).
     """
-    A = np.asarray(targets, dtype=float).reshape(-1, 3)
-    if A.shape[0] == 0 or not np.isfinite(A).all():
-        raise ValueError("targets must be a non-empty finite (n, 3) array")
+    check_instance("params", params, CovertParams)
+    A = check_array("targets", targets, shape=(None, 3), min_rows=1)
     from droneplan.scenarios.covert import bearing_changes
 
     t0 = time.perf_counter()

@@ -75,9 +75,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 from ortools.sat.python import cp_model
 
-from droneplan.solvers.validation import check_array, check_positive
 from droneplan.solvers.cpsat import solve_cpsat
 from droneplan.solvers.result import SolveResult, Status
+from droneplan.solvers.validation import check_array, check_instance, check_positive
 
 METHODS = ("exact", "cp-sat")
 
@@ -178,6 +178,8 @@ def check_allocation(drone_s, steer_s, perimeter, allocation: Allocation, *, tol
     perimeter: extended-hull perimeter M (m).
     tol: tolerance of the order checks (m).
     """
+    drone_s, steer_s, perimeter = validate_allocation_input(drone_s, steer_s, perimeter)
+    check_instance("allocation", allocation, Allocation)
     d = np.asarray(drone_s, dtype=float)
     pts = np.asarray(allocation.points, dtype=float)
     n, M = d.size, float(perimeter)

@@ -74,7 +74,7 @@ class GASettings:
 
 def thesis_ga_settings(m: int) -> tuple[int, int]:
     """(population size, restarts) of thesis Table 4.3 for m drone-cells (m > 4: the m = 4 row)."""
-    row = THESIS_TABLE_4_3[min(max(int(m), 1), 4)]
+    row = THESIS_TABLE_4_3[min(check_int("m", m, min_value=1), 4)]
     return int(row[3]), int(row[4])
 
 

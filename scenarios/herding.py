@@ -56,9 +56,9 @@ from droneplan.solvers.validation import (
     check_array,
     check_in_range,
     check_int,
+    check_methods,
     check_nonneg,
     check_positive,
-    check_methods,
     check_size,
     resolve_seed,
 )
@@ -402,6 +402,7 @@ def footprint_radius(animals: np.ndarray) -> float:
 
     animals: (n, 2) animal positions (m).
     """
+    animals = check_array("animals", animals, shape=(None, 2), min_rows=1)
     c = animals.mean(axis=0)
     return float(np.sqrt(np.max(np.sum((animals - c) ** 2, axis=1))))
 

@@ -33,6 +33,7 @@ __all__ = [
     "check_size",
     "check_time_limit",
     "check_methods",
+    "check_instance",
     "resolve_seed",
     "as_generator",
 ]
@@ -163,6 +164,17 @@ def check_methods(name: str, obj: Any, methods: Sequence[str]) -> None:
     if missing:
         raise TypeError(f"{name} must provide {', '.join(methods)}(); {type(obj).__name__} lacks "
                         f"{', '.join(missing)}")
+
+
+def check_instance(name: str, value: Any, cls: type | tuple[type, ...], *, optional: bool = False) -> Any:
+    """``value`` itself; TypeError naming ``name`` unless it is an instance of ``cls``
+    (or None when ``optional``)."""
+    if optional and value is None:
+        return value
+    if not isinstance(value, cls):
+        wanted = cls.__name__ if isinstance(cls, type) else " or ".join(c.__name__ for c in cls)
+        raise TypeError(f"{name} must be {wanted}{' or None' if optional else ''}, got {type(value).__name__}")
+    return value
 
 
 def resolve_seed(seed: Any, name: str = "seed") -> tuple[np.random.Generator, int | None]:

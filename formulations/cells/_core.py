@@ -8,6 +8,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from droneplan.scenarios.cells import CellProblem
+from droneplan.solvers.validation import check_array, check_instance
 
 TOL = 1e-6
 """Absolute geometric tolerance (m): a user at distance <= R_d + TOL is covered, a
@@ -34,19 +35,13 @@ class Evaluation:
 
 def as_positions(problem: CellProblem, positions) -> np.ndarray:
     """Validate and return drone-cell positions as a float (k, 2) array, 0 <= k <= n_cells."""
-    try:
-        p = np.array(positions, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError("positions must be an array of shape (k, 2) of numbers") from exc
+    check_instance("problem", problem, CellProblem)
+    p = check_array("positions", positions)
     if p.size == 0:
         p = p.reshape(0, 2)
     if p.ndim == 1 and p.shape[0] == 2:
         p = p.reshape(1, 2)
-    if p.ndim != 2 or p.shape[1] != 2:
-        raise ValueError(f"positions must have shape (k, 2), got {p.shape}")
-    if not np.all(np.isfinite(p)):
-        raise ValueError("positions must contain only finite coordinates")
-    return p
+    return check_array("positions", p, shape=(None, 2))
 
 
 def _dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -61,6 +56,8 @@ def connected_mask(problem: CellProblem, positions: np.ndarray, usable: np.ndarr
     positions: (k, 2) drone-cell positions (m).
     usable: (k,) bool, drone-cells allowed to relay (default: all).
     """
+    check_instance("problem", problem, CellProblem)
+    positions = as_positions(problem, positions)
     k = len(positions)
     if k == 0:
         return np.zeros(0, dtype=bool)
@@ -227,6 +224,7 @@ def candidate_sites(problem: CellProblem, extra=None) -> Candidates:
 
     problem: the CellProblem (users, GBSs, m, radii in metres).
     """
+    check_instance("problem", problem, CellProblem)
     pts = raw_candidate_points(problem)
     if extra is not None:
         ex = as_positions(problem, extra)

@@ -55,13 +55,21 @@ import numpy as np
 from ortools.sat.python import cp_model
 from scipy.spatial import cKDTree
 
-from droneplan.formulations.cells._core import (TOL, Candidates, as_positions, candidate_sites, coverage_lists, evaluate,
-                                      merge_points, pair_intersections)
+from droneplan.formulations.cells._core import (
+    TOL,
+    Candidates,
+    as_positions,
+    candidate_sites,
+    coverage_lists,
+    evaluate,
+    merge_points,
+    pair_intersections,
+)
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.cpsat import solve_cpsat
 from droneplan.solvers.mip import new_mip, solve_mip
-from droneplan.solvers.validation import check_time_limit
 from droneplan.solvers.result import SolveResult, Status
+from droneplan.solvers.validation import check_instance, check_time_limit
 
 BACKENDS = ("cp-sat", "highs", "scip")
 """Backend names ``solve_milp(backend=...)`` accepts (CP-SAT, and HiGHS/SCIP through OR-Tools)."""
@@ -108,6 +116,8 @@ def coverage_upper_bound(problem: CellProblem, n_discs: int | None = None, *, ba
     backend: linear backend name ("highs", "cp-sat", "scip").
     time_limit: wall-clock limit of the bound's solve (s), None: none.
     """
+    check_instance("problem", problem, CellProblem)
+    time_limit = check_time_limit(time_limit)
     m = problem.n_cells if n_discs is None else int(n_discs)
     t0 = time.perf_counter()
     t = problem.targets
@@ -162,6 +172,7 @@ def greedy_placement(problem: CellProblem, cand: Candidates) -> np.ndarray:
     problem: the CellProblem (users, GBSs, m, radii in metres).
     cand: the Candidates of ``problem`` (candidate_sites).
     """
+    check_instance("problem", problem, CellProblem)
     pts = cand.points
     if len(pts) == 0:
         return np.zeros((0, 2))
@@ -303,6 +314,7 @@ def build_milp(problem: CellProblem, *, backend: str = "cp-sat", candidates: Can
     pair_limit: write conflicting pairs not covered by the grid cliques explicitly when
         there are at most this many; otherwise they are left to lazy clique cuts.
     """
+    check_instance("problem", problem, CellProblem)
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
     cand = candidate_sites(problem) if candidates is None else candidates

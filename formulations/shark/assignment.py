@@ -22,6 +22,7 @@ from ortools.sat.python import cp_model
 
 from droneplan.solvers.cpsat import solve_cpsat
 from droneplan.solvers.result import SolveResult, Status
+from droneplan.solvers.validation import check_array
 
 __all__ = ["Assignment", "select_sharks", "build_assignment_model", "solve_assignment", "greedy_assignment",
            "assignment_cost"]
@@ -40,7 +41,7 @@ class Assignment:
 
 
 def _check_cost(cost) -> np.ndarray:
-    c = np.asarray(cost, dtype=float)
+    c = check_array("cost", cost, finite=False)
     if c.ndim != 2 or c.size == 0:
         raise ValueError("cost must be a non-empty (n_operators, n_sharks) matrix")
     if np.isnan(c).any() or (c < 0).any():
@@ -147,8 +148,8 @@ def greedy_assignment(operators, sharks_pos, shark_to_human, cost) -> SolveResul
     shark_to_human: (s,) distance of each shark to its nearest human (m); closer sharks choose first.
     """
     c = _check_cost(cost)
-    O = np.asarray(operators, float)
-    Sp = np.asarray(sharks_pos, float)
+    O = check_array("operators", operators, shape=(None, 3))
+    Sp = check_array("sharks_pos", sharks_pos, shape=(None, 3))
     n = len(O)
     sel = select_sharks(shark_to_human, n) if len(Sp) > n else np.arange(len(Sp))
     order = sel[np.argsort(np.asarray(shark_to_human, float)[sel], kind="stable")]

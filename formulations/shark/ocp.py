@@ -32,6 +32,7 @@ import numpy as np
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
 from droneplan.solvers.nlp import IpoptSolver
 from droneplan.solvers.result import SolveResult, Status
+from droneplan.solvers.validation import check_array, check_instance, check_int, check_nonneg, check_positive
 
 __all__ = ["InterceptionPlan", "InterceptionOCP", "build_interception_nlp", "solve_interception",
            "casadi_optimal_altitude"]
@@ -123,10 +124,10 @@ def build_interception_nlp(params: SharkParams = THESIS_TABLE_5_1, *, N: int = 4
     params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     margin: clearance added to eps_o in the no-touch constraints (m).
     """
-    if not isinstance(N, int) or N < 2:
-        raise ValueError(f"N must be an int >= 2, got {N!r}")
-    if not (math.isfinite(margin) and margin >= 0):
-        raise ValueError(f"margin must be finite and >= 0, got {margin}")
+    check_instance("params", params, SharkParams)
+    check_instance("path", path, SharkTrajectory, optional=True)
+    check_int("N", N, min_value=2, max_value=100_000)
+    check_nonneg("margin", margin)
     S, V, n_p, Sym = _path_functions(path)
     T = Sym.sym("T")
     O = Sym.sym("O", 3, N + 1)
@@ -172,8 +173,8 @@ class InterceptionOCP:
     def __init__(self, params: SharkParams = THESIS_TABLE_5_1, *, N: int = 40,
                  path: SharkTrajectory | None = None, margin: float = 0.05, t_max: float = 30.0,
                  time_limit: float | None = None, max_iter: int = 300):
-        if not (math.isfinite(t_max) and t_max > 0):
-            raise ValueError(f"t_max must be finite and > 0, got {t_max}")
+        check_instance("params", params, SharkParams)
+        check_positive("t_max", t_max)
         self.params, self.N, self.path, self.t_max = params, N, path, t_max
         built = build_interception_nlp(params, N=N, path=path, margin=margin)
         self.layout = built
@@ -304,6 +305,8 @@ def solve_interception(shark, operator0, params: SharkParams = THESIS_TABLE_5_1,
     t_max: upper bound on the interception time T (s).
     time_limit: wall-clock limit per IPOPT solve (s), None: none.
     """
+    check_instance("params", params, SharkParams)
+    operator0 = check_array("operator0", operator0, shape=(3,))
     if isinstance(shark, SharkTrajectory):
         ocp = InterceptionOCP(params, N=N, path=shark, margin=margin, t_max=t_max, time_limit=time_limit)
         state = None

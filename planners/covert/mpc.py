@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from droneplan.solvers.validation import check_in_range, check_int, check_nonneg, check_positive
 from droneplan.planners.covert.sliding import (DONE, ON_SPHERE, RETREAT, TO_SPHERE, SlidingSettings, _PhasedController,
                                      rollout_sliding, sliding_steering, turn_command)
 from droneplan.scenarios.covert import CovertCommand, CovertObservation, CovertScenario, bearing_changes, rotate_heading
@@ -43,10 +44,9 @@ class MPCObserverSettings:
     def __post_init__(self) -> None:
         if self.backend not in ("ipopt", "osqp"):
             raise ValueError(f"backend must be 'ipopt' or 'osqp', got {self.backend!r}")
-        if not (0 < self.progress <= 1):
-            raise ValueError(f"progress must be in (0, 1], got {self.progress}")
-        if self.window < 2:
-            raise ValueError(f"window must be >= 2, got {self.window}")
+        check_in_range("progress", self.progress, 0.0, 1.0, lo_open=True)
+        check_int("window", self.window, min_value=2)
+        check_nonneg("idle_speed", self.idle_speed)
 
 
 class MPCObserver(_PhasedController):
@@ -297,16 +297,12 @@ class SafeguardSettings:
     arrive in time at that radial speed."""
 
     def __post_init__(self) -> None:
-        tol = self.arrival_tolerance
-        if tol is not None and (not math.isfinite(tol) or tol < 0):
-            raise ValueError(f"arrival_tolerance must be >= 0 or None, got {tol}")
-        sh = self.score_horizon
-        if sh is not None and (not math.isfinite(sh) or sh <= 0):
-            raise ValueError(f"score_horizon must be > 0 or None, got {sh}")
-        if not math.isfinite(self.margin) or self.margin < 0:
-            raise ValueError(f"margin must be >= 0, got {self.margin}")
-        if not (0 < self.envelope_speed <= 1):
-            raise ValueError(f"envelope_speed must be in (0, 1], got {self.envelope_speed}")
+        if self.arrival_tolerance is not None:
+            check_nonneg("arrival_tolerance", self.arrival_tolerance)
+        if self.score_horizon is not None:
+            check_positive("score_horizon", self.score_horizon)
+        check_nonneg("margin", self.margin)
+        check_in_range("envelope_speed", self.envelope_speed, 0.0, 1.0, lo_open=True)
 
 
 class SafeguardedMPCObserver(MPCObserver):

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from droneplan.solvers.validation import check_in_range, check_nonneg, check_positive
 from droneplan.scenarios.covert import (CovertCommand, CovertObservation, CovertParams, CovertPhase, CovertScenario,
                                         bearing_changes, nearest_on_line, step_drone)
 
@@ -115,13 +116,9 @@ class SlidingSettings:
 
     def __post_init__(self) -> None:
         for name in ("eps_line", "cos_sat", "home_radius", "arrival_tol", "delta_beta"):
-            val = getattr(self, name)
-            if not math.isfinite(val) or val <= 0:
-                raise ValueError(f"{name} must be > 0, got {val}")
-        if self.cos_sat > 1:
-            raise ValueError(f"cos_sat must be <= 1, got {self.cos_sat}")
-        if not math.isfinite(self.return_margin) or self.return_margin < 0:
-            raise ValueError(f"return_margin must be >= 0, got {self.return_margin}")
+            check_positive(name, getattr(self, name))
+        check_in_range("cos_sat", self.cos_sat, hi=1.0)
+        check_nonneg("return_margin", self.return_margin)
 
 
 # --------------------------------------------------------------------------- the laws

@@ -36,10 +36,15 @@ import numpy as np
 
 from droneplan.formulations.herding import solve_allocation
 from droneplan.planners.herding.allocation import allocate_bruteforce, allocate_collision_blind, crosses
-from droneplan.planners.herding.geometry import ExtendedHull, convex_hull, extended_hull_vertices, min_enclosing_circle
+from droneplan.planners.herding.geometry import (
+    ExtendedHull,
+    convex_hull,
+    extended_hull_vertices,
+    min_enclosing_circle,
+)
 from droneplan.planners.herding.guidance import fly_on_edge, fly_to_edge, steer
 from droneplan.scenarios.herding import HerdingCommand, HerdingObservation, HerdingPhase
-from droneplan.solvers.validation import check_array, check_int, check_positive
+from droneplan.solvers.validation import check_array, check_instance, check_int, check_positive
 
 ALLOCATORS = ("exact", "cp-sat", "bruteforce", "collision-blind")
 
@@ -93,7 +98,7 @@ class _Herder(abc.ABC):
     name = "herder"
 
     def __init__(self, settings: HerderSettings | None = None):
-        self.settings = settings or HerderSettings()
+        self.settings = check_instance("settings", settings, HerderSettings, optional=True) or HerderSettings()
         self.phase = HerdingPhase.GATHERING
 
     # -- the closed-loop contract

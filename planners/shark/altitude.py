@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, field_radius
+from droneplan.solvers.validation import check_array, check_instance
 
 __all__ = ["thesis_altitude"]
 
@@ -19,9 +20,8 @@ def thesis_altitude(z_s, params: SharkParams = THESIS_TABLE_5_1) -> tuple[np.nda
 
     params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     """
-    z = np.asarray(z_s, dtype=float)
-    if not np.all(np.isfinite(z)):
-        raise ValueError("z_s must be finite")
+    check_instance("params", params, SharkParams)
+    z = check_array("z_s", z_s)
     if np.any(z > 0):
         raise ValueError("z_s must be <= 0 (the shark is under the sea surface)")
     p = params

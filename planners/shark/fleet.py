@@ -8,6 +8,7 @@ from droneplan.formulations.shark import greedy_assignment, solve_assignment, so
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, InterceptionScenario, SharkParams, constant_velocity_trajectory, simulate
 from droneplan.solvers.result import SolveResult
+from droneplan.solvers.validation import check_array, check_instance, check_positive
 
 __all__ = ["interception_time_matrix", "allocate_operators"]
 
@@ -27,9 +28,11 @@ def interception_time_matrix(operators, sharks_pos, sharks_vel, params: SharkPar
     """
     if method not in ("virtual-shark", "ocp"):
         raise ValueError(f"method must be 'virtual-shark' or 'ocp', got {method!r}")
-    O = np.asarray(operators, float).reshape(-1, 3)
-    Sp = np.asarray(sharks_pos, float).reshape(-1, 3)
-    Sv = np.asarray(sharks_vel, float).reshape(-1, 3)
+    check_instance("params", params, SharkParams)
+    O = check_array("operators", operators, shape=(None, 3))
+    Sp = check_array("sharks_pos", sharks_pos, shape=(None, 3))
+    Sv = check_array("sharks_vel", sharks_vel, shape=(None, 3))
+    t_max = check_positive("t_max", t_max)
     if len(Sp) != len(Sv):
         raise ValueError("sharks_pos and sharks_vel must have the same length")
     C = np.full((len(O), len(Sp)), np.inf)
@@ -64,8 +67,11 @@ def allocate_operators(operators, sharks_pos, sharks_vel, humans, params: SharkP
     params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     method: how interception times are predicted ("virtual-shark" or "ocp").
     """
-    H = np.asarray(humans, float)
-    Sp = np.asarray(sharks_pos, float).reshape(-1, 3)
+    check_instance("params", params, SharkParams)
+    check_array("operators", operators, shape=(None, 3))
+    check_array("sharks_vel", sharks_vel, shape=(None, 3))
+    H = check_array("humans", humans)
+    Sp = check_array("sharks_pos", sharks_pos, shape=(None, 3))
     if H.ndim != 2 or len(H) == 0:
         raise ValueError("humans must be a non-empty (m, 2|3) array")
     d = np.min(np.linalg.norm(Sp[:, None, :2] - H[None, :, :2], axis=2), axis=1)

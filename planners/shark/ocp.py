@@ -12,6 +12,7 @@ from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
 from droneplan.scenarios.shark import (THESIS_TABLE_5_1, InterceptionScenario, SharkCommand, SharkObservation, SharkParams,
                                       SharkPhase, SharkTrajectory, clip_velocity, simulate)
 from droneplan.solvers.result import SolveResult, Status
+from droneplan.solvers.validation import check_array, check_instance, check_positive
 
 __all__ = ["virtual_shark_plan", "optimal_interception", "OCPInterceptor"]
 
@@ -29,6 +30,9 @@ def virtual_shark_plan(trajectory: SharkTrajectory, operator0, params: SharkPara
     side: +1 (left of the shark's heading) or -1 (right) to force the side of the approach,
         None: the thesis rule (the operator's side).
     """
+    check_instance("trajectory", trajectory, SharkTrajectory)
+    check_instance("params", params, SharkParams)
+    operator0 = check_array("operator0", operator0, shape=(3,))
     vs = VirtualSharkInterceptor(params, side=side)
     tr = simulate(InterceptionScenario(trajectory, params, operator0), vs)
     if vs.capture_time is None:
@@ -51,6 +55,9 @@ def optimal_interception(trajectory: SharkTrajectory, operator0, params: SharkPa
     N: number of control intervals (count).
     time_limit: wall-clock limit per IPOPT solve (s), None: none.
     """
+    check_instance("trajectory", trajectory, SharkTrajectory)
+    check_instance("params", params, SharkParams)
+    operator0 = check_array("operator0", operator0, shape=(3,))
     starts = []
     ref_plan, ref = virtual_shark_plan(trajectory, operator0, params)
     for side in (1, -1):
@@ -84,8 +91,8 @@ class OCPInterceptor:
     def __init__(self, params: SharkParams = THESIS_TABLE_5_1, *, N: int = 20,
                  path: SharkTrajectory | None = None, margin: float = 0.05, time_limit: float | None = None,
                  max_iter: int = 300, hold_timeout: float = 1.0):
-        if not (math.isfinite(hold_timeout) and hold_timeout > 0):
-            raise ValueError("hold_timeout must be > 0")
+        check_instance("params", params, SharkParams)
+        check_positive("hold_timeout", hold_timeout)
         self.params, self.N, self.path, self.margin = params, N, path, margin
         self.time_limit = time_limit
         self.hold_timeout = hold_timeout

@@ -31,6 +31,7 @@ import math
 
 import numpy as np
 
+from droneplan.solvers.validation import check_instance, check_positive
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark.altitude import thesis_altitude
 from droneplan.scenarios.shark import (THESIS_TABLE_5_1, InterceptionScenario, SharkCommand, SharkObservation, SharkParams,
@@ -57,6 +58,7 @@ class ClassicalPursuit:
     phase = SharkPhase.PURSUIT
 
     def __init__(self, params: SharkParams = THESIS_TABLE_5_1, *, aim: str = "above"):
+        check_instance("params", params, SharkParams)
         if aim not in ("above", "shark"):
             raise ValueError(f"aim must be 'above' or 'shark', got {aim!r}")
         self.params = params
@@ -106,10 +108,9 @@ class VirtualSharkInterceptor:
             raise ValueError(f"altitude must be 'exact' or 'thesis', got {altitude!r}")
         if side not in (None, 1, -1):
             raise ValueError(f"side must be None, +1 or -1, got {side!r}")
-        if not (math.isfinite(speed_eps) and speed_eps > 0):
-            raise ValueError("speed_eps must be > 0")
-        if not (math.isfinite(hold_timeout) and hold_timeout > 0):
-            raise ValueError("hold_timeout must be > 0")
+        check_instance("params", params, SharkParams)
+        check_positive("speed_eps", speed_eps)
+        check_positive("hold_timeout", hold_timeout)
         self.params = params
         self.altitude = altitude
         self.side = side

@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from droneplan.solvers.validation import check_array, check_instance, check_int, check_nonneg
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark.ocp import OCPInterceptor
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
@@ -49,8 +50,10 @@ class RepellingOperator:
         for name, v in dict(T_w=T_w, follow_distance=follow_distance, alert_radius=alert_radius,
                             cover_distance=cover_distance, closing_speed=closing_speed,
                             safety_distance=safety_distance).items():
-            if not math.isfinite(v) or v < 0:
-                raise ValueError(f"{name} must be finite and >= 0, got {v}")
+            check_nonneg(name, v)
+        check_int("shark", shark, min_value=0)
+        check_instance("params", params, SharkParams)
+        check_array("base", base, shape=(3,))
         if interceptor not in ("virtual-shark", "ocp"):
             raise ValueError(f"interceptor must be 'virtual-shark' or 'ocp', got {interceptor!r}")
         self.shark, self.params, self.T_w = int(shark), params, T_w

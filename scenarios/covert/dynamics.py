@@ -37,9 +37,9 @@ def bearing_changes(drone: Any, targets: Any, R: Any) -> np.ndarray:
     between a_j = A_j - D and a_j - r = A_j - R (computed with atan2, stable near 0 and pi).
     Raises ValueError when a target coincides with R or with the drone, or on non-finite input.
     """
-    D = np.asarray(drone, dtype=float)
-    A = np.asarray(targets, dtype=float)
-    Rv = np.asarray(R, dtype=float)
+    D = check_array("drone", drone)
+    A = check_array("targets", targets)
+    Rv = check_array("R", R, shape=(3,))
     if D.shape[-1:] != (3,) or A.shape[-1:] != (3,) or Rv.shape != (3,):
         raise ValueError(f"drone (...,3), targets (...,n,3), R (3,) expected; got {D.shape}, {A.shape}, {Rv.shape}")
     if not (np.isfinite(D).all() and np.isfinite(A).all() and np.isfinite(Rv).all()):

@@ -19,7 +19,7 @@ import numpy as np
 
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, inside_field
 from droneplan.scenarios.shark.simulate import clip_velocity
-from droneplan.solvers.validation import as_generator, check_real
+from droneplan.solvers.validation import as_generator, check_positive, check_real
 
 __all__ = ["SharkBehaviour", "RepellingTrace", "simulate_repelling"]
 
@@ -99,6 +99,7 @@ def simulate_repelling(sharks0, operators0, swimmers, controllers, params: Shark
     behaviour: SharkBehaviour, the reacting-shark model (our choices).
     seed: int, numpy Generator or None for the sharks' random reactions.
     """
+    t_max = check_positive("t_max", t_max)
     if not isinstance(params, SharkParams) or not isinstance(behaviour, SharkBehaviour):
         raise TypeError("params must be SharkParams and behaviour SharkBehaviour")
     g = as_generator(seed)

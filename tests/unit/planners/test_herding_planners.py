@@ -5,12 +5,13 @@ import math
 import numpy as np
 import pytest
 import shapely
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from droneplan.formulations.herding import solve_allocation, z_coordinates
 from droneplan.planners.herding import (
-    F,
     ExtendedHull,
+    F,
     HerderSettings,
     allocate_collision_blind,
     convex_hull,
