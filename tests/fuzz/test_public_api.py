@@ -341,8 +341,8 @@ def test_geometry_on_random_herds_is_finite_and_encloses(pts):
 
 
 @settings(max_examples=30, deadline=None)
-@given(st.lists(st.floats(0.0, 99.0), min_size=1, max_size=6), st.lists(st.floats(0.0, 99.0), min_size=1,
-                                                                         max_size=6))
+@given(st.lists(st.integers(0, 990).map(lambda k: k / 10), min_size=1, max_size=6),
+       st.lists(st.integers(0, 990).map(lambda k: k / 10), min_size=1, max_size=6))
 def test_allocation_on_random_positions_has_a_valid_status(drones, steer):
     steer = steer[:len(drones)]
     res = dp.herding.solve_allocation(drones, steer, 100.0)
