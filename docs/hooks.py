@@ -63,15 +63,7 @@ def report_files(directory: Path) -> list[Path]:
 def on_files(files, config):
     directory = report_dir()
     for rel in report_files(directory):
-        files.append(
-            File(
-                path=str(rel),
-                src_dir=str(directory),
-                dest_dir=str(Path(config["site_dir"]) / "report"),
-                use_directory_urls=False,
-                dest_uri=f"report/{rel.as_posix()}",
-            )
-        )
+        files.append(File.generated(config, f"report/{rel.as_posix()}", abs_src_path=str(directory / rel)))
     return files
 
 

@@ -42,12 +42,32 @@ def _all(door: str) -> list[str]:
 
 @pytest.fixture(scope="module")
 def site(tmp_path_factory) -> Path:
+    # A small reproduction report of our own (not whatever results/ holds on this machine).
+    import matplotlib.pyplot as plt
+
+    from droneplan.studies.common import ComparisonTable
+    from droneplan.studies.report import write_report
+
+    out = tmp_path_factory.mktemp("results")
+    table = ComparisonTable("Table 4.3")
+    table.add("m = 2, GA users", 120.0, 118.0, "one seed")
+    table.emit(out / "cells", "table_4_3")
+    fig, ax = plt.subplots(figsize=(2, 2))
+    ax.plot([0, 1], [1, 0])
+    fig.savefig(out / "cells" / "map.png")
+    plt.close(fig)
+    write_report(out)
     site = tmp_path_factory.mktemp("site")
-    # Build without a local results/report.html so the test does not depend on earlier runs.
-    empty = tmp_path_factory.mktemp("no_report")
-    proc = _build(ROOT / "mkdocs.yml", site, {"DRONEPLAN_REPORT_DIR": str(empty)})
+    proc = _build(ROOT / "mkdocs.yml", site, {"DRONEPLAN_REPORT_DIR": str(out)})
     assert proc.returncode == 0, f"mkdocs build --strict failed:\n{proc.stdout}\n{proc.stderr}"
     return site
+
+
+def test_site_includes_the_last_reproduction_report(site):
+    assert 'href="report/report.html"' in (site / "reproduction.html").read_text()
+    for rel in ("report/report.html", "report/cells/table_4_3.csv", "report/cells/map.png"):
+        assert (site / rel).is_file(), f"the site lacks {rel}"
+    assert (site / "report/cells/map.png").read_bytes().startswith(b"\x89PNG")
 
 
 def test_site_has_a_page_per_problem(site):
