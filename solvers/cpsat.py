@@ -83,6 +83,9 @@ class CpSatAdapter(BackendAdapter, CpBackend, LinearBackend):
         if seed is not None:
             params.random_seed = int(seed)
         params.log_search_progress = bool(verbose)
+        # CP-SAT's own Ctrl-C handler would swallow the signal (a study would record the cut-short
+        # solve as finished) and reset SIGINT to SIG_DFL afterwards; leave Ctrl-C to Python.
+        params.catch_sigint_signal = False
         for name, value in (parameters or {}).items():
             if not hasattr(params, name):
                 raise ValueError(f"unknown CP-SAT parameter {name!r}")

@@ -7,7 +7,6 @@ that ``formulations.cells`` selects for 1-2 workers); bench also times HiGHS.
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import matplotlib
@@ -20,8 +19,10 @@ from droneplan.formulations.cells import evaluate, solve_milp  # noqa: E402
 from droneplan.planners.cells import exhaustive, genetic, genetic_polished, polish, thesis_ga_settings  # noqa: E402
 from droneplan.scenarios.cells import THESIS_TABLE_4_3, thesis_problem  # noqa: E402
 from droneplan.solvers.result import Status  # noqa: E402
-from droneplan.studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
+from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study  # noqa: E402
 from droneplan.studies.plots.cells import plot_map  # noqa: E402
+from droneplan.studies.store import Outcome, build_rows, instance_id  # noqa: E402
+
 
 INSTANCE_SEED = 0
 """Seed of the thesis-scale user snapshot used by reproduce and bench."""
@@ -148,33 +149,43 @@ def reproduce(*, quick: bool, out: Path) -> None:
     plt.close(fig)
 
 
-def gap_row(task: dict) -> dict:
-    """One gap-study row: GA and exhaustive vs the MILP on instance ``task['seed']``."""
+GAP_THESIS = {("cells", "ga"): "P_Global = 1.0 at m=3 (Table 4.3)"}
+
+
+def gap_task(task: dict) -> list[dict]:
+    """One instance in the results schema: GA and exhaustive (Alg. 2) vs the MILP and its
+    bounds; objective = covered users, maximised."""
     seed, m = int(task["seed"]), int(task["m"])
     p = thesis_problem(m, seed)
     milp = solve_milp(p, backend=MILP_BACKEND, time_limit=float(task.get("milp_limit", 300)))
     ga = genetic(p, seed=seed)
     es = exhaustive(p, time_limit=float(task.get("es_limit", 60)))
-    return {"seed": seed, "m": m, "n_users": int(p.active.sum()), "milp_status": milp.status.name,
-            "milp_obj": milp.objective, "milp_bound": milp.bound, "continuous_bound": milp.info["continuous_bound"],
-            "milp_time": milp.solve_time, "ga_obj": ga.objective, "ga_time": ga.solve_time,
-            "ga_gap": (milp.bound - ga.objective) / max(milp.bound, 1), "es_obj": es.objective,
-            "es_time": es.solve_time, "es_complete": es.info["complete"],
-            "es_gap": (milp.bound - es.objective) / max(milp.bound, 1)}
+    cont = milp.info.get("continuous_bound")
+    users = {"n_users": int(p.active.sum())}
+    outcomes = [Outcome.of("milp", "model", milp, bound_kind="candidate-set", extras=users),
+                Outcome.of("ga", "heuristic", ga, extras=users),
+                Outcome.of("exhaustive", "heuristic", es, extras={**users, "es_complete": bool(es.info["complete"])})]
+    if cont is not None:
+        outcomes.append(Outcome("continuous-bound", "bound", milp.status.value, bound=float(cont),
+                                bound_kind="proven-global", message="upper bound of the continuous problem",
+                                extras=users))
+    return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
 
 
-def gap(*, seeds: int, executor, out: Path) -> None:
-    """GA and exhaustive vs MILP per instance (m = 3, thesis scale), resumable CSV."""
+def gap(*, seeds: int, executor, out: Path, store=None, m: int = 3):
+    """GA and exhaustive vs MILP per instance (thesis scale, ``m`` drone-cells), in the store.
+
+    seeds: number of instances; executor: from ``make_executor``; out: directory for the
+    summary and figure; store: the results store (default ``out/results.sqlite``).
+    Returns the rows of these instances.
+    """
     out = Path(out)
-    store = ResumableCSV(out / "gap_cells.csv", key=("seed", "m"))
-    tasks = [{"seed": s, "m": 3} for s in range(seeds)]
-    df = map_rows(gap_row, tasks, executor=executor, store=store, desc="cells gap")
-    t = ComparisonTable(f"cells gap study ({len(df)} instances, m=3)")
-    t.add("mean GA gap to MILP bound", None, float(df["ga_gap"].mean()), "(bound - GA) / bound")
-    t.add("mean ES gap to MILP bound", None, float(df["es_gap"].mean()), "(bound - ES) / bound")
-    t.add("MILP proven optimal", None, f"{int((df['milp_status'] == 'OPTIMAL').sum())}/{len(df)}", "status")
-    t.add("GA reached MILP optimum", None, float((df["ga_obj"] == df["milp_obj"]).mean()), "fraction")
-    t.emit(out, "gap_summary")
+    tasks = [{"problem": "cells", "instance": instance_id("gap", m=m, seed=s), "seed": s, "m": m, "size": m}
+             for s in range(seeds)]
+    with open_store(store, out) as st:
+        df = map_rows(gap_task, tasks, executor=executor, store=st, desc="cells gap")
+    report_study(df, out, "cells", thesis=GAP_THESIS, title=f"cells: covered users, m={m}")
+    return df
 
 
 def bench(*, quick: bool, out: Path) -> None:

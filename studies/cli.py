@@ -1,21 +1,32 @@
 """The ``droneplan`` command line: ``reproduce``, ``gap`` and ``bench``.
 
 A problem is available when its study module ``droneplan.studies.<problem>`` exists; such
-a module defines ``reproduce(*, quick, out)``, ``gap(*, seeds, executor, out)``
-and ``bench(*, quick, out)``. Problems whose module has not landed are listed
-as unavailable rather than answered with placeholder output.
+a module defines ``reproduce(*, quick, out)`` (optionally taking ``executor`` and ``store``),
+``gap(*, seeds, executor, out, store)`` and ``bench(*, quick, out)``. Problems whose
+module has not landed are listed as unavailable rather than answered with placeholder output.
+
+Every study writes its rows to one store, ``<--out>/results.sqlite`` (schema and store:
+:mod:`droneplan.studies.store`), exported to ``<--out>/results.csv`` after each problem;
+``droneplan.load_results(out)`` reads it back. Exit codes: 0 done, 1 some task ended in an
+error row (rerun to retry it), 2 bad input (unwritable ``--out``, unreachable ``--dask``,
+a store of another schema), 130 interrupted by Ctrl-C (finished rows kept; rerun to resume).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import importlib.util
+import inspect
+import os
 import sys
 from pathlib import Path
 from types import ModuleType
 
-from droneplan.studies.common import make_executor
+from droneplan.studies import common
+from droneplan.studies.common import StudyError, make_executor
+from droneplan.studies.store import STORE_NAME, ResultStore, StoreError
 
 PROBLEMS = ("covert", "cells", "shark", "herding")
 """The four problems, in thesis chapter order (ch. 3-6)."""
@@ -69,14 +80,15 @@ def _parser() -> argparse.ArgumentParser:
     rep.add_argument("--quick", action="store_true", help="reduced sizes/seeds; finishes in minutes on 2 cores")
     rep.add_argument("--out", type=Path, default=Path("results"), help="directory for CSV and PNG (default: results)")
     rep.add_argument("--report", action="store_true", help="also write OUT/report.html (tables beside the thesis, figures)")
+    _executor_options(rep)
 
-    gap = sub.add_parser("gap", help="heuristic vs solver optimum per instance (resumable CSV)", epilog=epilog)
+    gap = sub.add_parser("gap", help="heuristic vs solver optimum per instance (resumable store)", epilog=epilog)
     gap.add_argument("problem", nargs="?", default="all", choices=choices)
     gap.add_argument("--seeds", type=int, default=10, help="number of random instances (default 10)")
-    grp = gap.add_mutually_exclusive_group()
-    grp.add_argument("--workers", type=int, default=None, help="local worker processes (default: cores)")
-    grp.add_argument("--dask", metavar="ADDRESS", default=None, help="Dask scheduler address")
-    gap.add_argument("--out", type=Path, default=Path("results"), help="directory for the CSV (default: results)")
+    _executor_options(gap)
+    gap.add_argument("--out", type=Path, default=Path("results"),
+                     help="directory for the store results.sqlite, results.csv and per-problem summaries/figures "
+                          "(default: results)")
 
     bench = sub.add_parser("bench", help="performance ratios measured in one run", epilog=epilog)
     bench.add_argument("problem", nargs="?", default="all", choices=choices)
@@ -85,30 +97,85 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+def _executor_options(parser: argparse.ArgumentParser) -> None:
+    grp = parser.add_mutually_exclusive_group()
+    grp.add_argument("--workers", type=int, default=None,
+                     help="local worker processes (default: cores; 1 = serial in this process)")
+    grp.add_argument("--dask", metavar="ADDRESS", default=None,
+                     help="address of a running Dask scheduler, e.g. tcp://10.0.0.1:8786")
+
+
+def _writable_out(out: Path) -> None:
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise StudyError(f"cannot create --out {out}: {exc.strerror or exc}") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise StudyError(f"cannot write to --out {out}: permission denied")
+
+
+def _run(args) -> int:
     problems = _resolve(args.problem)
     if args.command == "gap" and args.seeds < 1:
         raise SystemExit(f"droneplan: --seeds must be >= 1, got {args.seeds}")
-    if args.command == "gap" and args.workers is not None and args.workers < 1:
-        raise SystemExit(f"droneplan: --workers must be >= 1, got {args.workers}")
-    for problem in problems:
-        module = _load(problem)
-        out = args.out / problem
-        out.mkdir(parents=True, exist_ok=True)
-        print(f"### {args.command} {problem} (thesis ch. {_CHAPTER[problem]}) -> {out}", flush=True)
-        if args.command == "reproduce":
-            module.reproduce(quick=args.quick, out=out)
-        elif args.command == "gap":
-            with make_executor(args.workers, args.dask) as executor:
-                module.gap(seeds=args.seeds, executor=executor, out=out)
-        else:
-            module.bench(quick=args.quick, out=out)
+    workers = getattr(args, "workers", None)
+    if workers is not None and workers < 1:
+        raise SystemExit(f"droneplan: --workers must be >= 1, got {workers}")
+    _writable_out(args.out)
+    if args.command == "bench":
+        for problem in problems:
+            out = args.out / problem
+            out.mkdir(parents=True, exist_ok=True)
+            print(f"### bench {problem} (thesis ch. {_CHAPTER[problem]}) -> {out}", flush=True)
+            _load(problem).bench(quick=args.quick, out=out)
+        return 0
+    with contextlib.ExitStack() as stack:
+        store = stack.enter_context(ResultStore(args.out / STORE_NAME))
+        executor = stack.enter_context(make_executor(workers, args.dask))
+        for problem in problems:
+            module = _load(problem)
+            out = args.out / problem
+            out.mkdir(parents=True, exist_ok=True)
+            print(f"### {args.command} {problem} (thesis ch. {_CHAPTER[problem]}) -> {out}", flush=True)
+            try:
+                if args.command == "reproduce":
+                    accepted = inspect.signature(module.reproduce).parameters
+                    extra = {k: v for k, v in (("executor", executor), ("store", store)) if k in accepted}
+                    module.reproduce(quick=args.quick, out=out, **extra)
+                else:
+                    module.gap(seeds=args.seeds, executor=executor, out=out, store=store)
+            finally:
+                store.export(args.out / "results.csv")
+        errors = store.frame()
+        errors = errors[errors["status"] == "error"]
+        if len(errors):
+            first = errors.iloc[0]
+            print(f"droneplan: {len(errors)} task(s) ended in an error row (first: {first['problem']} "
+                  f"{first['instance']}: {first['message']}); rerun the same command to retry them",
+                  file=sys.stderr)
+            return 1
     if args.command == "reproduce" and args.report:
         from droneplan.studies.report import write_report
 
         print(f"report: {write_report(args.out, problems=problems)}", flush=True)
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit code (see the module docstring)."""
+    args = _parser().parse_args(argv)
+    common.INTERRUPT_GRACE_S = 3.0  # a solve stuck in C code after Ctrl-C: exit 130 anyway
+    try:
+        return _run(args)
+    except (StudyError, StoreError) as exc:
+        print(f"droneplan: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"\ndroneplan: interrupted; finished rows are in {args.out / STORE_NAME}: rerun the same command "
+              "to resume", file=sys.stderr)
+        return 130
+    finally:
+        common.INTERRUPT_GRACE_S = None
 
 
 if __name__ == "__main__":

@@ -1,178 +1,382 @@
-"""Machinery shared by the per-problem studies: executors, resumable CSV rows,
-"thesis value | this run | how measured" tables, and timing helpers for bench.
+"""Machinery shared by the per-problem studies: executors (serial, process pool, Dask),
+mapping tasks to rows of the results store with clean interrupts, the numeric summary and
+gap figure of a study, "thesis value | this run | how measured" tables, and timing helpers.
+
+The results schema and the store are in :mod:`droneplan.studies.store` (its docstring
+says how a problem's study emits rows).
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
-import csv
+import math
 import os
+import shutil
+import signal
+import sys
+import textwrap
+import threading
 import time
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
+from typing import Any, Self
 
+import numpy as np
 import pandas as pd
+from droneplan.studies.store import STORE_NAME, ResultStore, error_row
 from tqdm.auto import tqdm
 
 
 # --------------------------------------------------------------------------- executors
-class _SerialExecutor(cf.Executor):
-    """Runs each task at submit time in this process (workers=1, easy to debug)."""
+class StudyExecutor(cf.Executor):
+    """A ``concurrent.futures`` executor that also says how to run and stop it.
 
-    def submit(self, fn, /, *args, **kwargs):  # noqa: D102 - Executor API
+    kind: ``"serial"`` (tasks run in this process, one at a time, as they are consumed),
+    ``"processes"`` (a local process pool) or ``"dask"`` (a Dask cluster).
+    slots: how many tasks run at once (tasks in flight are kept to twice this).
+    """
+
+    def __init__(self, kind: str, slots: int, inner: cf.Executor | None = None, client: Any = None):
+        self.kind, self.slots, self._inner, self._client = kind, int(slots), inner, client
+
+    def submit(self, fn, /, *args, **kwargs):
+        if self._inner is not None:
+            return self._inner.submit(fn, *args, **kwargs)
         future: cf.Future = cf.Future()
-        try:
+        try:  # serial: run now; an interrupt propagates instead of hiding in the future
             future.set_result(fn(*args, **kwargs))
-        except BaseException as exc:  # the caller sees it through future.result()
+        except Exception as exc:
             future.set_exception(exc)
         return future
 
+    def map(self, fn, *iterables, timeout=None, chunksize=1):
+        if self._inner is None:  # serial: lazily, one call per item consumed
+            return (fn(*args) for args in zip(*iterables))
+        return self._inner.map(fn, *iterables, timeout=timeout, chunksize=chunksize)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        if self._inner is not None:
+            self._inner.shutdown(wait=wait, cancel_futures=cancel_futures)
+
+    def kill(self) -> None:
+        """Stop now: cancel queued tasks and end the worker processes this executor started."""
+        if self.kind == "processes":
+            procs = list((getattr(self._inner, "_processes", None) or {}).values())  # no public handle on workers
+            self._inner.shutdown(wait=False, cancel_futures=True)
+            for p in procs:
+                if p.is_alive():
+                    p.kill()
+        elif self.kind == "dask":
+            with contextlib.suppress(Exception):
+                self._inner.shutdown(wait=False, cancel_futures=True)
+
+
+def _ignore_sigint() -> None:
+    """Pool worker initializer: Ctrl-C is the parent's business (it kills the workers)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class StudyError(RuntimeError):
+    """A study cannot run as asked (unreachable Dask scheduler, unusable --out ...)."""
+
 
 @contextlib.contextmanager
-def make_executor(workers: int | None = None, dask_address: str | None = None) -> Iterator[cf.Executor]:
-    """A ``concurrent.futures``-style executor for mapping over instances.
+def make_executor(workers: int | None = None, dask_address: str | None = None,
+                  *, connect_timeout: float = 5.0) -> Iterator[StudyExecutor]:
+    """A :class:`StudyExecutor` for mapping over instances.
 
-    workers: local worker processes (None: number of cores; 1: run serially in
-        this process). Ignored when ``dask_address`` is given.
+    workers: local worker processes (None: number of cores; 1: run serially in this
+        process, each task when it is consumed). Ignored when ``dask_address`` is given.
     dask_address: address of a running Dask scheduler (``tcp://host:8786``); needs
-        the ``distributed`` extra.
+        ``distributed``. connect_timeout: seconds to wait for it before
+        :class:`StudyError`.
     """
-    if workers is not None and workers < 1:
-        raise ValueError(f"workers must be >= 1, got {workers}")
+    if workers is not None and (not isinstance(workers, int) or workers < 1):
+        raise ValueError(f"workers must be an int >= 1, got {workers!r}")
     if dask_address:
         try:
             from distributed import Client
         except ImportError as exc:  # pragma: no cover - depends on the extra
-            raise RuntimeError("--dask needs the optional extra: pip install 'droneplan[distributed]'") from exc
-        client = Client(dask_address)
+            raise StudyError("--dask needs distributed: pip install 'droneplan[distributed]'") from exc
         try:
-            yield client.get_executor()
+            client = Client(dask_address, timeout=f"{connect_timeout}s", set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise StudyError(f"cannot reach the Dask scheduler at {dask_address}: "
+                             f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+        try:
+            slots = max(1, sum(client.nthreads().values()))
+            yield StudyExecutor("dask", slots, client.get_executor(), client)
         finally:
             client.close()
         return
     n = workers if workers is not None else (os.cpu_count() or 1)
     if n == 1:
-        yield _SerialExecutor()
+        yield StudyExecutor("serial", 1)
         return
-    with cf.ProcessPoolExecutor(max_workers=n) as pool:
-        yield pool
+    pool = cf.ProcessPoolExecutor(max_workers=n, initializer=_ignore_sigint)
+    ex = StudyExecutor("processes", n, pool)
+    try:
+        yield ex
+    except BaseException:
+        ex.kill()
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
-# --------------------------------------------------------------------------- resumable rows
-class ResumableCSV:
-    """A CSV file that rows are appended to as they finish, keyed for resuming.
+# --------------------------------------------------------------------------- interrupts
+INTERRUPT_GRACE_S: float | None = None
+"""When set (the CLI sets 3 s), a Ctrl-C that the running task does not turn into a
+KeyboardInterrupt within this many seconds (a solver inside C code) ends the process with
+exit code 130 after killing the workers; finished rows are already in the store. None
+(the default, e.g. in notebooks) never ends the process."""
 
-    path: the CSV file (created with a header on the first append).
-    key: the columns that identify a row; rows whose key is already in the file
-        are reported by :meth:`done_keys` so a rerun can skip them.
+
+class _InterruptGuard:
+    """Notices Ctrl-C even while a solver holds the main thread in C code.
+
+    A Python SIGINT handler sets a flag (and raises KeyboardInterrupt as usual); the
+    signal's wakeup fd is read by a watcher thread, so the flag is set the moment the
+    signal arrives. A task result that comes back after the flag is set is discarded:
+    a solve cut short by Ctrl-C is never recorded as finished.
     """
 
-    def __init__(self, path: str | os.PathLike, key: Sequence[str]):
-        self.path = Path(path)
-        self.key = tuple(key)
-        if not self.key:
-            raise ValueError("key must name at least one column")
+    def __init__(self, executor: StudyExecutor):
+        self.executor = executor
+        self.flag = threading.Event()
+        self._left = threading.Event()
+        self.active = threading.current_thread() is threading.main_thread()
 
-    def rows(self) -> pd.DataFrame:
-        """All rows written so far (an empty frame when the file does not exist)."""
-        if not self.path.exists() or self.path.stat().st_size == 0:
-            return pd.DataFrame()
-        return pd.read_csv(self.path)
+    def _handler(self, signum, frame):
+        self.flag.set()
+        raise KeyboardInterrupt
 
-    def done_keys(self) -> set[tuple[str, ...]]:
-        """Keys of the rows already on disk, as tuples of strings."""
-        df = self.rows()
-        if df.empty:
-            return set()
-        missing = [k for k in self.key if k not in df.columns]
-        if missing:
-            raise ValueError(f"{self.path} lacks key columns {missing}; delete it or choose another --out")
-        return {tuple(str(v) for v in r) for r in df[list(self.key)].itertuples(index=False)}
+    def __enter__(self) -> Self:
+        if not self.active:
+            return self
+        self._prev = signal.signal(signal.SIGINT, self._handler)
+        self._r, self._w = os.pipe()
+        os.set_blocking(self._w, False)
+        self._prev_fd = signal.set_wakeup_fd(self._w, warn_on_full_buffer=False)
+        threading.Thread(target=self._watch, name="droneplan-interrupt-watch", daemon=True).start()
+        return self
 
-    def key_of(self, row: Mapping[str, Any]) -> tuple[str, ...]:
-        return tuple(str(row[k]) for k in self.key)
+    def _watch(self) -> None:
+        while True:
+            try:
+                data = os.read(self._r, 64)
+            except OSError:
+                return
+            if not data:
+                return
+            if signal.SIGINT in data:
+                self.flag.set()
+                grace = INTERRUPT_GRACE_S
+                if grace is not None and not self._left.wait(grace):
+                    with contextlib.suppress(Exception):
+                        self.executor.kill()
+                    sys.stderr.write("\ndroneplan: interrupted; a solve did not stop within "
+                                     f"{grace:g} s, exiting. Finished rows are in the store: rerun to resume.\n")
+                    sys.stderr.flush()
+                    os._exit(130)
 
-    def append(self, row: Mapping[str, Any]) -> None:
-        """Append one row (flushes to disk). The first row fixes the header."""
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        new = not self.path.exists() or self.path.stat().st_size == 0
-        if new:
-            header = list(row)
-        else:
-            with self.path.open(newline="") as fh:
-                header = next(csv.reader(fh))
-            extra = [k for k in row if k not in header]
-            if extra:
-                raise ValueError(f"row has columns {extra} not in the header of {self.path}")
-        with self.path.open("a", newline="") as fh:
-            writer = csv.DictWriter(fh, fieldnames=header)
-            if new:
-                writer.writeheader()
-            writer.writerow({k: row.get(k, "") for k in header})
-            fh.flush()
+    def rearm(self) -> None:
+        """Reinstall the handler (a native library may have reset SIGINT to its default)."""
+        if self.active and signal.getsignal(signal.SIGINT) is not self._handler:
+            signal.signal(signal.SIGINT, self._handler)
+
+    def check(self) -> None:
+        """Raise KeyboardInterrupt if Ctrl-C arrived (even if a library swallowed it)."""
+        if self.flag.is_set():
+            raise KeyboardInterrupt
+
+    def __exit__(self, *exc) -> None:
+        self._left.set()
+        if not self.active:
+            return
+        signal.set_wakeup_fd(self._prev_fd)
+        signal.signal(signal.SIGINT, self._prev)
+        os.close(self._w)
+        os.close(self._r)
+
+
+# --------------------------------------------------------------------------- stores
+@contextlib.contextmanager
+def open_store(store: ResultStore | None, out: str | os.PathLike) -> Iterator[ResultStore]:
+    """``store`` itself, or the store ``out/results.sqlite`` opened for the duration."""
+    if store is not None:
+        yield store
+        return
+    with ResultStore(Path(out) / STORE_NAME) as opened:
+        yield opened
+
+
+# --------------------------------------------------------------------------- mapping tasks to rows
+def _call_task(fn: Callable[[Mapping[str, Any]], list[dict]], task: Mapping[str, Any]) -> list[dict]:
+    """Run one task; an exception becomes the task's error row (an interrupt propagates)."""
+    try:
+        rows = fn(task)
+    except Exception as exc:  # noqa: BLE001 - recorded, the study goes on
+        return [error_row(task["problem"], task["instance"], f"{type(exc).__name__}: {exc}",
+                          seed=task.get("seed"), size=task.get("size"))]
+    rows = [rows] if isinstance(rows, Mapping) else list(rows)
+    for r in rows:
+        if (r.get("problem"), r.get("instance")) != (task["problem"], task["instance"]):
+            return [error_row(task["problem"], task["instance"],
+                              f"task function returned a row of {r.get('problem')}/{r.get('instance')}",
+                              seed=task.get("seed"), size=task.get("size"))]
+    return rows
 
 
 def map_rows(
-    fn: Callable[[Mapping[str, Any]], Mapping[str, Any] | list[Mapping[str, Any]]],
+    fn: Callable[[Mapping[str, Any]], list[dict]],
     tasks: Iterable[Mapping[str, Any]],
     *,
-    executor: cf.Executor,
-    store: ResumableCSV,
+    executor: StudyExecutor,
+    store: ResultStore,
     desc: str = "",
 ) -> pd.DataFrame:
-    """Run ``fn(task)`` for every task whose key is not yet in ``store``.
+    """Run ``fn(task)`` for every task whose instance is not yet in ``store`` (or errored).
 
-    Each task is a dict holding at least the key columns of ``store``; ``fn`` must be
-    picklable (a module-level function) and return a row dict (or a list of rows)
-    that repeats the key columns. Rows are appended as they finish, with a progress
-    bar; the function returns every row in the file (old and new).
+    Each task is a dict with ``problem`` and ``instance`` (and optionally ``seed``, ``size``);
+    ``fn`` must be picklable (a module-level function) and return that instance's rows
+    (:func:`~droneplan.studies.store.build_rows`). Each task's rows are written in one
+    transaction as it finishes, with a progress bar. A task that raises becomes an error
+    row (rerun on the next call); Ctrl-C stops the study (KeyboardInterrupt), keeping every
+    row finished before it and discarding results that came back after it.
+
+    Returns the rows of the given tasks' instances (old and new) in the schema of
+    :mod:`droneplan.studies.store`.
     """
-    done = store.done_keys()
-    todo = [t for t in tasks if store.key_of(t) not in done]
-    futures = [executor.submit(fn, t) for t in todo]
-    with tqdm(total=len(futures), desc=desc, disable=not futures) as bar:
-        for fut in cf.as_completed(futures):
-            out = fut.result()
-            for row in out if isinstance(out, list) else [out]:
-                store.append(row)
-            bar.update(1)
-    return store.rows()
+    tasks = list(tasks)
+    for t in tasks:
+        if "problem" not in t or "instance" not in t:
+            raise ValueError(f"every task needs 'problem' and 'instance', got {sorted(t)}")
+    keys = [(t["problem"], t["instance"]) for t in tasks]
+    if len(set(keys)) != len(keys):
+        raise ValueError("tasks repeat an instance id")
+    done = store.done_instances()
+    todo = [t for t, k in zip(tasks, keys) if k not in done]
+    with _InterruptGuard(executor) as guard, tqdm(total=len(todo), desc=desc, disable=not todo) as bar:
+        if executor.kind == "serial":
+            for task in todo:
+                guard.check()
+                rows = _call_task(fn, task)
+                guard.rearm()
+                guard.check()  # Ctrl-C during the task: its result is not recorded
+                store.write(rows)
+                bar.update(1)
+        else:
+            _map_parallel(fn, todo, executor, store, guard, bar)
+    wanted = set(keys)
+    problems = {p for p, _ in wanted}
+    frames = [store.frame(problem=p) for p in sorted(problems)]
+    df = pd.concat(frames, ignore_index=True) if frames else store.frame()
+    mask = [(p, i) in wanted for p, i in zip(df["problem"], df["instance"])]
+    return df[mask].dropna(axis=1, how="all").reset_index(drop=True) if len(df) else df
+
+
+def _map_parallel(fn, todo, executor: StudyExecutor, store: ResultStore, guard: _InterruptGuard, bar) -> None:
+    queue = list(reversed(todo))
+    pending: dict[cf.Future, Mapping[str, Any]] = {}
+    try:
+        while queue or pending:
+            while queue and len(pending) < 2 * executor.slots:
+                task = queue.pop()
+                pending[executor.submit(_call_task, fn, task)] = task
+            finished, _ = cf.wait(list(pending), timeout=0.25, return_when=cf.FIRST_COMPLETED)
+            guard.check()
+            for fut in finished:
+                task = pending.pop(fut)
+                try:
+                    rows = fut.result()
+                except BaseException as exc:  # the worker died or was interrupted
+                    guard.check()
+                    if isinstance(exc, KeyboardInterrupt):
+                        raise
+                    rows = [error_row(task["problem"], task["instance"], f"worker failed: {type(exc).__name__}: {exc}",
+                                      seed=task.get("seed"), size=task.get("size"))]
+                store.write(rows)
+                bar.update(1)
+    except BaseException:
+        for fut in pending:
+            fut.cancel()
+        executor.kill()
+        raise
 
 
 # --------------------------------------------------------------------------- comparison tables
+DEVIATION_THRESHOLD = 0.25
+"""Relative deviation |this run - thesis| / |thesis| above which a reproduce row is flagged."""
+
+_TABLE_COLUMNS = ["quantity", "thesis", "this run", "deviation", "flag", "how measured"]
+
+
 @dataclass
 class ComparisonTable:
-    """A table "quantity | thesis value | this run | how measured" for one figure or table."""
+    """A table "quantity | thesis value | this run | deviation | how measured" for one figure or table.
+
+    The deviation column is ``(this run - thesis) / |thesis|`` where both are numbers; rows
+    whose deviation exceeds ``threshold`` (default ``DEVIATION_THRESHOLD``) are flagged ``!``.
+    """
 
     title: str
     rows: list[dict[str, str]] = field(default_factory=list)
+    threshold: float = DEVIATION_THRESHOLD
 
     def add(self, quantity: str, thesis: Any, ours: Any, how: str) -> None:
-        self.rows.append(
-            {"quantity": quantity, "thesis": _fmt(thesis), "this run": _fmt(ours), "how measured": how}
-        )
+        dev = _deviation(thesis, ours)
+        flag = "" if dev is None else ("!" if abs(dev) > self.threshold else "ok")
+        self.rows.append({"quantity": quantity, "thesis": _fmt(thesis), "this run": _fmt(ours),
+                          "deviation": "" if dev is None else f"{dev:+.0%}", "flag": flag, "how measured": how})
 
     def frame(self) -> pd.DataFrame:
-        return pd.DataFrame(self.rows, columns=["quantity", "thesis", "this run", "how measured"])
+        return pd.DataFrame(self.rows, columns=_TABLE_COLUMNS)
 
-    def render(self) -> str:
+    def render(self, width: int | None = None) -> str:
+        """Plain text that fits ``width`` columns (default: the terminal's), long cells wrapped."""
         df = self.frame()
+        note = f"(deviation = (this run - thesis) / |thesis|; ! beyond {self.threshold:.0%})"
         if df.empty:
             return f"== {self.title} ==\n(no rows)"
-        widths = {c: max(len(c), *(len(str(v)) for v in df[c])) for c in df.columns}
-        line = " | ".join(c.ljust(widths[c]) for c in df.columns)
-        sep = "-+-".join("-" * widths[c] for c in df.columns)
-        body = [" | ".join(str(r[c]).ljust(widths[c]) for c in df.columns) for r in df.to_dict("records")]
-        return "\n".join([f"== {self.title} ==", line, sep, *body])
+        if not df["deviation"].astype(bool).any():  # nothing to compare: keep the width for the rest
+            df, note = df.drop(columns=["deviation", "flag"]), ""
+        return f"== {self.title} ==\n" + render_frame(df, width=width) + ("\n" + note if note else "")
+
+    def markdown(self) -> str:
+        """The table as GitHub Markdown."""
+        df = self.frame()
+        esc = [[str(v).replace("|", "\\|") for v in r] for r in df.itertuples(index=False)]
+        lines = [f"**{self.title}**", "", "| " + " | ".join(df.columns) + " |",
+                 "|" + "---|" * len(df.columns), *("| " + " | ".join(r) + " |" for r in esc)]
+        return "\n".join(lines)
 
     def emit(self, out: Path, stem: str) -> None:
-        """Print the table and write it to ``out/stem.csv``."""
+        """Print the table and write it to ``out/stem.csv`` and ``out/stem.md``."""
         out.mkdir(parents=True, exist_ok=True)
         print(self.render(), flush=True)
         print(flush=True)
         self.frame().to_csv(out / f"{stem}.csv", index=False)
+        (out / f"{stem}.md").write_text(self.markdown() + "\n")
+
+
+def _number(v: Any) -> float | None:
+    if isinstance(v, bool) or v is None:
+        return None
+    if isinstance(v, (int, float)) and math.isfinite(v):
+        return float(v)
+    if hasattr(v, "item") and getattr(v, "ndim", 1) == 0:
+        return _number(v.item())
+    return None
+
+
+def _deviation(thesis: Any, ours: Any) -> float | None:
+    t, o = _number(thesis), _number(ours)
+    if t is None or o is None or t == 0:
+        return None
+    return (o - t) / abs(t)
 
 
 def _fmt(value: Any) -> str:
@@ -181,6 +385,116 @@ def _fmt(value: Any) -> str:
     if isinstance(value, float):
         return f"{value:.4g}"
     return str(value)
+
+
+def render_frame(df: pd.DataFrame, *, width: int | None = None, max_cell: int = 60) -> str:
+    """Plain-text table of ``df`` that fits ``width`` columns: wide text columns wrap onto more lines."""
+    width = width or shutil.get_terminal_size((120, 24)).columns
+    cells = [["" if v is None or (isinstance(v, float) and math.isnan(v)) else
+              (f"{v:.3g}" if isinstance(v, float) else str(v)) for v in r] for r in df.itertuples(index=False)]
+    cols = [str(c) for c in df.columns]
+    natural = [max([len(c)] + [len(r[j]) for r in cells]) for j, c in enumerate(cols)]
+    widths = [min(w, max_cell) for w in natural]
+    # a column never gets narrower than its longest header word or its values (up to 12 chars)
+    floor = [max(max(len(w) for w in c.split()), min(12, max([0] + [len(r[j]) for r in cells])))
+             for j, c in enumerate(cols)]
+    sep = 3 * (len(cols) - 1)
+    while sum(widths) + sep > width:
+        slack = [w - f for w, f in zip(widths, floor)]
+        if max(slack) <= 0:
+            break
+        widths[slack.index(max(slack))] -= 1
+
+    def lines_of(values):
+        wrapped = [textwrap.wrap(v, w) or [""] for v, w in zip(values, widths)]
+        return [" | ".join((col[k] if k < len(col) else "").ljust(w) for col, w in zip(wrapped, widths)).rstrip()
+                for k in range(max(len(c) for c in wrapped))]
+
+    out = lines_of(cols) + ["-+-".join("-" * w for w in widths)]
+    for r in cells:
+        out += lines_of(r)
+    return "\n".join(out)
+
+
+# --------------------------------------------------------------------------- study summaries and figures
+def summarize(df: pd.DataFrame, thesis: Mapping[tuple[str, str], str] | None = None) -> pd.DataFrame:
+    """Numeric summary per (problem, method) of rows in the results schema.
+
+    Columns: problem, method, role, count, success_rate (fraction with a solution),
+    errors, best_rate (fraction with gap_to_best <= 1e-6), median/mean/p95 of gap_to_bound
+    and gap_to_best, gap_bound_kind (the bound kinds the gaps were measured against),
+    median_time_s and ``thesis`` (the thesis's value for that method where it states one,
+    from ``thesis[(problem, method)]``).
+    """
+    thesis = thesis or {}
+    out = []
+    for (problem, method), g in df.groupby(["problem", "method"], sort=False):
+        solved = g["status"].isin(["optimal", "feasible"])
+        rec = {"problem": problem, "method": method, "role": g["role"].iloc[0], "count": len(g),
+               "success_rate": float(solved.mean()), "errors": int((g["status"] == "error").sum()),
+               "best_rate": float((g["gap_to_best"] <= 1e-6).sum() / len(g))}
+        for col in ("gap_to_bound", "gap_to_best"):
+            v = g[col].dropna()
+            rec[f"median_{col}"] = float(v.median()) if len(v) else None
+            rec[f"mean_{col}"] = float(v.mean()) if len(v) else None
+            rec[f"p95_{col}"] = float(v.quantile(0.95)) if len(v) else None
+        kinds = sorted(set(g["gap_bound_kind"].dropna()))
+        rec["gap_bound_kind"] = ",".join(kinds)
+        t = g["time_s"].dropna()
+        rec["median_time_s"] = float(t.median()) if len(t) else None
+        rec["thesis"] = thesis.get((problem, method), "")
+        out.append(rec)
+    return pd.DataFrame(out)
+
+
+def report_study(df: pd.DataFrame, out: Path, problem: str, *, thesis: Mapping[tuple[str, str], str] | None = None,
+                 title: str = "") -> pd.DataFrame:
+    """Print the numeric summary of ``df``, write it to ``out/gap_summary.csv`` and draw
+    ``out/gap_<problem>.png`` (gap distribution per method); returns the summary."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = summarize(df, thesis)
+    summary.to_csv(out / "gap_summary.csv", index=False)
+    shown = summary[["method", "role", "count", "success_rate", "errors", "best_rate", "median_gap_to_bound",
+                     "p95_gap_to_bound", "median_gap_to_best", "p95_gap_to_best", "median_time_s", "thesis"]]
+    shown = shown.set_axis(["method", "role", "n", "solved", "errors", "at best", "gap→bound median",
+                            "gap→bound p95", "gap→best median", "gap→best p95", "time (s) median", "thesis"], axis=1)
+    print(f"== {title or problem + ' gap study'} ({df['instance'].nunique()} instances; gaps relative, "
+          f"full summary in {out / 'gap_summary.csv'}) ==")
+    print(render_frame(shown), flush=True)
+    print(flush=True)
+    gap_figure(df, out / f"gap_{problem}.png", title=title or f"{problem}: gap per method")
+    return summary
+
+
+def gap_figure(df: pd.DataFrame, path: Path, *, title: str = "") -> Path:
+    """Box plots of gap_to_bound and gap_to_best per method (one dot per instance)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = df[df["role"] != "bound"]
+    methods = list(dict.fromkeys(rows["method"]))
+    fig, axes = plt.subplots(1, 2, figsize=(max(6.0, 1.3 * len(methods) + 3), 3.8), squeeze=False)
+    for ax, col in zip(axes[0], ("gap_to_bound", "gap_to_best")):
+        data = [rows.loc[rows["method"] == m, col].dropna().to_numpy() for m in methods]
+        keep = [(m, d) for m, d in zip(methods, data) if len(d)]
+        if keep:
+            ax.boxplot([d for _, d in keep], showfliers=False)
+            for k, (_, d) in enumerate(keep, start=1):
+                ax.plot(np.full(len(d), k) + np.linspace(-0.15, 0.15, len(d)), d, ".", ms=3, alpha=0.6)
+            ax.set_xticks(range(1, len(keep) + 1), [m for m, _ in keep], rotation=30, ha="right", fontsize=8)
+        else:
+            ax.text(0.5, 0.5, "no values", ha="center", transform=ax.transAxes)
+        kinds = ",".join(sorted(set(rows["gap_bound_kind"].dropna()))) if col == "gap_to_bound" else ""
+        ax.set_title(col + (f" ({kinds})" if kinds else ""), fontsize=9)
+        ax.grid(alpha=0.3)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 # --------------------------------------------------------------------------- timing

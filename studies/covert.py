@@ -28,8 +28,10 @@ from droneplan.formulations.covert import MPCSettings, sphere_minmax_bearing  # 
 from droneplan.planners.covert import (HoverBenchmark, MPCObserver, MPCObserverSettings, SafeguardedMPCObserver,  # noqa: E402
                              SlidingModeObserver)
 from droneplan.scenarios.covert import CovertTrace, random_case, simulate, thesis_case  # noqa: E402
-from droneplan.studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
+from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study  # noqa: E402
 from droneplan.studies.plots.covert import plot_bearing, plot_path  # noqa: E402
+from droneplan.studies.store import Outcome, build_rows, instance_id  # noqa: E402
+
 
 DEG = 180.0 / math.pi
 
@@ -245,61 +247,69 @@ def reproduce(*, quick: bool, out: Path) -> None:
 
 
 # --------------------------------------------------------------------------- gap
-def _gap_task(task: dict) -> dict:
+GAP_THESIS = {("covert", "sliding"): "-28.9 % / -33.1 % vs hover (cases 1, 2; Figs. 3.10, 3.14)"}
+
+
+def gap_task(task: dict) -> list[dict]:
+    """One random target group in the results schema: hover, sliding mode, MPC and safeguarded
+    MPC (objective = max recorded bearing change beta_max, deg, minimised) and the proven
+    on-sphere instantaneous optimum as a bound."""
     seed, n = int(task["seed"]), int(task["n_targets"])
     sc = random_case(n, seed)
-    row = {"seed": seed, "n_targets": n}
-    traces = {}
-    ctls = _controllers()
+    traces, times = {}, {}
+    ctls = {**_controllers(), "mpc-safeguarded": SafeguardedMPCObserver()}
     for name, ctl in ctls.items():
         t0 = time.perf_counter()
-        tr = simulate(sc, ctl)
-        traces[name] = tr
-        row[f"beta_{name}_deg"] = tr.beta_max * DEG
-        row[f"time_{name}_s"] = time.perf_counter() - t0
-    safe = SafeguardedMPCObserver()
-    tr = simulate(sc, safe)
-    row["beta_mpc_safe_deg"] = tr.beta_max * DEG
-    row["t_a_mpc_safe_s"] = tr.t_a
-    row["t_a_sliding_s"] = traces["sliding"].t_a
-    row["mpc_safe_vs_sliding_pct"] = _pct(tr.beta_max, traces["sliding"].beta_max)
-    mpc, tr = ctls["mpc"], traces["mpc"]
-    row["mpc_fallbacks"] = tr.fallbacks
-    row["mpc_pred_max_deg"] = max(mpc.predicted_beta) * DEG if mpc.predicted_beta else math.nan
-    row["mpc_solve_median_s"] = float(np.median(tr.solve_times)) if tr.solve_times.size else math.nan
+        traces[name] = simulate(sc, ctl)
+        times[name] = time.perf_counter() - t0
+    roles = {"hover": "heuristic", "sliding": "heuristic", "mpc": "model", "mpc-safeguarded": "model"}
+    outcomes = []
+    for name, tr in traces.items():
+        extras = {"t_a_s": tr.t_a, "fallbacks": int(getattr(tr, "fallbacks", 0) or 0)}
+        if name == "mpc":
+            mpc = ctls["mpc"]
+            extras["predicted_max_deg"] = max(mpc.predicted_beta) * DEG if mpc.predicted_beta else None
+            extras["solve_median_s"] = float(np.median(tr.solve_times)) if tr.solve_times.size else None
+        if name == "sliding":
+            on = _on_sphere(tr)
+            extras["onsphere_max_deg"] = float(np.nanmax(tr.beta_m[on])) * DEG if on.any() else None
+        outcomes.append(Outcome(name, roles[name], "feasible", objective=tr.beta_max * DEG, time_s=times[name],
+                                message="closed-loop simulate(); beta_max over the whole run", extras=extras))
+    t0 = time.perf_counter()
     lb, _ = _oracle_on_sphere(traces["sliding"], sc, every=5.0)
-    row["onsphere_lower_bound_deg"] = lb * DEG
-    on = _on_sphere(traces["sliding"])
-    row["sliding_onsphere_max_deg"] = float(np.nanmax(traces["sliding"].beta_m[on])) * DEG if on.any() else math.nan
-    row["sliding_vs_hover_pct"] = _pct(traces["sliding"].beta_max, traces["hover"].beta_max)
-    row["mpc_vs_sliding_pct"] = _pct(traces["mpc"].beta_max, traces["sliding"].beta_max)
-    return row
+    outcomes.append(Outcome("onsphere-optimum", "bound", "optimal", bound=lb * DEG, bound_kind="instantaneous",
+                            time_s=time.perf_counter() - t0,
+                            message="max over t (every 5 s, sliding's on-sphere phase) of the proven min over the "
+                                    "sphere of max_j beta_j: a bound for controllers on the sphere at those instants"))
+    return build_rows("covert", task["instance"], seed=seed, size=n, sense="min", outcomes=outcomes)
 
 
-def gap(*, seeds: int, executor, out: Path) -> None:
-    """Sliding mode vs MPC vs hover over random target groups, with the on-sphere lower bound."""
+def gap(*, seeds: int, executor, out: Path, store=None):
+    """Sliding mode vs MPC vs hover over random target groups (2-6 targets), with the on-sphere bound.
+
+    seeds: number of groups; executor: from ``make_executor``; out: directory for the summary
+    and figure; store: the results store (default ``out/results.sqlite``). Returns the rows.
+    """
     out = Path(out)
-    store = ResumableCSV(out / "gap.csv", key=("seed", "n_targets"))
-    tasks = [{"seed": s, "n_targets": int(2 + s % 5)} for s in range(seeds)]
-    df = map_rows(_gap_task, tasks, executor=executor, store=store, desc="covert gap")
-    df = df[df.seed.isin(range(seeds))]
-    tab = ComparisonTable(f"Covert gap over {len(df)} random target groups (2-6 targets)")
-    tab.add("median sliding vs hover (%)", "-28.9 / -33.1 (cases 1, 2)", float(df.sliding_vs_hover_pct.median()),
-            "(sliding - hover) / hover")
-    tab.add("median MPC vs sliding (%)", None, float(df.mpc_vs_sliding_pct.median()), "(MPC - sliding) / sliding")
-    tab.add("groups where MPC <= sliding", None, f"{int((df.mpc_vs_sliding_pct <= 0).sum())}/{len(df)}", "max recorded beta")
-    tab.add("median safeguarded MPC vs sliding (%)", None, float(df.mpc_safe_vs_sliding_pct.median()),
-            "(safeguarded - sliding) / sliding")
-    tab.add("groups where safeguarded MPC <= sliding", None,
-            f"{int((df.mpc_safe_vs_sliding_pct <= 0).sum())}/{len(df)}", "max recorded beta")
-    tab.add("max arrival delay safeguarded vs sliding (s)", None, float((df.t_a_mpc_safe_s - df.t_a_sliding_s).max()),
-            "t_a(safeguarded) - t_a(sliding)")
-    tab.add("median sliding on-sphere max - lower bound (deg)", None,
-            float((df.sliding_onsphere_max_deg - df.onsphere_lower_bound_deg).median()),
-            "proven instantaneous optimum, sampled every 5 s")
-    tab.add("median MPC predicted max vs realised (deg)", None,
-            float((df.mpc_pred_max_deg - df.beta_mpc_deg).median()), "MPC epigraph value over its horizons")
-    tab.emit(out, "gap_summary")
+    tasks = [{"problem": "covert", "instance": instance_id("gap", n_targets=2 + s % 5, seed=s), "seed": s,
+              "n_targets": 2 + s % 5, "size": 2 + s % 5} for s in range(seeds)]
+    with open_store(store, out) as st:
+        df = map_rows(gap_task, tasks, executor=executor, store=st, desc="covert gap")
+    report_study(df, out, "covert", thesis=GAP_THESIS, title="covert: max recorded bearing change (deg)")
+    obj = df.pivot(index="instance", columns="method", values="objective")
+    tab = ComparisonTable(f"Covert gap over {len(obj)} random target groups (2-6 targets)")
+    if {"hover", "sliding", "mpc", "mpc-safeguarded"} <= set(obj.columns):
+        tab.add("median sliding vs hover (%)", "-28.9 / -33.1 (cases 1, 2)",
+                float((100 * (obj.sliding - obj.hover) / obj.hover).median()), "(sliding - hover) / hover")
+        tab.add("median MPC vs sliding (%)", None, float((100 * (obj.mpc - obj.sliding) / obj.sliding).median()),
+                "(MPC - sliding) / sliding")
+        tab.add("groups where MPC <= sliding", None, f"{int((obj.mpc <= obj.sliding).sum())}/{len(obj)}",
+                "max recorded beta")
+        safe = obj["mpc-safeguarded"]
+        tab.add("groups where safeguarded MPC <= sliding", None, f"{int((safe <= obj.sliding).sum())}/{len(obj)}",
+                "max recorded beta")
+    tab.emit(out, "gap_table")
+    return df
 
 
 # --------------------------------------------------------------------------- bench

@@ -24,8 +24,10 @@ from droneplan.planners.shark import (ClassicalPursuit, OCPInterceptor, Repellin
                             VirtualSharkInterceptor, allocate_operators, optimal_interception, thesis_altitude)
 from droneplan.scenarios.shark import (THESIS_TABLE_5_1, SharkBehaviour, operator_start, random_trajectory,  # noqa: E402, F401
                              simulate, simulate_repelling, thesis_trajectories)
-from droneplan.studies.common import ComparisonTable, ResumableCSV, map_rows  # noqa: E402
+from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study  # noqa: E402
 from droneplan.studies.plots.shark import plot_time_series, plot_top_view  # noqa: E402
+from droneplan.studies.store import Outcome, build_rows, instance_id  # noqa: E402
+
 
 P = THESIS_TABLE_5_1
 TABLE_5_2 = {"a": (5.34, 29.70), "b": (5.48, 30.50), "c": (5.55, 19.79), "d": (5.78, 21.26)}
@@ -191,21 +193,32 @@ def _repelling(out: Path, table: ComparisonTable, quick: bool) -> None:
 
 
 # --------------------------------------------------------------------------- gap
-def _gap_task(task: dict) -> dict:
+def gap_task(task: dict) -> list[dict]:
+    """One instance in the results schema (objectives in s, minimised).
+
+    ``kind="path"``: a random curvy shark path; the virtual shark's time to its interception
+    point vs the time-optimal interception OCP (IPOPT, a local optimum). ``kind="assign"``:
+    a random fleet (2-4 operators, 2-5 sharks); greedy vs optimal bottleneck assignment of
+    operators to sharks (latest interception time).
+    """
     seed = int(task["seed"])
     if task["kind"] == "path":
         tr = random_trajectory(seed)
         bearing = float(np.random.default_rng(seed).uniform(-180, 180))
         O0 = operator_start(tr, bearing_deg=bearing)
         vs_ctl = VirtualSharkInterceptor()
-        vs = simulate(tr, vs_ctl, bearing_deg=bearing)
         t0 = time.perf_counter()
+        vs = simulate(tr, vs_ctl, bearing_deg=bearing)
+        vs_time = time.perf_counter() - t0
         res = optimal_interception(tr, O0, N=50)
-        dt = time.perf_counter() - t0
-        T = res.objective if res.status.has_solution else None
-        return dict(kind="path", seed=seed, bearing=bearing, vs_T=vs_ctl.capture_time, vs_contact=vs.intercept_time,
-                    vs_frontal=vs.frontal, vs_early=vs.touched_early, ocp_T=T, ocp_status=res.status.name,
-                    ratio=(T / vs_ctl.capture_time) if (T and vs_ctl.capture_time) else None, ocp_time_s=dt)
+        T_vs = vs_ctl.capture_time
+        outcomes = [
+            Outcome("virtual-shark", "heuristic", "feasible" if T_vs else "no_solution", objective=T_vs,
+                    time_s=vs_time, message="time to the interception point (capture), closed loop",
+                    extras={"bearing_deg": bearing, "contact_s": vs.intercept_time, "frontal": bool(vs.frontal),
+                            "touched_early": bool(vs.touched_early)}),
+            Outcome.of("ocp", "model", res, extras={"bearing_deg": bearing})]
+        return build_rows("shark", task["instance"], seed=seed, size=1, sense="min", outcomes=outcomes)
     g = np.random.default_rng(seed)
     n, s = int(g.integers(2, 5)), int(g.integers(2, 6))
     O = np.c_[g.uniform(-60, 60, (n, 2)), np.full(n, 2.0)]
@@ -215,31 +228,49 @@ def _gap_task(task: dict) -> dict:
     H = g.uniform(-30, 30, (6, 2))
     opt = allocate_operators(O, S, V, H)
     gr = allocate_operators(O, S, V, H, greedy=True)
-    return dict(kind="assign", seed=seed, n=n, s=s, opt_latest=opt.objective, opt_status=opt.status.name,
-                greedy_latest=gr.objective,
-                ratio=(gr.objective / opt.objective) if np.isfinite(gr.objective) and opt.objective else None)
+    extras = {"n_sharks": s}
+    outcomes = [
+        Outcome("bottleneck", "model", opt.status.value, objective=_finite_or_none(opt.objective),
+                bound=_finite_or_none(opt.objective) if opt.status.value == "optimal" else None,
+                bound_kind="proven-global" if opt.status.value == "optimal" else "none", time_s=opt.solve_time,
+                message=opt.message, extras=extras),
+        Outcome("greedy", "heuristic", gr.status.value if _finite_or_none(gr.objective) is not None else "no_solution",
+                objective=_finite_or_none(gr.objective), time_s=gr.solve_time,
+                message=gr.message or "greedy leaves a shark unreachable" if _finite_or_none(gr.objective) is None
+                else gr.message, extras=extras)]
+    return build_rows("shark", task["instance"], seed=seed, size=n, sense="min", outcomes=outcomes)
 
 
-def gap(*, seeds: int, executor, out: Path) -> None:
-    """Virtual shark vs OCP optimum on ``seeds`` random paths; assignment vs greedy on ``seeds`` fleets."""
+def _finite_or_none(v):
+    return float(v) if v is not None and np.isfinite(v) else None
+
+
+def gap(*, seeds: int, executor, out: Path, store=None):
+    """Virtual shark vs OCP on ``seeds`` random paths; greedy vs optimal assignment on ``seeds`` fleets.
+
+    executor: from ``make_executor``; out: directory for the summary and figure; store: the
+    results store (default ``out/results.sqlite``). Returns the rows of these instances.
+    """
     out = Path(out)
-    p = map_rows(_gap_task, [dict(kind="path", seed=s) for s in range(seeds)], executor=executor,
-                 store=ResumableCSV(out / "gap_shark_paths.csv", key=("kind", "seed")), desc="shark gap: paths")
-    a = map_rows(_gap_task, [dict(kind="assign", seed=s) for s in range(seeds)], executor=executor,
-                 store=ResumableCSV(out / "gap_shark_assign.csv", key=("kind", "seed")), desc="shark gap: fleets")
+    tasks = [{"problem": "shark", "instance": instance_id(f"gap-{kind}", seed=s), "kind": kind, "seed": s}
+             for kind in ("path", "assign") for s in range(seeds)]
+    with open_store(store, out) as st:
+        df = map_rows(gap_task, tasks, executor=executor, store=st, desc="shark gap")
+    report_study(df, out, "shark", title="shark: interception time (s; paths) and latest interception (s; fleets)")
     t = ComparisonTable("Shark ch. 5: optimality gap")
-    r = p["ratio"].astype(float).dropna()
-    t.add("OCP T / virtual-shark T, random curvy paths (mean)", "—", float(r.mean()) if len(r) else None,
-          f"{len(r)} paths with both times; path known; 1 = no gain")
-    t.add("OCP T / virtual-shark T (worst = max)", "—", float(r.max()) if len(r) else None, "same paths")
-    t.add("virtual shark touches early (Prop. 5.3.3 violated)", "never",
-          f"{int(p['vs_early'].astype(str).eq('True').sum())}/{len(p)}", "curvy random paths, random start bearing")
-    ra = a["ratio"].astype(float).replace([np.inf], np.nan)
-    t.add("greedy / optimal latest interception (mean)", "—", float(ra.mean()) if ra.notna().any() else None,
-          f"{len(a)} fleets (2-4 operators, 2-5 sharks at 1-5 m/s), virtual-shark times on constant-velocity paths")
-    t.add("fleets where greedy is worse", "—", f"{int((ra > 1 + 1e-9).sum())}/{len(a)} "
-          f"(+{int(ra.isna().sum())} where greedy leaves a shark unreachable)", "")
-    t.emit(out, "gap_shark_summary")
+    paths = df[df["study"] == "gap-path"].pivot(index="instance", columns="method", values="objective")
+    if {"ocp", "virtual-shark"} <= set(paths.columns):
+        r = (paths["ocp"] / paths["virtual-shark"]).dropna()
+        t.add("OCP T / virtual-shark T, random curvy paths (mean)", "—", float(r.mean()) if len(r) else None,
+              f"{len(r)} paths with both times; path known; 1 = no gain")
+        t.add("OCP T / virtual-shark T (worst = max)", "—", float(r.max()) if len(r) else None, "same paths")
+    vs = df[(df["study"] == "gap-path") & (df["method"] == "virtual-shark")]
+    if "shark_touched_early" in vs:
+        t.add("virtual shark touches early (Prop. 5.3.3 violated)", "never",
+              f"{int(vs['shark_touched_early'].fillna(False).astype(bool).sum())}/{len(vs)}",
+              "curvy random paths, random start bearing")
+    t.emit(out, "gap_table")
+    return df
 
 
 # --------------------------------------------------------------------------- bench

@@ -7,9 +7,15 @@ import sys
 
 import pandas as pd
 import pytest
-
 from droneplan.studies import cli
-from droneplan.studies.common import ComparisonTable, ResumableCSV, make_executor, map_rows
+from droneplan.studies.common import ComparisonTable, make_executor, map_rows, summarize
+from droneplan.studies.store import (
+    STORE_NAME,
+    Outcome,
+    ResultStore,
+    build_rows,
+    instance_id,
+)
 
 
 def test_help_runs_and_names_available_problems():
@@ -24,7 +30,7 @@ def test_help_runs_and_names_available_problems():
 
 
 def test_unavailable_or_unknown_problem_is_refused(monkeypatch):
-    monkeypatch.setattr(cli, "available_problems", lambda: [])
+    monkeypatch.setattr(cli, "available_problems", list)
     with pytest.raises(SystemExit, match="not implemented yet"):
         cli.main(["reproduce", "cells", "--quick"])
     with pytest.raises(SystemExit):
@@ -32,48 +38,90 @@ def test_unavailable_or_unknown_problem_is_refused(monkeypatch):
 
 
 def _square(task):
-    return {"seed": task["seed"], "value": task["seed"] ** 2}
+    s = task["seed"]
+    return build_rows("herding", task["instance"], seed=s, size=1, sense="min",
+                      outcomes=[Outcome("square", "heuristic", "feasible", objective=float(s * s))])
 
 
-def test_map_rows_appends_and_resumes(tmp_path):
-    store = ResumableCSV(tmp_path / "rows.csv", key=["seed"])
-    with make_executor(workers=1) as ex:
-        df = map_rows(_square, [{"seed": s} for s in range(3)], executor=ex, store=store)
-    assert sorted(df["value"]) == [0, 1, 4]
-    calls = []
+def _tasks(n):
+    return [{"problem": "herding", "instance": instance_id("t", seed=s), "seed": s} for s in range(n)]
 
-    def counting(task):
-        calls.append(task["seed"])
-        return _square(task)
 
-    with make_executor(workers=1) as ex:
-        df = map_rows(counting, [{"seed": s} for s in range(5)], executor=ex, store=store)
-    assert sorted(calls) == [3, 4]  # the three finished rows were not recomputed
-    assert sorted(df["value"]) == [0, 1, 4, 9, 16]
+def test_map_rows_writes_and_resumes(tmp_path):
+    with ResultStore(tmp_path / STORE_NAME) as store:
+        with make_executor(workers=1) as ex:
+            df = map_rows(_square, _tasks(3), executor=ex, store=store)
+        assert sorted(df["objective"]) == [0, 1, 4]
+        calls = []
+
+        def counting(task):
+            calls.append(task["seed"])
+            return _square(task)
+
+        with make_executor(workers=1) as ex:
+            df = map_rows(counting, _tasks(5), executor=ex, store=store)
+        assert sorted(calls) == [3, 4]  # the three finished instances were not recomputed
+        assert sorted(df["objective"]) == [0, 1, 4, 9, 16]
+
+
+def test_serial_executor_runs_each_task_when_consumed(tmp_path):
+    """--workers 1: the first task's row is on disk before the second task starts."""
+    seen = []
+    with ResultStore(tmp_path / STORE_NAME) as store:
+        def probe(task):
+            seen.append(store.count())
+            return _square(task)
+
+        with make_executor(workers=1) as ex:
+            map_rows(probe, _tasks(3), executor=ex, store=store)
+    assert seen == [0, 1, 2]
 
 
 def test_process_pool_executor(tmp_path):
-    store = ResumableCSV(tmp_path / "rows.csv", key=["seed"])
-    with make_executor(workers=2) as ex:
-        df = map_rows(_square, [{"seed": s} for s in range(4)], executor=ex, store=store)
-    assert sorted(df["value"]) == [0, 1, 4, 9]
+    with ResultStore(tmp_path / STORE_NAME) as store, make_executor(workers=2) as ex:
+        df = map_rows(_square, _tasks(4), executor=ex, store=store)
+    assert sorted(df["objective"]) == [0, 1, 4, 9]
 
 
-def test_bad_arguments():
+def test_bad_arguments(tmp_path):
     with pytest.raises(ValueError, match="workers"):
         make_executor(workers=0).__enter__()
-    with pytest.raises(ValueError, match="key"):
-        ResumableCSV("x.csv", key=[])
+    with ResultStore(tmp_path / STORE_NAME) as store, make_executor(workers=1) as ex:
+        with pytest.raises(ValueError, match="instance"):
+            map_rows(_square, [{"seed": 1}], executor=ex, store=store)
+        with pytest.raises(ValueError, match="repeat"):
+            map_rows(_square, _tasks(2) + _tasks(1), executor=ex, store=store)
 
 
 def test_comparison_table(tmp_path):
     t = ComparisonTable("Table X")
     t.add("max beta (deg)", 15.5, 14.25, "simulate case 1")
-    text = t.render()
+    t.add("time (min)", 10.0, 20.0, "a long description " * 10)
+    t.add("text only", "< 0.3", "0.2", "strings: no deviation")
+    text = t.render(width=80)
     assert "thesis" in text and "15.5" in text and "14.25" in text
+    assert max(len(line) for line in text.splitlines()) <= 80
+    df = t.frame()
+    assert list(df["deviation"]) == ["-8%", "+100%", ""]
+    assert list(df["flag"]) == ["ok", "!", ""]  # beyond DEVIATION_THRESHOLD = 25 %
     t.emit(tmp_path, "table_x")
     df = pd.read_csv(tmp_path / "table_x.csv")
-    assert list(df.columns) == ["quantity", "thesis", "this run", "how measured"]
+    assert list(df.columns) == ["quantity", "thesis", "this run", "deviation", "flag", "how measured"]
+    assert "| max beta (deg) | 15.5 | 14.25 | -8% | ok |" in (tmp_path / "table_x.md").read_text()
+
+
+def test_summarize_counts_and_gaps():
+    rows = []
+    for s in range(4):
+        rows += build_rows("cells", instance_id("t", seed=s), seed=s, size=3, sense="max", outcomes=[
+            Outcome("milp", "model", "optimal", objective=10.0, bound=10.0, bound_kind="candidate-set"),
+            Outcome("ga", "heuristic", "feasible", objective=10.0 - (s == 0) * 5.0)])
+    summary = summarize(pd.DataFrame(rows), {("cells", "ga"): "P_Global = 1"}).set_index("method")
+    assert summary.loc["ga", "count"] == 4 and summary.loc["ga", "best_rate"] == 0.75
+    assert summary.loc["ga", "median_gap_to_bound"] == 0.0
+    assert summary.loc["ga", "mean_gap_to_bound"] == pytest.approx(0.5 / 4)
+    assert summary.loc["ga", "thesis"] == "P_Global = 1"
+    assert summary.loc["milp", "success_rate"] == 1.0
 
 
 def test_all_dependencies_import_in_one_process():
@@ -94,7 +142,7 @@ def test_dask_executor_maps_rows(tmp_path):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
-        store = ResumableCSV(tmp_path / "rows.csv", key=["seed"])
-        with make_executor(dask_address=cluster.scheduler_address) as ex:
-            df = map_rows(_square, [{"seed": s} for s in range(3)], executor=ex, store=store)
-    assert sorted(df["value"]) == [0, 1, 4]
+        with ResultStore(tmp_path / STORE_NAME) as store, \
+                make_executor(dask_address=cluster.scheduler_address) as ex:
+            df = map_rows(_square, _tasks(3), executor=ex, store=store)
+    assert sorted(df["objective"]) == [0, 1, 4]

@@ -1,36 +1,39 @@
 """studies.herding: the allocation gap rows and tables, and one run record."""
 
 import numpy as np
-import pandas as pd
 import pytest
-
 from droneplan.studies import herding as study
 from droneplan.studies.common import make_executor
+from droneplan.studies.store import load_results
 
 
 @pytest.mark.parametrize("n", [2, 5, 7])
-def test_gap_row_allocators_agree_with_exact(n):
+def test_gap_task_allocators_agree_with_exact(n):
     for seed in range(3):
-        row = study.gap_row({"n": n, "seed": seed})
-        assert row["alg3"] == pytest.approx(row["exact"], abs=1e-9)
-        assert row["cpsat"] == pytest.approx(row["exact"], abs=1e-9)
-        assert row["cpsat_bound"] <= row["cpsat"] + 1e-9
-        assert row["blind"] <= row["exact"] + 1e-9  # relaxation
+        rows = {r["method"]: r for r in study.gap_task({"problem": "herding", "instance": f"gap:n={n},seed={seed}",
+                                                        "n": n, "seed": seed})}
+        exact = rows["exact"]["objective"]
+        assert rows["alg3"]["objective"] == pytest.approx(exact, abs=1e-9)
+        assert rows["cp-sat"]["objective"] == pytest.approx(exact, abs=1e-9)
+        assert rows["cp-sat"]["bound"] <= rows["cp-sat"]["objective"] + 1e-9
+        assert rows["collision-blind"]["bound"] <= exact + 1e-9  # relaxation
+        assert rows["alg3"]["gap_to_best"] == pytest.approx(0.0, abs=1e-9)
+        assert rows["alg3"]["gap_to_bound"] == pytest.approx(0.0, abs=1e-9)
 
 
-def test_gap_writes_resumable_csv_and_table(tmp_path, capsys):
+def test_gap_writes_resumable_store_and_table(tmp_path, capsys):
     with make_executor(1) as ex:
         study.gap(seeds=1, executor=ex, out=tmp_path)
-    df = pd.read_csv(tmp_path / "gap_allocation.csv")
-    assert sorted(df["n"]) == [2, 4, 6, 7, 8, 16, 64]
-    assert np.all(df["blind"] <= df["exact"] + 1e-9)
-    assert (tmp_path / "gap_allocation.csv").exists()
+    df = load_results(tmp_path)
+    assert sorted(df["size"].unique()) == [2, 4, 6, 7, 8, 16, 64]
+    assert (df["gap_to_bound"].dropna() >= -1e-9).all()
+    assert (tmp_path / "gap_herding.png").exists() and (tmp_path / "gap_summary.csv").exists()
     printed = capsys.readouterr().out
-    assert "Algorithm 3 = exact" in printed and "100% of 1" in printed
-    # resuming does not recompute or duplicate rows
-    with make_executor(1) as ex:
+    assert "alg3 = exact" in printed and "100% of 1" in printed
+    n = len(df)
+    with make_executor(1) as ex:  # resuming does not recompute or duplicate rows
         study.gap(seeds=1, executor=ex, out=tmp_path)
-    assert len(pd.read_csv(tmp_path / "gap_allocation.csv")) == 7
+    assert len(load_results(tmp_path)) == n
 
 
 def test_run_once_record():

@@ -1,7 +1,6 @@
 import math
 
 import numpy as np
-
 from droneplan.studies import shark as study
 from droneplan.studies.common import ComparisonTable
 
@@ -17,8 +16,14 @@ def test_fig_5_10_records_the_infeasible_range(tmp_path):
 
 
 def test_gap_rows_are_consistent():
-    row = study._gap_task(dict(kind="path", seed=3))
-    assert row["ocp_status"] == "OPTIMAL" and row["ocp_T"] <= row["vs_T"] + 1e-6
-    assert math.isclose(row["ratio"], row["ocp_T"] / row["vs_T"])
-    row = study._gap_task(dict(kind="assign", seed=1))
-    assert row["opt_status"] == "OPTIMAL" and row["opt_latest"] <= row["greedy_latest"] + 1e-9
+    rows = {r["method"]: r for r in study.gap_task(dict(problem="shark", instance="gap-path:seed=3", kind="path",
+                                                        seed=3))}
+    assert rows["ocp"]["status"] == "optimal"
+    assert rows["ocp"]["objective"] <= rows["virtual-shark"]["objective"] + 1e-6
+    assert math.isclose(rows["virtual-shark"]["gap_to_best"],
+                        rows["virtual-shark"]["objective"] / rows["ocp"]["objective"] - 1)
+    rows = {r["method"]: r for r in study.gap_task(dict(problem="shark", instance="gap-assign:seed=1", kind="assign",
+                                                        seed=1))}
+    assert rows["bottleneck"]["status"] == "optimal"
+    assert rows["bottleneck"]["objective"] <= rows["greedy"]["objective"] + 1e-9
+    assert rows["greedy"]["gap_to_bound"] >= -1e-9 and rows["greedy"]["gap_bound_kind"] == "proven-global"
