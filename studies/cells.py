@@ -7,6 +7,7 @@ that ``formulations.cells`` selects for 1-2 workers); bench also times HiGHS.
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import matplotlib
@@ -16,91 +17,147 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from droneplan.formulations.cells import evaluate, solve_milp  # noqa: E402
-from droneplan.planners.cells import exhaustive, genetic, genetic_polished, polish, thesis_ga_settings  # noqa: E402
+from droneplan.planners.cells import exhaustive, genetic, genetic_polished, polish  # noqa: E402
 from droneplan.scenarios.cells import THESIS_TABLE_4_3, thesis_problem  # noqa: E402
-from droneplan.solvers.result import Status  # noqa: E402
-from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study  # noqa: E402
+from droneplan.studies.common import ComparisonTable, make_executor, map_rows, open_store, report_study  # noqa: E402
 from droneplan.studies.plots.cells import plot_map  # noqa: E402
 from droneplan.studies.store import Outcome, build_rows, instance_id  # noqa: E402
-
 
 INSTANCE_SEED = 0
 """Seed of the thesis-scale user snapshot used by reproduce and bench."""
 MILP_BACKEND = "cp-sat"
 
 
-def _ga_runs(problem, runs: int, *, pop_size=None, restarts=None, iter_max=50, seed0=0):
-    res = [genetic(problem, pop_size=pop_size, restarts=restarts, iter_max=iter_max, seed=seed0 + r)
-           for r in range(runs)]
-    return res
+def reproduce_task(task: dict) -> list[dict]:
+    """One reproduce instance of ch. 4 in the results schema (objective = covered users, maximised).
+
+    kind ``exact``: MILP and exhaustive search (Alg. 2) on ``thesis_problem(m, seed)``;
+    ``ga``: one GA run (pop_size/restarts/iter_max as given, ``run`` seeds it), also scored
+    after polishing; ``milp-nc``: the MILP on the non-clustered snapshot (Fig. 4.6).
+    """
+    m, seed = int(task["m"]), int(task["seed"])
+    kind = task["kind"]
+    p = thesis_problem(m, seed, clustered=kind != "milp-nc")
+    outcomes = []
+    if kind in ("exact", "milp-nc"):
+        milp = solve_milp(p, backend=MILP_BACKEND, time_limit=float(task["milp_limit"]))
+        outcomes.append(Outcome.of("milp", "model", milp, bound_kind="candidate-set"))
+        cont = milp.info.get("continuous_bound")
+        if cont is not None:
+            outcomes.append(Outcome("continuous-bound", "bound", milp.status.value, bound=float(cont),
+                                    bound_kind="proven-global", message="upper bound of the continuous problem"))
+        if kind == "exact":
+            es = exhaustive(p, time_limit=float(task["es_limit"]))
+            outcomes.append(Outcome.of("exhaustive", "heuristic", es, extras={"es_complete": bool(es.info["complete"])}))
+    else:
+        ga = genetic(p, pop_size=task.get("pop_size"), restarts=task.get("restarts"),
+                     iter_max=int(task.get("iter_max", 50)), seed=int(task["run_seed"]))
+        polished = evaluate(p, polish(p, ga.x)).covered
+        outcomes.append(Outcome.of("ga", "heuristic", ga, extras={"polished": int(polished),
+                                                                   "run_seed": int(task["run_seed"])}))
+    return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
 
 
-def reproduce(*, quick: bool, out: Path) -> None:
-    """Table 4.3 and Figs 4.3-4.6 analogues (thesis value beside ours); CSV + PNG in ``out``."""
+def _objective(df, instance: str, method: str):
+    row = df[(df["instance"] == instance) & (df["method"] == method)]
+    return row.iloc[0] if len(row) else None
+
+
+def reproduce(*, quick: bool, out: Path, executor=None, store=None) -> None:
+    """Table 4.3 and Figs 4.3-4.6 analogues (thesis value beside ours); CSV + PNG in ``out``.
+
+    Every solve and GA run is a task of the results store (default ``out/results.sqlite``),
+    run through ``executor`` (default: serial), so an interrupted reproduction resumes.
+    """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    with contextlib.ExitStack() as stack:
+        ex = executor or stack.enter_context(make_executor(1))
+        st = stack.enter_context(open_store(store, out))
+        _reproduce(quick, out, ex, st)
+
+
+def _reproduce(quick: bool, out: Path, ex, st) -> None:
     ms = (1, 2, 3) if quick else (1, 2, 3, 4)
     runs = 3 if quick else 20
     es_limit = 20.0 if quick else 600.0
     milp_limit = 120.0 if quick else 600.0
+    seed = INSTANCE_SEED
+    tag = "quick" if quick else "full"
+
+    def ga_task(study, run_seed, m, **kw):
+        return {"problem": "cells", "instance": instance_id(study, m=m, seed=seed, run=run_seed, **kw), "kind": "ga",
+                "m": m, "seed": seed, "run_seed": run_seed, **kw}
+
+    exact = [{"problem": "cells", "instance": instance_id("table4.3", m=m, seed=seed, limits=tag), "kind": "exact",
+              "m": m, "seed": seed, "milp_limit": milp_limit, "es_limit": es_limit} for m in ms]
+    ga43 = [ga_task("table4.3-ga", 100 * m + r, m) for m in ms for r in range(runs)]
+    n43 = 3 if quick else 50
+    fig43 = ([ga_task("fig4.3", 5000 + r, 2, pop_size=100, restarts=1, iter_max=2000) for r in range(n43)]
+             + [ga_task("fig4.3", 6000 + r, 2, pop_size=100, restarts=40, iter_max=50) for r in range(n43)])
+    Ps = (50, 100) if quick else (50, 100, 150, 200)
+    Ns = (10, 30) if quick else (20, 40, 60, 80)
+    n45 = 2 if quick else 20
+    fig45 = [ga_task("fig4.5", 7000 + 100 * i + j * 1000 + r, 3, pop_size=P, restarts=N)
+             for i, P in enumerate(Ps) for j, N in enumerate(Ns) for r in range(n45)]
+    nc = [{"problem": "cells", "instance": instance_id("fig4.6", m=m, seed=seed, limits=tag), "kind": "milp-nc",
+           "m": m, "seed": seed, "milp_limit": 30.0 if quick else 300.0} for m in ms]
+    # Table 4.3 first: the rest of the figures need its MILP optima
+    df = map_rows(reproduce_task, exact + ga43, executor=ex, store=st, desc="Table 4.3")
     # ---------------------------------------------------------------- Table 4.3
     tab = ComparisonTable("Table 4.3 - computing time and GA success (thesis instance vs ours, seed "
                           f"{INSTANCE_SEED}; MILP backend {MILP_BACKEND})")
-    milp_sol = {}
-    rows = []
-    for m in ms:
-        p = thesis_problem(m, INSTANCE_SEED)
-        t_es, _, _, P, N, pg = THESIS_TABLE_4_3[m]
-        t_ga_th = THESIS_TABLE_4_3[m][1]
-        milp = solve_milp(p, backend=MILP_BACKEND, time_limit=milp_limit)
-        milp_sol[m] = (p, milp)
-        es = exhaustive(p, time_limit=es_limit)
-        ga = _ga_runs(p, runs, seed0=100 * m)
-        ga_t = float(np.mean([g.solve_time for g in ga]))
-        opt = milp.objective if milp.status is Status.OPTIMAL else None
-        succ = None if opt is None else float(np.mean([g.objective == opt for g in ga]))
-        pol = [evaluate(p, polish(p, g.x)).covered for g in ga]
-        succ_pol = None if opt is None else float(np.mean([v == opt for v in pol]))
-        es_time = f"{es.solve_time:.3g}" + ("" if es.info["complete"] else f" (stopped at {es_limit:g} s)")
+    opt, milp_sol, rows = {}, {}, []
+    for m, task in zip(ms, exact):
+        t_es, t_ga_th, _, P, N, pg = THESIS_TABLE_4_3[m]
+        milp, es = _objective(df, task["instance"], "milp"), _objective(df, task["instance"], "exhaustive")
+        cont = _objective(df, task["instance"], "continuous-bound")
+        ga = df[df["instance"].isin([t["instance"] for t in ga43 if t["m"] == m]) & (df["method"] == "ga")]
+        opt[m] = milp["objective"] if milp["status"] == "optimal" else None
+        milp_sol[m] = milp
+        succ = None if opt[m] is None else float((ga["objective"] == opt[m]).mean())
+        succ_pol = None if opt[m] is None else float((ga["cells_polished"] == opt[m]).mean())
+        es_time = f"{es['time_s']:.3g}" + ("" if es["cells_es_complete"] else f" (stopped at {es_limit:g} s)")
         tab.add(f"m={m} T_ES (s)", t_es, es_time, "Algorithm 2, wall time on this machine")
-        tab.add(f"m={m} T_GA (s)", t_ga_th, ga_t, f"mean over {runs} GA runs, P={P}, N_start={N}, iter_max=50")
-        tab.add(f"m={m} P_Global", pg, succ, f"fraction of {runs} GA runs reaching the MILP optimum")
+        tab.add(f"m={m} T_GA (s)", t_ga_th, float(ga["time_s"].mean()),
+                f"mean over {len(ga)} GA runs, P={P}, N_start={N}, iter_max=50")
+        tab.add(f"m={m} P_Global", pg, succ, f"fraction of {len(ga)} GA runs reaching the MILP optimum")
         tab.add(f"m={m} P_Global GA+polish (ours)", None, succ_pol,
                 "same GA runs, then coordinate ascent with the sweep (not in the thesis)")
-        tab.add(f"m={m} MILP time (s)", None, milp.solve_time, f"solve_milp status {milp.status.name}")
+        tab.add(f"m={m} MILP time (s)", None, float(milp["time_s"]), f"solve_milp status {milp['status']}")
         tab.add(f"m={m} objectives ES / GA best / MILP", None,
-                f"{es.objective:g} / {max(g.objective for g in ga):g} / {milp.objective:g}",
-                "covered users (evaluate)")
+                f"{es['objective']:g} / {ga['objective'].max():g} / {milp['objective']:g}", "covered users (evaluate)")
         tab.add(f"m={m} MILP bound (candidate) / continuous bound", None,
-                f"{milp.bound:g} / {milp.info['continuous_bound']:g}", "proven upper bounds")
-        rows.append({"m": m, "es_obj": es.objective, "es_time": es.solve_time, "es_complete": es.info["complete"],
-                     "ga_best": max(g.objective for g in ga), "ga_mean_time": ga_t, "ga_success": succ, "ga_polish_success": succ_pol,
-                     "milp_obj": milp.objective, "milp_bound": milp.bound, "milp_status": milp.status.name,
-                     "milp_time": milp.solve_time, "continuous_bound": milp.info["continuous_bound"]})
+                f"{milp['bound']:g} / {cont['bound'] if cont is not None else float('nan'):g}", "proven upper bounds")
+        rows.append({"m": m, "es_obj": es["objective"], "es_time": es["time_s"], "es_complete": es["cells_es_complete"],
+                     "ga_best": ga["objective"].max(), "ga_mean_time": ga["time_s"].mean(), "ga_success": succ,
+                     "ga_polish_success": succ_pol, "milp_obj": milp["objective"], "milp_bound": milp["bound"],
+                     "milp_status": milp["status"], "milp_time": milp["time_s"],
+                     "continuous_bound": None if cont is None else cont["bound"]})
     tab.emit(out, "table_4_3")
     import pandas as pd
     pd.DataFrame(rows).to_csv(out / "table_4_3_raw.csv", index=False)
-    # ---------------------------------------------------------------- Fig 4.4 maps
+    # ---------------------------------------------------------------- Fig 4.4 maps (re-solve: positions are not stored)
     fig, axes = plt.subplots(1, len(ms), figsize=(5.5 * len(ms), 5.5))
     for ax, m in zip(np.atleast_1d(axes), ms):
-        p, r = milp_sol[m]
+        p = thesis_problem(m, INSTANCE_SEED)
+        r = solve_milp(p, backend=MILP_BACKEND, time_limit=milp_limit)
         plot_map(p, r.x, ax=ax, title=f"m={m}: {r.objective:g} users ({r.status.name})")
     fig.savefig(out / "fig_4_4_maps.png", dpi=110)
     plt.close(fig)
     # ---------------------------------------------------------------- Fig 4.3 restart strategy, m = 2
-    p2, r2 = milp_sol[2]
-    n43 = 3 if quick else 50
-    no_restart = _ga_runs(p2, n43, pop_size=100, restarts=1, iter_max=2000, seed0=5000)
-    restart = _ga_runs(p2, n43, pop_size=100, restarts=40, iter_max=50, seed0=6000)
-    opt2 = r2.objective
-    s_nr = float(np.mean([g.objective == opt2 for g in no_restart]))
-    s_r = float(np.mean([g.objective == opt2 for g in restart]))
+    df = map_rows(reproduce_task, fig43, executor=ex, store=st, desc="Fig. 4.3")
+    opt2 = milp_sol[2]["objective"]
+    obj = df.set_index("instance")["objective"]
+    no_restart = obj[[t["instance"] for t in fig43 if t["restarts"] == 1]]
+    restart = obj[[t["instance"] for t in fig43 if t["restarts"] == 40]]
     t43 = ComparisonTable("Fig. 4.3 - GA success without / with restarts (m=2, P=100)")
-    t43.add("success 1 x 2000 iterations", 0.12, s_nr, f"{n43} runs; optimum = MILP {opt2:g}")
-    t43.add("success 40 restarts x 50 iterations", 0.92, s_r, f"{n43} runs; optimum = MILP {opt2:g}")
+    t43.add("success 1 x 2000 iterations", 0.12, float((no_restart == opt2).mean()), f"{n43} runs; optimum = MILP {opt2:g}")
+    t43.add("success 40 restarts x 50 iterations", 0.92, float((restart == opt2).mean()),
+            f"{n43} runs; optimum = MILP {opt2:g}")
     t43.emit(out, "fig_4_3")
     fig, ax = plt.subplots(figsize=(5, 3))
-    ax.hist([[g.objective for g in no_restart], [g.objective for g in restart]], label=["1x2000", "40x50"])
+    ax.hist([no_restart.to_numpy(), restart.to_numpy()], label=["1x2000", "40x50"])
     ax.axvline(opt2, color="k", ls="--", label="MILP optimum")
     ax.set_xlabel("covered users (count)")
     ax.set_ylabel("GA runs (count)")
@@ -108,17 +165,16 @@ def reproduce(*, quick: bool, out: Path) -> None:
     fig.savefig(out / "fig_4_3.png", dpi=110)
     plt.close(fig)
     # ---------------------------------------------------------------- Fig 4.5 success vs P and N, m = 3
-    p3, r3 = milp_sol[3]
-    Ps = (50, 100) if quick else (50, 100, 150, 200)
-    Ns = (10, 30) if quick else (20, 40, 60, 80)
-    n45 = 2 if quick else 20
+    df = map_rows(reproduce_task, fig45, executor=ex, store=st, desc="Fig. 4.5")
+    obj = df.set_index("instance")["objective"]
+    opt3 = milp_sol[3]["objective"]
     t45 = ComparisonTable("Fig. 4.5 - GA success vs population and restarts (m=3)")
     grid = np.zeros((len(Ps), len(Ns)))
     for i, P in enumerate(Ps):
         for j, N in enumerate(Ns):
-            rs = _ga_runs(p3, n45, pop_size=P, restarts=N, seed0=7000 + 100 * i + j)
-            grid[i, j] = np.mean([g.objective == r3.objective for g in rs])
-            t45.add(f"P={P}, N_start={N}", "rises with N_start, flat in P", grid[i, j], f"{n45} runs")
+            ids = [t["instance"] for t in fig45 if t["pop_size"] == P and t["restarts"] == N]
+            grid[i, j] = float((obj[ids] == opt3).mean())
+            t45.add(f"P={P}, N_start={N}", "rises with N_start, flat in P", grid[i, j], f"{len(ids)} runs")
     t45.emit(out, "fig_4_5")
     fig, ax = plt.subplots(figsize=(5, 3))
     for i, P in enumerate(Ps):
@@ -129,19 +185,19 @@ def reproduce(*, quick: bool, out: Path) -> None:
     fig.savefig(out / "fig_4_5.png", dpi=110)
     plt.close(fig)
     # ---------------------------------------------------------------- Fig 4.6 clustered vs non-clustered
+    df = map_rows(reproduce_task, nc, executor=ex, store=st, desc="Fig. 4.6")
     t46 = ComparisonTable("Fig. 4.6 - users covered vs m, clustered vs non-clustered (same expected count)")
-    cl, nc = [], []
-    for m in ms:
-        pu = thesis_problem(m, INSTANCE_SEED, clustered=False)
-        ru = solve_milp(pu, backend=MILP_BACKEND, time_limit=30.0 if quick else 300.0)
-        cl.append(milp_sol[m][1].objective)
-        nc.append(ru.objective)
+    cl, ncl = [], []
+    for m, task in zip(ms, nc):
+        ru = _objective(df, task["instance"], "milp")
+        cl.append(milp_sol[m]["objective"])
+        ncl.append(ru["objective"])
         t46.add(f"m={m} clustered / non-clustered", "clustered > non-clustered",
-                f"{cl[-1]:g} / {nc[-1]:g} (bound {ru.bound:g}, {ru.status.name})", "solve_milp")
+                f"{cl[-1]:g} / {ncl[-1]:g} (bound {ru['bound']:g}, {ru['status']})", "solve_milp")
     t46.emit(out, "fig_4_6")
     fig, ax = plt.subplots(figsize=(5, 3))
     ax.plot(ms, cl, "o-", label="clustered")
-    ax.plot(ms, nc, "s-", label="non-clustered")
+    ax.plot(ms, ncl, "s-", label="non-clustered")
     ax.set_xlabel("drone-cells m (count)")
     ax.set_ylabel("N_total, covered users (count)")
     ax.legend()

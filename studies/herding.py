@@ -11,6 +11,7 @@ simulated seconds per wall second for 1000 animals and 4 drones, proposed vs ben
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import time
@@ -21,18 +22,18 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
 
 from droneplan.formulations.herding import solve_allocation  # noqa: E402
 from droneplan.planners.herding import (BenchmarkHerder, ExtendedHull, HerderSettings, ProposedHerder,  # noqa: E402
                               allocate_bruteforce, allocate_collision_blind)
-from droneplan.scenarios.herding import simulate, table_6_2_for, thesis_scenario  # noqa: E402
-from droneplan.studies.common import ComparisonTable, make_executor, map_rows, report_study, timed  # noqa: E402
-from droneplan.studies.plots.herding import plot_state  # noqa: E402
-from droneplan.studies.common import open_store as _store  # noqa: E402
-from droneplan.studies.store import Outcome, ResultStore, build_rows, instance_id  # noqa: E402
+from droneplan.scenarios.herding import (HerdingFrame, HerdingPhase, simulate, table_6_2_for,  # noqa: E402
+                                         thesis_scenario)
 from droneplan.solvers.result import Status  # noqa: E402
-import pandas as pd  # noqa: E402
-
+from droneplan.studies.common import ComparisonTable, make_executor, map_rows, report_study, timed  # noqa: E402
+from droneplan.studies.common import open_store as _store  # noqa: E402
+from droneplan.studies.plots.herding import plot_state  # noqa: E402
+from droneplan.studies.store import Outcome, ResultStore, build_rows, instance_id  # noqa: E402
 
 FIG_6_7 = {200: {"gather": 11.1, "total": 15.0, "bench_extra": 3.3},
            1000: {"gather": 10.1, "total": 18.2, "bench_extra": 4.1}}
@@ -101,13 +102,59 @@ def _minutes(v) -> float | None:
 
 
 # --------------------------------------------------------------------------- reproduce
-def _fig_6_7(out: Path, quick: bool, executor) -> None:
+def run_pair(task: dict) -> list[dict]:
+    """One reproduce instance: the proposed and the benchmark herder on the same scenario,
+    as two rows of the results schema (objective = total time for Fig. 6.7, gathering time
+    for the sweeps, s; status ``no_solution`` when the run did not finish within t_max).
+    Every field of :func:`run_once` is kept as a ``herding_<name>`` extra."""
+    rows = []
+    for method in ("proposed", "benchmark"):
+        r = run_once({**{k: v for k, v in task.items() if k not in ("problem", "instance")}, "method": method})
+        objective = r["gather_time"] if task.get("gather_only") else r["total_time"]
+        extras = {k: v for k, v in r.items() if k not in ("method",)}
+        extras["snapshots"] = {str(t): {"t": f.t, "animals": f.animals, "drones": f.drones, "headings": f.headings,
+                                        "phase": f.phase.name} for t, f in r["snapshots"].items()}
+        rows.append(Outcome(method, "heuristic", "feasible" if objective is not None else "no_solution",
+                            objective=objective, time_s=r["wall_time"], extras=extras,
+                            message="closed-loop simulate(); objective = " +
+                                    ("gathering time" if task.get("gather_only") else "total time") + " (s)"))
+    return build_rows("herding", task["instance"], seed=int(task["seed"]), size=int(task["n"]), sense="min",
+                      outcomes=rows)
+
+
+def _run_records(df: pd.DataFrame) -> list[dict]:
+    """The run_once records of reproduce rows (extras without their prefix, arrays restored)."""
+    recs = []
+    for _, row in df.iterrows():
+        r = {k[len("herding_"):]: v for k, v in row.items() if k.startswith("herding_")}
+        r = {k: (None if (isinstance(v, float) and np.isnan(v)) else v) for k, v in r.items()}
+        r["method"] = row["method"]
+        r["curve_t"], r["curve_r"] = np.asarray(r["curve_t"], float), np.asarray(r["curve_r"], float)
+        r["snapshots"] = {float(t): HerdingFrame(t=float(f["t"]), animals=np.asarray(f["animals"], float),
+                                                 drones=np.asarray(f["drones"], float),
+                                                 headings=np.asarray(f["headings"], float),
+                                                 phase=HerdingPhase[f["phase"]])
+                          for t, f in (r.get("snapshots") or {}).items()}
+        r["goal"] = tuple(r["goal"]) if r.get("goal") is not None else None
+        for k in ("n", "seed", "n_drones"):
+            if r.get(k) is not None:
+                r[k] = int(r[k])
+        recs.append(r)
+    return recs
+
+
+def _run_all(tasks: list[dict], executor, store, desc: str) -> list[dict]:
+    df = map_rows(run_pair, tasks, executor=executor, store=store, desc=desc)
+    return _run_records(df)
+
+
+def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
     plan = {200: list(range(2)), 1000: list(range(1))} if quick else {200: list(range(20)), 1000: list(range(20))}
     snaps = [0.0, 300.0, 480.0]
-    tasks = [{"fig": "6.7", "n": n, "seed": s, "method": m, "t_max": 2700.0,
-              "snapshots": snaps if (n == 1000 and s == 0) else []}
-             for n, seeds in plan.items() for s in seeds for m in ("proposed", "benchmark")]
-    rows = list(executor.map(run_once, tasks))
+    tasks = [{"problem": "herding", "instance": instance_id("fig6.7", n=n, seed=s), "n": n, "seed": s,
+              "t_max": 2700.0, "snapshots": snaps if (n == 1000 and s == 0) else []}
+             for n, seeds in plan.items() for s in seeds]
+    rows = _run_all(tasks, executor, store, "Fig. 6.7 runs")
     table = ComparisonTable("Fig. 6.7: gathering and total herding time (4 drones, 1200 m x 600 m field)")
     fig, ax = plt.subplots(figsize=(7, 4.5))
     csv_rows = []
@@ -180,15 +227,17 @@ def _fig_6_7(out: Path, quick: bool, executor) -> None:
     plt.close(fig)
 
 
-def _sweeps(out: Path, quick: bool, executor) -> None:
+def _sweeps(out: Path, quick: bool, executor, store) -> None:
     n_animals = 100 if quick else 200
     seeds = range(1) if quick else range(5)
     tasks = []
     for name, (label, full, qv, _, key) in SWEEPS.items():
         for value in (qv if quick else full):
             for s in seeds:
-                for m in ("proposed", "benchmark"):
-                    t = {"sweep": name, "value": value, "n": n_animals, "seed": s, "method": m, "t_max": 2400.0,
+                for n in ([n_animals, 1000] if (name == "R_b" and not quick) else [n_animals]):  # Fig. 6.10a: 1000 too
+                    t = {"problem": "herding", "instance": instance_id("fig6.8-6.10", sweep=name, value=value, n=n,
+                                                                       seed=s),
+                         "sweep": name, "value": value, "n": n, "seed": s, "t_max": 2400.0,
                          "gather_only": True, "curve_every": 30.0}
                     if key == "field":
                         t["field"] = value
@@ -200,9 +249,9 @@ def _sweeps(out: Path, quick: bool, executor) -> None:
                     else:
                         t["params"] = {key: float(value)}
                     tasks.append(t)
-    rows = list(executor.map(run_once, tasks))
-    table = ComparisonTable(f"Figs. 6.8-6.10 (reduced: {n_animals} animals, {len(seeds)} seed(s) per point): "
-                            "gathering time after the drones reach the hull (min)")
+    rows = _run_all(tasks, executor, store, "Figs. 6.8-6.10 runs")
+    table = ComparisonTable(f"Figs. 6.8-6.10 ({n_animals} animals{'' if quick else ', R_b also 1000'}, "
+                            f"{len(seeds)} seed(s) per point): gathering time after the drones reach the hull (min)")
     fig, axes = plt.subplots(2, 3, figsize=(13, 7))
     import pandas as pd
 
@@ -210,18 +259,22 @@ def _sweeps(out: Path, quick: bool, executor) -> None:
     for a, (name, (label, full, qv, statement, _)) in zip(axes.flat, SWEEPS.items()):
         values = qv if quick else full
         cells = {v: [] for v in values}
-        for m, style in (("proposed", "o-"), ("benchmark", "s--")):
+        sizes = sorted({r["n"] for r in rows if r["sweep"] == name})
+        for n_sw, (m, style) in [(n_sw, ms) for n_sw in sizes for ms in (("proposed", "o-"), ("benchmark", "s--"))]:
             ys = []
             for v in values:
-                rs = [r for r in rows if r["sweep"] == name and r["value"] == v and r["method"] == m]
+                rs = [r for r in rows if r["sweep"] == name and r["value"] == v and r["method"] == m
+                      and r["n"] == n_sw]
                 g = [r["gather_after_hull"] for r in rs]
                 ys.append(_minutes(_mean(g)))
                 fails = sum(x is None for x in g)
-                cells[v].append(f"{m[0]} {'—' if ys[-1] is None else f'{ys[-1]:.1f}'}{'*' * fails}")
+                tag = m[0] if len(sizes) == 1 else f"{m[0]}{n_sw}"
+                cells[v].append(f"{tag} {'—' if ys[-1] is None else f'{ys[-1]:.1f}'}{'*' * fails}")
                 for r in rs:
-                    flat.append({"sweep": name, "value": v, "method": m, "seed": r["seed"],
+                    flat.append({"sweep": name, "value": v, "n": n_sw, "method": m, "seed": r["seed"],
                                  "gather_after_hull": r["gather_after_hull"], "gather_time": r["gather_time"]})
-            a.plot(values, [np.nan if y is None else y for y in ys], style, label=m)
+            a.plot(values, [np.nan if y is None else y for y in ys], style,
+                   label=m if len(sizes) == 1 else f"{m}, {n_sw} animals")
         a.set_xlabel(label if "(" in label else f"{label} (count)")
         a.set_ylabel("gathering time after reaching the hull (min)")
         a.grid(alpha=0.3)
@@ -236,13 +289,21 @@ def _sweeps(out: Path, quick: bool, executor) -> None:
     table.emit(out, "fig_6_8_to_6_10")
 
 
-def reproduce(*, quick: bool, out: Path) -> None:
-    """Fig. 6.7 (footprint, times, snapshots) and reduced Figs. 6.8-6.10 sweeps; CSV + PNG in ``out``."""
+def reproduce(*, quick: bool, out: Path, executor=None, store: ResultStore | None = None) -> None:
+    """Fig. 6.7 (footprint, times, snapshots; 20 seeds at 200 and 1000 animals) and the Figs.
+    6.8-6.10 sweeps (200 animals, 5 seeds per point, plus 1000 animals for R_b); CSV + PNG in ``out``.
+
+    quick: 2+1 seeds for Fig. 6.7 and reduced sweeps at 100 animals. executor: from
+    ``make_executor`` (default: up to 2 local processes); store: the results store every
+    run is written to as it finishes (default ``out/results.sqlite``), so a rerun resumes.
+    """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    with make_executor(_workers()) as ex:
-        _fig_6_7(out, quick, ex)
-        _sweeps(out, quick, ex)
+    with contextlib.ExitStack() as stack:
+        ex = executor or stack.enter_context(make_executor(_workers()))
+        st = stack.enter_context(_store(store, out))
+        _fig_6_7(out, quick, ex, st)
+        _sweeps(out, quick, ex, st)
 
 
 # --------------------------------------------------------------------------- gap
@@ -368,37 +429,64 @@ def bench(*, quick: bool, out: Path) -> None:
 
 
 # --------------------------------------------------------------------------- notebook helpers
-def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
-    """Write an animated GIF of a run's frames (needs ``simulate(..., frame_every=...)``); returns the path.
+def compare_runs(n_animals: int, *, seed: int = 0, field: float | None = None, t_max: float = 2700.0,
+                 frame_every: float | None = None) -> dict:
+    """Run the proposed and the benchmark herder on one scenario; {method: HerdingTrace}.
 
-    goal: G (2,) in m, kept in view (default: the trace's goal). fps: frames per second of the GIF.
+    n_animals: herd size; field: square field side (m) or None for the thesis's 1200 x 600 m;
+    frame_every: keep animation frames every this many seconds.
     """
+    size = (float(field), float(field)) if field else (1200.0, 600.0)
+    goal = (size[0] / 2 - (900.0 if field is None else 1.5 * field), size[1] / 2)
+    out = {}
+    for name, herder in (("proposed", ProposedHerder()), ("benchmark", BenchmarkHerder())):
+        sc = thesis_scenario(n_animals, seed=seed, field_size=size, goal=goal)
+        out[name] = simulate(sc, herder, t_max=t_max, seed=seed + 10_000, frame_every=frame_every)
+    return out
+
+
+def footprint_figure(traces: dict, *, R_c: float | None = None):
+    """Footprint radius vs time (Fig. 6.7a style) for {label: HerdingTrace}; returns the figure."""
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for label, tr in traces.items():
+        ax.plot(tr.t / 60.0, tr.footprint_radius, label=label)
+        if tr.gather_time is not None:
+            ax.axvline(tr.gather_time / 60.0, ls=":", lw=0.8, color=ax.lines[-1].get_color())
+    if R_c is not None:
+        ax.axhline(R_c, color="k", lw=0.6, label="R_c")
+    ax.set_xlabel("t (min)")
+    ax.set_ylabel("footprint radius (m)")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    return fig
+
+
+def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
+    """Write an animated GIF of a run's frames (needs ``simulate(..., frame_every=...)``); returns the path."""
     from matplotlib.animation import FuncAnimation, PillowWriter
 
     if not trace.frames:
         raise ValueError("trace has no frames: run simulate(..., frame_every=...)")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    goal = trace.goal if goal is None else np.asarray(goal, float)
-    allpts = np.concatenate([np.concatenate([f.animals, f.drones]) for f in trace.frames] + [goal.reshape(1, 2)])
+    allpts = np.concatenate([np.concatenate([a, d]) for _, a, d in trace.frames])
     lo, hi = allpts.min(axis=0) - 20, allpts.max(axis=0) + 20
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
-    herd = ax.scatter([], [], s=3, c="tab:brown", label="animals")
-    drones = ax.scatter([], [], marker="s", c="tab:red", s=25, label="drones")
-    ax.plot(*goal, "*", color="tab:green", ms=12, label="goal G")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.legend(fontsize=7, loc="upper right")
+    herd = ax.scatter([], [], s=3)
+    drones = ax.scatter([], [], marker="s", c="r", s=25)
+    if goal is not None:
+        ax.plot(*goal, "k*", ms=12)
     title = ax.set_title("")
 
     def update(k):
-        f = trace.frames[k]
-        herd.set_offsets(f.animals)
-        drones.set_offsets(f.drones)
-        title.set_text(f"t = {f.t / 60:.1f} min")
+        t, a, d = trace.frames[k]
+        herd.set_offsets(a)
+        drones.set_offsets(d)
+        title.set_text(f"t = {t / 60:.1f} min")
         return herd, drones, title
 
     anim = FuncAnimation(fig, update, frames=len(trace.frames), blit=False)
@@ -408,8 +496,7 @@ def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
 
 
 def summary_table(traces: dict):
-    """Gathering and total time per run of {label: HerdingTrace}, as a DataFrame with units in the
-    column names (times in min, speeds in m/s; the traces themselves hold seconds)."""
+    """Gathering and total time (min) per run of {label: HerdingTrace}, as a DataFrame."""
     import pandas as pd
 
     return pd.DataFrame(

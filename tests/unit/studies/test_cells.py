@@ -23,3 +23,16 @@ def test_plot_map_draws_every_range_and_the_backhaul_links():
     links = [ln for ln in ax.lines if ln.get_color() == "tab:green" and len(ln.get_xdata()) == 2]
     assert len(links) == 2
     plt.close(fig)
+
+
+def test_reproduce_tasks_emit_schema_rows_within_the_bounds():
+    exact = {r["method"]: r for r in study.reproduce_task(
+        {"problem": "cells", "instance": "table4.3:m=1,seed=0", "kind": "exact", "m": 1, "seed": 0,
+         "milp_limit": 60.0, "es_limit": 20.0})}
+    ga = study.reproduce_task({"problem": "cells", "instance": "table4.3-ga:m=1,run=3,seed=0", "kind": "ga", "m": 1,
+                               "seed": 0, "run_seed": 3, "pop_size": 20, "restarts": 3})[0]
+    milp = exact["milp"]
+    assert milp["bound_kind"] == "candidate-set" and milp["objective"] <= milp["bound"]
+    assert exact["exhaustive"]["objective"] <= exact["continuous-bound"]["bound"]
+    assert ga["objective"] <= exact["continuous-bound"]["bound"]
+    assert ga["objective"] <= ga["cells_polished"]  # polishing never loses users
