@@ -228,16 +228,18 @@ def gap_task(task: dict) -> list[dict]:
     return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
 
 
-def gap(*, seeds: int, executor, out: Path, store=None, m: int = 3):
+def gap(*, seeds: int, executor, out: Path, store=None, m: int = 3, first_seed: int = 0):
     """GA and exhaustive vs MILP per instance (thesis scale, ``m`` drone-cells), in the store.
 
     seeds: number of instances; executor: from ``make_executor``; out: directory for the
     summary and figure; store: the results store (default ``out/results.sqlite``).
     Returns the rows of these instances.
+    first_seed: seed of the first instance (instances first_seed .. first_seed + seeds - 1).
+    m: number of drone-cells.
     """
     out = Path(out)
     tasks = [{"problem": "cells", "instance": instance_id("gap", m=m, seed=s), "seed": s, "m": m, "size": m}
-             for s in range(seeds)]
+             for s in range(first_seed, first_seed + seeds)]
     with open_store(store, out) as st:
         df = map_rows(gap_task, tasks, executor=executor, store=st, desc="cells gap")
     report_study(df, out, "cells", thesis=GAP_THESIS, title=f"cells: covered users, m={m}")

@@ -85,6 +85,8 @@ def _parser() -> argparse.ArgumentParser:
     gap = sub.add_parser("gap", help="heuristic vs solver optimum per instance (resumable store)", epilog=epilog)
     gap.add_argument("problem", nargs="?", default="all", choices=choices)
     gap.add_argument("--seeds", type=int, default=10, help="number of random instances (default 10)")
+    gap.add_argument("--first-seed", type=int, default=0,
+                     help="seed of the first instance (default 0): seeds first-seed .. first-seed + seeds - 1")
     _executor_options(gap)
     gap.add_argument("--out", type=Path, default=Path("results"),
                      help="directory for the store results.sqlite, results.csv and per-problem summaries/figures "
@@ -118,6 +120,8 @@ def _run(args) -> int:
     problems = _resolve(args.problem)
     if args.command == "gap" and args.seeds < 1:
         raise SystemExit(f"droneplan: --seeds must be >= 1, got {args.seeds}")
+    if args.command == "gap" and args.first_seed < 0:
+        raise SystemExit(f"droneplan: --first-seed must be >= 0, got {args.first_seed}")
     workers = getattr(args, "workers", None)
     if workers is not None and workers < 1:
         raise SystemExit(f"droneplan: --workers must be >= 1, got {workers}")
@@ -143,7 +147,7 @@ def _run(args) -> int:
                     extra = {k: v for k, v in (("executor", executor), ("store", store)) if k in accepted}
                     module.reproduce(quick=args.quick, out=out, **extra)
                 else:
-                    module.gap(seeds=args.seeds, executor=executor, out=out, store=store)
+                    module.gap(seeds=args.seeds, executor=executor, out=out, store=store, first_seed=args.first_seed)
             finally:
                 store.export(args.out / "results.csv")
         errors = store.frame()

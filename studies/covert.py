@@ -284,15 +284,16 @@ def gap_task(task: dict) -> list[dict]:
     return build_rows("covert", task["instance"], seed=seed, size=n, sense="min", outcomes=outcomes)
 
 
-def gap(*, seeds: int, executor, out: Path, store=None):
+def gap(*, seeds: int, executor, out: Path, store=None, first_seed: int = 0):
     """Sliding mode vs MPC vs hover over random target groups (2-6 targets), with the on-sphere bound.
 
     seeds: number of groups; executor: from ``make_executor``; out: directory for the summary
     and figure; store: the results store (default ``out/results.sqlite``). Returns the rows.
+    first_seed: seed of the first instance (instances first_seed .. first_seed + seeds - 1).
     """
     out = Path(out)
     tasks = [{"problem": "covert", "instance": instance_id("gap", n_targets=2 + s % 5, seed=s), "seed": s,
-              "n_targets": 2 + s % 5, "size": 2 + s % 5} for s in range(seeds)]
+              "n_targets": 2 + s % 5, "size": 2 + s % 5} for s in range(first_seed, first_seed + seeds)]
     with open_store(store, out) as st:
         df = map_rows(gap_task, tasks, executor=executor, store=st, desc="covert gap")
     report_study(df, out, "covert", thesis=GAP_THESIS, title="covert: max recorded bearing change (deg)")

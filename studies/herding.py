@@ -350,16 +350,17 @@ def gap_task(task: dict) -> list[dict]:
     return build_rows("herding", task["instance"], seed=seed, size=n, sense="min", outcomes=outcomes)
 
 
-def gap(*, seeds: int, executor, out: Path, store: ResultStore | None = None) -> pd.DataFrame:
+def gap(*, seeds: int, executor, out: Path, store: ResultStore | None = None, first_seed: int = 0) -> pd.DataFrame:
     """Allocation gap: Algorithm 3, CP-SAT and collision-blind vs exact on hull instances.
 
     seeds: instances per size (``GAP_SIZES``); executor: from ``make_executor``; out: directory
     for the summary and figure; store: the results store (default ``out/results.sqlite``).
     Returns the rows of these instances.
+    first_seed: seed of the first instance (instances first_seed .. first_seed + seeds - 1).
     """
     out = Path(out)
     tasks = [{"problem": "herding", "instance": instance_id("gap", n=n, seed=s), "n": n, "seed": s, "size": n}
-             for n in GAP_SIZES for s in range(seeds)]
+             for n in GAP_SIZES for s in range(first_seed, first_seed + seeds)]
     with _store(store, out) as st:
         df = map_rows(gap_task, tasks, executor=executor, store=st, desc="herding allocation gap")
     report_study(df, out, "herding", thesis=GAP_THESIS, title="herding: steering-point allocation, max travel (m)")

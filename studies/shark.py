@@ -245,15 +245,16 @@ def _finite_or_none(v):
     return float(v) if v is not None and np.isfinite(v) else None
 
 
-def gap(*, seeds: int, executor, out: Path, store=None):
+def gap(*, seeds: int, executor, out: Path, store=None, first_seed: int = 0):
     """Virtual shark vs OCP on ``seeds`` random paths; greedy vs optimal assignment on ``seeds`` fleets.
 
     executor: from ``make_executor``; out: directory for the summary and figure; store: the
     results store (default ``out/results.sqlite``). Returns the rows of these instances.
+    first_seed: seed of the first instance (instances first_seed .. first_seed + seeds - 1).
     """
     out = Path(out)
     tasks = [{"problem": "shark", "instance": instance_id(f"gap-{kind}", seed=s), "kind": kind, "seed": s}
-             for kind in ("path", "assign") for s in range(seeds)]
+             for kind in ("path", "assign") for s in range(first_seed, first_seed + seeds)]
     with open_store(store, out) as st:
         df = map_rows(gap_task, tasks, executor=executor, store=st, desc="shark gap")
     report_study(df, out, "shark", title="shark: interception time (s; paths) and latest interception (s; fleets)")

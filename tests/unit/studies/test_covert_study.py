@@ -2,25 +2,28 @@
 
 from __future__ import annotations
 
+import pytest
+
 import droneplan.studies.covert as sc
 from droneplan.studies.common import make_executor
 from droneplan.studies.store import load_results
 
 
+def _must_not_run(task):
+    raise AssertionError(f"resume recomputed {task['instance']}")
+
+
 def test_gap_rows_are_consistent_and_resumable(tmp_path, monkeypatch):
-    calls = []
-    real = sc.gap_task
-
-    def counting(task):
-        calls.append(task)
-        return real(task)
-
-    monkeypatch.setattr(sc, "gap_task", counting)
-    with make_executor(1) as ex:
+    # the covert gap is the heaviest task: it also exercises the Dask path (threads in this process)
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as c, \
+            make_executor(dask_address=c.scheduler_address) as ex:
         sc.gap(seeds=1, executor=ex, out=tmp_path)
-        sc.gap(seeds=1, executor=ex, out=tmp_path)  # resumes: nothing recomputed
-    assert len(calls) == 1
-    df = load_results(tmp_path).set_index("method")
+        monkeypatch.setattr(sc, "gap_task", _must_not_run)
+        sc.gap(seeds=1, executor=ex, out=tmp_path)  # resumes: nothing recomputed (else an error row)
+    df = load_results(tmp_path)
+    assert (df["status"] != "error").all(), df["message"].tolist()
+    df = df.set_index("method")
     assert set(df.index) == {"hover", "sliding", "mpc", "mpc-safeguarded", "onsphere-optimum"}
     assert (df["size"] == 2).all()
     # the proven on-sphere optimum is below what the sliding mode recorded on the sphere
