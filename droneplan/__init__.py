@@ -12,14 +12,16 @@ Front doors, one per problem (each re-exports what a user of that problem needs)
 
 The layers (``droneplan.scenarios``, ``.formulations``, ``.solvers``, ``.planners``,
 ``.studies``) hold the implementation; ``SolveResult``/``Status`` are the result
-contract every solve returns, and ``load_results(out)`` reads every study row under a
-``droneplan gap/reproduce --out`` directory as one long-format DataFrame.
+contract every solve returns; ``run_gap(problem, seeds=..., out=...)`` runs a gap study like
+``droneplan gap`` and ``load_results(out)`` reads every study row under an ``--out``
+directory as one long-format DataFrame.
 """
 
 from droneplan import cells, covert, herding, shark
 from droneplan.solvers.result import SolveResult, Status
+from droneplan.studies.cli import run_gap
 from droneplan.studies.store import load_results
 
 __version__ = "0.1.0"
 
-__all__ = ["cells", "covert", "herding", "shark", "SolveResult", "Status", "load_results", "__version__"]
+__all__ = ["cells", "covert", "herding", "shark", "SolveResult", "Status", "load_results", "run_gap", "__version__"]

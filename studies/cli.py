@@ -99,6 +99,31 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def run_gap(problem: str = "all", *, seeds: int, out: str | os.PathLike, workers: int | None = 1,
+            dask_address: str | None = None, first_seed: int = 0):
+    """Run the gap study of ``problem`` (or ``"all"``) from Python, like ``droneplan gap``.
+
+    seeds: number of instances per problem (per size for herding); out: the ``--out``
+    directory (store ``out/results.sqlite``, per-problem summaries and figures); workers:
+    local processes (1: serial in this process; None: one per core); dask_address: a Dask
+    scheduler instead; first_seed: seed of the first instance. Resumes like the CLI.
+    Returns the rows of the problems run (:func:`droneplan.load_results` of ``out``).
+    """
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
+        raise ValueError(f"seeds must be an int >= 1, got {seeds!r}")
+    if isinstance(first_seed, bool) or not isinstance(first_seed, int) or first_seed < 0:
+        raise ValueError(f"first_seed must be an int >= 0, got {first_seed!r}")
+    out = Path(out)
+    problems = _resolve(problem)
+    _writable_out(out)
+    with ResultStore(out / STORE_NAME) as store, make_executor(workers, dask_address) as executor:
+        for name in problems:
+            _load(name).gap(seeds=seeds, executor=executor, out=out / name, store=store, first_seed=first_seed)
+        store.export(out / "results.csv")
+        df = store.frame()
+    return df[df["problem"].isin(problems)].reset_index(drop=True)
+
+
 def _executor_options(parser: argparse.ArgumentParser) -> None:
     grp = parser.add_mutually_exclusive_group()
     grp.add_argument("--workers", type=int, default=None,

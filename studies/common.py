@@ -57,7 +57,9 @@ class StudyExecutor(cf.Executor):
         return self._inner.map(fn, *iterables, timeout=timeout, chunksize=chunksize)
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
-        if self._inner is not None:
+        if self.kind == "dask":
+            self._inner.shutdown(wait=wait and not cancel_futures)
+        elif self._inner is not None:
             self._inner.shutdown(wait=wait, cancel_futures=cancel_futures)
 
     def kill(self) -> None:
@@ -68,9 +70,9 @@ class StudyExecutor(cf.Executor):
             for p in procs:
                 if p.is_alive():
                     p.kill()
-        elif self.kind == "dask":
+        elif self.kind == "dask":  # the client executor cancels its futures on shutdown(wait=False)
             with contextlib.suppress(Exception):
-                self._inner.shutdown(wait=False, cancel_futures=True)
+                self._inner.shutdown(wait=False)
 
 
 def _ignore_sigint() -> None:

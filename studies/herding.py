@@ -154,6 +154,7 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
     tasks = [{"problem": "herding", "instance": instance_id("fig6.7", n=n, seed=s), "n": n, "seed": s,
               "t_max": 2700.0, "snapshots": snaps if (n == 1000 and s == 0) else []}
              for n, seeds in plan.items() for s in seeds]
+    tasks.sort(key=lambda t: (t["seed"], t["n"]))  # seed-major: a partial run has both herd sizes
     rows = _run_all(tasks, executor, store, "Fig. 6.7 runs")
     table = ComparisonTable("Fig. 6.7: gathering and total herding time (4 drones, 1200 m x 600 m field)")
     fig, ax = plt.subplots(figsize=(7, 4.5))
@@ -430,64 +431,37 @@ def bench(*, quick: bool, out: Path) -> None:
 
 
 # --------------------------------------------------------------------------- notebook helpers
-def compare_runs(n_animals: int, *, seed: int = 0, field: float | None = None, t_max: float = 2700.0,
-                 frame_every: float | None = None) -> dict:
-    """Run the proposed and the benchmark herder on one scenario; {method: HerdingTrace}.
-
-    n_animals: herd size; field: square field side (m) or None for the thesis's 1200 x 600 m;
-    frame_every: keep animation frames every this many seconds.
-    """
-    size = (float(field), float(field)) if field else (1200.0, 600.0)
-    goal = (size[0] / 2 - (900.0 if field is None else 1.5 * field), size[1] / 2)
-    out = {}
-    for name, herder in (("proposed", ProposedHerder()), ("benchmark", BenchmarkHerder())):
-        sc = thesis_scenario(n_animals, seed=seed, field_size=size, goal=goal)
-        out[name] = simulate(sc, herder, t_max=t_max, seed=seed + 10_000, frame_every=frame_every)
-    return out
-
-
-def footprint_figure(traces: dict, *, R_c: float | None = None):
-    """Footprint radius vs time (Fig. 6.7a style) for {label: HerdingTrace}; returns the figure."""
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for label, tr in traces.items():
-        ax.plot(tr.t / 60.0, tr.footprint_radius, label=label)
-        if tr.gather_time is not None:
-            ax.axvline(tr.gather_time / 60.0, ls=":", lw=0.8, color=ax.lines[-1].get_color())
-    if R_c is not None:
-        ax.axhline(R_c, color="k", lw=0.6, label="R_c")
-    ax.set_xlabel("t (min)")
-    ax.set_ylabel("footprint radius (m)")
-    ax.grid(alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    return fig
-
-
 def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
-    """Write an animated GIF of a run's frames (needs ``simulate(..., frame_every=...)``); returns the path."""
+    """Write an animated GIF of a run's frames (needs ``simulate(..., frame_every=...)``); returns the path.
+
+    goal: G (2,) in m, kept in view (default: the trace's goal). fps: frames per second of the GIF.
+    """
     from matplotlib.animation import FuncAnimation, PillowWriter
 
     if not trace.frames:
         raise ValueError("trace has no frames: run simulate(..., frame_every=...)")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    allpts = np.concatenate([np.concatenate([a, d]) for _, a, d in trace.frames])
+    goal = trace.goal if goal is None else np.asarray(goal, float)
+    allpts = np.concatenate([np.concatenate([f.animals, f.drones]) for f in trace.frames] + [goal.reshape(1, 2)])
     lo, hi = allpts.min(axis=0) - 20, allpts.max(axis=0) + 20
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
-    herd = ax.scatter([], [], s=3)
-    drones = ax.scatter([], [], marker="s", c="r", s=25)
-    if goal is not None:
-        ax.plot(*goal, "k*", ms=12)
+    herd = ax.scatter([], [], s=3, c="tab:brown", label="animals")
+    drones = ax.scatter([], [], marker="s", c="tab:red", s=25, label="drones")
+    ax.plot(*goal, "*", color="tab:green", ms=12, label="goal G")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend(fontsize=7, loc="upper right")
     title = ax.set_title("")
 
     def update(k):
-        t, a, d = trace.frames[k]
-        herd.set_offsets(a)
-        drones.set_offsets(d)
-        title.set_text(f"t = {t / 60:.1f} min")
+        f = trace.frames[k]
+        herd.set_offsets(f.animals)
+        drones.set_offsets(f.drones)
+        title.set_text(f"t = {f.t / 60:.1f} min")
         return herd, drones, title
 
     anim = FuncAnimation(fig, update, frames=len(trace.frames), blit=False)
@@ -497,7 +471,8 @@ def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
 
 
 def summary_table(traces: dict):
-    """Gathering and total time (min) per run of {label: HerdingTrace}, as a DataFrame."""
+    """Gathering and total time per run of {label: HerdingTrace}, as a DataFrame with units in the
+    column names (times in min, speeds in m/s; the traces themselves hold seconds)."""
     import pandas as pd
 
     return pd.DataFrame(

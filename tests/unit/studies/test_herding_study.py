@@ -60,7 +60,8 @@ def test_reproduce_runs_go_through_the_store_and_come_back(tmp_path):
     rec = next(r for r in recs if r["method"] == "proposed")
     assert rec["gather_time"] == direct["gather_time"]  # same seed, same run
     np.testing.assert_allclose(rec["curve_r"], direct["curve_r"])
-    np.testing.assert_allclose(rec["snapshots"][10.0][0], direct["snapshots"][10.0][0])
+    np.testing.assert_allclose(rec["snapshots"][10.0].animals, direct["snapshots"][10.0].animals)
+    assert rec["snapshots"][10.0].phase == direct["snapshots"][10.0].phase
     df = load_results(tmp_path)
     assert set(df["method"]) == {"proposed", "benchmark"} and (df["role"] == "heuristic").all()
     assert df.set_index("method").loc["proposed", "objective"] == direct["gather_time"]
