@@ -19,9 +19,19 @@ directory as one long-format DataFrame.
 
 from droneplan import cells, covert, herding, shark
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.studies.cli import run_gap
 from droneplan.studies.store import load_results
 
 __version__ = "0.1.0"
 
-__all__ = ["cells", "covert", "herding", "shark", "SolveResult", "Status", "load_results", "run_gap", "__version__"]
+__all__ = ["cells", "covert", "herding", "shark", "SolveResult", "Status", "load_results", "run_gap",
+           "__version__"]
+
+
+def __getattr__(name: str):
+    # run_gap lives in the CLI module; importing it lazily keeps `python -m droneplan.studies.cli`
+    # free of runpy's "found in sys.modules" warning
+    if name == "run_gap":
+        from droneplan.studies.cli import run_gap
+
+        return run_gap
+    raise AttributeError(f"module 'droneplan' has no attribute {name!r}")

@@ -25,8 +25,9 @@ from typing import Any, Self
 
 import numpy as np
 import pandas as pd
-from droneplan.studies.store import STORE_NAME, ResultStore, error_row
 from tqdm.auto import tqdm
+
+from droneplan.studies.store import STORE_NAME, ResultStore, error_row
 
 
 # --------------------------------------------------------------------------- executors
@@ -53,7 +54,7 @@ class StudyExecutor(cf.Executor):
 
     def map(self, fn, *iterables, timeout=None, chunksize=1):
         if self._inner is None:  # serial: lazily, one call per item consumed
-            return (fn(*args) for args in zip(*iterables))
+            return (fn(*args) for args in zip(*iterables, strict=False))
         return self._inner.map(fn, *iterables, timeout=timeout, chunksize=chunksize)
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
@@ -260,7 +261,7 @@ def map_rows(
     if len(set(keys)) != len(keys):
         raise ValueError("tasks repeat an instance id")
     done = store.done_instances()
-    todo = [t for t, k in zip(tasks, keys) if k not in done]
+    todo = [t for t, k in zip(tasks, keys, strict=False) if k not in done]
     with _InterruptGuard(executor) as guard, tqdm(total=len(todo), desc=desc, disable=not todo) as bar:
         if executor.kind == "serial":
             for task in todo:
@@ -276,7 +277,7 @@ def map_rows(
     problems = {p for p, _ in wanted}
     frames = [store.frame(problem=p) for p in sorted(problems)]
     df = pd.concat(frames, ignore_index=True) if frames else store.frame()
-    mask = [(p, i) in wanted for p, i in zip(df["problem"], df["instance"])]
+    mask = [(p, i) in wanted for p, i in zip(df["problem"], df["instance"], strict=False)]
     return df[mask].dropna(axis=1, how="all").reset_index(drop=True) if len(df) else df
 
 
@@ -402,17 +403,17 @@ def render_frame(df: pd.DataFrame, *, width: int | None = None, max_cell: int = 
              for j, c in enumerate(cols)]
     sep = 3 * (len(cols) - 1)
     while sum(widths) + sep > width:
-        slack = [w - f for w, f in zip(widths, floor)]
+        slack = [w - f for w, f in zip(widths, floor, strict=False)]
         if max(slack) <= 0:
             break
         widths[slack.index(max(slack))] -= 1
 
     def lines_of(values):
-        wrapped = [textwrap.wrap(v, w) or [""] for v, w in zip(values, widths)]
-        return [" | ".join((col[k] if k < len(col) else "").ljust(w) for col, w in zip(wrapped, widths)).rstrip()
+        wrapped = [textwrap.wrap(v, w) or [""] for v, w in zip(values, widths, strict=False)]
+        return [" | ".join((col[k] if k < len(col) else "").ljust(w) for col, w in zip(wrapped, widths, strict=False)).rstrip()
                 for k in range(max(len(c) for c in wrapped))]
 
-    out = lines_of(cols) + ["-+-".join("-" * w for w in widths)]
+    out = [*lines_of(cols), "-+-".join("-" * w for w in widths)]
     for r in cells:
         out += lines_of(r)
     return "\n".join(out)
@@ -479,9 +480,9 @@ def gap_figure(df: pd.DataFrame, path: Path, *, title: str = "") -> Path:
     rows = df[df["role"] != "bound"]
     methods = list(dict.fromkeys(rows["method"]))
     fig, axes = plt.subplots(1, 2, figsize=(max(6.0, 1.3 * len(methods) + 3), 3.8), squeeze=False)
-    for ax, col in zip(axes[0], ("gap_to_bound", "gap_to_best")):
+    for ax, col in zip(axes[0], ("gap_to_bound", "gap_to_best"), strict=False):
         data = [rows.loc[rows["method"] == m, col].dropna().to_numpy() for m in methods]
-        keep = [(m, d) for m, d in zip(methods, data) if len(d)]
+        keep = [(m, d) for m, d in zip(methods, data, strict=False) if len(d)]
         if keep:
             ax.boxplot([d for _, d in keep], showfliers=False)
             for k, (_, d) in enumerate(keep, start=1):

@@ -221,7 +221,7 @@ def build_rows(problem: str, instance: str, *, seed: int | None, size: int | Non
 def error_row(problem: str, instance: str, message: str, *, seed: int | None = None,
               size: int | None = None) -> dict:
     """The row recorded for a task that raised: method ``task``, status ``error``."""
-    row = {c: None for c in COLUMNS}
+    row = dict.fromkeys(COLUMNS)
     row.update(study=instance.split(":", 1)[0], problem=problem, instance=instance, seed=seed, size=size,
                method="task", role="task", status=ERROR_STATUS, warm_started=False, message=message)
     return row
@@ -240,7 +240,7 @@ def _jsonable(v: Any) -> Any:
 
 
 # --------------------------------------------------------------------------- the store
-_CORE = [c for c in COLUMNS]
+_CORE = list(COLUMNS)
 _DDL = ("CREATE TABLE IF NOT EXISTS rows (" + ", ".join(f'"{c}"' for c in _CORE)
         + ", extras TEXT NOT NULL DEFAULT '{}', PRIMARY KEY (problem, instance, method))")
 

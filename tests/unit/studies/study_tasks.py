@@ -31,8 +31,9 @@ def fake_task(task: dict) -> list[dict]:
 
 def cpsat_task(task: dict) -> list[dict]:
     """A CP-SAT solve that runs to its 20 s time limit unless stopped (an n-queens optimisation)."""
-    from droneplan.solvers.cpsat import solve_cpsat
     from ortools.sat.python import cp_model
+
+    from droneplan.solvers.cpsat import solve_cpsat
 
     n = 40
     m = cp_model.CpModel()

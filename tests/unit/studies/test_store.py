@@ -7,6 +7,8 @@ import sqlite3
 
 import pandas as pd
 import pytest
+
+import droneplan
 from droneplan.studies.store import (
     COLUMNS,
     STORE_NAME,
@@ -18,8 +20,6 @@ from droneplan.studies.store import (
     instance_id,
     load_results,
 )
-
-import droneplan
 
 
 def _rows(seed=0, sense="min"):
