@@ -24,11 +24,11 @@ theta^2 = |u|^2 Delta^2 so that they are smooth at u = 0; on the first interval 
 are the plant's step exactly.
 
 Two ways to solve it:
-- IPOPT through :class:`solvers.nlp.IpoptSolver` (warm-started from the shifted
-  previous solution, with its duals);
-- sequential QPs through :class:`solvers.qp.OsqpSolver` (real-time iteration: one
-  QP per control step linearised at the shifted previous solution, with a proximal
-  term; the QP matrices keep one sparsity pattern and are updated in place).
+- backend "ipopt": IPOPT (warm-started from the shifted previous solution, with its duals);
+- backend "osqp": sequential QPs on OSQP (:class:`solvers.sqp.SqpSolver`, real-time
+  iteration: one QP per control step linearised at the shifted previous solution, with
+  a proximal term; the QP matrices keep one sparsity pattern and are updated in place).
+Both are looked up in the backend registry.
 """
 
 from __future__ import annotations
@@ -40,12 +40,12 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
-import scipy.sparse as sp
 
 from droneplan.scenarios.covert import CovertParams
-from droneplan.solvers.nlp import IpoptSolver
-from droneplan.solvers.qp import OsqpSolver
+from droneplan.solvers.base import NlpSolver
+from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult, Status
+from droneplan.solvers.sqp import SqpStructure
 from droneplan.solvers.validation import check_array, check_instance, check_int, check_nonneg, check_positive
 
 __all__ = [
@@ -401,95 +401,62 @@ def solve_bearing_mpc(params: CovertParams, data: MPCData, settings: MPCSettings
 class RecedingBearingMPC:
     """A built model and its solver adapter, re-solved every control step.
 
-    backend: "ipopt" (IpoptSolver, warm-started with the previous duals) or
-    "osqp" (sequential QPs by OsqpSolver with the QP matrices updated in place).
+    backend: a registered "nlp" backend: "ipopt" (IpoptSolver, warm-started with the
+    previous duals) or "osqp" (sequential QPs on OSQP, :class:`solvers.sqp.SqpSolver`,
+    with the QP matrices updated in place). The options each one gets are in
+    :meth:`backend_options`.
     """
 
+    soft_weight = 1e2
+    """SQP only: quadratic penalty weight on the slack of the linearised sphere, home and
+    tangent rows (objective units per m^2); a quadratic (not L1) penalty keeps the QP
+    strongly convex, which OSQP needs to converge in few iterations."""
+
     def __init__(self, model: BearingMPC, backend: str = "ipopt"):
-        if backend not in ("ipopt", "osqp"):
-            raise ValueError(f"backend must be 'ipopt' or 'osqp', got {backend!r}")
-        self.soft_weight = 1e2
-        """SQP only: quadratic penalty weight on the slack of the linearised sphere, home and
-        tangent rows (objective units per m^2); a quadratic (not L1) penalty keeps the QP
-        strongly convex, which OSQP needs to converge in few iterations."""
+        self._adapter = get_backend(backend, kind="nlp")
         self.model = model
         self.backend = backend
-        st = model.settings
-        if backend == "ipopt":
-            opts = {"max_iter": st.max_iter, "tol": 1e-5, "acceptable_tol": 1e-3, "acceptable_iter": 5}
-            self._ipopt = IpoptSolver(model.nlp, options=opts, time_limit=st.time_limit)
-            self._ipopt_cold = IpoptSolver(model.nlp, options={**opts, "max_iter": st.cold_max_iter},
-                                           time_limit=st.time_limit)
-        else:
-            self._build_qp(model)
-        self._last: SolveResult | None = None
+        self.local_optimum = self._adapter.solves_to_local_optimum
+        """True when a solve ends at a local optimum (a restart from elsewhere may find a better one)."""
+        self._solvers: dict[bool, NlpSolver] = {}
 
-    # -- SQP / real-time iteration with OSQP
-    def _build_qp(self, model: BearingMPC) -> None:
-        """Symbolic QP data: rows of the linearised constraints, with the sphere, home and tangent rows
-        made soft by one free slack each (quadratic penalty soft_weight), so every QP is feasible."""
-        x, pv, g, f = model.nlp["x"], model.nlp["p"], model.nlp["g"], model.nlp["f"]
-        st = model.settings
-        nx, ng = model.n_x, model.n_g
-        soft = np.concatenate([model.gidx["sphere"], model.gidx["home"], model.gidx["tangent"]])
-        ns = soft.size
-        self._soft = soft
-        gd = g
-        Js = ca.jacobian(g, x)
-        E = np.zeros((ng, ns))
-        E[soft, np.arange(ns)] = 1.0
-        top = ca.horzcat(Js, ca.SX(ca.DM(E)))
-        A_expr = ca.vertcat(top, ca.SX.eye(nx + ns))
-        self._gA = ca.Function("gA", [x, pv], [gd, A_expr, g])
-        self._sparsity = A_expr.sparsity()
-        grad = ca.gradient(f, x)
-        self._grad = ca.Function("grad", [x, pv], [grad])
-        H0 = ca.Function("H", [x, pv], [ca.hessian(f, x)[0]])(np.zeros(nx), np.zeros(pv.numel()))
-        H = np.asarray(ca.DM(H0).full())  # the objective is quadratic: constant Hessian
-        prox = np.ones(nx)
+    @staticmethod
+    def backend_options(settings: MPCSettings, *, warm: bool) -> dict[str, dict[str, Any]]:
+        """Options per backend name for a solve with (``warm``) or without a previous solution."""
+        return {
+            "ipopt": {"max_iter": settings.max_iter if warm else settings.cold_max_iter, "tol": 1e-5,
+                      "acceptable_tol": 1e-3, "acceptable_iter": 5},
+            "osqp": {"iterations": settings.sqp_iters,
+                     "qp_settings": {"eps_abs": 1e-3, "eps_rel": 1e-3, "polishing": False, "scaling": 25,
+                                     "max_iter": 4000, "check_termination": 10,
+                                     "eps_prim_inf": 1e-9, "eps_dual_inf": 1e-9}},
+        }
+
+    def _structure(self) -> SqpStructure:
+        """Proximal weights scaled to each variable's range, and the soft rows (sphere, home,
+        tangent: one free slack each, so every linearised QP is feasible)."""
+        model = self.model
+        prox = np.ones(model.n_x)
         prox[model.idx["u"].ravel()] = 1.0 / model.params.U_max ** 2
         prox[model.idx["v"]] = 1.0 / model.params.V_max ** 2
         prox[model.idx["D"].ravel()] = 1e-2
         prox[model.idx["tau_k"]] = TAU_PROX
         prox[model.idx["tau"]] = TAU_PROX
         prox[model.idx["h"].ravel()] = H_PROX
-        Pfull = np.zeros((nx + ns, nx + ns))
-        Pfull[:nx, :nx] = H + np.diag(st.prox * prox)
-        Pfull[nx:, nx:] = np.eye(ns) * self.soft_weight
-        self._P = sp.csc_matrix(Pfull)
-        self._nq = nx + ns
-        self._ns = ns
-        self._qp: OsqpSolver | None = None
+        soft = np.concatenate([model.gidx["sphere"], model.gidx["home"], model.gidx["tangent"]])
+        return SqpStructure(prox=model.settings.prox * prox, soft_rows=soft, soft_weight=self.soft_weight)
 
-    def _osqp_step(self, z: np.ndarray, p: np.ndarray, lbx, ubx, lbg, ubg) -> SolveResult:
-        nx, ng, ns = self.model.n_x, self.model.n_g, self._ns
-        gd, Aval, _ = self._gA(z, p)
-        gd = np.asarray(gd, float).ravel()
-        colind, row = self._sparsity.get_ccs()
-        Adata = np.asarray(ca.DM(Aval).nonzeros(), float)
-        lo, hi = lbg, ubg
-        q = np.concatenate([np.asarray(self._grad(z, p), float).ravel(), np.zeros(ns)])
-        l = np.concatenate([lo - gd, lbx - z, np.full(ns, -np.inf)])
-        u = np.concatenate([hi - gd, ubx - z, np.full(ns, np.inf)])
-        l = np.where(np.isfinite(l), l, -1e30)
-        u = np.where(np.isfinite(u), u, 1e30)
-        if self._qp is None:
-            A = sp.csc_matrix((Adata, np.asarray(row), np.asarray(colind)), shape=(ng + nx + ns, self._nq))
-            self._qp = OsqpSolver(self._P, q, A, l, u,
-                                  settings={"eps_abs": 1e-3, "eps_rel": 1e-3, "polishing": False, "scaling": 25,
-                                            "max_iter": 4000, "check_termination": 10,
-                                            "eps_prim_inf": 1e-9, "eps_dual_inf": 1e-9})
-            res = self._qp.solve()
-        else:
-            self._qp.update(q=q, l=l, u=u, Ax=Adata)
-            y = None if self._last is None else self._last.info.get("y")
-            res = self._qp.solve(warm_start=(np.zeros(self._nq), y) if y is not None else None)
-        if res.has_solution:
-            res = replace(res, x=res.x[:nx], info={**res.info, "slack": float(res.x[nx:].sum())})
-        return res
+    def _solver(self, warm: bool) -> NlpSolver:
+        if warm not in self._solvers:
+            st = self.model.settings
+            options = self.backend_options(st, warm=warm).get(self._adapter.name, {})
+            self._solvers[warm] = self._adapter.create_nlp(self.model.nlp, options=options,
+                                                           structure=self._structure(), time_limit=st.time_limit)
+        return self._solvers[warm]
 
     def solve(self, data: MPCData, *, x0: np.ndarray | None = None, warm: SolveResult | None = None) -> SolveResult:
-        """Solve for ``data`` from the starting vector ``x0`` (duals of ``warm`` reused by IPOPT).
+        """Solve for ``data`` from the starting vector ``x0`` (duals of ``warm`` reused when the
+        backend takes them).
 
         Returns a SolveResult whose x is an :class:`MPCPlan` (info["z"]: the raw vector).
         """
@@ -499,38 +466,15 @@ class RecedingBearingMPC:
         if x0 is None:  # straight flight at half speed (v = 0 is a stationary point of the dynamics)
             N = m.settings.horizon
             x0 = rollout_guess(m, data, np.zeros((N, 3)), np.full(N, 0.5 * m.params.V_max))
-        if self.backend == "ipopt":
-            ws = warm if (warm is not None and warm.has_solution and "lam_x" in warm.info) else None
-            solver = self._ipopt if ws is not None else self._ipopt_cold
-            res = solver.solve(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=p, warm_start=ws)
-            return _result_with_plan(m, data, res, "IPOPT")
-        t0 = time.perf_counter()
-        z = np.asarray(x0, float)
-        z = rollout_guess(m, data, z[m.idx["u"]], z[m.idx["v"]])
-        res = None
-        iters = 0
-        for _ in range(m.settings.sqp_iters):
-            res = self._osqp_step(z, p, lbx, ubx, lbg, ubg)
-            iters += res.iterations or 0
-            if not res.has_solution:
-                break
-            self._last = res
-            z = z + res.x
-            # project the iterate on the plant: admissible commands, states re-simulated exactly
-            z = rollout_guess(m, data, z[m.idx["u"]], z[m.idx["v"]])
-        elapsed = time.perf_counter() - t0
-        if res is None or not res.has_solution:
-            return replace(res, solve_time=elapsed, backend="osqp-sqp",
-                           message=f"SQP: QP failed ({res.backend_status})")
-        gval = np.asarray(self._gA(z, p)[2], float).ravel()
-        viol = float(max(np.max(np.maximum(lbg - gval, 0)), np.max(np.maximum(gval - ubg, 0))))
-        out = SolveResult(Status.FEASIBLE, objective=None, x=z, backend="osqp-sqp",
-                          backend_status=res.backend_status,
-                          message=f"{m.settings.sqp_iters} QP(s) linearised at the warm start "
-                                  f"(real-time iteration); constraint violation of the iterate {viol:.2e}",
-                          solve_time=elapsed, iterations=iters, warm_started=x0 is not None,
-                          info={"violation": viol, "y": res.info.get("y")})
-        return _result_with_plan(m, data, out, "OSQP SQP")
+        ws = warm if (self._adapter.reuses_duals and warm is not None and warm.has_solution) else None
+
+        def project(z: np.ndarray) -> np.ndarray:
+            # onto the plant: admissible commands, states re-simulated exactly
+            return rollout_guess(m, data, z[m.idx["u"]], z[m.idx["v"]])
+
+        res = self._solver(ws is not None).solve(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=p, warm_start=ws,
+                                                 project=project)
+        return _result_with_plan(m, data, res, res.backend)
 
 
 # --------------------------------------------------------------------------- instantaneous oracle

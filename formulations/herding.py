@@ -75,7 +75,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from ortools.sat.python import cp_model
 
-from droneplan.solvers.cpsat import solve_cpsat
+from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_array, check_instance, check_positive
 
@@ -363,15 +363,16 @@ def solve_allocation(
     steer_s: (m,) steering-point arc positions, m, in [0, perimeter), 1 <= m <= n;
         m < n is padded by :func:`pad_steering_points`.
     perimeter: extended-hull perimeter M, m (> 0).
-    method: "exact" (O(n^2) combinatorial algorithm) or "cp-sat" (explicit model).
+    method: "exact" (O(n^2) combinatorial algorithm) or "cp-sat" (explicit model, solved by
+        that registered "cp" backend).
     time_limit, workers, hint: CP-SAT only (seconds; search workers; a warm-start Allocation).
 
     Returns a SolveResult with ``x`` an :class:`Allocation`, ``objective`` the
     maximum travel (m), ``bound`` a proven lower bound (= objective when OPTIMAL).
     Coincident steering points make the problem INFEASIBLE (a returned status).
     """
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    if method != "exact" and (not isinstance(method, str) or method not in available_backends("cp")):
+        raise ValueError(f"method must be 'exact' or a cp backend {available_backends('cp')}, got {method!r}")
     d, s, M = validate_allocation_input(drone_s, steer_s, perimeter)
     n = d.size
     padded = s.size < n
@@ -388,8 +389,8 @@ def solve_allocation(
         return SolveResult(Status.OPTIMAL, objective=worst, bound=worst, x=alloc, backend="exact-cyclic-shift",
                            backend_status="optimal", message=msg, solve_time=elapsed, iterations=2 * n)
     am = build_allocation_model(d, s, M)
-    res = solve_cpsat(am.model, variables=am.variables, time_limit=time_limit, workers=workers,
-                      hint=_hint(am, hint) if hint is not None else None)
+    res = get_backend(method, kind="cp").solve_cp(am.model, variables=am.variables, time_limit=time_limit,
+                                                  workers=workers, hint=_hint(am, hint) if hint is not None else None)
     if not res.has_solution:
         return res
     alloc = _decode(am, res.x, n)

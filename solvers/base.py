@@ -104,8 +104,13 @@ class NlpSolver(Protocol):
 
     def solve(self, *, x0: Any = None, lbx: Any = None, ubx: Any = None, lbg: Any = None,
               ubg: Any = None, p: Any = None, warm_start: SolveResult | None = None,
-              time_limit: float | None = None) -> SolveResult:
-        """Solve from ``x0``; ``warm_start`` is a previous result of the same solver."""
+              time_limit: float | None = None,
+              project: Callable[[Any], Any] | None = None) -> SolveResult:
+        """Solve from ``x0``; ``warm_start`` is a previous result of the same solver.
+
+        project: a map of iterates onto points the caller knows are good (e.g. states
+        re-simulated from the commands); methods that iterate outside the backend (SQP)
+        apply it to ``x0`` and after every step, others ignore it."""
 
 
 class NlpBackend(abc.ABC):
@@ -117,8 +122,11 @@ class NlpBackend(abc.ABC):
     """
 
     reuses_duals: ClassVar[bool] = False
-    """True when a warm start hands the previous duals back (interior point methods),
-    so a caller may prefer a cold restart when a warm solve stalls."""
+    """True when ``warm_start`` hands a previous solution's duals back to the backend, so a
+    caller should pass a previous result (and may set a lower iteration limit for such solves)."""
+    solves_to_local_optimum: ClassVar[bool] = False
+    """True when a solve iterates until a local optimum (KKT point), so restarting from
+    another point can find a better one; False for a fixed number of linearised steps."""
 
     @abc.abstractmethod
     def create_nlp(self, nlp: Mapping[str, Any], *, options: Mapping[str, Any] | None = None,

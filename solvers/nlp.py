@@ -111,12 +111,13 @@ class IpoptSolver:
 
     def solve(self, *, x0: Any = None, lbx: Any = None, ubx: Any = None, lbg: Any = None, ubg: Any = None,
               p: Any = None, warm_start: SolveResult | None = None,
-              time_limit: float | None = None) -> SolveResult:
+              time_limit: float | None = None, project: Any = None) -> SolveResult:
         """Solve from ``x0`` (or from ``warm_start``'s primal and duals).
 
         Bounds default to ±inf; ``p`` is required when the NLP has parameters.
         ``warm_start``: a previous SolveResult of this solver (its ``x`` and its
         ``info["lam_x"]``, ``info["lam_g"]``); used only when it had a solution.
+        ``project`` is ignored (IPOPT iterates internally; see NlpSolver).
         Returns ``x`` = primal (np.ndarray), ``objective`` = f at x, ``bound`` = None
         (a local solve proves no bound), ``info`` = {"lam_x", "lam_g", "g"}.
         """
@@ -200,6 +201,7 @@ class IpoptAdapter(BackendAdapter, NlpBackend):
     status_map = STATUS_MAP
     description = "IPOPT through CasADi: local NLP solutions, warm start with duals"
     reuses_duals = True
+    solves_to_local_optimum = True
 
     def create_nlp(self, nlp: Mapping[str, Any], *, options: Mapping[str, Any] | None = None,
                    structure: Any = None, time_limit: float | None = None,

@@ -14,7 +14,7 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
-from droneplan.solvers.base import BackendAdapter, NativeReadout, QpBackend, run_native
+from droneplan.solvers.base import BackendAdapter, NativeReadout, NlpBackend, QpBackend, run_native
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_time_limit
 
@@ -153,8 +153,8 @@ class OsqpSolver:
         return run_native(_ADAPTER, call, read, warm_started=warm_used)
 
 
-class OsqpAdapter(BackendAdapter, QpBackend):
-    """OSQP (ADMM for convex QPs)."""
+class OsqpAdapter(BackendAdapter, QpBackend, NlpBackend):
+    """OSQP (ADMM for convex QPs); as an NLP backend, sequential QPs (:mod:`~droneplan.solvers.sqp`)."""
 
     name = BACKEND
     status_map = STATUS_MAP
@@ -164,6 +164,26 @@ class OsqpAdapter(BackendAdapter, QpBackend):
                   time_limit: float | None = None, verbose: bool = False) -> OsqpSolver:
         """An :class:`OsqpSolver` (see its docstring)."""
         return OsqpSolver(P, q, A, l, u, settings=settings, time_limit=time_limit, verbose=verbose)
+
+    def create_nlp(self, nlp: Mapping[str, Any], *, options: Mapping[str, Any] | None = None,
+                   structure: Any = None, time_limit: float | None = None, verbose: bool = False) -> Any:
+        """A :class:`~droneplan.solvers.sqp.SqpSolver` on OSQP.
+
+        options: ``iterations`` (QPs per solve, default 1: real-time iteration) and
+            ``qp_settings`` (OSQP settings). time_limit: per QP (s).
+        structure: a :class:`~droneplan.solvers.sqp.SqpStructure` (proximal weights, soft rows).
+        """
+        from droneplan.solvers.sqp import SqpSolver, SqpStructure
+
+        opts = dict(options or {})
+        iterations = opts.pop("iterations", 1)
+        qp_settings = opts.pop("qp_settings", None)
+        if opts:
+            raise ValueError(f"unknown osqp NLP options {sorted(opts)}; known: ['iterations', 'qp_settings']")
+        if structure is not None and not isinstance(structure, SqpStructure):
+            raise TypeError(f"structure must be an SqpStructure, got {type(structure).__name__}")
+        return SqpSolver(nlp, qp_backend=self, iterations=iterations, structure=structure, qp_settings=qp_settings,
+                         time_limit=time_limit, verbose=verbose)
 
 
 _ADAPTER = OsqpAdapter()

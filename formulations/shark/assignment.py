@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from ortools.sat.python import cp_model
 
-from droneplan.solvers.cpsat import solve_cpsat
+from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_array
 
@@ -102,12 +102,14 @@ def build_assignment_model(cost, sharks):
     return m, x, Z
 
 
-def solve_assignment(cost, *, shark_to_human=None, time_limit: float | None = 10.0, workers: int = 1) -> SolveResult:
+def solve_assignment(cost, *, shark_to_human=None, time_limit: float | None = 10.0, workers: int = 1,
+                     backend: str = "cp-sat") -> SolveResult:
     """Minimise the latest interception time over one-to-one operator-shark assignments.
 
     cost: (n_operators, n_sharks) interception times (s), inf where impossible.
     shark_to_human: (s,) distances (m) to the nearest human; required when s > n to pick the
     n sharks closest to humans (thesis); ignored otherwise.
+    backend: a registered "cp" backend (solves the CP-SAT model; "cp-sat").
     Returns x = `Assignment`, objective = latest interception (s), bound = CP-SAT's bound on it.
 
     time_limit: CP-SAT wall-clock limit (s), None: none.
@@ -124,7 +126,7 @@ def solve_assignment(cost, *, shark_to_human=None, time_limit: float | None = 10
     model, x, Z = build_assignment_model(c, sharks)
     flat = [v for row in x for v in row if v is not None]
     idx = [(i, j) for i, row in enumerate(x) for j, v in enumerate(row) if v is not None]
-    res = solve_cpsat(model, variables=flat, time_limit=time_limit, workers=workers)
+    res = get_backend(backend, kind="cp").solve_cp(model, variables=flat, time_limit=time_limit, workers=workers)
     if not res.has_solution:
         return dataclasses.replace(res, message=f"assignment: {res.message}")
     op = np.full(len(sharks), -1)

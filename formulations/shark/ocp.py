@@ -30,7 +30,7 @@ import casadi as ca
 import numpy as np
 
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
-from droneplan.solvers.nlp import IpoptSolver
+from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_array, check_instance, check_int, check_nonneg, check_positive
 
@@ -167,20 +167,29 @@ class InterceptionOCP:
 
     params: problem parameters; N: intervals; path: known shark path (None: constant-velocity
     prediction); margin: clearance margin (m) to the balls; t_max: upper bound on T (s);
-    time_limit: IPOPT wall-clock limit per solve (s); max_iter: IPOPT iteration limit.
+    time_limit: wall-clock limit per solve (s); max_iter: iteration limit.
+    backend: a registered "nlp" backend that solves to a local optimum ("ipopt").
     """
+
+    BACKEND_OPTIONS = {"ipopt": {"tol": 1e-6, "acceptable_tol": 1e-4}}
+    """Backend options by backend name (``max_iter`` is added from the argument)."""
 
     def __init__(self, params: SharkParams = THESIS_TABLE_5_1, *, N: int = 40,
                  path: SharkTrajectory | None = None, margin: float = 0.05, t_max: float = 30.0,
-                 time_limit: float | None = None, max_iter: int = 300):
+                 time_limit: float | None = None, max_iter: int = 300, backend: str = "ipopt"):
         check_instance("params", params, SharkParams)
         check_positive("t_max", t_max)
         self.params, self.N, self.path, self.t_max = params, N, path, t_max
         built = build_interception_nlp(params, N=N, path=path, margin=margin)
         self.layout = built
         self.kind = built["kind"]
-        self.solver = IpoptSolver(built["nlp"], time_limit=time_limit,
-                                  options={"max_iter": max_iter, "tol": 1e-6, "acceptable_tol": 1e-4})
+        adapter = get_backend(backend, kind="nlp")
+        if not adapter.solves_to_local_optimum:
+            raise ValueError(f"backend {backend!r} does not solve to a local optimum; the interception OCP needs "
+                             f"one of {[b for b in available_backends('nlp') if get_backend(b).solves_to_local_optimum]}")
+        self._reuses_duals = adapter.reuses_duals
+        self.solver = adapter.create_nlp(built["nlp"], time_limit=time_limit,
+                                         options={"max_iter": max_iter, **self.BACKEND_OPTIONS.get(adapter.name, {})})
         nd, ns, nc = built["n_dyn"], built["n_spd"], built["n_clear"]
         self._lbg = np.r_[np.zeros(nd), np.full(ns, -np.inf), np.zeros(nc), np.zeros(3)]
         self._ubg = np.r_[np.zeros(nd), np.full(ns, params.VoMxy**2), np.full(nc, np.inf), np.zeros(3)]
@@ -272,7 +281,7 @@ class InterceptionOCP:
             x0 = self.vector(self.default_guesses(O0, t0=t0, shark_state=shark_state)[0])
         x0 = np.clip(x0, lbx, ubx)
         ws = None
-        if warm_start is not None and warm_start.has_solution and "lam_x" in warm_start.info:
+        if self._reuses_duals and warm_start is not None and warm_start.has_solution:
             ws = dataclasses.replace(warm_start, x=x0)
         res = self.solver.solve(x0=x0, lbx=lbx, ubx=ubx, lbg=self._lbg, ubg=self._ubg, p=par,
                                 warm_start=ws, time_limit=time_limit)
@@ -282,7 +291,7 @@ class InterceptionOCP:
         plan = self.plan(res.x, side)
         return dataclasses.replace(res, x=plan, objective=plan.T,
                                    message=f"interception OCP ({self.kind}, N={self.N}): T={plan.T:.3f} s; "
-                                           "local optimum (IPOPT), no bound",
+                                           f"local optimum ({res.backend}), no bound",
                                    info={**res.info, "x_vector": res.x})
 
 

@@ -22,6 +22,7 @@ from droneplan.solvers.validation import check_in_range, check_int, check_nonneg
 from droneplan.planners.covert.sliding import (DONE, ON_SPHERE, RETREAT, TO_SPHERE, SlidingSettings, _PhasedController,
                                      rollout_sliding, sliding_steering, turn_command)
 from droneplan.scenarios.covert import CovertCommand, CovertObservation, CovertScenario, bearing_changes, rotate_heading
+from droneplan.solvers.registry import get_backend
 
 __all__ = ["MPCObserverSettings", "MPCObserver", "SafeguardSettings", "SafeguardedMPCObserver"]
 
@@ -30,7 +31,8 @@ class MPCObserverSettings:
     """Settings of the receding-horizon controller around the bearing MPC."""
 
     backend: str = "ipopt"
-    """"ipopt" (NLP solved by IPOPT every period) or "osqp" (SQP / real-time iteration with OSQP)."""
+    """A registered "nlp" backend: "ipopt" (NLP solved by IPOPT every period) or "osqp"
+    (SQP / real-time iteration with OSQP)."""
     progress: float = 0.7
     """Transit phases must close the distance to their goal (sphere, D_s) at progress * V_max
     on a schedule fixed when the phase starts (after 1 s to turn)."""
@@ -42,8 +44,7 @@ class MPCObserverSettings:
     NLP objective is kept (escapes the v = 0 stationary point)."""
 
     def __post_init__(self) -> None:
-        if self.backend not in ("ipopt", "osqp"):
-            raise ValueError(f"backend must be 'ipopt' or 'osqp', got {self.backend!r}")
+        get_backend(self.backend, kind="nlp")  # ValueError naming the known NLP backends
         check_in_range("progress", self.progress, 0.0, 1.0, lo_open=True)
         check_int("window", self.window, min_value=2)
         check_nonneg("idle_speed", self.idle_speed)
@@ -223,7 +224,7 @@ class MPCObserver(_PhasedController):
         res = solver.solve(data, x0=x0, warm=self._prev)
         elapsed = res.solve_time
         idle = not res.has_solution or abs(res.x.v[0]) < self.observer.idle_speed
-        if self.observer.backend == "ipopt" and self._prev is not None and idle:
+        if solver.local_optimum and self._prev is not None and idle:
             # the plan does not move now: v = 0 with a heading orthogonal to the descent direction
             # is a stationary point of the bilinear dynamics, and a min-max objective dominated by
             # a later node does not push the first move. If the sliding-mode law would move,

@@ -33,6 +33,7 @@ def test_builtin_kinds():
     assert available_backends("cp") == ["cp-sat"]
     assert "ipopt" in available_backends("nlp")
     assert available_backends("qp") == ["osqp"]
+    assert available_backends("nlp") == ["ipopt", "osqp"]
     for name in registered_backends():
         adapter = get_backend(name)
         assert adapter.name == name
