@@ -12,8 +12,13 @@
 
 from droneplan.solvers.base import BackendAdapter, NativeReadout, run_native
 from droneplan.solvers.linear import LinearModel
-from droneplan.solvers.registry import (available_backends, get_backend, register_backend, registered_backends,
-                                        unregister_backend)
+from droneplan.solvers.registry import (
+    available_backends,
+    get_backend,
+    register_backend,
+    registered_backends,
+    unregister_backend,
+)
 from droneplan.solvers.result import SolveResult, Status, map_status
 
 __all__ = [

@@ -26,8 +26,9 @@ from __future__ import annotations
 
 import abc
 import time
+from collections.abc import Callable, Hashable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Callable, ClassVar, Hashable, Mapping, Protocol
+from typing import Any, ClassVar, Protocol
 
 from droneplan.solvers.result import SolveResult, Status, map_status
 
@@ -52,7 +53,7 @@ class BackendAdapter(abc.ABC):
 
     name: ClassVar[str]
     """Registry name, e.g. "cp-sat", "highs", "ipopt"."""
-    status_map: ClassVar[Mapping[Hashable, Status]]
+    status_map: ClassVar[Mapping[Any, Status]]
     """Native status code -> Status; a code not in it maps to ERROR."""
     description: ClassVar[str] = ""
     """One line for listings: library and algorithm."""
@@ -93,19 +94,38 @@ class CpBackend(abc.ABC):
     """Capability "cp": solves a native OR-Tools ``cp_model.CpModel``."""
 
     @abc.abstractmethod
-    def solve_cp(self, model: Any, *, variables: Any = (), time_limit: float | None = None,
-                 workers: int | None = None, hint: Mapping[Any, int] | None = None,
-                 verbose: bool = False, **options: Any) -> SolveResult:
-        """Solve ``model``; ``x`` holds the values of ``variables``."""
+    def solve_cp(
+        self,
+        model: Any,
+        *,
+        variables: Any = (),
+        time_limit: float | None = None,
+        workers: int | None = None,
+        hint: Mapping[Any, int] | None = None,
+        verbose: bool = False,
+        seed: int | None = None,
+        parameters: Mapping[str, Any] | None = None,
+    ) -> SolveResult:
+        """Solve ``model``; ``x`` holds the values of ``variables``; ``parameters`` are the
+        backend's own."""
 
 
 class NlpSolver(Protocol):
     """A nonlinear program set up once and re-solved with new numbers (see NlpBackend)."""
 
-    def solve(self, *, x0: Any = None, lbx: Any = None, ubx: Any = None, lbg: Any = None,
-              ubg: Any = None, p: Any = None, warm_start: SolveResult | None = None,
-              time_limit: float | None = None,
-              project: Callable[[Any], Any] | None = None) -> SolveResult:
+    def solve(
+        self,
+        *,
+        x0: Any = None,
+        lbx: Any = None,
+        ubx: Any = None,
+        lbg: Any = None,
+        ubg: Any = None,
+        p: Any = None,
+        warm_start: SolveResult | None = None,
+        time_limit: float | None = None,
+        project: Callable[[Any], Any] | None = None,
+    ) -> SolveResult:
         """Solve from ``x0``; ``warm_start`` is a previous result of the same solver.
 
         project: a map of iterates onto points the caller knows are good (e.g. states
@@ -129,9 +149,15 @@ class NlpBackend(abc.ABC):
     another point can find a better one; False for a fixed number of linearised steps."""
 
     @abc.abstractmethod
-    def create_nlp(self, nlp: Mapping[str, Any], *, options: Mapping[str, Any] | None = None,
-                   structure: Any = None, time_limit: float | None = None,
-                   verbose: bool = False) -> NlpSolver:
+    def create_nlp(
+        self,
+        nlp: Mapping[str, Any],
+        *,
+        options: Mapping[str, Any] | None = None,
+        structure: Any = None,
+        time_limit: float | None = None,
+        verbose: bool = False,
+    ) -> NlpSolver:
         """A solver for ``nlp``."""
 
 
@@ -139,9 +165,18 @@ class QpBackend(abc.ABC):
     """Capability "qp": a convex QP ``min 1/2 x'Px + q'x s.t. l <= Ax <= u`` set up once."""
 
     @abc.abstractmethod
-    def create_qp(self, P: Any, q: Any, A: Any, l: Any, u: Any, *,
-                  settings: Mapping[str, Any] | None = None, time_limit: float | None = None,
-                  verbose: bool = False) -> Any:
+    def create_qp(
+        self,
+        P: Any,
+        q: Any,
+        A: Any,
+        l: Any,
+        u: Any,
+        *,
+        settings: Mapping[str, Any] | None = None,
+        time_limit: float | None = None,
+        verbose: bool = False,
+    ) -> Any:
         """A QP solver with ``update(...)`` and ``solve(warm_start=...)``."""
 
 
@@ -165,9 +200,14 @@ class NativeReadout:
     """Replaces ``adapter.status_name(code)`` as the raw status text."""
 
 
-def run_native(adapter: BackendAdapter, call: Callable[[], tuple[Hashable, Any]],
-               read: Callable[[Hashable, Any, Status, float], NativeReadout], *,
-               warm_started: bool = False, backend: str | None = None) -> SolveResult:
+def run_native(
+    adapter: BackendAdapter,
+    call: Callable[[], tuple[Any, Any]],
+    read: Callable[[Any, Any, Status, float], NativeReadout],
+    *,
+    warm_started: bool = False,
+    backend: str | None = None,
+) -> SolveResult:
     """Run ``call`` timed and build the SolveResult (the one place where this happens).
 
     call: performs the native solve; returns ``(native status code, payload)``.
@@ -183,10 +223,15 @@ def run_native(adapter: BackendAdapter, call: Callable[[], tuple[Hashable, Any]]
     t0 = time.perf_counter()
     try:
         code, payload = call()
-    except Exception as exc:  # the backend failed: report it, never a result that looks valid
-        return SolveResult(Status.ERROR, backend=name, backend_status="exception",
-                           message=f"{name} raised {exc!r}", solve_time=time.perf_counter() - t0,
-                           warm_started=warm_started)
+    except Exception as exc:  # noqa: BLE001 - a backend failure is a status, never a result that looks valid
+        return SolveResult(
+            Status.ERROR,
+            backend=name,
+            backend_status="exception",
+            message=f"{name} raised {exc!r}",
+            solve_time=time.perf_counter() - t0,
+            warm_started=warm_started,
+        )
     elapsed = time.perf_counter() - t0
     status = adapter.map_status(code)
     out = read(code, payload, status, elapsed)

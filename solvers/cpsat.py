@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from ortools.sat.python import cp_model
@@ -17,7 +18,7 @@ __all__ = ["BACKEND", "STATUS_MAP", "CpSatAdapter", "CpSatLinearModel", "solve_c
 BACKEND = "cp-sat"
 
 # CP-SAT's native statuses; FEASIBLE means a solution without a proof of optimality.
-STATUS_MAP: dict[int, Status] = {
+STATUS_MAP: dict[Any, Status] = {
     cp_model.OPTIMAL: Status.OPTIMAL,
     cp_model.FEASIBLE: Status.FEASIBLE,
     cp_model.INFEASIBLE: Status.INFEASIBLE,
@@ -41,15 +42,24 @@ class CpSatAdapter(BackendAdapter, CpBackend, LinearBackend):
     def status_name(self, code: Any) -> str:
         try:
             return cp_model.CpSolver().status_name(code)
-        except Exception:  # not a CP-SAT code
+        except Exception:  # noqa: BLE001 - not a CP-SAT code: show it as it is
             return str(code)
 
     def new_model(self) -> CpSatLinearModel:
         return CpSatLinearModel()
 
-    def solve_cp(self, model: cp_model.CpModel, *, variables: Sequence[Any] = (), time_limit: float | None = None,
-                 workers: int | None = None, hint: Mapping[Any, int] | None = None, verbose: bool = False,
-                 seed: int | None = None, parameters: Mapping[str, Any] | None = None) -> SolveResult:
+    def solve_cp(
+        self,
+        model: cp_model.CpModel,
+        *,
+        variables: Sequence[Any] = (),
+        time_limit: float | None = None,
+        workers: int | None = None,
+        hint: Mapping[Any, int] | None = None,
+        verbose: bool = False,
+        seed: int | None = None,
+        parameters: Mapping[str, Any] | None = None,
+    ) -> SolveResult:
         """Solve a CP-SAT model.
 
         model: the model, as a builder left it (objective optional).
@@ -70,7 +80,7 @@ class CpSatAdapter(BackendAdapter, CpBackend, LinearBackend):
             raise TypeError(f"model must be a cp_model.CpModel, got {type(model).__name__}")
         check_time_limit(time_limit)
         _check_workers(workers)
-        model.clear_hints()
+        model.clear_hints()  # type: ignore[no-untyped-call]
         if hint:
             for var, value in hint.items():
                 model.add_hint(var, int(value))
@@ -111,11 +121,18 @@ class CpSatAdapter(BackendAdapter, CpBackend, LinearBackend):
                 message = f"CP-SAT: {self.status_name(code)}; model validation: {model.validate() or 'ok'}"
             elif status is Status.NO_SOLUTION:
                 message = "CP-SAT stopped (time limit) before finding a solution"
-            return NativeReadout(objective=objective, bound=bound, x=x, iterations=int(solver.num_branches),
-                                 message=message,
-                                 info={"num_branches": int(solver.num_branches),
-                                       "num_conflicts": int(solver.num_conflicts),
-                                       "wall_time": float(solver.wall_time)})
+            return NativeReadout(
+                objective=objective,
+                bound=bound,
+                x=x,
+                iterations=int(solver.num_branches),
+                message=message,
+                info={
+                    "num_branches": int(solver.num_branches),
+                    "num_conflicts": int(solver.num_conflicts),
+                    "wall_time": float(solver.wall_time),
+                },
+            )
 
         return run_native(self, lambda: (solver.solve(model), None), read, warm_started=bool(hint))
 
@@ -124,7 +141,10 @@ class CpSatLinearModel(LinearModel):
     """LinearModel on CP-SAT (Booleans and integers only; ``unit_var`` is Boolean)."""
 
     backend = BACKEND
-    takes_hint = True
+
+    @property
+    def takes_hint(self) -> bool:
+        return True
 
     def __init__(self) -> None:
         self._model = cp_model.CpModel()
@@ -161,17 +181,48 @@ class CpSatLinearModel(LinearModel):
     def minimize(self, expr: Any) -> None:
         self._model.minimize(expr)
 
-    def solve(self, *, variables: Sequence[Any] = (), time_limit: float | None = None, workers: int | None = None,
-              hint: Mapping[Any, float] | None = None, verbose: bool = False,
-              options: Mapping[str, Any] | None = None) -> SolveResult:
+    def solve(
+        self,
+        *,
+        variables: Sequence[Any] = (),
+        time_limit: float | None = None,
+        workers: int | None = None,
+        hint: Mapping[Any, float] | None = None,
+        verbose: bool = False,
+        options: Mapping[str, Any] | None = None,
+    ) -> SolveResult:
         """Solve on CP-SAT; ``options`` are SatParameters fields (see CpSatAdapter.solve_cp)."""
-        return CpSatAdapter().solve_cp(self._model, variables=variables, time_limit=time_limit, workers=workers,
-                                       hint=hint, verbose=verbose, parameters=options)
+        int_hint = None if hint is None else {var: int(value) for var, value in hint.items()}
+        return CpSatAdapter().solve_cp(
+            self._model,
+            variables=variables,
+            time_limit=time_limit,
+            workers=workers,
+            hint=int_hint,
+            verbose=verbose,
+            parameters=options,
+        )
 
 
-def solve_cpsat(model: cp_model.CpModel, *, variables: Sequence[Any] = (), time_limit: float | None = None,
-                workers: int | None = None, hint: Mapping[Any, int] | None = None, seed: int | None = None,
-                log: bool = False, parameters: Mapping[str, Any] | None = None) -> SolveResult:
+def solve_cpsat(
+    model: cp_model.CpModel,
+    *,
+    variables: Sequence[Any] = (),
+    time_limit: float | None = None,
+    workers: int | None = None,
+    hint: Mapping[Any, int] | None = None,
+    seed: int | None = None,
+    log: bool = False,
+    parameters: Mapping[str, Any] | None = None,
+) -> SolveResult:
     """Solve a CP-SAT model (same as ``get_backend("cp-sat").solve_cp``; ``log`` = ``verbose``)."""
-    return CpSatAdapter().solve_cp(model, variables=variables, time_limit=time_limit, workers=workers, hint=hint,
-                                   verbose=log, seed=seed, parameters=parameters)
+    return CpSatAdapter().solve_cp(
+        model,
+        variables=variables,
+        time_limit=time_limit,
+        workers=workers,
+        hint=hint,
+        verbose=log,
+        seed=seed,
+        parameters=parameters,
+    )

@@ -18,8 +18,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import replace
-from typing import Any, Callable, Sequence
+from typing import Any
 
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_time_limit
@@ -27,10 +28,15 @@ from droneplan.solvers.validation import check_time_limit
 __all__ = ["lazy_constraint_loop"]
 
 
-def lazy_constraint_loop(solve_relaxation: Callable[[list, float | None], SolveResult],
-                         separate: Callable[[SolveResult], Sequence[Any]], *, sense: str,
-                         max_rounds: int = 200, time_limit: float | None = None,
-                         cuts: Sequence[Any] = ()) -> SolveResult:
+def lazy_constraint_loop(
+    solve_relaxation: Callable[[list[Any], float | None], SolveResult],
+    separate: Callable[[SolveResult], Sequence[Any]],
+    *,
+    sense: str,
+    max_rounds: int = 200,
+    time_limit: float | None = None,
+    cuts: Sequence[Any] = (),
+) -> SolveResult:
     """Run the lazy-constraint loop (module docstring).
 
     sense: "max" or "min", the direction of the objective (which way bounds tighten).
@@ -65,11 +71,17 @@ def lazy_constraint_loop(solve_relaxation: Callable[[list, float | None], SolveR
         return None if time_limit is None else max(time_limit - (time.perf_counter() - t0), 0.01)
 
     def finish(res: SolveResult, status: Status, rounds: int, message: str, solution: bool) -> SolveResult:
-        return replace(res, status=status, x=res.x if solution else None,
-                       objective=res.objective if solution else None,
-                       bound=bound if math.isfinite(bound) else None, iterations=rounds,
-                       solve_time=time.perf_counter() - t0, message=message,
-                       info={"rounds": rounds, "cuts": found, "last": res})
+        return replace(
+            res,
+            status=status,
+            x=res.x if solution else None,
+            objective=res.objective if solution else None,
+            bound=bound if math.isfinite(bound) else None,
+            iterations=rounds,
+            solve_time=time.perf_counter() - t0,
+            message=message,
+            info={"rounds": rounds, "cuts": found, "last": res},
+        )
 
     res: SolveResult | None = None
     for rounds in range(1, max_rounds + 1):
@@ -81,20 +93,40 @@ def lazy_constraint_loop(solve_relaxation: Callable[[list, float | None], SolveR
         if res.status is Status.INFEASIBLE:
             return finish(res, Status.INFEASIBLE, rounds, "a relaxation is infeasible", False)
         if not res.has_solution:
-            return finish(res, res.status if res.status is Status.ERROR else Status.NO_SOLUTION, rounds,
-                          f"round {rounds}: relaxation returned {res.status.value} ({res.message})", False)
+            return finish(
+                res,
+                res.status if res.status is Status.ERROR else Status.NO_SOLUTION,
+                rounds,
+                f"round {rounds}: relaxation returned {res.status.value} ({res.message})",
+                False,
+            )
         new = list(separate(res))
         if not new:
-            if res.status is Status.OPTIMAL:
+            if res.status is Status.OPTIMAL and res.objective is not None:
                 bound = tighter(bound, res.objective)
-                return finish(res, Status.OPTIMAL, rounds,
-                              f"optimal after {rounds} round(s), {len(found)} lazy constraint(s)", True)
-            return finish(res, Status.FEASIBLE, rounds,
-                          f"round {rounds} stopped early at a solution that violates no constraint", True)
+                return finish(
+                    res,
+                    Status.OPTIMAL,
+                    rounds,
+                    f"optimal after {rounds} round(s), {len(found)} lazy constraint(s)",
+                    True,
+                )
+            return finish(
+                res,
+                Status.FEASIBLE,
+                rounds,
+                f"round {rounds} stopped early at a solution that violates no constraint",
+                True,
+            )
         found.extend(new)
         if res.status is not Status.OPTIMAL:
-            return finish(res, Status.NO_SOLUTION, rounds,
-                          f"round {rounds} stopped early at a solution that violates {len(new)} constraint(s)", False)
+            return finish(
+                res,
+                Status.NO_SOLUTION,
+                rounds,
+                f"round {rounds} stopped early at a solution that violates {len(new)} constraint(s)",
+                False,
+            )
         if time_limit is not None and time.perf_counter() - t0 >= time_limit:
             return finish(res, Status.NO_SOLUTION, rounds, f"time limit after {rounds} round(s)", False)
     assert res is not None

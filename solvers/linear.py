@@ -5,8 +5,8 @@ any backend of kind "linear" (CP-SAT, HiGHS, SCIP, ...)::
 
     lin = get_backend(backend, kind="linear").new_model()
     x = [lin.bool_var(f"x{i}") for i in range(n)]
-    y = lin.unit_var("y")                 # 0-1, integrality not needed by the model
-    lin.add(y <= lin.sum(x))              # constraints are built with <=, >=, ==
+    y = lin.unit_var("y")  # 0-1, integrality not needed by the model
+    lin.add(y <= lin.sum(x))  # constraints are built with <=, >=, ==
     lin.add_at_most_one(x[:3])
     lin.maximize(y)
     res = lin.solve(variables=x, time_limit=10, workers=1, hint={x[0]: 1})
@@ -19,7 +19,8 @@ through this interface. Coefficients must be integers for CP-SAT.
 from __future__ import annotations
 
 import abc
-from typing import Any, ClassVar, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
 
 from droneplan.solvers.result import SolveResult
 
@@ -31,8 +32,11 @@ class LinearModel(abc.ABC):
 
     backend: str
     """Registry name of the backend that will solve it."""
-    takes_hint: ClassVar[bool] = False
-    """True when ``solve(hint=...)`` hands the start solution to the backend."""
+
+    @property
+    def takes_hint(self) -> bool:
+        """True when ``solve(hint=...)`` hands the start solution to the backend."""
+        return False
 
     @property
     @abc.abstractmethod
@@ -81,9 +85,16 @@ class LinearModel(abc.ABC):
         """Set the objective to minimise ``expr``."""
 
     @abc.abstractmethod
-    def solve(self, *, variables: Sequence[Any] = (), time_limit: float | None = None,
-              workers: int | None = None, hint: Mapping[Any, float] | None = None,
-              verbose: bool = False, options: Mapping[str, Any] | None = None) -> SolveResult:
+    def solve(
+        self,
+        *,
+        variables: Sequence[Any] = (),
+        time_limit: float | None = None,
+        workers: int | None = None,
+        hint: Mapping[Any, float] | None = None,
+        verbose: bool = False,
+        options: Mapping[str, Any] | None = None,
+    ) -> SolveResult:
         """Solve the model.
 
         variables: variables whose values form ``x`` (in order).

@@ -11,7 +11,8 @@ in its own file, plus one line in ``registry._BUILTIN``.
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar
 
 import numpy as np
 from ortools.linear_solver import pywraplp
@@ -21,10 +22,17 @@ from droneplan.solvers.linear import LinearModel
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_time_limit
 
-__all__ = ["STATUS_MAP", "PywraplpAdapter", "HighsAdapter", "ScipAdapter", "PywraplpLinearModel", "new_mip",
-           "solve_mip"]
+__all__ = [
+    "STATUS_MAP",
+    "PywraplpAdapter",
+    "HighsAdapter",
+    "ScipAdapter",
+    "PywraplpLinearModel",
+    "new_mip",
+    "solve_mip",
+]
 
-STATUS_MAP: dict[int, Status] = {
+STATUS_MAP: dict[Any, Status] = {
     pywraplp.Solver.OPTIMAL: Status.OPTIMAL,
     pywraplp.Solver.FEASIBLE: Status.FEASIBLE,
     pywraplp.Solver.INFEASIBLE: Status.INFEASIBLE,
@@ -47,6 +55,9 @@ _STATUS_NAME = {
 }
 
 
+_AVAILABLE: dict[str, bool] = {}  # pywraplp solver id -> can be created here
+
+
 class PywraplpAdapter(BackendAdapter, LinearBackend):
     """A MIP solver reached through pywraplp; subclasses set the three class attributes."""
 
@@ -63,10 +74,9 @@ class PywraplpAdapter(BackendAdapter, LinearBackend):
         return _STATUS_NAME.get(code, str(code))
 
     def is_available(self) -> bool:
-        cls = type(self)
-        if "_available" not in cls.__dict__:
-            cls._available = pywraplp.Solver.CreateSolver(self.solver_id) is not None
-        return cls._available
+        if self.solver_id not in _AVAILABLE:
+            _AVAILABLE[self.solver_id] = pywraplp.Solver.CreateSolver(self.solver_id) is not None
+        return _AVAILABLE[self.solver_id]
 
     def new_native(self) -> pywraplp.Solver:
         """An empty pywraplp model of this solver."""
@@ -79,10 +89,17 @@ class PywraplpAdapter(BackendAdapter, LinearBackend):
     def new_model(self) -> PywraplpLinearModel:
         return PywraplpLinearModel(self)
 
-    def solve_native(self, solver: pywraplp.Solver, *, variables: Sequence[Any] = (),
-                     time_limit: float | None = None, warm_start: Mapping[Any, float] | None = None,
-                     threads: int | None = None, relative_gap: float | None = None,
-                     verbose: bool = False) -> SolveResult:
+    def solve_native(
+        self,
+        solver: pywraplp.Solver,
+        *,
+        variables: Sequence[Any] = (),
+        time_limit: float | None = None,
+        warm_start: Mapping[Any, float] | None = None,
+        threads: int | None = None,
+        relative_gap: float | None = None,
+        verbose: bool = False,
+    ) -> SolveResult:
         """Solve a pywraplp model of this solver (see :func:`solve_mip`)."""
         check_time_limit(time_limit)
         if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
@@ -90,7 +107,7 @@ class PywraplpAdapter(BackendAdapter, LinearBackend):
         if relative_gap is not None and not (0 <= relative_gap < 1):
             raise ValueError(f"relative_gap must be in [0, 1), got {relative_gap}")
         if time_limit is not None:
-            solver.SetTimeLimit(max(1, int(round(time_limit * 1000))))
+            solver.SetTimeLimit(max(1, round(time_limit * 1000)))
         if threads is not None:
             solver.SetNumThreads(threads)
         if verbose:
@@ -120,17 +137,32 @@ class PywraplpAdapter(BackendAdapter, LinearBackend):
                 x = np.array([v.solution_value() for v in variables], dtype=float)
                 objective = float(solver.Objective().Value())
                 is_mip = any(v.integer() for v in solver.variables())
-                bound = float(solver.Objective().BestBound()) if is_mip else (
-                    objective if status is Status.OPTIMAL else None)
+                bound = (
+                    float(solver.Objective().BestBound())
+                    if is_mip
+                    else (objective if status is Status.OPTIMAL else None)
+                )
             message = ""
             if warm_start and not warm_used:
-                message = f"warm start not passed: the {name} backend of pywraplp does not take a start solution"
+                message = (
+                    f"warm start not passed: the {name} backend of pywraplp does not take a start solution"
+                )
             if status is Status.NO_SOLUTION:
-                message = (message + "; " if message else "") + "stopped at the limit without a usable solution"
+                message = (
+                    message + "; " if message else ""
+                ) + "stopped at the limit without a usable solution"
             elif status is Status.ERROR:
-                message = (message + "; " if message else "") + f"{name} returned status {self.status_name(code)}"
-            return NativeReadout(objective=objective, bound=bound, x=x, message=message, status=status,
-                                 iterations=int(solver.nodes()) if status.has_solution else None)
+                message = (
+                    message + "; " if message else ""
+                ) + f"{name} returned status {self.status_name(code)}"
+            return NativeReadout(
+                objective=objective,
+                bound=bound,
+                x=x,
+                message=message,
+                status=status,
+                iterations=int(solver.nodes()) if status.has_solution else None,
+            )
 
         return run_native(self, lambda: (solver.Solve(params), None), read, warm_started=warm_used)
 
@@ -161,8 +193,11 @@ class PywraplpLinearModel(LinearModel):
     def __init__(self, adapter: PywraplpAdapter) -> None:
         self._adapter = adapter
         self.backend = adapter.name
-        self.takes_hint = adapter.takes_hint
         self._solver = adapter.new_native()
+
+    @property
+    def takes_hint(self) -> bool:
+        return self._adapter.takes_hint
 
     @property
     def native(self) -> pywraplp.Solver:
@@ -189,24 +224,35 @@ class PywraplpLinearModel(LinearModel):
     def minimize(self, expr: Any) -> None:
         self._solver.Minimize(expr)
 
-    def solve(self, *, variables: Sequence[Any] = (), time_limit: float | None = None, workers: int | None = None,
-              hint: Mapping[Any, float] | None = None, verbose: bool = False,
-              options: Mapping[str, Any] | None = None) -> SolveResult:
+    def solve(
+        self,
+        *,
+        variables: Sequence[Any] = (),
+        time_limit: float | None = None,
+        workers: int | None = None,
+        hint: Mapping[Any, float] | None = None,
+        verbose: bool = False,
+        options: Mapping[str, Any] | None = None,
+    ) -> SolveResult:
         """Solve; ``options`` may hold ``relative_gap`` (stop below this relative MIP gap)."""
         opts = dict(options or {})
         relative_gap = opts.pop("relative_gap", None)
         if opts:
             raise ValueError(f"unknown {self.backend} options {sorted(opts)}; known: ['relative_gap']")
-        return self._adapter.solve_native(self._solver, variables=variables, time_limit=time_limit,
-                                          warm_start=hint, threads=workers, relative_gap=relative_gap,
-                                          verbose=verbose)
+        return self._adapter.solve_native(
+            self._solver,
+            variables=variables,
+            time_limit=time_limit,
+            warm_start=hint,
+            threads=workers,
+            relative_gap=relative_gap,
+            verbose=verbose,
+        )
 
 
 def new_mip(backend: str = "highs") -> pywraplp.Solver:
     """An empty pywraplp model for ``backend`` (a registered pywraplp backend: "highs", "scip")."""
-    from droneplan.solvers.registry import get_backend
-
-    from droneplan.solvers.registry import available_backends
+    from droneplan.solvers.registry import available_backends, get_backend
 
     mip = [n for n in available_backends("linear") if isinstance(get_backend(n), PywraplpAdapter)]
     if not isinstance(backend, str) or backend.lower() not in mip:
@@ -215,9 +261,16 @@ def new_mip(backend: str = "highs") -> pywraplp.Solver:
     return adapter.new_native()
 
 
-def solve_mip(solver: pywraplp.Solver, *, variables: Sequence[Any] = (), time_limit: float | None = None,
-              warm_start: Mapping[Any, float] | None = None, threads: int | None = None,
-              relative_gap: float | None = None, verbose: bool = False) -> SolveResult:
+def solve_mip(
+    solver: pywraplp.Solver,
+    *,
+    variables: Sequence[Any] = (),
+    time_limit: float | None = None,
+    warm_start: Mapping[Any, float] | None = None,
+    threads: int | None = None,
+    relative_gap: float | None = None,
+    verbose: bool = False,
+) -> SolveResult:
     """Solve a model built in a :func:`new_mip` container.
 
     variables: variables whose solution values form ``x`` (float array, in order).
@@ -238,6 +291,13 @@ def solve_mip(solver: pywraplp.Solver, *, variables: Sequence[Any] = (), time_li
     name = getattr(solver, "_droneplan_backend", None)
     if name is None:
         raise ValueError("solve_mip needs a model created by new_mip(backend)")
-    return get_backend(name, kind="linear").solve_native(solver, variables=variables, time_limit=time_limit,
-                                                         warm_start=warm_start, threads=threads,
-                                                         relative_gap=relative_gap, verbose=verbose)
+    adapter: PywraplpAdapter = get_backend(name, kind="linear")
+    return adapter.solve_native(
+        solver,
+        variables=variables,
+        time_limit=time_limit,
+        warm_start=warm_start,
+        threads=threads,
+        relative_gap=relative_gap,
+        verbose=verbose,
+    )

@@ -8,7 +8,8 @@ controller needs.
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -22,7 +23,7 @@ BACKEND = "ipopt"
 # IPOPT return_status strings (IpReturnCodes). Statuses that stop at a point whose
 # quality is unknown are mapped to FEASIBLE here and demoted to NO_SOLUTION by
 # IpoptSolver.solve when that point violates the constraints.
-STATUS_MAP: dict[str, Status] = {
+STATUS_MAP: dict[Any, Status] = {
     "Solve_Succeeded": Status.OPTIMAL,
     "Solved_To_Acceptable_Level": Status.FEASIBLE,
     "Feasible_Point_Found": Status.FEASIBLE,
@@ -45,8 +46,14 @@ STATUS_MAP: dict[str, Status] = {
     "Internal_Error": Status.ERROR,
 }
 
-_LIMIT_STATUSES = {"Maximum_Iterations_Exceeded", "Maximum_CpuTime_Exceeded", "Maximum_WallTime_Exceeded",
-                   "Search_Direction_Becomes_Too_Small", "User_Requested_Stop", "Restoration_Failed"}
+_LIMIT_STATUSES = {
+    "Maximum_Iterations_Exceeded",
+    "Maximum_CpuTime_Exceeded",
+    "Maximum_WallTime_Exceeded",
+    "Search_Direction_Becomes_Too_Small",
+    "User_Requested_Stop",
+    "Restoration_Failed",
+}
 
 
 class IpoptSolver:
@@ -62,8 +69,15 @@ class IpoptSolver:
     verbose: let IPOPT print its banner and iteration log (default quiet).
     """
 
-    def __init__(self, nlp: Mapping[str, Any], *, options: Mapping[str, Any] | None = None,
-                 time_limit: float | None = None, feasibility_tol: float = 1e-6, verbose: bool = False):
+    def __init__(
+        self,
+        nlp: Mapping[str, Any],
+        *,
+        options: Mapping[str, Any] | None = None,
+        time_limit: float | None = None,
+        feasibility_tol: float = 1e-6,
+        verbose: bool = False,
+    ):
         if not isinstance(nlp, Mapping) or "x" not in nlp or "f" not in nlp:
             raise ValueError("nlp must be a mapping with at least 'x' and 'f' CasADi expressions")
         unknown = set(nlp) - {"x", "f", "g", "p"}
@@ -72,7 +86,7 @@ class IpoptSolver:
         check_time_limit(time_limit)
         if feasibility_tol <= 0:
             raise ValueError(f"feasibility_tol must be > 0, got {feasibility_tol}")
-        self._nlp = {k: v for k, v in nlp.items()}
+        self._nlp = dict(nlp)
         self.n_x = int(nlp["x"].numel())
         self.n_g = int(nlp["g"].numel()) if "g" in nlp else 0
         self.n_p = int(nlp["p"].numel()) if "p" in nlp else 0
@@ -91,9 +105,15 @@ class IpoptSolver:
             if time_limit is not None:
                 ipopt["max_wall_time"] = float(time_limit)
             if warm:
-                ipopt.update({"warm_start_init_point": "yes", "warm_start_bound_push": 1e-6,
-                              "warm_start_mult_bound_push": 1e-6, "mu_init": 1e-4})
-            opts = {"ipopt": ipopt, "print_time": self.verbose, "error_on_fail": False}
+                ipopt.update(
+                    {
+                        "warm_start_init_point": "yes",
+                        "warm_start_bound_push": 1e-6,
+                        "warm_start_mult_bound_push": 1e-6,
+                        "mu_init": 1e-4,
+                    }
+                )
+            opts: dict[str, Any] = {"ipopt": ipopt, "print_time": self.verbose, "error_on_fail": False}
             self._solvers[key] = ca.nlpsol("droneplan_ipopt", "ipopt", self._nlp, opts)
         return self._solvers[key]
 
@@ -109,9 +129,19 @@ class IpoptSolver:
             raise ValueError(f"{name} contains NaN")
         return arr
 
-    def solve(self, *, x0: Any = None, lbx: Any = None, ubx: Any = None, lbg: Any = None, ubg: Any = None,
-              p: Any = None, warm_start: SolveResult | None = None,
-              time_limit: float | None = None, project: Any = None) -> SolveResult:
+    def solve(
+        self,
+        *,
+        x0: Any = None,
+        lbx: Any = None,
+        ubx: Any = None,
+        lbg: Any = None,
+        ubg: Any = None,
+        p: Any = None,
+        warm_start: SolveResult | None = None,
+        time_limit: float | None = None,
+        project: Any = None,
+    ) -> SolveResult:
         """Solve from ``x0`` (or from ``warm_start``'s primal and duals).
 
         Bounds default to ±inf; ``p`` is required when the NLP has parameters.
@@ -127,6 +157,7 @@ class IpoptSolver:
             raise TypeError(f"warm_start must be a SolveResult, got {type(warm_start).__name__}")
         use_warm = warm_start is not None and warm_start.has_solution and "lam_x" in warm_start.info
         if use_warm:
+            assert warm_start is not None
             x0 = warm_start.x if x0 is None else x0
         args: dict[str, Any] = {
             "x0": self._vec("x0", x0, self.n_x, 0.0),
@@ -143,6 +174,7 @@ class IpoptSolver:
         elif p is not None:
             raise ValueError("this NLP has no parameters, but p was given")
         if use_warm:
+            assert warm_start is not None
             args["lam_x0"] = self._vec("lam_x0", warm_start.info["lam_x"], self.n_x, 0.0)
             if self.n_g:
                 args["lam_g0"] = self._vec("lam_g0", warm_start.info["lam_g"], self.n_g, 0.0)
@@ -153,7 +185,7 @@ class IpoptSolver:
             sol = solver(**args)
             return str(solver.stats().get("return_status", "unknown")), sol
 
-        def read(code: str, sol: Any, status: Status, _elapsed: float) -> NativeReadout:
+        def read(code: Any, sol: Any, status: Status, _elapsed: float) -> NativeReadout:
             stats = solver.stats()
             x = np.asarray(sol["x"], dtype=float).ravel()
             g = np.asarray(sol["g"], dtype=float).ravel() if self.n_g else np.zeros(0)
@@ -178,9 +210,13 @@ class IpoptSolver:
                 x=x if has else None,
                 message=message,
                 iterations=int(stats.get("iter_count", 0)),
-                info={"lam_x": np.asarray(sol["lam_x"], dtype=float).ravel(),
-                      "lam_g": np.asarray(sol["lam_g"], dtype=float).ravel(),
-                      "g": g, "violation": violation, "x_last": x},
+                info={
+                    "lam_x": np.asarray(sol["lam_x"], dtype=float).ravel(),
+                    "lam_g": np.asarray(sol["lam_g"], dtype=float).ravel(),
+                    "g": g,
+                    "violation": violation,
+                    "x_last": x,
+                },
             )
 
         return run_native(_ADAPTER, call, read, warm_started=use_warm)
@@ -203,15 +239,22 @@ class IpoptAdapter(BackendAdapter, NlpBackend):
     reuses_duals = True
     solves_to_local_optimum = True
 
-    def create_nlp(self, nlp: Mapping[str, Any], *, options: Mapping[str, Any] | None = None,
-                   structure: Any = None, time_limit: float | None = None,
-                   verbose: bool = False) -> IpoptSolver:
+    def create_nlp(
+        self,
+        nlp: Mapping[str, Any],
+        *,
+        options: Mapping[str, Any] | None = None,
+        structure: Any = None,
+        time_limit: float | None = None,
+        verbose: bool = False,
+    ) -> IpoptSolver:
         """An :class:`IpoptSolver`; ``options`` are IPOPT options, plus ``feasibility_tol``
         (see IpoptSolver). ``structure`` is not needed by IPOPT and ignored."""
         opts = dict(options or {})
         feasibility_tol = opts.pop("feasibility_tol", 1e-6)
-        return IpoptSolver(nlp, options=opts, time_limit=time_limit, feasibility_tol=feasibility_tol,
-                           verbose=verbose)
+        return IpoptSolver(
+            nlp, options=opts, time_limit=time_limit, feasibility_tol=feasibility_tol, verbose=verbose
+        )
 
 
 _ADAPTER = IpoptAdapter()

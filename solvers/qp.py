@@ -8,7 +8,8 @@ sequential-QP / real-time-iteration controller needs.
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import osqp
@@ -21,7 +22,7 @@ from droneplan.solvers.validation import check_time_limit
 BACKEND = "osqp"
 
 # OSQP's status strings (identical in osqp 0.6 and 1.x), lower-cased.
-STATUS_MAP: dict[str, Status] = {
+STATUS_MAP: dict[Any, Status] = {
     "solved": Status.OPTIMAL,
     "solved inaccurate": Status.FEASIBLE,
     "primal infeasible": Status.INFEASIBLE,
@@ -49,9 +50,18 @@ class OsqpSolver:
     verbose: let OSQP print its log (default quiet; ``settings["verbose"]`` also works).
     """
 
-    def __init__(self, P: Any, q: Any, A: Any, l: Any, u: Any, *,
-                 settings: Mapping[str, Any] | None = None, time_limit: float | None = None,
-                 verbose: bool = False):
+    def __init__(
+        self,
+        P: Any,
+        q: Any,
+        A: Any,
+        l: Any,
+        u: Any,
+        *,
+        settings: Mapping[str, Any] | None = None,
+        time_limit: float | None = None,
+        verbose: bool = False,
+    ):
         check_time_limit(time_limit)
         P = sp.csc_matrix(P, dtype=float)
         A = sp.csc_matrix(A, dtype=float)
@@ -86,7 +96,7 @@ class OsqpSolver:
             raise ValueError(f"{name} has {arr.size} entries, expected {n}")
         if np.isnan(arr).any() or (not allow_inf and np.isinf(arr).any()):
             raise ValueError(f"{name} must be finite" if not allow_inf else f"{name} contains NaN")
-        return np.clip(arr, -osqp_inf(), osqp_inf())
+        return np.asarray(np.clip(arr, -osqp_inf(), osqp_inf()), dtype=float)
 
     def update(self, *, q: Any = None, l: Any = None, u: Any = None, Px: Any = None, Ax: Any = None) -> None:
         """Change vectors, or the nonzero values of P's upper triangle / A (same pattern)."""
@@ -134,7 +144,7 @@ class OsqpSolver:
                 res = self._solver.solve()
             return str(res.info.status).lower(), res
 
-        def read(_code: str, res: Any, status: Status, _elapsed: float) -> NativeReadout:
+        def read(_code: Any, res: Any, status: Status, _elapsed: float) -> NativeReadout:
             has = status.has_solution and res.x is not None and np.isfinite(res.x).all()
             if status.has_solution and not has:
                 status = Status.ERROR
@@ -160,13 +170,30 @@ class OsqpAdapter(BackendAdapter, QpBackend, NlpBackend):
     status_map = STATUS_MAP
     description = "OSQP: convex QPs by ADMM, warm start with primal and duals"
 
-    def create_qp(self, P: Any, q: Any, A: Any, l: Any, u: Any, *, settings: Mapping[str, Any] | None = None,
-                  time_limit: float | None = None, verbose: bool = False) -> OsqpSolver:
+    def create_qp(
+        self,
+        P: Any,
+        q: Any,
+        A: Any,
+        l: Any,
+        u: Any,
+        *,
+        settings: Mapping[str, Any] | None = None,
+        time_limit: float | None = None,
+        verbose: bool = False,
+    ) -> OsqpSolver:
         """An :class:`OsqpSolver` (see its docstring)."""
         return OsqpSolver(P, q, A, l, u, settings=settings, time_limit=time_limit, verbose=verbose)
 
-    def create_nlp(self, nlp: Mapping[str, Any], *, options: Mapping[str, Any] | None = None,
-                   structure: Any = None, time_limit: float | None = None, verbose: bool = False) -> Any:
+    def create_nlp(
+        self,
+        nlp: Mapping[str, Any],
+        *,
+        options: Mapping[str, Any] | None = None,
+        structure: Any = None,
+        time_limit: float | None = None,
+        verbose: bool = False,
+    ) -> Any:
         """A :class:`~droneplan.solvers.sqp.SqpSolver` on OSQP.
 
         options: ``iterations`` (QPs per solve, default 1: real-time iteration) and
@@ -182,8 +209,15 @@ class OsqpAdapter(BackendAdapter, QpBackend, NlpBackend):
             raise ValueError(f"unknown osqp NLP options {sorted(opts)}; known: ['iterations', 'qp_settings']")
         if structure is not None and not isinstance(structure, SqpStructure):
             raise TypeError(f"structure must be an SqpStructure, got {type(structure).__name__}")
-        return SqpSolver(nlp, qp_backend=self, iterations=iterations, structure=structure, qp_settings=qp_settings,
-                         time_limit=time_limit, verbose=verbose)
+        return SqpSolver(
+            nlp,
+            qp_backend=self,
+            iterations=iterations,
+            structure=structure,
+            qp_settings=qp_settings,
+            time_limit=time_limit,
+            verbose=verbose,
+        )
 
 
 _ADAPTER = OsqpAdapter()

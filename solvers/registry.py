@@ -13,7 +13,13 @@ from typing import Any
 
 from droneplan.solvers.base import KINDS, BackendAdapter
 
-__all__ = ["available_backends", "get_backend", "register_backend", "registered_backends", "unregister_backend"]
+__all__ = [
+    "available_backends",
+    "get_backend",
+    "register_backend",
+    "registered_backends",
+    "unregister_backend",
+]
 
 _BUILTIN: dict[str, str] = {
     "cp-sat": "droneplan.solvers.cpsat:CpSatAdapter",
@@ -46,7 +52,9 @@ def register_backend(name: str, adapter: BackendAdapter, *, replace: bool = Fals
     if adapter.name != name:
         raise ValueError(f"adapter.name is {adapter.name!r} but it is registered as {name!r}")
     if not adapter.kinds:
-        raise ValueError(f"adapter {name!r} implements no capability (LinearBackend, CpBackend, NlpBackend, QpBackend)")
+        raise ValueError(
+            f"adapter {name!r} implements no capability (LinearBackend, CpBackend, NlpBackend, QpBackend)"
+        )
     if not replace and (name in _USER or name in _BUILTIN):
         raise ValueError(f"a backend named {name!r} is already registered (pass replace=True)")
     _USER[name] = adapter
@@ -90,11 +98,15 @@ def get_backend(name: str, kind: str | None = None) -> Any:
         raise ValueError(f"unknown backend {name!r}; known{f' {kind}' if kind else ''} backends: {known}")
     adapter = _load(key)
     if kind is not None and kind not in adapter.kinds:
-        raise ValueError(f"backend {name!r} does not offer {kind!r} (it offers {sorted(adapter.kinds)}); "
-                         f"{kind} backends: {available_backends(kind)}")
+        raise ValueError(
+            f"backend {name!r} does not offer {kind!r} (it offers {sorted(adapter.kinds)}); "
+            f"{kind} backends: {available_backends(kind)}"
+        )
     if not adapter.is_available():
-        raise ValueError(f"backend {name!r} is not available in this installation; "
-                         f"available{f' {kind}' if kind else ''} backends: {available_backends(kind)}")
+        raise ValueError(
+            f"backend {name!r} is not available in this installation; "
+            f"available{f' {kind}' if kind else ''} backends: {available_backends(kind)}"
+        )
     return adapter
 
 

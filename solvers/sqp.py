@@ -18,17 +18,19 @@ previous QP's duals.
 
 There is no line search or merit function: the proximal weights are the only
 globalisation, so too small a ``prox`` can make the iterates cycle on curved
-constraints (the unit tests show both cases). Soft rows make every QP feasible; the result reports the remaining constraint
-violation of the final iterate. The result's status is FEASIBLE when every QP was
-solved (a fixed number of steps proves no optimality) and the QP's status otherwise.
+constraints (the unit tests show both cases). Soft rows make every QP feasible;
+the result reports the remaining constraint violation of the final iterate. The
+result's status is FEASIBLE when every QP was solved (a fixed number of steps
+proves no optimality) and the QP's status otherwise.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
-from typing import Any, Callable, Mapping
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -66,9 +68,18 @@ class SqpSolver:
     name: the ``backend`` reported in results.
     """
 
-    def __init__(self, nlp: Mapping[str, Any], *, qp_backend: Any = "osqp", iterations: int = 1,
-                 structure: SqpStructure | None = None, qp_settings: Mapping[str, Any] | None = None,
-                 time_limit: float | None = None, verbose: bool = False, name: str = "osqp-sqp"):
+    def __init__(
+        self,
+        nlp: Mapping[str, Any],
+        *,
+        qp_backend: Any = "osqp",
+        iterations: int = 1,
+        structure: SqpStructure | None = None,
+        qp_settings: Mapping[str, Any] | None = None,
+        time_limit: float | None = None,
+        verbose: bool = False,
+        name: str = "osqp-sqp",
+    ):
         from droneplan.solvers.registry import get_backend
 
         if not isinstance(nlp, Mapping) or "x" not in nlp or "f" not in nlp:
@@ -89,7 +100,9 @@ class SqpSolver:
         self._qp_settings = dict(qp_settings or {})
         self._time_limit = time_limit
         self._verbose = verbose
-        soft = np.zeros(0, dtype=np.int64) if st.soft_rows is None else np.asarray(st.soft_rows, dtype=np.int64)
+        soft = (
+            np.zeros(0, dtype=np.int64) if st.soft_rows is None else np.asarray(st.soft_rows, dtype=np.int64)
+        )
         if soft.size and (soft.min() < 0 or soft.max() >= ng):
             raise ValueError(f"soft_rows must index the {ng} constraint rows")
         ns = soft.size
@@ -132,7 +145,9 @@ class SqpSolver:
             raise ValueError(f"{name} contains NaN")
         return arr
 
-    def _step(self, z: np.ndarray, p: np.ndarray, lbx, ubx, lbg, ubg) -> SolveResult:
+    def _step(
+        self, z: np.ndarray, p: np.ndarray, lbx: np.ndarray, ubx: np.ndarray, lbg: np.ndarray, ubg: np.ndarray
+    ) -> SolveResult:
         nx, ng, ns = self.n_x, self.n_g, self._ns
         gd, Aval, _ = self._gA(z, p)
         gd = np.asarray(gd, float).ravel()
@@ -145,9 +160,17 @@ class SqpSolver:
         u = np.where(np.isfinite(u), u, 1e30)
         if self._qp is None:
             A = sp.csc_matrix((Adata, np.asarray(row), np.asarray(colind)), shape=(ng + nx + ns, self._nq))
-            self._qp = self._qp_adapter.create_qp(self._P, q, A, l, u, settings=self._qp_settings,
-                                                  time_limit=self._time_limit, verbose=self._verbose)
-            res = self._qp.solve()
+            self._qp = self._qp_adapter.create_qp(
+                self._P,
+                q,
+                A,
+                l,
+                u,
+                settings=self._qp_settings,
+                time_limit=self._time_limit,
+                verbose=self._verbose,
+            )
+            res: SolveResult = self._qp.solve()
         else:
             self._qp.update(q=q, l=l, u=u, Ax=Adata)
             y = None if self._last is None else self._last.info.get("y")
@@ -156,9 +179,19 @@ class SqpSolver:
             res = replace(res, x=res.x[:nx], info={**res.info, "slack": float(res.x[nx:].sum())})
         return res
 
-    def solve(self, *, x0: Any = None, lbx: Any = None, ubx: Any = None, lbg: Any = None, ubg: Any = None,
-              p: Any = None, warm_start: SolveResult | None = None, time_limit: float | None = None,
-              project: Callable[[np.ndarray], np.ndarray] | None = None) -> SolveResult:
+    def solve(
+        self,
+        *,
+        x0: Any = None,
+        lbx: Any = None,
+        ubx: Any = None,
+        lbg: Any = None,
+        ubg: Any = None,
+        p: Any = None,
+        warm_start: SolveResult | None = None,
+        time_limit: float | None = None,
+        project: Callable[[np.ndarray], np.ndarray] | None = None,
+    ) -> SolveResult:
         """Run ``iterations`` SQP steps from ``x0`` (default zeros).
 
         project: maps an iterate to the point the next linearisation uses; applied to x0 and
@@ -190,15 +223,26 @@ class SqpSolver:
         elapsed = time.perf_counter() - t0
         assert res is not None  # iterations >= 1
         if not res.has_solution:
-            return replace(res, solve_time=elapsed, backend=self.name,
-                           message=f"SQP: QP failed ({res.backend_status})")
+            return replace(
+                res, solve_time=elapsed, backend=self.name, message=f"SQP: QP failed ({res.backend_status})"
+            )
         gval = np.asarray(self._gA(z, pvec)[2], float).ravel()
-        viol = float(max(np.max(np.maximum(lbg_ - gval, 0), initial=0.0),
-                         np.max(np.maximum(gval - ubg_, 0), initial=0.0)))
-        return SolveResult(Status.FEASIBLE, objective=float(self._f(z, pvec)), x=z, backend=self.name,
-                           backend_status=res.backend_status,
-                           message=f"{self.iterations} QP(s) linearised at the warm start "
-                                   f"(real-time iteration); constraint violation of the iterate {viol:.2e}",
-                           solve_time=elapsed, iterations=iters, warm_started=x0 is not None,
-                           info={"violation": viol, "y": res.info.get("y")})
-
+        viol = float(
+            max(
+                np.max(np.maximum(lbg_ - gval, 0), initial=0.0),
+                np.max(np.maximum(gval - ubg_, 0), initial=0.0),
+            )
+        )
+        return SolveResult(
+            Status.FEASIBLE,
+            objective=float(self._f(z, pvec)),
+            x=z,
+            backend=self.name,
+            backend_status=res.backend_status,
+            message=f"{self.iterations} QP(s) linearised at the warm start "
+            f"(real-time iteration); constraint violation of the iterate {viol:.2e}",
+            solve_time=elapsed,
+            iterations=iters,
+            warm_started=x0 is not None,
+            info={"violation": viol, "y": res.info.get("y")},
+        )

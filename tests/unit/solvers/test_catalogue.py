@@ -94,8 +94,9 @@ FEASIBLE_START = [1, 0, 1, 0, 0, 1, 0]  # weight 6, value 21: feasible, not opti
 
 def test_knapsack_cpsat_with_parameters():
     m, x = _knapsack_cpsat()
-    res = solve_cpsat(m, variables=x, workers=2,
-                      parameters={"subsolvers": ["max_lp", "core"], "linearization_level": 2})
+    res = solve_cpsat(
+        m, variables=x, workers=2, parameters={"subsolvers": ["max_lp", "core"], "linearization_level": 2}
+    )
     _check_knapsack(res)
     with pytest.raises(ValueError, match="unknown CP-SAT parameter"):
         solve_cpsat(m, parameters={"no_such_field": 1})
@@ -292,7 +293,8 @@ def test_qp_same_optimum_through_ipopt():
     P, q, A, l, u = _qp_data()
     f = 0.5 * ca.mtimes([x.T, ca.DM(P.toarray()), x]) + ca.dot(ca.DM(q), x)
     res = IpoptSolver({"x": x, "f": f, "g": ca.mtimes(ca.DM(A.toarray()), x)}).solve(
-        x0=[0.5, 0.5], lbg=l, ubg=u)
+        x0=[0.5, 0.5], lbg=l, ubg=u
+    )
     assert res.status is Status.OPTIMAL
     assert res.objective == pytest.approx(1.88, abs=1e-6)
 

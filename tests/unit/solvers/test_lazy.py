@@ -21,8 +21,11 @@ def _instance(seed: int, n: int):
 
 def _bruteforce(d) -> int:
     n = len(d)
-    return min(sum(d[t[i], t[(i + 1) % n]] for i in range(n))
-               for perm in itertools.permutations(range(1, n)) for t in [(0, *perm)])
+    return min(
+        sum(d[t[i], t[(i + 1) % n]] for i in range(n))
+        for perm in itertools.permutations(range(1, n))
+        for t in [(0, *perm)]
+    )
 
 
 def _subtours(n, edges):
@@ -63,7 +66,7 @@ def _tsp(d, backend, **kw):
         return res
 
     def separate(res):
-        return _subtours(n, [e for e, v in zip(pairs, res.x) if v > 0.5])
+        return _subtours(n, [e for e, v in zip(pairs, res.x, strict=False) if v > 0.5])
 
     return lazy_constraint_loop(solve_relaxation, separate, sense="min", **kw), log, pairs
 
@@ -77,7 +80,7 @@ def test_tsp_matches_bruteforce(backend, seed):
     assert res.status is Status.OPTIMAL
     assert res.objective == pytest.approx(best)
     assert res.bound == pytest.approx(best)
-    chosen = [e for e, v in zip(pairs, res.x) if v > 0.5]
+    chosen = [e for e, v in zip(pairs, res.x, strict=False) if v > 0.5]
     assert len(chosen) == 7 and not _subtours(7, chosen)
     # every relaxation's bound is a valid lower bound
     assert all(r.bound <= best + 1e-9 for r in log if r.bound is not None)
@@ -88,7 +91,7 @@ def test_round_limit_keeps_a_valid_bound():
     d = _instance(3, 8)
     full, _, _ = _tsp(d, "cp-sat")
     assert full.status is Status.OPTIMAL and full.iterations > 1  # this instance needs cuts
-    res, log, _ = _tsp(d, "cp-sat", max_rounds=1)
+    res, _log, _ = _tsp(d, "cp-sat", max_rounds=1)
     assert res.status is Status.NO_SOLUTION and res.x is None and res.iterations == 1
     assert res.bound <= full.objective + 1e-9
     assert res.info["cuts"]  # the violated subtours of round 1 are returned for reuse

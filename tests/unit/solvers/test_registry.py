@@ -2,16 +2,28 @@
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 import pytest
 
-from droneplan.solvers import (BackendAdapter, NativeReadout, SolveResult, Status, available_backends, get_backend,
-                               register_backend, registered_backends, run_native, unregister_backend)
+from droneplan.solvers import (
+    BackendAdapter,
+    NativeReadout,
+    SolveResult,
+    Status,
+    available_backends,
+    get_backend,
+    register_backend,
+    registered_backends,
+    run_native,
+    unregister_backend,
+)
 from droneplan.solvers.base import KINDS, QpBackend
 
 
 def test_unknown_name_lists_the_known_ones():
-    with pytest.raises(ValueError) as err:
+    with pytest.raises(ValueError, match="unknown backend 'no-such-solver'") as err:
         get_backend("no-such-solver")
     for name in registered_backends():
         assert repr(name) in str(err.value)
@@ -69,7 +81,7 @@ class _DiagonalQp:
 
 class ToyQpAdapter(BackendAdapter, QpBackend):
     name = "toy-qp"
-    status_map = {"done": Status.OPTIMAL, "nonconvex": Status.ERROR}
+    status_map: ClassVar[dict[str, Status]] = {"done": Status.OPTIMAL, "nonconvex": Status.ERROR}
 
     def create_qp(self, P, q, A, l, u, *, settings=None, time_limit=None, verbose=False):
         return _DiagonalQp(self, P, q)

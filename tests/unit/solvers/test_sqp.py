@@ -23,7 +23,8 @@ def _nlp(constraint: str):
 def test_one_step_solves_a_linearly_constrained_qp_exactly():
     # min |x - (1, 2)|^2 s.t. x0 + x1 <= 2  ->  (0.5, 1.5), f = 0.5
     solver = get_backend("osqp", kind="nlp").create_nlp(
-        _nlp("linear"), options={"qp_settings": {"eps_abs": 1e-9, "eps_rel": 1e-9}})
+        _nlp("linear"), options={"qp_settings": {"eps_abs": 1e-9, "eps_rel": 1e-9}}
+    )
     res = solver.solve(x0=[5.0, -3.0], lbg=-np.inf, ubg=2.0, p=[1.0, 2.0])
     assert res.status is Status.FEASIBLE and res.backend == "osqp-sqp"
     np.testing.assert_allclose(res.x, [0.5, 1.5], atol=1e-6)
@@ -35,10 +36,16 @@ def test_iterations_converge_on_a_curved_constraint():
     # min |x - (2, 2)|^2 s.t. |x|^2 <= 1  ->  (1, 1)/sqrt 2, the same point IPOPT finds
     nlp = _nlp("circle")
     sqp = get_backend("osqp", kind="nlp").create_nlp(
-        nlp, options={"iterations": 100, "qp_settings": {"eps_abs": 1e-9, "eps_rel": 1e-9}},
-        structure=SqpStructure(prox=[1.0, 1.0]))
+        nlp,
+        options={"iterations": 100, "qp_settings": {"eps_abs": 1e-9, "eps_rel": 1e-9}},
+        structure=SqpStructure(prox=[1.0, 1.0]),
+    )
     res = sqp.solve(x0=[1.0, 0.0], lbg=-np.inf, ubg=1.0, p=[2.0, 2.0])
-    ref = get_backend("ipopt", kind="nlp").create_nlp(nlp).solve(x0=[1.0, 0.0], lbg=-np.inf, ubg=1.0, p=[2.0, 2.0])
+    ref = (
+        get_backend("ipopt", kind="nlp")
+        .create_nlp(nlp)
+        .solve(x0=[1.0, 0.0], lbg=-np.inf, ubg=1.0, p=[2.0, 2.0])
+    )
     assert ref.status is Status.OPTIMAL
     np.testing.assert_allclose(res.x, [1 / math.sqrt(2)] * 2, atol=1e-5)
     np.testing.assert_allclose(res.x, ref.x, atol=1e-5)
@@ -65,7 +72,8 @@ def test_soft_rows_keep_an_inconsistent_linearisation_solvable():
     hard = SqpSolver(nlp).solve(x0=[0, 0], lbg=[3, 1], ubg=[3, 1])
     assert not hard.has_solution
     soft = SqpSolver(nlp, structure=SqpStructure(soft_rows=[0, 1], soft_weight=1e3)).solve(
-        x0=[0, 0], lbg=[3, 1], ubg=[3, 1])
+        x0=[0, 0], lbg=[3, 1], ubg=[3, 1]
+    )
     assert soft.status is Status.FEASIBLE
     assert soft.x.sum() == pytest.approx(2.0, abs=1e-2)
     assert soft.info["violation"] == pytest.approx(1.0, abs=1e-2)
@@ -74,7 +82,7 @@ def test_soft_rows_keep_an_inconsistent_linearisation_solvable():
 def test_bad_input():
     x = ca.SX.sym("x")
     with pytest.raises(ValueError, match="quadratic"):
-        SqpSolver({"x": x, "f": x ** 4})
+        SqpSolver({"x": x, "f": x**4})
     with pytest.raises(ValueError, match="iterations"):
         SqpSolver(_nlp("linear"), iterations=0)
     with pytest.raises(ValueError, match="soft_rows"):
