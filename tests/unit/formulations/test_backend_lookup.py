@@ -49,3 +49,31 @@ def test_unknown_or_unsuitable_backends_are_refused():
         InterceptionOCP(N=10, backend="osqp")
     with pytest.raises(ValueError, match="known cp backends"):
         solve_assignment(np.ones((2, 2)), backend="gurobi")
+
+
+def test_formulation_solves_print_nothing(capfd):
+    """Issue 9 item 8 end to end: the cells MILP on CP-SAT (whose relaxation bound runs on HiGHS,
+    which printed its banner before), the covert MPC on both NLP backends, the shark OCP and
+    assignment, the herding CP-SAT model: nothing reaches stdout."""
+    from droneplan.formulations.cells import CellProblem, solve_milp
+    from droneplan.formulations.covert import MPCData
+    from droneplan.formulations.shark.ocp import solve_interception
+
+    cells = CellProblem(users=np.array([[2.5, 0.0], [2.9, 0.3], [4.0, 1.0], [-3.0, 0.5]]),
+                        gbs=np.array([[0.0, 0.0]]), n_cells=2, R_d=1.0, R_g=1.0, r1=2.5, r2=2.5)
+    assert solve_milp(cells, backend="cp-sat", time_limit=20).has_solution
+    scen = thesis_case(1, 0)
+    model = build_bearing_mpc(scen.params, scen.n_targets)
+    N = model.settings.horizon
+    data = MPCData(D0=np.array([0.0, 0.0, 20.0]), h0=np.array([1.0, 0.0, 0.0]),
+                   targets=np.tile(scen.params.F_arr + [5.0, 0.0, 0.0], (N, scen.n_targets, 1)),
+                   mask=np.ones(scen.n_targets, bool), sphere_lo=np.zeros(N), sphere_hi=np.full(N, 1e4),
+                   home_hi=np.full(N, 1e4), tangent=np.zeros(N, bool))
+    for backend in ("ipopt", "osqp"):
+        assert RecedingBearingMPC(model, backend=backend).solve(data).has_solution
+    assert solve_interception((np.array([0, 0, -3.0]), np.array([5.0, 0.0])), np.array([40.0, 0, 2.0]),
+                              N=20).has_solution
+    assert solve_assignment(np.array([[3.0, 9.0], [4.0, 2.0]])).has_solution
+    assert solve_allocation([0.0, 10.0, 20.0], [5.0, 30.0, 60.0], 100.0, method="cp-sat").has_solution
+    out, _ = capfd.readouterr()
+    assert out == ""
