@@ -86,6 +86,9 @@ def test_api_pages_name_every_public_name(site):
         ids = set(re.findall(r'id="(droneplan\.[\w.]+)"', html))
         missing = [n for n in _all(door) if f"droneplan.{door}.{n}" not in ids]
         assert not missing, f"api/{door}.html does not document {missing}"
+    ids = set(re.findall(r'id="(droneplan\.[\w.]+)"', (site / "api" / "index.html").read_text()))
+    top = [n for n in _all("__init__") if n not in FRONT_DOORS and not n.startswith("__")]
+    assert top and not [n for n in top if f"droneplan.{n}" not in ids], f"api/index.html lacks some of {top}"
 
 
 def test_quickstart_includes_the_readme_blocks(site):
