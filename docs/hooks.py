@@ -35,13 +35,43 @@ def front_door_all(module: str) -> list[str]:
     raise ValueError(f"{path} defines no __all__")
 
 
+def _static_targets(module: str) -> dict[str, str]:
+    """name -> the identifier mkdocstrings should render for each name bound in a front door.
+
+    Names bound at module level (imports, defs, assignments) render under the front door;
+    names a module ``__getattr__`` imports lazily render under the module they come from
+    (griffe reads sources statically and cannot follow ``__getattr__``).
+    """
+    parts = module.split(".")
+    path = ROOT / "droneplan" / ("__init__.py" if len(parts) == 1 else f"{parts[1]}.py")
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    targets: dict[str, str] = {}
+    for node in tree.body:
+        if isinstance(node, ast.ImportFrom | ast.Import):
+            targets.update({(a.asname or a.name).split(".")[0]: module for a in node.names})
+        elif isinstance(node, ast.FunctionDef | ast.ClassDef):
+            targets[node.name] = module
+        elif isinstance(node, ast.Assign):
+            targets.update({t.id: module for t in node.targets if isinstance(t, ast.Name)})
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef) and node.name == "__getattr__":
+            for sub in ast.walk(node):
+                if isinstance(sub, ast.ImportFrom) and sub.module:
+                    for a in sub.names:
+                        targets.setdefault(a.asname or a.name, sub.module)
+    return {name: f"{where}.{name}" for name, where in targets.items()}
+
+
 def _api_blocks(match: re.Match[str]) -> str:
     module = match.group(1)
+    targets = _static_targets(module)
     blocks = []
     for name in front_door_all(module):
         if name.startswith("__") or name in ("cells", "covert", "shark", "herding"):
             continue
-        blocks.append(f"::: {module}.{name}\n")
+        if name not in targets:
+            raise ValueError(f"{module}.__all__ names {name!r}, which the module does not bind")
+        blocks.append(f"::: {targets[name]}\n")
     return "\n".join(blocks)
 
 

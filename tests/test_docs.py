@@ -88,7 +88,9 @@ def test_api_pages_name_every_public_name(site):
         assert not missing, f"api/{door}.html does not document {missing}"
     ids = set(re.findall(r'id="(droneplan\.[\w.]+)"', (site / "api" / "index.html").read_text()))
     top = [n for n in _all("__init__") if n not in FRONT_DOORS and not n.startswith("__")]
-    assert top and not [n for n in top if f"droneplan.{n}" not in ids], f"api/index.html lacks some of {top}"
+    # a name the front door provides lazily (module __getattr__) is rendered under its source module
+    lacking = [n for n in top if f"droneplan.{n}" not in ids and not any(i.endswith(f".{n}") for i in ids)]
+    assert top and not lacking, f"api/index.html lacks {lacking}"
 
 
 def test_quickstart_includes_the_readme_blocks(site):
