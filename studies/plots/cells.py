@@ -24,7 +24,8 @@ def plot_map(
     drone-cell), each GBS with its cell of radius R_g, the drone-cells with their coverage disk
     of radius R_d, and the backhaul links in use (drone-GBS within r1, drone-drone within r2;
     solid when the drone-cell reaches a GBS, dashed red when it does not). ``ranges`` also draws
-    the r1 circles around the GBSs. ax: a 2-D matplotlib axes, or None for a new figure.
+    the r1 circles around the GBSs. ax: a 2-D matplotlib axes, or None for a new figure;
+    title: the axes title (None: none).
     The view covers ``problem.bounds`` (or all users, GBSs and drone-cells).
 
     title: axes title (None: a default title).

@@ -42,7 +42,7 @@ def plot_path(
     centre F and the start D_s, and the terrain (``terrain``). ax: a 3-D axes
     (``fig.add_subplot(projection="3d")``) or None for a new figure. Axes in m.
 
-    title: axes title (None: a default title).
+    title: axes title (None: none).
     """
     if not isinstance(scenario, CovertScenario):
         raise TypeError(f"scenario must be a CovertScenario, got {type(scenario).__name__}")
@@ -97,7 +97,7 @@ def plot_bearing(traces: Any, *, ax: Any = None, title: str | None = None):
     traces: a :class:`CovertTrace` or {label: CovertTrace}; the legend gives each run's beta_max.
     Arrival on and departure from the sphere are marked with dotted lines. ax: a 2-D axes or None.
 
-    title: axes title (None: a default title).
+    title: axes title (None: none).
     """
     runs = as_trace_dict(traces, CovertTrace)
     fig, ax = figure_axes(ax, figsize=(7, 4))

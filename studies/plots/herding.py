@@ -24,11 +24,12 @@ def plot_state(
     """The herd, its centroid and the drones at one instant, with the goal G in view; returns the figure.
 
     source: a :class:`HerdingTrace` (``t`` in s picks the nearest stored state among the
-    run's frames, snapshots and final state; None: the final state), a :class:`HerdingFrame`,
+    run's frames, snapshots and final state, so record them with ``simulate(...,
+    frame_every=..., snapshot_times=...)``; None: the final state), a :class:`HerdingFrame`,
     or a :class:`HerdingScenario` (its initial state). goal: G (2,) in m (default: the trace's or
     scenario's goal). Drones are drawn with their heading. ax: a 2-D axes or None. Axes in m.
 
-    title: axes title (None: a default title).
+    title: axes title (None: the time and phase).
     """
     if isinstance(source, HerdingTrace):
         frame = source.final if t is None else _frame_at(source, float(t))
@@ -90,7 +91,7 @@ def plot_final(trace: HerdingTrace, *, ax: Any = None, title: str | None = None)
 
     trace: the HerdingTrace of a run.
     ax: matplotlib axes to draw on (None: a new figure).
-    title: axes title (None: a default title).
+    title: axes title (None: none).
     """
     if not isinstance(trace, HerdingTrace):
         raise TypeError(f"trace must be a HerdingTrace, got {type(trace).__name__}")
@@ -103,7 +104,7 @@ def plot_footprint(traces: Any, *, R_c: float | None = None, ax: Any = None, tit
     traces: a :class:`HerdingTrace` or {label: HerdingTrace}; a dotted line marks each run's end
     of gathering; R_c (m) draws the gathering threshold. Returns the figure. ax: a 2-D axes or None.
 
-    title: axes title (None: a default title).
+    title: axes title (None: none).
     """
     runs = as_trace_dict(traces, HerdingTrace)
     fig, ax = figure_axes(ax, figsize=(7, 4))

@@ -26,7 +26,7 @@ def plot_top_view(traces: Any, *, ax: Any = None, title: str | None = None):
     start, and at first contact the field's circle of radius eps on the shark's plane and the
     contact angle in the legend. ax: a 2-D axes or None for a new figure.
 
-    title: axes title (None: a default title).
+    title: axes title (None: none).
     """
     runs = as_trace_dict(traces, InterceptionTrace)
     fig, ax = figure_axes(ax, figsize=(6.5, 5))
@@ -75,7 +75,7 @@ def plot_time_series(traces: Any, quantity: str = "clearance", *, ax: Any = None
     m) or "speed" (|v_o| and |v_s|, m/s). traces: an :class:`InterceptionTrace` or {label: trace}.
     Each run's contact time is marked with a dotted line. ax: a 2-D axes or None.
 
-    title: axes title (None: a default title).
+    title: axes title (None: none).
     """
     if quantity not in _QUANTITIES:
         raise ValueError(f"quantity must be one of {sorted(_QUANTITIES)}, got {quantity!r}")
