@@ -36,6 +36,9 @@ from droneplan.scenarios.shark import (
     InterceptionController,
     InterceptionScenario,
     InterceptionTrace,
+    RepellingMode,
+    RepellingObservation,
+    RepellingScenario,
     RepellingTrace,
     SharkBehaviour,
     SharkCommand,
@@ -64,7 +67,7 @@ __all__ = [
     "thesis_trajectories", "random_trajectory", "constant_velocity_trajectory", "operator_start",
     "InterceptionScenario", "SharkObservation", "SharkCommand", "SharkPhase", "SharkFrame", "InterceptionController",
     "InterceptionTrace", "simulate", "simulate_interception", "SharkBehaviour",
-    "RepellingTrace", "simulate_repelling",
+    "RepellingScenario", "RepellingObservation", "RepellingMode", "RepellingTrace", "simulate_repelling",
     # models
     "optimal_altitude", "InterceptionOCP", "InterceptionPlan", "build_interception_nlp", "solve_interception",
     "Assignment", "build_assignment_model", "solve_assignment", "greedy_assignment",

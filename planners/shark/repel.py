@@ -21,12 +21,11 @@ from droneplan.solvers.validation import check_array, check_instance, check_int,
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark.ocp import OCPInterceptor
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
-from droneplan.scenarios.shark import (THESIS_TABLE_5_1, InterceptionScenario, SharkObservation, SharkParams, clip_velocity,
+from droneplan.scenarios.shark import (THESIS_TABLE_5_1, InterceptionScenario, RepellingMode, RepellingObservation,
+                                      RepellingScenario, SharkCommand, SharkObservation, SharkParams, clip_velocity,
                                       constant_velocity_trajectory)
 
 __all__ = ["RepellingOperator"]
-
-MODES = ("follow", "intercept", "wait", "cover", "return")
 
 
 class RepellingOperator:
@@ -38,7 +37,8 @@ class RepellingOperator:
     this the operator covers the swimmer instead (m); closing_speed: approach speed that
     counts as "approaching" (m/s); safety_distance: distance at which the shark has left (m);
     base: (3,) return position (m); interceptor: "virtual-shark" or "ocp" (online OCP).
-    ``mode`` is one of MODES; ``interceptions`` counts field contacts with its shark.
+    Follows the closed-loop contract (``reset``, ``command(RepellingObservation) -> SharkCommand``);
+    ``phase`` is a :class:`RepellingMode`; ``interceptions`` counts field contacts with its shark.
 
     params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     """
@@ -62,10 +62,18 @@ class RepellingOperator:
         self.safety_distance = safety_distance
         self.base = np.asarray(base, float)
         self.kind = interceptor
-        self.mode = "follow"
+        self._start()
+
+    def _start(self) -> None:
+        self.phase = RepellingMode.FOLLOW
         self.interceptions = 0
         self._wait_until = -np.inf
         self._ctl = None
+
+    def reset(self, scenario: RepellingScenario, *, seed=None) -> None:
+        """Start an episode (the scenario's params replace the constructor's; ``seed`` unused)."""
+        self.params = scenario.params
+        self._start()
 
     def _new_interceptor(self):
         if self.kind == "ocp":
@@ -82,8 +90,12 @@ class RepellingOperator:
         vz = float(np.clip(d[2] / p.Ts, -p.VoMz, p.VoMz))
         return clip_velocity(np.r_[vxy, vz], p)[0]
 
-    def step(self, t, operator, sharks_pos, sharks_vel, swimmers, contact) -> np.ndarray:
+    def command(self, obs: RepellingObservation) -> SharkCommand:
         """Velocity command (m/s) for the next Ts."""
+        v = self._velocity(obs.t, obs.operator, obs.sharks_pos, obs.sharks_vel, obs.swimmers, obs.contact)
+        return SharkCommand(v, True)
+
+    def _velocity(self, t, operator, sharks_pos, sharks_vel, swimmers, contact) -> np.ndarray:
         p = self.params
         O = np.asarray(operator, float)
         S = np.asarray(sharks_pos, float)[self.shark]
@@ -98,15 +110,15 @@ class RepellingOperator:
             self.interceptions += 1
             self._wait_until = t + self.T_w
             self._ctl = None
-        if dh.min() > self.safety_distance or self.mode == "return":
-            self.mode = "return"
+        if dh.min() > self.safety_distance or self.phase == RepellingMode.RETURN:
+            self.phase = RepellingMode.RETURN
             return self._goto(O, self.base)
         if closing and dh.min() < self.cover_distance:
-            self.mode = "cover"
+            self.phase = RepellingMode.COVER
             self._ctl = None
             return self._goto(O, np.r_[near, zo])
         if t < self._wait_until or not (closing and dh.min() < self.alert_radius):
-            self.mode = "wait" if t < self._wait_until else "follow"
+            self.phase = RepellingMode.WAIT if t < self._wait_until else RepellingMode.FOLLOW
             self._ctl = None
             rel = O[:2] - S[:2]
             u = rel / max(np.linalg.norm(rel), 1e-9)
@@ -116,5 +128,5 @@ class RepellingOperator:
             # the interceptors read only the parameters from the scenario; the shark's path is unknown here
             flat_v = np.r_[V[:2], 0.0]
             self._ctl.reset(InterceptionScenario(constant_velocity_trajectory(S, flat_v, duration=p.Ts, dt=p.Ts), p, O))
-        self.mode = "intercept"
+        self.phase = RepellingMode.INTERCEPT
         return self._ctl.command(SharkObservation(t, O, S, V)).velocity

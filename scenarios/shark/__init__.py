@@ -1,7 +1,8 @@
 """Shark interception world (thesis ch. 5): Table 5.1, field model, shark paths, simulator, repelling."""
 
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, field_radius, inside_field, touches
-from droneplan.scenarios.shark.repel import RepellingTrace, SharkBehaviour, simulate_repelling
+from droneplan.scenarios.shark.repel import (RepellingMode, RepellingObservation, RepellingScenario, RepellingTrace,
+                                            SharkBehaviour, simulate_repelling)
 from droneplan.scenarios.shark.simulate import (DEFAULT_BEARING_DEG, FRONTAL_TOL_DEG, InterceptionController,
                                                InterceptionScenario, InterceptionTrace, SharkCommand, SharkFrame,
                                                SharkObservation, SharkPhase, clip_velocity, operator_start, simulate,
@@ -15,4 +16,5 @@ __all__ = [
     "SharkFrame", "InterceptionController", "InterceptionTrace", "clip_velocity", "operator_start",
     "simulate", "simulate_interception", "SharkTrajectory", "constant_velocity_trajectory", "make_trajectory",
     "random_trajectory", "thesis_trajectories", "RepellingTrace", "SharkBehaviour", "simulate_repelling",
+    "RepellingMode", "RepellingScenario", "RepellingObservation",
 ]

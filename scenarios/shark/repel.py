@@ -12,16 +12,18 @@ once it is ``safety_distance`` from every swimmer (thesis: e.g. 3 km).
 
 from __future__ import annotations
 
+import enum
 import math
 from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, inside_field
-from droneplan.scenarios.shark.simulate import clip_velocity
-from droneplan.solvers.validation import as_generator, check_positive, check_real
+from droneplan.scenarios.shark.simulate import SharkCommand, clip_velocity
+from droneplan.solvers.validation import as_generator, check_methods, check_positive, check_real
 
-__all__ = ["SharkBehaviour", "RepellingTrace", "simulate_repelling"]
+__all__ = ["SharkBehaviour", "RepellingMode", "RepellingScenario", "RepellingObservation", "RepellingTrace",
+           "simulate_repelling"]
 
 
 @dataclass(frozen=True)
@@ -61,6 +63,55 @@ class SharkBehaviour:
             raise ValueError("desensitise_time and flee_spread must be >= 0")
 
 
+class RepellingMode(enum.StrEnum):
+    """Phases of a repelling operator (thesis §5.3.1, steps 1-5)."""
+
+    FOLLOW = "follow"
+    """Following its shark at a stand-off (the shark approaches no one)."""
+    INTERCEPT = "intercept"
+    """Intercepting its shark (step 2)."""
+    WAIT = "wait"
+    """Waiting T_w after a field contact, following (step 3)."""
+    COVER = "cover"
+    """Covering a swimmer the shark is about to reach (step 1)."""
+    RETURN = "return"
+    """The shark has left: flying back to base (step 5)."""
+
+
+@dataclass(frozen=True)
+class RepellingScenario:
+    """A repelling episode's set-up (what ``controller.reset`` receives)."""
+
+    sharks0: np.ndarray
+    """(s, 3) initial shark positions (m)."""
+    operators0: np.ndarray
+    """(n, 3) initial operator positions (m)."""
+    swimmers: np.ndarray
+    """(m, 2) swimmer positions (m)."""
+    params: SharkParams = THESIS_TABLE_5_1
+    """Problem parameters (Table 5.1)."""
+    behaviour: SharkBehaviour = SharkBehaviour()
+    """The sharks' reaction model."""
+
+
+@dataclass(frozen=True)
+class RepellingObservation:
+    """What one operator's controller knows at one control instant (the argument of ``command``)."""
+
+    t: float
+    """Time (s)."""
+    operator: np.ndarray
+    """(3,) this operator's position (m)."""
+    sharks_pos: np.ndarray
+    """(s, 3) shark positions (m)."""
+    sharks_vel: np.ndarray
+    """(s, 3) shark velocities (m/s)."""
+    swimmers: np.ndarray
+    """(m, 2) swimmer positions (m)."""
+    contact: np.ndarray
+    """(s,) bool: this operator's field touched that shark during the last step."""
+
+
 @dataclass
 class RepellingTrace:
     """Outcome of a repelling episode.
@@ -90,14 +141,14 @@ def simulate_repelling(sharks0, operators0, swimmers, controllers, params: Shark
                        seed=0) -> RepellingTrace:
     """Simulate sharks hunting swimmers while operators repel them, at Ts.
 
-    sharks0 (s,2|3), operators0 (n,3), swimmers (m,2|3) in m; controllers: n objects with
-    ``step(t, operator, sharks_pos, sharks_vel, swimmers, contact) -> velocity (3,)`` where
-    contact is a bool array over sharks (this operator's field touched that shark in the last
-    step). Stops when every shark has left, a swimmer is attacked, or at t_max (s).
+    sharks0 (s,2|3), operators0 (n,3), swimmers (m,2|3) in m; controllers: one per operator,
+    each following the closed-loop contract (``reset(RepellingScenario, *, seed)`` once, then
+    ``command(RepellingObservation) -> SharkCommand`` every Ts; a bare velocity (3,) in m/s is
+    accepted). Stops when every shark has left, a swimmer is attacked, or at t_max (s).
 
     params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     behaviour: SharkBehaviour, the reacting-shark model (our choices).
-    seed: int, numpy Generator or None for the sharks' random reactions.
+    seed: int, numpy Generator or None for the sharks' random reactions (recorded when an int).
     """
     t_max = check_positive("t_max", t_max)
     if not isinstance(params, SharkParams) or not isinstance(behaviour, SharkBehaviour):
@@ -114,6 +165,11 @@ def simulate_repelling(sharks0, operators0, swimmers, controllers, params: Shark
         raise ValueError("one controller per operator")
     if not (np.all(np.isfinite(S)) and np.all(np.isfinite(O)) and np.all(np.isfinite(H))):
         raise ValueError("positions must be finite")
+    for i, c in enumerate(controllers):
+        check_methods(f"controllers[{i}]", c, ("reset", "command"))
+    scenario = RepellingScenario(S.copy(), O.copy(), H.copy(), params, behaviour)
+    for c in controllers:
+        c.reset(scenario, seed=seed)
     s = len(S)
     Ts = params.Ts
     near0 = H[np.argmin(np.linalg.norm(H[None] - S[:, None, :2], axis=2), axis=1)]
@@ -130,8 +186,10 @@ def simulate_repelling(sharks0, operators0, swimmers, controllers, params: Shark
     for k in range(n_steps):
         t = k * Ts
         V = np.c_[behaviour.speed * np.cos(heading), behaviour.speed * np.sin(heading), np.zeros(s)]
-        vel = np.array([clip_velocity(c.step(t, O[i].copy(), S.copy(), V.copy(), H.copy(), contact_prev[i].copy()),
-                                      params)[0] for i, c in enumerate(controllers)]).reshape(-1, 3)
+        cmds = [c.command(RepellingObservation(t, O[i].copy(), S.copy(), V.copy(), H.copy(), contact_prev[i].copy()))
+                for i, c in enumerate(controllers)]
+        vel = np.array([clip_velocity(cmd.velocity if isinstance(cmd, SharkCommand) else cmd, params)[0]
+                        for cmd in cmds]).reshape(-1, 3)
         On = O + Ts * vel
         On[:, 2] = np.clip(On[:, 2], params.lmin, params.le)
         # shark heading update

@@ -149,11 +149,16 @@ def test_allocation_optimal_not_worse_than_greedy():
 
 # ---------------------------------------------------------------- repelling (procedure 1-5 of §5.3.1)
 from droneplan.planners.shark import RepellingOperator  # noqa: E402
-from droneplan.scenarios.shark import SharkBehaviour, simulate_repelling  # noqa: E402
+from droneplan.scenarios.shark import RepellingMode, SharkBehaviour, simulate_repelling  # noqa: E402
 
 
 class _Idle:
-    def step(self, t, operator, sharks_pos, sharks_vel, swimmers, contact):
+    phase = None
+
+    def reset(self, scenario, *, seed=None):
+        """An idle operator keeps no state."""
+
+    def command(self, obs):
         return np.zeros(3)
 
 
@@ -166,6 +171,9 @@ def test_repelling_drives_shark_away_where_idle_operator_lets_it_bite(seed):
     tr = simulate_repelling(S0, O0, H, [ctl], seed=seed, t_max=400)
     assert not tr.attacked and tr.left.all() and tr.reactions[0] >= 1
     assert ctl.interceptions == tr.reactions[0] + tr.ignored[0]
+    assert isinstance(ctl.phase, RepellingMode)
+    again = simulate_repelling(S0, O0, H, [ctl], seed=seed, t_max=400)  # reset starts a fresh episode
+    assert ctl.interceptions == again.reactions[0] + again.ignored[0] and again.reactions[0] == tr.reactions[0]
     idle = simulate_repelling(S0, O0, H, [_Idle()], seed=seed, t_max=400)
     assert idle.attacked and idle.reactions[0] == 0
 
