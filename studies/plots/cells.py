@@ -28,7 +28,7 @@ def plot_map(
     title: the axes title (None: none).
     The view covers ``problem.bounds`` (or all users, GBSs and drone-cells).
 
-    title: axes title (None: a default title).
+    title: axes title (None: none).
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
