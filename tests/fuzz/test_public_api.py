@@ -247,6 +247,7 @@ RESULT_TYPES = {
     # the closed-loop contract's records and phase enums (built by the simulators and controllers)
     "CovertCommand", "CovertFrame", "CovertObservation", "CovertPhase", "HerdingCommand", "HerdingFrame",
     "HerdingObservation", "HerdingPhase", "SharkCommand", "SharkFrame", "SharkObservation", "SharkPhase",
+    "RepellingMode", "RepellingObservation", "RepellingScenario",
 }
 
 
