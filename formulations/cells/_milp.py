@@ -131,6 +131,31 @@ def coverage_upper_bound(problem: CellProblem, n_discs: int | None = None, *, ba
         return SolveResult(Status.OPTIMAL, objective=v, bound=v, backend="enumeration",
                            solve_time=time.perf_counter() - t0, message="continuous relaxation bound")
     users = np.unique(np.concatenate(sets))
+    tried = []
+    res = None
+    for be in dict.fromkeys((backend, "cp-sat")):  # the requested backend, then CP-SAT as the fallback
+        left = None if time_limit is None else max(time_limit - (time.perf_counter() - t0), 0.01)
+        res = _max_coverage_model(sets, users, m, be, left)
+        tried.append(f"{be}: {res.status.name}" + (f" ({res.backend_status})" if res.backend_status else ""))
+        if res.status in (Status.OPTIMAL, Status.FEASIBLE, Status.NO_SOLUTION) and res.bound is not None:
+            break
+    assert res is not None
+    desc = (f"continuous relaxation bound: max coverage by {m} discs over {len(sets)} maximal candidate sets, "
+            f"no overlap/backhaul constraints")
+    if res.bound is None or res.status not in (Status.OPTIMAL, Status.FEASIBLE, Status.NO_SOLUTION):
+        # never a silent stand-in (such as the user count): the caller sees None and why
+        return dataclasses.replace(res, bound=None, objective=None, x=None, solve_time=time.perf_counter() - t0,
+                                   message=f"{desc}: not computed, no backend returned a bound ({'; '.join(tried)})",
+                                   info={**res.info, "tried": tried})
+    if len(tried) > 1:
+        desc += f"; computed by {res.backend} after {'; '.join(tried[:-1])}"
+    return dataclasses.replace(res, bound=math.floor(res.bound + 1e-6), x=None, solve_time=time.perf_counter() - t0,
+                               message=desc, info={**res.info, "tried": tried})
+
+
+def _max_coverage_model(sets: list[np.ndarray], users: np.ndarray, m: int, backend: str,
+                        time_limit: float | None) -> SolveResult:
+    """Maximum coverage of ``users`` by ``m`` of ``sets`` on ``backend``; never raises on a solver failure."""
     if backend == "cp-sat":
         mdl = cp_model.CpModel()
         x = [mdl.new_bool_var(f"x{k}") for k in range(len(sets))]
@@ -143,24 +168,19 @@ def coverage_upper_bound(problem: CellProblem, n_discs: int | None = None, *, ba
             mdl.add(y[u] <= sum(xs))
         mdl.add(sum(x) <= m)
         mdl.maximize(sum(y.values()))
-        res = solve_cpsat(mdl, variables=x, time_limit=time_limit, workers=2)
-    else:
-        s = new_mip(backend)
-        x = [s.BoolVar(f"x{k}") for k in range(len(sets))]
-        y = {int(u): s.NumVar(0, 1, f"y{u}") for u in users}
-        cov = {}
-        for k, st in enumerate(sets):
-            for u in st:
-                cov.setdefault(int(u), []).append(x[k])
-        for u, xs in cov.items():
-            s.Add(y[u] <= sum(xs))
-        s.Add(sum(x) <= m)
-        s.Maximize(sum(y.values()))
-        res = solve_mip(s, variables=x, time_limit=time_limit, threads=1)
-    bound = res.bound if res.bound is not None else float(len(users))
-    return dataclasses.replace(res, bound=math.floor(bound + 1e-6), x=None, solve_time=time.perf_counter() - t0,
-                               message=f"continuous relaxation bound: max coverage by {m} discs over "
-                                       f"{len(sets)} maximal candidate sets, no overlap/backhaul constraints")
+        return solve_cpsat(mdl, variables=x, time_limit=time_limit, workers=2)
+    s = new_mip(backend)
+    x = [s.BoolVar(f"x{k}") for k in range(len(sets))]
+    y = {int(u): s.NumVar(0, 1, f"y{u}") for u in users}
+    cov = {}
+    for k, st in enumerate(sets):
+        for u in st:
+            cov.setdefault(int(u), []).append(x[k])
+    for u, xs in cov.items():
+        s.Add(y[u] <= sum(xs))
+    s.Add(sum(x) <= m)
+    s.Maximize(sum(y.values()))
+    return solve_mip(s, variables=x, time_limit=time_limit, threads=1)
 
 
 # --------------------------------------------------------------------------- greedy incumbent
@@ -406,8 +426,19 @@ def _components_without_gbs(problem: CellProblem, pos: np.ndarray) -> list[np.nd
 
 
 def _feasible_subset(problem: CellProblem, pos: np.ndarray) -> np.ndarray:
-    """Drop sites until the placement is feasible (overlaps first, then disconnected)."""
-    pos = pos.copy()
+    """A feasible placement made of some of the sites ``pos`` ((k, 2) m): sites outside
+    ``bounds`` or inside a GBS keep-out disc (4.7) are dropped first (no other site can
+    repair them), then one of each overlapping pair (4.8) at a time, then the sites
+    without a backhaul path. Every pass removes at least one site, so this ends."""
+    pos = np.asarray(pos, dtype=float).reshape(-1, 2)
+    if len(pos):
+        dg = np.hypot(pos[:, None, 0] - problem.gbs[None, :, 0], pos[:, None, 1] - problem.gbs[None, :, 1])
+        ok = np.all(dg >= problem.R_g + problem.R_d - TOL, axis=1)
+        if problem.bounds is not None:
+            xmin, xmax, ymin, ymax = problem.bounds
+            ok &= (pos[:, 0] >= xmin - TOL) & (pos[:, 0] <= xmax + TOL)
+            ok &= (pos[:, 1] >= ymin - TOL) & (pos[:, 1] <= ymax + TOL)
+        pos = pos[ok]
     while len(pos):
         ev = evaluate(problem, pos)
         if ev.feasible:
@@ -417,8 +448,10 @@ def _feasible_subset(problem: CellProblem, pos: np.ndarray) -> np.ndarray:
         bad = np.flatnonzero(np.any(d < 2 * problem.R_d - TOL, axis=1))
         if len(bad):
             pos = np.delete(pos, bad[-1], axis=0)
-        else:
+        elif not ev.connected.all():
             pos = pos[ev.connected]
+        else:  # more sites than n_cells: drop the last; the next pass re-checks connectivity
+            pos = pos[:-1]
     return pos
 
 
@@ -433,10 +466,15 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
     """Solve the candidate-site model with exact backhaul connectivity (lazy cuts).
 
     backend: "cp-sat" (default), "highs" or "scip".
-    time_limit: overall wall-clock limit (s) for the cut loop; None: no limit.
+    time_limit: wall-clock limit (s) for the whole call, candidate generation and model
+        building included; when it is reached the best plan and bound found so far are
+        returned (FEASIBLE). None: no limit.
     warm_start: drone-cell positions ((k, 2) m, e.g. the GA's). They are added to the
-        candidate set (so the result is never worse than a feasible warm start) and
-        handed to the backend as a hint/start solution when feasible.
+        candidate set (so the result is never worse than a feasible warm start); their
+        feasible part (sites outside bounds, in a GBS cell, overlapping or without
+        backhaul dropped) becomes the incumbent and the backend's hint when it covers at
+        least as many users as the built-in greedy start. ``info["warm_start"]`` says
+        whether it was used and why not (``used``, ``value``, ``greedy_value``, ``reason``).
     workers: CP-SAT workers / MIP threads.
 
     Returns a SolveResult: ``x`` positions (k, 2) with k <= m, ``objective`` covered
@@ -444,7 +482,8 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
     points, pairwise R_d-circle intersections, R_d circles met with the r1 and
     R_g + R_d circles and the area edges, and the warm start); ``info`` holds
     ``continuous_bound`` (valid for the continuous problem: max coverage by m discs
-    without overlap/backhaul constraints), ``global_optimal`` (objective equals the
+    without overlap/backhaul constraints; None, with the reason in ``message``, when no
+    backend could compute it), ``global_optimal`` (objective equals the
     continuous bound), ``rounds``, ``model_stats``. ``message`` says which bound is which.
 
     max_rounds: maximum lazy-cut rounds (count); reaching it ends the solve without a proof of optimality.
@@ -460,34 +499,62 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
     def left() -> float | None:
         return None if time_limit is None else max(time_limit - (time.perf_counter() - t0), 0.01)
 
-    relax = coverage_upper_bound(problem, problem.n_cells, time_limit=left())
-    cont_bound = float(relax.bound)
+    def expired() -> bool:
+        return time_limit is not None and time.perf_counter() - t0 >= time_limit
+
+    n_active = float(len(problem.targets))
+    info: dict[str, Any] = {}
+    # candidates and the greedy incumbent first (fast), so a short time limit still returns a plan
     cand = candidate_sites(problem, extra=warm)
-    empty = np.zeros((0, 2))
-    if len(cand.points) == 0 or cont_bound == 0:
-        return SolveResult(Status.OPTIMAL, objective=0.0, bound=0.0, x=empty, backend=backend,
-                           solve_time=time.perf_counter() - t0,
-                           message="no user can be covered by a feasible drone-cell: optimum 0 (no sites)",
-                           info={"continuous_bound": cont_bound, "global_optimal": True, "rounds": 0,
-                                 "model_stats": {"candidates": len(cand.points)}})
-    # incumbent: greedy, or the warm start (or its feasible part) when better
     inc = greedy_placement(problem, cand)
     inc_val = evaluate(problem, inc).covered
     warm_used = False
-    if warm is not None and len(warm):
-        w = _feasible_subset(problem, warm[: problem.n_cells] if len(warm) <= problem.n_cells else warm)
-        if len(w) <= problem.n_cells:
-            wv = evaluate(problem, w).covered
-            if wv >= inc_val:
-                inc, inc_val, warm_used = w, wv, True
-    info: dict[str, Any] = {"continuous_bound": cont_bound, "relaxation_time": relax.solve_time}
-    if inc_val >= cont_bound:
-        return SolveResult(Status.OPTIMAL, objective=float(inc_val), bound=cont_bound, x=inc, backend=backend,
-                           solve_time=time.perf_counter() - t0, warm_started=warm_used,
-                           message=("bound valid for the continuous problem (max coverage by m discs without "
-                                    "overlap/backhaul) and attained: globally optimal"),
-                           info={**info, "global_optimal": True, "rounds": 0, "model_stats": {}})
-    b_prev = float(coverage_upper_bound(problem, problem.n_cells - 1, time_limit=left()).bound)
+    if warm is not None:  # the warm start (its feasible part) replaces greedy when at least as good
+        w = _feasible_subset(problem, warm)
+        wv = evaluate(problem, w).covered
+        dropped = len(warm) - len(w)
+        why = (f"{dropped} of {len(warm)} given sites dropped to make it feasible (outside bounds, in a GBS cell, "
+               f"overlapping, without backhaul or beyond n_cells); " if dropped else "")
+        if len(w) and wv >= inc_val:
+            greedy_val = int(inc_val)
+            inc, inc_val, warm_used = w, wv, True
+            info["warm_start"] = {"given": len(warm), "used": True, "value": wv, "greedy_value": greedy_val,
+                                  "reason": why + f"its feasible part ({wv} users) is the incumbent and the hint"}
+        else:
+            info["warm_start"] = {"given": len(warm), "used": False, "value": wv, "greedy_value": int(inc_val),
+                                  "reason": why + (f"not used as incumbent: its feasible part covers {wv} users, "
+                                                   f"the built-in greedy start {inc_val}; its sites stay in the "
+                                                   "candidate set")}
+    relax = coverage_upper_bound(problem, problem.n_cells, time_limit=left())
+    cont_bound = None if relax.bound is None else float(relax.bound)
+    # internal bound for pruning and stopping: the relaxation's, or the trivial user count
+    # when it could not be computed (never reported as the continuous bound)
+    ub = n_active if cont_bound is None else cont_bound
+    info.update({"continuous_bound": cont_bound, "relaxation_time": relax.solve_time,
+                 "relaxation_message": relax.message})
+    bound_note = ("" if cont_bound is not None else
+                  f"; continuous-problem bound not available ({relax.message})")
+    if len(cand.points) == 0 or cont_bound == 0:
+        return SolveResult(Status.OPTIMAL, objective=0.0, bound=0.0, x=np.zeros((0, 2)), backend=backend,
+                           solve_time=time.perf_counter() - t0, warm_started=False,
+                           message="no user can be covered by a feasible drone-cell: optimum 0 (no sites)",
+                           info={**info, "global_optimal": True, "rounds": 0,
+                                 "model_stats": {"candidates": len(cand.points)}})
+
+    def early(status: Status, bound: float | None, msg: str) -> SolveResult:
+        return SolveResult(status, objective=float(inc_val), bound=bound, x=inc, backend=backend,
+                           solve_time=time.perf_counter() - t0, warm_started=warm_used, message=msg + bound_note,
+                           info={**info, "global_optimal": cont_bound is not None and inc_val >= cont_bound,
+                                 "rounds": 0, "model_stats": {}})
+
+    if inc_val >= ub:
+        return early(Status.OPTIMAL, ub, "bound valid for the continuous problem (max coverage by m discs without "
+                                         "overlap/backhaul) and attained: globally optimal")
+    if expired():
+        return early(Status.FEASIBLE, cont_bound, "time limit reached before the model was built; the plan is the "
+                                                  "greedy or warm start")
+    relax_prev = coverage_upper_bound(problem, problem.n_cells - 1, time_limit=left())
+    b_prev = n_active if relax_prev.bound is None else float(relax_prev.bound)
     tree = cKDTree(cand.points)
     cuts: list = []
     state = {"inc": inc, "inc_val": inc_val, "rounds": 0, "raw": "", "stats": {}}
@@ -497,8 +564,12 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
         Returns ("optimal", value) or ("stopped", bound of the restricted problem)."""
         rbound = math.inf
         while state["rounds"] < max_rounds:
+            if expired():
+                return "stopped", rbound
             state["rounds"] += 1
             mdl = build_milp(problem, backend=backend, candidates=cand, keep=keep, cuts=cuts)
+            if expired():  # building can be long: the limit covers it
+                return "stopped", rbound
             state["stats"] = mdl.stats
             pk = mdl.points
             hint_idx = set()
@@ -556,9 +627,9 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
     # full candidate problem, otherwise z_r is a new incumbent and g is lowered, ending
     # with g = incumbent value (the plain pruning of item 1).
     size = np.array([len(c) for c in cand.cover])
-    best_bound = cont_bound
+    best_bound = ub
     status = Status.FEASIBLE
-    g = state["inc_val"] + 0.5 * (cont_bound - state["inc_val"])
+    g = state["inc_val"] + 0.5 * (ub - state["inc_val"])
     while True:
         g = max(g, state["inc_val"])
         final = g <= state["inc_val"]
@@ -581,10 +652,11 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
     obj = float(evaluate(problem, inc).covered)
     if obj >= best_bound:
         status = Status.OPTIMAL
-    glob = obj >= cont_bound
+    glob = cont_bound is not None and obj >= cont_bound
     msg = (f"bound {best_bound:g} valid for the candidate problem (the candidate sites described in the "
-           f"docstring); continuous-problem upper bound {cont_bound:g} (max coverage by m discs without "
-           f"overlap/backhaul)" + ("; attained: globally optimal" if glob else ""))
+           f"docstring); " + (f"continuous-problem upper bound {cont_bound:g} (max coverage by m discs without "
+                              f"overlap/backhaul)" if cont_bound is not None else bound_note[2:])
+           + ("; attained: globally optimal" if glob else ""))
     if status is not Status.OPTIMAL:
         msg += f"; stopped after {rounds} cut rounds (time limit or round limit) before proving optimality"
     return SolveResult(status, objective=obj, bound=float(best_bound), x=inc, backend=backend, backend_status=raw,
