@@ -22,6 +22,8 @@ from droneplan.formulations.cells import (
 )
 from droneplan.planners.cells import (
     GASettings,
+    Region,
+    deployment_region,
     exhaustive,
     fitness,
     genetic,
@@ -44,7 +46,8 @@ from droneplan.scenarios.cells import (
     uniform_users,
 )
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.studies.plots import plot_map
+from droneplan.studies.cells import GA_VARIANTS, ga_ablation, instance_features
+from droneplan.studies.plots import plot_deployment_region, plot_map
 
 __all__ = [
     # scenarios and presets
@@ -55,7 +58,9 @@ __all__ = [
     "solve_milp", "coverage_upper_bound", "greedy_placement", "BACKENDS",
     # thesis heuristics and the improved variant
     "GASettings", "genetic", "genetic_polished", "polish", "fitness", "exhaustive", "max_coverage_in_region",
-    "thesis_ga_settings",
+    "thesis_ga_settings", "Region", "deployment_region",
     # results and plots
-    "SolveResult", "Status", "plot_map",
+    "SolveResult", "Status", "plot_map", "plot_deployment_region",
+    # studies
+    "ga_ablation", "GA_VARIANTS", "instance_features",
 ]

@@ -43,7 +43,7 @@ from droneplan.solvers.validation import (
 )
 
 __all__ = ["GASettings", "genetic", "genetic_polished", "polish", "fitness", "exhaustive", "max_coverage_in_region", "Region",
-           "thesis_ga_settings"]
+           "deployment_region", "thesis_ga_settings"]
 
 
 # =========================================================================== GA
@@ -63,6 +63,11 @@ class GASettings:
     """Crossover probability for the best pair (4.12), in [0, 1]."""
     replace_frac: float = 0.2
     """Fraction of worst chromosomes replaced by the best each generation, in [0, 1)."""
+    mutation_step: float | None = None
+    """None: the thesis mutation (4.10), multiplicative on coordinates relative to the first
+    GBS. A length (m): an ablation variant (not the thesis) that moves a mutated coordinate
+    by ``+- rnd * mutation_step * (1 - f/f_best)^2`` instead, a step independent of how far
+    the drone-cell is from the GBS."""
 
     def __post_init__(self) -> None:
         check_positive("T", self.T)
@@ -70,6 +75,8 @@ class GASettings:
         for name in ("p_m", "p_c1", "p_c2"):
             check_in_range(name, getattr(self, name), 0.0, 1.0)
         check_in_range("replace_frac", self.replace_frac, 0.0, 1.0, hi_open=True)
+        if self.mutation_step is not None:
+            check_positive("mutation_step", self.mutation_step)
 
 
 def thesis_ga_settings(m: int) -> tuple[int, int]:
@@ -160,8 +167,12 @@ def _run_batch(problem: CellProblem, N: int, P: int, iter_max: int, s: GASetting
         scale = np.where(fbest > 0, (1.0 - f / np.maximum(fbest, 1e-12)) ** 2, 1.0)
         mask = rng.random((N, P, m, 2)) < s.p_m
         sign = rng.choice([-1.0, 1.0], size=(N, P, m, 2))
-        factor = 1.0 + sign * rng.random((N, P, m, 2)) * scale[..., None, None]
-        cand = np.where(mask, origin + (pop - origin) * factor, pop)
+        step = sign * rng.random((N, P, m, 2)) * scale[..., None, None]
+        if s.mutation_step is None:  # (4.10): g' = g (1 +- rnd (1 - f/f_best)^2), g relative to the GBS
+            moved = origin + (pop - origin) * (1.0 + step)
+        else:  # ablation variant: an absolute step
+            moved = pop + step * s.mutation_step
+        cand = np.where(mask, moved, pop)
         cand = np.clip(cand, lo, hi)
         changed = mask.any(axis=(2, 3))
         fc = f.copy()
@@ -281,7 +292,49 @@ class Region:
         return ok
 
     def circles(self) -> list[tuple[float, float, float]]:
+        """Every boundary circle (cx, cy, r) of the region, keep-out discs first."""
         return list(self.exclude) + list(self.link)
+
+    def geometry(self, *, quad_segs: int = 64):
+        """The region as a shapely geometry (a (Multi)Polygon, empty when the region is):
+        (union of ``link`` discs) intersected with ``box``, minus the union of ``exclude``
+        discs. Discs are polygons with 4 * ``quad_segs`` vertices on the circle, so a
+        point farther than :meth:`geometry_error` (m) from every boundary circle is
+        classified as by :meth:`contains`."""
+        from shapely.geometry import Point, Polygon, box
+        from shapely.ops import unary_union
+
+        if isinstance(quad_segs, bool) or not isinstance(quad_segs, int) or quad_segs < 1:
+            raise ValueError(f"quad_segs must be an int >= 1, got {quad_segs!r}")
+        if not self.link:
+            return Polygon()
+        geom = unary_union([Point(cx, cy).buffer(r, quad_segs=quad_segs) for cx, cy, r in self.link])
+        if self.box is not None:
+            xmin, xmax, ymin, ymax = self.box
+            geom = geom.intersection(box(xmin, ymin, xmax, ymax))
+        if self.exclude:
+            geom = geom.difference(unary_union([Point(cx, cy).buffer(r, quad_segs=quad_segs)
+                                                for cx, cy, r in self.exclude]))
+        return geom
+
+    def geometry_error(self, *, quad_segs: int = 64) -> float:
+        """Largest distance (m) between a boundary circle and its polygon in :meth:`geometry`:
+        r (1 - cos(pi / (4 quad_segs))) for the largest radius."""
+        r = max((c[2] for c in self.circles()), default=0.0)
+        return r * (1.0 - math.cos(math.pi / (4 * quad_segs)))
+
+
+def deployment_region(problem: CellProblem, placed=()) -> Region:
+    """Deployment region (Definition 4.3.1, Fig. 4.2) of one more drone-cell given the
+    GBSs and drone-cells already ``placed`` ((k, 2) m): clear of every GBS cell
+    (|D - G| >= R_g + R_d, 4.7) and of every placed cell (>= 2 R_d, 4.8), within r1 of a
+    GBS or r2 of a placed cell (a backhaul link), inside ``problem.bounds``."""
+    if not isinstance(problem, CellProblem):
+        raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    pl = np.asarray(placed, dtype=float).reshape(-1, 2) if len(placed) else np.zeros((0, 2))
+    if not np.all(np.isfinite(pl)):
+        raise ValueError("placed must contain only finite coordinates")
+    return _region(problem, pl)
 
 
 def _region(problem: CellProblem, placed: np.ndarray) -> Region:

@@ -172,6 +172,10 @@ class CpSatLinearModel(LinearModel):
     def add_exactly_one(self, variables: Sequence[Any]) -> None:
         self._model.add_exactly_one(variables)
 
+    def add_implies_any(self, literal: Any, variables: Sequence[Any]) -> None:
+        # a clause is much cheaper to build and presolve than the equivalent linear row
+        self._model.add_bool_or([literal.Not(), *variables])
+
     def sum(self, terms: Any) -> Any:
         return cp_model.LinearExpr.sum(list(terms))
 

@@ -68,6 +68,11 @@ class LinearModel(abc.ABC):
         if len(variables) >= 2:
             self.add(self.sum(variables) <= 1)
 
+    def add_implies_any(self, literal: Any, variables: Sequence[Any]) -> None:
+        """``literal <= sum(variables)`` for Booleans: ``literal`` = 1 needs one of ``variables``
+        at 1 (``literal`` = 0 when ``variables`` is empty)."""
+        self.add(literal <= self.sum(variables))
+
     def add_exactly_one(self, variables: Sequence[Any]) -> None:
         """Exactly one of the Boolean ``variables`` is 1."""
         self.add(self.sum(variables) == 1)

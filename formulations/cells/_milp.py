@@ -1,4 +1,4 @@
-"""The candidate-site MILP for drone-cell placement, with exact reductions and lazy cuts.
+"""The candidate-site MILP for drone-cell placement, with exact reductions and hop-level connectivity.
 
 Model (over a candidate set, see ``_core.candidate_sites``)::
 
@@ -6,7 +6,7 @@ Model (over a candidate set, see ``_core.candidate_sites``)::
     s.t. y_j <= sum_{c covers j} x_c          (coverage, eq. 4.9)
          sum_c x_c <= m
          x_c + x_d <= 1   if |c - d| < 2 R_d  (4.8, written as cliques, see below)
-         connectivity cuts (below)             (backhaul with relays, 4.7-4.8)
+         hop-level connectivity (item 3)      (backhaul with relays, 4.7-4.8)
          x, y binary
 
 Every candidate already satisfies |c - G_h| >= R_g + R_d (4.7) and the bounds, so
@@ -27,20 +27,37 @@ and ~3*10^6 pairs within r2, far too many to write out):
 2. **Non-overlap as cliques.** Points in one half-open square of side
    (2 R_d - TOL) / sqrt(2) are pairwise closer than 2 R_d - TOL (they overlap), so each square gives an
    at-most-one constraint; four grids shifted by half a square cover most
-   conflicting pairs. Conflicting pairs that share no square are written as
-   pairs when few, and otherwise added lazily (a clique around the midpoint of a
-   violated pair: all sites within (d + 2 R_d - TOL)/4 of it are pairwise < 2 R_d - TOL apart).
-3. **Connectivity by lazily added cuts (exact).** A site c that is not within r1
-   of a GBS needs a chosen neighbour within r2: ``x_c <= sum_{d in N(c)} x_d``
-   (written up front for every non-direct site). That alone admits chosen groups
-   that only link to each other; for such a component C found in a solution we add,
-   for W = the non-direct sites within distance delta of C (delta in {0, R_d}):
-   ``x_e <= sum_{d in N(W) - W} x_d`` for every e in W (through one auxiliary
-   binary): a chosen site in W reaches a GBS only through a chosen site outside W
-   adjacent to W. Each cut is valid for every connected placement, and the loop
-   stops only when the solution is connected, so the final optimum is exact.
-   Every model in the loop is a relaxation of the candidate problem, so its bound
-   is a valid upper bound of the candidate problem at any time.
+   conflicting pairs. Conflicting pairs that share no square are written as pairs when
+   few; otherwise as one row per site a, ``sum_{b in P(a)} x_b <= K (1 - x_a)`` over its
+   remaining conflict partners P(a), with K = min(|P(a)|, 5, m - 1). Exact: sites b, b'
+   closer than L = 2 R_d - TOL to a but not to each other subtend an angle > 60 degrees
+   at a (law of cosines), so at most 5 of them can be used together.
+3. **Connectivity**, two exact formulations (``connectivity=``):
+
+   a. **Lazy cuts** (default, measured faster on thesis-scale seeds). A non-direct site c
+   (not within r1 of a GBS) needs a chosen, non-overlapping neighbour within r2:
+   ``x_c <= sum_{d in N(c)} x_d``. That alone admits chosen groups that only link to each
+   other; for such a group C found in a solution we add, for W = the non-direct sites
+   within distance delta of C (delta in {0, R_d}), ``x_e <= sum_{d in N(W) - W} x_d`` for
+   every e in W (through one auxiliary binary): a chosen site in W reaches a GBS only
+   through a chosen site outside W adjacent to W. Each cut is valid for every connected
+   placement, every model in the loop is a relaxation of the candidate problem (so its
+   bound is valid at any time), and the loop stops only at a connected optimum.
+
+   b. **Hop levels** (no lazy rounds). A site within r1 of a GBS
+   is *direct* (level 1). A non-direct site c used at level l (2 <= l <= m) needs a
+   used site at level l - 1 within r2 of it: ``z_{c,l} <= sum_{d in N(c)} z_{d,l-1}``
+   (the level-1 variables are the direct sites' x), and ``x_c = sum_l z_{c,l}``.
+   Exact: in a connected placement label every site with its hop count on a shortest
+   backhaul path to a GBS (direct sites 1); a path among at most m drone-cells has at
+   most m hops, and a site at hop l >= 2 has a neighbour at hop l - 1, so the labels
+   satisfy the rows. Conversely, by induction on l every labelled site reaches a GBS.
+   Level l is offered only to sites within r1 + (l - 1) r2 of a GBS (farther ones
+   cannot be l hops away). The neighbour sums need not exclude overlapping sites: two
+   overlapping sites are never both used (item 2).
+4. **Objective cuts (exact).** ``sum_j y_j <= B_m`` (the continuous bound, from a
+   relaxation) and ``sum_j y_j >= z`` for an incumbent of value z (no worse solution is
+   of interest; the incumbent satisfies it and is the hint).
 """
 
 from __future__ import annotations
@@ -52,7 +69,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from ortools.sat.python import cp_model
 from scipy.spatial import cKDTree
 
 from droneplan.formulations.cells._core import (
@@ -66,13 +82,22 @@ from droneplan.formulations.cells._core import (
     pair_intersections,
 )
 from droneplan.scenarios.cells import CellProblem
-from droneplan.solvers.cpsat import solve_cpsat
-from droneplan.solvers.mip import new_mip, solve_mip
+from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_instance, check_time_limit
 
-BACKENDS = ("cp-sat", "highs", "scip")
-"""Backend names ``solve_milp(backend=...)`` accepts (CP-SAT, and HiGHS/SCIP through OR-Tools)."""
+BACKENDS = tuple(available_backends("linear"))
+"""Backends (registry names of kind "linear") that can solve the cells models here."""
+
+# With 1-2 workers CP-SAT's default portfolio has no LP-based subsolver, so its bound
+# on this covering model stalls far above the optimum (m=4 thesis instance: bound 222 vs
+# optimum 61 after 120 s). An LP-relaxation worker plus the core-based worker close it.
+# Options are keyed by backend name (data, looked up like the backend itself).
+FEW_WORKER_OPTIONS: dict[str, dict[str, Any]] = {"cp-sat": {"subsolvers": ["max_lp", "core"]}}
+"""Backend options used when ``workers <= 2``, by registry name."""
+
+CONNECTIVITY = ("lazy", "hops")
+"""Exact backhaul formulations of the candidate model (module docstring, item 3)."""
 
 
 # --------------------------------------------------------------------------- relaxation bound
@@ -156,31 +181,18 @@ def coverage_upper_bound(problem: CellProblem, n_discs: int | None = None, *, ba
 def _max_coverage_model(sets: list[np.ndarray], users: np.ndarray, m: int, backend: str,
                         time_limit: float | None) -> SolveResult:
     """Maximum coverage of ``users`` by ``m`` of ``sets`` on ``backend``; never raises on a solver failure."""
-    if backend == "cp-sat":
-        mdl = cp_model.CpModel()
-        x = [mdl.new_bool_var(f"x{k}") for k in range(len(sets))]
-        y = {int(u): mdl.new_bool_var(f"y{u}") for u in users}
-        cov: dict[int, list] = {}
-        for k, s in enumerate(sets):
-            for u in s:
-                cov.setdefault(int(u), []).append(x[k])
-        for u, xs in cov.items():
-            mdl.add(y[u] <= sum(xs))
-        mdl.add(sum(x) <= m)
-        mdl.maximize(sum(y.values()))
-        return solve_cpsat(mdl, variables=x, time_limit=time_limit, workers=2)
-    s = new_mip(backend)
-    x = [s.BoolVar(f"x{k}") for k in range(len(sets))]
-    y = {int(u): s.NumVar(0, 1, f"y{u}") for u in users}
-    cov = {}
+    lin = get_backend(backend, kind="linear").new_model()
+    x = [lin.bool_var(f"x{k}") for k in range(len(sets))]
+    y = {int(u): lin.unit_var(f"y{u}") for u in users}
+    cov: dict[int, list] = {}
     for k, st in enumerate(sets):
         for u in st:
             cov.setdefault(int(u), []).append(x[k])
     for u, xs in cov.items():
-        s.Add(y[u] <= sum(xs))
-    s.Add(sum(x) <= m)
-    s.Maximize(sum(y.values()))
-    return solve_mip(s, variables=x, time_limit=time_limit, threads=1)
+        lin.add_implies_any(y[u], xs)
+    lin.add(lin.sum(x) <= m)
+    lin.maximize(lin.sum(y.values()))
+    return lin.solve(variables=x, time_limit=time_limit, workers=1)
 
 
 # --------------------------------------------------------------------------- greedy incumbent
@@ -234,47 +246,15 @@ class CellModel:
     direct: np.ndarray
     """(c,) bool, site within r1 of a GBS."""
     model: Any
-    """cp_model.CpModel or pywraplp.Solver."""
+    """The :class:`droneplan.solvers.linear.LinearModel` (``model.native`` is the backend's own)."""
     x: list
     """Site variables, one per row of ``points``."""
     y: dict
     """User coverage variables keyed by active-user index."""
+    levels: dict = field(default_factory=dict)
+    """Hop-level variables z keyed by (site index, level) for non-direct sites (levels >= 2)."""
     stats: dict = field(default_factory=dict)
-    """Sizes: candidates, pruned, cliques, pairs, cuts."""
-
-
-class _Lin:
-    """Tiny builder facade over CP-SAT and pywraplp (same constraints in both)."""
-
-    def __init__(self, backend: str):
-        self.backend = backend
-        self.m = cp_model.CpModel() if backend == "cp-sat" else new_mip(backend)
-
-    def bool(self, name: str):
-        return self.m.new_bool_var(name) if self.backend == "cp-sat" else self.m.BoolVar(name)
-
-    def cont01(self, name: str):
-        return self.m.new_bool_var(name) if self.backend == "cp-sat" else self.m.NumVar(0.0, 1.0, name)
-
-    def le(self, lhs, rhs) -> None:
-        if self.backend == "cp-sat":
-            self.m.add(lhs <= rhs)
-        else:
-            self.m.Add(lhs <= rhs)
-
-    def at_most_one(self, xs) -> None:
-        if len(xs) < 2:
-            return
-        if self.backend == "cp-sat":
-            self.m.add_at_most_one(xs)
-        else:
-            self.m.Add(sum(xs) <= 1)
-
-    def maximize(self, expr) -> None:
-        if self.backend == "cp-sat":
-            self.m.maximize(expr)
-        else:
-            self.m.Maximize(expr)
+    """Sizes: candidates, kept, users, cliques, pairs, level variables and terms."""
 
 
 def _grid_cliques(points: np.ndarray, R_d: float) -> list[np.ndarray]:
@@ -320,102 +300,191 @@ def reduce_candidates(problem: CellProblem, cand: Candidates, incumbent_value: f
     return np.flatnonzero(keep)
 
 
+def _new_model(backend: str):
+    """An empty linear model on ``backend`` (a registry name of kind "linear")."""
+    return get_backend(backend, kind="linear").new_model()
+
+
 def build_milp(problem: CellProblem, *, backend: str = "cp-sat", candidates: Candidates | None = None,
-               keep: np.ndarray | None = None, cuts: list | None = None,
-               pair_limit: int = 200_000) -> CellModel:
+               keep: np.ndarray | None = None, objective_range: tuple[float, float] | None = None,
+               deadline: float | None = None, pair_limit: int = 50_000, connectivity: str = "lazy",
+               cuts: list | None = None) -> CellModel | None:
     """Build the candidate model (module docstring) without solving it.
 
     backend: "cp-sat" (default), "highs" or "scip".
     candidates: a candidate set (default :func:`candidate_sites(problem)`).
     keep: indices of candidates to keep (default all), e.g. from :func:`reduce_candidates`.
-    cuts: lazily found cuts to include: ("clique", idx) or ("conn", W_idx, boundary_idx),
-        indices into the full candidate set; restricted to the kept candidates (dropped
-        sites are fixed at 0, so a restricted cut stays valid).
-    pair_limit: write conflicting pairs not covered by the grid cliques explicitly when
-        there are at most this many; otherwise they are left to lazy clique cuts.
+    objective_range: (lo, hi) written as ``lo <= sum_j y_j <= hi`` (item 4), or None.
+    pair_limit: conflicting pairs left over by the grid cliques are written as pairs when
+        there are at most this many, else as one aggregated row per site (item 2).
+    deadline: a ``time.perf_counter()`` value; building stops and returns None once it
+        has passed (None: no limit).
+    connectivity: "lazy" (item 3a: one neighbour row per non-direct site plus ``cuts``; a
+        relaxation until the cut loop of :func:`solve_milp` finds a connected optimum) or
+        "hops" (item 3b: the exact hop-level model).
+    cuts: for "lazy", cuts found so far: ("clique", idx) or ("conn", W_idx, boundary_idx),
+        indices into the full candidate set (restricted to ``keep``: dropped sites are 0, so a
+        restricted cut stays valid).
     """
     check_instance("problem", problem, CellProblem)
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if connectivity not in CONNECTIVITY:
+        raise ValueError(f"connectivity must be one of {CONNECTIVITY}, got {connectivity!r}")
+    lin = _new_model(backend)
+
+    def late() -> bool:
+        return deadline is not None and time.perf_counter() > deadline
+
     cand = candidate_sites(problem) if candidates is None else candidates
     idx = np.arange(len(cand.points)) if keep is None else np.asarray(keep, dtype=np.int64)
     pts = cand.points[idx]
     cover = [cand.cover[i] for i in idx]
     direct = cand.direct[idx]
-    lin = _Lin(backend)
-    x = [lin.bool(f"x{i}") for i in range(len(pts))]
+    x = [lin.bool_var(f"x{i}") for i in range(len(pts))]
     by_user: dict[int, list] = {}
     for i, c in enumerate(cover):
         for u in c:
             by_user.setdefault(int(u), []).append(x[i])
-    y = {u: lin.cont01(f"y{u}") for u in sorted(by_user)}
+    y = {u: lin.unit_var(f"y{u}") for u in sorted(by_user)}
     for u, xs in by_user.items():
-        lin.le(y[u], sum(xs))
+        lin.add_implies_any(y[u], xs)  # (4.9): a user counts only if a chosen site covers it
     if x:
-        lin.le(sum(x), problem.n_cells)
+        lin.add(lin.sum(x) <= problem.n_cells)
+    # (4.8) non-overlap: grid cliques, then every remaining conflicting pair
+    if late():
+        return None
     cliques = _grid_cliques(pts, problem.R_d) if len(pts) else []
     for q in cliques:
-        lin.at_most_one([x[i] for i in q])
+        lin.add_at_most_one([x[i] for i in q])
     extra = _uncovered_pairs(pts, problem.R_d, cliques)
-    n_pairs = 0
     if len(extra) <= pair_limit:
-        for a, b in extra:
-            lin.at_most_one([x[a], x[b]])
-        n_pairs = len(extra)
-    # every non-direct site needs a chosen, non-overlapping neighbour within r2
-    n_nbr = 0
-    if len(pts):
+        for k, (a, b) in enumerate(extra.tolist()):
+            lin.add_at_most_one([x[a], x[b]])
+            if k % 20_000 == 19_999 and late():
+                return None
+    else:
+        both = np.concatenate([extra, extra[:, ::-1]])
+        both = both[np.argsort(both[:, 0], kind="stable")]
+        starts = np.flatnonzero(np.r_[True, np.diff(both[:, 0]) != 0])
+        for k, (lo, hi) in enumerate(zip(starts.tolist(), np.r_[starts[1:], len(both)].tolist())):
+            a, bs = int(both[lo, 0]), both[lo:hi, 1].tolist()
+            cap = min(len(bs), 5, max(problem.n_cells - 1, 0))
+            lin.add(lin.sum([x[b] for b in bs]) + cap * x[a] <= cap)
+            if k % 2_000 == 1_999 and late():
+                return None
+    if late():
+        return None
+    m = problem.n_cells
+    nd = np.flatnonzero(~direct)
+    n_level_vars = n_level_terms = n_cuts = 0
+    z: dict[tuple[int, int], Any] = {}
+    if connectivity == "lazy" and len(nd):
+        # item 3a: every non-direct site needs a chosen, non-overlapping neighbour within r2
         tree = cKDTree(pts)
-        for i in np.flatnonzero(~direct):
-            nb = [j for j in tree.query_ball_point(pts[i], problem.r2 + TOL)
-                  if math.dist(pts[i], pts[j]) >= 2 * problem.R_d - TOL]  # a linked site may not overlap
-            lin.le(x[i], sum(x[j] for j in nb) if nb else 0)
-            n_nbr += 1
-    n_cuts = 0
-    local = np.full(len(cand.points), -1, dtype=np.int64)
-    local[idx] = np.arange(len(idx))
-    for cut in cuts or ():
-        if cut[0] == "clique":
-            q = local[cut[1]]
-            lin.at_most_one([x[i] for i in q[q >= 0]])
-        else:
-            w, bnd = local[cut[1]], local[cut[2]]
-            w, bnd = w[w >= 0], bnd[bnd >= 0]
-            if len(w) == 0:
-                continue
-            b = lin.bool(f"cut{n_cuts}")
-            lin.le(b, sum(x[j] for j in bnd) if len(bnd) else 0)
-            for e in w:
-                lin.le(x[e], b)
-        n_cuts += 1
+        for k, nb in enumerate(tree.query_ball_point(pts[nd], problem.r2 + TOL)):
+            c = int(nd[k])
+            nb = np.asarray(nb, dtype=np.int64)
+            far = np.hypot(*(pts[nb] - pts[c]).T) >= 2 * problem.R_d - TOL
+            src = [x[d] for d in nb[far].tolist()]
+            lin.add_implies_any(x[c], src)
+            n_level_terms += len(src)
+            if k % 500 == 499 and late():
+                return None
+    if connectivity == "lazy" and cuts:
+        local = np.full(len(cand.points), -1, dtype=np.int64)
+        local[idx] = np.arange(len(idx))
+        for cut in cuts or ():
+            if cut[0] == "clique":
+                q = local[cut[1]]
+                lin.add_at_most_one([x[i] for i in q[q >= 0].tolist()])
+            else:
+                w, bnd = local[cut[1]], local[cut[2]]
+                w, bnd = w[w >= 0], bnd[bnd >= 0]
+                if len(w) == 0:
+                    continue
+                b = lin.bool_var(f"cut{n_cuts}")
+                lin.add_implies_any(b, [x[j] for j in bnd.tolist()])
+                for e in w.tolist():
+                    lin.add(x[e] <= b)
+            n_cuts += 1
+    if connectivity == "hops" and len(nd):  # item 3b
+        dg = np.min(np.hypot(pts[nd, None, 0] - problem.gbs[None, :, 0], pts[nd, None, 1] - problem.gbs[None, :, 1]),
+                    axis=1)
+        # level l reaches r1 + (l - 1) r2 (each link has tolerance TOL)
+        lowest = np.maximum(2, np.ceil((dg - problem.r1 - m * TOL) / problem.r2).astype(np.int64) + 1)
+        tree = cKDTree(pts)
+        nbrs = tree.query_ball_point(pts[nd], problem.r2 + TOL)
+        for k, c in enumerate(nd):
+            for lev in range(int(lowest[k]), m + 1):
+                z[int(c), lev] = lin.bool_var(f"z{c}_{lev}")
+        for k, c in enumerate(nd):
+            levs = [z[int(c), lev] for lev in range(int(lowest[k]), m + 1)]
+            lin.add(lin.sum(levs) == x[c])
+            nb = np.asarray(nbrs[k], dtype=np.int64)
+            for lev in range(int(lowest[k]), m + 1):
+                if lev == 2:
+                    src = [x[d] for d in nb if direct[d]]
+                else:
+                    src = [z[int(d), lev - 1] for d in nb if (int(d), lev - 1) in z]
+                lin.add_implies_any(z[int(c), lev], src)
+                n_level_vars += 1
+                n_level_terms += len(src)
+            if late():
+                return None
     if y:
-        lin.maximize(sum(y.values()))
+        if objective_range is not None:
+            lo, hi = objective_range
+            lin.add(lin.sum(y.values()) >= int(math.ceil(lo - 1e-9)))
+            lin.add(lin.sum(y.values()) <= int(math.floor(hi + 1e-9)))
+        lin.maximize(lin.sum(y.values()))
     stats = {"candidates": len(cand.points), "kept": len(pts), "users": len(y), "grid_cliques": len(cliques),
-             "extra_pairs": n_pairs, "pairs_deferred": len(extra) if len(extra) > pair_limit else 0,
-             "neighbour_rows": n_nbr, "lazy_cuts": n_cuts}
-    return CellModel(problem=problem, backend=backend, points=pts, cover=cover, direct=direct, model=lin.m,
-                     x=x, y=y, stats=stats)
+             "extra_pairs": len(extra), "pairs_as_rows": len(extra) > pair_limit, "connectivity": connectivity,
+             "level_vars": n_level_vars, "connectivity_terms": n_level_terms, "lazy_cuts": n_cuts}
+    return CellModel(problem=problem, backend=backend, points=pts, cover=cover, direct=direct, model=lin,
+                     x=x, y=y, levels=z, stats=stats)
 
 
 # --------------------------------------------------------------------------- solve
+def _add_cuts(problem: CellProblem, cand: Candidates, tree: cKDTree, chosen: np.ndarray, pos: np.ndarray,
+              cuts: list) -> None:
+    """Append to ``cuts`` the cuts violated by the chosen sites (global indices ``chosen`` at
+    ``pos``): a clique around each overlapping pair and the connectivity cuts of item 3a."""
+    d = np.hypot(pos[:, None, 0] - pos[None, :, 0], pos[:, None, 1] - pos[None, :, 1])
+    for a, b in zip(*np.nonzero(np.triu(d < 2 * problem.R_d - TOL, 1))):
+        mid = (pos[a] + pos[b]) / 2
+        # d/2 < rho and 2 rho < 2 R_d - TOL: the ball holds both sites and is a clique
+        rho = (d[a, b] + 2 * problem.R_d - TOL) / 4
+        cuts.append(("clique", np.array(sorted(tree.query_ball_point(mid, rho)), dtype=np.int64)))
+    for comp in _components_without_gbs(problem, pos):
+        for delta in (0.0, problem.R_d):
+            w: set = set()
+            for i in comp:
+                w.update(tree.query_ball_point(pos[i], delta + TOL))
+            w_arr = np.array(sorted(j for j in w if not cand.direct[j]), dtype=np.int64)
+            nb: set = set()
+            for e in w_arr:
+                nb.update(tree.query_ball_point(cand.points[e], problem.r2 + TOL))
+            bnd = np.array(sorted(nb - set(w_arr.tolist())), dtype=np.int64)
+            cuts.append(("conn", w_arr, bnd))
+
+
 def _components_without_gbs(problem: CellProblem, pos: np.ndarray) -> list[np.ndarray]:
     """Connected groups (by r2 links) of placed sites none of which is within r1 of a GBS."""
     k = len(pos)
     d = np.hypot(pos[:, None, 0] - pos[None, :, 0], pos[:, None, 1] - pos[None, :, 1])
     adj = d <= problem.r2 + TOL
-    seen = np.zeros(k, dtype=bool)
     dg = np.hypot(pos[:, None, 0] - problem.gbs[None, :, 0], pos[:, None, 1] - problem.gbs[None, :, 1])
     direct = np.any(dg <= problem.r1 + TOL, axis=1)
+    seen = np.zeros(k, dtype=bool)
     out = []
-    for s in range(k):
-        if seen[s]:
+    for s0 in range(k):
+        if seen[s0]:
             continue
-        comp = {s}
-        stack = [s]
+        comp = {s0}
+        stack = [s0]
         while stack:
             i = stack.pop()
             for j in np.flatnonzero(adj[i]):
-                if j not in comp:
+                if int(j) not in comp:
                     comp.add(int(j))
                     stack.append(int(j))
         seen[list(comp)] = True
@@ -455,15 +524,40 @@ def _feasible_subset(problem: CellProblem, pos: np.ndarray) -> np.ndarray:
     return pos
 
 
-# With 1-2 workers CP-SAT's default portfolio runs no LP-based subsolver, so its bound
-# on this covering model stalls far above the optimum (m=4 thesis instance: bound 222 vs
-# optimum 61 after 120 s). An LP-relaxation worker plus the core-based worker close it.
-CPSAT_PARAMETERS = {"subsolvers": ["max_lp", "core"]}
+def _hint(problem: CellProblem, mdl: CellModel, placement: np.ndarray) -> dict:
+    """A complete start assignment {variable: 0/1} of ``mdl`` for ``placement`` (sites of
+    the model): site variables, covered users, and hop levels from a breadth-first search."""
+    pk = mdl.points
+    on = np.zeros(len(pk), dtype=bool)
+    for p in placement:
+        j = np.flatnonzero(np.hypot(*(pk - p).T) <= 1e-3)
+        if len(j):
+            on[j[0]] = True
+    hint = {v: bool(on[i]) for i, v in enumerate(mdl.x)}
+    covered = set()
+    for i in np.flatnonzero(on):
+        covered.update(int(u) for u in mdl.cover[i])
+    hint.update({v: u in covered for u, v in mdl.y.items()})
+    level = {int(i): 1 for i in np.flatnonzero(on & mdl.direct)}
+    frontier = list(level)
+    lev = 1
+    while frontier:
+        lev += 1
+        nxt = []
+        for i in np.flatnonzero(on):
+            if int(i) not in level and any(math.dist(pk[i], pk[j]) <= problem.r2 + TOL for j in frontier):
+                level[int(i)] = lev
+                nxt.append(int(i))
+        frontier = nxt
+    for (c, lv), v in mdl.levels.items():
+        hint[v] = level.get(c) == lv
+    return hint
 
 
 def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: float | None = None,
-               warm_start=None, workers: int = 2, max_rounds: int = 200) -> SolveResult:
-    """Solve the candidate-site model with exact backhaul connectivity (lazy cuts).
+               warm_start=None, workers: int = 2, connectivity: str = "lazy",
+               max_rounds: int = 200) -> SolveResult:
+    """Solve the candidate-site model with exact (hop-level) backhaul connectivity.
 
     backend: "cp-sat" (default), "highs" or "scip".
     time_limit: wall-clock limit (s) for the whole call, candidate generation and model
@@ -476,6 +570,10 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
         least as many users as the built-in greedy start. ``info["warm_start"]`` says
         whether it was used and why not (``used``, ``value``, ``greedy_value``, ``reason``).
     workers: CP-SAT workers / MIP threads.
+    connectivity: "lazy" (default) or "hops", the exact backhaul formulation (module
+        docstring, item 3).
+    max_rounds: at most this many model solves in the lazy cut loop (then FEASIBLE with the
+        bound found so far).
 
     Returns a SolveResult: ``x`` positions (k, 2) with k <= m, ``objective`` covered
     users, ``bound`` an upper bound valid for the *candidate* problem (all user
@@ -484,14 +582,14 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
     ``continuous_bound`` (valid for the continuous problem: max coverage by m discs
     without overlap/backhaul constraints; None, with the reason in ``message``, when no
     backend could compute it), ``global_optimal`` (objective equals the
-    continuous bound), ``rounds``, ``model_stats``. ``message`` says which bound is which.
-
-    max_rounds: maximum lazy-cut rounds (count); reaching it ends the solve without a proof of optimality.
+    continuous bound), ``rounds`` (model solves: target scheme and cut rounds),
+    ``model_stats``. ``message`` says which bound is which.
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    get_backend(backend, kind="linear")  # an unknown or unavailable backend raises ValueError here
+    if connectivity not in CONNECTIVITY:
+        raise ValueError(f"connectivity must be one of {CONNECTIVITY}, got {connectivity!r}")
     time_limit = check_time_limit(time_limit)
     t0 = time.perf_counter()
     warm = None if warm_start is None else as_positions(problem, warm_start)
@@ -553,80 +651,67 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
     if expired():
         return early(Status.FEASIBLE, cont_bound, "time limit reached before the model was built; the plan is the "
                                                   "greedy or warm start")
-    relax_prev = coverage_upper_bound(problem, problem.n_cells - 1, time_limit=left())
-    b_prev = n_active if relax_prev.bound is None else float(relax_prev.bound)
-    tree = cKDTree(cand.points)
-    cuts: list = []
+    # B_{m-1} for the pruning of item 1; B_m (>= B_{m-1}, weaker but still exact pruning)
+    # when there is less time left than the first relaxation took
+    if time_limit is not None and left() < relax.solve_time:
+        b_prev = ub
+    else:
+        relax_prev = coverage_upper_bound(problem, problem.n_cells - 1, time_limit=left())
+        b_prev = n_active if relax_prev.bound is None else float(relax_prev.bound)
     state = {"inc": inc, "inc_val": inc_val, "rounds": 0, "raw": "", "stats": {}}
 
-    def cut_loop(keep: np.ndarray) -> tuple[str, float]:
-        """Solve the model restricted to ``keep`` exactly with lazy cuts.
-        Returns ("optimal", value) or ("stopped", bound of the restricted problem)."""
+    tree = cKDTree(cand.points)
+    cuts: list = []
+
+    def solve_restricted(keep: np.ndarray) -> tuple[str, float]:
+        """Solve the model restricted to ``keep`` with ``sum y >= incumbent value`` exactly
+        (one solve with hop levels, or the lazy cut loop). Returns ("optimal", value) or
+        ("stopped", bound of the restricted problem)."""
         rbound = math.inf
+        deadline = None if time_limit is None else t0 + time_limit
         while state["rounds"] < max_rounds:
             if expired():
                 return "stopped", rbound
             state["rounds"] += 1
-            mdl = build_milp(problem, backend=backend, candidates=cand, keep=keep, cuts=cuts)
-            if expired():  # building can be long: the limit covers it
+            mdl = build_milp(problem, backend=backend, candidates=cand, keep=keep, deadline=deadline,
+                             objective_range=(state["inc_val"], ub), connectivity=connectivity, cuts=cuts)
+            if mdl is None or expired():  # building can be long: the limit covers it
                 return "stopped", rbound
             state["stats"] = mdl.stats
-            pk = mdl.points
-            hint_idx = set()
-            for p in state["inc"]:
-                j = np.flatnonzero(np.hypot(*(pk - p).T) <= 1e-3)
-                if len(j):
-                    hint_idx.add(int(j[0]))
-            if backend == "cp-sat":
-                hint = {v: int(i in hint_idx) for i, v in enumerate(mdl.x)}
-                res = solve_cpsat(mdl.model, variables=mdl.x, time_limit=left(), workers=workers, hint=hint,
-                                  parameters=CPSAT_PARAMETERS if workers <= 2 else None)
-            else:
-                hint = {v: float(i in hint_idx) for i, v in enumerate(mdl.x)}
-                res = solve_mip(mdl.model, variables=mdl.x, time_limit=left(), warm_start=hint, threads=workers)
+            hint = _hint(problem, mdl, state["inc"])
+            res = mdl.model.solve(variables=mdl.x, time_limit=left(), workers=workers,
+                                  hint={v: int(b) for v, b in hint.items()},
+                                  options=FEW_WORKER_OPTIONS.get(backend) if workers <= 2 else None)
             state["raw"] = res.backend_status
+            if res.status is Status.INFEASIBLE:
+                # nothing in the restricted relaxation reaches the incumbent's value (the
+                # incumbent itself is feasible for it, so this only happens at rounding
+                # edges): the restricted optimum is at most the incumbent's value
+                return "optimal", float(state["inc_val"])
             if res.bound is not None:
                 rbound = min(rbound, math.floor(res.bound + 1e-6))
             if not res.has_solution:
                 return "stopped", rbound
             chosen = np.flatnonzero(np.asarray(res.x) > 0.5)
-            pos = pk[chosen]
+            pos = mdl.points[chosen]
             ev = evaluate(problem, pos)
-            cand_pos = pos if ev.feasible else _feasible_subset(problem, pos)
-            cv = evaluate(problem, cand_pos).covered
+            if not ev.feasible and connectivity == "hops":  # exact model: a bug, never hidden
+                raise RuntimeError(f"internal: the hop-level model returned an infeasible placement: {ev.violations}")
+            feas = pos if ev.feasible else _feasible_subset(problem, pos)
+            cv = evaluate(problem, feas).covered
             if cv > state["inc_val"]:
-                state["inc"], state["inc_val"] = cand_pos, cv
+                state["inc"], state["inc_val"] = feas, cv
             if res.status is not Status.OPTIMAL:
                 return "stopped", rbound
             if ev.feasible:
                 return "optimal", float(ev.covered)
-            g = keep[chosen]  # global indices of the chosen sites
-            d = np.hypot(pos[:, None, 0] - pos[None, :, 0], pos[:, None, 1] - pos[None, :, 1])
-            for a, b in zip(*np.nonzero(np.triu(d < 2 * problem.R_d - TOL, 1))):
-                mid = (pos[a] + pos[b]) / 2
-                # d/2 < rho and 2 rho < 2 R_d - TOL: the ball holds both sites and is a clique
-                rho = (d[a, b] + 2 * problem.R_d - TOL) / 4
-                cuts.append(("clique", np.array(sorted(tree.query_ball_point(mid, rho)), dtype=np.int64)))
-            for comp in _components_without_gbs(problem, pos):
-                for delta in (0.0, problem.R_d):
-                    w: set = set()
-                    for i in comp:
-                        w.update(tree.query_ball_point(pos[i], delta + TOL))
-                    w_arr = np.array(sorted(j for j in w if not cand.direct[j]), dtype=np.int64)
-                    nb: set = set()
-                    for e in w_arr:
-                        nb.update(tree.query_ball_point(cand.points[e], problem.r2 + TOL))
-                    bnd = np.array(sorted(nb - set(w_arr.tolist())), dtype=np.int64)
-                    cuts.append(("conn", w_arr, bnd))
-            if time_limit is not None and time.perf_counter() - t0 >= time_limit:
-                return "stopped", rbound
+            _add_cuts(problem, cand, tree, keep[chosen], pos, cuts)
         return "stopped", rbound
 
     # Descending target scheme (exact): any solution worth more than g uses only sites
     # with |S(c)| + B_{m-1} > g. Solve on those; an optimum z_r > g is the optimum of the
     # full candidate problem, otherwise z_r is a new incumbent and g is lowered, ending
     # with g = incumbent value (the plain pruning of item 1).
-    size = np.array([len(c) for c in cand.cover])
     best_bound = ub
     status = Status.FEASIBLE
     g = state["inc_val"] + 0.5 * (ub - state["inc_val"])
@@ -634,7 +719,7 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
         g = max(g, state["inc_val"])
         final = g <= state["inc_val"]
         keep = reduce_candidates(problem, cand, g, state["inc"], b_prev)
-        outcome, val = cut_loop(keep)
+        outcome, val = solve_restricted(keep)
         if outcome == "optimal" and (val > g or final):
             status = Status.OPTIMAL
             best_bound = min(best_bound, max(val, state["inc_val"]))
@@ -658,7 +743,8 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
                               f"overlap/backhaul)" if cont_bound is not None else bound_note[2:])
            + ("; attained: globally optimal" if glob else ""))
     if status is not Status.OPTIMAL:
-        msg += f"; stopped after {rounds} cut rounds (time limit or round limit) before proving optimality"
+        msg += (f"; stopped after {rounds} model solves (time limit or max_rounds) before proving "
+                "optimality")
     return SolveResult(status, objective=obj, bound=float(best_bound), x=inc, backend=backend, backend_status=raw,
                        message=msg, solve_time=time.perf_counter() - t0, iterations=rounds,
                        warm_started=warm_used,

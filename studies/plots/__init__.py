@@ -6,13 +6,14 @@ made when it is None), returns the matplotlib ``Figure``, labels its axes with u
 legend and keeps the goal/target in view.
 """
 
-from droneplan.studies.plots.cells import plot_map
+from droneplan.studies.plots.cells import plot_deployment_region, plot_map
 from droneplan.studies.plots.covert import plot_bearing, plot_path
 from droneplan.studies.plots.herding import plot_final, plot_footprint, plot_state
 from droneplan.studies.plots.shark import plot_time_series, plot_top_view
 
 __all__ = [
     "plot_map",
+    "plot_deployment_region",
     "plot_path",
     "plot_bearing",
     "plot_top_view",

@@ -9,9 +9,10 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
 from droneplan.formulations.cells import CellProblem, evaluate
+from droneplan.planners.cells import deployment_region
 from droneplan.studies.plots._common import figure_axes, keep_in_view
 
-__all__ = ["plot_map"]
+__all__ = ["plot_map", "plot_deployment_region"]
 
 
 def plot_map(
@@ -80,4 +81,48 @@ def plot_map(
     ax.legend(handles, labels, fontsize=7, loc="upper right")
     if title is not None:
         ax.set_title(title, fontsize=9)
+    return fig
+
+
+def plot_deployment_region(problem: CellProblem, placed: Any = (), *, ax: Any = None, quad_segs: int = 64):
+    """Thesis Fig. 4.2: the deployment region (Definition 4.3.1, grey) of one more drone-cell
+    given the GBSs and the drone-cells ``placed`` ((k, 2) m); returns the figure.
+
+    problem: the :class:`CellProblem` (GBSs, radii, bounds). Draws the keep-out circles
+    (R_g + R_d around each GBS, 2 R_d around each placed cell,
+    solid) and the backhaul circles (r1 around GBSs, r2 around placed cells, dashed). The
+    region is :meth:`Region.geometry` (shapely) with ``quad_segs`` segments per quarter circle.
+    ax: a 2-D matplotlib axes, or None for a new figure.
+    """
+    from shapely.geometry import MultiPolygon, Polygon
+
+    region = deployment_region(problem, placed)
+    geom = region.geometry(quad_segs=quad_segs)
+    fig, ax = figure_axes(ax, figsize=(5.5, 5.5))
+    polys = list(geom.geoms) if isinstance(geom, MultiPolygon) else ([geom] if isinstance(geom, Polygon) else [])
+    for k, poly in enumerate(p for p in polys if not p.is_empty):
+        ax.fill(*poly.exterior.xy, color="0.8", label="deployment region" if k == 0 else None)
+        for hole in poly.interiors:
+            ax.fill(*hole.xy, color="white")
+    for cx, cy, r in region.exclude:
+        ax.add_patch(Circle((cx, cy), r, fill=False, color="k", lw=0.8))
+    for cx, cy, r in region.link:
+        ax.add_patch(Circle((cx, cy), r, fill=False, color="tab:red", ls="--", lw=0.8))
+    ax.scatter(*problem.gbs.T, marker="^", s=60, c="tab:blue", zorder=3, label="GBS")
+    pl = np.asarray(placed, dtype=float).reshape(-1, 2)
+    if len(pl):
+        ax.scatter(*pl.T, marker="s", s=30, c="k", zorder=3, label="deployed drone-cell")
+    handles, labels = ax.get_legend_handles_labels()
+    handles += [Line2D([], [], color="k", lw=0.8), Line2D([], [], color="tab:red", ls="--", lw=0.8)]
+    labels += ["keep-out (R_g + R_d, 2 R_d)", "backhaul reach (r1, r2)"]
+    reach = max(r for _, _, r in region.circles())
+    centres = np.concatenate([problem.gbs, pl])
+    ax.set_xlim(centres[:, 0].min() - reach, centres[:, 0].max() + reach)
+    ax.set_ylim(centres[:, 1].min() - reach, centres[:, 1].max() + reach)
+    ax.set_aspect("equal")
+    keep_in_view(ax, centres)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend(handles, labels, fontsize=7, loc="upper right")
+    ax.set_title(f"deployment region: {geom.area / 1e6:.1f} km$^2$", fontsize=9)
     return fig

@@ -152,3 +152,58 @@ def test_polish_keeps_feasibility_and_never_loses():
         assert gp.objective == ev.covered and gp.info["ga_objective"] == ga.objective
     with pytest.raises(ValueError, match="feasible"):
         polish(small([[2.5, 0.0]], m=1), [[0.0, 0.0]])
+
+
+# ----------------------------------------------------------------- Fig. 4.2: deployment regions as geometry
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.tuples(st.floats(-6000, 6000), st.floats(-6000, 6000)), min_size=0, max_size=3),
+       st.integers(0, 2**31 - 1))
+def test_region_geometry_agrees_with_contains(placed, seed):
+    from shapely import points as shp_points
+
+    from droneplan.planners.cells import deployment_region
+    from droneplan.scenarios.cells import thesis_problem
+
+    p = thesis_problem(2, 0)
+    region = deployment_region(p, placed)
+    geom = region.geometry(quad_segs=32)
+    err = region.geometry_error(quad_segs=32)
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(-5500, 5500, size=(400, 2))
+    inside = region.contains(q)
+    # classify only points clearly away from every boundary circle and box edge
+    far = np.ones(len(q), dtype=bool)
+    for cx, cy, r in region.circles():
+        far &= np.abs(np.hypot(q[:, 0] - cx, q[:, 1] - cy) - r) > 2 * err + 1e-3
+    xmin, xmax, ymin, ymax = p.bounds
+    far &= np.minimum.reduce([np.abs(q[:, 0] - xmin), np.abs(q[:, 0] - xmax), np.abs(q[:, 1] - ymin),
+                              np.abs(q[:, 1] - ymax)]) > 1e-3
+    covered = geom.covers(shp_points(q[far])) if not geom.is_empty else np.zeros(far.sum(), bool)
+    assert np.array_equal(covered, inside[far])
+
+
+def test_region_geometry_of_the_thesis_example():
+    # Fig. 4.2: one GBS and one deployed drone-cell D_1; the region is the r1 or r2 reach
+    # minus the two keep-out discs
+    from droneplan.planners.cells import deployment_region
+    from droneplan.studies.plots import plot_deployment_region
+    from droneplan.scenarios.cells import thesis_problem
+
+    p = thesis_problem(2, 0)
+    d1 = np.array([[2500.0, 0.0]])
+    g = deployment_region(p, d1).geometry(quad_segs=256)
+    # exact area by inclusion-exclusion is awkward; check it against a fine grid instead
+    xs = np.linspace(-5000, 5000, 801)
+    xx, yy = np.meshgrid(xs, xs)
+    grid = np.column_stack([xx.ravel(), yy.ravel()])
+    frac = deployment_region(p, d1).contains(grid).mean()
+    assert abs(g.area - frac * 1e8) / (frac * 1e8) < 0.01
+    assert not g.contains(shp_point(0, 0)) and not g.contains(shp_point(2500, 0)) and g.contains(shp_point(-2500, 0))
+    fig = plot_deployment_region(p, d1)
+    assert fig.axes[0].get_xlabel() == "x (m)"
+
+
+def shp_point(x, y):
+    from shapely.geometry import Point
+
+    return Point(x, y)

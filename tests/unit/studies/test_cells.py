@@ -36,3 +36,17 @@ def test_reproduce_tasks_emit_schema_rows_within_the_bounds():
     assert exact["exhaustive"]["objective"] <= exact["continuous-bound"]["bound"]
     assert ga["objective"] <= exact["continuous-bound"]["bound"]
     assert ga["objective"] <= ga["cells_polished"]  # polishing never loses users
+
+
+def test_ga_ablation_rows_respect_the_milp_optimum():
+    variants = {"thesis": {}, "no SA (improvements only)": {"settings": {"T": 1e-9}},
+                "no restarts (1 run, same generations)": {"no_restarts": True}}
+    df = study.ga_ablation(seeds=[0], ms=(1,), runs=2, variants=variants, es_limit=60, milp_limit=60,
+                           progress=False)
+    assert list(df["variant"]) == list(variants)
+    assert (df["milp_status"] == "OPTIMAL").all()
+    # every GA plan and the exhaustive-search plan are feasible placements: never above the optimum
+    assert (df["best_obj"] <= df["milp_obj"]).all() and (df["es_obj"] <= df["milp_obj"]).all()
+    assert df["p_es"].between(0, 1).all() and df["p_milp"].between(0, 1).all()
+    assert (df["users_direct_reach"] <= df["users_in_reach"]).all()
+    assert (df["users_in_reach"] <= df["active_users"]).all()
