@@ -35,6 +35,7 @@ from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import (
     check_array,
     check_in_range,
+    check_instance,
     check_int,
     check_positive,
     check_size,
@@ -329,12 +330,8 @@ def deployment_region(problem: CellProblem, placed=()) -> Region:
     GBSs and drone-cells already ``placed`` ((k, 2) m): clear of every GBS cell
     (|D - G| >= R_g + R_d, 4.7) and of every placed cell (>= 2 R_d, 4.8), within r1 of a
     GBS or r2 of a placed cell (a backhaul link), inside ``problem.bounds``."""
-    if not isinstance(problem, CellProblem):
-        raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
-    pl = np.asarray(placed, dtype=float).reshape(-1, 2) if len(placed) else np.zeros((0, 2))
-    if not np.all(np.isfinite(pl)):
-        raise ValueError("placed must contain only finite coordinates")
-    return _region(problem, pl)
+    check_instance("problem", problem, CellProblem)
+    return _region(problem, check_array("placed", placed, shape=(None, 2)))
 
 
 def _region(problem: CellProblem, placed: np.ndarray) -> Region:

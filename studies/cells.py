@@ -245,6 +245,10 @@ def instance_features(problem) -> dict:
     """Descriptors of ``problem`` used to explain GA success (m, lengths in metres): active users,
     users within r1 + R_d of a GBS (coverable by a direct drone-cell), users within
     r1 + (m - 1) r2 + R_d (coverable at all), and the continuous bound per drone-cell."""
+    from droneplan.formulations.cells import CellProblem
+    from droneplan.solvers.validation import check_instance
+
+    check_instance("problem", problem, CellProblem)
     t = problem.targets
     dg = np.min(np.hypot(t[:, None, 0] - problem.gbs[None, :, 0], t[:, None, 1] - problem.gbs[None, :, 1]),
                 axis=1) if len(t) else np.zeros(0)
@@ -271,7 +275,15 @@ def ga_ablation(*, seeds, ms, runs: int, variants=None, es_limit: float = 600.0,
     import pandas as pd
     from tqdm.auto import tqdm
 
+    from droneplan.solvers.validation import check_int, check_positive
+
     variants = GA_VARIANTS if variants is None else variants
+    runs = check_int("runs", runs, min_value=1)
+    if ablation_runs is not None:
+        ablation_runs = check_int("ablation_runs", ablation_runs, min_value=1)
+    seeds = [check_int("seeds", s, min_value=0) for s in seeds]
+    ms = [check_int("ms", m, min_value=1, max_value=3) for m in ms]
+    es_limit, milp_limit = check_positive("es_limit", es_limit), check_positive("milp_limit", milp_limit)
     rows = []
     jobs = [(s, m) for s in seeds for m in ms]
     for seed, m in tqdm(jobs, desc="GA ablation", disable=not progress):

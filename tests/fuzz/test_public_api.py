@@ -120,6 +120,11 @@ SPECS: dict[str, Spec] = {
     "exhaustive": Spec(lambda: ((P(),), {"time_limit": 5.0}), {"problem": "object", "time_limit": "time_limit"}),
     "max_coverage_in_region": Spec(lambda: ((np.array([[0.0, 0.0]]), 500.0, None), {}), {}),
     "thesis_ga_settings": Spec(lambda: ((2,), {}), {"m": "int>=1"}),
+    "deployment_region": Spec(lambda: ((P(), [[1600.0, 0.0]]), {}), {"problem": "object", "placed": "points2"}),
+    "instance_features": Spec(lambda: ((P(),), {}), {"problem": "object"}),
+    "ga_ablation": Spec(lambda: ((), {"seeds": [0], "ms": (1,), "runs": 1, "variants": {"thesis": {}},
+                                      "es_limit": 5.0, "milp_limit": 5.0, "progress": False}),
+                        {"runs": "int>=1", "es_limit": "positive", "milp_limit": "positive"}),
     # ---- covert
     "CovertParams": Spec(lambda: ((), {}), {"V_max": "positive", "U_max": "positive", "L_u": "positive",
                                             "dt": "positive", "F": "vec3", "D_s": "vec3"}),
@@ -235,7 +240,7 @@ SPECS: dict[str, Spec] = {
 PLOTTING = {
     # draw the library's own results on matplotlib axes; not fuzzed with bad data here
     "plot_map", "plot_path", "plot_bearing", "plot_top_view", "plot_time_series", "plot_state", "plot_final",
-    "plot_footprint", "write_gif", "summary_table",
+    "plot_footprint", "write_gif", "summary_table", "plot_deployment_region",
 }
 
 RESULT_TYPES = {
@@ -248,6 +253,7 @@ RESULT_TYPES = {
     "CovertCommand", "CovertFrame", "CovertObservation", "CovertPhase", "HerdingCommand", "HerdingFrame",
     "HerdingObservation", "HerdingPhase", "SharkCommand", "SharkFrame", "SharkObservation", "SharkPhase",
     "RepellingMode", "RepellingObservation", "RepellingScenario",
+    "Region",  # a deployment region as built by deployment_region
 }
 
 
