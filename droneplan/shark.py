@@ -16,6 +16,7 @@ from droneplan.formulations.shark import (
     build_assignment_model,
     build_interception_nlp,
     greedy_assignment,
+    interception_time_bound,
     optimal_altitude,
     solve_assignment,
     solve_interception,
@@ -70,7 +71,7 @@ __all__ = [
     "RepellingScenario", "RepellingObservation", "RepellingMode", "RepellingTrace", "simulate_repelling",
     # models
     "optimal_altitude", "InterceptionOCP", "InterceptionPlan", "build_interception_nlp", "solve_interception",
-    "Assignment", "build_assignment_model", "solve_assignment", "greedy_assignment",
+    "interception_time_bound", "Assignment", "build_assignment_model", "solve_assignment", "greedy_assignment",
     # thesis methods and controllers
     "thesis_altitude", "ClassicalPursuit", "VirtualSharkInterceptor", "OCPInterceptor", "optimal_interception",
     "virtual_shark_plan", "allocate_operators", "interception_time_matrix", "RepellingOperator",

@@ -13,3 +13,6 @@ from droneplan.formulations.shark.assignment import (Assignment, assignment_cost
 
 __all__ += ["Assignment", "assignment_cost", "build_assignment_model", "greedy_assignment", "select_sharks",
             "solve_assignment"]
+from droneplan.formulations.shark.bound import frontal_point, interception_time_bound  # noqa: E402
+
+__all__ += ["frontal_point", "interception_time_bound"]

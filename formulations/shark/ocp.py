@@ -45,7 +45,9 @@ class InterceptionPlan:
     """An operator plan: node times t (N+1,) s, positions operator (N+1,3) m, velocities (N,3) m/s.
 
     T: interception time (s, relative to the plan's start); side: +1 if the operator ends on
-    the left of the shark's path side it came from, -1 right, 0 unknown.
+    the left of the shark's path side it came from, -1 right, 0 unknown; origin: where the
+    plan comes from when it is used as a starting plan ("crude" for the formulation's own
+    guesses, "virtual-shark" for the thesis heuristic's rollout, "" unknown).
     """
 
     t: np.ndarray
@@ -54,6 +56,7 @@ class InterceptionPlan:
     """(N, 3) piecewise-constant operator velocities (m/s), one per interval."""
     T: float
     side: int = 0
+    origin: str = ""
 
     def position(self, t) -> np.ndarray:
         """Planned position (m) at time(s) t (s), clamped to [0, T]."""
@@ -61,21 +64,21 @@ class InterceptionPlan:
         return np.stack([np.interp(t, self.t, self.operator[:, i]) for i in range(3)], axis=-1)
 
     @classmethod
-    def from_samples(cls, t, operator, side: int = 0) -> "InterceptionPlan":
+    def from_samples(cls, t, operator, side: int = 0, origin: str = "") -> "InterceptionPlan":
         """A plan from sampled positions (e.g. a closed-loop rollout up to its interception time)."""
         t = np.asarray(t, float)
         op = np.asarray(operator, float)
         if len(t) < 2 or op.shape != (len(t), 3):
             raise ValueError("from_samples needs >= 2 times and (len(t), 3) positions")
         vel = np.diff(op, axis=0) / np.diff(t)[:, None]
-        return cls(t - t[0], op, vel, float(t[-1] - t[0]), side)
+        return cls(t - t[0], op, vel, float(t[-1] - t[0]), side, origin)
 
     def resample(self, N: int) -> "InterceptionPlan":
         """The same plan on N uniform intervals."""
         tt = np.linspace(0.0, self.T, N + 1)
         op = self.position(tt)
         vel = np.diff(op, axis=0) / max(self.T / N, 1e-9)
-        return InterceptionPlan(tt, op, vel, self.T, self.side)
+        return InterceptionPlan(tt, op, vel, self.T, self.side, self.origin)
 
 
 def casadi_optimal_altitude(z_s, params: SharkParams):
@@ -251,7 +254,7 @@ class InterceptionOCP:
             ST2 = self.shark_at(T0 + 0.1, t0=t0, shark_state=shark_state)
             uT = (ST2 - ST)[:2] / (np.linalg.norm((ST2 - ST)[:2]) + 1e-9)
             G = np.r_[ST[:2] + p.eps_o * (1 + p.gamma) * uT, p.lmin]
-            out.append(InterceptionPlan.from_samples([0.0, 0.5 * T0, T0], [O0, W, G], side))
+            out.append(InterceptionPlan.from_samples([0.0, 0.5 * T0, T0], [O0, W, G], side, "crude"))
         return out
 
     def solve(self, operator0, *, t0: float = 0.0, shark_state=None, guess: InterceptionPlan | None = None,
@@ -302,11 +305,17 @@ def solve_interception(shark, operator0, params: SharkParams = THESIS_TABLE_5_1,
 
     shark: a `SharkTrajectory` (path known: offline optimum) or (position (3,), velocity (>=2,))
         for the constant-velocity prediction (online).
-    operator0: operator position (3,) in m at t0 (s, time on the known path).
+    operator0: operator position (3,) in m at t0 (s, time on the known path); a shark already
+        inside the field at t0 is refused (ValueError): there is nothing to intercept.
     warm_starts: starting plans (`InterceptionPlan`, e.g. virtual-shark rollouts on both
         sides of the path); when empty, two crude plans (one per side) are used.
-    Returns the best result (objective = T in s, x = `InterceptionPlan`); info["tried"] lists
-    (side, status, T) of every start; status FEASIBLE/NO_SOLUTION etc. if no start converged.
+    Returns the best result: objective = T in s (a local optimum of the OCP), x =
+    `InterceptionPlan`, bound = the proven lower bound on T of
+    `formulations.shark.bound.interception_time_bound` (None, with the reason in ``message``,
+    if it could not be computed). info["tried"] lists (origin, side, status, T) of every start,
+    info["start_won"] the origin of the start the best result came from; ``warm_started`` is
+    True only when that start was a heuristic's plan (not one of the formulation's crude
+    guesses). Status FEASIBLE/NO_SOLUTION etc. if no start converged.
 
     params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     N: number of control intervals (count).
@@ -314,29 +323,54 @@ def solve_interception(shark, operator0, params: SharkParams = THESIS_TABLE_5_1,
     t_max: upper bound on the interception time T (s).
     time_limit: wall-clock limit per IPOPT solve (s), None: none.
     """
+    from droneplan.formulations.shark.bound import interception_time_bound
+    from droneplan.scenarios.shark import inside_field
+
     check_instance("params", params, SharkParams)
-    operator0 = check_array("operator0", operator0, shape=(3,))
+    O0 = operator0 = check_array("operator0", operator0, shape=(3,))
     if isinstance(shark, SharkTrajectory):
+        if not (math.isfinite(t0) and 0 <= t0 < shark.duration):
+            raise ValueError(f"t0 must be in [0, {shark.duration}) s (the path's horizon), got {t0}")
+        S_now = shark.at(t0)[0]
         ocp = InterceptionOCP(params, N=N, path=shark, margin=margin, t_max=t_max, time_limit=time_limit)
         state = None
     else:
         if len(shark) != 2:
             raise ValueError("shark must be a SharkTrajectory or (position, velocity)")
+        S_now = np.asarray(shark[0], float)
+        if S_now.shape != (3,) or not np.all(np.isfinite(S_now)):
+            raise ValueError("shark position must be a finite (3,) position")
         ocp = InterceptionOCP(params, N=N, path=None, margin=margin, t_max=t_max, time_limit=time_limit)
         state = shark
-    starts = list(warm_starts) or ocp.default_guesses(operator0, t0=t0, shark_state=state)
-    best, tried = None, []
+    clearance = float(inside_field(S_now, O0, params))
+    if clearance <= 0:
+        raise ValueError(f"shark is already inside the field at t0 (clearance {clearance:.3f} m <= 0): "
+                         "operator0 must start with the shark outside both balls")
+    starts = list(warm_starts) or ocp.default_guesses(O0, t0=t0, shark_state=state)
+    best, best_start, tried = None, None, []
     for g in starts:
-        r = ocp.solve(operator0, t0=t0, shark_state=state, guess=g)
-        tried.append((g.side, r.status.name, None if r.x is None else r.objective))
+        r = ocp.solve(O0, t0=t0, shark_state=state, guess=g)
+        tried.append((g.origin, g.side, r.status.name, None if r.x is None else r.objective))
         ok = r.status in (Status.OPTIMAL, Status.FEASIBLE)
         if ok and (best is None or r.objective < best.objective - 1e-9
                    or (best.status != Status.OPTIMAL and r.status == Status.OPTIMAL
                        and r.objective <= best.objective + 1e-6)):
-            best = r
+            best, best_start = r, g
+    try:
+        lb = interception_time_bound(shark, O0, params, t0=t0, t_max=t_max)
+        bound = lb.bound
+        bound_msg = lb.message
+    except Exception as exc:  # a bound that could not be computed is None, never a number
+        bound, bound_msg = None, f"no bound: {type(exc).__name__}: {exc}"
     if best is None:
         last = r
-        return dataclasses.replace(last, info={**last.info, "tried": tried},
-                                   message=f"no start converged: {tried}")
-    return dataclasses.replace(best, warm_started=bool(warm_starts), info={**best.info, "tried": tried},
-                               message=best.message + f"; best of {len(starts)} starts (side {best.x.side})")
+        return dataclasses.replace(last, bound=bound, info={**last.info, "tried": tried, "start_won": None},
+                                   message=f"no start converged: {tried}; {bound_msg}")
+    if bound is not None and best.objective < bound - 1e-6:  # cannot happen unless a constraint is violated
+        bound_msg += f"; WARNING: OCP T={best.objective:.6f} s is below it (constraint violation?)"
+    won = best_start.origin or "unknown"
+    return dataclasses.replace(
+        best, bound=bound, warm_started=won not in ("crude", "unknown"),
+        info={**best.info, "tried": tried, "start_won": won, "bound_message": bound_msg},
+        message=best.message.replace("local optimum (IPOPT), no bound", "local optimum (IPOPT)")
+        + f"; best of {len(starts)} starts (side {best.x.side}, from the {won} start); bound: {bound_msg}")

@@ -39,7 +39,7 @@ def virtual_shark_plan(trajectory: SharkTrajectory, operator0, params: SharkPara
         return None, vs
     k = int(round(vs.capture_time / params.Ts))
     s = side if side is not None else 0
-    return InterceptionPlan.from_samples(tr.t[:k + 1], tr.operator[:k + 1], s), vs
+    return InterceptionPlan.from_samples(tr.t[:k + 1], tr.operator[:k + 1], s, "virtual-shark"), vs
 
 
 def optimal_interception(trajectory: SharkTrajectory, operator0, params: SharkParams = THESIS_TABLE_5_1, *,
@@ -47,7 +47,9 @@ def optimal_interception(trajectory: SharkTrajectory, operator0, params: SharkPa
     """Offline optimum for a known path: the OCP warm-started from virtual-shark rollouts on both sides.
 
     Also tries the formulation's two crude starts; ``info["virtual_shark_T"]`` holds the thesis
-    algorithm's capture time (s) with its own side rule.
+    algorithm's capture time (s) with its own side rule, ``info["start_won"]`` whether a
+    virtual-shark rollout or a crude start gave the best plan (``warm_started`` is True only
+    for the former); ``bound`` is the proven lower bound on T.
 
     trajectory: the shark's known SharkTrajectory.
     operator0: (3,) operator start (m).

@@ -22,6 +22,10 @@ def test_gap_rows_are_consistent():
     assert rows["ocp"]["objective"] <= rows["virtual-shark"]["objective"] + 1e-6
     assert math.isclose(rows["virtual-shark"]["gap_to_best"],
                         rows["virtual-shark"]["objective"] / rows["ocp"]["objective"] - 1)
+    lb = rows["interception-time-bound"]["objective"]
+    assert lb <= rows["ocp"]["objective"] + 1e-6 and lb <= rows["virtual-shark"]["objective"] + 1e-9
+    assert rows["ocp"]["gap_to_bound"] >= -1e-6 and rows["ocp"]["gap_bound_kind"] == "proven-global"
+    assert rows["ocp"]["warm_started"] == (rows["ocp"]["shark_start_won"] == "virtual-shark")
     rows = {r["method"]: r for r in study.gap_task(dict(problem="shark", instance="gap-assign:seed=1", kind="assign",
                                                         seed=1))}
     assert rows["bottleneck"]["status"] == "optimal"
