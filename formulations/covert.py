@@ -58,6 +58,7 @@ __all__ = [
     "RecedingBearingMPC",
     "cos_bearing_symbolic",
     "sphere_minmax_bearing",
+    "sphere_minmax_bearing_bnb",
 ]
 
 _SERIES_TERMS = 20  # accurate to 1e-15 for theta = |u| Delta <= 6 rad
@@ -454,12 +455,23 @@ class RecedingBearingMPC:
                                                            structure=self._structure(), time_limit=st.time_limit)
         return self._solvers[warm]
 
-    def solve(self, data: MPCData, *, x0: np.ndarray | None = None, warm: SolveResult | None = None) -> SolveResult:
+    def solve(self, data: MPCData, *, x0: np.ndarray | None = None, warm: SolveResult | None = None,
+              start: str | None = None) -> SolveResult:
         """Solve for ``data`` from the starting vector ``x0`` (duals of ``warm`` reused when the
         backend takes them).
 
-        Returns a SolveResult whose x is an :class:`MPCPlan` (info["z"]: the raw vector).
+        start: what x0 is (e.g. "sliding-rollout", "shifted-plan"), recorded in info["start"].
+        Returns a SolveResult whose x is an :class:`MPCPlan` (info["z"]: the raw vector);
+        ``warm_started`` is True when a supplied x0 was handed to the solver, info["start"] says
+        which start it was ("straight-flight" when none was given) and info["duals_reused"]
+        whether the backend also started from ``warm``'s multipliers.
         """
+        label = start if start is not None else ("given" if x0 is not None else "straight-flight")
+        res = self._solve(data, x0=x0, warm=warm)
+        return replace(res, warm_started=x0 is not None,
+                       info={**res.info, "start": label, "duals_reused": bool(res.warm_started)})
+
+    def _solve(self, data: MPCData, *, x0: np.ndarray | None = None, warm: SolveResult | None = None) -> SolveResult:
         m = self.model
         p = m.pack_params(data)
         lbx, ubx, lbg, ubg = m.bounds(data)
@@ -478,9 +490,31 @@ class RecedingBearingMPC:
 
 
 # --------------------------------------------------------------------------- instantaneous oracle
-def sphere_minmax_bearing(params: CovertParams, targets: Any, *, tol: float = math.radians(0.05),
-                          max_cells: int = 400_000) -> SolveResult:
-    """Global min over the observation sphere of max_j beta_j for fixed targets, with a proven bound.
+def sphere_minmax_bearing(params: CovertParams, targets: Any, *, c_start: float | None = None) -> SolveResult:
+    """Exact min over the observation sphere of max_j beta_j (rad) for fixed targets, with a certified bound.
+
+    The convex program of :func:`formulations.covert_bounds.instant_minmax_bearing` (an SOCP
+    per angle, cvxpy; no grid, no tolerance to choose): objective = max_j beta_j at the
+    returned point x (3,) of the sphere (m), bound = a certified lower bound (rad), equal to
+    about 1e-5 rad (1e-4 rad near 0). Where that program does not apply (R inside the
+    observation ball, or an optimum of 90 deg or more), the branch and bound :func:`sphere_minmax_bearing_bnb` answers
+    instead (``backend`` says which). targets: (n, 3) positions (m), n >= 1, none on the sphere.
+    c_start: cos of an angle believed below the optimum (e.g. the previous instant's optimum
+    minus a margin), to save solves along a sequence of instants.
+    """
+    from droneplan.formulations.covert_bounds import instant_minmax_bearing
+
+    res = instant_minmax_bearing(params, targets, c_start=c_start)
+    if res.has_solution:
+        return res
+    bnb = sphere_minmax_bearing_bnb(params, targets)
+    return replace(bnb, message=f"{res.message}; fell back to: {bnb.message}")
+
+
+def sphere_minmax_bearing_bnb(params: CovertParams, targets: Any, *, tol: float = math.radians(0.05),
+                              max_cells: int = 400_000) -> SolveResult:
+    """Global min over the observation sphere of max_j beta_j for fixed targets, with a proven bound
+    (branch and bound; the test oracle of :func:`sphere_minmax_bearing`).
 
     Branch and bound on a latitude-longitude partition of the sphere |D - F| = L_u: a cell
     with centre C and covering radius rho (every point of the cell is within rho of C)

@@ -4,9 +4,12 @@
   the hover benchmark, the sliding-mode laws and the min-max bearing MPC, plus PNGs
   (3D trajectories, bearing changes, noise).
 - ``gap``: per random target group, hover / sliding / MPC / safeguarded MPC maximum recorded bearing
-  change, and the proven instantaneous optimum on the sphere
-  (:func:`formulations.covert.sphere_minmax_bearing`) as a lower bound for any
-  controller that keeps the sphere during the observation.
+  change, the exact instantaneous optimum on the sphere at every control instant
+  (:func:`formulations.covert.sphere_minmax_bearing`, a convex program) as a lower bound for any
+  controller that keeps the sphere during the observation, and the whole-mission lower bound
+  (:func:`formulations.covert_bounds.mission_lower_bound`) for any controller arriving by the
+  sliding mode's arrival time.
+- ``reproduce`` also draws the stealth-versus-arrival-time front (:func:`stealth_front`).
 - ``bench``: MPC solve time per replan vs its control period (IPOPT and the OSQP
   real-time iteration), and the MPC-vs-sliding margin on both cases, for the MPC and
   the safeguarded MPC (MPC plan or sliding rollout per replan, with its arrival times).
@@ -62,19 +65,30 @@ def _on_sphere(tr: CovertTrace) -> np.ndarray:
     return (tr.t >= tr.t_a) & (tr.t <= end)
 
 
-def _oracle_on_sphere(tr: CovertTrace, scenario, every: float = 2.0) -> tuple[float, float]:
-    """max over sampled on-sphere times of the proven lower bound / best value of min_D max_j beta_j."""
-    on = np.nonzero(_on_sphere(tr))[0]
-    step = max(1, int(round(every / scenario.params.dt)))
-    lbs, best = [], []
-    for k in on[::step]:
+def _instant_optima(tr: CovertTrace, scenario) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(k, bound, best): at every control instant k of tr's time on the sphere, the certified lower
+    bound and the value of min over the sphere of max_j beta_j over the observable targets (rad)."""
+    ks, lbs, best = [], [], []
+    c = None
+    for k in np.nonzero(_on_sphere(tr))[0]:
         obs = scenario.observable_at(tr.t[k])
         if not obs.any():
             continue
-        r = sphere_minmax_bearing(scenario.params, tr.targets[k][obs])
-        lbs.append(r.bound)
-        best.append(r.objective)
-    return (max(lbs) if lbs else math.nan), (max(best) if best else math.nan)
+        r = sphere_minmax_bearing(scenario.params, tr.targets[k][obs], c_start=c)
+        if not r.has_solution:
+            continue
+        c = max(math.cos(r.objective) - 1e-3, 0.0)
+        ks.append(k), lbs.append(r.bound), best.append(r.objective)
+    return np.asarray(ks, int), np.asarray(lbs), np.asarray(best)
+
+
+def _oracle_on_sphere(tr: CovertTrace, scenario) -> tuple[float, float, float]:
+    """(max over on-sphere instants of the proven lower bound, of the optimum, and max over those
+    instants of tr's beta_m minus the optimum) in rad, at every control instant."""
+    ks, lbs, best = _instant_optima(tr, scenario)
+    if not ks.size:
+        return math.nan, math.nan, math.nan
+    return float(lbs.max()), float(best.max()), float(np.nanmax(tr.beta_m[ks] - best))
 
 
 # --------------------------------------------------------------------------- plots
@@ -108,7 +122,7 @@ def _plot_beta(traces: dict[str, CovertTrace], path: Path, title: str, per_targe
 # --------------------------------------------------------------------------- reproduce
 def _case_table(case: int, traces, scenario, thesis: dict, out: Path, safe: SafeguardedMPCObserver) -> dict:
     h, s, m = traces["hover"], traces["sliding"], traces["mpc"]
-    lb, best = _oracle_on_sphere(s, scenario, every=5.0)
+    lb, best, excess = _oracle_on_sphere(s, scenario)
     tab = ComparisonTable(f"Case {case}: maximum recorded bearing change (Fig. 3.{10 if case == 1 else 14})")
     tab.add("beta_max hover benchmark (deg)", thesis["hover"], h.beta_max * DEG, "max over run of max_j beta_j, true positions")
     tab.add("beta_max sliding mode (deg)", thesis["sliding"], s.beta_max * DEG, "saturated sliding-mode laws (§3.5)")
@@ -134,25 +148,86 @@ def _case_table(case: int, traces, scenario, thesis: dict, out: Path, safe: Safe
     tab.add("sphere error sliding / MPC (m)", 0.0, f"{s.sphere_error:.3f} / {m.sphere_error:.3f}",
             "max | |D-F| - L_u | for t_a <= t <= t_f")
     tab.add("lower bound, any controller on the sphere over [t_a, t_f] of sliding (deg)", None, lb * DEG,
-            "max over t (every 5 s) of the proven min over the sphere of max_j beta_j")
+            "max over every control instant of the exact min over the sphere of max_j beta_j (convex program)")
     tab.add("sliding on-sphere beta_m minus instantaneous optimum (deg)", None,
-            _sliding_excess(s, scenario) * DEG, "max over sampled on-sphere t of beta_m(sliding) - best point")
+            excess * DEG, "max over every on-sphere control instant of beta_m(sliding) - optimum")
     tab.add("back at D_s (sliding / MPC)", True, f"{s.finished} / {m.finished}", "|D - D_s| <= 5 cm at the end")
     tab.emit(out, f"case{case}")
     return {"hover": h.beta_max, "sliding": s.beta_max, "mpc": m.beta_max, "oracle_lb": lb, "safe": g.beta_max,
             "t_a_safe": g.t_a, "t_a_sliding": s.t_a}
 
 
-def _sliding_excess(tr: CovertTrace, scenario, every: float = 5.0) -> float:
-    on = np.nonzero(_on_sphere(tr))[0]
-    step = max(1, int(round(every / scenario.params.dt)))
-    worst = 0.0
-    for k in on[::step]:
-        obs = scenario.observable_at(tr.t[k])
-        if obs.any():
-            r = sphere_minmax_bearing(scenario.params, tr.targets[k][obs])
-            worst = max(worst, tr.beta_m[k] - r.objective)
-    return worst
+def stealth_front(scenario, traces: dict[str, CovertTrace], *, n_arrivals: int = 6, step: float = 0.5):
+    """beta_max against arrival time: one point per run, and the whole-mission lower bound.
+
+    traces: {name: trace} of runs on ``scenario`` (each with an arrival t_a). The bound
+    (:func:`formulations.covert_bounds.mission_front`) is computed for ``n_arrivals`` arrival
+    times from the earliest possible (straight at V_max) to 5 s after the latest run's, for
+    controllers that stay on the sphere until the earliest departure t_f among the runs and are
+    back at D_s by the latest end among them, at instants every ``step`` s (a subset of the
+    control instants: still a valid bound). Returns (points, bound) DataFrames (angles in deg).
+    """
+    import pandas as pd
+
+    from droneplan.formulations.covert_bounds import mission_front
+
+    p = scenario.params
+    pts = pd.DataFrame([{"method": k, "t_a": tr.t_a, "t_f": tr.t_f, "beta_max_deg": tr.beta_max * DEG}
+                        for k, tr in traces.items() if tr.t_a is not None])
+    t_min = (float(np.linalg.norm(p.D_s_arr - p.F_arr)) - p.L_u) / p.V_max
+    arrivals = np.linspace(t_min + 0.5, float(pts.t_a.max()) + 5.0, n_arrivals)
+    t_f = float(pts.t_f.dropna().min())
+    t_end = max(float(tr.t[-1]) for tr in traces.values())
+    times = np.arange(0.0, t_end + 1e-9, step)
+    fronts = mission_front(scenario, arrivals, t_f, times=times, t_end=t_end)
+    bound = pd.DataFrame([{"t_a": f.t_a, "bound_deg": f.value * DEG, "attained_at_s": f.argmax, "t_f": t_f}
+                          for f in fronts])
+    return pts, bound
+
+
+def plot_stealth_front(points, bound, ax=None, title: str = ""):
+    """Figure of :func:`stealth_front`'s output; returns the axes."""
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6, 4))
+    ax.plot(bound.t_a, bound.bound_deg, "k.-", label="lower bound, any controller arriving by t_a")
+    for _, r in points.iterrows():
+        ax.plot(r.t_a, r.beta_max_deg, "o", label=f"{r.method} ({r.beta_max_deg:.2f} deg)")
+    ax.set_xlabel("arrival time on the sphere t_a (s)")
+    ax.set_ylabel("beta_max (deg)")
+    ax.set_title(title or "stealth vs arrival time")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return ax
+
+
+def _front_section(case: int, scenario, traces: dict[str, CovertTrace], out: Path, quick: bool) -> None:
+    names = {"sliding": "sliding mode", "mpc": "MPC (approach 0.7 V_max)", "mpc-slow": "MPC (approach 0.3 V_max)",
+             "mpc-safe": "safeguarded MPC"}
+    runs = {label: traces[k] for k, label in names.items() if k in traces}
+    if not quick:
+        for prog in (0.5, 1.0):
+            runs[f"MPC (approach {prog:g} V_max)"] = simulate(
+                scenario, MPCObserver(observer=MPCObserverSettings(progress=prog)))
+    pts, bound = stealth_front(scenario, runs, n_arrivals=5 if quick else 10, step=1.0 if quick else 0.2)
+    pts.to_csv(out / f"case{case}_stealth_front_points.csv", index=False)
+    bound.to_csv(out / f"case{case}_stealth_front_bound.csv", index=False)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    plot_stealth_front(pts, bound, ax, f"Case {case}: stealth vs arrival time")
+    fig.tight_layout()
+    fig.savefig(out / f"case{case}_stealth_front.png", dpi=110)
+    plt.close(fig)
+    tab = ComparisonTable(f"Case {case}: stealth vs arrival time (whole-mission lower bound)")
+    for _, r in pts.iterrows():
+        # the bound is non-increasing in t_a: the grid point just below t_a is a valid (weaker) bound
+        below = bound[bound.t_a <= r.t_a + 1e-9]
+        lb = float(below.bound_deg.iloc[-1]) if len(below) else math.nan
+        tab.add(f"{r.method}: beta_max / bound for its arrival (deg)", None, f"{r.beta_max_deg:.2f} / {lb:.2f}",
+                f"t_a = {r.t_a:.1f} s; bound at the grid arrival <= t_a")
+    tab.add("bound at the earliest / latest arrival of the grid (deg)", None,
+            f"{bound.bound_deg.iloc[0]:.2f} / {bound.bound_deg.iloc[-1]:.2f}",
+            f"t_a = {bound.t_a.iloc[0]:.1f} / {bound.t_a.iloc[-1]:.1f} s; on the sphere until t_f = "
+            f"{bound.t_f.iloc[0]:.1f} s, instants every {1.0 if quick else 0.2} s")
+    tab.emit(out, f"case{case}_stealth_front")
 
 
 def _noise_study(quick: bool, out: Path) -> None:
@@ -209,6 +284,8 @@ def reproduce(*, quick: bool, out: Path) -> None:
         main = {k: traces[k] for k in ("hover", "sliding", "mpc")}
         _plot_3d(sc, main, out / f"case{case}_3d.png", f"Case {case}: drone paths (Fig. 3.{9 if case == 1 else 14}a)")
         _plot_beta(main, out / f"case{case}_beta.png", f"Case {case}: beta_m", per_target="sliding")
+        if case == 1 or not quick:
+            _front_section(case, sc, traces, out, quick)
 
     # Fig. 3.12: target speed 5 m/s on the same paths
     sc5 = thesis_case(1, V_T=5.0)
@@ -273,14 +350,33 @@ def gap_task(task: dict) -> list[dict]:
         if name == "sliding":
             on = _on_sphere(tr)
             extras["onsphere_max_deg"] = float(np.nanmax(tr.beta_m[on])) * DEG if on.any() else None
+        # the MPCs take the sliding-mode rollout as the start of their first solve (and after a failure)
+        warm = name.startswith("mpc") and "sliding-rollout" in getattr(ctls[name], "starts", [])
+        if name.startswith("mpc"):
+            extras["starts_sliding_rollout"] = getattr(ctls[name], "starts", []).count("sliding-rollout")
         outcomes.append(Outcome(name, roles[name], "feasible", objective=tr.beta_max * DEG, time_s=times[name],
+                                warm_started=warm,
                                 message="closed-loop simulate(); beta_max over the whole run", extras=extras))
     t0 = time.perf_counter()
-    lb, _ = _oracle_on_sphere(traces["sliding"], sc, every=5.0)
+    lb, _, _ = _oracle_on_sphere(traces["sliding"], sc)
     outcomes.append(Outcome("onsphere-optimum", "bound", "optimal", bound=lb * DEG, bound_kind="instantaneous",
                             time_s=time.perf_counter() - t0,
-                            message="max over t (every 5 s, sliding's on-sphere phase) of the proven min over the "
-                                    "sphere of max_j beta_j: a bound for controllers on the sphere at those instants"))
+                            message="max over every control instant of sliding's on-sphere phase of the exact min "
+                                    "over the sphere of max_j beta_j (convex program): a bound for controllers "
+                                    "on the sphere at those instants"))
+    sl = traces["sliding"]
+    if sl.t_a is not None and sl.t_f is not None:
+        from droneplan.formulations.covert_bounds import mission_lower_bound
+
+        t0 = time.perf_counter()
+        mb = mission_lower_bound(sc, sl.t_a, sl.t_f, t_end=float(sl.t[-1]),
+                                 times=np.arange(0.0, sl.t[-1] + 1e-9, 0.5))
+        if np.isfinite(mb.value):
+            outcomes.append(Outcome(
+                "mission-bound", "bound", "optimal", bound=mb.value * DEG, bound_kind="proven-global",
+                time_s=time.perf_counter() - t0,
+                message=f"whole-mission lower bound on beta_max for any controller on the sphere from sliding's "
+                        f"t_a = {sl.t_a:.1f} s to t_f = {sl.t_f:.1f} s and home by {sl.t[-1]:.1f} s (every 0.5 s)"))
     return build_rows("covert", task["instance"], seed=seed, size=n, sense="min", outcomes=outcomes)
 
 

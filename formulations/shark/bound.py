@@ -35,12 +35,11 @@ import time
 
 import casadi as ca
 import numpy as np
-
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.search import first_root_lipschitz
 
-__all__ = ["interception_time_bound", "frontal_point"]
+__all__ = ["frontal_point", "interception_time_bound"]
 
 _LIP_OVERSAMPLE = 20  # derivative of G sampled at dt / 20 ...
 _LIP_MARGIN = 1.5  # ... and inflated by 50% for the Lipschitz constant (G is a C2 cubic B-spline)
@@ -123,7 +122,7 @@ def interception_time_bound(shark, operator0, params: SharkParams = THESIS_TABLE
     # Lipschitz constant of f: VoM + |dG/dt|, the latter from G sampled finely over [lo, hi]
     dt = (shark.dt if isinstance(shark, SharkTrajectory) else 0.1) / _LIP_OVERSAMPLE
     grid = np.arange(lo, hi + dt, dt)
-    G, eps = frontal_point(shark, grid, params, t0=t0)
+    G, _ = frontal_point(shark, grid, params, t0=t0)
     dG = np.diff(G, axis=0) / dt
     L_xy = float(np.max(np.linalg.norm(dG[:, :2], axis=1))) if len(dG) else 0.0
     L_z = float(np.max(np.abs(dG[:, 2]))) if len(dG) else 0.0

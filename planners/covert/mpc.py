@@ -57,7 +57,8 @@ class MPCObserver(_PhasedController):
     of each observable target, predict them over the horizon, solve the MPC warm-started
     from the previous plan shifted by one period (the first period: the sliding-mode
     rollout), apply the first command. A failed solve applies the sliding-mode command
-    instead and is counted in ``fallbacks``. Within home_radius of D_s the drone flies
+    instead and is counted in ``fallbacks``. ``starts`` records, per solve, the start of the
+    result that was kept ("sliding-rollout" or "shifted-plan"; "" when the solve failed). Within home_radius of D_s the drone flies
     straight home as in the sliding-mode Retreat.
 
     settings: SlidingSettings of the phase logic and the fallback law (default: SlidingSettings()).
@@ -91,6 +92,7 @@ class MPCObserver(_PhasedController):
         self._prev_phase = None
         self._phase_start = (0.0, 0.0)
         self.statuses = []
+        self.starts: list[str] = []
         self.predicted_beta = []
         self.restarts = 0
         self._hold = None
@@ -221,7 +223,8 @@ class MPCObserver(_PhasedController):
         data = MPCData(D0=obs.drone, h0=obs.heading, targets=pred, mask=obs.observable.copy(),
                        sphere_lo=lo, sphere_hi=hi, home_hi=home_hi, tangent=tangent)
         x0 = self._shifted_guess(model, data)
-        res = solver.solve(data, x0=x0, warm=self._prev)
+        label = "shifted-plan" if self._prev is not None and self._prev.has_solution else "sliding-rollout"
+        res = solver.solve(data, x0=x0, warm=self._prev, start=label)
         elapsed = res.solve_time
         idle = not res.has_solution or abs(res.x.v[0]) < self.observer.idle_speed
         if solver.local_optimum and self._prev is not None and idle:
@@ -233,7 +236,7 @@ class MPCObserver(_PhasedController):
             if abs(v_s[0]) >= self.observer.idle_speed:
                 from droneplan.formulations.covert import rollout_guess
 
-                res2 = solver.solve(data, x0=rollout_guess(model, data, u_s, v_s))
+                res2 = solver.solve(data, x0=rollout_guess(model, data, u_s, v_s), start="sliding-rollout")
                 elapsed += res2.solve_time
                 if res2.has_solution and (not res.has_solution or res2.info["f"] < res.info["f"] - 1e-12):
                     res = res2
@@ -241,6 +244,7 @@ class MPCObserver(_PhasedController):
         res = replace(res, solve_time=elapsed)
         self.solve_times.append(res.solve_time)
         self.statuses.append(res.status.value)
+        self.starts.append(str(res.info.get("start", "")) if res.has_solution else "")
         if not res.has_solution:
             self.fallbacks += 1
             self._prev = None

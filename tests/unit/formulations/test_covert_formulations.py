@@ -175,3 +175,15 @@ def test_sphere_minmax_bound_against_dense_sampling(seed):
     vals = bearing_changes(pts, np.broadcast_to(A, (len(pts), 4, 3)), P.R).max(axis=1)
     assert vals.min() >= res.bound - 1e-12  # the bound is valid
     assert res.objective <= vals.min() + 1e-3  # and the search found (nearly) the best
+
+
+def test_receding_mpc_reports_its_start():
+    model = build_bearing_mpc(P, 2, SET)
+    solver = RecedingBearingMPC(model)
+    data = _data(False, TARGETS, SET.horizon)
+    cold = solver.solve(data)
+    assert not cold.warm_started and cold.info["start"] == "straight-flight" and not cold.info["duals_reused"]
+    x0 = rollout_guess(model, data, np.zeros((SET.horizon, 3)), np.full(SET.horizon, 3.0))
+    warm = solver.solve(data, x0=x0, warm=cold, start="sliding-rollout")
+    assert warm.warm_started and warm.info["start"] == "sliding-rollout"
+    assert warm.info["duals_reused"] == cold.has_solution

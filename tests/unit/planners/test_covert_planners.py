@@ -149,6 +149,32 @@ def test_mpc_commands_within_plant_bounds(backend):
     assert np.all(np.abs(tr.distance_to_F[on] - sc.params.L_u) <= 1.0)
 
 
+def test_mpc_warm_starts_are_reported_as_what_they_were(monkeypatch):
+    import droneplan.formulations.covert as fc
+
+    seen = []
+    real = fc.RecedingBearingMPC.solve
+
+    def spy(self, data, **kw):
+        res = real(self, data, **kw)
+        seen.append((kw.get("x0") is not None, kw.get("start"), res))
+        return res
+
+    monkeypatch.setattr(fc.RecedingBearingMPC, "solve", spy)
+    ctl = MPCObserver()
+    simulate(thesis_case(1), ctl, max_time=6.0)
+    assert seen and seen[0][1] == "sliding-rollout"  # the first solve starts from the sliding rollout
+    for given, label, res in seen:
+        # warm_started is True exactly when a start was handed over, and info names it
+        assert res.warm_started == given and res.info["start"] == label
+        assert isinstance(res.info["duals_reused"], bool)
+    # later solves start from the previous plan shifted by one period, reusing its duals
+    later = [r for g, lab, r in seen[1:] if lab == "shifted-plan"]
+    assert later and any(r.info["duals_reused"] for r in later)
+    assert len(ctl.starts) == len(ctl.statuses)
+    assert set(ctl.starts) <= {"sliding-rollout", "shifted-plan", ""}
+
+
 def test_mpc_falls_back_to_sliding_mode_and_counts(monkeypatch):
     import droneplan.formulations.covert as fc
 

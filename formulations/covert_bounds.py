@@ -1,0 +1,344 @@
+"""Proven references for covert observation (thesis ch. 3) as convex programs (cvxpy).
+
+Per instant. With u_j the unit vector from target A_j to the reference point R, the
+bearing change (3.6) at A_j satisfies beta_j(D) <= theta  <=>  u_j . (D - A_j) >=
+cos(theta) |D - A_j|: for theta < 90 deg a second-order cone with apex A_j around the axis
+towards R. So {D : max_j beta_j(D) <= theta} is convex and contains R. When R lies
+outside the observation ball |D - F| <= L_u (Table 3.2: |R - F| = 272 m > 200 m), any
+such D inside the ball joins R by a segment that crosses the sphere, and the whole segment
+stays in the convex set: the minimum over the sphere equals the minimum over the ball,
+a quasiconvex program. With c = cos(theta) we solve the slack form
+
+    s(c) = max_{|D - F| <= L_u}  min_j  u_j . (D - A_j) - c |D - A_j|
+
+(an SOCP, compiled once with cvxpy parameters), which is convex and decreasing in c; the
+optimum is the root c* of s, beta* = arccos(c*). Newton's method on s from the feasible side
+(s > 0) increases c monotonically to c* (s is convex, so each tangent root stays below c*),
+with ds/dc = -sum_j lambda_j |D - A_j| from the duals lambda of the slack rows. A final solve
+at c* + delta with s < 0 certifies the lower bound arccos(c* + delta).
+
+Whole mission. A drone that starts at D_s at t = 0, flies at |v| <= V_max, is on the
+sphere from t_a to t_f and back at D_s at the end T is, at each instant, inside the convex
+set  |D - D_s| <= V_max min(t, T - t)  and  |D - F| <= L_u + V_max max(t_a - t, 0, t - t_f)
+(and on the sphere for t_a <= t <= t_f, relaxed to the ball as above). The minimum of
+max_j beta_j over that convex set (same slack program with the extra balls) at every
+control instant, maximised over the instants, is a lower bound on beta_max for any such
+controller, whatever it knows about the targets.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import cvxpy as cp
+import numpy as np
+from droneplan.solvers.result import SolveResult, Status
+
+__all__ = ["InstantMinmaxProgram", "MissionBound", "instant_minmax_bearing", "mission_front", "mission_lower_bound"]
+
+_C_WIDTH = 1e-9  # the search stops when the bracket on cos(theta*) is this narrow
+_DELTA_C = 1e-6  # certification: first step in cos(theta) above the bracket (about 1e-5 rad in theta)
+_S_TOL = 1e-7  # certified infeasible when s < -_S_TOL (scaled: 20 um at L_u = 200 m), 10x the solver tolerance
+
+
+class InstantMinmaxProgram:
+    """The slack SOCP  max s  s.t.  u_j.(y - q_j) - c t_j >= s,  |y - q_j| <= t_j,  |y| <= 1,
+    |y - p_i| <= r_i  (extra balls),  in units scaled by L_u around F (y = (D - F) / L_u),
+    built once for ``n_targets`` targets and ``n_balls`` extra balls and re-solved with new
+    parameters (targets, c, balls) in milliseconds.
+    """
+
+    last_accurate: bool = False
+    """Whether the last solve ended OPTIMAL (not OPTIMAL_INACCURATE)."""
+
+    def __init__(self, n_targets: int, n_balls: int = 0):
+        if isinstance(n_targets, bool) or not isinstance(n_targets, (int, np.integer)) or n_targets < 1:
+            raise ValueError(f"n_targets must be an int >= 1, got {n_targets!r}")
+        if isinstance(n_balls, bool) or not isinstance(n_balls, (int, np.integer)) or n_balls < 0:
+            raise ValueError(f"n_balls must be an int >= 0, got {n_balls!r}")
+        n = int(n_targets)
+        self.n_targets, self.n_balls = n, int(n_balls)
+        self.y = cp.Variable(3)
+        self.t = cp.Variable(n)
+        self.s = cp.Variable()
+        self.U = cp.Parameter((n, 3))
+        self.Q = cp.Parameter((n, 3))
+        self.b = cp.Parameter(n)
+        self.c = cp.Parameter(nonneg=True)
+        self.P = cp.Parameter((max(self.n_balls, 1), 3))
+        self.r = cp.Parameter(max(self.n_balls, 1), nonneg=True)
+        self.slack_rows = self.U @ self.y - self.b - self.c * self.t >= self.s
+        cons = [self.slack_rows, cp.norm(self.y) <= 1.0]
+        cons += [cp.norm(self.y - self.Q[j]) <= self.t[j] for j in range(n)]
+        cons += [cp.norm(self.y - self.P[i]) <= self.r[i] for i in range(self.n_balls)]
+        self.problem = cp.Problem(cp.Maximize(self.s), cons)
+        assert self.problem.is_dpp()
+
+    def _s(self, c: float) -> tuple[float, float, np.ndarray] | None:
+        """(s(c), ds/dc, y) or None when the solver failed; s = -inf when the balls do not meet."""
+        self.c.value = c
+        try:
+            with warnings.catch_warnings():  # an inaccurate solve is never used as a certificate
+                warnings.simplefilter("ignore", UserWarning)
+                self.problem.solve(solver=cp.CLARABEL)
+        except cp.error.SolverError:
+            return None
+        self.last_accurate = self.problem.status == cp.OPTIMAL
+        if self.problem.status == cp.INFEASIBLE:
+            return -math.inf, 0.0, np.full(3, np.nan)
+        if self.problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or self.s.value is None:
+            return None
+        lam = np.asarray(self.slack_rows.dual_value, float).ravel()
+        return float(self.s.value), -float(lam @ self.t.value), np.asarray(self.y.value, float)
+
+    def solve(self, params: Any, targets: Any, *, balls: Any = None, c_start: float | None = None,
+              radius: float | None = None) -> tuple[float | None, float | None, np.ndarray | None, int, str]:
+        """(cos of the certified lower bound, cos of the best feasible angle, its point D (m), solves, note).
+
+        targets: (n, 3) m; balls: (n_balls, 4) rows (centre (3) m, radius m); c_start: a cos(theta)
+        believed to be below the root (e.g. the previous instant's, minus a margin); radius: the
+        radius (m) of the ball around F (default params.L_u, the observation ball).
+        The first two are None when theta* >= 90 deg (the cones are no longer convex).
+        """
+        F, R = params.F_arr, params.R_arr
+        L = params.L_u if radius is None else float(radius)
+        A = np.asarray(targets, float).reshape(-1, 3)
+        u = R - A
+        nu = np.linalg.norm(u, axis=1, keepdims=True)
+        if np.any(nu < 1e-9):
+            raise ValueError("a target coincides with the reference point R")
+        u = u / nu
+        q = (A - F) / L
+        self.U.value, self.Q.value, self.b.value = u, q, np.sum(u * q, axis=1)
+        if self.n_balls:
+            B = np.asarray(balls, float).reshape(self.n_balls, 4)
+            self.P.value, self.r.value = (B[:, :3] - F) / L, np.maximum(B[:, 3], 0.0) / L
+        else:
+            self.P.value, self.r.value = np.zeros((1, 3)), np.ones(1)
+        solves = 0
+
+        def ev(c):
+            nonlocal solves
+            solves += 1
+            return self._s(c)
+
+        # bracket [lo, hi] with s(lo) > 0 >= s(hi); s is decreasing in c (each row is), but
+        # neither convex nor concave in general, so the search takes Newton steps from the
+        # known ends of the bracket (closest to the root first) and bisects when both leave it
+        lo, hi = 0.0, 1.0
+        f_lo = f_hi = None
+        hi_accurate = False
+        c = float(c_start) if c_start is not None and 0.0 < c_start < 1.0 else 0.0
+        while solves < 60:
+            r = ev(c)
+            if r is None:
+                return None, None, None, solves, "solver failure"
+            if r[0] > 0:
+                lo, f_lo = c, r
+            else:
+                hi, f_hi, hi_accurate = c, r, self.last_accurate
+            if f_lo is None and lo == 0.0 and c == 0.0:
+                return None, None, None, solves, "min-max bearing >= 90 deg (or the balls do not meet): not convex"
+            if f_lo is not None and (hi - lo <= _C_WIDTH or f_lo[0] <= 0.1 * _S_TOL):
+                break
+            if f_hi is None and hi == 1.0 and c == 1.0:  # s(1) > 0: every cone met at theta = 0
+                return 1.0, 1.0, F + L * self._point(f_lo), solves, ""
+            ends = [e for e in ((lo, f_lo), (hi, f_hi)) if e[1] is not None]
+            cands = [c0 - r0[0] / r0[1] for c0, r0 in sorted(ends, key=lambda e: abs(e[1][0]))
+                     if r0[1] < 0 and math.isfinite(r0[0])]
+            c = next((x for x in cands if lo < x < hi), None)
+            if c is None:
+                c = 0.0 if f_lo is None else 1.0 if f_hi is None else 0.5 * (lo + hi)
+        if f_lo is None:
+            return None, None, None, solves, "no feasible angle found"
+        # certify: the first c above lo, in steps growing from _DELTA_C, with s clearly negative
+        step = _DELTA_C
+        while True:
+            c_cert = min(lo + step, 1.0)
+            if c_cert >= hi and f_hi is not None and f_hi[0] < -_S_TOL and hi_accurate:
+                c_cert = hi
+                break
+            r = ev(c_cert)
+            if r is None:
+                return None, lo, F + L * self._point(f_lo), solves, "solver failure at the certification step"
+            if (r[0] < -_S_TOL and self.last_accurate) or c_cert >= 1.0:
+                break
+            step *= 10
+        return c_cert, lo, F + L * self._point(f_lo), solves, ""
+
+    def _point(self, r) -> np.ndarray:
+        return r[2]
+
+
+_PROGRAMS: dict[tuple[int, int], InstantMinmaxProgram] = {}
+
+
+def _program(n: int, n_balls: int) -> InstantMinmaxProgram:
+    key = (n, n_balls)
+    if key not in _PROGRAMS:
+        _PROGRAMS[key] = InstantMinmaxProgram(n, n_balls)
+    return _PROGRAMS[key]
+
+
+def _to_sphere(params: Any, D: np.ndarray) -> np.ndarray:
+    """The point where the segment from D (inside the ball) to R (outside) crosses the sphere."""
+    F, L, R = params.F_arr, params.L_u, params.R_arr
+    d = R - D
+    a, b, c = d @ d, 2 * d @ (D - F), (D - F) @ (D - F) - L * L
+    tau = (-b + math.sqrt(max(b * b - 4 * a * c, 0.0))) / (2 * a)
+    P = D + min(max(tau, 0.0), 1.0) * d
+    return F + L * (P - F) / np.linalg.norm(P - F)
+
+
+def instant_minmax_bearing(params: Any, targets: Any, *, c_start: float | None = None) -> SolveResult:
+    """Exact min over the observation sphere of max_j beta_j (rad) for fixed targets, by the convex program.
+
+    targets: (n, 3) positions (m), n >= 1. Returns OPTIMAL with objective = max_j beta_j at
+    the returned point x (3,) of the sphere (m) and bound = a certified lower bound (rad):
+    no point of the sphere does better; both agree to about 1e-5 rad (up to 1e-4 rad for optima
+    within a degree of 0). Returns ERROR (no numbers) when the program does not apply: R
+    inside the observation ball, or an optimum of 90 deg or more (then the cones are not convex; use the branch and bound).
+    c_start: cos of an angle believed to be below the optimum (speeds up a sequence of instants).
+    """
+    from droneplan.scenarios.covert import bearing_changes
+
+    t0 = time.perf_counter()
+    A = np.asarray(targets, dtype=float).reshape(-1, 3)
+    if A.shape[0] == 0 or not np.isfinite(A).all():
+        raise ValueError("targets must be a non-empty finite (n, 3) array")
+    if np.linalg.norm(params.R_arr - params.F_arr) <= params.L_u:
+        return SolveResult(Status.ERROR, backend="cvxpy-clarabel", solve_time=time.perf_counter() - t0,
+                           message="R lies inside the observation ball: the convex reformulation does not apply")
+    c_lo, c_best, D, solves, note = _program(A.shape[0], 0).solve(params, A, c_start=c_start)
+    el = time.perf_counter() - t0
+    if c_lo is None or D is None:
+        return SolveResult(Status.ERROR, backend="cvxpy-clarabel", solve_time=el, iterations=solves,
+                           message=f"convex per-instant program not applicable: {note}")
+    P = _to_sphere(params, D)
+    val = float(bearing_changes(P, A, params.R_arr).max())
+    bound = min(math.acos(min(c_lo, 1.0)), val)
+    return SolveResult(Status.OPTIMAL, objective=val, bound=bound, x=P, backend="cvxpy-clarabel",
+                       solve_time=el, iterations=solves,
+                       message=f"exact convex per-instant optimum (SOCP slack form, Newton on cos theta, "
+                               f"{solves} solves); bound = certified lower bound on min over the sphere of "
+                               f"max_j beta_j (rad)", info={"cos_theta": c_best})
+
+
+@dataclass(frozen=True)
+class MissionBound:
+    """Lower bound on the mission's beta_max for every controller of the class described in
+    :func:`mission_lower_bound`.
+
+    t: (K,) instants (s); per_instant: (K,) certified lower bounds (rad) of min max_j beta_j over
+    the set reachable at t (NaN where no target is observable or the program does not apply);
+    value: max over the instants (rad), the bound; t_a, t_f: the class's arrival and departure
+    times (s).
+    """
+
+    t: np.ndarray
+    per_instant: np.ndarray
+    value: float
+    t_a: float
+    t_f: float
+
+    @property
+    def argmax(self) -> float:
+        """Instant (s) where the bound is attained."""
+        return float(self.t[int(np.nanargmax(self.per_instant))])
+
+
+def _instant_balls(p: Any, t: float, t_a: float, t_f: float, t_end: float, retreat: bool, sphere_tol: float):
+    """(radius around F, extra balls) of the set a drone of the class can occupy at time t."""
+    balls = [np.r_[p.D_s_arr, p.V_max * t]]
+    if retreat:
+        balls.append(np.r_[p.D_s_arr, p.V_max * max(t_end - t, 0.0)])
+    radius = p.L_u + sphere_tol
+    if t < t_a:
+        radius += p.V_max * (t_a - t)
+    elif t > t_f:
+        radius += p.V_max * (t - t_f)
+    return radius, balls
+
+
+def mission_lower_bound(scenario: Any, t_a: float, t_f: float | None = None, *, times: Any = None,
+                        retreat: bool = True, t_end: float | None = None, sphere_tol: float = 1.0) -> MissionBound:
+    """Lower bound on beta_max (rad) for any controller that leaves D_s at t = 0 at speed <= V_max,
+    is on the observation sphere (within ``sphere_tol`` m) from ``t_a`` (s) to ``t_f`` (s; default:
+    the latest time from which D_s is still reachable by t_end) and, with ``retreat``, is back at
+    D_s by ``t_end`` (s; default params.duration).
+
+    At every instant of ``times`` (default: every control period params.dt) the drone lies in
+    the convex set described in the module docstring; the certified minimum of max_j beta_j
+    over the observable targets on that set bounds what any such controller records at that
+    instant, so their maximum bounds beta_max (the recorded maximum over the run). Instants
+    where the program does not apply (optimum >= 90 deg, or an empty set: the class cannot
+    reach the sphere by t_a) are NaN and left out.
+    """
+    return mission_front(scenario, [t_a], t_f, times=times, retreat=retreat, t_end=t_end,
+                         sphere_tol=sphere_tol)[0]
+
+
+def mission_front(scenario: Any, arrival_times: Any, t_f: float | None = None, *, times: Any = None,
+                  retreat: bool = True, t_end: float | None = None, sphere_tol: float = 1.0) -> list[MissionBound]:
+    """:func:`mission_lower_bound` for several arrival times (s), sharing the instants after arrival.
+
+    The bound is non-increasing in the arrival time (a later deadline admits more controllers):
+    the stealth-versus-arrival-time front of the best any controller could do.
+    """
+    p = scenario.params
+    arr = np.atleast_1d(np.asarray(arrival_times, float))
+    if arr.size == 0 or not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        raise ValueError(f"arrival_times must be finite and >= 0, got {arrival_times!r}")
+    if not (math.isfinite(sphere_tol) and sphere_tol >= 0):
+        raise ValueError(f"sphere_tol must be finite and >= 0, got {sphere_tol}")
+    T = p.duration if t_end is None else float(t_end)
+    if not (math.isfinite(T) and T > 0):
+        raise ValueError(f"t_end must be finite and > 0, got {t_end}")
+    back = (np.linalg.norm(p.D_s_arr - p.F_arr) - p.L_u) / p.V_max  # shortest way home from the sphere
+    tf = (T - back) if t_f is None else float(t_f)
+    if not (math.isfinite(tf) and tf >= arr.max()):
+        raise ValueError(f"t_f must be finite and >= every arrival time, got t_f={tf}")
+    tt = np.arange(0.0, T + 1e-9, p.dt) if times is None else np.asarray(times, float)
+    A_all = scenario.targets_at(tt)
+    obs = scenario.observable_at(tt)
+
+    def run(mask_t: np.ndarray, t_a: float) -> np.ndarray:
+        out = np.full(tt.shape, np.nan)
+        c_prev = None
+        for k in np.nonzero(mask_t)[0]:
+            m = obs[k]
+            if not m.any():
+                continue
+            radius, balls = _instant_balls(p, float(tt[k]), t_a, tf, T, retreat, sphere_tol)
+            res = _mission_instant(p, A_all[k][m], balls, radius, c_prev)
+            if res is not None:
+                out[k] = res[0]
+                c_prev = max(res[1] - 1e-3, 0.0)
+        return out
+
+    after = run(tt >= arr.min(), float(arr.min()))  # instants on or after the earliest arrival
+    fronts = []
+    for t_a in arr:
+        vals = np.where(tt >= t_a, after, np.nan)
+        before = run(tt < t_a, float(t_a))
+        vals = np.where(tt < t_a, before, vals)
+        val = float(np.nanmax(vals)) if np.isfinite(vals).any() else math.nan
+        fronts.append(MissionBound(tt, vals, val, float(t_a), tf))
+    return fronts
+
+
+def _mission_instant(p: Any, A: np.ndarray, balls: list, radius_F: float, c_start: float | None):
+    """Certified min max beta over {|D - F| <= radius_F} ∩ balls, as (bound rad, cos) or None."""
+    extra = list(balls)
+    prog = _program(A.shape[0], len(extra))
+    try:
+        c_lo, c_best, _, _, _ = prog.solve(p, A, balls=np.array(extra), c_start=c_start, radius=radius_F)
+    except ValueError:
+        return None
+    if c_lo is None:
+        return None
+    return math.acos(min(c_lo, 1.0)), c_best
