@@ -1,5 +1,6 @@
 """Covert observation of moving animals with motion camouflage (thesis ch. 3): the world
-and simulator, the min-max bearing MPC and its per-instant bound, the sliding-mode
+and simulator (line of sight against obstacles), the min-max bearing MPC, the exact
+per-instant optimum and the whole-mission lower bound (convex programs), the sliding-mode
 laws and the hover benchmark. Metres, seconds, radians.
 
     import droneplan as dp
@@ -17,7 +18,9 @@ from droneplan.formulations.covert import (
     build_bearing_mpc,
     solve_bearing_mpc,
     sphere_minmax_bearing,
+    sphere_minmax_bearing_bnb,
 )
+from droneplan.formulations.covert_bounds import MissionBound, mission_front, mission_lower_bound
 from droneplan.planners.covert import (
     HoverBenchmark,
     MPCObserver,
@@ -38,6 +41,8 @@ from droneplan.scenarios.covert import (
     CovertPhase,
     CovertScenario,
     CovertTrace,
+    FIG_3_13_OBSTACLE,
+    Obstacle,
     Occlusion,
     TargetPath,
     Terrain,
@@ -51,12 +56,13 @@ from droneplan.studies.plots import plot_path, plot_bearing
 
 __all__ = [
     # world, presets, simulator
-    "CovertParams", "THESIS_TABLE_3_2", "CovertScenario", "Terrain", "TargetPath", "Occlusion", "thesis_case",
-    "random_case", "bearing_changes", "CovertObservation", "CovertCommand", "CovertPhase", "CovertFrame", "Controller",
-    "CovertTrace", "simulate",
+    "CovertParams", "THESIS_TABLE_3_2", "CovertScenario", "Terrain", "TargetPath", "Occlusion", "Obstacle",
+    "FIG_3_13_OBSTACLE", "thesis_case", "random_case", "bearing_changes", "CovertObservation", "CovertCommand",
+    "CovertPhase", "CovertFrame", "Controller", "CovertTrace", "simulate",
     # the model
     "MPCSettings", "MPCData", "MPCPlan", "BearingMPC", "build_bearing_mpc", "solve_bearing_mpc",
-    "RecedingBearingMPC", "sphere_minmax_bearing",
+    "RecedingBearingMPC", "sphere_minmax_bearing", "sphere_minmax_bearing_bnb", "MissionBound",
+    "mission_lower_bound", "mission_front",
     # thesis laws and solver-backed controllers
     "SlidingSettings", "SlidingModeObserver", "HoverBenchmark", "rollout_sliding", "MPCObserver",
     "MPCObserverSettings", "SafeguardSettings", "SafeguardedMPCObserver",

@@ -36,13 +36,15 @@ from typing import Any
 
 import cvxpy as cp
 import numpy as np
+
 from droneplan.solvers.result import SolveResult, Status
 
-__all__ = ["InstantMinmaxProgram", "MissionBound", "instant_minmax_bearing", "mission_front", "mission_lower_bound"]
+__all__ = ["InstantMinmaxProgram", "MissionBound", "instant_minmax_bearing", "mission_front",
+           "mission_lower_bound"]
 
 _C_WIDTH = 1e-9  # the search stops when the bracket on cos(theta*) is this narrow
 _DELTA_C = 1e-6  # certification: first step in cos(theta) above the bracket (about 1e-5 rad in theta)
-_S_TOL = 1e-7  # certified infeasible when s < -_S_TOL (scaled: 20 um at L_u = 200 m), 10x the solver tolerance
+_S_TOL = 1e-7  # certified infeasible when s < -_S_TOL (scaled: 20 um at L_u = 200 m), 10x solver tolerance
 
 
 class InstantMinmaxProgram:
@@ -142,7 +144,8 @@ class InstantMinmaxProgram:
             else:
                 hi, f_hi, hi_accurate = c, r, self.last_accurate
             if f_lo is None and lo == 0.0 and c == 0.0:
-                return None, None, None, solves, "min-max bearing >= 90 deg (or the balls do not meet): not convex"
+                return None, None, None, solves, ("min-max bearing >= 90 deg (or the balls do not meet): "
+                                                  "not convex")
             if f_lo is not None and (hi - lo <= _C_WIDTH or f_lo[0] <= 0.1 * _S_TOL):
                 break
             if f_hi is None and hi == 1.0 and c == 1.0:  # s(1) > 0: every cone met at theta = 0
@@ -201,7 +204,8 @@ def instant_minmax_bearing(params: Any, targets: Any, *, c_start: float | None =
     the returned point x (3,) of the sphere (m) and bound = a certified lower bound (rad):
     no point of the sphere does better; both agree to about 1e-5 rad (up to 1e-4 rad for optima
     within a degree of 0). Returns ERROR (no numbers) when the program does not apply: R
-    inside the observation ball, or an optimum of 90 deg or more (then the cones are not convex; use the branch and bound).
+    inside the observation ball, or an optimum of 90 deg or more (then the cones are not convex; use
+    the branch and bound).
     c_start: cos of an angle believed to be below the optimum (speeds up a sequence of instants).
     """
     from droneplan.scenarios.covert import bearing_changes
@@ -212,7 +216,8 @@ def instant_minmax_bearing(params: Any, targets: Any, *, c_start: float | None =
         raise ValueError("targets must be a non-empty finite (n, 3) array")
     if np.linalg.norm(params.R_arr - params.F_arr) <= params.L_u:
         return SolveResult(Status.ERROR, backend="cvxpy-clarabel", solve_time=time.perf_counter() - t0,
-                           message="R lies inside the observation ball: the convex reformulation does not apply")
+                           message="R lies inside the observation ball: the convex reformulation "
+                                   "does not apply")
     c_lo, c_best, D, solves, note = _program(A.shape[0], 0).solve(params, A, c_start=c_start)
     el = time.perf_counter() - t0
     if c_lo is None or D is None:
@@ -265,7 +270,8 @@ def _instant_balls(p: Any, t: float, t_a: float, t_f: float, t_end: float, retre
 
 
 def mission_lower_bound(scenario: Any, t_a: float, t_f: float | None = None, *, times: Any = None,
-                        retreat: bool = True, t_end: float | None = None, sphere_tol: float = 1.0) -> MissionBound:
+                        retreat: bool = True, t_end: float | None = None,
+                        sphere_tol: float = 1.0) -> MissionBound:
     """Lower bound on beta_max (rad) for any controller that leaves D_s at t = 0 at speed <= V_max,
     is on the observation sphere (within ``sphere_tol`` m) from ``t_a`` (s) to ``t_f`` (s; default:
     the latest time from which D_s is still reachable by t_end) and, with ``retreat``, is back at
@@ -283,13 +289,17 @@ def mission_lower_bound(scenario: Any, t_a: float, t_f: float | None = None, *, 
 
 
 def mission_front(scenario: Any, arrival_times: Any, t_f: float | None = None, *, times: Any = None,
-                  retreat: bool = True, t_end: float | None = None, sphere_tol: float = 1.0) -> list[MissionBound]:
+                  retreat: bool = True, t_end: float | None = None,
+                  sphere_tol: float = 1.0) -> list[MissionBound]:
     """:func:`mission_lower_bound` for several arrival times (s), sharing the instants after arrival.
 
     The bound is non-increasing in the arrival time (a later deadline admits more controllers):
     the stealth-versus-arrival-time front of the best any controller could do.
     """
     p = scenario.params
+    if getattr(scenario, "obstacles", ()):
+        raise ValueError("scenario has obstacles: which targets are visible depends on the drone position, "
+                         "and the bound assumes the visible set is the same for every position")
     arr = np.atleast_1d(np.asarray(arrival_times, float))
     if arr.size == 0 or not np.all(np.isfinite(arr)) or np.any(arr < 0):
         raise ValueError(f"arrival_times must be finite and >= 0, got {arrival_times!r}")

@@ -35,6 +35,7 @@ import time
 
 import casadi as ca
 import numpy as np
+
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.search import first_root_lipschitz

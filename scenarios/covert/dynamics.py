@@ -288,7 +288,7 @@ def simulate(scenario: CovertScenario, controller: Controller, *, noise: float =
     for k in range(steps + 1):
         t = k * p.dt
         A = scenario.targets_at(t)
-        obsmask = scenario.observable_at(t)
+        obsmask = scenario.observable_at(t, D)
         rel = measure(A - D, noise, rng)
         rel[~obsmask] = np.nan
         ts.append(t)
@@ -321,7 +321,7 @@ def simulate(scenario: CovertScenario, controller: Controller, *, noise: float =
     targets = scenario.targets_at(t_arr)
     if n:
         beta = bearing_changes(drone, targets, p.R)
-        beta[~scenario.observable_at(t_arr)] = np.nan
+        beta[~scenario.observable_at(t_arr, drone)] = np.nan
     else:
         beta = np.zeros((t_arr.size, 0))
     phase = np.empty(len(phases), dtype=object)

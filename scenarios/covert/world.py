@@ -168,6 +168,108 @@ class Occlusion:
 
 
 @dataclass(frozen=True)
+class Obstacle:
+    """A vertical prism that blocks line of sight: a convex footprint polygon (m) from the
+    ground up to ``height`` (m, absolute z of its flat top), e.g. a stand of trees or a rock.
+
+    A target is hidden from the drone when the segment between them passes through the
+    prism: some point of it lies over the footprint below the top.
+    """
+
+    footprint: tuple[tuple[float, float], ...]
+    """Vertices (x, y) of the convex footprint (m), in either orientation."""
+    height: float
+    """Absolute height of the top (m)."""
+
+    def __post_init__(self) -> None:
+        pts = np.asarray(self.footprint, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 3:
+            raise ValueError(f"footprint must be >= 3 (x, y) vertices, got shape {pts.shape}")
+        if not np.isfinite(pts).all() or not math.isfinite(self.height):
+            raise ValueError("footprint and height must be finite")
+        poly = self.polygon
+        if not poly.is_valid or poly.area <= 0 or abs(poly.convex_hull.area - poly.area) > 1e-9 * poly.area:
+            raise ValueError("footprint must be a convex polygon with positive area")
+        object.__setattr__(self, "footprint", tuple(tuple(float(v) for v in row) for row in pts))
+
+    @property
+    def polygon(self):
+        """The footprint as a shapely Polygon."""
+        from shapely.geometry import Polygon
+
+        return Polygon(np.asarray(self.footprint, dtype=float))
+
+    def _halfplanes(self) -> tuple[np.ndarray, np.ndarray]:
+        """(normals (m, 2), offsets (m,)): the footprint is {p : normals @ p <= offsets}."""
+        pts = np.asarray(self.polygon.exterior.coords)[:-1]
+        if self.polygon.exterior.is_ccw is False:
+            pts = pts[::-1]
+        e = np.roll(pts, -1, axis=0) - pts
+        nrm = np.column_stack([e[:, 1], -e[:, 0]])  # outward for a counter-clockwise ring
+        return nrm, np.sum(nrm * pts, axis=1)
+
+    def blocks(self, drone: Any, targets: Any) -> np.ndarray:
+        """Whether the prism blocks each segment drone -> target, vectorised (numpy).
+
+        drone: (..., 3) m; targets: (..., 3) m (broadcast). Clips each segment's ground
+        projection to the footprint's half-planes (Cyrus-Beck) and tests the height on the
+        clipped part, whose lowest point is one of its ends (z is linear along the segment).
+        """
+        D = np.asarray(drone, dtype=float)
+        A = np.asarray(targets, dtype=float)
+        D, A = np.broadcast_arrays(D, A)
+        nrm, off = self._halfplanes()
+        d = A[..., :2] - D[..., :2]
+        num = off - D[..., :2] @ nrm.T  # (..., m): constraint  (nrm . d) s <= num
+        den = d @ nrm.T
+        lo = np.zeros(D.shape[:-1])
+        hi = np.ones(D.shape[:-1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = num / den
+        enter = np.where(den < 0, ratio, -np.inf).max(axis=-1)
+        leave = np.where(den > 0, ratio, np.inf).min(axis=-1)
+        outside_parallel = np.any((den == 0) & (num < 0), axis=-1)
+        lo = np.maximum(lo, enter)
+        hi = np.minimum(hi, leave)
+        hit = (lo <= hi) & ~outside_parallel
+        z_lo = D[..., 2] + lo * (A[..., 2] - D[..., 2])
+        z_hi = D[..., 2] + hi * (A[..., 2] - D[..., 2])
+        return hit & (np.minimum(z_lo, z_hi) < self.height)
+
+    def blocks_shapely(self, drone: Any, target: Any) -> bool:
+        """The same test for one segment with shapely (the reference for :meth:`blocks`)."""
+        from shapely.geometry import LineString
+
+        D = np.asarray(drone, dtype=float)
+        A = np.asarray(target, dtype=float)
+        if np.allclose(D[:2], A[:2]):
+            from shapely.geometry import Point
+
+            inside = self.polygon.intersects(Point(D[:2]))
+            return bool(inside and min(D[2], A[2]) < self.height)
+        seg = LineString([D[:2], A[:2]])
+        part = seg.intersection(self.polygon)
+        if part.is_empty:
+            return False
+        import shapely
+
+        L2 = float(np.sum((A[:2] - D[:2]) ** 2))
+        for x, y in shapely.get_coordinates(part):  # ends of the part over the footprint
+            s = float(np.dot([x - D[0], y - D[1]], A[:2] - D[:2]) / L2)
+            if D[2] + s * (A[2] - D[2]) < self.height:
+                return True
+        return False
+
+
+FIG_3_13_OBSTACLE = Obstacle(((63.51, 142.91), (62.09, 141.49), (17.54, 186.04), (18.96, 187.46)), 2.0)
+"""Our Fig. 3.13 obstacle: a 2 m high, 2 m thick hedge along the last 60 m of target 2's straight path
+in case 1, from its 180 m mark (62.8, 142.2), reached at t = 90 s at V_T = 2 m/s, to 3 m past its end,
+so target 2 walks into it at t = 90 s (the thesis only says target 2 is blocked by an obstacle from
+t = 90 s). Target 1's S-shaped path crosses the hedge early on, so it is hidden too while it
+crosses (about t = 9-13 s in the sliding-mode run)."""
+
+
+@dataclass(frozen=True)
 class CovertScenario:
     """One observation run: parameters, terrain, target paths and occlusions."""
 
@@ -187,8 +289,15 @@ class CovertScenario:
     """Allow target paths shorter than the mission (``params.V_T * params.duration``): such a
     target stands still at its path's end once it gets there. False (default): a short
     path is refused, so a path cut short by mistake does not silently stop a target."""
+    obstacles: tuple[Obstacle, ...] = ()
+    """Prisms that block the line of sight between the drone and a target."""
 
     def __post_init__(self) -> None:
+        obstacles = tuple(self.obstacles)
+        for j, ob in enumerate(obstacles):
+            if not isinstance(ob, Obstacle):
+                raise TypeError(f"obstacles[{j}] must be an Obstacle, got {type(ob).__name__}")
+        object.__setattr__(self, "obstacles", obstacles)
         if not isinstance(self.params, CovertParams):
             raise TypeError(f"params must be CovertParams, got {type(self.params).__name__}")
         if not isinstance(self.terrain, Terrain):
@@ -231,12 +340,26 @@ class CovertScenario:
             return np.zeros(t.shape + (0, 3))
         return np.stack([p.at(self.params.V_T * t) for p in self.paths], axis=-2)
 
-    def observable_at(self, t: Any) -> np.ndarray:
-        """Boolean mask t.shape + (n,): target has line of sight to the drone at t."""
+    def observable_at(self, t: Any, drone: Any = None) -> np.ndarray:
+        """Boolean mask t.shape + (n,): target has line of sight to the drone at t.
+
+        drone: drone position(s) t.shape + (3,) (m); needed when the scenario has obstacles
+        (line of sight against each obstacle prism), ignored otherwise. Scripted occlusion
+        windows apply in both cases.
+        """
         t = np.asarray(t, dtype=float)
         mask = np.ones(t.shape + (self.n_targets,), dtype=bool)
         for occ in self.occlusions:
             mask[..., occ.target] &= ~((t >= occ.start) & (t < occ.end))
+        if self.obstacles and self.n_targets:
+            if drone is None:
+                raise ValueError("drone is required: with obstacles, line of sight depends on the drone position")
+            D = np.asarray(drone, dtype=float)
+            if D.shape != t.shape + (3,) or not np.isfinite(D).all():
+                raise ValueError(f"drone must be a finite array of shape {t.shape + (3,)}, got {D.shape}")
+            A = self.targets_at(t)
+            for ob in self.obstacles:
+                mask &= ~ob.blocks(D[..., None, :], A)
         return mask
 
 
@@ -287,7 +410,7 @@ CASE1_TERRAIN = Terrain(((150.0, 125.0, 25.0, 22.0), (60.0, 60.0, 6.0, 30.0), (1
 
 
 def thesis_case(case: int, seed: int | np.random.Generator | None = 0, *, V_T: float | None = None,
-                occlusion: bool = False, params: CovertParams | None = None) -> CovertScenario:
+                occlusion: bool | str = False, params: CovertParams | None = None) -> CovertScenario:
     """The thesis simulation cases (§3.5) over uneven terrain, with Table 3.2 parameters.
 
     case 1: two targets, target 1 on an S-shaped path whose second half climbs a hill,
@@ -296,7 +419,9 @@ def thesis_case(case: int, seed: int | np.random.Generator | None = 0, *, V_T: f
     case 2: ten targets on random curvy paths over random smooth hills drawn from ``seed``.
     V_T: target speed (m/s); the paths stay the same, so the period shrinks to
         120 s * 2 / V_T (Fig. 3.12 uses V_T = 5 m/s).
-    occlusion: case 1 only: target 2 is unobservable from t = 90 s * 2 / V_T (Fig. 3.13).
+    occlusion: case 1 only (Fig. 3.13): "obstacle" (or True) puts FIG_3_13_OBSTACLE in the scene,
+        so target 2 is hidden whenever the line of sight crosses it (from t = 90 s * 2 / V_T on,
+        where the target walks into it); "scripted" hides target 2 by a time window from then on.
     params: override the Table 3.2 parameters (V_T and duration are set here).
     """
     base = params if params is not None else THESIS_TABLE_3_2
@@ -305,8 +430,12 @@ def thesis_case(case: int, seed: int | np.random.Generator | None = 0, *, V_T: f
     if seed is not None and not isinstance(seed, np.random.Generator):
         check_int("seed", seed, min_value=0)  # checked for case 1 too, where it is unused
     speed = base.V_T if V_T is None else check_positive("V_T", V_T)
-    if not isinstance(occlusion, (bool, np.bool_)):
-        raise TypeError(f"occlusion must be a bool, got {type(occlusion).__name__}")
+    if isinstance(occlusion, np.bool_):
+        occlusion = bool(occlusion)
+    if not isinstance(occlusion, (bool, str)):
+        raise TypeError(f"occlusion must be a bool or 'obstacle' / 'scripted', got {type(occlusion).__name__}")
+    if occlusion not in (False, True, "obstacle", "scripted"):
+        raise ValueError(f"occlusion must be False, True, 'obstacle' or 'scripted', got {occlusion!r}")
     if isinstance(case, (bool, np.bool_)) or case not in (1, 2):
         raise ValueError(f"case must be 1 or 2, got {case!r}")
     path_len = THESIS_TABLE_3_2.V_T * THESIS_TABLE_3_2.duration  # 240 m walked in the thesis period
@@ -317,9 +446,11 @@ def thesis_case(case: int, seed: int | np.random.Generator | None = 0, *, V_T: f
     if case == 1:
         terrain = CASE1_TERRAIN
         paths = (_s_path(terrain, path_len), _straight_path(terrain, path_len, (190.0, 15.0), (20.0, 185.0)))
-        occ = (Occlusion(1, 90.0 * 2.0 / speed),) if occlusion else ()
-        return CovertScenario(p, terrain, paths, occ, name="case 1" + (" (occlusion)" if occlusion else ""),
-                              seed=None)
+        occ = (Occlusion(1, 90.0 * 2.0 / speed),) if occlusion == "scripted" else ()
+        obstacles = (FIG_3_13_OBSTACLE,) if occlusion in (True, "obstacle") else ()
+        label = {False: "", True: " (obstacle)", "obstacle": " (obstacle)", "scripted": " (occlusion window)"}
+        return CovertScenario(p, terrain, paths, occ, name="case 1" + label[occlusion], seed=None,
+                              obstacles=obstacles)
     if case == 2:
         if occlusion:
             raise ValueError("occlusion is defined for case 1 only (Fig. 3.13)")

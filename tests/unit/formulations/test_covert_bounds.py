@@ -6,6 +6,9 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from droneplan.formulations.covert import (
     sphere_minmax_bearing,
     sphere_minmax_bearing_bnb,
@@ -18,8 +21,6 @@ from droneplan.formulations.covert_bounds import (
 from droneplan.scenarios.covert import THESIS_TABLE_3_2 as P
 from droneplan.scenarios.covert import bearing_changes, random_case, simulate
 from droneplan.solvers.result import Status
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 
 def _targets(seed, n):
@@ -34,8 +35,9 @@ def _zoom_search(A, levels=6, n=120):
     best = math.inf
     for _ in range(levels):
         th, ph = np.meshgrid(np.linspace(th_lo, th_hi, n), np.linspace(ph_lo, ph_hi, 2 * n), indexing="ij")
-        pts = F + L * np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], -1).reshape(-1, 3)
-        vals = bearing_changes(pts, np.broadcast_to(A, (len(pts),) + A.shape), P.R).max(axis=1)
+        unit = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], -1)
+        pts = F + L * unit.reshape(-1, 3)
+        vals = bearing_changes(pts, np.broadcast_to(A, (len(pts), *A.shape)), P.R).max(axis=1)
         i = int(np.argmin(vals))
         best = min(best, float(vals[i]))
         t0, p0 = th.ravel()[i], ph.ravel()[i]
@@ -44,7 +46,7 @@ def _zoom_search(A, levels=6, n=120):
     return best
 
 
-@pytest.mark.parametrize("seed,n", [(1000, 1), (1001, 2), (1002, 4), (1003, 7), (1004, 10)])
+@pytest.mark.parametrize(("seed", "n"), [(1000, 1), (1001, 2), (1002, 4), (1003, 7), (1004, 10)])
 def test_convex_optimum_agrees_with_independent_dense_search(seed, n):
     A = _targets(seed, n)
     res = sphere_minmax_bearing(P, A)
@@ -82,7 +84,7 @@ def test_not_applicable_falls_back_to_branch_and_bound():
     assert instant_minmax_bearing(near_R, A).status == Status.ERROR
     res = sphere_minmax_bearing(near_R, A)
     assert res.backend == "sphere-bnb" and res.bound <= res.objective and "fell back" in res.message
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="targets"):
         instant_minmax_bearing(P, np.zeros((0, 3)))
     with pytest.raises(ValueError, match="n_targets"):
         InstantMinmaxProgram(0)

@@ -4,6 +4,9 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from droneplan.formulations.shark import optimal_altitude, solve_interception
 from droneplan.formulations.shark.bound import interception_time_bound
 from droneplan.planners.shark import VirtualSharkInterceptor, optimal_interception
@@ -15,15 +18,15 @@ from droneplan.scenarios.shark import (
 )
 from droneplan.solvers.result import Status
 from droneplan.solvers.search import first_root_lipschitz
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 
 # ---------------------------------------------------------------- the generic search
 def test_first_root_is_not_skipped_when_feasibility_is_not_monotone():
     # feasible only on a narrow window [0.99, 1.01] and again from 5: a bisection on [0, 6]
     # (f(3) > 0, f(6) <= 0) would answer ~5; the scan must stop at 0.99
-    f = lambda t: min(abs(t - 1.0) - 0.01, 5.0 - t)
+    def f(t):  # Lipschitz 1
+        return min(abs(t - 1.0) - 0.01, 5.0 - t)
+
     r = first_root_lipschitz(f, 0.0, 6.0, 1.0)
     assert r.lower is not None and r.lower <= 0.99 + 1e-9 and r.lower >= 0.99 - 1e-5
 
@@ -31,7 +34,9 @@ def test_first_root_is_not_skipped_when_feasibility_is_not_monotone():
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.floats(0.5, 20.0), min_size=1, max_size=5), st.floats(0.001, 0.5))
 def test_first_root_lower_bound_against_dense_grid(centres, width):
-    f = lambda t: min(abs(t - c) for c in centres) - width
+    def f(t):  # Lipschitz 1
+        return min(abs(t - c) for c in centres) - width
+
     r = first_root_lipschitz(f, 0.0, 25.0, 1.0)
     grid = np.linspace(0.0, 25.0, 250001)
     vals = np.array([f(t) for t in grid[::10]])
@@ -44,7 +49,7 @@ def test_first_root_none_when_never_feasible_and_bad_input():
     assert first_root_lipschitz(lambda t: 1.0 + 0 * t, 0.0, 3.0, 2.0).lower is None
     with pytest.raises(ValueError, match="lipschitz"):
         first_root_lipschitz(lambda t: t, 0.0, 1.0, 0.0)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="lo <= hi"):
         first_root_lipschitz(lambda t: t, 1.0, 0.0, 1.0)
 
 

@@ -160,12 +160,21 @@ def test_case1_target1_climbs_a_hill_in_the_second_half():
 
 
 def test_case_speed_and_occlusion():
-    sc = thesis_case(1, V_T=5.0, occlusion=True)
+    sc = thesis_case(1, V_T=5.0, occlusion="scripted")
     assert sc.params.duration == pytest.approx(48.0)
     assert sc.observable_at(35.0).tolist() == [True, True]
     assert sc.observable_at(36.5).tolist() == [True, False]
-    assert thesis_case(1, occlusion=True).observable_at(89.9).all()
-    assert not thesis_case(1, occlusion=True).observable_at(90.0)[1]
+    assert thesis_case(1, occlusion="scripted").observable_at(89.9).all()
+    assert not thesis_case(1, occlusion="scripted").observable_at(90.0)[1]
+    # line of sight against the hedge: target 2 walks into it at t = 90 s
+    ob = thesis_case(1, occlusion=True)
+    D = np.array([55.0, 63.0, 20.0])
+    assert ob.observable_at(89.0, D).tolist() == [True, True]
+    assert ob.observable_at(90.5, D).tolist() == [True, False]
+    with pytest.raises(ValueError, match="drone"):
+        ob.observable_at(90.0)
+    with pytest.raises(ValueError, match="occlusion"):
+        thesis_case(1, occlusion="sometimes")
     assert thesis_case(2, 5).targets_at(10.0).tolist() == thesis_case(2, 5).targets_at(10.0).tolist()
     with pytest.raises(ValueError):
         thesis_case(3)
@@ -202,3 +211,46 @@ def test_simulate_heading_stays_unit_and_circle_radius():
     centre = p.D_s_arr + np.array([0.0, -p.V_max / p.U_max, 0.0])
     assert np.allclose(np.linalg.norm(tr.drone - centre, axis=1), p.V_max / p.U_max, atol=1e-9)
     assert tr.beta.shape == (tr.t.size, 0) and math.isnan(tr.beta_max)
+
+
+# ---------------------------------------------------------------- line of sight (shapely vs numpy)
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+from droneplan.scenarios.covert import Obstacle  # noqa: E402
+
+
+def _random_obstacle(rng):
+    from shapely.geometry import MultiPoint
+
+    pts = rng.uniform(0, 100, (int(rng.integers(3, 9)), 2))
+    hull = MultiPoint(pts).convex_hull
+    if hull.geom_type != "Polygon" or hull.area < 1.0:
+        return None
+    return Obstacle(tuple(map(tuple, np.asarray(hull.exterior.coords)[:-1])), float(rng.uniform(0, 30)))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 10**6))
+def test_vectorised_line_of_sight_matches_shapely(seed):
+    rng = np.random.default_rng(seed)
+    ob = _random_obstacle(rng)
+    if ob is None:
+        return
+    D = rng.uniform(-20, 120, (200, 3)) * np.array([1, 1, 0.4])
+    A = rng.uniform(-20, 120, (200, 3)) * np.array([1, 1, 0.4])
+    fast = ob.blocks(D, A)
+    ref = np.array([ob.blocks_shapely(d, a) for d, a in zip(D, A, strict=True)])
+    assert np.array_equal(fast, ref)
+
+
+def test_line_of_sight_simple_cases_and_validation():
+    ob = Obstacle(((0, 0), (10, 0), (10, 10), (0, 10)), 5.0)
+    assert ob.blocks([-5, 5, 1.0], [15, 5, 1.0])  # low segment through the block
+    assert not ob.blocks([-5, 5, 6.0], [15, 5, 6.0])  # above its top
+    assert not ob.blocks([-5, 20, 1.0], [15, 20, 1.0])  # beside it
+    assert ob.blocks([5, 5, 1.0], [20, 20, 40.0])  # starts inside
+    assert ob.blocks_shapely([-5, 5, 1.0], [15, 5, 1.0]) and not ob.blocks_shapely([-5, 20, 1.0], [15, 20, 1.0])
+    with pytest.raises(ValueError, match="convex"):
+        Obstacle(((0, 0), (10, 0), (5, 1), (10, 10), (0, 10)), 5.0)
+    with pytest.raises(ValueError, match="footprint"):
+        Obstacle(((0, 0), (1, 1)), 5.0)
