@@ -52,13 +52,14 @@ from droneplan.scenarios.covert import (
     thesis_case,
 )
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.studies.plots import plot_path, plot_bearing
+from droneplan.studies.covert import stealth_front
+from droneplan.studies.plots import plot_bearing, plot_path, plot_stealth_front
 
 __all__ = [
     # world, presets, simulator
     "CovertParams", "THESIS_TABLE_3_2", "CovertScenario", "Terrain", "TargetPath", "Occlusion", "Obstacle",
-    "FIG_3_13_OBSTACLE", "thesis_case", "random_case", "bearing_changes", "CovertObservation", "CovertCommand",
-    "CovertPhase", "CovertFrame", "Controller", "CovertTrace", "simulate",
+    "FIG_3_13_OBSTACLE", "thesis_case", "random_case", "bearing_changes", "CovertObservation",
+    "CovertCommand", "CovertPhase", "CovertFrame", "Controller", "CovertTrace", "simulate",
     # the model
     "MPCSettings", "MPCData", "MPCPlan", "BearingMPC", "build_bearing_mpc", "solve_bearing_mpc",
     "RecedingBearingMPC", "sphere_minmax_bearing", "sphere_minmax_bearing_bnb", "MissionBound",
@@ -67,5 +68,5 @@ __all__ = [
     "SlidingSettings", "SlidingModeObserver", "HoverBenchmark", "rollout_sliding", "MPCObserver",
     "MPCObserverSettings", "SafeguardSettings", "SafeguardedMPCObserver",
     # results and plots
-    "SolveResult", "Status", "plot_path", "plot_bearing",
+    "SolveResult", "Status", "plot_path", "plot_bearing", "stealth_front", "plot_stealth_front",
 ]

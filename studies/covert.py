@@ -32,9 +32,8 @@ from droneplan.planners.covert import (HoverBenchmark, MPCObserver, MPCObserverS
                              SlidingModeObserver)
 from droneplan.scenarios.covert import CovertTrace, random_case, simulate, thesis_case  # noqa: E402
 from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study  # noqa: E402
-from droneplan.studies.plots.covert import plot_bearing, plot_path  # noqa: E402
+from droneplan.studies.plots.covert import plot_bearing, plot_path, plot_stealth_front  # noqa: E402
 from droneplan.studies.store import Outcome, build_rows, instance_id  # noqa: E402
-
 
 DEG = 180.0 / math.pi
 
@@ -190,21 +189,6 @@ def stealth_front(scenario, traces: dict[str, CovertTrace], *, n_arrivals: int =
     return pts, bound
 
 
-def plot_stealth_front(points, bound, ax=None, title: str = ""):
-    """Figure of :func:`stealth_front`'s output; returns the axes."""
-    if ax is None:
-        _, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(bound.t_a, bound.bound_deg, "k.-", label="lower bound, any controller arriving by t_a")
-    for _, r in points.iterrows():
-        ax.plot(r.t_a, r.beta_max_deg, "o", label=f"{r.method} ({r.beta_max_deg:.2f} deg)")
-    ax.set_xlabel("arrival time on the sphere t_a (s)")
-    ax.set_ylabel("beta_max (deg)")
-    ax.set_title(title or "stealth vs arrival time")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    return ax
-
-
 def _front_section(case: int, scenario, traces: dict[str, CovertTrace], out: Path, quick: bool) -> None:
     names = {"sliding": "sliding mode", "mpc": "MPC (approach 0.7 V_max)", "mpc-slow": "MPC (approach 0.3 V_max)",
              "mpc-safe": "safeguarded MPC"}
@@ -216,8 +200,7 @@ def _front_section(case: int, scenario, traces: dict[str, CovertTrace], out: Pat
     pts, bound = stealth_front(scenario, runs, n_arrivals=5 if quick else 10, step=1.0 if quick else 0.2)
     pts.to_csv(out / f"case{case}_stealth_front_points.csv", index=False)
     bound.to_csv(out / f"case{case}_stealth_front_bound.csv", index=False)
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    plot_stealth_front(pts, bound, ax, f"Case {case}: stealth vs arrival time")
+    fig = plot_stealth_front(pts, bound, title=f"Case {case}: stealth vs arrival time")
     fig.tight_layout()
     fig.savefig(out / f"case{case}_stealth_front.png", dpi=110)
     plt.close(fig)

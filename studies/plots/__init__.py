@@ -7,7 +7,7 @@ legend and keeps the goal/target in view.
 """
 
 from droneplan.studies.plots.cells import plot_deployment_region, plot_map
-from droneplan.studies.plots.covert import plot_bearing, plot_path
+from droneplan.studies.plots.covert import plot_bearing, plot_path, plot_stealth_front
 from droneplan.studies.plots.herding import plot_final, plot_footprint, plot_state
 from droneplan.studies.plots.shark import plot_time_series, plot_top_view
 
@@ -16,6 +16,7 @@ __all__ = [
     "plot_deployment_region",
     "plot_path",
     "plot_bearing",
+    "plot_stealth_front",
     "plot_top_view",
     "plot_time_series",
     "plot_state",

@@ -10,7 +10,7 @@ import numpy as np
 from droneplan.scenarios.covert import CovertScenario, CovertTrace
 from droneplan.studies.plots._common import as_trace_dict, figure_axes
 
-__all__ = ["plot_path", "plot_bearing"]
+__all__ = ["plot_path", "plot_bearing", "plot_stealth_front"]
 
 
 def _sphere_patch(scenario: CovertScenario, drone_paths: list[np.ndarray], n: int = 20):
@@ -112,6 +112,25 @@ def plot_bearing(traces: Any, *, ax: Any = None, title: str | None = None):
     ax.set_ylabel("max bearing change beta_m (deg)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, title="dotted: on the sphere from / until", title_fontsize=7)
+    if title is not None:
+        ax.set_title(title)
+    return fig
+
+
+def plot_stealth_front(points: Any, bound: Any, *, ax: Any = None, title: str | None = None):
+    """beta_max (deg) against arrival time on the sphere (s): one marker per run and the whole-mission
+    lower bound for any controller arriving by then; returns the figure.
+
+    points, bound: the DataFrames of :func:`studies.covert.stealth_front`. ax: a 2-D axes or None.
+    """
+    fig, ax = figure_axes(ax, figsize=(7, 4.5))
+    ax.plot(bound.t_a, bound.bound_deg, "k.-", label="lower bound: any controller on the sphere by t_a")
+    for _, r in points.iterrows():
+        ax.plot(r.t_a, r.beta_max_deg, "o", label=f"{r.method} ({r.beta_max_deg:.2f} deg)")
+    ax.set_xlabel("arrival time on the sphere t_a (s)")
+    ax.set_ylabel("beta_max (deg)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
     if title is not None:
         ax.set_title(title)
     return fig
