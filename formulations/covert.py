@@ -46,7 +46,8 @@ from droneplan.solvers.base import NlpSolver
 from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.sqp import SqpStructure
-from droneplan.solvers.validation import check_array, check_instance, check_int, check_nonneg, check_positive
+from droneplan.solvers.validation import (check_array, check_in_range, check_instance, check_int, check_nonneg,
+                                           check_positive)
 
 __all__ = [
     "MPCSettings",
@@ -504,6 +505,10 @@ def sphere_minmax_bearing(params: CovertParams, targets: Any, *, c_start: float 
     """
     from droneplan.formulations.covert_bounds import instant_minmax_bearing
 
+    check_instance("params", params, CovertParams)
+    targets = check_array("targets", targets, shape=(None, 3), min_rows=1)
+    if c_start is not None:
+        c_start = check_in_range("c_start", c_start, -1.0, 1.0)
     res = instant_minmax_bearing(params, targets, c_start=c_start)
     if res.has_solution:
         return res

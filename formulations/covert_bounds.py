@@ -272,10 +272,10 @@ def _instant_balls(p: Any, t: float, t_a: float, t_f: float, t_end: float, retre
 def mission_lower_bound(scenario: Any, t_a: float, t_f: float | None = None, *, times: Any = None,
                         retreat: bool = True, t_end: float | None = None,
                         sphere_tol: float = 1.0) -> MissionBound:
-    """Lower bound on beta_max (rad) for any controller that leaves D_s at t = 0 at speed <= V_max,
-    is on the observation sphere (within ``sphere_tol`` m) from ``t_a`` (s) to ``t_f`` (s; default:
-    the latest time from which D_s is still reachable by t_end) and, with ``retreat``, is back at
-    D_s by ``t_end`` (s; default params.duration).
+    """Lower bound on beta_max (rad) on ``scenario`` for any controller that leaves D_s at t = 0 at
+    speed <= V_max, is on the observation sphere (within ``sphere_tol`` m) from ``t_a`` (s) to
+    ``t_f`` (s; default: the latest time from which D_s is still reachable by t_end) and, with
+    ``retreat``, is back at D_s by ``t_end`` (s; default params.duration).
 
     At every instant of ``times`` (default: every control period params.dt) the drone lies in
     the convex set described in the module docstring; the certified minimum of max_j beta_j
@@ -293,8 +293,11 @@ def mission_front(scenario: Any, arrival_times: Any, t_f: float | None = None, *
                   sphere_tol: float = 1.0) -> list[MissionBound]:
     """:func:`mission_lower_bound` for several arrival times (s), sharing the instants after arrival.
 
-    The bound is non-increasing in the arrival time (a later deadline admits more controllers):
-    the stealth-versus-arrival-time front of the best any controller could do.
+    scenario: the targets' paths and the parameters (no obstacles); arrival_times: the t_a (s) of
+    each class; t_f, times, retreat, t_end, sphere_tol: as in :func:`mission_lower_bound`.
+    Returns one :class:`MissionBound` per arrival time. The bound is non-increasing in the
+    arrival time (a later deadline admits more controllers): the stealth-versus-arrival-time
+    front of the best any controller could do.
     """
     p = scenario.params
     if getattr(scenario, "obstacles", ()):

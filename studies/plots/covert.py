@@ -121,7 +121,8 @@ def plot_stealth_front(points: Any, bound: Any, *, ax: Any = None, title: str | 
     """beta_max (deg) against arrival time on the sphere (s): one marker per run and the whole-mission
     lower bound for any controller arriving by then; returns the figure.
 
-    points, bound: the DataFrames of :func:`studies.covert.stealth_front`. ax: a 2-D axes or None.
+    points, bound: the DataFrames of :func:`studies.covert.stealth_front`. ax: a 2-D axes or None;
+    title: the axes title (None: none).
     """
     fig, ax = figure_axes(ax, figsize=(7, 4.5))
     ax.plot(bound.t_a, bound.bound_deg, "k.-", label="lower bound: any controller on the sphere by t_a")
