@@ -38,6 +38,7 @@ import cvxpy as cp
 import numpy as np
 
 from droneplan.solvers.result import SolveResult, Status
+from droneplan.solvers.validation import check_array, check_bool, check_instance, check_nonneg, check_positive
 
 __all__ = ["InstantMinmaxProgram", "MissionBound", "instant_minmax_bearing", "mission_front",
            "mission_lower_bound"]
@@ -284,6 +285,7 @@ def mission_lower_bound(scenario: Any, t_a: float, t_f: float | None = None, *, 
     where the program does not apply (optimum >= 90 deg, or an empty set: the class cannot
     reach the sphere by t_a) are NaN and left out.
     """
+    t_a = check_nonneg("t_a", t_a)
     return mission_front(scenario, [t_a], t_f, times=times, retreat=retreat, t_end=t_end,
                          sphere_tol=sphere_tol)[0]
 
@@ -299,6 +301,19 @@ def mission_front(scenario: Any, arrival_times: Any, t_f: float | None = None, *
     arrival time (a later deadline admits more controllers): the stealth-versus-arrival-time
     front of the best any controller could do.
     """
+    from droneplan.scenarios.covert import CovertScenario
+
+    check_instance("scenario", scenario, CovertScenario)
+    retreat = check_bool("retreat", retreat)
+    sphere_tol = check_nonneg("sphere_tol", sphere_tol)
+    if t_end is not None:
+        t_end = check_positive("t_end", t_end)
+    if t_f is not None:
+        t_f = check_nonneg("t_f", t_f)
+    if times is not None:
+        times = check_array("times", times, shape=(None,), min_rows=1)
+    arrival_times = check_array("arrival_times", arrival_times, ndim=None)
+    arrival_times = np.atleast_1d(arrival_times)
     p = scenario.params
     if getattr(scenario, "obstacles", ()):
         raise ValueError("scenario has obstacles: which targets are visible depends on the drone position, "

@@ -171,7 +171,18 @@ def stealth_front(scenario, traces: dict[str, CovertTrace], *, n_arrivals: int =
     import pandas as pd
 
     from droneplan.formulations.covert_bounds import mission_front
+    from droneplan.scenarios.covert import CovertScenario
+    from droneplan.solvers.validation import check_instance, check_int, check_positive
 
+    check_instance("scenario", scenario, CovertScenario)
+    n_arrivals = check_int("n_arrivals", n_arrivals, min_value=1)
+    step = check_positive("step", step)
+    if not isinstance(traces, dict) or not traces:
+        raise TypeError("traces must be a non-empty {name: CovertTrace} dict")
+    for name, tr in traces.items():
+        check_instance(f"traces[{name!r}]", tr, CovertTrace)
+    if all(tr.t_a is None for tr in traces.values()):
+        raise ValueError("traces: no run reached the sphere (no arrival time to place)")
     p = scenario.params
     pts = pd.DataFrame([{"method": k, "t_a": tr.t_a, "t_f": tr.t_f, "beta_max_deg": tr.beta_max * DEG}
                         for k, tr in traces.items() if tr.t_a is not None])

@@ -30,7 +30,6 @@ covers the offset eps_o (1 + gamma).
 
 from __future__ import annotations
 
-import math
 import time
 
 import casadi as ca
@@ -39,6 +38,7 @@ import numpy as np
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.search import first_root_lipschitz
+from droneplan.solvers.validation import check_array, check_instance, check_nonneg, check_positive
 
 __all__ = ["frontal_point", "interception_time_bound"]
 
@@ -108,16 +108,17 @@ def interception_time_bound(shark, operator0, params: SharkParams = THESIS_TABLE
     None when no T <= t_max is reachable even in the relaxation.
     """
     start = time.perf_counter()
-    O0 = np.asarray(operator0, float)
-    if O0.shape != (3,) or not np.all(np.isfinite(O0)):
-        raise ValueError("operator0 must be a finite (3,) position")
-    if not (math.isfinite(t_max) and t_max > 0):
-        raise ValueError(f"t_max must be finite and > 0, got {t_max}")
-    if not (math.isfinite(t0) and t0 >= 0):
-        raise ValueError(f"t0 must be finite and >= 0, got {t0}")
-    sl = params.gamma if slack is None else float(slack)
-    if not (math.isfinite(sl) and sl >= 0):
-        raise ValueError(f"slack must be finite and >= 0, got {slack}")
+    check_instance("params", params, SharkParams)
+    O0 = check_array("operator0", operator0, shape=(3,))
+    t_max = check_positive("t_max", t_max)
+    t0 = check_nonneg("t0", t0)
+    sl = params.gamma if slack is None else check_nonneg("slack", slack)
+    resolution = check_positive("resolution", resolution)
+    if not isinstance(shark, SharkTrajectory):
+        if not isinstance(shark, (tuple, list)) or len(shark) != 2:
+            raise TypeError("shark must be a SharkTrajectory or (position (3,), velocity (>=2,))")
+        shark = (check_array("shark position", shark[0], shape=(3,)),
+                 check_array("shark velocity", np.asarray(shark[1], float).ravel()[:2], shape=(2,)))
     hi = t_max if not isinstance(shark, SharkTrajectory) else max(min(t_max, shark.duration - t0), 0.0)
     lo = 0.0
     # Lipschitz constant of f: VoM + |dG/dt|, the latter from G sampled finely over [lo, hi]

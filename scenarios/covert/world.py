@@ -9,10 +9,8 @@ from typing import Any
 import numpy as np
 
 from droneplan.solvers.validation import (
-    as_generator,
     check_array,
     check_int,
-    check_nonneg,
     check_positive,
     check_real,
     resolve_seed,
@@ -182,11 +180,10 @@ class Obstacle:
     """Absolute height of the top (m)."""
 
     def __post_init__(self) -> None:
-        pts = np.asarray(self.footprint, dtype=float)
-        if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 3:
-            raise ValueError(f"footprint must be >= 3 (x, y) vertices, got shape {pts.shape}")
-        if not np.isfinite(pts).all() or not math.isfinite(self.height):
-            raise ValueError("footprint and height must be finite")
+        pts = check_array("footprint", self.footprint, shape=(None, 2))
+        if pts.shape[0] < 3:
+            raise ValueError(f"footprint must have >= 3 (x, y) vertices, got {pts.shape[0]}")
+        object.__setattr__(self, "height", check_real("height", self.height))
         poly = self.polygon
         if not poly.is_valid or poly.area <= 0 or abs(poly.convex_hull.area - poly.area) > 1e-9 * poly.area:
             raise ValueError("footprint must be a convex polygon with positive area")

@@ -71,6 +71,16 @@ def _covert_case():
     return dp.covert.thesis_case(1)
 
 
+_HOVER: list = []
+
+
+def _hover_run():
+    """One hover-benchmark run on thesis case 1 (cached: it takes seconds)."""
+    if not _HOVER:
+        _HOVER.append(dp.covert.simulate(_covert_case(), dp.covert.HoverBenchmark()))
+    return _HOVER[0]
+
+
 def _path_a():
     return dp.shark.thesis_trajectories(duration=3.0)["a"]
 
@@ -145,6 +155,16 @@ SPECS: dict[str, Spec] = {
                                                                               "n_targets": "int>=0"}),
     "sphere_minmax_bearing": Spec(lambda: ((dp.covert.THESIS_TABLE_3_2, [[150.0, 150.0, 0.0]]), {}),
                                   {"params": "object", "targets": "points3"}),
+    "sphere_minmax_bearing_bnb": Spec(lambda: ((dp.covert.THESIS_TABLE_3_2, [[150.0, 150.0, 0.0]]), {}),
+                                      {"params": "object", "targets": "points3"}),
+    "Obstacle": Spec(lambda: ((((0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)), 5.0), {}),
+                     {"footprint": "points2", "height": "finite"}),
+    "mission_lower_bound": Spec(lambda: ((_covert_case(), 8.0), {"times": [0.0, 8.0, 60.0]}),
+                                {"scenario": "object", "t_a": "nonneg", "sphere_tol": "nonneg"}),
+    "mission_front": Spec(lambda: ((_covert_case(), [8.0, 12.0]), {"times": [0.0, 8.0, 60.0]}),
+                          {"scenario": "object", "sphere_tol": "nonneg", "t_end": "positive"}),
+    "stealth_front": Spec(lambda: ((_covert_case(), {"hover": _hover_run()}), {"n_arrivals": 2, "step": 20.0}),
+                          {"scenario": "object", "n_arrivals": "int>=1", "step": "positive"}),
     "SlidingSettings": Spec(lambda: ((), {}), {"eps_line": "positive", "home_radius": "positive"}),
     "SlidingModeObserver": Spec(lambda: ((), {}), {"settings": "object?"}),
     "HoverBenchmark": Spec(lambda: ((), {}), {"settings": "object?"}),
@@ -183,6 +203,9 @@ SPECS: dict[str, Spec] = {
     "optimal_altitude": Spec(lambda: ((-3.0,), {}), {"z_s": "finite", "params": "object"}),
     "InterceptionOCP": Spec(lambda: ((), {}), {"params": "object"}),
     "build_interception_nlp": Spec(lambda: ((), {}), {"params": "object"}),
+    "interception_time_bound": Spec(lambda: ((([0.0, 0.0, -3.0], [3.0, 0.0]), [-10.0, 5.0, 2.0]), {}),
+                                    {"operator0": "vec3", "params": "object", "t_max": "positive",
+                                     "t0": "nonneg"}),
     "solve_interception": Spec(lambda: ((([0.0, 0.0, -3.0], [3.0, 0.0]), [-10.0, 5.0, 2.0]), {"N": 10}),
                                {"operator0": "vec3", "params": "object"}),
     "build_assignment_model": Spec(lambda: ((np.ones((2, 2)), [0, 1]), {}), {"cost": "matrix"}),
@@ -240,7 +263,7 @@ SPECS: dict[str, Spec] = {
 PLOTTING = {
     # draw the library's own results on matplotlib axes; not fuzzed with bad data here
     "plot_map", "plot_path", "plot_bearing", "plot_top_view", "plot_time_series", "plot_state", "plot_final",
-    "plot_footprint", "write_gif", "summary_table", "plot_deployment_region",
+    "plot_footprint", "write_gif", "summary_table", "plot_deployment_region", "plot_stealth_front",
 }
 
 RESULT_TYPES = {
@@ -248,7 +271,7 @@ RESULT_TYPES = {
     "Instance", "Evaluation", "Candidates", "CellModel", "SolveResult", "Status", "Controller",
     "CovertTrace", "MPCData", "MPCPlan", "BearingMPC", "RecedingBearingMPC", "solve_bearing_mpc",
     "rollout_sliding", "InterceptionController", "InterceptionTrace", "RepellingTrace", "InterceptionPlan",
-    "Assignment", "HerdingTrace", "Allocation", "AllocationModel", "ExtendedHull",
+    "Assignment", "HerdingTrace", "Allocation", "AllocationModel", "ExtendedHull", "MissionBound",
     # the closed-loop contract's records and phase enums (built by the simulators and controllers)
     "CovertCommand", "CovertFrame", "CovertObservation", "CovertPhase", "HerdingCommand", "HerdingFrame",
     "HerdingObservation", "HerdingPhase", "SharkCommand", "SharkFrame", "SharkObservation", "SharkPhase",
