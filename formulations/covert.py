@@ -499,8 +499,8 @@ def sphere_minmax_bearing(params: CovertParams, targets: Any, *, c_start: float 
     returned point x (3,) of the sphere (m), bound = a certified lower bound (rad), equal to
     about 1e-5 rad (1e-4 rad near 0). Where that program does not apply (R inside the
     observation ball, or an optimum of 90 deg or more), the branch and bound :func:`sphere_minmax_bearing_bnb` answers
-    instead (``backend`` says which). targets: (n, 3) positions (m), n >= 1, none on the sphere.
-    c_start: cos of an angle believed below the optimum (e.g. the previous instant's optimum
+    instead (``backend`` says which). params: the problem (F, L_u, R; CovertParams);
+    targets: (n, 3) positions (m), n >= 1, none on the sphere. c_start: cos of an angle believed below the optimum (e.g. the previous instant's optimum
     minus a margin), to save solves along a sequence of instants.
     """
     from droneplan.formulations.covert_bounds import instant_minmax_bearing
