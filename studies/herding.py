@@ -170,7 +170,9 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
             if m == "proposed":
                 table.add(f"{n} animals: proposed gathering time (min)", FIG_6_7[n]["gather"], _minutes(_mean(g)), how)
                 table.add(f"{n} animals: proposed total time (min)", FIG_6_7[n]["total"], _minutes(_mean(tot)),
-                          "gathering + driving until the centroid is within goal_radius of G (900 m away)")
+                          "gathering + driving until every animal is within goal_radius = 50 m of G (900 m away), "
+                          "regathering first if the herd spreads beyond 1.5 R_c; the thesis does not state its end "
+                          "criterion (a centroid-at-G rule would count a split herd as delivered)")
             else:
                 prop = [r for r in rows if r["n"] == n and r["method"] == "proposed"]
                 pairs = [(b["total_time"], p["total_time"]) for b, p in zip(rs, prop)

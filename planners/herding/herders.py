@@ -131,6 +131,8 @@ class _Herder(abc.ABC):
     def _observe(self, animals, centroid, phase, drones) -> None:
         self.centroid = np.asarray(centroid, dtype=float)
         if phase == HerdingPhase.GATHERING:
+            if self.phase == HerdingPhase.DRIVING:  # the simulator sent the herd back to gathering
+                self._regroup()
             self.hull = ExtendedHull.from_points(animals, self.p.d_s)
             if self.on_hull.all():
                 self._plan_gathering(drones)
@@ -138,6 +140,15 @@ class _Herder(abc.ABC):
             if self.phase != HerdingPhase.DRIVING:
                 self.phase = HerdingPhase.DRIVING
             self._plan_driving(animals, drones)
+
+    def _regroup(self) -> None:
+        """Back from driving to gathering: fly to the new hull and allocate again."""
+        self.phase = HerdingPhase.GATHERING
+        self.on_hull[:] = False
+        self.allocated = False
+        self.drive_centre = None
+        self.drive_slot = None
+        self.drive_toggle[:] = False
 
     def _control(self, t, drones, headings, dt):
         p = self.p
