@@ -390,3 +390,58 @@ def test_altitudes_on_random_depths_are_in_the_band(z_s):
     for fn in (dp.shark.optimal_altitude, dp.shark.thesis_altitude):
         z_o, eps = fn(z_s, params)
         assert math.isfinite(float(z_o)) and math.isfinite(float(eps))
+
+
+# -------------------------------------------------------------------------- deeper profile (-m slow)
+NUMBER_CASES = [(name, param, kind) for name, spec in sorted(SPECS.items()) for param, kind in spec.checked.items()
+                if kind in ("positive", "nonneg", "finite")]
+
+
+def _bad_number(kind: str):
+    floats = st.floats(allow_nan=True, allow_infinity=True)
+    if kind == "positive":
+        floats = floats.filter(lambda x: not (math.isfinite(x) and x > 0))
+    elif kind == "nonneg":
+        floats = floats.filter(lambda x: not (math.isfinite(x) and x >= 0))
+    else:
+        floats = floats.filter(lambda x: not math.isfinite(x))
+    return st.one_of(floats, st.booleans(), st.text(max_size=3), st.none())
+
+
+@pytest.mark.slow
+@settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_deep_bad_numbers_raise_a_clear_error(data):
+    name, param, kind = data.draw(st.sampled_from(NUMBER_CASES), label="entry")
+    value = data.draw(_bad_number(kind), label="value")
+    fn = CALLABLES[name]
+    args, kwargs = SPECS[name].call()
+    sig, bound = _bound(fn, args, kwargs)
+    if value is None and param in sig.parameters and sig.parameters[param].default is None:
+        return  # None is the documented default of this parameter
+    if param in sig.parameters and sig.parameters[param].kind is not inspect.Parameter.VAR_KEYWORD:
+        bound.arguments[param] = value
+        call_args, call_kwargs = bound.args, bound.kwargs
+    else:
+        call_args, call_kwargs = bound.args, {**bound.kwargs, param: value}
+    with pytest.raises((ValueError, TypeError)) as info:
+        fn(*call_args, **call_kwargs)
+    assert param in str(info.value), f"{name}({param}={value!r}): {info.value}"
+
+
+users = st.lists(st.tuples(st.floats(-2500, 2500), st.floats(-2500, 2500)), min_size=0, max_size=12).map(
+    lambda u: np.array(u, dtype=float).reshape(-1, 2))
+
+
+@pytest.mark.slow
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(users, st.integers(1, 2))
+def test_deep_random_cells_instances_agree_with_the_bound(u, m):
+    problem = dp.cells.CellProblem(u, [[0.0, 0.0]], m, 500.0, 1000.0, 3500.0, 3000.0,
+                                   bounds=(-2500.0, 2500.0, -2500.0, 2500.0))
+    milp = dp.cells.solve_milp(problem, time_limit=15)
+    assert milp.status in (dp.Status.OPTIMAL, dp.Status.FEASIBLE)
+    ev = dp.cells.evaluate(problem, milp.x)
+    assert ev.feasible and ev.covered == milp.objective <= milp.bound
+    ga = dp.cells.genetic(problem, pop_size=6, iter_max=3, restarts=1, seed=0)
+    assert dp.cells.evaluate(problem, ga.x).feasible and ga.objective <= milp.bound
