@@ -193,6 +193,9 @@ def _run(args) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code (see the module docstring)."""
     args = _parser().parse_args(argv)
+    import matplotlib
+
+    matplotlib.use("Agg")  # the CLI only writes figures to files; notebooks keep their own backend
     common.INTERRUPT_GRACE_S = 3.0  # a solve stuck in C code after Ctrl-C: exit 130 anyway
     try:
         return _run(args)

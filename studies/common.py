@@ -472,9 +472,6 @@ def report_study(df: pd.DataFrame, out: Path, problem: str, *, thesis: Mapping[t
 
 def gap_figure(df: pd.DataFrame, path: Path, *, title: str = "") -> Path:
     """Box plots of gap_to_bound and gap_to_best per method (one dot per instance)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     rows = df[df["role"] != "bound"]
