@@ -79,6 +79,19 @@ from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_array, check_instance, check_positive
 
+__all__ = [
+    "METHODS",
+    "Allocation",
+    "validate_allocation_input",
+    "pad_steering_points",
+    "z_coordinates",
+    "allowed_wraps",
+    "check_allocation",
+    "AllocationModel",
+    "build_allocation_model",
+    "solve_allocation",
+]
+
 METHODS = ("exact", "cp-sat")
 
 

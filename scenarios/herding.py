@@ -63,6 +63,25 @@ from droneplan.solvers.validation import (
     resolve_seed,
 )
 
+__all__ = [
+    "HerdingParams",
+    "THESIS_TABLE_6_2",
+    "table_6_2_for",
+    "HerdingScenario",
+    "thesis_scenario",
+    "barking_mask",
+    "animal_step",
+    "drone_step",
+    "HerdingPhase",
+    "HerdingObservation",
+    "HerdingCommand",
+    "HerdingFrame",
+    "HerdingTrace",
+    "footprint_radius",
+    "simulate",
+    "with_params",
+]
+
 # --------------------------------------------------------------------------- parameters
 
 

@@ -18,6 +18,8 @@ from droneplan.solvers.base import BackendAdapter, NativeReadout, NlpBackend, ru
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_time_limit
 
+__all__ = ["BACKEND", "STATUS_MAP", "IpoptSolver", "IpoptAdapter"]
+
 BACKEND = "ipopt"
 
 # IPOPT return_status strings (IpReturnCodes). Statuses that stop at a point whose

@@ -19,6 +19,8 @@ from droneplan.solvers.base import BackendAdapter, NativeReadout, NlpBackend, Qp
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_time_limit
 
+__all__ = ["BACKEND", "STATUS_MAP", "OsqpSolver", "OsqpAdapter", "osqp_inf"]
+
 BACKEND = "osqp"
 
 # OSQP's status strings (identical in osqp 0.6 and 1.x), lower-cased.

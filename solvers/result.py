@@ -14,6 +14,8 @@ from collections.abc import Hashable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+__all__ = ["Status", "map_status", "SolveResult"]
+
 
 class Status(enum.Enum):
     """Outcome of a solve, independent of the backend."""

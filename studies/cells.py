@@ -23,6 +23,21 @@ from droneplan.studies.plots.cells import plot_deployment_region, plot_map  # no
 from droneplan.solvers.result import Status  # noqa: E402
 from droneplan.studies.store import Outcome, build_rows, instance_id  # noqa: E402
 
+__all__ = [
+    "INSTANCE_SEED",
+    "MILP_BACKEND",
+    "reproduce_task",
+    "reproduce",
+    "GA_VARIANTS",
+    "instance_features",
+    "ga_ablation",
+    "milp_seed_distribution",
+    "GAP_THESIS",
+    "gap_task",
+    "gap",
+    "bench",
+]
+
 INSTANCE_SEED = 0
 """Seed of the thesis-scale user snapshot used by reproduce and bench."""
 MILP_BACKEND = "cp-sat"

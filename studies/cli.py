@@ -28,6 +28,8 @@ from droneplan.studies import common
 from droneplan.studies.common import StudyError, make_executor
 from droneplan.studies.store import STORE_NAME, ResultStore, StoreError
 
+__all__ = ["PROBLEMS", "available_problems", "run_gap", "main"]
+
 PROBLEMS = ("covert", "cells", "shark", "herding")
 """The four problems, in thesis chapter order (ch. 3-6)."""
 

@@ -29,6 +29,22 @@ from tqdm.auto import tqdm
 
 from droneplan.studies.store import STORE_NAME, ResultStore, error_row
 
+__all__ = [
+    "StudyExecutor",
+    "StudyError",
+    "make_executor",
+    "INTERRUPT_GRACE_S",
+    "open_store",
+    "map_rows",
+    "DEVIATION_THRESHOLD",
+    "ComparisonTable",
+    "render_frame",
+    "summarize",
+    "report_study",
+    "gap_figure",
+    "timed",
+]
+
 
 # --------------------------------------------------------------------------- executors
 class StudyExecutor(cf.Executor):

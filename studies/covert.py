@@ -33,6 +33,8 @@ from droneplan.studies.common import ComparisonTable, map_rows, open_store, repo
 from droneplan.studies.plots.covert import plot_bearing, plot_path, plot_stealth_front  # noqa: E402
 from droneplan.studies.store import Outcome, build_rows, instance_id  # noqa: E402
 
+__all__ = ["DEG", "stealth_front", "reproduce", "GAP_THESIS", "gap_task", "gap", "bench"]
+
 DEG = 180.0 / math.pi
 
 

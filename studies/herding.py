@@ -33,6 +33,22 @@ from droneplan.studies.common import open_store as _store  # noqa: E402
 from droneplan.studies.plots.herding import plot_state  # noqa: E402
 from droneplan.studies.store import Outcome, ResultStore, build_rows, instance_id  # noqa: E402
 
+__all__ = [
+    "FIG_6_7",
+    "SWEEPS",
+    "run_once",
+    "run_pair",
+    "reproduce",
+    "random_allocation_instance",
+    "GAP_SIZES",
+    "GAP_THESIS",
+    "gap_task",
+    "gap",
+    "bench",
+    "write_gif",
+    "summary_table",
+]
+
 FIG_6_7 = {200: {"gather": 11.1, "total": 15.0, "bench_extra": 3.3},
            1000: {"gather": 10.1, "total": 18.2, "bench_extra": 4.1}}
 """Thesis §6.5 (Fig. 6.7a): proposed gathering / total time (min) and the benchmark's extra minutes."""

@@ -20,6 +20,17 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+__all__ = [
+    "PROBLEMS",
+    "CHAPTER_TITLES",
+    "REPORT_NAME",
+    "Deviation",
+    "DEVIATIONS",
+    "deviations_markdown",
+    "write_report",
+    "main",
+]
+
 PROBLEMS = ("covert", "cells", "shark", "herding")
 """The problems in thesis order (chapters 3-6), as named by ``droneplan reproduce``."""
 

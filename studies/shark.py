@@ -26,6 +26,8 @@ from droneplan.studies.common import ComparisonTable, map_rows, open_store, repo
 from droneplan.studies.plots.shark import plot_time_series, plot_top_view  # noqa: E402
 from droneplan.studies.store import Outcome, build_rows, instance_id  # noqa: E402
 
+__all__ = ["P", "TABLE_5_2", "reproduce", "gap_task", "gap", "bench"]
+
 
 P = THESIS_TABLE_5_1
 TABLE_5_2 = {"a": (5.34, 29.70), "b": (5.48, 30.50), "c": (5.55, 19.79), "d": (5.78, 21.26)}

@@ -76,6 +76,27 @@ from typing import Any, Self
 
 import pandas as pd
 
+__all__ = [
+    "SCHEMA_VERSION",
+    "STORE_NAME",
+    "COLUMNS",
+    "KEY",
+    "PROBLEMS",
+    "ROLES",
+    "BOUND_KINDS",
+    "SENSES",
+    "ERROR_STATUS",
+    "SIZE_MEANING",
+    "OBJECTIVE_UNITS",
+    "StoreError",
+    "instance_id",
+    "Outcome",
+    "build_rows",
+    "error_row",
+    "ResultStore",
+    "load_results",
+]
+
 SCHEMA_VERSION = 1
 """Bumped whenever ``COLUMNS`` or their meaning change; older stores are refused."""
 

@@ -23,6 +23,8 @@ from droneplan.formulations.herding import (
 )
 from droneplan.solvers.result import SolveResult, Status
 
+__all__ = ["allocate_bruteforce", "crosses", "allocate_collision_blind"]
+
 _CHUNK = 720  # permutations evaluated per vectorised block
 
 

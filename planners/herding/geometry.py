@@ -11,6 +11,8 @@ from scipy.spatial import ConvexHull, QhullError
 
 from droneplan.solvers.validation import check_array, check_positive, check_real
 
+__all__ = ["convex_hull", "MITRE_LIMIT", "extended_hull_vertices", "ExtendedHull", "min_enclosing_circle"]
+
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
     """Counter-clockwise convex-hull vertices of (n, 2) points, m.

@@ -19,6 +19,8 @@ import numpy as np
 
 from droneplan.planners.herding.geometry import ExtendedHull
 
+__all__ = ["OVERSHOOT_TOL", "F", "g", "steer", "fly_to_edge", "next_waypoint", "fly_on_edge"]
+
 OVERSHOOT_TOL = 1.0
 """m: a target less than this far behind the drone (along its direction) counts as reached."""
 

@@ -46,6 +46,8 @@ from droneplan.planners.herding.guidance import fly_on_edge, fly_to_edge, steer
 from droneplan.scenarios.herding import HerdingCommand, HerdingObservation, HerdingPhase
 from droneplan.solvers.validation import check_array, check_instance, check_int, check_positive
 
+__all__ = ["ALLOCATORS", "HerderSettings", "steering_points", "ProposedHerder", "BenchmarkHerder"]
+
 ALLOCATORS = ("exact", "cp-sat", "bruteforce", "collision-blind")
 
 

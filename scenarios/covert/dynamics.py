@@ -13,6 +13,21 @@ from droneplan.scenarios.covert.world import CovertParams, CovertScenario
 from droneplan.solvers.validation import check_array, check_methods, check_nonneg, check_positive, resolve_seed
 from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
 
+__all__ = [
+    "CovertPhase",
+    "bearing_changes",
+    "nearest_on_line",
+    "rotate_heading",
+    "step_drone",
+    "measure",
+    "CovertObservation",
+    "CovertCommand",
+    "Controller",
+    "CovertFrame",
+    "CovertTrace",
+    "simulate",
+]
+
 
 class CovertPhase(enum.StrEnum):
     """Phases of a covert-observation mission (thesis §3.4), in order."""

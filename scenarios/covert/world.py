@@ -16,6 +16,22 @@ from droneplan.solvers.validation import (
     resolve_seed,
 )
 
+__all__ = [
+    "ZONE",
+    "HABITAT",
+    "CovertParams",
+    "THESIS_TABLE_3_2",
+    "Terrain",
+    "TargetPath",
+    "Occlusion",
+    "Obstacle",
+    "FIG_3_13_OBSTACLE",
+    "CovertScenario",
+    "CASE1_TERRAIN",
+    "thesis_case",
+    "random_case",
+]
+
 ZONE = 200.0
 """Side of the square zone the targets move in (m), thesis §3.5."""
 HABITAT = (80.0, 195.0)
