@@ -5,10 +5,11 @@ with the thesis's heuristics as baselines and warm starts.
 Front doors, one per problem (each re-exports what a user of that problem needs)::
 
     import droneplan as dp
-    dp.covert    # ch. 3, covert observation of moving animals
-    dp.cells     # ch. 4, backhaul-aware drone-cell placement
-    dp.shark     # ch. 5, shark interception
-    dp.herding   # ch. 6, herding with barking drones
+
+    dp.covert  # ch. 3, covert observation of moving animals
+    dp.cells  # ch. 4, backhaul-aware drone-cell placement
+    dp.shark  # ch. 5, shark interception
+    dp.herding  # ch. 6, herding with barking drones
 
 The layers (``droneplan.scenarios``, ``.formulations``, ``.solvers``, ``.planners``,
 ``.studies``) hold the implementation; ``SolveResult``/``Status`` are the result
@@ -23,8 +24,17 @@ from droneplan.studies.store import load_results
 
 __version__ = "0.1.0"
 
-__all__ = ["cells", "covert", "herding", "shark", "SolveResult", "Status", "load_results", "run_gap",
-           "__version__"]
+__all__ = [
+    "cells",
+    "covert",
+    "herding",
+    "shark",
+    "SolveResult",
+    "Status",
+    "load_results",
+    "run_gap",
+    "__version__",
+]
 
 
 def __getattr__(name: str):

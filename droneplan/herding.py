@@ -41,19 +41,45 @@ from droneplan.scenarios.herding import (
     with_params,
 )
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.studies.plots import plot_state, plot_final, plot_footprint
 from droneplan.studies.herding import summary_table, write_gif
+from droneplan.studies.plots import plot_final, plot_footprint, plot_state
 
 __all__ = [
     # world, presets, simulator
-    "HerdingParams", "THESIS_TABLE_6_2", "HerdingScenario", "thesis_scenario", "with_params", "HerdingTrace",
-    "HerdingObservation", "HerdingCommand", "HerdingPhase", "HerdingFrame", "simulate", "footprint_radius",
+    "HerdingParams",
+    "THESIS_TABLE_6_2",
+    "HerdingScenario",
+    "thesis_scenario",
+    "with_params",
+    "HerdingTrace",
+    "HerdingObservation",
+    "HerdingCommand",
+    "HerdingPhase",
+    "HerdingFrame",
+    "simulate",
+    "footprint_radius",
     # the allocation model
-    "Allocation", "AllocationModel", "build_allocation_model", "solve_allocation", "check_allocation",
+    "Allocation",
+    "AllocationModel",
+    "build_allocation_model",
+    "solve_allocation",
+    "check_allocation",
     # thesis methods and herders
-    "allocate_bruteforce", "allocate_collision_blind", "ExtendedHull", "convex_hull", "min_enclosing_circle",
-    "steering_points", "HerderSettings", "ProposedHerder", "BenchmarkHerder",
+    "allocate_bruteforce",
+    "allocate_collision_blind",
+    "ExtendedHull",
+    "convex_hull",
+    "min_enclosing_circle",
+    "steering_points",
+    "HerderSettings",
+    "ProposedHerder",
+    "BenchmarkHerder",
     # results and plots
-    "SolveResult", "Status", "plot_state", "plot_final", "plot_footprint", "write_gif",
+    "SolveResult",
+    "Status",
+    "plot_state",
+    "plot_final",
+    "plot_footprint",
+    "write_gif",
     "summary_table",
 ]

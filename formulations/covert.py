@@ -46,8 +46,14 @@ from droneplan.solvers.base import NlpSolver
 from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.sqp import SqpStructure
-from droneplan.solvers.validation import (check_array, check_in_range, check_instance, check_int, check_nonneg,
-                                           check_positive)
+from droneplan.solvers.validation import (
+    check_array,
+    check_in_range,
+    check_instance,
+    check_int,
+    check_nonneg,
+    check_positive,
+)
 
 __all__ = [
     "MPCSettings",
@@ -221,7 +227,7 @@ class BearingMPC:
         ubg = np.zeros(self.n_g)
         gi = self.gidx
         lbg[gi["unorm"]] = -np.inf
-        ubg[gi["unorm"]] = p.U_max ** 2
+        ubg[gi["unorm"]] = p.U_max**2
         lbg[gi["sphere"]] = np.asarray(data.sphere_lo, float)
         ubg[gi["sphere"]] = np.asarray(data.sphere_hi, float)
         lbg[gi["home"]] = -np.inf
@@ -241,11 +247,23 @@ class BearingMPC:
         x = np.asarray(x, float)
         D = np.vstack([data.D0, x[self.idx["D"]]])
         h = np.vstack([data.h0, x[self.idx["h"]]])
-        return MPCPlan(times=np.concatenate([[0.0], np.cumsum(self.durations)]), u=x[self.idx["u"]],
-                       v=x[self.idx["v"]], D=D, h=h, tau=float(x[self.idx["tau"]]))
+        return MPCPlan(
+            times=np.concatenate([[0.0], np.cumsum(self.durations)]),
+            u=x[self.idx["u"]],
+            v=x[self.idx["v"]],
+            D=D,
+            h=h,
+            tau=float(x[self.idx["tau"]]),
+        )
 
-    def pack(self, plan_u: np.ndarray, plan_v: np.ndarray, D: np.ndarray, h: np.ndarray,
-             tau_k: np.ndarray | None = None) -> np.ndarray:
+    def pack(
+        self,
+        plan_u: np.ndarray,
+        plan_v: np.ndarray,
+        D: np.ndarray,
+        h: np.ndarray,
+        tau_k: np.ndarray | None = None,
+    ) -> np.ndarray:
         """A decision vector from commands (N,3),(N,) and node states D, h (N,3) (nodes 1..N)."""
         x = np.zeros(self.n_x)
         x[self.idx["u"]] = plan_u
@@ -258,7 +276,9 @@ class BearingMPC:
         return x
 
 
-def build_bearing_mpc(params: CovertParams, n_targets: int, settings: MPCSettings | None = None) -> BearingMPC:
+def build_bearing_mpc(
+    params: CovertParams, n_targets: int, settings: MPCSettings | None = None
+) -> BearingMPC:
     """Build the symbolic min-max bearing MPC for ``n_targets`` targets (no solving).
 
     params: problem parameters, CovertParams (Table 3.2).
@@ -272,16 +292,23 @@ def build_bearing_mpc(params: CovertParams, n_targets: int, settings: MPCSetting
     N, n = st.horizon, int(n_targets)
     durations = np.array([params.dt * st.replan_every] + [st.step] * (N - 1))
     if params.U_max * durations.max() > 6.0:
-        raise ValueError(f"U_max * step must be <= 6 rad for the series dynamics, got {params.U_max * durations.max()}")
+        raise ValueError(
+            f"U_max * step must be <= 6 rad for the series dynamics, got {params.U_max * durations.max()}"
+        )
     F, Ds, R = params.F_arr, params.D_s_arr, params.R_arr
     per = 10  # u(3) v D(3) h(3)
     nx = per * N + N + 1
     x = ca.SX.sym("x", nx)
     pv = ca.SX.sym("p", 6 + N * n * 3)
     D_prev, h_prev = pv[0:3], pv[3:6]
-    idx = {"u": np.zeros((N, 3), int), "v": np.zeros(N, int), "D": np.zeros((N, 3), int), "h": np.zeros((N, 3), int)}
+    idx = {
+        "u": np.zeros((N, 3), int),
+        "v": np.zeros(N, int),
+        "D": np.zeros((N, 3), int),
+        "h": np.zeros((N, 3), int),
+    }
     g_dyn, g_orth, g_un, g_sph, g_home, g_epi, g_link, g_tan = [], [], [], [], [], [], [], []
-    tau_k = x[per * N: per * N + N]
+    tau_k = x[per * N : per * N + N]
     tau = x[per * N + N]
     idx["tau_k"] = np.arange(per * N, per * N + N)
     idx["tau"] = per * N + N
@@ -293,7 +320,7 @@ def build_bearing_mpc(params: CovertParams, n_targets: int, settings: MPCSetting
         idx["v"][k] = b + 3
         idx["D"][k] = np.arange(b + 4, b + 7)
         idx["h"][k] = np.arange(b + 7, b + 10)
-        u, v, Dn, hn = x[b:b + 3], x[b + 3], x[b + 4:b + 7], x[b + 7:b + 10]
+        u, v, Dn, hn = x[b : b + 3], x[b + 3], x[b + 4 : b + 7], x[b + 7 : b + 10]
         dt = float(durations[k])
         th2 = ca.dot(u, u) * dt * dt
         c0, s1, c2 = _series(th2, 0), _series(th2, 1), _series(th2, 2)
@@ -306,7 +333,7 @@ def build_bearing_mpc(params: CovertParams, n_targets: int, settings: MPCSetting
         g_tan.append(ca.dot(Dn - F, hn))
         for j in range(n):
             o = 6 + (k * n + j) * 3
-            A = pv[o:o + 3]
+            A = pv[o : o + 3]
             c = A - R
             c = c / ca.sqrt(ca.dot(c, c))
             a = A - Dn
@@ -315,12 +342,24 @@ def build_bearing_mpc(params: CovertParams, n_targets: int, settings: MPCSetting
             g_epi.append((ca.dot(cr, cr) - tau_k[k] ** 2 * ca.dot(c, a) ** 2) / na2)
         g_link.append(tau - tau_k[k])
         if u_last is not None:
-            smooth = smooth + ca.dot(u - u_last, u - u_last) / params.U_max ** 2 + (v - v_last) ** 2 / params.V_max ** 2
+            smooth = (
+                smooth
+                + ca.dot(u - u_last, u - u_last) / params.U_max**2
+                + (v - v_last) ** 2 / params.V_max**2
+            )
         u_last, v_last = u, v
         D_prev, h_prev = Dn, hn
     f = tau + st.stage_weight * ca.sum1(tau_k) / N + st.smooth_weight * smooth
-    groups = [("dyn", g_dyn), ("orth", g_orth), ("unorm", g_un), ("sphere", g_sph), ("home", g_home),
-              ("epi", g_epi), ("link", g_link), ("tangent", g_tan)]
+    groups = [
+        ("dyn", g_dyn),
+        ("orth", g_orth),
+        ("unorm", g_un),
+        ("sphere", g_sph),
+        ("home", g_home),
+        ("epi", g_epi),
+        ("link", g_link),
+        ("tangent", g_tan),
+    ]
     gs, gidx, off = [], {}, 0
     for name, items in groups:
         expr = ca.vertcat(*items) if items else ca.SX(0, 1)
@@ -380,14 +419,20 @@ def _result_with_plan(model: BearingMPC, data: MPCData, res: SolveResult, how: s
         return res
     plan = model.unpack(res.x, data)
     f = res.objective
-    return replace(res, x=plan, objective=plan.beta_max, bound=None,
-                   message=f"{how}; objective = predicted max bearing change over the horizon (rad), "
-                           f"local solution (no bound). {res.message}",
-                   info={**res.info, "z": np.asarray(res.x, float), "f": f})
+    return replace(
+        res,
+        x=plan,
+        objective=plan.beta_max,
+        bound=None,
+        message=f"{how}; objective = predicted max bearing change over the horizon (rad), "
+        f"local solution (no bound). {res.message}",
+        info={**res.info, "z": np.asarray(res.x, float), "f": f},
+    )
 
 
-def solve_bearing_mpc(params: CovertParams, data: MPCData, settings: MPCSettings | None = None, *,
-                      x0: np.ndarray | None = None) -> SolveResult:
+def solve_bearing_mpc(
+    params: CovertParams, data: MPCData, settings: MPCSettings | None = None, *, x0: np.ndarray | None = None
+) -> SolveResult:
     """Build the MPC for ``data`` and solve it once with IPOPT (x = :class:`MPCPlan`).
 
     x0: starting decision vector (default: straight flight at V_max / 2 rolled out).
@@ -426,12 +471,25 @@ class RecedingBearingMPC:
     def backend_options(settings: MPCSettings, *, warm: bool) -> dict[str, dict[str, Any]]:
         """Options per backend name for a solve with (``warm``) or without a previous solution."""
         return {
-            "ipopt": {"max_iter": settings.max_iter if warm else settings.cold_max_iter, "tol": 1e-5,
-                      "acceptable_tol": 1e-3, "acceptable_iter": 5},
-            "osqp": {"iterations": settings.sqp_iters,
-                     "qp_settings": {"eps_abs": 1e-3, "eps_rel": 1e-3, "polishing": False, "scaling": 25,
-                                     "max_iter": 4000, "check_termination": 10,
-                                     "eps_prim_inf": 1e-9, "eps_dual_inf": 1e-9}},
+            "ipopt": {
+                "max_iter": settings.max_iter if warm else settings.cold_max_iter,
+                "tol": 1e-5,
+                "acceptable_tol": 1e-3,
+                "acceptable_iter": 5,
+            },
+            "osqp": {
+                "iterations": settings.sqp_iters,
+                "qp_settings": {
+                    "eps_abs": 1e-3,
+                    "eps_rel": 1e-3,
+                    "polishing": False,
+                    "scaling": 25,
+                    "max_iter": 4000,
+                    "check_termination": 10,
+                    "eps_prim_inf": 1e-9,
+                    "eps_dual_inf": 1e-9,
+                },
+            },
         }
 
     def _structure(self) -> SqpStructure:
@@ -439,8 +497,8 @@ class RecedingBearingMPC:
         tangent: one free slack each, so every linearised QP is feasible)."""
         model = self.model
         prox = np.ones(model.n_x)
-        prox[model.idx["u"].ravel()] = 1.0 / model.params.U_max ** 2
-        prox[model.idx["v"]] = 1.0 / model.params.V_max ** 2
+        prox[model.idx["u"].ravel()] = 1.0 / model.params.U_max**2
+        prox[model.idx["v"]] = 1.0 / model.params.V_max**2
         prox[model.idx["D"].ravel()] = 1e-2
         prox[model.idx["tau_k"]] = TAU_PROX
         prox[model.idx["tau"]] = TAU_PROX
@@ -452,12 +510,19 @@ class RecedingBearingMPC:
         if warm not in self._solvers:
             st = self.model.settings
             options = self.backend_options(st, warm=warm).get(self._adapter.name, {})
-            self._solvers[warm] = self._adapter.create_nlp(self.model.nlp, options=options,
-                                                           structure=self._structure(), time_limit=st.time_limit)
+            self._solvers[warm] = self._adapter.create_nlp(
+                self.model.nlp, options=options, structure=self._structure(), time_limit=st.time_limit
+            )
         return self._solvers[warm]
 
-    def solve(self, data: MPCData, *, x0: np.ndarray | None = None, warm: SolveResult | None = None,
-              start: str | None = None) -> SolveResult:
+    def solve(
+        self,
+        data: MPCData,
+        *,
+        x0: np.ndarray | None = None,
+        warm: SolveResult | None = None,
+        start: str | None = None,
+    ) -> SolveResult:
         """Solve for ``data`` from the starting vector ``x0`` (duals of ``warm`` reused when the
         backend takes them).
 
@@ -469,10 +534,15 @@ class RecedingBearingMPC:
         """
         label = start if start is not None else ("given" if x0 is not None else "straight-flight")
         res = self._solve(data, x0=x0, warm=warm)
-        return replace(res, warm_started=x0 is not None,
-                       info={**res.info, "start": label, "duals_reused": bool(res.warm_started)})
+        return replace(
+            res,
+            warm_started=x0 is not None,
+            info={**res.info, "start": label, "duals_reused": bool(res.warm_started)},
+        )
 
-    def _solve(self, data: MPCData, *, x0: np.ndarray | None = None, warm: SolveResult | None = None) -> SolveResult:
+    def _solve(
+        self, data: MPCData, *, x0: np.ndarray | None = None, warm: SolveResult | None = None
+    ) -> SolveResult:
         m = self.model
         p = m.pack_params(data)
         lbx, ubx, lbg, ubg = m.bounds(data)
@@ -485,8 +555,9 @@ class RecedingBearingMPC:
             # onto the plant: admissible commands, states re-simulated exactly
             return rollout_guess(m, data, z[m.idx["u"]], z[m.idx["v"]])
 
-        res = self._solver(ws is not None).solve(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=p, warm_start=ws,
-                                                 project=project)
+        res = self._solver(ws is not None).solve(
+            x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=p, warm_start=ws, project=project
+        )
         return _result_with_plan(m, data, res, res.backend)
 
 
@@ -516,8 +587,9 @@ def sphere_minmax_bearing(params: CovertParams, targets: Any, *, c_start: float 
     return replace(bnb, message=f"{res.message}; fell back to: {bnb.message}")
 
 
-def sphere_minmax_bearing_bnb(params: CovertParams, targets: Any, *, tol: float = math.radians(0.05),
-                              max_cells: int = 400_000) -> SolveResult:
+def sphere_minmax_bearing_bnb(
+    params: CovertParams, targets: Any, *, tol: float = math.radians(0.05), max_cells: int = 400_000
+) -> SolveResult:
     """Global min over the observation sphere of max_j beta_j for fixed targets, with a proven bound
     (branch and bound; the test oracle of :func:`sphere_minmax_bearing`).
 
@@ -552,8 +624,11 @@ def sphere_minmax_bearing_bnb(params: CovertParams, targets: Any, *, tol: float 
         pc = 0.5 * (cells[:, 2] + cells[:, 3])
         C = F + L * np.column_stack([np.sin(tc) * np.cos(pc), np.sin(tc) * np.sin(pc), np.cos(tc)])
         # covering radius: half a meridian arc plus half the widest parallel arc (a path within the cell)
-        smax = np.where((cells[:, 0] <= math.pi / 2) & (cells[:, 1] >= math.pi / 2), 1.0,
-                        np.maximum(np.sin(cells[:, 0]), np.sin(cells[:, 1])))
+        smax = np.where(
+            (cells[:, 0] <= math.pi / 2) & (cells[:, 1] >= math.pi / 2),
+            1.0,
+            np.maximum(np.sin(cells[:, 0]), np.sin(cells[:, 1])),
+        )
         dth = cells[:, 1] - cells[:, 0]
         dph = cells[:, 3] - cells[:, 2]
         rho = 0.5 * L * (dth + smax * dph)
@@ -575,14 +650,26 @@ def sphere_minmax_bearing_bnb(params: CovertParams, targets: Any, *, tol: float 
         k = cells[keep]
         tm = 0.5 * (k[:, 0] + k[:, 1])
         pm = 0.5 * (k[:, 2] + k[:, 3])
-        cells = np.vstack([
-            np.column_stack([k[:, 0], tm, k[:, 2], pm]), np.column_stack([k[:, 0], tm, pm, k[:, 3]]),
-            np.column_stack([tm, k[:, 1], k[:, 2], pm]), np.column_stack([tm, k[:, 1], pm, k[:, 3]])])
+        cells = np.vstack(
+            [
+                np.column_stack([k[:, 0], tm, k[:, 2], pm]),
+                np.column_stack([k[:, 0], tm, pm, k[:, 3]]),
+                np.column_stack([tm, k[:, 1], k[:, 2], pm]),
+                np.column_stack([tm, k[:, 1], pm, k[:, 3]]),
+            ]
+        )
     # a discarded cell had lb >= (best at that time) - tol >= best - tol; if the cell budget
     # stopped the search, the cells still open have lb >= lower
     bound = max(0.0, min(best - tol, lower) if math.isfinite(lower) else best - tol)
     status = Status.OPTIMAL if best - bound <= tol + 1e-12 else Status.FEASIBLE
-    return SolveResult(status, objective=best, bound=bound, x=best_pt, backend="sphere-bnb",
-                       message=f"branch and bound on the sphere, {evaluated} cells; bound = proven "
-                               f"lower bound on min max beta over the sphere (rad)",
-                       solve_time=time.perf_counter() - t0, iterations=evaluated)
+    return SolveResult(
+        status,
+        objective=best,
+        bound=bound,
+        x=best_pt,
+        backend="sphere-bnb",
+        message=f"branch and bound on the sphere, {evaluated} cells; bound = proven "
+        f"lower bound on min max beta over the sphere (rad)",
+        solve_time=time.perf_counter() - t0,
+        iterations=evaluated,
+    )

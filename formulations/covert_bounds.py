@@ -40,8 +40,13 @@ import numpy as np
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_array, check_bool, check_instance, check_nonneg, check_positive
 
-__all__ = ["InstantMinmaxProgram", "MissionBound", "instant_minmax_bearing", "mission_front",
-           "mission_lower_bound"]
+__all__ = [
+    "InstantMinmaxProgram",
+    "MissionBound",
+    "instant_minmax_bearing",
+    "mission_front",
+    "mission_lower_bound",
+]
 
 _C_WIDTH = 1e-9  # the search stops when the bracket on cos(theta*) is this narrow
 _DELTA_C = 1e-6  # certification: first step in cos(theta) above the bracket (about 1e-5 rad in theta)
@@ -98,8 +103,15 @@ class InstantMinmaxProgram:
         lam = np.asarray(self.slack_rows.dual_value, float).ravel()
         return float(self.s.value), -float(lam @ self.t.value), np.asarray(self.y.value, float)
 
-    def solve(self, params: Any, targets: Any, *, balls: Any = None, c_start: float | None = None,
-              radius: float | None = None) -> tuple[float | None, float | None, np.ndarray | None, int, str]:
+    def solve(
+        self,
+        params: Any,
+        targets: Any,
+        *,
+        balls: Any = None,
+        c_start: float | None = None,
+        radius: float | None = None,
+    ) -> tuple[float | None, float | None, np.ndarray | None, int, str]:
         """(cos of the certified lower bound, cos of the best feasible angle, its point D (m), solves, note).
 
         targets: (n, 3) m; balls: (n_balls, 4) rows (centre (3) m, radius m); c_start: a cos(theta)
@@ -145,15 +157,23 @@ class InstantMinmaxProgram:
             else:
                 hi, f_hi, hi_accurate = c, r, self.last_accurate
             if f_lo is None and lo == 0.0 and c == 0.0:
-                return None, None, None, solves, ("min-max bearing >= 90 deg (or the balls do not meet): "
-                                                  "not convex")
+                return (
+                    None,
+                    None,
+                    None,
+                    solves,
+                    ("min-max bearing >= 90 deg (or the balls do not meet): not convex"),
+                )
             if f_lo is not None and (hi - lo <= _C_WIDTH or f_lo[0] <= 0.1 * _S_TOL):
                 break
             if f_hi is None and hi == 1.0 and c == 1.0:  # s(1) > 0: every cone met at theta = 0
                 return 1.0, 1.0, F + L * self._point(f_lo), solves, ""
             ends = [e for e in ((lo, f_lo), (hi, f_hi)) if e[1] is not None]
-            cands = [c0 - r0[0] / r0[1] for c0, r0 in sorted(ends, key=lambda e: abs(e[1][0]))
-                     if r0[1] < 0 and math.isfinite(r0[0])]
+            cands = [
+                c0 - r0[0] / r0[1]
+                for c0, r0 in sorted(ends, key=lambda e: abs(e[1][0]))
+                if r0[1] < 0 and math.isfinite(r0[0])
+            ]
             c = next((x for x in cands if lo < x < hi), None)
             if c is None:
                 c = 0.0 if f_lo is None else 1.0 if f_hi is None else 0.5 * (lo + hi)
@@ -216,22 +236,38 @@ def instant_minmax_bearing(params: Any, targets: Any, *, c_start: float | None =
     if A.shape[0] == 0 or not np.isfinite(A).all():
         raise ValueError("targets must be a non-empty finite (n, 3) array")
     if np.linalg.norm(params.R_arr - params.F_arr) <= params.L_u:
-        return SolveResult(Status.ERROR, backend="cvxpy-clarabel", solve_time=time.perf_counter() - t0,
-                           message="R lies inside the observation ball: the convex reformulation "
-                                   "does not apply")
+        return SolveResult(
+            Status.ERROR,
+            backend="cvxpy-clarabel",
+            solve_time=time.perf_counter() - t0,
+            message="R lies inside the observation ball: the convex reformulation does not apply",
+        )
     c_lo, c_best, D, solves, note = _program(A.shape[0], 0).solve(params, A, c_start=c_start)
     el = time.perf_counter() - t0
     if c_lo is None or D is None:
-        return SolveResult(Status.ERROR, backend="cvxpy-clarabel", solve_time=el, iterations=solves,
-                           message=f"convex per-instant program not applicable: {note}")
+        return SolveResult(
+            Status.ERROR,
+            backend="cvxpy-clarabel",
+            solve_time=el,
+            iterations=solves,
+            message=f"convex per-instant program not applicable: {note}",
+        )
     P = _to_sphere(params, D)
     val = float(bearing_changes(P, A, params.R_arr).max())
     bound = min(math.acos(min(c_lo, 1.0)), val)
-    return SolveResult(Status.OPTIMAL, objective=val, bound=bound, x=P, backend="cvxpy-clarabel",
-                       solve_time=el, iterations=solves,
-                       message=f"exact convex per-instant optimum (SOCP slack form, Newton on cos theta, "
-                               f"{solves} solves); bound = certified lower bound on min over the sphere of "
-                               f"max_j beta_j (rad)", info={"cos_theta": c_best})
+    return SolveResult(
+        Status.OPTIMAL,
+        objective=val,
+        bound=bound,
+        x=P,
+        backend="cvxpy-clarabel",
+        solve_time=el,
+        iterations=solves,
+        message=f"exact convex per-instant optimum (SOCP slack form, Newton on cos theta, "
+        f"{solves} solves); bound = certified lower bound on min over the sphere of "
+        f"max_j beta_j (rad)",
+        info={"cos_theta": c_best},
+    )
 
 
 @dataclass(frozen=True)
@@ -270,9 +306,16 @@ def _instant_balls(p: Any, t: float, t_a: float, t_f: float, t_end: float, retre
     return radius, balls
 
 
-def mission_lower_bound(scenario: Any, t_a: float, t_f: float | None = None, *, times: Any = None,
-                        retreat: bool = True, t_end: float | None = None,
-                        sphere_tol: float = 1.0) -> MissionBound:
+def mission_lower_bound(
+    scenario: Any,
+    t_a: float,
+    t_f: float | None = None,
+    *,
+    times: Any = None,
+    retreat: bool = True,
+    t_end: float | None = None,
+    sphere_tol: float = 1.0,
+) -> MissionBound:
     """Lower bound on beta_max (rad) on ``scenario`` for any controller that leaves D_s at t = 0 at
     speed <= V_max, is on the observation sphere (within ``sphere_tol`` m) from ``t_a`` (s) to
     ``t_f`` (s; default: the latest time from which D_s is still reachable by t_end) and, with
@@ -286,13 +329,21 @@ def mission_lower_bound(scenario: Any, t_a: float, t_f: float | None = None, *, 
     reach the sphere by t_a) are NaN and left out.
     """
     t_a = check_nonneg("t_a", t_a)
-    return mission_front(scenario, [t_a], t_f, times=times, retreat=retreat, t_end=t_end,
-                         sphere_tol=sphere_tol)[0]
+    return mission_front(
+        scenario, [t_a], t_f, times=times, retreat=retreat, t_end=t_end, sphere_tol=sphere_tol
+    )[0]
 
 
-def mission_front(scenario: Any, arrival_times: Any, t_f: float | None = None, *, times: Any = None,
-                  retreat: bool = True, t_end: float | None = None,
-                  sphere_tol: float = 1.0) -> list[MissionBound]:
+def mission_front(
+    scenario: Any,
+    arrival_times: Any,
+    t_f: float | None = None,
+    *,
+    times: Any = None,
+    retreat: bool = True,
+    t_end: float | None = None,
+    sphere_tol: float = 1.0,
+) -> list[MissionBound]:
     """:func:`mission_lower_bound` for several arrival times (s), sharing the instants after arrival.
 
     scenario: the targets' paths and the parameters (no obstacles); arrival_times: the t_a (s) of
@@ -316,8 +367,10 @@ def mission_front(scenario: Any, arrival_times: Any, t_f: float | None = None, *
     arrival_times = np.atleast_1d(arrival_times)
     p = scenario.params
     if getattr(scenario, "obstacles", ()):
-        raise ValueError("scenario has obstacles: which targets are visible depends on the drone position, "
-                         "and the bound assumes the visible set is the same for every position")
+        raise ValueError(
+            "scenario has obstacles: which targets are visible depends on the drone position, "
+            "and the bound assumes the visible set is the same for every position"
+        )
     arr = np.atleast_1d(np.asarray(arrival_times, float))
     if arr.size == 0 or not np.all(np.isfinite(arr)) or np.any(arr < 0):
         raise ValueError(f"arrival_times must be finite and >= 0, got {arrival_times!r}")

@@ -235,7 +235,9 @@ def _exact(d: np.ndarray, s: np.ndarray, M: float):
         k_left, k_right = allowed_wraps(z[None, :], tz)
         ok = (k == k_left) | (k == k_right)
         if n > 1:
-            ok_rows = ok.all(axis=1) & np.all(np.diff(zstar, axis=1) > 0, axis=1) & (zstar[:, -1] < zstar[:, 0] + M)
+            ok_rows = (
+                ok.all(axis=1) & np.all(np.diff(zstar, axis=1) > 0, axis=1) & (zstar[:, -1] < zstar[:, 0] + M)
+            )
         else:
             ok_rows = ok.all(axis=1)
         if not ok_rows.any():
@@ -332,7 +334,7 @@ def build_allocation_model(drone_s, steer_s, perimeter) -> AllocationModel:
         model.add(zr[n - 1] + 1 <= first_plus)
     T = model.new_int_var(0, len(travel_values) - 1, "T")
     for lst in by_drone:  # (6.21)
-        model.add(T >= sum(int(trank[i]) * x[i] for i in lst))
+        model.add(sum(int(trank[i]) * x[i] for i in lst) <= T)
     model.minimize(T)
     # report choices in the caller's drone indexing
     choices = [(int(order[c[0]]), c[1], c[2], c[3], c[4]) for c in choices]
@@ -396,14 +398,33 @@ def solve_allocation(
         elapsed = time.perf_counter() - t0
         msg = f"steering points padded from {s.size} to {n}" if padded else ""
         if out is None:
-            return SolveResult(Status.INFEASIBLE, backend="exact-cyclic-shift", backend_status="infeasible",
-                               message=("coincident steering points; " + msg).strip("; "), solve_time=elapsed)
+            return SolveResult(
+                Status.INFEASIBLE,
+                backend="exact-cyclic-shift",
+                backend_status="infeasible",
+                message=("coincident steering points; " + msg).strip("; "),
+                solve_time=elapsed,
+            )
         alloc, worst = out
-        return SolveResult(Status.OPTIMAL, objective=worst, bound=worst, x=alloc, backend="exact-cyclic-shift",
-                           backend_status="optimal", message=msg, solve_time=elapsed, iterations=2 * n)
+        return SolveResult(
+            Status.OPTIMAL,
+            objective=worst,
+            bound=worst,
+            x=alloc,
+            backend="exact-cyclic-shift",
+            backend_status="optimal",
+            message=msg,
+            solve_time=elapsed,
+            iterations=2 * n,
+        )
     am = build_allocation_model(d, s, M)
-    res = get_backend(method, kind="cp").solve_cp(am.model, variables=am.variables, time_limit=time_limit,
-                                                  workers=workers, hint=_hint(am, hint) if hint is not None else None)
+    res = get_backend(method, kind="cp").solve_cp(
+        am.model,
+        variables=am.variables,
+        time_limit=time_limit,
+        workers=workers,
+        hint=_hint(am, hint) if hint is not None else None,
+    )
     if not res.has_solution:
         return res
     alloc = _decode(am, res.x, n)

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from droneplan.formulations.cells import TOL, CellProblem, circle_intersections, evaluate
+from droneplan.formulations.cells import TOL, CellProblem, evaluate
 from droneplan.scenarios.cells import THESIS_GA_TABLE_4_1, THESIS_TABLE_4_3
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import (
@@ -43,8 +43,18 @@ from droneplan.solvers.validation import (
     resolve_seed,
 )
 
-__all__ = ["GASettings", "genetic", "genetic_polished", "polish", "fitness", "exhaustive", "max_coverage_in_region", "Region",
-           "deployment_region", "thesis_ga_settings"]
+__all__ = [
+    "GASettings",
+    "genetic",
+    "genetic_polished",
+    "polish",
+    "fitness",
+    "exhaustive",
+    "max_coverage_in_region",
+    "Region",
+    "deployment_region",
+    "thesis_ga_settings",
+]
 
 
 # =========================================================================== GA
@@ -98,8 +108,12 @@ def _contributing(problem: CellProblem, pop: np.ndarray) -> np.ndarray:
     """(P, m) bool: drone-cells that count towards the fitness (module docstring)."""
     P, m, _ = pop.shape
     xmin, xmax, ymin, ymax = _area(problem)
-    ok = (pop[..., 0] >= xmin - TOL) & (pop[..., 0] <= xmax + TOL) & (pop[..., 1] >= ymin - TOL) & (
-        pop[..., 1] <= ymax + TOL)
+    ok = (
+        (pop[..., 0] >= xmin - TOL)
+        & (pop[..., 0] <= xmax + TOL)
+        & (pop[..., 1] >= ymin - TOL)
+        & (pop[..., 1] <= ymax + TOL)
+    )
     dg = np.sqrt(((pop[:, :, None, :] - problem.gbs[None, None, :, :]) ** 2).sum(-1))  # (P, m, k)
     ok &= np.all(dg >= problem.R_g + problem.R_d - TOL, axis=2)
     dd = np.sqrt(((pop[:, :, None, :] - pop[:, None, :, :]) ** 2).sum(-1))  # (P, m, m)
@@ -140,12 +154,12 @@ def fitness(problem: CellProblem, pop: np.ndarray, *, chunk: int = 2048) -> np.n
         return out.reshape(lead)
     tt = (t**2).sum(-1)
     for a in range(0, len(flat), chunk):
-        blk = flat[a:a + chunk]
+        blk = flat[a : a + chunk]
         contrib = _contributing(problem, blk)
         q = blk.reshape(-1, 2)
         d2 = ((q**2).sum(-1)[:, None] + tt[None, :] - 2.0 * (q @ t.T)).reshape(len(blk), blk.shape[1], len(t))
         cov = (d2 <= (problem.R_d + TOL) ** 2) & contrib[:, :, None]
-        out[a:a + chunk] = cov.any(axis=1).sum(axis=1)
+        out[a : a + chunk] = cov.any(axis=1).sum(axis=1)
     return out.reshape(lead)
 
 
@@ -186,13 +200,14 @@ def _run_batch(problem: CellProblem, N: int, P: int, iter_max: int, s: GASetting
         # --- adaptive crossover (4.11)-(4.12), pairs drawn within each run
         perm = np.argsort(rng.random((N, P)), axis=1)
         half = P // 2
-        a, b = perm[:, 0:2 * half:2], perm[:, 1:2 * half:2]
+        a, b = perm[:, 0 : 2 * half : 2], perm[:, 1 : 2 * half : 2]
         fmax = f.max(axis=1, keepdims=True).astype(float)
         favg = f.mean(axis=1, keepdims=True)
         fp = np.maximum(np.take_along_axis(f, a, 1), np.take_along_axis(f, b, 1))
         spread = fmax - favg
-        pc = np.where(fp >= favg, s.p_c1 - (s.p_c1 - s.p_c2) * (fp - favg) / np.where(spread > 0, spread, 1.0),
-                      s.p_c1)
+        pc = np.where(
+            fp >= favg, s.p_c1 - (s.p_c1 - s.p_c2) * (fp - favg) / np.where(spread > 0, spread, 1.0), s.p_c1
+        )
         pc = np.where(spread > 0, pc, s.p_c2)
         do = rng.random((N, half)) < pc
         rows = rng.integers(0, m, size=(N, half))
@@ -214,8 +229,15 @@ def _run_batch(problem: CellProblem, N: int, P: int, iter_max: int, s: GASetting
     return pop[np.arange(N), i].copy(), f[np.arange(N), i].astype(int)
 
 
-def genetic(problem: CellProblem, *, pop_size: int | None = None, iter_max: int = 50, restarts: int | None = None,
-            seed: int | np.random.Generator | None = None, settings: GASettings | None = None) -> SolveResult:
+def genetic(
+    problem: CellProblem,
+    *,
+    pop_size: int | None = None,
+    iter_max: int = 50,
+    restarts: int | None = None,
+    seed: int | np.random.Generator | None = None,
+    settings: GASettings | None = None,
+) -> SolveResult:
     """Thesis GA with the restart strategy (§4.3.2, Tables 4.1 and 4.3).
 
     pop_size: population size P_size (default: Table 4.3 row for m).
@@ -238,7 +260,10 @@ def genetic(problem: CellProblem, *, pop_size: int | None = None, iter_max: int 
     N = N0 if restarts is None else restarts
     for name, v, lo in (("pop_size", P, 2), ("iter_max", iter_max, 0), ("restarts", N, 1)):
         check_int(name, v, min_value=lo)
-    check_size("restarts x pop_size x n_cells x users", int(N) * int(P) * problem.n_cells * max(len(problem.targets), 1))
+    check_size(
+        "restarts x pop_size x n_cells x users",
+        int(N) * int(P) * problem.n_cells * max(len(problem.targets), 1),
+    )
     if settings is not None and not isinstance(settings, GASettings):
         raise TypeError(f"settings must be GASettings or None, got {type(settings).__name__}")
     s = settings or GASettings()
@@ -252,11 +277,23 @@ def genetic(problem: CellProblem, *, pop_size: int | None = None, iter_max: int 
     contrib = _contributing(problem, chrom[None])[0]
     x = chrom[contrib]
     obj = evaluate(problem, x).covered
-    return SolveResult(Status.FEASIBLE, objective=float(obj), bound=None, x=x, backend="ga",
-                       message=f"thesis GA: {N} restarts x {iter_max} generations, population {P}",
-                       solve_time=time.perf_counter() - t0, iterations=int(N * iter_max),
-                       info={"restart_bests": bests, "chromosome": chrom, "seed": seed if not isinstance(
-                           seed, np.random.Generator) else None, "pop_size": int(P), "restarts": int(N)})
+    return SolveResult(
+        Status.FEASIBLE,
+        objective=float(obj),
+        bound=None,
+        x=x,
+        backend="ga",
+        message=f"thesis GA: {N} restarts x {iter_max} generations, population {P}",
+        solve_time=time.perf_counter() - t0,
+        iterations=int(N * iter_max),
+        info={
+            "restart_bests": bests,
+            "chromosome": chrom,
+            "seed": seed if not isinstance(seed, np.random.Generator) else None,
+            "pop_size": int(P),
+            "restarts": int(N),
+        },
+    )
 
 
 # =========================================================================== exhaustive search
@@ -288,8 +325,12 @@ class Region:
             ok[:] = False
         if self.box is not None:
             xmin, xmax, ymin, ymax = self.box
-            ok &= (pts[:, 0] >= xmin - TOL) & (pts[:, 0] <= xmax + TOL) & (pts[:, 1] >= ymin - TOL) & (
-                pts[:, 1] <= ymax + TOL)
+            ok &= (
+                (pts[:, 0] >= xmin - TOL)
+                & (pts[:, 0] <= xmax + TOL)
+                & (pts[:, 1] >= ymin - TOL)
+                & (pts[:, 1] <= ymax + TOL)
+            )
         return ok
 
     def circles(self) -> list[tuple[float, float, float]]:
@@ -314,8 +355,9 @@ class Region:
             xmin, xmax, ymin, ymax = self.box
             geom = geom.intersection(box(xmin, ymin, xmax, ymax))
         if self.exclude:
-            geom = geom.difference(unary_union([Point(cx, cy).buffer(r, quad_segs=quad_segs)
-                                                for cx, cy, r in self.exclude]))
+            geom = geom.difference(
+                unary_union([Point(cx, cy).buffer(r, quad_segs=quad_segs) for cx, cy, r in self.exclude])
+            )
         return geom
 
     def geometry_error(self, *, quad_segs: int = 64) -> float:
@@ -372,6 +414,7 @@ def max_coverage_in_region(users: np.ndarray, R_d: float, region: Region) -> tup
     circles = [(u[0], u[1], R_d) for u in users] + region.circles()
     if len(users):
         from scipy.spatial import cKDTree
+
         tree = cKDTree(users)
     extra = []
     if region.box is not None:
@@ -379,7 +422,11 @@ def max_coverage_in_region(users: np.ndarray, R_d: float, region: Region) -> tup
         extra += [(xmin, ymin), (xmin, ymax), (xmax, ymin), (xmax, ymax)]
     for p in list(users) + extra:  # user points and box corners
         if region.contains(np.asarray(p))[0]:
-            c = int((np.hypot(users[:, 0] - p[0], users[:, 1] - p[1]) <= R_d + TOL).sum()) if len(users) else 0
+            c = (
+                int((np.hypot(users[:, 0] - p[0], users[:, 1] - p[1]) <= R_d + TOL).sum())
+                if len(users)
+                else 0
+            )
             if c > best:
                 best, best_p = c, np.asarray(p, float)
     all_c = np.array(circles) if circles else np.zeros((0, 3))
@@ -407,8 +454,10 @@ def max_coverage_in_region(users: np.ndarray, R_d: float, region: Region) -> tup
         if not feas.any():
             continue
         pts = pts[feas]
-        cnt = ((pts[:, None, 0] - lu[None, :, 0]) ** 2 + (pts[:, None, 1] - lu[None, :, 1]) ** 2
-               <= (R_d + TOL) ** 2).sum(1)
+        cnt = (
+            (pts[:, None, 0] - lu[None, :, 0]) ** 2 + (pts[:, None, 1] - lu[None, :, 1]) ** 2
+            <= (R_d + TOL) ** 2
+        ).sum(1)
         j = int(np.argmax(cnt))
         if cnt[j] > best:
             best, best_p = int(cnt[j]), pts[j]
@@ -454,7 +503,9 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> Solv
             return
         inside = np.flatnonzero(region.contains(users))
         for j in inside:
-            newcov = covered | (np.hypot(users[:, 0] - users[j, 0], users[:, 1] - users[j, 1]) <= problem.R_d + TOL)
+            newcov = covered | (
+                np.hypot(users[:, 0] - users[j, 0], users[:, 1] - users[j, 1]) <= problem.R_d + TOL
+            )
             pl = np.vstack([placed, users[j][None]])
             if int(newcov.sum()) > best["val"]:
                 best["val"], best["pos"] = int(newcov.sum()), pl
@@ -465,14 +516,24 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> Solv
     rec(np.zeros((0, 2)), np.zeros(len(users), dtype=bool))
     ev = evaluate(problem, best["pos"])
     if not ev.feasible:  # cannot happen by construction; never report an infeasible plan
-        return SolveResult(Status.ERROR, backend="exhaustive", message=f"internal: infeasible plan {ev.violations}",
-                           solve_time=time.perf_counter() - t0)
+        return SolveResult(
+            Status.ERROR,
+            backend="exhaustive",
+            message=f"internal: infeasible plan {ev.violations}",
+            solve_time=time.perf_counter() - t0,
+        )
     msg = "Algorithm 2 (exhaustive search, quasi-optimal)"
     if not best["complete"]:
         msg += f"; stopped at the time limit {time_limit} s before finishing the enumeration"
-    return SolveResult(Status.FEASIBLE, objective=float(ev.covered), x=best["pos"], backend="exhaustive",
-                       message=msg, solve_time=time.perf_counter() - t0,
-                       info={"complete": best["complete"], "last_cell_searches": best["visited"]})
+    return SolveResult(
+        Status.FEASIBLE,
+        objective=float(ev.covered),
+        x=best["pos"],
+        backend="exhaustive",
+        message=msg,
+        solve_time=time.perf_counter() - t0,
+        info={"complete": best["complete"], "last_cell_searches": best["visited"]},
+    )
 
 
 # =========================================================================== improved variant
@@ -525,7 +586,13 @@ def genetic_polished(problem: CellProblem, **kwargs) -> SolveResult:
     ga = genetic(problem, **kwargs)
     x = polish(problem, ga.x)
     obj = evaluate(problem, x).covered
-    return SolveResult(Status.FEASIBLE, objective=float(obj), x=x, backend="ga+polish",
-                       message=ga.message + "; then coordinate ascent with the constrained sweep",
-                       solve_time=time.perf_counter() - t0, iterations=ga.iterations,
-                       info={**ga.info, "ga_objective": ga.objective})
+    return SolveResult(
+        Status.FEASIBLE,
+        objective=float(obj),
+        x=x,
+        backend="ga+polish",
+        message=ga.message + "; then coordinate ascent with the constrained sweep",
+        solve_time=time.perf_counter() - t0,
+        iterations=ga.iterations,
+        info={**ga.info, "ga_objective": ga.objective},
+    )

@@ -179,8 +179,12 @@ def expected_user_count(params: CellParams = THESIS_TABLE_4_2) -> float:
     return params.n_clusters * params.lambda_c * np.pi * params.R_c**2 / 3.0 + params.lambda_nc * params.area
 
 
-def uniform_users(seed: int | np.random.Generator | None, params: CellParams = THESIS_TABLE_4_2,
-                  *, mean_count: float | None = None) -> np.ndarray:
+def uniform_users(
+    seed: int | np.random.Generator | None,
+    params: CellParams = THESIS_TABLE_4_2,
+    *,
+    mean_count: float | None = None,
+) -> np.ndarray:
     """Non-clustered users (Fig. 4.6): a homogeneous Poisson process over the area.
 
     mean_count: expected number of users; default :func:`expected_user_count(params)`
@@ -198,8 +202,9 @@ def uniform_users(seed: int | np.random.Generator | None, params: CellParams = T
     return _uniform_in_square(rng, int(rng.poisson(mean)), params)
 
 
-def thesis_instance(seed: int | np.random.Generator | None, params: CellParams = THESIS_TABLE_4_2,
-                    *, clustered: bool = True) -> Instance:
+def thesis_instance(
+    seed: int | np.random.Generator | None, params: CellParams = THESIS_TABLE_4_2, *, clustered: bool = True
+) -> Instance:
     """A Table 4.2 user snapshot (clustered, or non-clustered with the same expected count).
 
     seed: int, numpy Generator or None for the user snapshot.
@@ -216,8 +221,13 @@ def thesis_instance(seed: int | np.random.Generator | None, params: CellParams =
     return Instance(users=users, params=params, seed=seed, cluster_centres=centres)
 
 
-def thesis_problem(n_cells: int, seed: int | np.random.Generator | None, *, clustered: bool = True,
-                   params: CellParams = THESIS_TABLE_4_2) -> "CellProblem":
+def thesis_problem(
+    n_cells: int,
+    seed: int | np.random.Generator | None,
+    *,
+    clustered: bool = True,
+    params: CellParams = THESIS_TABLE_4_2,
+) -> CellProblem:
     """The thesis-scale problem (Table 4.2) with ``n_cells`` drone-cells.
 
     seed: int or Generator for the user snapshot; clustered: Matérn users (True) or the
@@ -229,7 +239,7 @@ def thesis_problem(n_cells: int, seed: int | np.random.Generator | None, *, clus
     return problem_from_instance(thesis_instance(seed, params, clustered=clustered), n_cells)
 
 
-def problem_from_instance(inst: Instance, n_cells: int) -> "CellProblem":
+def problem_from_instance(inst: Instance, n_cells: int) -> CellProblem:
     """A :class:`CellProblem` for a generated snapshot with ``n_cells`` drone-cells.
 
     inst: a generated Instance (users and their CellParams).
@@ -238,8 +248,16 @@ def problem_from_instance(inst: Instance, n_cells: int) -> "CellProblem":
     if not isinstance(inst, Instance):
         raise TypeError(f"inst must be an Instance, got {type(inst).__name__}")
     p = inst.params
-    return CellProblem(users=inst.users, gbs=np.asarray(p.gbs, dtype=float), n_cells=n_cells,
-                       R_d=p.R_d, R_g=p.R_g, r1=p.r1, r2=p.r2, bounds=p.bounds)
+    return CellProblem(
+        users=inst.users,
+        gbs=np.asarray(p.gbs, dtype=float),
+        n_cells=n_cells,
+        R_d=p.R_d,
+        R_g=p.R_g,
+        r1=p.r1,
+        r2=p.r2,
+        bounds=p.bounds,
+    )
 
 
 class CellProblem:
@@ -258,7 +276,7 @@ class CellProblem:
     Instances are immutable (arrays are copied and made read-only).
     """
 
-    __slots__ = ("users", "gbs", "n_cells", "R_d", "R_g", "r1", "r2", "bounds", "active")
+    __slots__ = ("R_d", "R_g", "active", "bounds", "gbs", "n_cells", "r1", "r2", "users")
 
     def __init__(self, users, gbs, n_cells, R_d, R_g, r1, r2, bounds=None):
         users = check_array("users", users, shape=(None, 2))
@@ -266,10 +284,13 @@ class CellProblem:
         check_size("users x gbs", users.shape[0] * gbs.shape[0])
         n_cells = check_int("n_cells", n_cells, min_value=1)
         check_size("n_cells", 2 * n_cells)
-        radii = {name: check_positive(name, v) for name, v in (("R_d", R_d), ("R_g", R_g), ("r1", r1), ("r2", r2))}
+        radii = {
+            name: check_positive(name, v) for name, v in (("R_d", R_d), ("R_g", R_g), ("r1", r1), ("r2", r2))
+        }
         if radii["r1"] < radii["R_g"] + radii["R_d"]:
-            raise ValueError(f"r1 must satisfy r1 >= R_g + R_d (eq. 4.3): {radii['r1']} < "
-                             f"{radii['R_g']} + {radii['R_d']}")
+            raise ValueError(
+                f"r1 must satisfy r1 >= R_g + R_d (eq. 4.3): {radii['r1']} < {radii['R_g']} + {radii['R_d']}"
+            )
         if radii["r2"] < 2 * radii["R_d"]:
             raise ValueError(f"r2 must satisfy r2 >= 2 R_d (eq. 4.4): {radii['r2']} < 2 * {radii['R_d']}")
         if bounds is not None:
@@ -277,7 +298,11 @@ class CellProblem:
             if not (b[0] < b[1] and b[2] < b[3]):
                 raise ValueError(f"bounds must satisfy xmin < xmax and ymin < ymax, got {b}")
             bounds = b
-        d = np.sqrt(((users[:, None, :] - gbs[None, :, :]) ** 2).sum(-1)) if len(users) else np.zeros((0, len(gbs)))
+        d = (
+            np.sqrt(((users[:, None, :] - gbs[None, :, :]) ** 2).sum(-1))
+            if len(users)
+            else np.zeros((0, len(gbs)))
+        )
         active = ~np.any(d <= radii["R_g"], axis=1)
         users.setflags(write=False)
         gbs.setflags(write=False)
@@ -298,11 +323,13 @@ class CellProblem:
         """Users not served by a GBS (n', 2): the ones the objective counts."""
         return self.users[self.active]
 
-    def with_cells(self, n_cells: int) -> "CellProblem":
+    def with_cells(self, n_cells: int) -> CellProblem:
         """The same instance with another number of drone-cells."""
         return CellProblem(self.users, self.gbs, n_cells, self.R_d, self.R_g, self.r1, self.r2, self.bounds)
 
     def __repr__(self) -> str:
-        return (f"CellProblem(n_users={len(self.users)}, active={int(self.active.sum())}, gbs={len(self.gbs)}, "
-                f"n_cells={self.n_cells}, R_d={self.R_d}, R_g={self.R_g}, r1={self.r1}, r2={self.r2}, "
-                f"bounds={self.bounds})")
+        return (
+            f"CellProblem(n_users={len(self.users)}, active={int(self.active.sum())}, gbs={len(self.gbs)}, "
+            f"n_cells={self.n_cells}, R_d={self.R_d}, R_g={self.R_g}, r1={self.r1}, r2={self.r2}, "
+            f"bounds={self.bounds})"
+        )

@@ -142,15 +142,28 @@ class HerdingParams:
     def __post_init__(self) -> None:
         for name in ("eta_d", "eta_L", "eta_r", "eta_i", "eta_e"):
             check_nonneg(name, getattr(self, name))
-        for name in ("delta", "V_max", "U_max", "V_animal", "R_b", "d_s", "R_c", "V_driving", "r_a",
-                     "graze_speed", "goal_radius"):
+        for name in (
+            "delta",
+            "V_max",
+            "U_max",
+            "V_animal",
+            "R_b",
+            "d_s",
+            "R_c",
+            "V_driving",
+            "r_a",
+            "graze_speed",
+            "goal_radius",
+        ):
             check_positive(name, getattr(self, name))
         check_in_range("beta", self.beta, 0.0, 2 * math.pi, lo_open=True)
         check_in_range("graze_prob", self.graze_prob, 0.0, 1.0)
         if self.graze_speed > self.V_animal:
             raise ValueError(f"graze_speed must be <= V_animal, got {self.graze_speed} > {self.V_animal}")
         if self.V_driving > self.V_animal:
-            raise ValueError(f"V_driving must be <= V_animal (thesis §6.4.4), got {self.V_driving} > {self.V_animal}")
+            raise ValueError(
+                f"V_driving must be <= V_animal (thesis §6.4.4), got {self.V_driving} > {self.V_animal}"
+            )
         for name in ("n_drones", "n_neighbours", "drone_substeps"):
             check_int(name, getattr(self, name), min_value=1)
         check_in_range("regroup_factor", self.regroup_factor, 1.0)
@@ -193,7 +206,9 @@ class HerdingScenario:
         if h.shape[0] != d.shape[0]:
             raise ValueError(f"mismatched lengths: {h.shape[0]} headings for {d.shape[0]} drones")
         if d.shape[0] != self.params.n_drones:
-            raise ValueError(f"mismatched lengths: {d.shape[0]} drones but params.n_drones = {self.params.n_drones}")
+            raise ValueError(
+                f"mismatched lengths: {d.shape[0]} drones but params.n_drones = {self.params.n_drones}"
+            )
         g = check_array("goal", self.goal, shape=(2,))
         object.__setattr__(self, "animals", a)
         object.__setattr__(self, "drones", d)
@@ -253,8 +268,14 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.maximum(n, 1e-12)
 
 
-def barking_mask(animals: np.ndarray, drones: np.ndarray, centroid: np.ndarray, R_b: float, beta: float,
-                 barking: np.ndarray | None = None) -> np.ndarray:
+def barking_mask(
+    animals: np.ndarray,
+    drones: np.ndarray,
+    centroid: np.ndarray,
+    R_b: float,
+    beta: float,
+    barking: np.ndarray | None = None,
+) -> np.ndarray:
     """(n_s, n_d) bool: animal i lies in the barking cone of drone j (axis towards ``centroid``)."""
     rel = animals[:, None, :] - drones[None, :, :]  # (n, d, 2)
     dist2 = np.einsum("ndk,ndk->nd", rel, rel)
@@ -316,8 +337,13 @@ def animal_step(
     rel = pos[:, None, :] - drones[None, :, :]
     wd = cone[movers] / np.maximum(np.sqrt(np.sum(rel * rel, axis=2)), 1e-12)
     R_d = _unit(np.einsum("md,mdc->mc", wd, rel))
-    herd = (params.eta_d * R_d + params.eta_L * C + params.eta_r * R_a
-            + params.eta_i * heading[movers] + params.eta_e * eps)
+    herd = (
+        params.eta_d * R_d
+        + params.eta_L * C
+        + params.eta_r * R_a
+        + params.eta_i * heading[movers]
+        + params.eta_e * eps
+    )
     graze = params.eta_r * R_a + params.eta_e * eps
     direction = _unit(np.where(aff[:, None], herd, graze))
     speed = np.where(aff, params.V_animal, params.graze_speed)
@@ -326,8 +352,14 @@ def animal_step(
     return new_pos, new_head, affected
 
 
-def drone_step(drones: np.ndarray, headings: np.ndarray, v: np.ndarray, omega: np.ndarray,
-               params: HerdingParams, dt: float) -> tuple[np.ndarray, np.ndarray]:
+def drone_step(
+    drones: np.ndarray,
+    headings: np.ndarray,
+    v: np.ndarray,
+    omega: np.ndarray,
+    params: HerdingParams,
+    dt: float,
+) -> tuple[np.ndarray, np.ndarray]:
     """Integrate (6.3)-(6.6) over ``dt`` with |v| <= V_max, |omega| <= U_max (clipped)."""
     v = np.clip(np.asarray(v, dtype=float), -params.V_max, params.V_max)
     omega = np.clip(np.asarray(omega, dtype=float), -params.U_max, params.U_max)
@@ -514,28 +546,49 @@ def simulate(
             phase = HerdingPhase.DONE
         phases.append(phase)
         while snaps_todo and t >= snaps_todo[0] - 1e-9:
-            snapshots[snaps_todo.pop(0)] = HerdingFrame(t=t, animals=animals.copy(), drones=drones.copy(),
-                                                        headings=headings.copy(), phase=phase)
+            snapshots[snaps_todo.pop(0)] = HerdingFrame(
+                t=t, animals=animals.copy(), drones=drones.copy(), headings=headings.copy(), phase=phase
+            )
         if frame_every is not None and t >= next_frame - 1e-9:
-            frames.append(HerdingFrame(t=t, animals=animals.copy(), drones=drones.copy(), headings=headings.copy(),
-                                       phase=phase))
+            frames.append(
+                HerdingFrame(
+                    t=t, animals=animals.copy(), drones=drones.copy(), headings=headings.copy(), phase=phase
+                )
+            )
             next_frame += frame_every
         if stop or phase == HerdingPhase.DONE or step == n_steps:
             break
         for k in range(sub):
-            cmd = controller.command(HerdingObservation(t + k * dts, animals, c, phase, drones, headings, dts, k == 0))
+            cmd = controller.command(
+                HerdingObservation(t + k * dts, animals, c, phase, drones, headings, dts, k == 0)
+            )
             drones, headings = drone_step(drones, headings, cmd[0], cmd[1], p, dts)
         new, heading, _ = animal_step(animals, heading, drones, p, rng, dt, centroid=c)
         vmax_seen = max(vmax_seen, float(np.sqrt(np.max(np.sum((new - animals) ** 2, axis=1)))) / dt)
         animals = new
     phase_arr = np.empty(len(phases), dtype=object)
     phase_arr[:] = phases
-    final = HerdingFrame(t=ts[-1], animals=animals.copy(), drones=drones.copy(), headings=headings.copy(), phase=phase)
+    final = HerdingFrame(
+        t=ts[-1], animals=animals.copy(), drones=drones.copy(), headings=headings.copy(), phase=phase
+    )
     return HerdingTrace(
-        t=np.array(ts), final=final, seed=seed, **controller_counters(controller), footprint_radius=np.array(radii),
-        centroid=np.array(cents), drones=np.array(dpos), phase=phase_arr, goal=scenario.goal.copy(),
-        gather_time=gather_time, total_time=total_time, max_animal_speed=vmax_seen, snapshots=snapshots,
-        frames=frames, wall_time=time.perf_counter() - t0, delivered=np.array(delivered), regroupings=regroupings,
+        t=np.array(ts),
+        final=final,
+        seed=seed,
+        **controller_counters(controller),
+        footprint_radius=np.array(radii),
+        centroid=np.array(cents),
+        drones=np.array(dpos),
+        phase=phase_arr,
+        goal=scenario.goal.copy(),
+        gather_time=gather_time,
+        total_time=total_time,
+        max_animal_speed=vmax_seen,
+        snapshots=snapshots,
+        frames=frames,
+        wall_time=time.perf_counter() - t0,
+        delivered=np.array(delivered),
+        regroupings=regroupings,
     )
 
 

@@ -24,8 +24,15 @@ class FirstRoot:
     evaluations: int
 
 
-def first_root_lipschitz(f: Callable[[float], float], lo: float, hi: float, lipschitz: float, *,
-                         resolution: float = 1e-6, max_evaluations: int = 1_000_000) -> FirstRoot:
+def first_root_lipschitz(
+    f: Callable[[float], float],
+    lo: float,
+    hi: float,
+    lipschitz: float,
+    *,
+    resolution: float = 1e-6,
+    max_evaluations: int = 1_000_000,
+) -> FirstRoot:
     """Lower bound on the first t in [lo, hi] with f(t) <= 0, for f Lipschitz with constant ``lipschitz``.
 
     Feasibility need not be monotone in t: from a point with f(t) > 0 no root lies in

@@ -74,8 +74,15 @@ def check_nonneg(name: str, value: Any) -> float:
     return out
 
 
-def check_in_range(name: str, value: Any, lo: float | None = None, hi: float | None = None, *,
-                   lo_open: bool = False, hi_open: bool = False) -> float:
+def check_in_range(
+    name: str,
+    value: Any,
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+) -> float:
     """``value`` as a float inside [lo, hi] (``lo_open``/``hi_open`` exclude the end; None: no end)."""
     out = check_real(name, value)
     if lo is not None and (out < lo or (lo_open and out == lo)):
@@ -111,8 +118,15 @@ def check_size(name: str, n_elements: int, limit: int = MAX_ELEMENTS) -> None:
         raise ValueError(f"{name} asks for {n_elements} array elements, more than the limit of {limit}")
 
 
-def check_array(name: str, value: Any, *, shape: Sequence[int | None] | None = None, finite: bool = True,
-                min_rows: int = 0, ndim: int | None = None) -> np.ndarray:
+def check_array(
+    name: str,
+    value: Any,
+    *,
+    shape: Sequence[int | None] | None = None,
+    finite: bool = True,
+    min_rows: int = 0,
+    ndim: int | None = None,
+) -> np.ndarray:
     """``value`` as a float ndarray (a copy), checked for type, shape and finiteness.
 
     shape: expected shape, ``None`` entries match any length (e.g. ``(None, 2)`` for an
@@ -162,8 +176,9 @@ def check_methods(name: str, obj: Any, methods: Sequence[str]) -> None:
     """TypeError unless ``obj`` has every callable in ``methods`` (e.g. a controller protocol)."""
     missing = [m for m in methods if not callable(getattr(obj, m, None))]
     if missing:
-        raise TypeError(f"{name} must provide {', '.join(methods)}(); {type(obj).__name__} lacks "
-                        f"{', '.join(missing)}")
+        raise TypeError(
+            f"{name} must provide {', '.join(methods)}(); {type(obj).__name__} lacks {', '.join(missing)}"
+        )
 
 
 def check_instance(name: str, value: Any, cls: type | tuple[type, ...], *, optional: bool = False) -> Any:
@@ -173,7 +188,9 @@ def check_instance(name: str, value: Any, cls: type | tuple[type, ...], *, optio
         return value
     if not isinstance(value, cls):
         wanted = cls.__name__ if isinstance(cls, type) else " or ".join(c.__name__ for c in cls)
-        raise TypeError(f"{name} must be {wanted}{' or None' if optional else ''}, got {type(value).__name__}")
+        raise TypeError(
+            f"{name} must be {wanted}{' or None' if optional else ''}, got {type(value).__name__}"
+        )
     return value
 
 

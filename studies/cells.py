@@ -10,18 +10,23 @@ from __future__ import annotations
 import contextlib
 from pathlib import Path
 
+import matplotlib.pyplot as plt
+import numpy as np
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from droneplan.formulations.cells import evaluate, solve_milp  # noqa: E402
-from droneplan.planners.cells import (GASettings, exhaustive, genetic, genetic_polished, polish,  # noqa: E402
-                                     thesis_ga_settings)
-from droneplan.scenarios.cells import THESIS_TABLE_4_3, thesis_problem  # noqa: E402
-from droneplan.studies.common import ComparisonTable, make_executor, map_rows, open_store, report_study  # noqa: E402
-from droneplan.studies.plots.cells import plot_deployment_region, plot_map  # noqa: E402
-from droneplan.solvers.result import Status  # noqa: E402
-from droneplan.studies.store import Outcome, build_rows, instance_id  # noqa: E402
+from droneplan.formulations.cells import evaluate, solve_milp
+from droneplan.planners.cells import (
+    GASettings,
+    exhaustive,
+    genetic,
+    genetic_polished,
+    polish,
+    thesis_ga_settings,
+)
+from droneplan.scenarios.cells import THESIS_TABLE_4_3, thesis_problem
+from droneplan.solvers.result import Status
+from droneplan.studies.common import ComparisonTable, make_executor, map_rows, open_store, report_study
+from droneplan.studies.plots.cells import plot_deployment_region, plot_map
+from droneplan.studies.store import Outcome, build_rows, instance_id
 
 __all__ = [
     "INSTANCE_SEED",
@@ -59,17 +64,35 @@ def reproduce_task(task: dict) -> list[dict]:
         outcomes.append(Outcome.of("milp", "model", milp, bound_kind="candidate-set"))
         cont = milp.info.get("continuous_bound")
         if cont is not None:
-            outcomes.append(Outcome("continuous-bound", "bound", milp.status.value, bound=float(cont),
-                                    bound_kind="proven-global", message="upper bound of the continuous problem"))
+            outcomes.append(
+                Outcome(
+                    "continuous-bound",
+                    "bound",
+                    milp.status.value,
+                    bound=float(cont),
+                    bound_kind="proven-global",
+                    message="upper bound of the continuous problem",
+                )
+            )
         if kind == "exact":
             es = exhaustive(p, time_limit=float(task["es_limit"]))
-            outcomes.append(Outcome.of("exhaustive", "heuristic", es, extras={"es_complete": bool(es.info["complete"])}))
+            outcomes.append(
+                Outcome.of("exhaustive", "heuristic", es, extras={"es_complete": bool(es.info["complete"])})
+            )
     else:
-        ga = genetic(p, pop_size=task.get("pop_size"), restarts=task.get("restarts"),
-                     iter_max=int(task.get("iter_max", 50)), seed=int(task["run_seed"]))
+        ga = genetic(
+            p,
+            pop_size=task.get("pop_size"),
+            restarts=task.get("restarts"),
+            iter_max=int(task.get("iter_max", 50)),
+            seed=int(task["run_seed"]),
+        )
         polished = evaluate(p, polish(p, ga.x)).covered
-        outcomes.append(Outcome.of("ga", "heuristic", ga, extras={"polished": int(polished),
-                                                                   "run_seed": int(task["run_seed"])}))
+        outcomes.append(
+            Outcome.of(
+                "ga", "heuristic", ga, extras={"polished": int(polished), "run_seed": int(task["run_seed"])}
+            )
+        )
     return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
 
 
@@ -101,27 +124,60 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
     tag = "quick" if quick else "full"
 
     def ga_task(study, run_seed, m, **kw):
-        return {"problem": "cells", "instance": instance_id(study, m=m, seed=seed, run=run_seed, **kw), "kind": "ga",
-                "m": m, "seed": seed, "run_seed": run_seed, **kw}
+        return {
+            "problem": "cells",
+            "instance": instance_id(study, m=m, seed=seed, run=run_seed, **kw),
+            "kind": "ga",
+            "m": m,
+            "seed": seed,
+            "run_seed": run_seed,
+            **kw,
+        }
 
-    exact = [{"problem": "cells", "instance": instance_id("table4.3", m=m, seed=seed, limits=tag), "kind": "exact",
-              "m": m, "seed": seed, "milp_limit": milp_limit, "es_limit": es_limit} for m in ms]
+    exact = [
+        {
+            "problem": "cells",
+            "instance": instance_id("table4.3", m=m, seed=seed, limits=tag),
+            "kind": "exact",
+            "m": m,
+            "seed": seed,
+            "milp_limit": milp_limit,
+            "es_limit": es_limit,
+        }
+        for m in ms
+    ]
     ga43 = [ga_task("table4.3-ga", 100 * m + r, m) for m in ms for r in range(runs)]
     n43 = 3 if quick else 50
-    fig43 = ([ga_task("fig4.3", 5000 + r, 2, pop_size=100, restarts=1, iter_max=2000) for r in range(n43)]
-             + [ga_task("fig4.3", 6000 + r, 2, pop_size=100, restarts=40, iter_max=50) for r in range(n43)])
+    fig43 = [ga_task("fig4.3", 5000 + r, 2, pop_size=100, restarts=1, iter_max=2000) for r in range(n43)] + [
+        ga_task("fig4.3", 6000 + r, 2, pop_size=100, restarts=40, iter_max=50) for r in range(n43)
+    ]
     Ps = (50, 100) if quick else (50, 100, 150, 200)
     Ns = (10, 30) if quick else (20, 40, 60, 80)
     n45 = 2 if quick else 20
-    fig45 = [ga_task("fig4.5", 7000 + 100 * i + j * 1000 + r, 3, pop_size=P, restarts=N)
-             for i, P in enumerate(Ps) for j, N in enumerate(Ns) for r in range(n45)]
-    nc = [{"problem": "cells", "instance": instance_id("fig4.6", m=m, seed=seed, limits=tag), "kind": "milp-nc",
-           "m": m, "seed": seed, "milp_limit": 30.0 if quick else 300.0} for m in ms]
+    fig45 = [
+        ga_task("fig4.5", 7000 + 100 * i + j * 1000 + r, 3, pop_size=P, restarts=N)
+        for i, P in enumerate(Ps)
+        for j, N in enumerate(Ns)
+        for r in range(n45)
+    ]
+    nc = [
+        {
+            "problem": "cells",
+            "instance": instance_id("fig4.6", m=m, seed=seed, limits=tag),
+            "kind": "milp-nc",
+            "m": m,
+            "seed": seed,
+            "milp_limit": 30.0 if quick else 300.0,
+        }
+        for m in ms
+    ]
     # Table 4.3 first: the rest of the figures need its MILP optima
     df = map_rows(reproduce_task, exact + ga43, executor=ex, store=st, desc="Table 4.3")
     # ---------------------------------------------------------------- Table 4.3
-    tab = ComparisonTable("Table 4.3 - computing time and GA success (thesis instance vs ours, seed "
-                          f"{INSTANCE_SEED}; MILP backend {MILP_BACKEND})")
+    tab = ComparisonTable(
+        "Table 4.3 - computing time and GA success (thesis instance vs ours, seed "
+        f"{INSTANCE_SEED}; MILP backend {MILP_BACKEND})"
+    )
     opt, milp_sol, rows = {}, {}, []
     for m, task in zip(ms, exact):
         t_es, t_ga_th, _, P, N, pg = THESIS_TABLE_4_3[m]
@@ -134,23 +190,52 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
         succ_pol = None if opt[m] is None else float((ga["cells_polished"] == opt[m]).mean())
         es_time = f"{es['time_s']:.3g}" + ("" if es["cells_es_complete"] else f" (stopped at {es_limit:g} s)")
         tab.add(f"m={m} T_ES (s)", t_es, es_time, "Algorithm 2, wall time on this machine")
-        tab.add(f"m={m} T_GA (s)", t_ga_th, float(ga["time_s"].mean()),
-                f"mean over {len(ga)} GA runs, P={P}, N_start={N}, iter_max=50")
+        tab.add(
+            f"m={m} T_GA (s)",
+            t_ga_th,
+            float(ga["time_s"].mean()),
+            f"mean over {len(ga)} GA runs, P={P}, N_start={N}, iter_max=50",
+        )
         tab.add(f"m={m} P_Global", pg, succ, f"fraction of {len(ga)} GA runs reaching the MILP optimum")
-        tab.add(f"m={m} P_Global GA+polish (ours)", None, succ_pol,
-                "same GA runs, then coordinate ascent with the sweep (not in the thesis)")
+        tab.add(
+            f"m={m} P_Global GA+polish (ours)",
+            None,
+            succ_pol,
+            "same GA runs, then coordinate ascent with the sweep (not in the thesis)",
+        )
         tab.add(f"m={m} MILP time (s)", None, float(milp["time_s"]), f"solve_milp status {milp['status']}")
-        tab.add(f"m={m} objectives ES / GA best / MILP", None,
-                f"{es['objective']:g} / {ga['objective'].max():g} / {milp['objective']:g}", "covered users (evaluate)")
-        tab.add(f"m={m} MILP bound (candidate) / continuous bound", None,
-                f"{milp['bound']:g} / {cont['bound'] if cont is not None else float('nan'):g}", "proven upper bounds")
-        rows.append({"m": m, "es_obj": es["objective"], "es_time": es["time_s"], "es_complete": es["cells_es_complete"],
-                     "ga_best": ga["objective"].max(), "ga_mean_time": ga["time_s"].mean(), "ga_success": succ,
-                     "ga_polish_success": succ_pol, "milp_obj": milp["objective"], "milp_bound": milp["bound"],
-                     "milp_status": milp["status"], "milp_time": milp["time_s"],
-                     "continuous_bound": None if cont is None else cont["bound"]})
+        tab.add(
+            f"m={m} objectives ES / GA best / MILP",
+            None,
+            f"{es['objective']:g} / {ga['objective'].max():g} / {milp['objective']:g}",
+            "covered users (evaluate)",
+        )
+        tab.add(
+            f"m={m} MILP bound (candidate) / continuous bound",
+            None,
+            f"{milp['bound']:g} / {cont['bound'] if cont is not None else float('nan'):g}",
+            "proven upper bounds",
+        )
+        rows.append(
+            {
+                "m": m,
+                "es_obj": es["objective"],
+                "es_time": es["time_s"],
+                "es_complete": es["cells_es_complete"],
+                "ga_best": ga["objective"].max(),
+                "ga_mean_time": ga["time_s"].mean(),
+                "ga_success": succ,
+                "ga_polish_success": succ_pol,
+                "milp_obj": milp["objective"],
+                "milp_bound": milp["bound"],
+                "milp_status": milp["status"],
+                "milp_time": milp["time_s"],
+                "continuous_bound": None if cont is None else cont["bound"],
+            }
+        )
     tab.emit(out, "table_4_3")
     import pandas as pd
+
     pd.DataFrame(rows).to_csv(out / "table_4_3_raw.csv", index=False)
     # ---------------------------------------------------------------- Fig 4.4 maps (re-solve: positions are not stored)
     fig, axes = plt.subplots(1, len(ms), figsize=(5.5 * len(ms), 5.5))
@@ -167,9 +252,18 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
     no_restart = obj[[t["instance"] for t in fig43 if t["restarts"] == 1]]
     restart = obj[[t["instance"] for t in fig43 if t["restarts"] == 40]]
     t43 = ComparisonTable("Fig. 4.3 - GA success without / with restarts (m=2, P=100)")
-    t43.add("success 1 x 2000 iterations", 0.12, float((no_restart == opt2).mean()), f"{n43} runs; optimum = MILP {opt2:g}")
-    t43.add("success 40 restarts x 50 iterations", 0.92, float((restart == opt2).mean()),
-            f"{n43} runs; optimum = MILP {opt2:g}")
+    t43.add(
+        "success 1 x 2000 iterations",
+        0.12,
+        float((no_restart == opt2).mean()),
+        f"{n43} runs; optimum = MILP {opt2:g}",
+    )
+    t43.add(
+        "success 40 restarts x 50 iterations",
+        0.92,
+        float((restart == opt2).mean()),
+        f"{n43} runs; optimum = MILP {opt2:g}",
+    )
     t43.emit(out, "fig_4_3")
     fig, ax = plt.subplots(figsize=(5, 3))
     ax.hist([no_restart.to_numpy(), restart.to_numpy()], label=["1x2000", "40x50"])
@@ -207,8 +301,12 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
         ru = _objective(df, task["instance"], "milp")
         cl.append(milp_sol[m]["objective"])
         ncl.append(ru["objective"])
-        t46.add(f"m={m} clustered / non-clustered", "clustered > non-clustered",
-                f"{cl[-1]:g} / {ncl[-1]:g} (bound {ru['bound']:g}, {ru['status']})", "solve_milp")
+        t46.add(
+            f"m={m} clustered / non-clustered",
+            "clustered > non-clustered",
+            f"{cl[-1]:g} / {ncl[-1]:g} (bound {ru['bound']:g}, {ru['status']})",
+            "solve_milp",
+        )
     t46.emit(out, "fig_4_6")
     fig, ax = plt.subplots(figsize=(5, 3))
     ax.plot(ms, cl, "o-", label="clustered")
@@ -223,22 +321,36 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
     fig.savefig(out / "fig_4_2_region.png", dpi=110)
     plt.close(fig)
     # ---------------------------------------------------------------- GA ablation (issue 13.4)
-    abl = ga_ablation(seeds=range(3) if quick else range(10), ms=(1,) if quick else (1, 2, 3),
-                      runs=3 if quick else 20, ablation_runs=3 if quick else 5,
-                      es_limit=60.0 if quick else 1800.0, milp_limit=60.0 if quick else 600.0)
+    abl = ga_ablation(
+        seeds=range(3) if quick else range(10),
+        ms=(1,) if quick else (1, 2, 3),
+        runs=3 if quick else 20,
+        ablation_runs=3 if quick else 5,
+        es_limit=60.0 if quick else 1800.0,
+        milp_limit=60.0 if quick else 600.0,
+    )
     abl.to_csv(out / "ga_ablation.csv", index=False)
-    tab_a = ComparisonTable("GA ablation - P_Global of the thesis GA and of one change at a time "
-                            f"({abl['seed'].nunique()} thesis-scale seeds; see ga_ablation.csv)")
+    tab_a = ComparisonTable(
+        "GA ablation - P_Global of the thesis GA and of one change at a time "
+        f"({abl['seed'].nunique()} thesis-scale seeds; see ga_ablation.csv)"
+    )
     for (m, name), grp in abl.groupby(["m", "variant"], sort=False):
-        tab_a.add(f"m={m} {name}: P_Global vs ES / vs MILP", 1.0 if name == "thesis" else None,
-                  f"{grp['p_es'].mean():.2f} / {grp['p_milp'].mean():.2f}",
-                  f"{int(grp['runs'].iloc[0])} runs per seed; mean covered {grp['mean_obj'].mean():.1f}")
+        tab_a.add(
+            f"m={m} {name}: P_Global vs ES / vs MILP",
+            1.0 if name == "thesis" else None,
+            f"{grp['p_es'].mean():.2f} / {grp['p_milp'].mean():.2f}",
+            f"{int(grp['runs'].iloc[0])} runs per seed; mean covered {grp['mean_obj'].mean():.1f}",
+        )
     th = abl[abl["variant"] == "thesis"]
     for m, grp in th.groupby("m"):
         if len(grp) > 2 and grp["p_es"].std() > 0:
             rho = grp[["p_es", "users_in_reach"]].corr(method="spearman").iloc[0, 1]
-            tab_a.add(f"m={m} thesis GA: rank correlation of P_Global (vs ES) with users in reach", None,
-                      f"{rho:.2f}", "per seed, Spearman")
+            tab_a.add(
+                f"m={m} thesis GA: rank correlation of P_Global (vs ES) with users in reach",
+                None,
+                f"{rho:.2f}",
+                "per seed, Spearman",
+            )
     tab_a.emit(out, "ga_ablation")
 
 
@@ -263,15 +375,32 @@ def instance_features(problem) -> dict:
 
     check_instance("problem", problem, CellProblem)
     t = problem.targets
-    dg = np.min(np.hypot(t[:, None, 0] - problem.gbs[None, :, 0], t[:, None, 1] - problem.gbs[None, :, 1]),
-                axis=1) if len(t) else np.zeros(0)
+    dg = (
+        np.min(
+            np.hypot(t[:, None, 0] - problem.gbs[None, :, 0], t[:, None, 1] - problem.gbs[None, :, 1]), axis=1
+        )
+        if len(t)
+        else np.zeros(0)
+    )
     reach = problem.r1 + (problem.n_cells - 1) * problem.r2 + problem.R_d
-    return {"active_users": int(len(t)), "users_direct_reach": int((dg <= problem.r1 + problem.R_d).sum()),
-            "users_in_reach": int((dg <= reach).sum())}
+    return {
+        "active_users": len(t),
+        "users_direct_reach": int((dg <= problem.r1 + problem.R_d).sum()),
+        "users_in_reach": int((dg <= reach).sum()),
+    }
 
 
-def ga_ablation(*, seeds, ms, runs: int, variants=None, es_limit: float = 600.0, milp_limit: float = 300.0,
-                ablation_runs: int | None = None, progress: bool = True):
+def ga_ablation(
+    *,
+    seeds,
+    ms,
+    runs: int,
+    variants=None,
+    es_limit: float = 600.0,
+    milp_limit: float = 300.0,
+    ablation_runs: int | None = None,
+    progress: bool = True,
+):
     """P_Global of the thesis GA and of the ablation variants (issue 13.4).
 
     For every thesis-scale instance (seed in ``seeds``, m in ``ms``): the exhaustive-search
@@ -309,14 +438,30 @@ def ga_ablation(*, seeds, ms, runs: int, variants=None, es_limit: float = 600.0,
             n_runs = runs if name == "thesis" or ablation_runs is None else ablation_runs
             s = GASettings(**spec.get("settings", {}))
             kw = {"restarts": 1, "iter_max": 50 * N} if spec.get("no_restarts") else {}
-            objs = [genetic(p, seed=10_000 * seed + 100 * m + r, settings=s, **kw).objective for r in range(n_runs)]
-            rows.append({"seed": seed, "m": m, "variant": name, "runs": n_runs,
-                         "p_es": float(np.mean([o >= es.objective for o in objs])),
-                         "p_milp": float(np.mean([o >= milp.objective for o in objs]))
-                         if milp.status is Status.OPTIMAL else None,
-                         "mean_obj": float(np.mean(objs)), "best_obj": float(max(objs)),
-                         "es_obj": es.objective, "es_complete": es.info["complete"], "milp_obj": milp.objective,
-                         "milp_status": milp.status.name, "milp_bound": milp.bound, **feats})
+            objs = [
+                genetic(p, seed=10_000 * seed + 100 * m + r, settings=s, **kw).objective
+                for r in range(n_runs)
+            ]
+            rows.append(
+                {
+                    "seed": seed,
+                    "m": m,
+                    "variant": name,
+                    "runs": n_runs,
+                    "p_es": float(np.mean([o >= es.objective for o in objs])),
+                    "p_milp": float(np.mean([o >= milp.objective for o in objs]))
+                    if milp.status is Status.OPTIMAL
+                    else None,
+                    "mean_obj": float(np.mean(objs)),
+                    "best_obj": float(max(objs)),
+                    "es_obj": es.objective,
+                    "es_complete": es.info["complete"],
+                    "milp_obj": milp.objective,
+                    "milp_status": milp.status.name,
+                    "milp_bound": milp.bound,
+                    **feats,
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -332,20 +477,38 @@ def milp_seed_distribution(m: int, seeds, time_limit: float, *, progress: bool =
     rows = []
     for seed in tqdm(list(seeds), desc=f"cells MILP m={m}", disable=not progress):
         r = solve_milp(thesis_problem(m, seed), backend=MILP_BACKEND, time_limit=time_limit)
-        rows.append({"m": m, "seed": seed, "status": r.status.name, "objective": r.objective, "bound": r.bound,
-                     "gap": r.gap, "time_s": r.solve_time, "continuous_bound": r.info.get("continuous_bound")})
+        rows.append(
+            {
+                "m": m,
+                "seed": seed,
+                "status": r.status.name,
+                "objective": r.objective,
+                "bound": r.bound,
+                "gap": r.gap,
+                "time_s": r.solve_time,
+                "continuous_bound": r.info.get("continuous_bound"),
+            }
+        )
     return pd.DataFrame(rows)
 
 
 def _distribution_rows(t: ComparisonTable, df, m: int, limit: float) -> None:
     proven = df["status"] == "OPTIMAL"
     worst = df["time_s"].max() if proven.all() else float("inf")
-    t.add(f"m={m} proven optimal within {limit:g} s", f"{len(df)}/{len(df)} (issue 13)",
-          f"{int(proven.sum())}/{len(df)}", f"seeds {df['seed'].min()}-{df['seed'].max()}, cold start")
-    t.add(f"m={m} time median / worst (s)", f"worst <= {limit:g}",
-          f"{df['time_s'].median():.3g} / " + (f"{worst:.3g}" if np.isfinite(worst) else "not proven"),
-          "unproven seeds: " + ", ".join(f"{r.seed} (gap {r.gap:.1%})" for r in df[~proven].itertuples())
-          if (~proven).any() else "wall time per seed")
+    t.add(
+        f"m={m} proven optimal within {limit:g} s",
+        f"{len(df)}/{len(df)} (issue 13)",
+        f"{int(proven.sum())}/{len(df)}",
+        f"seeds {df['seed'].min()}-{df['seed'].max()}, cold start",
+    )
+    t.add(
+        f"m={m} time median / worst (s)",
+        f"worst <= {limit:g}",
+        f"{df['time_s'].median():.3g} / " + (f"{worst:.3g}" if np.isfinite(worst) else "not proven"),
+        "unproven seeds: " + ", ".join(f"{r.seed} (gap {r.gap:.1%})" for r in df[~proven].itertuples())
+        if (~proven).any()
+        else "wall time per seed",
+    )
 
 
 GAP_THESIS = {("cells", "ga"): "P_Global = 1.0 at m=3 (Table 4.3)"}
@@ -363,15 +526,30 @@ def gap_task(task: dict) -> list[dict]:
     es = exhaustive(p, time_limit=float(task.get("es_limit", 60)))
     cont = milp.info.get("continuous_bound")
     users = {"n_users": int(p.active.sum())}
-    outcomes = [Outcome.of("milp", "model", milp, bound_kind="candidate-set", extras=users),
-                Outcome.of("milp-warm", "model", warm, bound_kind="candidate-set",
-                           extras={**users, "warm_start_reason": warm.info.get("warm_start", {}).get("reason", "")}),
-                Outcome.of("ga", "heuristic", ga, extras=users),
-                Outcome.of("exhaustive", "heuristic", es, extras={**users, "es_complete": bool(es.info["complete"])})]
+    outcomes = [
+        Outcome.of("milp", "model", milp, bound_kind="candidate-set", extras=users),
+        Outcome.of(
+            "milp-warm",
+            "model",
+            warm,
+            bound_kind="candidate-set",
+            extras={**users, "warm_start_reason": warm.info.get("warm_start", {}).get("reason", "")},
+        ),
+        Outcome.of("ga", "heuristic", ga, extras=users),
+        Outcome.of("exhaustive", "heuristic", es, extras={**users, "es_complete": bool(es.info["complete"])}),
+    ]
     if cont is not None:
-        outcomes.append(Outcome("continuous-bound", "bound", milp.status.value, bound=float(cont),
-                                bound_kind="proven-global", message="upper bound of the continuous problem",
-                                extras=users))
+        outcomes.append(
+            Outcome(
+                "continuous-bound",
+                "bound",
+                milp.status.value,
+                bound=float(cont),
+                bound_kind="proven-global",
+                message="upper bound of the continuous problem",
+                extras=users,
+            )
+        )
     return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
 
 
@@ -387,8 +565,10 @@ def gap(*, seeds: int, executor, out: Path, store=None, m: int = 3, first_seed: 
     m: number of drone-cells.
     """
     out = Path(out)
-    tasks = [{"problem": "cells", "instance": instance_id("gap", m=m, seed=s), "seed": s, "m": m, "size": m}
-             for s in range(first_seed, first_seed + seeds)]
+    tasks = [
+        {"problem": "cells", "instance": instance_id("gap", m=m, seed=s), "seed": s, "m": m, "size": m}
+        for s in range(first_seed, first_seed + seeds)
+    ]
     with open_store(store, out) as st:
         df = map_rows(gap_task, tasks, executor=executor, store=st, desc="cells gap")
     report_study(df, out, "cells", thesis=GAP_THESIS, title=f"cells: covered users, m={m}")
@@ -413,32 +593,52 @@ def bench(*, quick: bool, out: Path) -> None:
         _distribution_rows(t, d6, 6, 300.0)
         dists.append(d6)
     import pandas as pd
+
     pd.concat(dists).to_csv(out / "bench_cells_seeds.csv", index=False)
     p4 = thesis_problem(4, INSTANCE_SEED)
     m4 = d4[d4["seed"] == INSTANCE_SEED].iloc[0]
     h4 = solve_milp(p4, backend="highs", time_limit=600)
-    t.add("m=4 MILP (HiGHS) status", None, h4.status.name,
-          f"obj {h4.objective:g}, bound {h4.bound:g}, {h4.solve_time:.3g} s, cold start")
+    t.add(
+        "m=4 MILP (HiGHS) status",
+        None,
+        h4.status.name,
+        f"obj {h4.objective:g}, bound {h4.bound:g}, {h4.solve_time:.3g} s, cold start",
+    )
     ga4 = genetic(p4, seed=4)
     t.add("m=4 GA time (s)", 202, ga4.solve_time, f"Table 4.3 settings; obj {ga4.objective:g}")
-    t.add("m=4 GA time / MILP time", "202/276970 (GA/ES)", ga4.solve_time / max(m4["time_s"], 1e-9),
-          f"seed {INSTANCE_SEED}, cold MILP from the distribution above")
+    t.add(
+        "m=4 GA time / MILP time",
+        "202/276970 (GA/ES)",
+        ga4.solve_time / max(m4["time_s"], 1e-9),
+        f"seed {INSTANCE_SEED}, cold MILP from the distribution above",
+    )
     if not quick:
         p6 = thesis_problem(6, INSTANCE_SEED)
         # the intended workflow: warm start from the GA polished by coordinate ascent
         g6 = genetic_polished(p6, pop_size=100, restarts=60, seed=6)
         w6 = solve_milp(p6, backend=MILP_BACKEND, time_limit=max(300 - g6.solve_time, 1), warm_start=g6.x)
-        t.add("m=6 GA+polish then MILP, gap within 300 s total", "<= 1%", w6.gap,
-              f"{w6.status.name}, obj {w6.objective:g}, bound {w6.bound:g}; GA+polish {g6.solve_time:.3g} s "
-              f"(obj {g6.objective:g}) + MILP {w6.solve_time:.3g} s")
+        t.add(
+            "m=6 GA+polish then MILP, gap within 300 s total",
+            "<= 1%",
+            w6.gap,
+            f"{w6.status.name}, obj {w6.objective:g}, bound {w6.bound:g}; GA+polish {g6.solve_time:.3g} s "
+            f"(obj {g6.objective:g}) + MILP {w6.solve_time:.3g} s",
+        )
     p3 = thesis_problem(3, INSTANCE_SEED)
     m3 = solve_milp(p3, backend=MILP_BACKEND)
     runs = 3 if quick else 20
     ga3 = [genetic(p3, seed=300 + r) for r in range(runs)]
-    t.add("m=3 GA success rate", ">= 0.9 (issue), 1.0 (thesis)", float(np.mean([g.objective == m3.objective
-                                                                                  for g in ga3])),
-          f"{runs} runs, Table 4.3 settings, optimum {m3.objective:g} ({m3.status.name})")
+    t.add(
+        "m=3 GA success rate",
+        ">= 0.9 (issue), 1.0 (thesis)",
+        float(np.mean([g.objective == m3.objective for g in ga3])),
+        f"{runs} runs, Table 4.3 settings, optimum {m3.objective:g} ({m3.status.name})",
+    )
     pol3 = [evaluate(p3, polish(p3, g.x)).covered for g in ga3]
-    t.add("m=3 GA+polish success rate (ours)", None, float(np.mean([v == m3.objective for v in pol3])),
-          f"same {runs} GA runs polished by coordinate ascent (improved variant, not the thesis GA)")
+    t.add(
+        "m=3 GA+polish success rate (ours)",
+        None,
+        float(np.mean([v == m3.objective for v in pol3])),
+        f"same {runs} GA runs polished by coordinate ascent (improved variant, not the thesis GA)",
+    )
     t.emit(out, "bench_cells")

@@ -76,33 +76,59 @@ def _parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     choices = [*PROBLEMS, "all"]
 
-    rep = sub.add_parser("reproduce", help="reproduce the thesis tables and figures (thesis | this run | how)",
-                         epilog=epilog)
+    rep = sub.add_parser(
+        "reproduce", help="reproduce the thesis tables and figures (thesis | this run | how)", epilog=epilog
+    )
     rep.add_argument("problem", nargs="?", default="all", choices=choices)
-    rep.add_argument("--quick", action="store_true", help="reduced sizes/seeds; finishes in minutes on 2 cores")
-    rep.add_argument("--out", type=Path, default=Path("results"), help="directory for CSV and PNG (default: results)")
-    rep.add_argument("--report", action="store_true", help="also write OUT/report.html (tables beside the thesis, figures)")
+    rep.add_argument(
+        "--quick", action="store_true", help="reduced sizes/seeds; finishes in minutes on 2 cores"
+    )
+    rep.add_argument(
+        "--out", type=Path, default=Path("results"), help="directory for CSV and PNG (default: results)"
+    )
+    rep.add_argument(
+        "--report", action="store_true", help="also write OUT/report.html (tables beside the thesis, figures)"
+    )
     _executor_options(rep)
 
-    gap = sub.add_parser("gap", help="heuristic vs solver optimum per instance (resumable store)", epilog=epilog)
+    gap = sub.add_parser(
+        "gap", help="heuristic vs solver optimum per instance (resumable store)", epilog=epilog
+    )
     gap.add_argument("problem", nargs="?", default="all", choices=choices)
     gap.add_argument("--seeds", type=int, default=10, help="number of random instances (default 10)")
-    gap.add_argument("--first-seed", type=int, default=0,
-                     help="seed of the first instance (default 0): seeds first-seed .. first-seed + seeds - 1")
+    gap.add_argument(
+        "--first-seed",
+        type=int,
+        default=0,
+        help="seed of the first instance (default 0): seeds first-seed .. first-seed + seeds - 1",
+    )
     _executor_options(gap)
-    gap.add_argument("--out", type=Path, default=Path("results"),
-                     help="directory for the store results.sqlite, results.csv and per-problem summaries/figures "
-                          "(default: results)")
+    gap.add_argument(
+        "--out",
+        type=Path,
+        default=Path("results"),
+        help="directory for the store results.sqlite, results.csv and per-problem summaries/figures "
+        "(default: results)",
+    )
 
     bench = sub.add_parser("bench", help="performance ratios measured in one run", epilog=epilog)
     bench.add_argument("problem", nargs="?", default="all", choices=choices)
     bench.add_argument("--quick", action="store_true", help="smaller instances")
-    bench.add_argument("--out", type=Path, default=Path("results"), help="directory for the CSV (default: results)")
+    bench.add_argument(
+        "--out", type=Path, default=Path("results"), help="directory for the CSV (default: results)"
+    )
     return parser
 
 
-def run_gap(problem: str = "all", *, seeds: int, out: str | os.PathLike, workers: int | None = 1,
-            dask_address: str | None = None, first_seed: int = 0):
+def run_gap(
+    problem: str = "all",
+    *,
+    seeds: int,
+    out: str | os.PathLike,
+    workers: int | None = 1,
+    dask_address: str | None = None,
+    first_seed: int = 0,
+):
     """Run the gap study of ``problem`` (or ``"all"``) from Python, like ``droneplan gap``.
 
     seeds: number of instances per problem (per size for herding); out: the ``--out``
@@ -120,7 +146,9 @@ def run_gap(problem: str = "all", *, seeds: int, out: str | os.PathLike, workers
     _writable_out(out)
     with ResultStore(out / STORE_NAME) as store, make_executor(workers, dask_address) as executor:
         for name in problems:
-            _load(name).gap(seeds=seeds, executor=executor, out=out / name, store=store, first_seed=first_seed)
+            _load(name).gap(
+                seeds=seeds, executor=executor, out=out / name, store=store, first_seed=first_seed
+            )
         store.export(out / "results.csv")
         df = store.frame()
     return df[df["problem"].isin(problems)].reset_index(drop=True)
@@ -128,10 +156,18 @@ def run_gap(problem: str = "all", *, seeds: int, out: str | os.PathLike, workers
 
 def _executor_options(parser: argparse.ArgumentParser) -> None:
     grp = parser.add_mutually_exclusive_group()
-    grp.add_argument("--workers", type=int, default=None,
-                     help="local worker processes (default: cores; 1 = serial in this process)")
-    grp.add_argument("--dask", metavar="ADDRESS", default=None,
-                     help="address of a running Dask scheduler, e.g. tcp://10.0.0.1:8786")
+    grp.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="local worker processes (default: cores; 1 = serial in this process)",
+    )
+    grp.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        default=None,
+        help="address of a running Dask scheduler, e.g. tcp://10.0.0.1:8786",
+    )
 
 
 def _writable_out(out: Path) -> None:
@@ -174,16 +210,20 @@ def _run(args) -> int:
                     extra = {k: v for k, v in (("executor", executor), ("store", store)) if k in accepted}
                     module.reproduce(quick=args.quick, out=out, **extra)
                 else:
-                    module.gap(seeds=args.seeds, executor=executor, out=out, store=store, first_seed=args.first_seed)
+                    module.gap(
+                        seeds=args.seeds, executor=executor, out=out, store=store, first_seed=args.first_seed
+                    )
             finally:
                 store.export(args.out / "results.csv")
         errors = store.frame()
         errors = errors[errors["status"] == "error"]
         if len(errors):
             first = errors.iloc[0]
-            print(f"droneplan: {len(errors)} task(s) ended in an error row (first: {first['problem']} "
-                  f"{first['instance']}: {first['message']}); rerun the same command to retry them",
-                  file=sys.stderr)
+            print(
+                f"droneplan: {len(errors)} task(s) ended in an error row (first: {first['problem']} "
+                f"{first['instance']}: {first['message']}); rerun the same command to retry them",
+                file=sys.stderr,
+            )
             return 1
     if args.command == "reproduce" and args.report:
         from droneplan.studies.report import write_report
@@ -205,8 +245,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"droneplan: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"\ndroneplan: interrupted; finished rows are in {args.out / STORE_NAME}: rerun the same command "
-              "to resume", file=sys.stderr)
+        print(
+            f"\ndroneplan: interrupted; finished rows are in {args.out / STORE_NAME}: rerun the same command "
+            "to resume",
+            file=sys.stderr,
+        )
         return 130
     finally:
         common.INTERRUPT_GRACE_S = None

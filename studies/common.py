@@ -82,7 +82,9 @@ class StudyExecutor(cf.Executor):
     def kill(self) -> None:
         """Stop now: cancel queued tasks and end the worker processes this executor started."""
         if self.kind == "processes":
-            procs = list((getattr(self._inner, "_processes", None) or {}).values())  # no public handle on workers
+            procs = list(
+                (getattr(self._inner, "_processes", None) or {}).values()
+            )  # no public handle on workers
             self._inner.shutdown(wait=False, cancel_futures=True)
             for p in procs:
                 if p.is_alive():
@@ -102,8 +104,9 @@ class StudyError(RuntimeError):
 
 
 @contextlib.contextmanager
-def make_executor(workers: int | None = None, dask_address: str | None = None,
-                  *, connect_timeout: float = 5.0) -> Iterator[StudyExecutor]:
+def make_executor(
+    workers: int | None = None, dask_address: str | None = None, *, connect_timeout: float = 5.0
+) -> Iterator[StudyExecutor]:
     """A :class:`StudyExecutor` for mapping over instances.
 
     workers: local worker processes (None: number of cores; 1: run serially in this
@@ -122,8 +125,10 @@ def make_executor(workers: int | None = None, dask_address: str | None = None,
         try:
             client = Client(dask_address, timeout=f"{connect_timeout}s", set_as_default=False)
         except (OSError, TimeoutError, ValueError) as exc:
-            raise StudyError(f"cannot reach the Dask scheduler at {dask_address}: "
-                             f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+            raise StudyError(
+                f"cannot reach the Dask scheduler at {dask_address}: "
+                f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__}"
+            ) from None
         try:
             slots = max(1, sum(client.nthreads().values()))
             yield StudyExecutor("dask", slots, client.get_executor(), client)
@@ -196,8 +201,10 @@ class _InterruptGuard:
                 if grace is not None and not self._left.wait(grace):
                     with contextlib.suppress(Exception):
                         self.executor.kill()
-                    sys.stderr.write("\ndroneplan: interrupted; a solve did not stop within "
-                                     f"{grace:g} s, exiting. Finished rows are in the store: rerun to resume.\n")
+                    sys.stderr.write(
+                        "\ndroneplan: interrupted; a solve did not stop within "
+                        f"{grace:g} s, exiting. Finished rows are in the store: rerun to resume.\n"
+                    )
                     sys.stderr.flush()
                     os._exit(130)
 
@@ -238,14 +245,27 @@ def _call_task(fn: Callable[[Mapping[str, Any]], list[dict]], task: Mapping[str,
     try:
         rows = fn(task)
     except Exception as exc:  # noqa: BLE001 - recorded, the study goes on
-        return [error_row(task["problem"], task["instance"], f"{type(exc).__name__}: {exc}",
-                          seed=task.get("seed"), size=task.get("size"))]
+        return [
+            error_row(
+                task["problem"],
+                task["instance"],
+                f"{type(exc).__name__}: {exc}",
+                seed=task.get("seed"),
+                size=task.get("size"),
+            )
+        ]
     rows = [rows] if isinstance(rows, Mapping) else list(rows)
     for r in rows:
         if (r.get("problem"), r.get("instance")) != (task["problem"], task["instance"]):
-            return [error_row(task["problem"], task["instance"],
-                              f"task function returned a row of {r.get('problem')}/{r.get('instance')}",
-                              seed=task.get("seed"), size=task.get("size"))]
+            return [
+                error_row(
+                    task["problem"],
+                    task["instance"],
+                    f"task function returned a row of {r.get('problem')}/{r.get('instance')}",
+                    seed=task.get("seed"),
+                    size=task.get("size"),
+                )
+            ]
     return rows
 
 
@@ -315,8 +335,15 @@ def _map_parallel(fn, todo, executor: StudyExecutor, store: ResultStore, guard: 
                     guard.check()
                     if isinstance(exc, KeyboardInterrupt):
                         raise
-                    rows = [error_row(task["problem"], task["instance"], f"worker failed: {type(exc).__name__}: {exc}",
-                                      seed=task.get("seed"), size=task.get("size"))]
+                    rows = [
+                        error_row(
+                            task["problem"],
+                            task["instance"],
+                            f"worker failed: {type(exc).__name__}: {exc}",
+                            seed=task.get("seed"),
+                            size=task.get("size"),
+                        )
+                    ]
                 store.write(rows)
                 bar.update(1)
     except BaseException:
@@ -348,8 +375,16 @@ class ComparisonTable:
     def add(self, quantity: str, thesis: Any, ours: Any, how: str) -> None:
         dev = _deviation(thesis, ours)
         flag = "" if dev is None else ("!" if abs(dev) > self.threshold else "ok")
-        self.rows.append({"quantity": quantity, "thesis": _fmt(thesis), "this run": _fmt(ours),
-                          "deviation": "" if dev is None else f"{dev:+.0%}", "flag": flag, "how measured": how})
+        self.rows.append(
+            {
+                "quantity": quantity,
+                "thesis": _fmt(thesis),
+                "this run": _fmt(ours),
+                "deviation": "" if dev is None else f"{dev:+.0%}",
+                "flag": flag,
+                "how measured": how,
+            }
+        )
 
     def frame(self) -> pd.DataFrame:
         return pd.DataFrame(self.rows, columns=_TABLE_COLUMNS)
@@ -368,8 +403,13 @@ class ComparisonTable:
         """The table as GitHub Markdown."""
         df = self.frame()
         esc = [[str(v).replace("|", "\\|") for v in r] for r in df.itertuples(index=False)]
-        lines = [f"**{self.title}**", "", "| " + " | ".join(df.columns) + " |",
-                 "|" + "---|" * len(df.columns), *("| " + " | ".join(r) + " |" for r in esc)]
+        lines = [
+            f"**{self.title}**",
+            "",
+            "| " + " | ".join(df.columns) + " |",
+            "|" + "---|" * len(df.columns),
+            *("| " + " | ".join(r) + " |" for r in esc),
+        ]
         return "\n".join(lines)
 
     def emit(self, out: Path, stem: str) -> None:
@@ -409,14 +449,23 @@ def _fmt(value: Any) -> str:
 def render_frame(df: pd.DataFrame, *, width: int | None = None, max_cell: int = 60) -> str:
     """Plain-text table of ``df`` that fits ``width`` columns: wide text columns wrap onto more lines."""
     width = width or shutil.get_terminal_size((120, 24)).columns
-    cells = [["" if v is None or (isinstance(v, float) and math.isnan(v)) else
-              (f"{v:.3g}" if isinstance(v, float) else str(v)) for v in r] for r in df.itertuples(index=False)]
+    cells = [
+        [
+            ""
+            if v is None or (isinstance(v, float) and math.isnan(v))
+            else (f"{v:.3g}" if isinstance(v, float) else str(v))
+            for v in r
+        ]
+        for r in df.itertuples(index=False)
+    ]
     cols = [str(c) for c in df.columns]
     natural = [max([len(c)] + [len(r[j]) for r in cells]) for j, c in enumerate(cols)]
     widths = [min(w, max_cell) for w in natural]
     # a column never gets narrower than its longest header word or its values (up to 12 chars)
-    floor = [max(max(len(w) for w in c.split()), min(12, max([0] + [len(r[j]) for r in cells])))
-             for j, c in enumerate(cols)]
+    floor = [
+        max(max(len(w) for w in c.split()), min(12, max([0] + [len(r[j]) for r in cells])))
+        for j, c in enumerate(cols)
+    ]
     sep = 3 * (len(cols) - 1)
     while sum(widths) + sep > width:
         slack = [w - f for w, f in zip(widths, floor, strict=False)]
@@ -426,8 +475,12 @@ def render_frame(df: pd.DataFrame, *, width: int | None = None, max_cell: int = 
 
     def lines_of(values):
         wrapped = [textwrap.wrap(v, w) or [""] for v, w in zip(values, widths, strict=False)]
-        return [" | ".join((col[k] if k < len(col) else "").ljust(w) for col, w in zip(wrapped, widths, strict=False)).rstrip()
-                for k in range(max(len(c) for c in wrapped))]
+        return [
+            " | ".join(
+                (col[k] if k < len(col) else "").ljust(w) for col, w in zip(wrapped, widths, strict=False)
+            ).rstrip()
+            for k in range(max(len(c) for c in wrapped))
+        ]
 
     out = [*lines_of(cols), "-+-".join("-" * w for w in widths)]
     for r in cells:
@@ -449,9 +502,15 @@ def summarize(df: pd.DataFrame, thesis: Mapping[tuple[str, str], str] | None = N
     out = []
     for (problem, method), g in df.groupby(["problem", "method"], sort=False):
         solved = g["status"].isin(["optimal", "feasible"])
-        rec = {"problem": problem, "method": method, "role": g["role"].iloc[0], "count": len(g),
-               "success_rate": float(solved.mean()), "errors": int((g["status"] == "error").sum()),
-               "best_rate": float((g["gap_to_best"] <= 1e-6).sum() / len(g))}
+        rec = {
+            "problem": problem,
+            "method": method,
+            "role": g["role"].iloc[0],
+            "count": len(g),
+            "success_rate": float(solved.mean()),
+            "errors": int((g["status"] == "error").sum()),
+            "best_rate": float((g["gap_to_best"] <= 1e-6).sum() / len(g)),
+        }
         for col in ("gap_to_bound", "gap_to_best"):
             v = g[col].dropna()
             rec[f"median_{col}"] = float(v.median()) if len(v) else None
@@ -466,20 +525,57 @@ def summarize(df: pd.DataFrame, thesis: Mapping[tuple[str, str], str] | None = N
     return pd.DataFrame(out)
 
 
-def report_study(df: pd.DataFrame, out: Path, problem: str, *, thesis: Mapping[tuple[str, str], str] | None = None,
-                 title: str = "") -> pd.DataFrame:
+def report_study(
+    df: pd.DataFrame,
+    out: Path,
+    problem: str,
+    *,
+    thesis: Mapping[tuple[str, str], str] | None = None,
+    title: str = "",
+) -> pd.DataFrame:
     """Print the numeric summary of ``df``, write it to ``out/gap_summary.csv`` and draw
     ``out/gap_<problem>.png`` (gap distribution per method); returns the summary."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     summary = summarize(df, thesis)
     summary.to_csv(out / "gap_summary.csv", index=False)
-    shown = summary[["method", "role", "count", "success_rate", "errors", "best_rate", "median_gap_to_bound",
-                     "p95_gap_to_bound", "median_gap_to_best", "p95_gap_to_best", "median_time_s", "thesis"]]
-    shown = shown.set_axis(["method", "role", "n", "solved", "errors", "at best", "gap→bound median",
-                            "gap→bound p95", "gap→best median", "gap→best p95", "time (s) median", "thesis"], axis=1)
-    print(f"== {title or problem + ' gap study'} ({df['instance'].nunique()} instances; gaps relative, "
-          f"full summary in {out / 'gap_summary.csv'}) ==")
+    shown = summary[
+        [
+            "method",
+            "role",
+            "count",
+            "success_rate",
+            "errors",
+            "best_rate",
+            "median_gap_to_bound",
+            "p95_gap_to_bound",
+            "median_gap_to_best",
+            "p95_gap_to_best",
+            "median_time_s",
+            "thesis",
+        ]
+    ]
+    shown = shown.set_axis(
+        [
+            "method",
+            "role",
+            "n",
+            "solved",
+            "errors",
+            "at best",
+            "gap→bound median",
+            "gap→bound p95",
+            "gap→best median",
+            "gap→best p95",
+            "time (s) median",
+            "thesis",
+        ],
+        axis=1,
+    )
+    print(
+        f"== {title or problem + ' gap study'} ({df['instance'].nunique()} instances; gaps relative, "
+        f"full summary in {out / 'gap_summary.csv'}) =="
+    )
     print(render_frame(shown), flush=True)
     print(flush=True)
     gap_figure(df, out / f"gap_{problem}.png", title=title or f"{problem}: gap per method")

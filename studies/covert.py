@@ -21,17 +21,21 @@ import math
 import time
 from pathlib import Path
 
+import matplotlib.pyplot as plt
+import numpy as np
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from droneplan.formulations.covert import MPCSettings, sphere_minmax_bearing  # noqa: E402
-from droneplan.planners.covert import (HoverBenchmark, MPCObserver, MPCObserverSettings, SafeguardedMPCObserver,  # noqa: E402
-                             SlidingModeObserver)
-from droneplan.scenarios.covert import CovertTrace, random_case, simulate, thesis_case  # noqa: E402
-from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study  # noqa: E402
-from droneplan.studies.plots.covert import plot_bearing, plot_path, plot_stealth_front  # noqa: E402
-from droneplan.studies.store import Outcome, build_rows, instance_id  # noqa: E402
+from droneplan.formulations.covert import MPCSettings, sphere_minmax_bearing
+from droneplan.planners.covert import (
+    HoverBenchmark,
+    MPCObserver,
+    MPCObserverSettings,
+    SafeguardedMPCObserver,
+    SlidingModeObserver,
+)
+from droneplan.scenarios.covert import CovertTrace, random_case, simulate, thesis_case
+from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study
+from droneplan.studies.plots.covert import plot_bearing, plot_path, plot_stealth_front
+from droneplan.studies.store import Outcome, build_rows, instance_id
 
 __all__ = ["DEG", "stealth_front", "reproduce", "GAP_THESIS", "gap_task", "gap", "bench"]
 
@@ -39,8 +43,11 @@ DEG = 180.0 / math.pi
 
 
 def _controllers(backend: str = "ipopt") -> dict:
-    return {"hover": HoverBenchmark(), "sliding": SlidingModeObserver(),
-            "mpc": MPCObserver(observer=MPCObserverSettings(backend=backend))}
+    return {
+        "hover": HoverBenchmark(),
+        "sliding": SlidingModeObserver(),
+        "mpc": MPCObserver(observer=MPCObserverSettings(backend=backend)),
+    }
 
 
 def _run_all(scenario, *, backend: str = "ipopt") -> tuple[dict[str, CovertTrace], SafeguardedMPCObserver]:
@@ -112,7 +119,9 @@ def _plot_beta(traces: dict[str, CovertTrace], path: Path, title: str, per_targe
         ax[0, 1].set_ylabel("beta_j (deg)")
         ax[0, 1].set_title(f"{per_target}: per-target bearing changes")
         lines = ax[0, 1].get_lines() + ax2.get_lines()
-        ax[0, 1].legend(lines, [ln.get_label() for ln in lines], fontsize=6, ncol=2 if tr.beta.shape[1] > 3 else 1)
+        ax[0, 1].legend(
+            lines, [ln.get_label() for ln in lines], fontsize=6, ncol=2 if tr.beta.shape[1] > 3 else 1
+        )
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -123,37 +132,101 @@ def _case_table(case: int, traces, scenario, thesis: dict, out: Path, safe: Safe
     h, s, m = traces["hover"], traces["sliding"], traces["mpc"]
     lb, best, excess = _oracle_on_sphere(s, scenario)
     tab = ComparisonTable(f"Case {case}: maximum recorded bearing change (Fig. 3.{10 if case == 1 else 14})")
-    tab.add("beta_max hover benchmark (deg)", thesis["hover"], h.beta_max * DEG, "max over run of max_j beta_j, true positions")
-    tab.add("beta_max sliding mode (deg)", thesis["sliding"], s.beta_max * DEG, "saturated sliding-mode laws (§3.5)")
-    tab.add("reduction sliding vs hover (%)", thesis["red"], _pct(s.beta_max, h.beta_max), "(sliding - hover) / hover")
-    tab.add("beta_max MPC, IPOPT (deg)", None, m.beta_max * DEG, "min-max tan-epigraph MPC, replan 0.5 s, horizon 4 s")
+    tab.add(
+        "beta_max hover benchmark (deg)",
+        thesis["hover"],
+        h.beta_max * DEG,
+        "max over run of max_j beta_j, true positions",
+    )
+    tab.add(
+        "beta_max sliding mode (deg)",
+        thesis["sliding"],
+        s.beta_max * DEG,
+        "saturated sliding-mode laws (§3.5)",
+    )
+    tab.add(
+        "reduction sliding vs hover (%)",
+        thesis["red"],
+        _pct(s.beta_max, h.beta_max),
+        "(sliding - hover) / hover",
+    )
+    tab.add(
+        "beta_max MPC, IPOPT (deg)",
+        None,
+        m.beta_max * DEG,
+        "min-max tan-epigraph MPC, replan 0.5 s, horizon 4 s",
+    )
     tab.add("MPC vs sliding (%)", None, _pct(m.beta_max, s.beta_max), "(MPC - sliding) / sliding")
     tab.add("MPC fallbacks to sliding mode", None, m.fallbacks, "failed solves (counted in the trace)")
     mo, ms = traces["mpc-osqp"], traces["mpc-slow"]
-    tab.add("beta_max MPC, OSQP SQP (deg)", None, mo.beta_max * DEG, f"one QP per replan; {mo.fallbacks} fallbacks")
-    tab.add("beta_max MPC, approach at 0.3 V_max (deg)", None, ms.beta_max * DEG,
-            f"IPOPT; later arrival t_a = {ms.t_a:.1f} s")
+    tab.add(
+        "beta_max MPC, OSQP SQP (deg)",
+        None,
+        mo.beta_max * DEG,
+        f"one QP per replan; {mo.fallbacks} fallbacks",
+    )
+    tab.add(
+        "beta_max MPC, approach at 0.3 V_max (deg)",
+        None,
+        ms.beta_max * DEG,
+        f"IPOPT; later arrival t_a = {ms.t_a:.1f} s",
+    )
     g = traces["mpc-safe"]
-    tab.add("beta_max safeguarded MPC (deg)", None, g.beta_max * DEG,
-            f"per replan: MPC plan or sliding rollout, lower predicted max beta (margin "
-            f"{safe.safeguard.margin * DEG:.2f} deg); MPC executed at {safe.choices.count('mpc')}/{len(safe.choices)} replans")
-    tab.add("safeguarded MPC vs sliding (%)", None, _pct(g.beta_max, s.beta_max), "(safeguarded - sliding) / sliding")
-    tab.add("t_a safeguarded MPC / its arrival deadline (s)", thesis.get("t_a"),
-            f"{g.t_a:.1f} / {safe.arrival_deadline:.1f}",
-            f"deadline = predicted sliding arrival + {safe.safeguard.arrival_tolerance:.1f} s; "
-            f"{g.fallbacks} fallbacks, {safe.late_sliding} late sliding steps")
-    tab.add("t_a sliding / MPC (s)", thesis.get("t_a"), f"{s.t_a:.1f} / {m.t_a:.1f}", "first time on the sphere")
+    tab.add(
+        "beta_max safeguarded MPC (deg)",
+        None,
+        g.beta_max * DEG,
+        f"per replan: MPC plan or sliding rollout, lower predicted max beta (margin "
+        f"{safe.safeguard.margin * DEG:.2f} deg); MPC executed at {safe.choices.count('mpc')}/{len(safe.choices)} replans",
+    )
+    tab.add(
+        "safeguarded MPC vs sliding (%)",
+        None,
+        _pct(g.beta_max, s.beta_max),
+        "(safeguarded - sliding) / sliding",
+    )
+    tab.add(
+        "t_a safeguarded MPC / its arrival deadline (s)",
+        thesis.get("t_a"),
+        f"{g.t_a:.1f} / {safe.arrival_deadline:.1f}",
+        f"deadline = predicted sliding arrival + {safe.safeguard.arrival_tolerance:.1f} s; "
+        f"{g.fallbacks} fallbacks, {safe.late_sliding} late sliding steps",
+    )
+    tab.add(
+        "t_a sliding / MPC (s)", thesis.get("t_a"), f"{s.t_a:.1f} / {m.t_a:.1f}", "first time on the sphere"
+    )
     tab.add("t_f sliding / MPC (s)", thesis.get("t_f"), f"{s.t_f:.1f} / {m.t_f:.1f}", "start of the retreat")
-    tab.add("sphere error sliding / MPC (m)", 0.0, f"{s.sphere_error:.3f} / {m.sphere_error:.3f}",
-            "max | |D-F| - L_u | for t_a <= t <= t_f")
-    tab.add("lower bound, any controller on the sphere over [t_a, t_f] of sliding (deg)", None, lb * DEG,
-            "max over every control instant of the exact min over the sphere of max_j beta_j (convex program)")
-    tab.add("sliding on-sphere beta_m minus instantaneous optimum (deg)", None,
-            excess * DEG, "max over every on-sphere control instant of beta_m(sliding) - optimum")
-    tab.add("back at D_s (sliding / MPC)", True, f"{s.finished} / {m.finished}", "|D - D_s| <= 5 cm at the end")
+    tab.add(
+        "sphere error sliding / MPC (m)",
+        0.0,
+        f"{s.sphere_error:.3f} / {m.sphere_error:.3f}",
+        "max | |D-F| - L_u | for t_a <= t <= t_f",
+    )
+    tab.add(
+        "lower bound, any controller on the sphere over [t_a, t_f] of sliding (deg)",
+        None,
+        lb * DEG,
+        "max over every control instant of the exact min over the sphere of max_j beta_j (convex program)",
+    )
+    tab.add(
+        "sliding on-sphere beta_m minus instantaneous optimum (deg)",
+        None,
+        excess * DEG,
+        "max over every on-sphere control instant of beta_m(sliding) - optimum",
+    )
+    tab.add(
+        "back at D_s (sliding / MPC)", True, f"{s.finished} / {m.finished}", "|D - D_s| <= 5 cm at the end"
+    )
     tab.emit(out, f"case{case}")
-    return {"hover": h.beta_max, "sliding": s.beta_max, "mpc": m.beta_max, "oracle_lb": lb, "safe": g.beta_max,
-            "t_a_safe": g.t_a, "t_a_sliding": s.t_a}
+    return {
+        "hover": h.beta_max,
+        "sliding": s.beta_max,
+        "mpc": m.beta_max,
+        "oracle_lb": lb,
+        "safe": g.beta_max,
+        "t_a_safe": g.t_a,
+        "t_a_sliding": s.t_a,
+    }
 
 
 def stealth_front(scenario, traces: dict[str, CovertTrace], *, n_arrivals: int = 6, step: float = 0.5):
@@ -184,8 +257,13 @@ def stealth_front(scenario, traces: dict[str, CovertTrace], *, n_arrivals: int =
     if all(tr.t_a is None for tr in traces.values()):
         raise ValueError("traces: no run reached the sphere (no arrival time to place)")
     p = scenario.params
-    pts = pd.DataFrame([{"method": k, "t_a": tr.t_a, "t_f": tr.t_f, "beta_max_deg": tr.beta_max * DEG}
-                        for k, tr in traces.items() if tr.t_a is not None])
+    pts = pd.DataFrame(
+        [
+            {"method": k, "t_a": tr.t_a, "t_f": tr.t_f, "beta_max_deg": tr.beta_max * DEG}
+            for k, tr in traces.items()
+            if tr.t_a is not None
+        ]
+    )
     t_min = (float(np.linalg.norm(p.D_s_arr - p.F_arr)) - p.L_u) / p.V_max
     # the grid holds every run's own arrival time: a run arriving at t_a belongs to the class of
     # every arrival time >= t_a, and the bound is non-increasing in it
@@ -195,19 +273,28 @@ def stealth_front(scenario, traces: dict[str, CovertTrace], *, n_arrivals: int =
     tol = max([1.0] + [float(tr.sphere_error) for tr in traces.values() if np.isfinite(tr.sphere_error)])
     times = np.arange(0.0, t_end + 1e-9, step)
     fronts = mission_front(scenario, arrivals, t_f, times=times, t_end=t_end, sphere_tol=tol)
-    bound = pd.DataFrame([{"t_a": f.t_a, "bound_deg": f.value * DEG, "attained_at_s": f.argmax, "class_t_f": t_f}
-                          for f in fronts])
+    bound = pd.DataFrame(
+        [
+            {"t_a": f.t_a, "bound_deg": f.value * DEG, "attained_at_s": f.argmax, "class_t_f": t_f}
+            for f in fronts
+        ]
+    )
     return pts, bound
 
 
 def _front_section(case: int, scenario, traces: dict[str, CovertTrace], out: Path, quick: bool) -> None:
-    names = {"sliding": "sliding mode", "mpc": "MPC (approach 0.7 V_max)", "mpc-slow": "MPC (approach 0.3 V_max)",
-             "mpc-safe": "safeguarded MPC"}
+    names = {
+        "sliding": "sliding mode",
+        "mpc": "MPC (approach 0.7 V_max)",
+        "mpc-slow": "MPC (approach 0.3 V_max)",
+        "mpc-safe": "safeguarded MPC",
+    }
     runs = {label: traces[k] for k, label in names.items() if k in traces}
     if not quick:
         for prog in (0.5, 1.0):
             runs[f"MPC (approach {prog:g} V_max)"] = simulate(
-                scenario, MPCObserver(observer=MPCObserverSettings(progress=prog)))
+                scenario, MPCObserver(observer=MPCObserverSettings(progress=prog))
+            )
     pts, bound = stealth_front(scenario, runs, n_arrivals=5 if quick else 10, step=1.0 if quick else 0.2)
     pts.to_csv(out / f"case{case}_stealth_front_points.csv", index=False)
     bound.to_csv(out / f"case{case}_stealth_front_bound.csv", index=False)
@@ -218,12 +305,19 @@ def _front_section(case: int, scenario, traces: dict[str, CovertTrace], out: Pat
     tab = ComparisonTable(f"Case {case}: stealth vs arrival time (whole-mission lower bound)")
     for _, r in pts.iterrows():
         lb = float(bound.bound_deg[np.isclose(bound.t_a, r.t_a)].iloc[0])
-        tab.add(f"{r.method}: beta_max / bound for its arrival (deg)", None, f"{r.beta_max_deg:.2f} / {lb:.2f}",
-                f"t_a = {r.t_a:.1f} s; bound: any controller on the sphere by then")
-    tab.add("bound at the earliest / latest arrival of the grid (deg)", None,
-            f"{bound.bound_deg.iloc[0]:.2f} / {bound.bound_deg.iloc[-1]:.2f}",
-            f"t_a = {bound.t_a.iloc[0]:.1f} / {bound.t_a.iloc[-1]:.1f} s; on the sphere until t_f = "
-            f"{bound.class_t_f.iloc[0]:.1f} s, instants every {1.0 if quick else 0.2} s")
+        tab.add(
+            f"{r.method}: beta_max / bound for its arrival (deg)",
+            None,
+            f"{r.beta_max_deg:.2f} / {lb:.2f}",
+            f"t_a = {r.t_a:.1f} s; bound: any controller on the sphere by then",
+        )
+    tab.add(
+        "bound at the earliest / latest arrival of the grid (deg)",
+        None,
+        f"{bound.bound_deg.iloc[0]:.2f} / {bound.bound_deg.iloc[-1]:.2f}",
+        f"t_a = {bound.t_a.iloc[0]:.1f} / {bound.t_a.iloc[-1]:.1f} s; on the sphere until t_f = "
+        f"{bound.class_t_f.iloc[0]:.1f} s, instants every {1.0 if quick else 0.2} s",
+    )
     tab.emit(out, f"case{case}_stealth_front")
 
 
@@ -236,18 +330,36 @@ def _noise_study(quick: bool, out: Path) -> None:
         sc = thesis_case(case, 0)
         base = simulate(sc, SlidingModeObserver()).beta_max
         for lvl in levels:
-            errs = [abs(simulate(sc, SlidingModeObserver(), noise=lvl, seed=1000 * case + r).beta_max - base)
-                    for r in range(runs)]
-            rows.append({"case": case, "noise": lvl, "mean_err_deg": np.mean(errs) * DEG, "max_err_deg": np.max(errs) * DEG})
+            errs = [
+                abs(simulate(sc, SlidingModeObserver(), noise=lvl, seed=1000 * case + r).beta_max - base)
+                for r in range(runs)
+            ]
+            rows.append(
+                {
+                    "case": case,
+                    "noise": lvl,
+                    "mean_err_deg": np.mean(errs) * DEG,
+                    "max_err_deg": np.max(errs) * DEG,
+                }
+            )
         e2 = [r["max_err_deg"] for r in rows if r["case"] == case and r["noise"] == 0.02][0]
         e10 = [r["max_err_deg"] for r in rows if r["case"] == case and r["noise"] == 0.10][0]
-        tab.add(f"case {case}: max error of beta_max at 2% (deg)", "< 0.3", e2, "|beta_max(noisy) - beta_max(exact)|")
-        tab.add(f"case {case}: max error of beta_max at 10% (deg)", "< 2", e10, "each component x (1 + a U(-1,1))")
+        tab.add(
+            f"case {case}: max error of beta_max at 2% (deg)",
+            "< 0.3",
+            e2,
+            "|beta_max(noisy) - beta_max(exact)|",
+        )
+        tab.add(
+            f"case {case}: max error of beta_max at 10% (deg)", "< 2", e10, "each component x (1 + a U(-1,1))"
+        )
     if not quick:
         for case in (1, 2):
             sc = thesis_case(case, 0)
             base = simulate(sc, MPCObserver()).beta_max
-            errs = [abs(simulate(sc, MPCObserver(), noise=0.10, seed=77 + r).beta_max - base) for r in range(3)]
+            errs = [
+                abs(simulate(sc, MPCObserver(), noise=0.10, seed=77 + r).beta_max - base) for r in range(3)
+            ]
             tab.add(f"case {case}: MPC max error of beta_max at 10% (deg)", None, max(errs) * DEG, "3 runs")
     tab.emit(out, "fig3_15_noise")
     import pandas as pd
@@ -273,13 +385,20 @@ def reproduce(*, quick: bool, out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     results = {}
-    for case, thesis in ((1, {"hover": 21.8, "sliding": 15.5, "red": -28.9, "t_a": 7.4, "t_f": 113.2}),
-                         (2, {"hover": 32.2, "sliding": 22.2, "red": -33.1})):
+    for case, thesis in (
+        (1, {"hover": 21.8, "sliding": 15.5, "red": -28.9, "t_a": 7.4, "t_f": 113.2}),
+        (2, {"hover": 32.2, "sliding": 22.2, "red": -33.1}),
+    ):
         sc = thesis_case(case, 0)
         traces, safe = _run_all(sc)
         results[case] = _case_table(case, traces, sc, thesis, out, safe)
         main = {k: traces[k] for k in ("hover", "sliding", "mpc")}
-        _plot_3d(sc, main, out / f"case{case}_3d.png", f"Case {case}: drone paths (Fig. 3.{9 if case == 1 else 14}a)")
+        _plot_3d(
+            sc,
+            main,
+            out / f"case{case}_3d.png",
+            f"Case {case}: drone paths (Fig. 3.{9 if case == 1 else 14}a)",
+        )
         _plot_beta(main, out / f"case{case}_beta.png", f"Case {case}: beta_m", per_target="sliding")
         if case == 1 or not quick:
             _front_section(case, sc, traces, out, quick)
@@ -292,8 +411,12 @@ def reproduce(*, quick: bool, out: Path) -> None:
         on = _on_sphere(tr)
         gap = np.nanmedian(np.abs(tr.beta[on, 0] - tr.beta[on, 1])) * DEG if on.any() else math.nan
         tab.add(f"{name}: beta_max (deg)", None, tr.beta_max * DEG, "max recorded beta_m")
-        tab.add(f"{name}: median |beta_1 - beta_2| on the sphere (deg)", "~0 (curves overlap)", gap,
-                "min-max equalises the two")
+        tab.add(
+            f"{name}: median |beta_1 - beta_2| on the sphere (deg)",
+            "~0 (curves overlap)",
+            gap,
+            "min-max equalises the two",
+        )
     tab.emit(out, "fig3_12_speed")
     _plot_beta(tr5, out / "fig3_12_beta.png", "Case 1, V_T = 5 m/s", per_target="sliding")
 
@@ -303,22 +426,37 @@ def reproduce(*, quick: bool, out: Path) -> None:
     tab = ComparisonTable("Fig. 3.13: case 1, target 2 behind an obstacle from t = 90 s (line of sight)")
     for name, tr in tro.items():
         hidden = np.isnan(tr.beta[:, 1]) & (tr.t >= 60.0)
-        tab.add(f"{name}: target 2 hidden from (s)", 90.0, float(tr.t[hidden][0]) if hidden.any() else math.nan,
-                "first instant after 60 s where the drone-target segment crosses the hedge (FIG_3_13_OBSTACLE)")
+        tab.add(
+            f"{name}: target 2 hidden from (s)",
+            90.0,
+            float(tr.t[hidden][0]) if hidden.any() else math.nan,
+            "first instant after 60 s where the drone-target segment crosses the hedge (FIG_3_13_OBSTACLE)",
+        )
         late = (tr.t >= 95.0) & _on_sphere(tr)
-        tab.add(f"{name}: max beta_1 on the sphere for t >= 95 s (deg)", "close to 0",
-                np.nanmax(tr.beta[late, 0]) * DEG if late.any() else math.nan,
-                "drone sits on target 1's camouflage line")
+        tab.add(
+            f"{name}: max beta_1 on the sphere for t >= 95 s (deg)",
+            "close to 0",
+            np.nanmax(tr.beta[late, 0]) * DEG if late.any() else math.nan,
+            "drone sits on target 1's camouflage line",
+        )
     tab.emit(out, "fig3_13_occlusion")
     _plot_beta(tro, out / "fig3_13_beta.png", "Case 1 with occlusion", per_target="sliding")
 
     _noise_study(quick, out)
     summary = ComparisonTable("Covert summary")
     for case, r in results.items():
-        summary.add(f"case {case}: MPC margin over sliding (%)", None, -_pct(r["mpc"], r["sliding"]),
-                    "positive = MPC lower max recorded beta")
-        summary.add(f"case {case}: safeguarded MPC margin over sliding (%)", None, -_pct(r["safe"], r["sliding"]),
-                    f"positive = lower max recorded beta; arrives {r['t_a_safe']:.1f} s vs {r['t_a_sliding']:.1f} s")
+        summary.add(
+            f"case {case}: MPC margin over sliding (%)",
+            None,
+            -_pct(r["mpc"], r["sliding"]),
+            "positive = MPC lower max recorded beta",
+        )
+        summary.add(
+            f"case {case}: safeguarded MPC margin over sliding (%)",
+            None,
+            -_pct(r["safe"], r["sliding"]),
+            f"positive = lower max recorded beta; arrives {r['t_a_safe']:.1f} s vs {r['t_a_sliding']:.1f} s",
+        )
     summary.add("wall time of reproduce (s)", None, time.perf_counter() - t0, "this run")
     summary.emit(out, "summary")
 
@@ -354,24 +492,42 @@ def gap_task(task: dict) -> list[dict]:
         warm = name.startswith("mpc") and "sliding-rollout" in getattr(ctls[name], "starts", [])
         if name.startswith("mpc"):
             extras["starts_sliding_rollout"] = getattr(ctls[name], "starts", []).count("sliding-rollout")
-        outcomes.append(Outcome(name, roles[name], "feasible", objective=tr.beta_max * DEG, time_s=times[name],
-                                warm_started=warm,
-                                message="closed-loop simulate(); beta_max over the whole run", extras=extras))
+        outcomes.append(
+            Outcome(
+                name,
+                roles[name],
+                "feasible",
+                objective=tr.beta_max * DEG,
+                time_s=times[name],
+                warm_started=warm,
+                message="closed-loop simulate(); beta_max over the whole run",
+                extras=extras,
+            )
+        )
     t0 = time.perf_counter()
     lb, _, _ = _oracle_on_sphere(traces["sliding"], sc)
-    outcomes.append(Outcome("onsphere-optimum", "bound", "optimal", bound=lb * DEG, bound_kind="instantaneous",
-                            time_s=time.perf_counter() - t0,
-                            message="max over every control instant of sliding's on-sphere phase of the exact min "
-                                    "over the sphere of max_j beta_j (convex program): a bound for controllers "
-                                    "on the sphere at those instants"))
+    outcomes.append(
+        Outcome(
+            "onsphere-optimum",
+            "bound",
+            "optimal",
+            bound=lb * DEG,
+            bound_kind="instantaneous",
+            time_s=time.perf_counter() - t0,
+            message="max over every control instant of sliding's on-sphere phase of the exact min "
+            "over the sphere of max_j beta_j (convex program): a bound for controllers "
+            "on the sphere at those instants",
+        )
+    )
     sl = traces["sliding"]
     if sl.t_a is not None and sl.t_f is not None:
         # a bound for the sliding mode's class only (on the sphere from its t_a to its t_f, home by its
         # end): kept as an extra of its row, not as a bound row for every method of the instance
         from droneplan.formulations.covert_bounds import mission_lower_bound
 
-        mb = mission_lower_bound(sc, sl.t_a, sl.t_f, t_end=float(sl.t[-1]),
-                                 times=np.arange(0.0, sl.t[-1] + 1e-9, 0.5))
+        mb = mission_lower_bound(
+            sc, sl.t_a, sl.t_f, t_end=float(sl.t[-1]), times=np.arange(0.0, sl.t[-1] + 1e-9, 0.5)
+        )
         sliding_row = next(o for o in outcomes if o.method == "sliding")
         sliding_row.extras["mission_bound_deg"] = mb.value * DEG if np.isfinite(mb.value) else None
     return build_rows("covert", task["instance"], seed=seed, size=n, sense="min", outcomes=outcomes)
@@ -385,23 +541,47 @@ def gap(*, seeds: int, executor, out: Path, store=None, first_seed: int = 0):
     first_seed: seed of the first instance (instances first_seed .. first_seed + seeds - 1).
     """
     out = Path(out)
-    tasks = [{"problem": "covert", "instance": instance_id("gap", n_targets=2 + s % 5, seed=s), "seed": s,
-              "n_targets": 2 + s % 5, "size": 2 + s % 5} for s in range(first_seed, first_seed + seeds)]
+    tasks = [
+        {
+            "problem": "covert",
+            "instance": instance_id("gap", n_targets=2 + s % 5, seed=s),
+            "seed": s,
+            "n_targets": 2 + s % 5,
+            "size": 2 + s % 5,
+        }
+        for s in range(first_seed, first_seed + seeds)
+    ]
     with open_store(store, out) as st:
         df = map_rows(gap_task, tasks, executor=executor, store=st, desc="covert gap")
     report_study(df, out, "covert", thesis=GAP_THESIS, title="covert: max recorded bearing change (deg)")
     obj = df.pivot(index="instance", columns="method", values="objective")
     tab = ComparisonTable(f"Covert gap over {len(obj)} random target groups (2-6 targets)")
     if {"hover", "sliding", "mpc", "mpc-safeguarded"} <= set(obj.columns):
-        tab.add("median sliding vs hover (%)", "-28.9 / -33.1 (cases 1, 2)",
-                float((100 * (obj.sliding - obj.hover) / obj.hover).median()), "(sliding - hover) / hover")
-        tab.add("median MPC vs sliding (%)", None, float((100 * (obj.mpc - obj.sliding) / obj.sliding).median()),
-                "(MPC - sliding) / sliding")
-        tab.add("groups where MPC <= sliding", None, f"{int((obj.mpc <= obj.sliding).sum())}/{len(obj)}",
-                "max recorded beta")
+        tab.add(
+            "median sliding vs hover (%)",
+            "-28.9 / -33.1 (cases 1, 2)",
+            float((100 * (obj.sliding - obj.hover) / obj.hover).median()),
+            "(sliding - hover) / hover",
+        )
+        tab.add(
+            "median MPC vs sliding (%)",
+            None,
+            float((100 * (obj.mpc - obj.sliding) / obj.sliding).median()),
+            "(MPC - sliding) / sliding",
+        )
+        tab.add(
+            "groups where MPC <= sliding",
+            None,
+            f"{int((obj.mpc <= obj.sliding).sum())}/{len(obj)}",
+            "max recorded beta",
+        )
         safe = obj["mpc-safeguarded"]
-        tab.add("groups where safeguarded MPC <= sliding", None, f"{int((safe <= obj.sliding).sum())}/{len(obj)}",
-                "max recorded beta")
+        tab.add(
+            "groups where safeguarded MPC <= sliding",
+            None,
+            f"{int((safe <= obj.sliding).sum())}/{len(obj)}",
+            "max recorded beta",
+        )
     tab.emit(out, "gap_table")
     return df
 
@@ -424,23 +604,46 @@ def bench(*, quick: bool, out: Path) -> None:
         for case in cases:
             sc = thesis_case(case, 0)
             sl = sliding[case]
-            ctl = MPCObserver(mpc=MPCSettings(replan_every=every), observer=MPCObserverSettings(backend=backend))
+            ctl = MPCObserver(
+                mpc=MPCSettings(replan_every=every), observer=MPCObserverSettings(backend=backend)
+            )
             t0 = time.perf_counter()
             tr = simulate(sc, ctl)
             wall = time.perf_counter() - t0
             period = every * sc.params.dt
             st = tr.solve_times
             med, p90 = float(np.median(st)), float(np.quantile(st, 0.9))
-            rows.append({"case": case, "backend": backend, "period_s": period, "median_s": med, "p90_s": p90,
-                         "fallbacks": tr.fallbacks, "solves": st.size, "beta_mpc_deg": tr.beta_max * DEG,
-                         "beta_sliding_deg": sl.beta_max * DEG, "wall_s": wall})
+            rows.append(
+                {
+                    "case": case,
+                    "backend": backend,
+                    "period_s": period,
+                    "median_s": med,
+                    "p90_s": p90,
+                    "fallbacks": tr.fallbacks,
+                    "solves": st.size,
+                    "beta_mpc_deg": tr.beta_max * DEG,
+                    "beta_sliding_deg": sl.beta_max * DEG,
+                    "wall_s": wall,
+                }
+            )
             target = "<= 1" if backend == "ipopt" else "<= 0.1"
             name = f"case {case} {backend} @ {period:.1f} s"
-            tab.add(f"{name}: median solve / period", target, med / period,
-                    f"median {med * 1e3:.1f} ms, p90 {p90 * 1e3:.1f} ms over {st.size} solves")
-            tab.add(f"{name}: fallbacks", None, f"{tr.fallbacks}/{st.size}", "failed solves -> sliding command")
-            tab.add(f"{name}: MPC margin over sliding (%)", ">= 15 (aim)", -_pct(tr.beta_max, sl.beta_max),
-                    f"beta_max {tr.beta_max * DEG:.2f} vs {sl.beta_max * DEG:.2f} deg")
+            tab.add(
+                f"{name}: median solve / period",
+                target,
+                med / period,
+                f"median {med * 1e3:.1f} ms, p90 {p90 * 1e3:.1f} ms over {st.size} solves",
+            )
+            tab.add(
+                f"{name}: fallbacks", None, f"{tr.fallbacks}/{st.size}", "failed solves -> sliding command"
+            )
+            tab.add(
+                f"{name}: MPC margin over sliding (%)",
+                ">= 15 (aim)",
+                -_pct(tr.beta_max, sl.beta_max),
+                f"beta_max {tr.beta_max * DEG:.2f} vs {sl.beta_max * DEG:.2f} deg",
+            )
     # the safeguarded MPC: MPC plan or sliding rollout per replan (its solve time includes both scores)
     for case in (1, 2):
         sc = thesis_case(case, 0)
@@ -449,35 +652,66 @@ def bench(*, quick: bool, out: Path) -> None:
         tr = simulate(sc, ctl)
         wall = time.perf_counter() - t0
         sl = sliding[case]
-        tab.add(f"case {case} safeguarded ipopt @ 0.5 s: MPC margin over sliding (%)", ">= 15 (aim)",
-                -_pct(tr.beta_max, sl.beta_max),
-                f"beta_max {tr.beta_max * DEG:.2f} vs {sl.beta_max * DEG:.2f} deg; MPC plan executed at "
-                f"{ctl.choices.count('mpc')}/{len(ctl.choices)} replans")
-        tab.add(f"case {case} safeguarded: arrival t_a (s)", "7.4 (case 1)",
-                f"{tr.t_a:.1f} (deadline {ctl.arrival_deadline:.1f}, sliding {sl.t_a:.1f})",
-                "deadline = predicted sliding arrival + tolerance")
+        tab.add(
+            f"case {case} safeguarded ipopt @ 0.5 s: MPC margin over sliding (%)",
+            ">= 15 (aim)",
+            -_pct(tr.beta_max, sl.beta_max),
+            f"beta_max {tr.beta_max * DEG:.2f} vs {sl.beta_max * DEG:.2f} deg; MPC plan executed at "
+            f"{ctl.choices.count('mpc')}/{len(ctl.choices)} replans",
+        )
+        tab.add(
+            f"case {case} safeguarded: arrival t_a (s)",
+            "7.4 (case 1)",
+            f"{tr.t_a:.1f} (deadline {ctl.arrival_deadline:.1f}, sliding {sl.t_a:.1f})",
+            "deadline = predicted sliding arrival + tolerance",
+        )
         med = float(np.median(tr.solve_times))
-        tab.add(f"case {case} safeguarded @ 0.5 s: median (solve + scoring) / period", "<= 1", med / 0.5,
-                f"median {med * 1e3:.1f} ms over {tr.solve_times.size} replans")
-        tab.add(f"case {case} safeguarded: wall time / simulated time", None, wall / tr.t[-1],
-                "whole closed loop incl. both candidates' scoring")
-        rows.append({"case": case, "backend": "ipopt-safeguarded", "period_s": 0.5,
-                     "median_s": float(np.median(tr.solve_times)), "p90_s": float(np.quantile(tr.solve_times, 0.9)),
-                     "fallbacks": tr.fallbacks, "solves": tr.solve_times.size, "beta_mpc_deg": tr.beta_max * DEG,
-                     "beta_sliding_deg": sl.beta_max * DEG, "wall_s": wall})
+        tab.add(
+            f"case {case} safeguarded @ 0.5 s: median (solve + scoring) / period",
+            "<= 1",
+            med / 0.5,
+            f"median {med * 1e3:.1f} ms over {tr.solve_times.size} replans",
+        )
+        tab.add(
+            f"case {case} safeguarded: wall time / simulated time",
+            None,
+            wall / tr.t[-1],
+            "whole closed loop incl. both candidates' scoring",
+        )
+        rows.append(
+            {
+                "case": case,
+                "backend": "ipopt-safeguarded",
+                "period_s": 0.5,
+                "median_s": float(np.median(tr.solve_times)),
+                "p90_s": float(np.quantile(tr.solve_times, 0.9)),
+                "fallbacks": tr.fallbacks,
+                "solves": tr.solve_times.size,
+                "beta_mpc_deg": tr.beta_max * DEG,
+                "beta_sliding_deg": sl.beta_max * DEG,
+                "wall_s": wall,
+            }
+        )
     # what a later arrival buys (the margin's only lever, see the on-sphere bound in reproduce)
     for case in (1, 2):
         sc = thesis_case(case, 0)
         tr = simulate(sc, MPCObserver(observer=MPCObserverSettings(progress=0.3)))
-        tab.add(f"case {case} ipopt, approach at 0.3 V_max: margin over sliding (%)", None,
-                -_pct(tr.beta_max, sliding[case].beta_max),
-                f"arrives at t_a = {tr.t_a:.1f} s vs {sliding[case].t_a:.1f} s")
+        tab.add(
+            f"case {case} ipopt, approach at 0.3 V_max: margin over sliding (%)",
+            None,
+            -_pct(tr.beta_max, sliding[case].beta_max),
+            f"arrives at t_a = {tr.t_a:.1f} s vs {sliding[case].t_a:.1f} s",
+        )
     sc = thesis_case(2, 0)
     t0 = time.perf_counter()
     tr = simulate(sc, SlidingModeObserver())
     per_step = (time.perf_counter() - t0) / tr.t.size
-    tab.add("sliding mode: wall time per control step / dt", None, per_step / sc.params.dt,
-            "whole closed loop incl. simulation, case 2")
+    tab.add(
+        "sliding mode: wall time per control step / dt",
+        None,
+        per_step / sc.params.dt,
+        "whole closed loop incl. simulation, case 2",
+    )
     tab.emit(out, "bench")
     import pandas as pd
 

@@ -17,21 +17,30 @@ import os
 import time
 from pathlib import Path
 
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from droneplan.formulations.herding import solve_allocation  # noqa: E402
-from droneplan.planners.herding import (BenchmarkHerder, ExtendedHull, HerderSettings, ProposedHerder,  # noqa: E402
-                              allocate_bruteforce, allocate_collision_blind)
-from droneplan.scenarios.herding import (HerdingFrame, HerdingPhase, simulate, table_6_2_for,  # noqa: E402
-                                         thesis_scenario)
-from droneplan.solvers.result import Status  # noqa: E402
-from droneplan.studies.common import ComparisonTable, make_executor, map_rows, report_study, timed  # noqa: E402
-from droneplan.studies.common import open_store as _store  # noqa: E402
-from droneplan.studies.plots.herding import plot_state  # noqa: E402
-from droneplan.studies.store import Outcome, ResultStore, build_rows, instance_id  # noqa: E402
+from droneplan.formulations.herding import solve_allocation
+from droneplan.planners.herding import (
+    BenchmarkHerder,
+    ExtendedHull,
+    ProposedHerder,
+    allocate_bruteforce,
+    allocate_collision_blind,
+)
+from droneplan.scenarios.herding import (
+    HerdingFrame,
+    HerdingPhase,
+    simulate,
+    table_6_2_for,
+    thesis_scenario,
+)
+from droneplan.solvers.result import Status
+from droneplan.studies.common import ComparisonTable, make_executor, map_rows, report_study, timed
+from droneplan.studies.common import open_store as _store
+from droneplan.studies.plots.herding import plot_state
+from droneplan.studies.store import Outcome, ResultStore, build_rows, instance_id
 
 __all__ = [
     "FIG_6_7",
@@ -49,20 +58,42 @@ __all__ = [
     "summary_table",
 ]
 
-FIG_6_7 = {200: {"gather": 11.1, "total": 15.0, "bench_extra": 3.3},
-           1000: {"gather": 10.1, "total": 18.2, "bench_extra": 4.1}}
+FIG_6_7 = {
+    200: {"gather": 11.1, "total": 15.0, "bench_extra": 3.3},
+    1000: {"gather": 10.1, "total": 18.2, "bench_extra": 4.1},
+}
 """Thesis §6.5 (Fig. 6.7a): proposed gathering / total time (min) and the benchmark's extra minutes."""
 
 SWEEPS = {
     # name: (parameter, full values, quick values, thesis statement, scenario keyword)
-    "field": ("square field side (m)", [400, 800, 1200], [400, 1000],
-              "Fig 6.8a: gathering time grows strongly with the field side; benchmark more sensitive", "field"),
-    "n_drones": ("n_d", [2, 3, 4, 6, 8], [2, 6], "Fig 6.8b: gathering time falls with n_d; gap grows for n_d >= 4",
-                 "n_drones"),
-    "V_max": ("V_max (m/s)", [10, 15, 25, 35], [10, 25],
-              "Fig 6.9a: slower drones gather slower; benchmark fails for V_max <= 10", "V_max"),
-    "V_animal": ("V_animal (m/s)", [2, 3, 4, 5], [2, 5],
-                 "Fig 6.9b: proposed 14.7 -> 9.1 min, benchmark 20.8 -> 12.7 min for V_animal 2 -> 5", "V_animal"),
+    "field": (
+        "square field side (m)",
+        [400, 800, 1200],
+        [400, 1000],
+        "Fig 6.8a: gathering time grows strongly with the field side; benchmark more sensitive",
+        "field",
+    ),
+    "n_drones": (
+        "n_d",
+        [2, 3, 4, 6, 8],
+        [2, 6],
+        "Fig 6.8b: gathering time falls with n_d; gap grows for n_d >= 4",
+        "n_drones",
+    ),
+    "V_max": (
+        "V_max (m/s)",
+        [10, 15, 25, 35],
+        [10, 25],
+        "Fig 6.9a: slower drones gather slower; benchmark fails for V_max <= 10",
+        "V_max",
+    ),
+    "V_animal": (
+        "V_animal (m/s)",
+        [2, 3, 4, 5],
+        [2, 5],
+        "Fig 6.9b: proposed 14.7 -> 9.1 min, benchmark 20.8 -> 12.7 min for V_animal 2 -> 5",
+        "V_animal",
+    ),
     "R_b": ("R_b (m)", [60, 100, 140], [60, 140], "Fig 6.10a: fastest near R_b = 100 m", "R_b"),
     "d_s": ("d_s (m)", [10, 30, 50], [10, 50], "Fig 6.10b: fastest near d_s = 30 m", "d_s"),
 }
@@ -87,19 +118,33 @@ def run_once(task: dict) -> dict:
     sc = thesis_scenario(int(task["n"]), seed=int(task["seed"]), field_size=size, n_drones=n_drones, **kw)
     herder = ProposedHerder() if task["method"] == "proposed" else BenchmarkHerder()
     c0 = time.process_time()
-    tr = simulate(sc, herder, t_max=float(task["t_max"]), seed=int(task["seed"]) + 10_000,
-                  snapshot_times=task.get("snapshots", ()), stop_after_gathering=bool(task.get("gather_only")))
+    tr = simulate(
+        sc,
+        herder,
+        t_max=float(task["t_max"]),
+        seed=int(task["seed"]) + 10_000,
+        snapshot_times=task.get("snapshots", ()),
+        stop_after_gathering=bool(task.get("gather_only")),
+    )
     cpu = time.process_time() - c0
     every = max(1, int(round(float(task.get("curve_every", 5.0)) / sc.params.delta)))
     hull_t = herder.all_on_hull_time
     return {
         **{k: task[k] for k in task if k not in ("params", "snapshots")},
         "params": json.dumps(kw, sort_keys=True),
-        "gather_time": tr.gather_time, "total_time": tr.total_time, "on_hull_time": hull_t,
-        "gather_after_hull": (tr.gather_time - hull_t) if (tr.gather_time is not None and hull_t is not None) else None,
-        "sim_time": float(tr.t[-1]), "wall_time": tr.wall_time, "cpu_time": cpu,
-        "max_animal_speed": tr.max_animal_speed, "R_c": sc.params.R_c,
-        "curve_t": tr.t[::every], "curve_r": tr.footprint_radius[::every],
+        "gather_time": tr.gather_time,
+        "total_time": tr.total_time,
+        "on_hull_time": hull_t,
+        "gather_after_hull": (tr.gather_time - hull_t)
+        if (tr.gather_time is not None and hull_t is not None)
+        else None,
+        "sim_time": float(tr.t[-1]),
+        "wall_time": tr.wall_time,
+        "cpu_time": cpu,
+        "max_animal_speed": tr.max_animal_speed,
+        "R_c": sc.params.R_c,
+        "curve_t": tr.t[::every],
+        "curve_r": tr.footprint_radius[::every],
         "snapshots": {float(k): f for k, f in tr.snapshots.items()},
         "goal": tuple(float(g) for g in sc.goal),
         "n_crossing_allocations": herder.n_crossing_allocations,
@@ -123,32 +168,57 @@ def run_pair(task: dict) -> list[dict]:
     Every field of :func:`run_once` is kept as a ``herding_<name>`` extra."""
     rows = []
     for method in ("proposed", "benchmark"):
-        r = run_once({**{k: v for k, v in task.items() if k not in ("problem", "instance")}, "method": method})
+        r = run_once(
+            {**{k: v for k, v in task.items() if k not in ("problem", "instance")}, "method": method}
+        )
         objective = r["gather_time"] if task.get("gather_only") else r["total_time"]
         extras = {k: v for k, v in r.items() if k not in ("method",)}
-        extras["snapshots"] = {str(t): {"t": f.t, "animals": f.animals, "drones": f.drones, "headings": f.headings,
-                                        "phase": f.phase.name} for t, f in r["snapshots"].items()}
-        rows.append(Outcome(method, "heuristic", "feasible" if objective is not None else "no_solution",
-                            objective=objective, time_s=r["wall_time"], extras=extras,
-                            message="closed-loop simulate(); objective = " +
-                                    ("gathering time" if task.get("gather_only") else "total time") + " (s)"))
-    return build_rows("herding", task["instance"], seed=int(task["seed"]), size=int(task["n"]), sense="min",
-                      outcomes=rows)
+        extras["snapshots"] = {
+            str(t): {
+                "t": f.t,
+                "animals": f.animals,
+                "drones": f.drones,
+                "headings": f.headings,
+                "phase": f.phase.name,
+            }
+            for t, f in r["snapshots"].items()
+        }
+        rows.append(
+            Outcome(
+                method,
+                "heuristic",
+                "feasible" if objective is not None else "no_solution",
+                objective=objective,
+                time_s=r["wall_time"],
+                extras=extras,
+                message="closed-loop simulate(); objective = "
+                + ("gathering time" if task.get("gather_only") else "total time")
+                + " (s)",
+            )
+        )
+    return build_rows(
+        "herding", task["instance"], seed=int(task["seed"]), size=int(task["n"]), sense="min", outcomes=rows
+    )
 
 
 def _run_records(df: pd.DataFrame) -> list[dict]:
     """The run_once records of reproduce rows (extras without their prefix, arrays restored)."""
     recs = []
     for _, row in df.iterrows():
-        r = {k[len("herding_"):]: v for k, v in row.items() if k.startswith("herding_")}
+        r = {k[len("herding_") :]: v for k, v in row.items() if k.startswith("herding_")}
         r = {k: (None if (isinstance(v, float) and np.isnan(v)) else v) for k, v in r.items()}
         r["method"] = row["method"]
         r["curve_t"], r["curve_r"] = np.asarray(r["curve_t"], float), np.asarray(r["curve_r"], float)
-        r["snapshots"] = {float(t): HerdingFrame(t=float(f["t"]), animals=np.asarray(f["animals"], float),
-                                                 drones=np.asarray(f["drones"], float),
-                                                 headings=np.asarray(f["headings"], float),
-                                                 phase=HerdingPhase[f["phase"]])
-                          for t, f in (r.get("snapshots") or {}).items()}
+        r["snapshots"] = {
+            float(t): HerdingFrame(
+                t=float(f["t"]),
+                animals=np.asarray(f["animals"], float),
+                drones=np.asarray(f["drones"], float),
+                headings=np.asarray(f["headings"], float),
+                phase=HerdingPhase[f["phase"]],
+            )
+            for t, f in (r.get("snapshots") or {}).items()
+        }
         r["goal"] = tuple(r["goal"]) if r.get("goal") is not None else None
         for k in ("n", "seed", "n_drones"):
             if r.get(k) is not None:
@@ -163,11 +233,24 @@ def _run_all(tasks: list[dict], executor, store, desc: str) -> list[dict]:
 
 
 def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
-    plan = {200: list(range(2)), 1000: list(range(1))} if quick else {200: list(range(20)), 1000: list(range(20))}
+    plan = (
+        {200: list(range(2)), 1000: list(range(1))}
+        if quick
+        else {200: list(range(20)), 1000: list(range(20))}
+    )
     snaps = [0.0, 300.0, 480.0]
-    tasks = [{"problem": "herding", "instance": instance_id("fig6.7", n=n, seed=s), "n": n, "seed": s,
-              "t_max": 2700.0, "snapshots": snaps if (n == 1000 and s == 0) else []}
-             for n, seeds in plan.items() for s in seeds]
+    tasks = [
+        {
+            "problem": "herding",
+            "instance": instance_id("fig6.7", n=n, seed=s),
+            "n": n,
+            "seed": s,
+            "t_max": 2700.0,
+            "snapshots": snaps if (n == 1000 and s == 0) else [],
+        }
+        for n, seeds in plan.items()
+        for s in seeds
+    ]
     tasks.sort(key=lambda t: (t["seed"], t["n"]))  # seed-major: a partial run has both herd sizes
     rows = _run_all(tasks, executor, store, "Fig. 6.7 runs")
     table = ComparisonTable("Fig. 6.7: gathering and total herding time (4 drones, 1200 m x 600 m field)")
@@ -178,41 +261,85 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
             rs = [r for r in rows if r["n"] == n and r["method"] == m]
             g = [r["gather_time"] for r in rs]
             tot = [r["total_time"] for r in rs]
-            how = (f"mean over {len(rs)} seeds of simulate(); gathering ends when every animal is within "
-                   f"R_c = {rs[0]['R_c']:.0f} m of the centroid; {sum(v is None for v in g)} runs did not gather "
-                   f"within 45 min")
+            how = (
+                f"mean over {len(rs)} seeds of simulate(); gathering ends when every animal is within "
+                f"R_c = {rs[0]['R_c']:.0f} m of the centroid; {sum(v is None for v in g)} runs did not gather "
+                f"within 45 min"
+            )
             if m == "proposed":
-                table.add(f"{n} animals: proposed gathering time (min)", FIG_6_7[n]["gather"], _minutes(_mean(g)), how)
-                table.add(f"{n} animals: proposed total time (min)", FIG_6_7[n]["total"], _minutes(_mean(tot)),
-                          "gathering + driving until every animal is within goal_radius = 50 m of G (900 m away), "
-                          "regathering first if the herd spreads beyond 1.5 R_c; the thesis does not state its end "
-                          "criterion (a centroid-at-G rule would count a split herd as delivered)")
+                table.add(
+                    f"{n} animals: proposed gathering time (min)",
+                    FIG_6_7[n]["gather"],
+                    _minutes(_mean(g)),
+                    how,
+                )
+                table.add(
+                    f"{n} animals: proposed total time (min)",
+                    FIG_6_7[n]["total"],
+                    _minutes(_mean(tot)),
+                    "gathering + driving until every animal is within goal_radius = 50 m of G (900 m away), "
+                    "regathering first if the herd spreads beyond 1.5 R_c; the thesis does not state its end "
+                    "criterion (a centroid-at-G rule would count a split herd as delivered)",
+                )
             else:
                 prop = [r for r in rows if r["n"] == n and r["method"] == "proposed"]
-                pairs = [(b["total_time"], p["total_time"]) for b, p in zip(rs, prop)
-                         if b["total_time"] is not None and p["total_time"] is not None]
+                pairs = [
+                    (b["total_time"], p["total_time"])
+                    for b, p in zip(rs, prop)
+                    if b["total_time"] is not None and p["total_time"] is not None
+                ]
                 extra = _minutes(_mean([b - p for b, p in pairs])) if pairs else None
-                table.add(f"{n} animals: benchmark minus proposed, total (min)", FIG_6_7[n]["bench_extra"], extra,
-                          f"paired by seed over {len(pairs)} seeds where both finished")
-                gpairs = [(b["gather_time"], p["gather_time"]) for b, p in zip(rs, prop)
-                          if b["gather_time"] is not None and p["gather_time"] is not None]
-                table.add(f"{n} animals: benchmark minus proposed, gathering (min)", "—",
-                          _minutes(_mean([b - p for b, p in gpairs])) if gpairs else None,
-                          f"paired by seed over {len(gpairs)} seeds")
+                table.add(
+                    f"{n} animals: benchmark minus proposed, total (min)",
+                    FIG_6_7[n]["bench_extra"],
+                    extra,
+                    f"paired by seed over {len(pairs)} seeds where both finished",
+                )
+                gpairs = [
+                    (b["gather_time"], p["gather_time"])
+                    for b, p in zip(rs, prop)
+                    if b["gather_time"] is not None and p["gather_time"] is not None
+                ]
+                table.add(
+                    f"{n} animals: benchmark minus proposed, gathering (min)",
+                    "—",
+                    _minutes(_mean([b - p for b, p in gpairs])) if gpairs else None,
+                    f"paired by seed over {len(gpairs)} seeds",
+                )
             # mean footprint curve (runs end at different times: hold the last value)
             T = max(len(r["curve_r"]) for r in rs)
             curves = np.array([np.pad(r["curve_r"], (0, T - len(r["curve_r"])), mode="edge") for r in rs])
             t = max((r["curve_t"] for r in rs), key=len)
             ax.plot(t / 60.0, curves.mean(axis=0), style, label=f"{n} animals, {m}")
             for r in rs:
-                csv_rows.append({k: r[k] for k in ("n", "seed", "method", "gather_time", "total_time",
-                                                    "on_hull_time", "wall_time", "max_animal_speed")})
+                csv_rows.append(
+                    {
+                        k: r[k]
+                        for k in (
+                            "n",
+                            "seed",
+                            "method",
+                            "gather_time",
+                            "total_time",
+                            "on_hull_time",
+                            "wall_time",
+                            "max_animal_speed",
+                        )
+                    }
+                )
     prop_rows = [r for r in rows if r["method"] == "proposed"]
-    table.add("proposed runs: allocations that let drones pass each other", "0 (Theorem 6.4.1)",
-              sum(r["n_crossing_allocations"] for r in prop_rows),
-              f"every Delta-allocation of {len(prop_rows)} runs checked against (6.22)-(6.23)")
-    table.add("max animal speed over all runs (m/s)", "V_animal = 4", max(r["max_animal_speed"] for r in rows),
-              "largest per-step displacement / Delta")
+    table.add(
+        "proposed runs: allocations that let drones pass each other",
+        "0 (Theorem 6.4.1)",
+        sum(r["n_crossing_allocations"] for r in prop_rows),
+        f"every Delta-allocation of {len(prop_rows)} runs checked against (6.22)-(6.23)",
+    )
+    table.add(
+        "max animal speed over all runs (m/s)",
+        "V_animal = 4",
+        max(r["max_animal_speed"] for r in rows),
+        "largest per-step displacement / Delta",
+    )
     ax.set_xlabel("t (min)")
     ax.set_ylabel("footprint radius (m)")
     ax.grid(alpha=0.3)
@@ -228,9 +355,13 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
     # snapshots (Fig. 6.7 b-f)
     snap = {r["method"]: r["snapshots"] for r in rows if r["n"] == 1000 and r["seed"] == 0}
     fig, axes = plt.subplots(1, 5, figsize=(22, 4.5))
-    panels = [("proposed", 0.0, "(b) t = 0"), ("proposed", 300.0, "(c) 5 min, proposed"),
-              ("proposed", 480.0, "(d) 8 min, proposed"), ("benchmark", 300.0, "(e) 5 min, benchmark"),
-              ("benchmark", 480.0, "(f) 8 min, benchmark")]
+    panels = [
+        ("proposed", 0.0, "(b) t = 0"),
+        ("proposed", 300.0, "(c) 5 min, proposed"),
+        ("proposed", 480.0, "(d) 8 min, proposed"),
+        ("benchmark", 300.0, "(e) 5 min, benchmark"),
+        ("benchmark", 480.0, "(f) 8 min, benchmark"),
+    ]
     goal = next((r["goal"] for r in rows if r["n"] == 1000 and r["seed"] == 0), None)
     for a, (m, t, title) in zip(axes, panels):
         if t in snap.get(m, {}):
@@ -249,26 +380,40 @@ def _sweeps(out: Path, quick: bool, executor, store) -> None:
     seeds = range(1) if quick else range(5)
     tasks = []
     for name, (label, full, qv, _, key) in SWEEPS.items():
-        for value in (qv if quick else full):
+        for value in qv if quick else full:
             for s in seeds:
-                for n in ([n_animals, 1000] if (name == "R_b" and not quick) else [n_animals]):  # Fig. 6.10a: 1000 too
-                    t = {"problem": "herding", "instance": instance_id("fig6.8-6.10", sweep=name, value=value, n=n,
-                                                                       seed=s),
-                         "sweep": name, "value": value, "n": n, "seed": s, "t_max": 2400.0,
-                         "gather_only": True, "curve_every": 30.0}
+                for n in (
+                    [n_animals, 1000] if (name == "R_b" and not quick) else [n_animals]
+                ):  # Fig. 6.10a: 1000 too
+                    t = {
+                        "problem": "herding",
+                        "instance": instance_id("fig6.8-6.10", sweep=name, value=value, n=n, seed=s),
+                        "sweep": name,
+                        "value": value,
+                        "n": n,
+                        "seed": s,
+                        "t_max": 2400.0,
+                        "gather_only": True,
+                        "curve_every": 30.0,
+                    }
                     if key == "field":
                         t["field"] = value
                     elif key == "n_drones":
                         t["n_drones"] = value
                     elif key == "V_animal":  # keep V_driving <= V_animal and grazing <= V_animal valid
-                        t["params"] = {"V_animal": float(value), "V_driving": min(table_6_2_for(n_animals)[1], value),
-                                       "graze_speed": min(1.0, float(value))}
+                        t["params"] = {
+                            "V_animal": float(value),
+                            "V_driving": min(table_6_2_for(n_animals)[1], value),
+                            "graze_speed": min(1.0, float(value)),
+                        }
                     else:
                         t["params"] = {key: float(value)}
                     tasks.append(t)
     rows = _run_all(tasks, executor, store, "Figs. 6.8-6.10 runs")
-    table = ComparisonTable(f"Figs. 6.8-6.10 ({n_animals} animals{'' if quick else ', R_b also 1000'}, "
-                            f"{len(seeds)} seed(s) per point): gathering time after the drones reach the hull (min)")
+    table = ComparisonTable(
+        f"Figs. 6.8-6.10 ({n_animals} animals{'' if quick else ', R_b also 1000'}, "
+        f"{len(seeds)} seed(s) per point): gathering time after the drones reach the hull (min)"
+    )
     fig, axes = plt.subplots(2, 3, figsize=(13, 7))
     import pandas as pd
 
@@ -277,27 +422,49 @@ def _sweeps(out: Path, quick: bool, executor, store) -> None:
         values = qv if quick else full
         cells = {v: [] for v in values}
         sizes = sorted({r["n"] for r in rows if r["sweep"] == name})
-        for n_sw, (m, style) in [(n_sw, ms) for n_sw in sizes for ms in (("proposed", "o-"), ("benchmark", "s--"))]:
+        for n_sw, (m, style) in [
+            (n_sw, ms) for n_sw in sizes for ms in (("proposed", "o-"), ("benchmark", "s--"))
+        ]:
             ys = []
             for v in values:
-                rs = [r for r in rows if r["sweep"] == name and r["value"] == v and r["method"] == m
-                      and r["n"] == n_sw]
+                rs = [
+                    r
+                    for r in rows
+                    if r["sweep"] == name and r["value"] == v and r["method"] == m and r["n"] == n_sw
+                ]
                 g = [r["gather_after_hull"] for r in rs]
                 ys.append(_minutes(_mean(g)))
                 fails = sum(x is None for x in g)
                 tag = m[0] if len(sizes) == 1 else f"{m[0]}{n_sw}"
                 cells[v].append(f"{tag} {'—' if ys[-1] is None else f'{ys[-1]:.1f}'}{'*' * fails}")
                 for r in rs:
-                    flat.append({"sweep": name, "value": v, "n": n_sw, "method": m, "seed": r["seed"],
-                                 "gather_after_hull": r["gather_after_hull"], "gather_time": r["gather_time"]})
-            a.plot(values, [np.nan if y is None else y for y in ys], style,
-                   label=m if len(sizes) == 1 else f"{m}, {n_sw} animals")
+                    flat.append(
+                        {
+                            "sweep": name,
+                            "value": v,
+                            "n": n_sw,
+                            "method": m,
+                            "seed": r["seed"],
+                            "gather_after_hull": r["gather_after_hull"],
+                            "gather_time": r["gather_time"],
+                        }
+                    )
+            a.plot(
+                values,
+                [np.nan if y is None else y for y in ys],
+                style,
+                label=m if len(sizes) == 1 else f"{m}, {n_sw} animals",
+            )
         a.set_xlabel(label if "(" in label else f"{label} (count)")
         a.set_ylabel("gathering time after reaching the hull (min)")
         a.grid(alpha=0.3)
         a.legend(fontsize=7)
-        table.add(label, statement, "; ".join(f"{v}: {' / '.join(c)}" for v, c in cells.items()),
-                  "value: p = proposed / b = benchmark mean; * = a run that did not gather in 40 min")
+        table.add(
+            label,
+            statement,
+            "; ".join(f"{v}: {' / '.join(c)}" for v, c in cells.items()),
+            "value: p = proposed / b = benchmark mean; * = a run that did not gather in 40 min",
+        )
     fig.suptitle("Figs. 6.8-6.10 (reduced sweeps)")
     fig.tight_layout()
     fig.savefig(out / "fig_6_8_to_6_10_sweeps.png", dpi=110)
@@ -350,24 +517,44 @@ def gap_task(task: dict) -> list[dict]:
     n, seed = int(task["n"]), int(task["seed"])
     d, s, M = random_allocation_instance(n, seed)
     ex = solve_allocation(d, s, M)
-    outcomes = [Outcome("exact", "model", ex.status.value, objective=ex.objective,
-                        bound=ex.objective if ex.status is Status.OPTIMAL else None,
-                        bound_kind="proven-global" if ex.status is Status.OPTIMAL else "none",
-                        time_s=ex.solve_time, message="exact combinatorial algorithm (optimal by construction)")]
+    outcomes = [
+        Outcome(
+            "exact",
+            "model",
+            ex.status.value,
+            objective=ex.objective,
+            bound=ex.objective if ex.status is Status.OPTIMAL else None,
+            bound_kind="proven-global" if ex.status is Status.OPTIMAL else "none",
+            time_s=ex.solve_time,
+            message="exact combinatorial algorithm (optimal by construction)",
+        )
+    ]
     if n <= 7:
-        outcomes.append(Outcome.of("alg3", "heuristic", allocate_bruteforce(d, s, M), bound_kind="proven-global"))
+        outcomes.append(
+            Outcome.of("alg3", "heuristic", allocate_bruteforce(d, s, M), bound_kind="proven-global")
+        )
     if n <= 16:
         cp = solve_allocation(d, s, M, method="cp-sat", time_limit=30.0)
         outcomes.append(Outcome.of("cp-sat", "model", cp, bound_kind="proven-global"))
     cb = allocate_collision_blind(d, s, M)
-    outcomes.append(Outcome("collision-blind", "bound", cb.status.value, bound=cb.objective,
-                            bound_kind="proven-global", time_s=cb.solve_time,
-                            message="bottleneck assignment without (6.22)-(6.23): a relaxation",
-                            extras={"crosses": bool(cb.info["crosses"])}))
+    outcomes.append(
+        Outcome(
+            "collision-blind",
+            "bound",
+            cb.status.value,
+            bound=cb.objective,
+            bound_kind="proven-global",
+            time_s=cb.solve_time,
+            message="bottleneck assignment without (6.22)-(6.23): a relaxation",
+            extras={"crosses": bool(cb.info["crosses"])},
+        )
+    )
     return build_rows("herding", task["instance"], seed=seed, size=n, sense="min", outcomes=outcomes)
 
 
-def gap(*, seeds: int, executor, out: Path, store: ResultStore | None = None, first_seed: int = 0) -> pd.DataFrame:
+def gap(
+    *, seeds: int, executor, out: Path, store: ResultStore | None = None, first_seed: int = 0
+) -> pd.DataFrame:
     """Allocation gap: Algorithm 3, CP-SAT and collision-blind vs exact on hull instances.
 
     seeds: instances per size (``GAP_SIZES``); executor: from ``make_executor``; out: directory
@@ -376,11 +563,16 @@ def gap(*, seeds: int, executor, out: Path, store: ResultStore | None = None, fi
     first_seed: seed of the first instance (instances first_seed .. first_seed + seeds - 1).
     """
     out = Path(out)
-    tasks = [{"problem": "herding", "instance": instance_id("gap", n=n, seed=s), "n": n, "seed": s, "size": n}
-             for n in GAP_SIZES for s in range(first_seed, first_seed + seeds)]
+    tasks = [
+        {"problem": "herding", "instance": instance_id("gap", n=n, seed=s), "n": n, "seed": s, "size": n}
+        for n in GAP_SIZES
+        for s in range(first_seed, first_seed + seeds)
+    ]
     with _store(store, out) as st:
         df = map_rows(gap_task, tasks, executor=executor, store=st, desc="herding allocation gap")
-    report_study(df, out, "herding", thesis=GAP_THESIS, title="herding: steering-point allocation, max travel (m)")
+    report_study(
+        df, out, "herding", thesis=GAP_THESIS, title="herding: steering-point allocation, max travel (m)"
+    )
     table = ComparisonTable("Steering-point allocation vs the exact optimum (max travel, m)")
     for n in GAP_SIZES:
         sub = df[df["size"] == n]
@@ -390,18 +582,31 @@ def gap(*, seeds: int, executor, out: Path, store: ResultStore | None = None, fi
             m = sub[sub["method"] == method]
             if len(m):
                 agree = (m["gap_to_best"].abs() <= 1e-9).mean()
-                table.add(f"n={n}: {method} = exact", thesis, f"{agree:.0%} of {len(m)}",
-                          f"median time {m['time_s'].median() * 1e3:.2f} ms")
+                table.add(
+                    f"n={n}: {method} = exact",
+                    thesis,
+                    f"{agree:.0%} of {len(m)}",
+                    f"median time {m['time_s'].median() * 1e3:.2f} ms",
+                )
         blind = sub[sub["method"] == "collision-blind"]
         if len(blind):
             crosses = blind["herding_crosses"].astype(bool).mean()
-            table.add(f"n={n}: collision-blind allocation crosses", "— (thesis requires no crossing)",
-                      f"{crosses:.0%} of {len(blind)}", "bottleneck assignment without (6.22)-(6.23)")
+            table.add(
+                f"n={n}: collision-blind allocation crosses",
+                "— (thesis requires no crossing)",
+                f"{crosses:.0%} of {len(blind)}",
+                "bottleneck assignment without (6.22)-(6.23)",
+            )
             ex = sub[sub["method"] == "exact"].set_index("instance")["objective"]
-            same = np.isclose(blind.set_index("instance")["bound"], ex.reindex(blind["instance"]), rtol=1e-9).mean()
-            table.add(f"n={n}: cost of the order constraints", "—",
-                      f"exact = collision-blind max travel in {same:.0%} of {len(blind)}",
-                      "the relaxation is a lower bound; equality means no-crossing costs nothing in (6.21)")
+            same = np.isclose(
+                blind.set_index("instance")["bound"], ex.reindex(blind["instance"]), rtol=1e-9
+            ).mean()
+            table.add(
+                f"n={n}: cost of the order constraints",
+                "—",
+                f"exact = collision-blind max travel in {same:.0%} of {len(blind)}",
+                "the relaxation is a lower bound; equality means no-crossing costs nothing in (6.21)",
+            )
     table.emit(out, "gap_allocation_summary")
     return df
 
@@ -413,36 +618,56 @@ def bench(*, quick: bool, out: Path) -> None:
     table = ComparisonTable("Herding benchmarks (measured in this run)")
     d, s, M = random_allocation_instance(64, 0)
     res, t64 = timed(solve_allocation, d, s, M, repeat=50)
-    table.add("exact allocation, n = 64 (ms)", "target < 10", t64 * 1e3, "median of 50 solves, random hull instance")
+    table.add(
+        "exact allocation, n = 64 (ms)", "target < 10", t64 * 1e3, "median of 50 solves, random hull instance"
+    )
     d, s, M = random_allocation_instance(7, 1)
     _, t_bf = timed(allocate_bruteforce, d, s, M, repeat=3)
     _, t_ex = timed(solve_allocation, d, s, M, repeat=50)
-    table.add("Algorithm 3 / exact time ratio, n = 7", "n!·2^n = 645120 allocations", t_bf / t_ex,
-              f"medians: Alg. 3 {t_bf * 1e3:.1f} ms, exact {t_ex * 1e3:.3f} ms")
+    table.add(
+        "Algorithm 3 / exact time ratio, n = 7",
+        "n!·2^n = 645120 allocations",
+        t_bf / t_ex,
+        f"medians: Alg. 3 {t_bf * 1e3:.1f} ms, exact {t_ex * 1e3:.3f} ms",
+    )
     d, s, M = random_allocation_instance(12, 2)
     cp, t_cp = timed(solve_allocation, d, s, M, method="cp-sat", repeat=3)
     table.add("CP-SAT / exact time ratio, n = 12", "—", t_cp / t_ex, f"CP-SAT {t_cp * 1e3:.1f} ms (1 worker)")
     t_sim = 300.0 if quick else 1200.0
     r = run_once({"n": 1000, "seed": 0, "method": "proposed", "t_max": t_sim, "gather_only": False})
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    table.add("simulation, 1000 animals + 4 drones (sim s / wall s)", "target >= 50", r["sim_time"] / r["wall_time"],
-              f"{r['sim_time']:.0f} s simulated in {r['wall_time']:.1f} s wall; load average {load:.1f} on "
-              f"{os.cpu_count()} cores")
-    table.add("simulation, 1000 animals + 4 drones (sim s / CPU s)", "—", r["sim_time"] / r["cpu_time"],
-              "process CPU time: the speed without other processes competing")
+    table.add(
+        "simulation, 1000 animals + 4 drones (sim s / wall s)",
+        "target >= 50",
+        r["sim_time"] / r["wall_time"],
+        f"{r['sim_time']:.0f} s simulated in {r['wall_time']:.1f} s wall; load average {load:.1f} on "
+        f"{os.cpu_count()} cores",
+    )
+    table.add(
+        "simulation, 1000 animals + 4 drones (sim s / CPU s)",
+        "—",
+        r["sim_time"] / r["cpu_time"],
+        "process CPU time: the speed without other processes competing",
+    )
     seeds = 4 if quick else 20
-    tasks = [{"n": 200, "seed": k, "method": m, "t_max": 2400.0, "gather_only": True}
-             for k in range(seeds) for m in ("proposed", "benchmark")]
+    tasks = [
+        {"n": 200, "seed": k, "method": m, "t_max": 2400.0, "gather_only": True}
+        for k in range(seeds)
+        for m in ("proposed", "benchmark")
+    ]
     with make_executor(_workers()) as ex:
         rows = list(ex.map(run_once, tasks))
     gp = [r["gather_time"] for r in rows if r["method"] == "proposed"]
     gb = [r["gather_time"] for r in rows if r["method"] == "benchmark"]
     pairs = [(p, b) for p, b in zip(gp, gb) if p is not None and b is not None]
     faster = (1 - np.mean([p for p, _ in pairs]) / np.mean([b for _, b in pairs])) if pairs else None
-    table.add(f"proposed gathers faster than benchmark ({seeds} seeds, 200 animals)", "~25% (11.1 vs ~14.4 min)",
-              None if faster is None else f"{faster:.0%}",
-              f"1 - mean(proposed)/mean(benchmark) gathering time over {len(pairs)} paired seeds; "
-              f"proposed faster in {sum(p < b for p, b in pairs)}/{len(pairs)}")
+    table.add(
+        f"proposed gathers faster than benchmark ({seeds} seeds, 200 animals)",
+        "~25% (11.1 vs ~14.4 min)",
+        None if faster is None else f"{faster:.0%}",
+        f"1 - mean(proposed)/mean(benchmark) gathering time over {len(pairs)} paired seeds; "
+        f"proposed faster in {sum(p < b for p, b in pairs)}/{len(pairs)}",
+    )
     table.emit(out, "bench")
 
 
@@ -459,7 +684,9 @@ def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     goal = trace.goal if goal is None else np.asarray(goal, float)
-    allpts = np.concatenate([np.concatenate([f.animals, f.drones]) for f in trace.frames] + [goal.reshape(1, 2)])
+    allpts = np.concatenate(
+        [np.concatenate([f.animals, f.drones]) for f in trace.frames] + [goal.reshape(1, 2)]
+    )
     lo, hi = allpts.min(axis=0) - 20, allpts.max(axis=0) + 20
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.set_xlim(lo[0], hi[0])
@@ -492,6 +719,13 @@ def summary_table(traces: dict):
     import pandas as pd
 
     return pd.DataFrame(
-        [{"method": k, "gather (min)": _minutes(tr.gather_time), "total (min)": _minutes(tr.total_time),
-          "max animal speed (m/s)": tr.max_animal_speed} for k, tr in traces.items()]
+        [
+            {
+                "method": k,
+                "gather (min)": _minutes(tr.gather_time),
+                "total (min)": _minutes(tr.total_time),
+                "max animal speed (m/s)": tr.max_animal_speed,
+            }
+            for k, tr in traces.items()
+        ]
     ).set_index("method")

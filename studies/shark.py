@@ -13,18 +13,31 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import matplotlib.pyplot as plt
+import numpy as np
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from droneplan.formulations.shark import optimal_altitude  # noqa: E402
-from droneplan.planners.shark import (ClassicalPursuit, OCPInterceptor, RepellingOperator,  # noqa: E402
-                            VirtualSharkInterceptor, allocate_operators, optimal_interception, thesis_altitude)
-from droneplan.scenarios.shark import (THESIS_TABLE_5_1, SharkBehaviour, operator_start, random_trajectory,  # noqa: E402, F401
-                             simulate, simulate_repelling, thesis_trajectories)
-from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study  # noqa: E402
-from droneplan.studies.plots.shark import plot_time_series, plot_top_view  # noqa: E402
-from droneplan.studies.store import Outcome, build_rows, instance_id  # noqa: E402
+from droneplan.formulations.shark import optimal_altitude
+from droneplan.planners.shark import (
+    ClassicalPursuit,
+    OCPInterceptor,
+    RepellingOperator,
+    VirtualSharkInterceptor,
+    allocate_operators,
+    optimal_interception,
+    thesis_altitude,
+)
+from droneplan.scenarios.shark import (
+    THESIS_TABLE_5_1,
+    SharkBehaviour,
+    operator_start,
+    random_trajectory,
+    simulate,
+    simulate_repelling,
+    thesis_trajectories,
+)
+from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study
+from droneplan.studies.plots.shark import plot_time_series, plot_top_view
+from droneplan.studies.store import Outcome, build_rows, instance_id
 
 __all__ = ["P", "TABLE_5_2", "reproduce", "gap_task", "gap", "bench"]
 
@@ -55,14 +68,31 @@ def _fig_5_10(out: Path, table: ComparisonTable) -> None:
     fig.tight_layout()
     fig.savefig(out / "fig_5_10.png", dpi=120)
     plt.close(fig)
-    np.savetxt(out / "fig_5_10.csv", np.c_[z, zt, et, zx, ex], delimiter=",",
-               header="z_s,zo_thesis,eps_thesis,zo_exact,eps_exact", comments="")
-    table.add("Fig 5.10: z_s range where Prop. 5.3.1 puts z_o* outside [lmin, le]", "not noted",
-              f"({z[bad].min():.2f}, {z[bad].max():.2f}) m", "grid of 2301 z_s values, eqs. 5.6 verbatim")
-    table.add("Fig 5.10: min exact eps* on that range (thesis claims eps_o)", P.eps_o, float(ex[bad].min()),
-              "exact maximiser over lmin <= z_o <= le (two-ball field)")
-    table.add("Fig 5.10: z_o* jump (thesis at z_s = -3.5 m)", "z_s+l2 -> z_s+l1 at -3.5",
-              f"exact: 2 -> 1 m at z_s = {z[1:][np.abs(np.diff(zx)) > 0.5][0]:.2f} m", "exact maximiser")
+    np.savetxt(
+        out / "fig_5_10.csv",
+        np.c_[z, zt, et, zx, ex],
+        delimiter=",",
+        header="z_s,zo_thesis,eps_thesis,zo_exact,eps_exact",
+        comments="",
+    )
+    table.add(
+        "Fig 5.10: z_s range where Prop. 5.3.1 puts z_o* outside [lmin, le]",
+        "not noted",
+        f"({z[bad].min():.2f}, {z[bad].max():.2f}) m",
+        "grid of 2301 z_s values, eqs. 5.6 verbatim",
+    )
+    table.add(
+        "Fig 5.10: min exact eps* on that range (thesis claims eps_o)",
+        P.eps_o,
+        float(ex[bad].min()),
+        "exact maximiser over lmin <= z_o <= le (two-ball field)",
+    )
+    table.add(
+        "Fig 5.10: z_o* jump (thesis at z_s = -3.5 m)",
+        "z_s+l2 -> z_s+l1 at -3.5",
+        f"exact: 2 -> 1 m at z_s = {z[1:][np.abs(np.diff(zx)) > 0.5][0]:.2f} m",
+        "exact maximiser",
+    )
 
 
 def _fig_5_11(out: Path, table: ComparisonTable) -> None:
@@ -76,12 +106,18 @@ def _fig_5_11(out: Path, table: ComparisonTable) -> None:
     fig.tight_layout()
     fig.savefig(out / "fig_5_11.png", dpi=120)
     plt.close(fig)
-    table.add("Fig 5.11: classical pursuit first contact (path a)", "from behind",
-              f"angle {cp.frontal_angle:.0f} deg from the heading at t={cp.intercept_time:.2f} s",
-              "eq. 5.5 aimed above the shark; 0 deg = frontal")
-    table.add("Fig 5.11: eq. 5.5 literally (aim at the submerged shark)", "—",
-              "never touches" if not lit.intercepted else f"touches at {lit.intercept_time:.2f} s",
-              f"stalls at D_h={lit.D_h[-1]:.2f} m > eps={lit.eps[-1]:.2f} m (altitude floor)")
+    table.add(
+        "Fig 5.11: classical pursuit first contact (path a)",
+        "from behind",
+        f"angle {cp.frontal_angle:.0f} deg from the heading at t={cp.intercept_time:.2f} s",
+        "eq. 5.5 aimed above the shark; 0 deg = frontal",
+    )
+    table.add(
+        "Fig 5.11: eq. 5.5 literally (aim at the submerged shark)",
+        "—",
+        "never touches" if not lit.intercepted else f"touches at {lit.intercept_time:.2f} s",
+        f"stalls at D_h={lit.D_h[-1]:.2f} m > eps={lit.eps[-1]:.2f} m (altitude floor)",
+    )
 
 
 def _table_5_2(out: Path, table: ComparisonTable, quick: bool) -> dict:
@@ -98,28 +134,63 @@ def _table_5_2(out: Path, table: ComparisonTable, quick: bool) -> dict:
         offsim = simulate(tr, off_ctl)
         runs[name] = (tr, vs, on, offsim)
         sp, dist = TABLE_5_2[name]
-        table.add(f"Table 5.2 ({name}): average shark speed (m/s)", sp, tr.average_speed(vs.intercept_time),
-                  "our path, mean |v_s| until the virtual-shark contact")
-        table.add(f"Table 5.2 ({name}): interception distance, virtual shark (m)", dist, vs.interception_distance,
-                  f"|S(contact) - S(0)|, start {P.Di} m at -105 deg; frontal={vs.frontal}, early={vs.touched_early}")
-        table.add(f"Table 5.2 ({name}): interception distance, online OCP (m)", "—", on.interception_distance,
-                  f"receding horizon, constant-velocity prediction; frontal={on.frontal}, early={on.touched_early}")
-        table.add(f"Table 5.2 ({name}): interception distance, offline OCP (m)", "—", offsim.interception_distance,
-                  f"receding horizon on the known path; frontal={offsim.frontal}, early={offsim.touched_early}")
-        table.add(f"Table 5.2 ({name}): time to the interception point OCP / virtual shark", "—",
-                  off.objective / vs_ctl.capture_time, f"OCP T={off.objective:.2f} s (IPOPT {off.status.name}) vs "
-                  f"{vs_ctl.capture_time:.2f} s")
-        table.add(f"Table 5.2 ({name}): proven lower bound on T / OCP T / virtual-shark T (s)", "—",
-                  f"{off.bound:.2f} / {off.objective:.2f} / {vs_ctl.capture_time:.2f}" if off.bound is not None
-                  else f"none / {off.objective:.2f} / {vs_ctl.capture_time:.2f}",
-                  "bound: earliest T reachable at the speed limits (OCP relaxation); "
-                  f"OCP best start: {off.info.get('start_won')}")
-        rows.append(dict(path=name, thesis_speed=sp, speed=tr.average_speed(vs.intercept_time), thesis_distance=dist,
-                         vs_distance=vs.interception_distance, vs_time=vs.intercept_time,
-                         online_ocp_distance=on.interception_distance, online_ocp_time=on.intercept_time,
-                         offline_ocp_distance=offsim.interception_distance, offline_ocp_time=offsim.intercept_time,
-                         ocp_T=off.objective, vs_capture=vs_ctl.capture_time))
+        table.add(
+            f"Table 5.2 ({name}): average shark speed (m/s)",
+            sp,
+            tr.average_speed(vs.intercept_time),
+            "our path, mean |v_s| until the virtual-shark contact",
+        )
+        table.add(
+            f"Table 5.2 ({name}): interception distance, virtual shark (m)",
+            dist,
+            vs.interception_distance,
+            f"|S(contact) - S(0)|, start {P.Di} m at -105 deg; frontal={vs.frontal}, early={vs.touched_early}",
+        )
+        table.add(
+            f"Table 5.2 ({name}): interception distance, online OCP (m)",
+            "—",
+            on.interception_distance,
+            f"receding horizon, constant-velocity prediction; frontal={on.frontal}, early={on.touched_early}",
+        )
+        table.add(
+            f"Table 5.2 ({name}): interception distance, offline OCP (m)",
+            "—",
+            offsim.interception_distance,
+            f"receding horizon on the known path; frontal={offsim.frontal}, early={offsim.touched_early}",
+        )
+        table.add(
+            f"Table 5.2 ({name}): time to the interception point OCP / virtual shark",
+            "—",
+            off.objective / vs_ctl.capture_time,
+            f"OCP T={off.objective:.2f} s (IPOPT {off.status.name}) vs {vs_ctl.capture_time:.2f} s",
+        )
+        table.add(
+            f"Table 5.2 ({name}): proven lower bound on T / OCP T / virtual-shark T (s)",
+            "—",
+            f"{off.bound:.2f} / {off.objective:.2f} / {vs_ctl.capture_time:.2f}"
+            if off.bound is not None
+            else f"none / {off.objective:.2f} / {vs_ctl.capture_time:.2f}",
+            "bound: earliest T reachable at the speed limits (OCP relaxation); "
+            f"OCP best start: {off.info.get('start_won')}",
+        )
+        rows.append(
+            dict(
+                path=name,
+                thesis_speed=sp,
+                speed=tr.average_speed(vs.intercept_time),
+                thesis_distance=dist,
+                vs_distance=vs.interception_distance,
+                vs_time=vs.intercept_time,
+                online_ocp_distance=on.interception_distance,
+                online_ocp_time=on.intercept_time,
+                offline_ocp_distance=offsim.interception_distance,
+                offline_ocp_time=offsim.intercept_time,
+                ocp_T=off.objective,
+                vs_capture=vs_ctl.capture_time,
+            )
+        )
     import pandas as pd
+
     pd.DataFrame(rows).to_csv(out / "table_5_2_runs.csv", index=False)
     return runs
 
@@ -176,25 +247,44 @@ def _repel_episode(n_sharks: int, seed: int, interceptor: str, T_w: float) -> di
     for j, i in zip(alloc.x.sharks, alloc.x.operator):
         ctls[i] = RepellingOperator(int(j), interceptor=interceptor, T_w=T_w)
     tr = simulate_repelling(S0, O0, H, ctls, behaviour=beh, seed=seed, t_max=600)
-    return dict(n_sharks=n_sharks, seed=seed, interceptor=interceptor, T_w=T_w, attacked=tr.attacked,
-                all_left=bool(tr.left.all()), interceptions=float(tr.reactions.mean()),
-                ignored=int(tr.ignored.sum()), end_time=tr.end_time)
+    return dict(
+        n_sharks=n_sharks,
+        seed=seed,
+        interceptor=interceptor,
+        T_w=T_w,
+        attacked=tr.attacked,
+        all_left=bool(tr.left.all()),
+        interceptions=float(tr.reactions.mean()),
+        ignored=int(tr.ignored.sum()),
+        end_time=tr.end_time,
+    )
 
 
 def _repelling(out: Path, table: ComparisonTable, quick: bool) -> None:
     import pandas as pd
+
     n = 6 if quick else 30
-    rows = [_repel_episode(k, s, kind, 4.0) for k in (1, 2) for s in range(n)
-            for kind in (("virtual-shark",) if quick and k == 2 else ("virtual-shark", "ocp"))]
+    rows = [
+        _repel_episode(k, s, kind, 4.0)
+        for k in (1, 2)
+        for s in range(n)
+        for kind in (("virtual-shark",) if quick and k == 2 else ("virtual-shark", "ocp"))
+    ]
     df = pd.DataFrame(rows)
     df.to_csv(out / "repelling_episodes.csv", index=False)
     for (k, kind), grp in df.groupby(["n_sharks", "interceptor"]):
-        table.add(f"{k} shark(s), {kind}: interceptions per shark until it leaves (mean)", "—",
-                  float(grp["interceptions"].mean()),
-                  f"{len(grp)} episodes; shark model: flees 8 s after a contact, returns w.p. 0.6; T_w = 4 s")
-        table.add(f"{k} shark(s), {kind}: episodes with an attack / all sharks left", "0 attacks",
-                  f"{int(grp['attacked'].sum())}/{len(grp)} attacks, {int(grp['all_left'].sum())}/{len(grp)} left",
-                  "safety distance 300 m (thesis example 3 km), operators allocated by the bottleneck model")
+        table.add(
+            f"{k} shark(s), {kind}: interceptions per shark until it leaves (mean)",
+            "—",
+            float(grp["interceptions"].mean()),
+            f"{len(grp)} episodes; shark model: flees 8 s after a contact, returns w.p. 0.6; T_w = 4 s",
+        )
+        table.add(
+            f"{k} shark(s), {kind}: episodes with an attack / all sharks left",
+            "0 attacks",
+            f"{int(grp['attacked'].sum())}/{len(grp)} attacks, {int(grp['all_left'].sum())}/{len(grp)} left",
+            "safety distance 300 m (thesis example 3 km), operators allocated by the bottleneck model",
+        )
 
 
 # --------------------------------------------------------------------------- gap
@@ -219,15 +309,38 @@ def gap_task(task: dict) -> list[dict]:
         T_vs = vs_ctl.capture_time
         lb = res.bound  # proven lower bound on T (relaxation), valid for the OCP and the virtual shark
         outcomes = [
-            Outcome("virtual-shark", "heuristic", "feasible" if T_vs else "no_solution", objective=T_vs,
-                    time_s=vs_time, message="time to the interception point (capture), closed loop",
-                    extras={"bearing_deg": bearing, "contact_s": vs.intercept_time, "frontal": bool(vs.frontal),
-                            "touched_early": bool(vs.touched_early)}),
-            Outcome.of("ocp", "model", res, bound_kind="proven-global",
-                       extras={"bearing_deg": bearing, "start_won": res.info.get("start_won")}),
-            Outcome("interception-time-bound", "bound", "optimal" if lb is not None else "no_solution",
-                    objective=lb, bound=lb, bound_kind="proven-global" if lb is not None else "none",
-                    message=str(res.info.get("bound_message", "")), extras={"bearing_deg": bearing})]
+            Outcome(
+                "virtual-shark",
+                "heuristic",
+                "feasible" if T_vs else "no_solution",
+                objective=T_vs,
+                time_s=vs_time,
+                message="time to the interception point (capture), closed loop",
+                extras={
+                    "bearing_deg": bearing,
+                    "contact_s": vs.intercept_time,
+                    "frontal": bool(vs.frontal),
+                    "touched_early": bool(vs.touched_early),
+                },
+            ),
+            Outcome.of(
+                "ocp",
+                "model",
+                res,
+                bound_kind="proven-global",
+                extras={"bearing_deg": bearing, "start_won": res.info.get("start_won")},
+            ),
+            Outcome(
+                "interception-time-bound",
+                "bound",
+                "optimal" if lb is not None else "no_solution",
+                objective=lb,
+                bound=lb,
+                bound_kind="proven-global" if lb is not None else "none",
+                message=str(res.info.get("bound_message", "")),
+                extras={"bearing_deg": bearing},
+            ),
+        ]
         return build_rows("shark", task["instance"], seed=seed, size=1, sense="min", outcomes=outcomes)
     g = np.random.default_rng(seed)
     n, s = int(g.integers(2, 5)), int(g.integers(2, 6))
@@ -240,14 +353,29 @@ def gap_task(task: dict) -> list[dict]:
     gr = allocate_operators(O, S, V, H, greedy=True)
     extras = {"n_sharks": s}
     outcomes = [
-        Outcome("bottleneck", "model", opt.status.value, objective=_finite_or_none(opt.objective),
-                bound=_finite_or_none(opt.objective) if opt.status.value == "optimal" else None,
-                bound_kind="proven-global" if opt.status.value == "optimal" else "none", time_s=opt.solve_time,
-                message=opt.message, extras=extras),
-        Outcome("greedy", "heuristic", gr.status.value if _finite_or_none(gr.objective) is not None else "no_solution",
-                objective=_finite_or_none(gr.objective), time_s=gr.solve_time,
-                message=gr.message or "greedy leaves a shark unreachable" if _finite_or_none(gr.objective) is None
-                else gr.message, extras=extras)]
+        Outcome(
+            "bottleneck",
+            "model",
+            opt.status.value,
+            objective=_finite_or_none(opt.objective),
+            bound=_finite_or_none(opt.objective) if opt.status.value == "optimal" else None,
+            bound_kind="proven-global" if opt.status.value == "optimal" else "none",
+            time_s=opt.solve_time,
+            message=opt.message,
+            extras=extras,
+        ),
+        Outcome(
+            "greedy",
+            "heuristic",
+            gr.status.value if _finite_or_none(gr.objective) is not None else "no_solution",
+            objective=_finite_or_none(gr.objective),
+            time_s=gr.solve_time,
+            message=gr.message or "greedy leaves a shark unreachable"
+            if _finite_or_none(gr.objective) is None
+            else gr.message,
+            extras=extras,
+        ),
+    ]
     return build_rows("shark", task["instance"], seed=seed, size=n, sense="min", outcomes=outcomes)
 
 
@@ -263,41 +391,72 @@ def gap(*, seeds: int, executor, out: Path, store=None, first_seed: int = 0):
     first_seed: seed of the first instance (instances first_seed .. first_seed + seeds - 1).
     """
     out = Path(out)
-    tasks = [{"problem": "shark", "instance": instance_id(f"gap-{kind}", seed=s), "kind": kind, "seed": s}
-             for kind in ("path", "assign") for s in range(first_seed, first_seed + seeds)]
+    tasks = [
+        {"problem": "shark", "instance": instance_id(f"gap-{kind}", seed=s), "kind": kind, "seed": s}
+        for kind in ("path", "assign")
+        for s in range(first_seed, first_seed + seeds)
+    ]
     with open_store(store, out) as st:
         df = map_rows(gap_task, tasks, executor=executor, store=st, desc="shark gap")
-    report_study(df, out, "shark", title="shark: interception time (s; paths) and latest interception (s; fleets)")
+    report_study(
+        df, out, "shark", title="shark: interception time (s; paths) and latest interception (s; fleets)"
+    )
     t = ComparisonTable("Shark ch. 5: optimality gap")
     paths = df[df["study"] == "gap-path"].pivot(index="instance", columns="method", values="objective")
     if {"ocp", "virtual-shark"} <= set(paths.columns):
         r = (paths["ocp"] / paths["virtual-shark"]).dropna()
-        t.add("OCP T / virtual-shark T, random curvy paths (mean)", "—", float(r.mean()) if len(r) else None,
-              f"{len(r)} paths with both times; path known; 1 = no gain")
+        t.add(
+            "OCP T / virtual-shark T, random curvy paths (mean)",
+            "—",
+            float(r.mean()) if len(r) else None,
+            f"{len(r)} paths with both times; path known; 1 = no gain",
+        )
         t.add("OCP T / virtual-shark T (worst = max)", "—", float(r.max()) if len(r) else None, "same paths")
     if {"ocp", "virtual-shark", "interception-time-bound"} <= set(paths.columns):
         lb = paths["interception-time-bound"]
         og = (paths["ocp"] / lb - 1).dropna()
         vg = (paths["virtual-shark"] / lb - 1).dropna()
-        t.add("OCP T / proven lower bound - 1 (median, %)", "—", 100 * float(og.median()) if len(og) else None,
-              f"{len(og)} paths; bound: earliest T the operator at its speed limits can reach the frontal "
-              "point (relaxation without the no-early-touch constraint)")
-        t.add("OCP certified within 1% / 5% of the optimum", "—",
-              f"{int((og <= 0.01).sum())}/{len(og)} / {int((og <= 0.05).sum())}/{len(og)}", "T <= (1 + x) * bound")
-        t.add("virtual-shark T / proven lower bound - 1 (median, %)", "—",
-              100 * float(vg.median()) if len(vg) else None, f"{len(vg)} paths; capture of S2 (within gamma)")
-        t.add("virtual shark within 1% / 5% of the bound", "—",
-              f"{int((vg <= 0.01).sum())}/{len(vg)} / {int((vg <= 0.05).sum())}/{len(vg)}", "")
+        t.add(
+            "OCP T / proven lower bound - 1 (median, %)",
+            "—",
+            100 * float(og.median()) if len(og) else None,
+            f"{len(og)} paths; bound: earliest T the operator at its speed limits can reach the frontal "
+            "point (relaxation without the no-early-touch constraint)",
+        )
+        t.add(
+            "OCP certified within 1% / 5% of the optimum",
+            "—",
+            f"{int((og <= 0.01).sum())}/{len(og)} / {int((og <= 0.05).sum())}/{len(og)}",
+            "T <= (1 + x) * bound",
+        )
+        t.add(
+            "virtual-shark T / proven lower bound - 1 (median, %)",
+            "—",
+            100 * float(vg.median()) if len(vg) else None,
+            f"{len(vg)} paths; capture of S2 (within gamma)",
+        )
+        t.add(
+            "virtual shark within 1% / 5% of the bound",
+            "—",
+            f"{int((vg <= 0.01).sum())}/{len(vg)} / {int((vg <= 0.05).sum())}/{len(vg)}",
+            "",
+        )
     ocp_rows = df[(df["study"] == "gap-path") & (df["method"] == "ocp")]
     if len(ocp_rows) and "warm_started" in ocp_rows:
-        t.add("OCP best plan came from the virtual-shark start", "—",
-              f"{int(ocp_rows['warm_started'].fillna(False).astype(bool).sum())}/{len(ocp_rows)}",
-              "the rest from the formulation's crude starts (warm_started = False)")
+        t.add(
+            "OCP best plan came from the virtual-shark start",
+            "—",
+            f"{int(ocp_rows['warm_started'].fillna(False).astype(bool).sum())}/{len(ocp_rows)}",
+            "the rest from the formulation's crude starts (warm_started = False)",
+        )
     vs = df[(df["study"] == "gap-path") & (df["method"] == "virtual-shark")]
     if "shark_touched_early" in vs:
-        t.add("virtual shark touches early (Prop. 5.3.3 violated)", "never",
-              f"{int(vs['shark_touched_early'].fillna(False).astype(bool).sum())}/{len(vs)}",
-              "curvy random paths, random start bearing")
+        t.add(
+            "virtual shark touches early (Prop. 5.3.3 violated)",
+            "never",
+            f"{int(vs['shark_touched_early'].fillna(False).astype(bool).sum())}/{len(vs)}",
+            "curvy random paths, random start bearing",
+        )
     t.emit(out, "gap_table")
     return df
 
@@ -326,20 +485,41 @@ def bench(*, quick: bool, out: Path) -> None:
             (ratios_abcd if name in "abcd" else ratios_rand).append(res.objective / vsT)
         else:
             vs = simulate(tr, VirtualSharkInterceptor())
-            why = (f"touched early at {vs.intercept_time:.1f} s in step {vs.phase[-1]}" if vs.touched_early
-                   else "no contact" if not vs.intercepted else "no capture")
+            why = (
+                f"touched early at {vs.intercept_time:.1f} s in step {vs.phase[-1]}"
+                if vs.touched_early
+                else "no contact"
+                if not vs.intercepted
+                else "no capture"
+            )
             missing.append(f"{name}: virtual shark {why}, OCP {res.status.name}")
     st = np.array(solve_times)
-    t.add("online OCP replan time / Ts (median)", "< 1 (target)", float(np.median(st) / P.Ts),
-          f"N=20 constant-velocity OCP, IPOPT, {len(st)} replans over a-d and random paths, all solves")
+    t.add(
+        "online OCP replan time / Ts (median)",
+        "< 1 (target)",
+        float(np.median(st) / P.Ts),
+        f"N=20 constant-velocity OCP, IPOPT, {len(st)} replans over a-d and random paths, all solves",
+    )
     t.add("online OCP replan time / Ts (95th percentile)", "—", float(np.percentile(st, 95) / P.Ts), "same")
-    t.add("online OCP warm replan time / Ts (median)", "—", float(np.median(warm_times) / P.Ts),
-          "warm-started from the shifted previous plan and duals")
+    t.add(
+        "online OCP warm replan time / Ts (median)",
+        "—",
+        float(np.median(warm_times) / P.Ts),
+        "warm-started from the shifted previous plan and duals",
+    )
     t.add("OCP T / virtual-shark T on a-d (mean)", "—", float(np.mean(ratios_abcd)), "path known, N=50")
     t.add("OCP T / virtual-shark T on a-d (worst)", "—", float(np.max(ratios_abcd)), "")
-    t.add(f"OCP T / virtual-shark T on {len(ratios_rand)} random paths (mean)", "—", float(np.mean(ratios_rand)),
-          f"{n_rand} random curvy paths, start -105 deg")
+    t.add(
+        f"OCP T / virtual-shark T on {len(ratios_rand)} random paths (mean)",
+        "—",
+        float(np.mean(ratios_rand)),
+        f"{n_rand} random curvy paths, start -105 deg",
+    )
     t.add("OCP T / virtual-shark T on random paths (worst)", "—", float(np.max(ratios_rand)), "")
-    t.add("paths without both times (virtual shark never reached S2)", "—", len(missing),
-          "; ".join(missing) or "none")
+    t.add(
+        "paths without both times (virtual shark never reached S2)",
+        "—",
+        len(missing),
+        "; ".join(missing) or "none",
+    )
     t.emit(out, "bench_shark")

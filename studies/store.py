@@ -46,13 +46,26 @@ transaction. ::
     def my_task(task):
         p = make_instance(task["seed"])
         ga, milp = genetic(p, seed=task["seed"]), solve_milp(p)
-        return build_rows("cells", task["instance"], seed=task["seed"], size=3, sense="max",
-                          outcomes=[Outcome.of("ga", "heuristic", ga),
-                                    Outcome.of("milp", "model", milp, bound_kind="candidate-set")])
+        return build_rows(
+            "cells",
+            task["instance"],
+            seed=task["seed"],
+            size=3,
+            sense="max",
+            outcomes=[
+                Outcome.of("ga", "heuristic", ga),
+                Outcome.of("milp", "model", milp, bound_kind="candidate-set"),
+            ],
+        )
+
 
     with ResultStore(out / STORE_NAME) as store, make_executor(2) as ex:
-        map_rows(my_task, [{"problem": "cells", "instance": instance_id("gap", seed=s), "seed": s}
-                           for s in range(10)], executor=ex, store=store)
+        map_rows(
+            my_task,
+            [{"problem": "cells", "instance": instance_id("gap", seed=s), "seed": s} for s in range(10)],
+            executor=ex,
+            store=store,
+        )
 
 Store
 -----
@@ -103,9 +116,26 @@ SCHEMA_VERSION = 1
 STORE_NAME = "results.sqlite"
 """File name of the store inside an ``--out`` directory."""
 
-COLUMNS = ("study", "problem", "instance", "seed", "size", "method", "role", "sense", "status", "objective",
-           "bound", "bound_kind", "gap_to_bound", "gap_bound_kind", "gap_to_best", "time_s", "warm_started",
-           "message")
+COLUMNS = (
+    "study",
+    "problem",
+    "instance",
+    "seed",
+    "size",
+    "method",
+    "role",
+    "sense",
+    "status",
+    "objective",
+    "bound",
+    "bound_kind",
+    "gap_to_bound",
+    "gap_bound_kind",
+    "gap_to_best",
+    "time_s",
+    "warm_started",
+    "message",
+)
 """The schema's columns, in order (extras follow as ``<problem>_<name>``)."""
 
 KEY = ("problem", "instance", "method")
@@ -118,10 +148,18 @@ BOUND_KINDS = ("proven-global", "candidate-set", "instantaneous", "local", "none
 SENSES = ("min", "max")
 ERROR_STATUS = "error"
 
-SIZE_MEANING = {"covert": "number of targets", "cells": "number of drone-cells m",
-                "shark": "operators (fleet instances) or 1 (path instances)", "herding": "number of drones n"}
-OBJECTIVE_UNITS = {"covert": "max recorded bearing change beta_max (deg)", "cells": "covered users",
-                   "shark": "interception time (s) or latest interception (s)", "herding": "max travel (m) or time (s)"}
+SIZE_MEANING = {
+    "covert": "number of targets",
+    "cells": "number of drone-cells m",
+    "shark": "operators (fleet instances) or 1 (path instances)",
+    "herding": "number of drones n",
+}
+OBJECTIVE_UNITS = {
+    "covert": "max recorded bearing change beta_max (deg)",
+    "cells": "covered users",
+    "shark": "interception time (s) or latest interception (s)",
+    "herding": "max travel (m) or time (s)",
+}
 
 _EPS = 1e-9
 
@@ -168,8 +206,16 @@ class Outcome:
             raise ValueError(f"method {self.method!r}: a bound needs a bound_kind other than 'none'")
 
     @classmethod
-    def of(cls, method: str, role: str, result, *, bound_kind: str | None = None, objective: float | None = None,
-           extras: Mapping[str, Any] | None = None) -> Outcome:
+    def of(
+        cls,
+        method: str,
+        role: str,
+        result,
+        *,
+        bound_kind: str | None = None,
+        objective: float | None = None,
+        extras: Mapping[str, Any] | None = None,
+    ) -> Outcome:
         """An outcome from a ``SolveResult``: its status, objective, bound, time and warm start.
 
         bound_kind: required when ``result.bound`` is set (what the bound is proven for).
@@ -180,9 +226,18 @@ class Outcome:
         if bound is not None and bound_kind is None:
             raise ValueError(f"method {method!r} has a bound: say what it is proven for (bound_kind)")
         obj = objective if objective is not None else (result.objective if result.has_solution else None)
-        return cls(method=method, role=role, status=result.status.value, objective=obj, bound=bound,
-                   bound_kind=kind, time_s=result.solve_time, warm_started=bool(result.warm_started),
-                   message=result.message, extras=dict(extras or {}))
+        return cls(
+            method=method,
+            role=role,
+            status=result.status.value,
+            objective=obj,
+            bound=bound,
+            bound_kind=kind,
+            time_s=result.solve_time,
+            warm_started=bool(result.warm_started),
+            message=result.message,
+            extras=dict(extras or {}),
+        )
 
 
 def _rel_gap(value: float, ref: float, sense: str) -> float:
@@ -194,8 +249,16 @@ def _finite(v: Any) -> bool:
     return v is not None and isinstance(v, (int, float)) and math.isfinite(v)
 
 
-def build_rows(problem: str, instance: str, *, seed: int | None, size: int | None, sense: str,
-               outcomes: Sequence[Outcome], study: str | None = None) -> list[dict]:
+def build_rows(
+    problem: str,
+    instance: str,
+    *,
+    seed: int | None,
+    size: int | None,
+    sense: str,
+    outcomes: Sequence[Outcome],
+    study: str | None = None,
+) -> list[dict]:
     """The rows of one instance, with ``gap_to_bound`` and ``gap_to_best`` filled in.
 
     problem: one of ``PROBLEMS``; instance: its stable id (:func:`instance_id`);
@@ -222,29 +285,53 @@ def build_rows(problem: str, instance: str, *, seed: int | None, size: int | Non
     for o in outcomes:
         obj = float(o.objective) if _finite(o.objective) else None
         row = {
-            "study": study, "problem": problem, "instance": instance,
-            "seed": None if seed is None else int(seed), "size": None if size is None else int(size),
-            "method": o.method, "role": o.role, "sense": sense, "status": str(o.status),
-            "objective": obj, "bound": float(o.bound) if _finite(o.bound) else None, "bound_kind": o.bound_kind,
-            "gap_to_bound": _rel_gap(obj, ref_bound, sense) if (obj is not None and ref_bound is not None
-                                                                  and o.role != "bound") else None,
-            "gap_bound_kind": ref_kind if (obj is not None and ref_bound is not None and o.role != "bound") else None,
-            "gap_to_best": _rel_gap(obj, best, sense) if (obj is not None and best is not None
-                                                           and o.role != "bound") else None,
+            "study": study,
+            "problem": problem,
+            "instance": instance,
+            "seed": None if seed is None else int(seed),
+            "size": None if size is None else int(size),
+            "method": o.method,
+            "role": o.role,
+            "sense": sense,
+            "status": str(o.status),
+            "objective": obj,
+            "bound": float(o.bound) if _finite(o.bound) else None,
+            "bound_kind": o.bound_kind,
+            "gap_to_bound": _rel_gap(obj, ref_bound, sense)
+            if (obj is not None and ref_bound is not None and o.role != "bound")
+            else None,
+            "gap_bound_kind": ref_kind
+            if (obj is not None and ref_bound is not None and o.role != "bound")
+            else None,
+            "gap_to_best": _rel_gap(obj, best, sense)
+            if (obj is not None and best is not None and o.role != "bound")
+            else None,
             "time_s": None if o.time_s is None else float(o.time_s),
-            "warm_started": bool(o.warm_started), "message": str(o.message or ""),
+            "warm_started": bool(o.warm_started),
+            "message": str(o.message or ""),
         }
         row.update({f"{problem}_{k}": _jsonable(v) for k, v in o.extras.items()})
         rows.append(row)
     return rows
 
 
-def error_row(problem: str, instance: str, message: str, *, seed: int | None = None,
-              size: int | None = None) -> dict:
+def error_row(
+    problem: str, instance: str, message: str, *, seed: int | None = None, size: int | None = None
+) -> dict:
     """The row recorded for a task that raised: method ``task``, status ``error``."""
     row = dict.fromkeys(COLUMNS)
-    row.update(study=instance.split(":", 1)[0], problem=problem, instance=instance, seed=seed, size=size,
-               method="task", role="task", status=ERROR_STATUS, warm_started=False, message=message)
+    row.update(
+        study=instance.split(":", 1)[0],
+        problem=problem,
+        instance=instance,
+        seed=seed,
+        size=size,
+        method="task",
+        role="task",
+        status=ERROR_STATUS,
+        warm_started=False,
+        message=message,
+    )
     return row
 
 
@@ -262,8 +349,11 @@ def _jsonable(v: Any) -> Any:
 
 # --------------------------------------------------------------------------- the store
 _CORE = list(COLUMNS)
-_DDL = ("CREATE TABLE IF NOT EXISTS rows (" + ", ".join(f'"{c}"' for c in _CORE)
-        + ", extras TEXT NOT NULL DEFAULT '{}', PRIMARY KEY (problem, instance, method))")
+_DDL = (
+    "CREATE TABLE IF NOT EXISTS rows ("
+    + ", ".join(f'"{c}"' for c in _CORE)
+    + ", extras TEXT NOT NULL DEFAULT '{}', PRIMARY KEY (problem, instance, method))"
+)
 
 
 class ResultStore:
@@ -283,8 +373,9 @@ class ResultStore:
             self._con.execute("PRAGMA synchronous=FULL")
             self._init_schema()
         except sqlite3.DatabaseError as exc:
-            raise StoreError(f"{self.path} is not a usable results store ({exc}); move it away or choose "
-                             "another --out") from exc
+            raise StoreError(
+                f"{self.path} is not a usable results store ({exc}); move it away or choose another --out"
+            ) from exc
         except OSError as exc:
             raise StoreError(f"cannot write the results store {self.path}: {exc.strerror or exc}") from exc
 
@@ -297,14 +388,18 @@ class ResultStore:
             if found is None:
                 has_rows = con.execute("SELECT name FROM sqlite_master WHERE name = 'rows'").fetchone()
                 if has_rows:
-                    raise StoreError(f"{self.path} has rows but no schema version (written by an older droneplan); "
-                                     "move it away or choose another --out, then rerun the study")
+                    raise StoreError(
+                        f"{self.path} has rows but no schema version (written by an older droneplan); "
+                        "move it away or choose another --out, then rerun the study"
+                    )
                 con.execute("INSERT INTO meta VALUES ('schema_version', ?)", (str(SCHEMA_VERSION),))
                 con.execute(_DDL)
             elif int(found[0]) != SCHEMA_VERSION:
-                raise StoreError(f"{self.path} was written with results schema version {found[0]}; this droneplan "
-                                 f"writes version {SCHEMA_VERSION}. Move it away (or choose another --out) and "
-                                 "rerun the study; rows of different schemas are not mixed")
+                raise StoreError(
+                    f"{self.path} was written with results schema version {found[0]}; this droneplan "
+                    f"writes version {SCHEMA_VERSION}. Move it away (or choose another --out) and "
+                    "rerun the study; rows of different schemas are not mixed"
+                )
             con.execute("COMMIT")
         except BaseException:  # e.g. Ctrl-C: undo a half-done transaction (a committed one stays)
             if con.in_transaction:
@@ -359,8 +454,11 @@ class ResultStore:
     # ------------------------------------------------------------------ reading
     def done_instances(self, problem: str | None = None) -> set[tuple[str, str]]:
         """``(problem, instance)`` pairs whose rows are on disk without an error row."""
-        q = ("SELECT problem, instance, MAX(status = ?) FROM rows" + (" WHERE problem = ?" if problem else "")
-             + " GROUP BY problem, instance")
+        q = (
+            "SELECT problem, instance, MAX(status = ?) FROM rows"
+            + (" WHERE problem = ?" if problem else "")
+            + " GROUP BY problem, instance"
+        )
         args = (ERROR_STATUS, problem) if problem else (ERROR_STATUS,)
         return {(p, i) for p, i, err in self._con.execute(q, args) if not err}
 
@@ -377,7 +475,11 @@ class ResultStore:
         if study:
             where.append("study = ?")
             args.append(study)
-        q = "SELECT * FROM rows" + (" WHERE " + " AND ".join(where) if where else "") + " ORDER BY problem, instance, method"
+        q = (
+            "SELECT * FROM rows"
+            + (" WHERE " + " AND ".join(where) if where else "")
+            + " ORDER BY problem, instance, method"
+        )
         cur = self._con.execute(q, args)
         names = [d[0] for d in cur.description]
         data = cur.fetchall()
@@ -400,7 +502,7 @@ class ResultStore:
 
 def _to_frame(names: Sequence[str], data: Sequence[tuple]) -> pd.DataFrame:
     ix = names.index("extras")
-    core = pd.DataFrame([r[:ix] + r[ix + 1:] for r in data], columns=[n for n in names if n != "extras"])
+    core = pd.DataFrame([r[:ix] + r[ix + 1 :] for r in data], columns=[n for n in names if n != "extras"])
     core = core.reindex(columns=list(COLUMNS))
     extras = pd.DataFrame([json.loads(r[ix]) for r in data], index=core.index)
     df = pd.concat([core, extras], axis=1) if len(extras.columns) else core
@@ -416,7 +518,9 @@ def _typed(df: pd.DataFrame) -> pd.DataFrame:
     return df
 
 
-def load_results(out: str | os.PathLike, *, problem: str | None = None, study: str | None = None) -> pd.DataFrame:
+def load_results(
+    out: str | os.PathLike, *, problem: str | None = None, study: str | None = None
+) -> pd.DataFrame:
     """Every result row under an ``--out`` directory, in the one long-format schema.
 
     out: the directory given to ``droneplan gap/reproduce --out`` (searched recursively

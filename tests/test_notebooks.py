@@ -34,12 +34,18 @@ def test_notebooks_use_only_the_front_doors(path):
     for cell in nb.cells:
         if cell.cell_type != "code":
             continue
-        code = "\n".join(line for line in cell.source.splitlines() if not line.lstrip().startswith(("%", "!")))
+        code = "\n".join(
+            line for line in cell.source.splitlines() if not line.lstrip().startswith(("%", "!"))
+        )
         for node in ast.walk(ast.parse(code)):
             if isinstance(node, ast.Import):
                 used |= {a.name for a in node.names if a.name.split(".")[0] == "droneplan"}
             elif isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "droneplan":
-                used |= {node.module} if node.module != "droneplan" else {f"droneplan.{a.name}" for a in node.names}
+                used |= (
+                    {node.module}
+                    if node.module != "droneplan"
+                    else {f"droneplan.{a.name}" for a in node.names}
+                )
     assert used, f"{path.name} does not import droneplan"
     assert used <= FRONT_DOORS, f"{path.name} imports {sorted(used - FRONT_DOORS)} (use the front doors)"
 
@@ -51,6 +57,7 @@ def test_notebook_runs(path, tmp_path, monkeypatch):
     monkeypatch.setenv("MPLBACKEND", "Agg")
     monkeypatch.setenv("PYTHONPATH", str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     nb = nbformat.read(path, as_version=4)
-    client = NotebookClient(nb, timeout=600, kernel_name="python3",
-                            resources={"metadata": {"path": str(tmp_path)}})
+    client = NotebookClient(
+        nb, timeout=600, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}
+    )
     client.execute()

@@ -4,13 +4,44 @@
 build instances without importing this one) and re-exported here.
 """
 
+from droneplan.formulations.cells._core import (
+    TOL,
+    Candidates,
+    Evaluation,
+    candidate_sites,
+    circle_intersections,
+    connected_mask,
+    evaluate,
+    raw_candidate_points,
+)
+from droneplan.formulations.cells._milp import (
+    BACKENDS,
+    CellModel,
+    build_milp,
+    coverage_upper_bound,
+    greedy_placement,
+    reduce_candidates,
+    solve_milp,
+)
 from droneplan.scenarios.cells import CellProblem, problem_from_instance, thesis_problem
-from droneplan.formulations.cells._core import (TOL, Candidates, Evaluation, candidate_sites, circle_intersections,
-                                      connected_mask, evaluate, raw_candidate_points)
-from droneplan.formulations.cells._milp import (BACKENDS, CellModel, build_milp, coverage_upper_bound, greedy_placement,
-                                      reduce_candidates, solve_milp)
 
-__all__ = ["CellProblem", "Evaluation", "Candidates", "CellModel", "TOL", "BACKENDS", "evaluate",
-           "connected_mask", "candidate_sites", "raw_candidate_points", "circle_intersections",
-           "coverage_upper_bound", "greedy_placement", "reduce_candidates", "build_milp", "solve_milp",
-           "problem_from_instance", "thesis_problem"]
+__all__ = [
+    "CellProblem",
+    "Evaluation",
+    "Candidates",
+    "CellModel",
+    "TOL",
+    "BACKENDS",
+    "evaluate",
+    "connected_mask",
+    "candidate_sites",
+    "raw_candidate_points",
+    "circle_intersections",
+    "coverage_upper_bound",
+    "greedy_placement",
+    "reduce_candidates",
+    "build_milp",
+    "solve_milp",
+    "problem_from_instance",
+    "thesis_problem",
+]

@@ -48,7 +48,9 @@ def _dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.sqrt(((a[:, None, :] - b[None, :, :]) ** 2).sum(-1))
 
 
-def connected_mask(problem: CellProblem, positions: np.ndarray, usable: np.ndarray | None = None) -> np.ndarray:
+def connected_mask(
+    problem: CellProblem, positions: np.ndarray, usable: np.ndarray | None = None
+) -> np.ndarray:
     """(k,) bool: which drone-cells reach a GBS through links <= r1 (to a GBS) / <= r2
     (between drone-cells), relaying only through drone-cells flagged ``usable``.
 
@@ -93,7 +95,12 @@ def evaluate(problem: CellProblem, positions) -> Evaluation:
         v.append(f"{k} drone-cells placed but n_cells = {problem.n_cells}")
     if problem.bounds is not None and k:
         xmin, xmax, ymin, ymax = problem.bounds
-        out = (pos[:, 0] < xmin - TOL) | (pos[:, 0] > xmax + TOL) | (pos[:, 1] < ymin - TOL) | (pos[:, 1] > ymax + TOL)
+        out = (
+            (pos[:, 0] < xmin - TOL)
+            | (pos[:, 0] > xmax + TOL)
+            | (pos[:, 1] < ymin - TOL)
+            | (pos[:, 1] > ymax + TOL)
+        )
         v += [f"drone-cell {i} outside bounds" for i in np.flatnonzero(out)]
     if k:
         dg = _dist(pos, problem.gbs)
@@ -107,12 +114,15 @@ def evaluate(problem: CellProblem, positions) -> Evaluation:
     mask = np.zeros(len(problem.users), dtype=bool)
     if k and len(problem.users):
         mask = np.any(_dist(problem.users, pos) <= problem.R_d + TOL, axis=1) & problem.active
-    return Evaluation(covered=int(mask.sum()), feasible=not v, violations=tuple(v), connected=conn,
-                      covered_mask=mask)
+    return Evaluation(
+        covered=int(mask.sum()), feasible=not v, violations=tuple(v), connected=conn, covered_mask=mask
+    )
 
 
 # --------------------------------------------------------------------------- geometry
-def circle_intersections(c1: np.ndarray, r1: np.ndarray | float, c2: np.ndarray, r2: np.ndarray | float) -> np.ndarray:
+def circle_intersections(
+    c1: np.ndarray, r1: np.ndarray | float, c2: np.ndarray, r2: np.ndarray | float
+) -> np.ndarray:
     """Intersection points of circles (c1[i], r1) and (c2[i], r2), vectorised over i.
 
     Returns an (2q, 2) array holding both points of every pair that intersects

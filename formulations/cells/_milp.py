@@ -123,8 +123,13 @@ def _maximal_sets(cover: list[np.ndarray]) -> list[np.ndarray]:
     return [np.array(sorted(s), dtype=np.int64) for s in kept]
 
 
-def coverage_upper_bound(problem: CellProblem, n_discs: int | None = None, *, backend: str = "highs",
-                         time_limit: float | None = None) -> SolveResult:
+def coverage_upper_bound(
+    problem: CellProblem,
+    n_discs: int | None = None,
+    *,
+    backend: str = "highs",
+    time_limit: float | None = None,
+) -> SolveResult:
     """Maximum number of active users that ``n_discs`` radius-R_d discs can cover with
     non-overlap, GBS clearance and backhaul all dropped: an upper bound of the
     *continuous* placement problem.
@@ -147,14 +152,26 @@ def coverage_upper_bound(problem: CellProblem, n_discs: int | None = None, *, ba
     t0 = time.perf_counter()
     t = problem.targets
     if m <= 0 or len(t) == 0:
-        return SolveResult(Status.OPTIMAL, objective=0.0, bound=0.0, backend=backend, solve_time=0.0,
-                           message="continuous relaxation bound (trivial)")
+        return SolveResult(
+            Status.OPTIMAL,
+            objective=0.0,
+            bound=0.0,
+            backend=backend,
+            solve_time=0.0,
+            message="continuous relaxation bound (trivial)",
+        )
     pts = merge_points(np.concatenate([t, pair_intersections(t, problem.R_d)], axis=0))
     sets = _maximal_sets(coverage_lists(pts, t, problem.R_d))
     if len(sets) <= m:
         v = float(len(np.unique(np.concatenate(sets))))
-        return SolveResult(Status.OPTIMAL, objective=v, bound=v, backend="enumeration",
-                           solve_time=time.perf_counter() - t0, message="continuous relaxation bound")
+        return SolveResult(
+            Status.OPTIMAL,
+            objective=v,
+            bound=v,
+            backend="enumeration",
+            solve_time=time.perf_counter() - t0,
+            message="continuous relaxation bound",
+        )
     users = np.unique(np.concatenate(sets))
     tried = []
     res = None
@@ -165,21 +182,36 @@ def coverage_upper_bound(problem: CellProblem, n_discs: int | None = None, *, ba
         if res.status in (Status.OPTIMAL, Status.FEASIBLE, Status.NO_SOLUTION) and res.bound is not None:
             break
     assert res is not None
-    desc = (f"continuous relaxation bound: max coverage by {m} discs over {len(sets)} maximal candidate sets, "
-            f"no overlap/backhaul constraints")
+    desc = (
+        f"continuous relaxation bound: max coverage by {m} discs over {len(sets)} maximal candidate sets, "
+        f"no overlap/backhaul constraints"
+    )
     if res.bound is None or res.status not in (Status.OPTIMAL, Status.FEASIBLE, Status.NO_SOLUTION):
         # never a silent stand-in (such as the user count): the caller sees None and why
-        return dataclasses.replace(res, bound=None, objective=None, x=None, solve_time=time.perf_counter() - t0,
-                                   message=f"{desc}: not computed, no backend returned a bound ({'; '.join(tried)})",
-                                   info={**res.info, "tried": tried})
+        return dataclasses.replace(
+            res,
+            bound=None,
+            objective=None,
+            x=None,
+            solve_time=time.perf_counter() - t0,
+            message=f"{desc}: not computed, no backend returned a bound ({'; '.join(tried)})",
+            info={**res.info, "tried": tried},
+        )
     if len(tried) > 1:
         desc += f"; computed by {res.backend} after {'; '.join(tried[:-1])}"
-    return dataclasses.replace(res, bound=math.floor(res.bound + 1e-6), x=None, solve_time=time.perf_counter() - t0,
-                               message=desc, info={**res.info, "tried": tried})
+    return dataclasses.replace(
+        res,
+        bound=math.floor(res.bound + 1e-6),
+        x=None,
+        solve_time=time.perf_counter() - t0,
+        message=desc,
+        info={**res.info, "tried": tried},
+    )
 
 
-def _max_coverage_model(sets: list[np.ndarray], users: np.ndarray, m: int, backend: str,
-                        time_limit: float | None) -> SolveResult:
+def _max_coverage_model(
+    sets: list[np.ndarray], users: np.ndarray, m: int, backend: str, time_limit: float | None
+) -> SolveResult:
     """Maximum coverage of ``users`` by ``m`` of ``sets`` on ``backend``; never raises on a solver failure."""
     lin = get_backend(backend, kind="linear").new_model()
     x = [lin.bool_var(f"x{k}") for k in range(len(sets))]
@@ -288,14 +320,21 @@ def _uncovered_pairs(points: np.ndarray, R_d: float, cliques: list[np.ndarray]) 
     return pairs[~covered]
 
 
-def reduce_candidates(problem: CellProblem, cand: Candidates, incumbent_value: float, incumbent_sites: np.ndarray,
-                      bound_m_minus_1: float) -> np.ndarray:
+def reduce_candidates(
+    problem: CellProblem,
+    cand: Candidates,
+    incumbent_value: float,
+    incumbent_sites: np.ndarray,
+    bound_m_minus_1: float,
+) -> np.ndarray:
     """Indices of candidates kept by the exact incumbent pruning (see module docstring, item 1)."""
     size = np.array([len(c) for c in cand.cover])
     keep = size + bound_m_minus_1 > incumbent_value + 1e-9
     if len(incumbent_sites):
-        d = np.hypot(cand.points[:, None, 0] - incumbent_sites[None, :, 0],
-                     cand.points[:, None, 1] - incumbent_sites[None, :, 1])
+        d = np.hypot(
+            cand.points[:, None, 0] - incumbent_sites[None, :, 0],
+            cand.points[:, None, 1] - incumbent_sites[None, :, 1],
+        )
         keep |= np.any(d <= 1e-3, axis=1)
     return np.flatnonzero(keep)
 
@@ -305,10 +344,18 @@ def _new_model(backend: str):
     return get_backend(backend, kind="linear").new_model()
 
 
-def build_milp(problem: CellProblem, *, backend: str = "cp-sat", candidates: Candidates | None = None,
-               keep: np.ndarray | None = None, objective_range: tuple[float, float] | None = None,
-               deadline: float | None = None, pair_limit: int = 50_000, connectivity: str = "lazy",
-               cuts: list | None = None) -> CellModel | None:
+def build_milp(
+    problem: CellProblem,
+    *,
+    backend: str = "cp-sat",
+    candidates: Candidates | None = None,
+    keep: np.ndarray | None = None,
+    objective_range: tuple[float, float] | None = None,
+    deadline: float | None = None,
+    pair_limit: int = 50_000,
+    connectivity: str = "lazy",
+    cuts: list | None = None,
+) -> CellModel | None:
     """Build the candidate model (module docstring) without solving it.
 
     backend: "cp-sat" (default), "highs" or "scip".
@@ -407,8 +454,10 @@ def build_milp(problem: CellProblem, *, backend: str = "cp-sat", candidates: Can
                     lin.add(x[e] <= b)
             n_cuts += 1
     if connectivity == "hops" and len(nd):  # item 3b
-        dg = np.min(np.hypot(pts[nd, None, 0] - problem.gbs[None, :, 0], pts[nd, None, 1] - problem.gbs[None, :, 1]),
-                    axis=1)
+        dg = np.min(
+            np.hypot(pts[nd, None, 0] - problem.gbs[None, :, 0], pts[nd, None, 1] - problem.gbs[None, :, 1]),
+            axis=1,
+        )
         # level l reaches r1 + (l - 1) r2 (each link has tolerance TOL)
         lowest = np.maximum(2, np.ceil((dg - problem.r1 - m * TOL) / problem.r2).astype(np.int64) + 1)
         tree = cKDTree(pts)
@@ -436,16 +485,36 @@ def build_milp(problem: CellProblem, *, backend: str = "cp-sat", candidates: Can
             lin.add(lin.sum(y.values()) >= int(math.ceil(lo - 1e-9)))
             lin.add(lin.sum(y.values()) <= int(math.floor(hi + 1e-9)))
         lin.maximize(lin.sum(y.values()))
-    stats = {"candidates": len(cand.points), "kept": len(pts), "users": len(y), "grid_cliques": len(cliques),
-             "extra_pairs": len(extra), "pairs_as_rows": len(extra) > pair_limit, "connectivity": connectivity,
-             "level_vars": n_level_vars, "connectivity_terms": n_level_terms, "lazy_cuts": n_cuts}
-    return CellModel(problem=problem, backend=backend, points=pts, cover=cover, direct=direct, model=lin,
-                     x=x, y=y, levels=z, stats=stats)
+    stats = {
+        "candidates": len(cand.points),
+        "kept": len(pts),
+        "users": len(y),
+        "grid_cliques": len(cliques),
+        "extra_pairs": len(extra),
+        "pairs_as_rows": len(extra) > pair_limit,
+        "connectivity": connectivity,
+        "level_vars": n_level_vars,
+        "connectivity_terms": n_level_terms,
+        "lazy_cuts": n_cuts,
+    }
+    return CellModel(
+        problem=problem,
+        backend=backend,
+        points=pts,
+        cover=cover,
+        direct=direct,
+        model=lin,
+        x=x,
+        y=y,
+        levels=z,
+        stats=stats,
+    )
 
 
 # --------------------------------------------------------------------------- solve
-def _add_cuts(problem: CellProblem, cand: Candidates, tree: cKDTree, chosen: np.ndarray, pos: np.ndarray,
-              cuts: list) -> None:
+def _add_cuts(
+    problem: CellProblem, cand: Candidates, tree: cKDTree, chosen: np.ndarray, pos: np.ndarray, cuts: list
+) -> None:
     """Append to ``cuts`` the cuts violated by the chosen sites (global indices ``chosen`` at
     ``pos``): a clique around each overlapping pair and the connectivity cuts of item 3a."""
     d = np.hypot(pos[:, None, 0] - pos[None, :, 0], pos[:, None, 1] - pos[None, :, 1])
@@ -554,9 +623,16 @@ def _hint(problem: CellProblem, mdl: CellModel, placement: np.ndarray) -> dict:
     return hint
 
 
-def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: float | None = None,
-               warm_start=None, workers: int = 2, connectivity: str = "lazy",
-               max_rounds: int = 200) -> SolveResult:
+def solve_milp(
+    problem: CellProblem,
+    *,
+    backend: str = "cp-sat",
+    time_limit: float | None = None,
+    warm_start=None,
+    workers: int = 2,
+    connectivity: str = "lazy",
+    max_rounds: int = 200,
+) -> SolveResult:
     """Solve the candidate-site model with exact (hop-level) backhaul connectivity.
 
     backend: "cp-sat" (default), "highs" or "scip".
@@ -611,46 +687,99 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
         w = _feasible_subset(problem, warm)
         wv = evaluate(problem, w).covered
         dropped = len(warm) - len(w)
-        why = (f"{dropped} of {len(warm)} given sites dropped to make it feasible (outside bounds, in a GBS cell, "
-               f"overlapping, without backhaul or beyond n_cells); " if dropped else "")
+        why = (
+            f"{dropped} of {len(warm)} given sites dropped to make it feasible (outside bounds, in a GBS cell, "
+            f"overlapping, without backhaul or beyond n_cells); "
+            if dropped
+            else ""
+        )
         if len(w) and wv >= inc_val:
             greedy_val = int(inc_val)
             inc, inc_val, warm_used = w, wv, True
-            info["warm_start"] = {"given": len(warm), "used": True, "value": wv, "greedy_value": greedy_val,
-                                  "reason": why + f"its feasible part ({wv} users) is the incumbent and the hint"}
+            info["warm_start"] = {
+                "given": len(warm),
+                "used": True,
+                "value": wv,
+                "greedy_value": greedy_val,
+                "reason": why + f"its feasible part ({wv} users) is the incumbent and the hint",
+            }
         else:
-            info["warm_start"] = {"given": len(warm), "used": False, "value": wv, "greedy_value": int(inc_val),
-                                  "reason": why + (f"not used as incumbent: its feasible part covers {wv} users, "
-                                                   f"the built-in greedy start {inc_val}; its sites stay in the "
-                                                   "candidate set")}
+            info["warm_start"] = {
+                "given": len(warm),
+                "used": False,
+                "value": wv,
+                "greedy_value": int(inc_val),
+                "reason": why
+                + (
+                    f"not used as incumbent: its feasible part covers {wv} users, "
+                    f"the built-in greedy start {inc_val}; its sites stay in the "
+                    "candidate set"
+                ),
+            }
     relax = coverage_upper_bound(problem, problem.n_cells, time_limit=left())
     cont_bound = None if relax.bound is None else float(relax.bound)
     # internal bound for pruning and stopping: the relaxation's, or the trivial user count
     # when it could not be computed (never reported as the continuous bound)
     ub = n_active if cont_bound is None else cont_bound
-    info.update({"continuous_bound": cont_bound, "relaxation_time": relax.solve_time,
-                 "relaxation_message": relax.message})
-    bound_note = ("" if cont_bound is not None else
-                  f"; continuous-problem bound not available ({relax.message})")
+    info.update(
+        {
+            "continuous_bound": cont_bound,
+            "relaxation_time": relax.solve_time,
+            "relaxation_message": relax.message,
+        }
+    )
+    bound_note = (
+        "" if cont_bound is not None else f"; continuous-problem bound not available ({relax.message})"
+    )
     if len(cand.points) == 0 or cont_bound == 0:
-        return SolveResult(Status.OPTIMAL, objective=0.0, bound=0.0, x=np.zeros((0, 2)), backend=backend,
-                           solve_time=time.perf_counter() - t0, warm_started=False,
-                           message="no user can be covered by a feasible drone-cell: optimum 0 (no sites)",
-                           info={**info, "global_optimal": True, "rounds": 0,
-                                 "model_stats": {"candidates": len(cand.points)}})
+        return SolveResult(
+            Status.OPTIMAL,
+            objective=0.0,
+            bound=0.0,
+            x=np.zeros((0, 2)),
+            backend=backend,
+            solve_time=time.perf_counter() - t0,
+            warm_started=False,
+            message="no user can be covered by a feasible drone-cell: optimum 0 (no sites)",
+            info={
+                **info,
+                "global_optimal": True,
+                "rounds": 0,
+                "model_stats": {"candidates": len(cand.points)},
+            },
+        )
 
     def early(status: Status, bound: float | None, msg: str) -> SolveResult:
-        return SolveResult(status, objective=float(inc_val), bound=bound, x=inc, backend=backend,
-                           solve_time=time.perf_counter() - t0, warm_started=warm_used, message=msg + bound_note,
-                           info={**info, "global_optimal": cont_bound is not None and inc_val >= cont_bound,
-                                 "rounds": 0, "model_stats": {}})
+        return SolveResult(
+            status,
+            objective=float(inc_val),
+            bound=bound,
+            x=inc,
+            backend=backend,
+            solve_time=time.perf_counter() - t0,
+            warm_started=warm_used,
+            message=msg + bound_note,
+            info={
+                **info,
+                "global_optimal": cont_bound is not None and inc_val >= cont_bound,
+                "rounds": 0,
+                "model_stats": {},
+            },
+        )
 
     if inc_val >= ub:
-        return early(Status.OPTIMAL, ub, "bound valid for the continuous problem (max coverage by m discs without "
-                                         "overlap/backhaul) and attained: globally optimal")
+        return early(
+            Status.OPTIMAL,
+            ub,
+            "bound valid for the continuous problem (max coverage by m discs without "
+            "overlap/backhaul) and attained: globally optimal",
+        )
     if expired():
-        return early(Status.FEASIBLE, cont_bound, "time limit reached before the model was built; the plan is the "
-                                                  "greedy or warm start")
+        return early(
+            Status.FEASIBLE,
+            cont_bound,
+            "time limit reached before the model was built; the plan is the greedy or warm start",
+        )
     # B_{m-1} for the pruning of item 1; B_m (>= B_{m-1}, weaker but still exact pruning)
     # when there is less time left than the first relaxation took
     if time_limit is not None and left() < relax.solve_time:
@@ -673,15 +802,27 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
             if expired():
                 return "stopped", rbound
             state["rounds"] += 1
-            mdl = build_milp(problem, backend=backend, candidates=cand, keep=keep, deadline=deadline,
-                             objective_range=(state["inc_val"], ub), connectivity=connectivity, cuts=cuts)
+            mdl = build_milp(
+                problem,
+                backend=backend,
+                candidates=cand,
+                keep=keep,
+                deadline=deadline,
+                objective_range=(state["inc_val"], ub),
+                connectivity=connectivity,
+                cuts=cuts,
+            )
             if mdl is None or expired():  # building can be long: the limit covers it
                 return "stopped", rbound
             state["stats"] = mdl.stats
             hint = _hint(problem, mdl, state["inc"])
-            res = mdl.model.solve(variables=mdl.x, time_limit=left(), workers=workers,
-                                  hint={v: int(b) for v, b in hint.items()},
-                                  options=FEW_WORKER_OPTIONS.get(backend) if workers <= 2 else None)
+            res = mdl.model.solve(
+                variables=mdl.x,
+                time_limit=left(),
+                workers=workers,
+                hint={v: int(b) for v, b in hint.items()},
+                options=FEW_WORKER_OPTIONS.get(backend) if workers <= 2 else None,
+            )
             state["raw"] = res.backend_status
             if res.status is Status.INFEASIBLE:
                 # nothing in the restricted relaxation reaches the incumbent's value (the
@@ -696,7 +837,9 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
             pos = mdl.points[chosen]
             ev = evaluate(problem, pos)
             if not ev.feasible and connectivity == "hops":  # exact model: a bug, never hidden
-                raise RuntimeError(f"internal: the hop-level model returned an infeasible placement: {ev.violations}")
+                raise RuntimeError(
+                    f"internal: the hop-level model returned an infeasible placement: {ev.violations}"
+                )
             feas = pos if ev.feasible else _feasible_subset(problem, pos)
             cv = evaluate(problem, feas).covered
             if cv > state["inc_val"]:
@@ -738,14 +881,29 @@ def solve_milp(problem: CellProblem, *, backend: str = "cp-sat", time_limit: flo
     if obj >= best_bound:
         status = Status.OPTIMAL
     glob = cont_bound is not None and obj >= cont_bound
-    msg = (f"bound {best_bound:g} valid for the candidate problem (the candidate sites described in the "
-           f"docstring); " + (f"continuous-problem upper bound {cont_bound:g} (max coverage by m discs without "
-                              f"overlap/backhaul)" if cont_bound is not None else bound_note[2:])
-           + ("; attained: globally optimal" if glob else ""))
+    msg = (
+        f"bound {best_bound:g} valid for the candidate problem (the candidate sites described in the "
+        f"docstring); "
+        + (
+            f"continuous-problem upper bound {cont_bound:g} (max coverage by m discs without "
+            f"overlap/backhaul)"
+            if cont_bound is not None
+            else bound_note[2:]
+        )
+        + ("; attained: globally optimal" if glob else "")
+    )
     if status is not Status.OPTIMAL:
-        msg += (f"; stopped after {rounds} model solves (time limit or max_rounds) before proving "
-                "optimality")
-    return SolveResult(status, objective=obj, bound=float(best_bound), x=inc, backend=backend, backend_status=raw,
-                       message=msg, solve_time=time.perf_counter() - t0, iterations=rounds,
-                       warm_started=warm_used,
-                       info={**info, "global_optimal": glob, "rounds": rounds, "model_stats": last_stats})
+        msg += f"; stopped after {rounds} model solves (time limit or max_rounds) before proving optimality"
+    return SolveResult(
+        status,
+        objective=obj,
+        bound=float(best_bound),
+        x=inc,
+        backend=backend,
+        backend_status=raw,
+        message=msg,
+        solve_time=time.perf_counter() - t0,
+        iterations=rounds,
+        warm_started=warm_used,
+        info={**info, "global_optimal": glob, "rounds": rounds, "model_stats": last_stats},
+    )

@@ -3,16 +3,38 @@
 from droneplan.formulations.shark.altitude import optimal_altitude
 
 __all__ = ["optimal_altitude"]
-from droneplan.formulations.shark.ocp import (InterceptionOCP, InterceptionPlan, build_interception_nlp,  # noqa: E402
-                                    casadi_optimal_altitude, solve_interception)
+from droneplan.formulations.shark.ocp import (
+    InterceptionOCP,
+    InterceptionPlan,
+    build_interception_nlp,
+    casadi_optimal_altitude,
+    solve_interception,
+)
 
-__all__ += ["InterceptionOCP", "InterceptionPlan", "build_interception_nlp", "casadi_optimal_altitude",
-            "solve_interception"]
-from droneplan.formulations.shark.assignment import (Assignment, assignment_cost, build_assignment_model,  # noqa: E402
-                                           greedy_assignment, select_sharks, solve_assignment)
+__all__ += [
+    "InterceptionOCP",
+    "InterceptionPlan",
+    "build_interception_nlp",
+    "casadi_optimal_altitude",
+    "solve_interception",
+]
+from droneplan.formulations.shark.assignment import (
+    Assignment,
+    assignment_cost,
+    build_assignment_model,
+    greedy_assignment,
+    select_sharks,
+    solve_assignment,
+)
 
-__all__ += ["Assignment", "assignment_cost", "build_assignment_model", "greedy_assignment", "select_sharks",
-            "solve_assignment"]
+__all__ += [
+    "Assignment",
+    "assignment_cost",
+    "build_assignment_model",
+    "greedy_assignment",
+    "select_sharks",
+    "solve_assignment",
+]
 from droneplan.formulations.shark.bound import frontal_point, interception_time_bound  # noqa: E402
 
 __all__ += ["frontal_point", "interception_time_bound"]

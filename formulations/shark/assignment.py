@@ -24,8 +24,14 @@ from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_array
 
-__all__ = ["Assignment", "select_sharks", "build_assignment_model", "solve_assignment", "greedy_assignment",
-           "assignment_cost"]
+__all__ = [
+    "Assignment",
+    "select_sharks",
+    "build_assignment_model",
+    "solve_assignment",
+    "greedy_assignment",
+    "assignment_cost",
+]
 
 _SCALE = 1000  # ms
 
@@ -85,7 +91,9 @@ def build_assignment_model(cost, sharks):
     big = int(np.ceil(_SCALE * (c[:, sharks][finite].max() if finite.any() else 1.0))) + 1
     q = np.where(finite, np.round(_SCALE * np.where(finite, c[:, sharks], 0)).astype(np.int64), -1)
     m = cp_model.CpModel()
-    x = [[m.new_bool_var(f"x_{i}_{j}") if q[i, j] >= 0 else None for j in range(len(sharks))] for i in range(n)]
+    x = [
+        [m.new_bool_var(f"x_{i}_{j}") if q[i, j] >= 0 else None for j in range(len(sharks))] for i in range(n)
+    ]
     Z = m.new_int_var(0, big, "Z")
     for j in range(len(sharks)):
         m.add_exactly_one([x[i][j] for i in range(n) if x[i][j] is not None])
@@ -95,15 +103,18 @@ def build_assignment_model(cost, sharks):
             m.add_at_most_one(row)
         for j in range(len(sharks)):
             if x[i][j] is not None:
-                m.add(Z >= int(q[i, j])).only_enforce_if(x[i][j])
+                m.add(int(q[i, j]) <= Z).only_enforce_if(x[i][j])
     M = big * len(sharks) + 1
-    m.minimize(M * Z + sum(int(q[i, j]) * x[i][j] for i in range(n) for j in range(len(sharks))
-                           if x[i][j] is not None))
+    m.minimize(
+        M * Z
+        + sum(int(q[i, j]) * x[i][j] for i in range(n) for j in range(len(sharks)) if x[i][j] is not None)
+    )
     return m, x, Z
 
 
-def solve_assignment(cost, *, shark_to_human=None, time_limit: float | None = 10.0, workers: int = 1,
-                     backend: str = "cp-sat") -> SolveResult:
+def solve_assignment(
+    cost, *, shark_to_human=None, time_limit: float | None = 10.0, workers: int = 1, backend: str = "cp-sat"
+) -> SolveResult:
     """Minimise the latest interception time over one-to-one operator-shark assignments.
 
     cost: (n_operators, n_sharks) interception times (s), inf where impossible.
@@ -126,7 +137,9 @@ def solve_assignment(cost, *, shark_to_human=None, time_limit: float | None = 10
     model, x, Z = build_assignment_model(c, sharks)
     flat = [v for row in x for v in row if v is not None]
     idx = [(i, j) for i, row in enumerate(x) for j, v in enumerate(row) if v is not None]
-    res = get_backend(backend, kind="cp").solve_cp(model, variables=flat, time_limit=time_limit, workers=workers)
+    res = get_backend(backend, kind="cp").solve_cp(
+        model, variables=flat, time_limit=time_limit, workers=workers
+    )
     if not res.has_solution:
         return dataclasses.replace(res, message=f"assignment: {res.message}")
     op = np.full(len(sharks), -1)
@@ -137,9 +150,13 @@ def solve_assignment(cost, *, shark_to_human=None, time_limit: float | None = 10
     M = int(np.ceil(_SCALE * np.nanmax(np.where(np.isfinite(c[:, sharks]), c[:, sharks], 0)))) + 1
     M = M * len(sharks) + 1
     bound = None if res.bound is None else float(np.floor(res.bound / M)) / _SCALE
-    return dataclasses.replace(res, x=Assignment(sharks, op, latest, total), objective=latest, bound=bound,
-                               message=f"bottleneck assignment of {len(sharks)} sharks to {n} operators "
-                                       f"(times quantised to 1 ms)")
+    return dataclasses.replace(
+        res,
+        x=Assignment(sharks, op, latest, total),
+        objective=latest,
+        bound=bound,
+        message=f"bottleneck assignment of {len(sharks)} sharks to {n} operators (times quantised to 1 ms)",
+    )
 
 
 def greedy_assignment(operators, sharks_pos, shark_to_human, cost) -> SolveResult:
@@ -162,5 +179,10 @@ def greedy_assignment(operators, sharks_pos, shark_to_human, cost) -> SolveResul
         op[j] = free.pop(int(np.argmin(d)))
     ops = np.array([op[j] for j in sel])
     latest, total = assignment_cost(c, sel, ops)
-    return SolveResult(Status.FEASIBLE, objective=latest, x=Assignment(sel, ops, latest, total),
-                       backend="greedy", message="greedy nearest-operator assignment (heuristic)")
+    return SolveResult(
+        Status.FEASIBLE,
+        objective=latest,
+        x=Assignment(sel, ops, latest, total),
+        backend="greedy",
+        message="greedy nearest-operator assignment (heuristic)",
+    )

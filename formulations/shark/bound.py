@@ -71,6 +71,7 @@ def _shark_model(shark, t0: float):
             S = np.column_stack([np.asarray(f(tt)).ravel() for f in fs])
             V = np.column_stack([np.asarray(f(tt)).ravel() for f in fv])
             return S, V
+
         return model
     S0 = np.asarray(shark[0], float)
     V0 = np.asarray(shark[1], float)[:2]
@@ -79,6 +80,7 @@ def _shark_model(shark, t0: float):
         t = np.atleast_1d(np.asarray(t, float))
         S = np.column_stack([S0[0] + V0[0] * t, S0[1] + V0[1] * t, np.full(t.shape, S0[2])])
         return S, np.tile(V0, (t.size, 1))
+
     return model
 
 
@@ -94,9 +96,16 @@ def frontal_point(shark, t, params: SharkParams = THESIS_TABLE_5_1, *, t0: float
     return np.column_stack([S[:, :2] + off, zo]), eps
 
 
-def interception_time_bound(shark, operator0, params: SharkParams = THESIS_TABLE_5_1, *, t0: float = 0.0,
-                            t_max: float = 30.0, slack: float | None = None,
-                            resolution: float = 1e-5) -> SolveResult:
+def interception_time_bound(
+    shark,
+    operator0,
+    params: SharkParams = THESIS_TABLE_5_1,
+    *,
+    t0: float = 0.0,
+    t_max: float = 30.0,
+    slack: float | None = None,
+    resolution: float = 1e-5,
+) -> SolveResult:
     """Proven lower bound (s) on the interception time T of the OCP from ``operator0`` at t0.
 
     shark: a `SharkTrajectory` (known path) or (position (3,), velocity (>=2,)) for the
@@ -117,8 +126,10 @@ def interception_time_bound(shark, operator0, params: SharkParams = THESIS_TABLE
     if not isinstance(shark, SharkTrajectory):
         if not isinstance(shark, (tuple, list)) or len(shark) != 2:
             raise TypeError("shark must be a SharkTrajectory or (position (3,), velocity (>=2,))")
-        shark = (check_array("shark position", shark[0], shape=(3,)),
-                 check_array("shark velocity", np.asarray(shark[1], float).ravel()[:2], shape=(2,)))
+        shark = (
+            check_array("shark position", shark[0], shape=(3,)),
+            check_array("shark velocity", np.asarray(shark[1], float).ravel()[:2], shape=(2,)),
+        )
     hi = t_max if not isinstance(shark, SharkTrajectory) else max(min(t_max, shark.duration - t0), 0.0)
     lo = 0.0
     # Lipschitz constant of f: VoM + |dG/dt|, the latter from G sampled finely over [lo, hi]
@@ -140,14 +151,27 @@ def interception_time_bound(shark, operator0, params: SharkParams = THESIS_TABLE
 
     root = first_root_lipschitz(f, lo, hi, L, resolution=resolution)
     el = time.perf_counter() - start
-    what = (f"relaxation of the interception OCP (no path constraints: earliest T at which the operator at "
-            f"VoMxy={params.VoMxy:.2f}, VoMz={params.VoMz:.2f} m/s can be within {sl:.3g} m of the frontal "
-            f"point), Lipschitz scan over T (L={L:.1f} m/s, {root.evaluations} evaluations)")
+    what = (
+        f"relaxation of the interception OCP (no path constraints: earliest T at which the operator at "
+        f"VoMxy={params.VoMxy:.2f}, VoMz={params.VoMz:.2f} m/s can be within {sl:.3g} m of the frontal "
+        f"point), Lipschitz scan over T (L={L:.1f} m/s, {root.evaluations} evaluations)"
+    )
     if root.lower is None:
-        return SolveResult(Status.INFEASIBLE, bound=None, backend="lipschitz-scan", solve_time=el,
-                           iterations=root.evaluations,
-                           message=f"no T <= {hi:.2f} s reachable even in the {what}; no bound")
-    return SolveResult(Status.OPTIMAL, objective=root.lower, bound=root.lower, backend="lipschitz-scan",
-                       solve_time=el, iterations=root.evaluations,
-                       message=f"proven lower bound on the interception time (s) from the {what}",
-                       info={"lipschitz": L, "slack": sl})
+        return SolveResult(
+            Status.INFEASIBLE,
+            bound=None,
+            backend="lipschitz-scan",
+            solve_time=el,
+            iterations=root.evaluations,
+            message=f"no T <= {hi:.2f} s reachable even in the {what}; no bound",
+        )
+    return SolveResult(
+        Status.OPTIMAL,
+        objective=root.lower,
+        bound=root.lower,
+        backend="lipschitz-scan",
+        solve_time=el,
+        iterations=root.evaluations,
+        message=f"proven lower bound on the interception time (s) from the {what}",
+        info={"lipschitz": L, "slack": sl},
+    )

@@ -34,8 +34,13 @@ from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_array, check_instance, check_int, check_nonneg, check_positive
 
-__all__ = ["InterceptionPlan", "InterceptionOCP", "build_interception_nlp", "solve_interception",
-           "casadi_optimal_altitude"]
+__all__ = [
+    "InterceptionPlan",
+    "InterceptionOCP",
+    "build_interception_nlp",
+    "solve_interception",
+    "casadi_optimal_altitude",
+]
 
 _REG = 1e-6
 
@@ -64,7 +69,7 @@ class InterceptionPlan:
         return np.stack([np.interp(t, self.t, self.operator[:, i]) for i in range(3)], axis=-1)
 
     @classmethod
-    def from_samples(cls, t, operator, side: int = 0, origin: str = "") -> "InterceptionPlan":
+    def from_samples(cls, t, operator, side: int = 0, origin: str = "") -> InterceptionPlan:
         """A plan from sampled positions (e.g. a closed-loop rollout up to its interception time)."""
         t = np.asarray(t, float)
         op = np.asarray(operator, float)
@@ -73,7 +78,7 @@ class InterceptionPlan:
         vel = np.diff(op, axis=0) / np.diff(t)[:, None]
         return cls(t - t[0], op, vel, float(t[-1] - t[0]), side, origin)
 
-    def resample(self, N: int) -> "InterceptionPlan":
+    def resample(self, N: int) -> InterceptionPlan:
         """The same plan on N uniform intervals."""
         tt = np.linspace(0.0, self.T, N + 1)
         op = self.position(tt)
@@ -98,11 +103,13 @@ def casadi_optimal_altitude(z_s, params: SharkParams):
 def _path_functions(path: SharkTrajectory | None):
     """(S(t, p), V(t, p), n_p): shark position (3) and horizontal velocity (2) as CasADi functions."""
     if path is None:  # constant-velocity prediction, p = [S0 (3), V0 (2)]
+
         def S(t, p):
             return ca.vertcat(p[0] + p[3] * t, p[1] + p[4] * t, p[2])
 
         def V(t, p):
             return ca.vertcat(p[3], p[4])
+
         return S, V, 5, ca.SX
     grid = [np.asarray(path.t, float)]
     fx = [ca.interpolant(f"s{i}", "bspline", grid, path.pos[:, i]) for i in range(3)]
@@ -113,11 +120,17 @@ def _path_functions(path: SharkTrajectory | None):
 
     def V(t, p):
         return ca.vertcat(*[f(p[0] + t) for f in fv])
+
     return S, V, 1, ca.MX
 
 
-def build_interception_nlp(params: SharkParams = THESIS_TABLE_5_1, *, N: int = 40,
-                           path: SharkTrajectory | None = None, margin: float = 0.05) -> dict:
+def build_interception_nlp(
+    params: SharkParams = THESIS_TABLE_5_1,
+    *,
+    N: int = 40,
+    path: SharkTrajectory | None = None,
+    margin: float = 0.05,
+) -> dict:
     """Build (only) the NLP of the interception OCP; returns {"nlp", "N", "n_p", "kind"}.
 
     x = [T, O_0..O_N (3 each), U_0..U_{N-1} (3 each)]; p = [t0] (known path) or
@@ -160,9 +173,15 @@ def build_interception_nlp(params: SharkParams = THESIS_TABLE_5_1, *, N: int = 4
     x = ca.vertcat(T, ca.vec(O), ca.vec(U))
     f = T + _REG * h * ca.sumsqr(U)
     g = ca.vertcat(dyn, spd, ca.vertcat(*clear), term)
-    return {"nlp": {"x": x, "f": f, "g": g, "p": p}, "N": N, "n_p": n_p,
-            "kind": "constant-velocity" if path is None else "known-path",
-            "n_dyn": 3 * N, "n_spd": N, "n_clear": len(clear)}
+    return {
+        "nlp": {"x": x, "f": f, "g": g, "p": p},
+        "N": N,
+        "n_p": n_p,
+        "kind": "constant-velocity" if path is None else "known-path",
+        "n_dyn": 3 * N,
+        "n_spd": N,
+        "n_clear": len(clear),
+    }
 
 
 class InterceptionOCP:
@@ -177,9 +196,18 @@ class InterceptionOCP:
     BACKEND_OPTIONS = {"ipopt": {"tol": 1e-6, "acceptable_tol": 1e-4}}
     """Backend options by backend name (``max_iter`` is added from the argument)."""
 
-    def __init__(self, params: SharkParams = THESIS_TABLE_5_1, *, N: int = 40,
-                 path: SharkTrajectory | None = None, margin: float = 0.05, t_max: float = 30.0,
-                 time_limit: float | None = None, max_iter: int = 300, backend: str = "ipopt"):
+    def __init__(
+        self,
+        params: SharkParams = THESIS_TABLE_5_1,
+        *,
+        N: int = 40,
+        path: SharkTrajectory | None = None,
+        margin: float = 0.05,
+        t_max: float = 30.0,
+        time_limit: float | None = None,
+        max_iter: int = 300,
+        backend: str = "ipopt",
+    ):
         check_instance("params", params, SharkParams)
         check_positive("t_max", t_max)
         self.params, self.N, self.path, self.t_max = params, N, path, t_max
@@ -188,11 +216,16 @@ class InterceptionOCP:
         self.kind = built["kind"]
         adapter = get_backend(backend, kind="nlp")
         if not adapter.solves_to_local_optimum:
-            raise ValueError(f"backend {backend!r} does not solve to a local optimum; the interception OCP needs "
-                             f"one of {[b for b in available_backends('nlp') if get_backend(b).solves_to_local_optimum]}")
+            raise ValueError(
+                f"backend {backend!r} does not solve to a local optimum; the interception OCP needs "
+                f"one of {[b for b in available_backends('nlp') if get_backend(b).solves_to_local_optimum]}"
+            )
         self._reuses_duals = adapter.reuses_duals
-        self.solver = adapter.create_nlp(built["nlp"], time_limit=time_limit,
-                                         options={"max_iter": max_iter, **self.BACKEND_OPTIONS.get(adapter.name, {})})
+        self.solver = adapter.create_nlp(
+            built["nlp"],
+            time_limit=time_limit,
+            options={"max_iter": max_iter, **self.BACKEND_OPTIONS.get(adapter.name, {})},
+        )
         nd, ns, nc = built["n_dyn"], built["n_spd"], built["n_clear"]
         self._lbg = np.r_[np.zeros(nd), np.full(ns, -np.inf), np.zeros(nc), np.zeros(3)]
         self._ubg = np.r_[np.zeros(nd), np.full(ns, params.VoMxy**2), np.full(nc, np.inf), np.zeros(3)]
@@ -212,16 +245,19 @@ class InterceptionOCP:
     def vector(self, plan: InterceptionPlan) -> np.ndarray:
         """The decision vector of a plan (resampled to N intervals)."""
         r = plan.resample(self.N)
-        vel = np.clip(r.velocity, [-self.params.VoMxy] * 2 + [-self.params.VoMz],
-                      [self.params.VoMxy] * 2 + [self.params.VoMz])
+        vel = np.clip(
+            r.velocity,
+            [-self.params.VoMxy] * 2 + [-self.params.VoMz],
+            [self.params.VoMxy] * 2 + [self.params.VoMz],
+        )
         return np.r_[r.T, r.operator.ravel(), vel.ravel()]
 
     def plan(self, x, side: int = 0) -> InterceptionPlan:
         """The plan encoded by decision vector x."""
         N = self.N
         T = float(x[0])
-        O = np.asarray(x[1:1 + 3 * (N + 1)]).reshape(N + 1, 3)
-        U = np.asarray(x[1 + 3 * (N + 1):]).reshape(N, 3)
+        O = np.asarray(x[1 : 1 + 3 * (N + 1)]).reshape(N + 1, 3)
+        U = np.asarray(x[1 + 3 * (N + 1) :]).reshape(N, 3)
         return InterceptionPlan(np.linspace(0, T, N + 1), O, U, T, side)
 
     def shark_at(self, t, *, t0: float = 0.0, shark_state=None):
@@ -257,8 +293,16 @@ class InterceptionOCP:
             out.append(InterceptionPlan.from_samples([0.0, 0.5 * T0, T0], [O0, W, G], side, "crude"))
         return out
 
-    def solve(self, operator0, *, t0: float = 0.0, shark_state=None, guess: InterceptionPlan | None = None,
-              warm_start: SolveResult | None = None, time_limit: float | None = None) -> SolveResult:
+    def solve(
+        self,
+        operator0,
+        *,
+        t0: float = 0.0,
+        shark_state=None,
+        guess: InterceptionPlan | None = None,
+        warm_start: SolveResult | None = None,
+        time_limit: float | None = None,
+    ) -> SolveResult:
         """Solve from a starting plan (or a previous result's primal/duals); x of the result is a plan."""
         O0 = np.asarray(operator0, float)
         if O0.shape != (3,) or not np.all(np.isfinite(O0)):
@@ -286,21 +330,35 @@ class InterceptionOCP:
         ws = None
         if self._reuses_duals and warm_start is not None and warm_start.has_solution:
             ws = dataclasses.replace(warm_start, x=x0)
-        res = self.solver.solve(x0=x0, lbx=lbx, ubx=ubx, lbg=self._lbg, ubg=self._ubg, p=par,
-                                warm_start=ws, time_limit=time_limit)
+        res = self.solver.solve(
+            x0=x0, lbx=lbx, ubx=ubx, lbg=self._lbg, ubg=self._ubg, p=par, warm_start=ws, time_limit=time_limit
+        )
         side = guess.side if guess is not None else 0
         if res.x is None:
             return dataclasses.replace(res, message=f"interception OCP ({self.kind}): {res.message}")
         plan = self.plan(res.x, side)
-        return dataclasses.replace(res, x=plan, objective=plan.T,
-                                   message=f"interception OCP ({self.kind}, N={self.N}): T={plan.T:.3f} s; "
-                                           f"local optimum ({res.backend}), no bound",
-                                   info={**res.info, "x_vector": res.x})
+        return dataclasses.replace(
+            res,
+            x=plan,
+            objective=plan.T,
+            message=f"interception OCP ({self.kind}, N={self.N}): T={plan.T:.3f} s; "
+            f"local optimum ({res.backend}), no bound",
+            info={**res.info, "x_vector": res.x},
+        )
 
 
-def solve_interception(shark, operator0, params: SharkParams = THESIS_TABLE_5_1, *, N: int = 50,
-                       warm_starts=(), t0: float = 0.0, margin: float = 0.05, t_max: float = 30.0,
-                       time_limit: float | None = None) -> SolveResult:
+def solve_interception(
+    shark,
+    operator0,
+    params: SharkParams = THESIS_TABLE_5_1,
+    *,
+    N: int = 50,
+    warm_starts=(),
+    t0: float = 0.0,
+    margin: float = 0.05,
+    t_max: float = 30.0,
+    time_limit: float | None = None,
+) -> SolveResult:
     """Time-optimal interception: build the OCP, solve from every starting plan, keep the best.
 
     shark: a `SharkTrajectory` (path known: offline optimum) or (position (3,), velocity (>=2,))
@@ -344,17 +402,25 @@ def solve_interception(shark, operator0, params: SharkParams = THESIS_TABLE_5_1,
         state = shark
     clearance = float(inside_field(S_now, O0, params))
     if clearance <= 0:
-        raise ValueError(f"shark is already inside the field at t0 (clearance {clearance:.3f} m <= 0): "
-                         "operator0 must start with the shark outside both balls")
+        raise ValueError(
+            f"shark is already inside the field at t0 (clearance {clearance:.3f} m <= 0): "
+            "operator0 must start with the shark outside both balls"
+        )
     starts = list(warm_starts) or ocp.default_guesses(O0, t0=t0, shark_state=state)
     best, best_start, tried = None, None, []
     for g in starts:
         r = ocp.solve(O0, t0=t0, shark_state=state, guess=g)
         tried.append((g.origin, g.side, r.status.name, None if r.x is None else r.objective))
         ok = r.status in (Status.OPTIMAL, Status.FEASIBLE)
-        if ok and (best is None or r.objective < best.objective - 1e-9
-                   or (best.status != Status.OPTIMAL and r.status == Status.OPTIMAL
-                       and r.objective <= best.objective + 1e-6)):
+        if ok and (
+            best is None
+            or r.objective < best.objective - 1e-9
+            or (
+                best.status != Status.OPTIMAL
+                and r.status == Status.OPTIMAL
+                and r.objective <= best.objective + 1e-6
+            )
+        ):
             best, best_start = r, g
     try:
         lb = interception_time_bound(shark, O0, params, t0=t0, t_max=t_max)
@@ -364,13 +430,20 @@ def solve_interception(shark, operator0, params: SharkParams = THESIS_TABLE_5_1,
         bound, bound_msg = None, f"no bound: {type(exc).__name__}: {exc}"
     if best is None:
         last = r
-        return dataclasses.replace(last, bound=bound, info={**last.info, "tried": tried, "start_won": None},
-                                   message=f"no start converged: {tried}; {bound_msg}")
+        return dataclasses.replace(
+            last,
+            bound=bound,
+            info={**last.info, "tried": tried, "start_won": None},
+            message=f"no start converged: {tried}; {bound_msg}",
+        )
     if bound is not None and best.objective < bound - 1e-6:  # cannot happen unless a constraint is violated
         bound_msg += f"; WARNING: OCP T={best.objective:.6f} s is below it (constraint violation?)"
     won = best_start.origin or "unknown"
     return dataclasses.replace(
-        best, bound=bound, warm_started=won not in ("crude", "unknown"),
+        best,
+        bound=bound,
+        warm_started=won not in ("crude", "unknown"),
         info={**best.info, "tried": tried, "start_won": won, "bound_message": bound_msg},
         message=best.message.replace("local optimum (IPOPT), no bound", "local optimum (IPOPT)")
-        + f"; best of {len(starts)} starts (side {best.x.side}, from the {won} start); bound: {bound_msg}")
+        + f"; best of {len(starts)} starts (side {best.x.side}, from the {won} start); bound: {bound_msg}",
+    )

@@ -6,7 +6,12 @@
   (:class:`MPCObserver`) and its safeguarded variant (:class:`SafeguardedMPCObserver`).
 """
 
-from droneplan.planners.covert.mpc import MPCObserver, MPCObserverSettings, SafeguardedMPCObserver, SafeguardSettings
+from droneplan.planners.covert.mpc import (
+    MPCObserver,
+    MPCObserverSettings,
+    SafeguardedMPCObserver,
+    SafeguardSettings,
+)
 from droneplan.planners.covert.sliding import (
     HoverBenchmark,
     SlidingModeObserver,

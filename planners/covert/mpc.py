@@ -18,13 +18,29 @@ from typing import Any
 
 import numpy as np
 
-from droneplan.solvers.validation import check_in_range, check_int, check_nonneg, check_positive
-from droneplan.planners.covert.sliding import (DONE, ON_SPHERE, RETREAT, TO_SPHERE, SlidingSettings, _PhasedController,
-                                     rollout_sliding, sliding_steering, turn_command)
-from droneplan.scenarios.covert import CovertCommand, CovertObservation, CovertScenario, bearing_changes, rotate_heading
+from droneplan.planners.covert.sliding import (
+    DONE,
+    ON_SPHERE,
+    RETREAT,
+    TO_SPHERE,
+    SlidingSettings,
+    _PhasedController,
+    rollout_sliding,
+    sliding_steering,
+    turn_command,
+)
+from droneplan.scenarios.covert import (
+    CovertCommand,
+    CovertObservation,
+    CovertScenario,
+    bearing_changes,
+    rotate_heading,
+)
 from droneplan.solvers.registry import get_backend
+from droneplan.solvers.validation import check_in_range, check_int, check_nonneg, check_positive
 
 __all__ = ["MPCObserverSettings", "MPCObserver", "SafeguardSettings", "SafeguardedMPCObserver"]
+
 
 @dataclass(frozen=True)
 class MPCObserverSettings:
@@ -66,8 +82,12 @@ class MPCObserver(_PhasedController):
     observer: MPCObserverSettings of the receding-horizon loop (default: MPCObserverSettings()).
     """
 
-    def __init__(self, settings: SlidingSettings | None = None, mpc: Any = None,
-                 observer: MPCObserverSettings | None = None):
+    def __init__(
+        self,
+        settings: SlidingSettings | None = None,
+        mpc: Any = None,
+        observer: MPCObserverSettings | None = None,
+    ):
         super().__init__(settings)
         from droneplan.formulations.covert import MPCSettings
 
@@ -136,7 +156,9 @@ class MPCObserver(_PhasedController):
         return pos[None] + times[:, None, None] * vel[None]
 
     # -- phase constraints
-    def _phase_bounds(self, obs: CovertObservation, node_t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _phase_bounds(
+        self, obs: CovertObservation, node_t: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         p = self.params
         N = node_t.size
         d0 = float(np.linalg.norm(p.F_arr - obs.drone))
@@ -220,8 +242,16 @@ class MPCObserver(_PhasedController):
         tangent = np.zeros(node_t.size, bool)
         if self.phase == ON_SPHERE:
             tangent[1:] = True
-        data = MPCData(D0=obs.drone, h0=obs.heading, targets=pred, mask=obs.observable.copy(),
-                       sphere_lo=lo, sphere_hi=hi, home_hi=home_hi, tangent=tangent)
+        data = MPCData(
+            D0=obs.drone,
+            h0=obs.heading,
+            targets=pred,
+            mask=obs.observable.copy(),
+            sphere_lo=lo,
+            sphere_hi=hi,
+            home_hi=home_hi,
+            tangent=tangent,
+        )
         x0 = self._shifted_guess(model, data)
         label = "shifted-plan" if self._prev is not None and self._prev.has_solution else "sliding-rollout"
         res = solver.solve(data, x0=x0, warm=self._prev, start=label)
@@ -337,8 +367,13 @@ class SafeguardedMPCObserver(MPCObserver):
     safeguard: SafeguardSettings (default: SafeguardSettings()).
     """
 
-    def __init__(self, settings: SlidingSettings | None = None, mpc: Any = None,
-                 observer: MPCObserverSettings | None = None, safeguard: SafeguardSettings | None = None):
+    def __init__(
+        self,
+        settings: SlidingSettings | None = None,
+        mpc: Any = None,
+        observer: MPCObserverSettings | None = None,
+        safeguard: SafeguardSettings | None = None,
+    ):
         super().__init__(settings, mpc, observer)
         self.safeguard = safeguard if safeguard is not None else SafeguardSettings()
         if not isinstance(self.safeguard, SafeguardSettings):
@@ -395,13 +430,16 @@ class SafeguardedMPCObserver(MPCObserver):
         D_sl, _, _ = rollout_sliding(self.phase, obs.drone, obs.heading, A[:K], self.params, self.settings)
         sh = self.safeguard.score_horizon
         W_ = K if sh is None else max(1, min(K, int(round(sh / self.params.dt))))
-        s_mpc, s_sl = self._score(D_mpc[:W_ + 1], A[:W_ + 1]), self._score(D_sl[:W_ + 1], A[:W_ + 1])
+        s_mpc, s_sl = self._score(D_mpc[: W_ + 1], A[: W_ + 1]), self._score(D_sl[: W_ + 1], A[: W_ + 1])
         if self.phase == TO_SPHERE and self.arrival_deadline is not None:
             # a plan that would not arrive by the deadline is not admissible (its score would
             # profit from staying away); the sliding law approaches at up to V_max
             d_end = float(np.linalg.norm(self.params.F_arr - D_mpc[-1])) - self.params.L_u
-            room = self.safeguard.envelope_speed * self.params.V_max * max(
-                0.0, self.arrival_deadline - obs.t - K * self.params.dt)
+            room = (
+                self.safeguard.envelope_speed
+                * self.params.V_max
+                * max(0.0, self.arrival_deadline - obs.t - K * self.params.dt)
+            )
             if d_end > room + 1.0:
                 s_mpc = math.inf
         self.predicted_scores.append((s_mpc, s_sl))
@@ -421,7 +459,9 @@ class SafeguardedMPCObserver(MPCObserver):
         on = [k for k, ph in enumerate(phases) if ph != TO_SPHERE]
         return (on[0] if on else steps) * p.dt
 
-    def _phase_bounds(self, obs: CovertObservation, node_t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _phase_bounds(
+        self, obs: CovertObservation, node_t: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         lo, hi, home = super()._phase_bounds(obs, node_t)
         tol = self.safeguard.arrival_tolerance
         if self.phase != TO_SPHERE or tol is None:
@@ -440,8 +480,13 @@ class SafeguardedMPCObserver(MPCObserver):
 
     def command(self, obs: CovertObservation) -> CovertCommand:
         """u (3,) (rad/s) and v (m/s) for this control period."""
-        if (self.phase == TO_SPHERE and self.arrival_deadline is not None and obs.t > self.arrival_deadline
-                and float(np.linalg.norm(self.params.F_arr - obs.drone)) > self.params.L_u + self.settings.arrival_tol):
+        if (
+            self.phase == TO_SPHERE
+            and self.arrival_deadline is not None
+            and obs.t > self.arrival_deadline
+            and float(np.linalg.norm(self.params.F_arr - obs.drone))
+            > self.params.L_u + self.settings.arrival_tol
+        ):
             # past the deadline and still approaching: fly the sliding-mode law (keep the history)
             self._update_phase_mpc(obs)
             self._fit(obs)

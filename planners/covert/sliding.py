@@ -36,9 +36,17 @@ from typing import Any
 
 import numpy as np
 
+from droneplan.scenarios.covert import (
+    CovertCommand,
+    CovertObservation,
+    CovertParams,
+    CovertPhase,
+    CovertScenario,
+    bearing_changes,
+    nearest_on_line,
+    step_drone,
+)
 from droneplan.solvers.validation import check_in_range, check_nonneg, check_positive
-from droneplan.scenarios.covert import (CovertCommand, CovertObservation, CovertParams, CovertPhase, CovertScenario,
-                                        bearing_changes, nearest_on_line, step_drone)
 
 __all__ = [
     "W",
@@ -52,7 +60,12 @@ __all__ = [
     "rollout_sliding",
 ]
 
-TO_SPHERE, ON_SPHERE, RETREAT, DONE = CovertPhase.TO_SPHERE, CovertPhase.ON_SPHERE, CovertPhase.RETREAT, CovertPhase.DONE
+TO_SPHERE, ON_SPHERE, RETREAT, DONE = (
+    CovertPhase.TO_SPHERE,
+    CovertPhase.ON_SPHERE,
+    CovertPhase.RETREAT,
+    CovertPhase.DONE,
+)
 
 
 # --------------------------------------------------------------------------- W and g
@@ -129,8 +142,9 @@ def _p_term(p_m: np.ndarray, settings: SlidingSettings) -> np.ndarray:
     return p_m / np.linalg.norm(p_m) if settings.unit_p else p_m
 
 
-def _steer_for(phase: str, D: np.ndarray, p_m: np.ndarray, params: CovertParams,
-               settings: SlidingSettings) -> np.ndarray:
+def _steer_for(
+    phase: str, D: np.ndarray, p_m: np.ndarray, params: CovertParams, settings: SlidingSettings
+) -> np.ndarray:
     """b_m of the phase given p_m, the vector to the chosen target's constraint line."""
     f = params.F_arr - D
     s = params.D_s_arr - D
@@ -163,8 +177,9 @@ def selection_weights(beta: np.ndarray, settings: SlidingSettings) -> np.ndarray
     return w / w.sum()
 
 
-def sliding_steering(phase: str, D: np.ndarray, A: np.ndarray, params: CovertParams,
-                     settings: SlidingSettings) -> np.ndarray:
+def sliding_steering(
+    phase: str, D: np.ndarray, A: np.ndarray, params: CovertParams, settings: SlidingSettings
+) -> np.ndarray:
     """The steering vector b_m (m or unit, as in the thesis) of the current phase.
 
     D: drone position (3,); A: observable target positions (k, 3), k may be 0.
@@ -193,8 +208,15 @@ def sliding_steering(phase: str, D: np.ndarray, A: np.ndarray, params: CovertPar
     return b
 
 
-def turn_command(h: np.ndarray, b: np.ndarray, params: CovertParams, settings: SlidingSettings,
-                 dt: float, *, throttle: bool = False) -> tuple[np.ndarray, float]:
+def turn_command(
+    h: np.ndarray,
+    b: np.ndarray,
+    params: CovertParams,
+    settings: SlidingSettings,
+    dt: float,
+    *,
+    throttle: bool = False,
+) -> tuple[np.ndarray, float]:
     """The control (3.15): turn h towards b (or -h when b is behind) and fly at +-V_max.
 
     Literal law: u = U_max g(h, b) W(h, b), v = V_max g(h, b). Saturated law: the turn
@@ -250,8 +272,9 @@ class _PhasedController:
         self.fallbacks = 0
         self.solve_times = []
 
-    def _update_phase(self, obs: CovertObservation, *, return_speed: float | None = None,
-                      extra_margin: float = 0.0) -> None:
+    def _update_phase(
+        self, obs: CovertObservation, *, return_speed: float | None = None, extra_margin: float = 0.0
+    ) -> None:
         """Advance to-sphere -> on-sphere -> retreat -> done; the retreat starts when a
         flight home at ``return_speed`` (m/s, default V_max) would end at the duration."""
         p, st = self.params, self.settings
@@ -286,8 +309,9 @@ class _PhasedController:
             return CovertCommand(np.zeros(3), 0.0)
         A = obs.targets
         b = sliding_steering(self.phase, obs.drone, A, self.params, self.settings)
-        u, v = turn_command(obs.heading, b, self.params, self.settings, self.params.dt,
-                            throttle=self.phase == ON_SPHERE)
+        u, v = turn_command(
+            obs.heading, b, self.params, self.settings, self.params.dt, throttle=self.phase == ON_SPHERE
+        )
         return self._limit(u, v, obs)
 
 
@@ -329,9 +353,14 @@ class HoverBenchmark(_PhasedController):
         return CovertCommand(u, v)
 
 
-
-def rollout_sliding(phase: CovertPhase | str, D: Any, h: Any, targets: Any, params: CovertParams,
-                    settings: SlidingSettings | None = None) -> tuple[np.ndarray, np.ndarray, list[CovertPhase]]:
+def rollout_sliding(
+    phase: CovertPhase | str,
+    D: Any,
+    h: Any,
+    targets: Any,
+    params: CovertParams,
+    settings: SlidingSettings | None = None,
+) -> tuple[np.ndarray, np.ndarray, list[CovertPhase]]:
     """Open-loop prediction of the :class:`SlidingModeObserver` from (D, h) in ``phase``.
 
     targets: (K, k, 3) positions (m) of the observable targets at the K control instants

@@ -76,9 +76,14 @@ def allocate_bruteforce(drone_s, steer_s, perimeter: float, *, max_drones: int =
     elapsed = time.perf_counter() - t0
     n_alloc = math.factorial(n) * 2**n
     if best is None:
-        return SolveResult(Status.INFEASIBLE, backend="bruteforce-alg3", backend_status="infeasible",
-                           message="no allocation satisfies (6.22)-(6.23) (coincident steering points)",
-                           solve_time=elapsed, iterations=n_alloc)
+        return SolveResult(
+            Status.INFEASIBLE,
+            backend="bruteforce-alg3",
+            backend_status="infeasible",
+            message="no allocation satisfies (6.22)-(6.23) (coincident steering points)",
+            solve_time=elapsed,
+            iterations=n_alloc,
+        )
     perm, sig, gam = best
     target = np.empty(n, dtype=int)
     direction = np.empty(n, dtype=int)
@@ -86,10 +91,17 @@ def allocate_bruteforce(drone_s, steer_s, perimeter: float, *, max_drones: int =
     target[order] = perm
     direction[order] = np.where(sig == 1, 1, -1)
     travel[order] = gam
-    return SolveResult(Status.OPTIMAL, objective=best_val, bound=best_val,
-                       x=Allocation(target, direction, travel, pts), backend="bruteforce-alg3",
-                       backend_status="optimal", message=f"searched {n_alloc} allocations",
-                       solve_time=elapsed, iterations=n_alloc)
+    return SolveResult(
+        Status.OPTIMAL,
+        objective=best_val,
+        bound=best_val,
+        x=Allocation(target, direction, travel, pts),
+        backend="bruteforce-alg3",
+        backend_status="optimal",
+        message=f"searched {n_alloc} allocations",
+        solve_time=elapsed,
+        iterations=n_alloc,
+    )
 
 
 def crosses(drone_s, perimeter: float, allocation: Allocation) -> bool:
@@ -143,7 +155,14 @@ def allocate_collision_blind(drone_s, steer_s, perimeter: float) -> SolveResult:
     direction = np.where(fwd[rows, target] <= bwd[rows, target], 1, -1)
     travel = dist[rows, target]
     alloc = Allocation(target, direction, travel, pts)
-    return SolveResult(Status.OPTIMAL, objective=float(travel.max()), bound=float(travel.max()), x=alloc,
-                       backend="bottleneck-collision-blind", backend_status="optimal",
-                       message="optimal for the relaxation without (6.22)-(6.23)",
-                       solve_time=time.perf_counter() - t0, info={"crosses": crosses(d, M, alloc)})
+    return SolveResult(
+        Status.OPTIMAL,
+        objective=float(travel.max()),
+        bound=float(travel.max()),
+        x=alloc,
+        backend="bottleneck-collision-blind",
+        backend_status="optimal",
+        message="optimal for the relaxation without (6.22)-(6.23)",
+        solve_time=time.perf_counter() - t0,
+        info={"crosses": crosses(d, M, alloc)},
+    )

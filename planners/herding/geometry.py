@@ -43,8 +43,9 @@ MITRE_LIMIT = 2.0
 sharper than 60 degrees is cut there; 2 * d_s = 60 m stays within Table 6.2's R_b = 100 m)."""
 
 
-def extended_hull_vertices(hull: np.ndarray, d_s: float, *,
-                           mitre_limit: float = MITRE_LIMIT) -> tuple[np.ndarray, np.ndarray]:
+def extended_hull_vertices(
+    hull: np.ndarray, d_s: float, *, mitre_limit: float = MITRE_LIMIT
+) -> tuple[np.ndarray, np.ndarray]:
     """Extended hull (Definition 6.3.1): the hull offset outward by ``d_s`` with mitred corners.
 
     hull: (h, 2) ccw convex-hull vertices, m; d_s: offset, m (> 0).
@@ -76,7 +77,9 @@ def extended_hull_vertices(hull: np.ndarray, d_s: float, *,
         u = P[1] - P[0]
         u = u / np.linalg.norm(u)
         nrm = np.array([-u[1], u[0]])
-        E = np.array([P[0] - d_s * (u + nrm), P[1] + d_s * (u - nrm), P[1] + d_s * (u + nrm), P[0] + d_s * (nrm - u)])
+        E = np.array(
+            [P[0] - d_s * (u + nrm), P[1] + d_s * (u - nrm), P[1] + d_s * (u + nrm), P[0] + d_s * (nrm - u)]
+        )
         return E, P[[0, 1, 1, 0]]
     e = np.roll(P, -1, axis=0) - P
     e_hat = e / np.linalg.norm(e, axis=1)[:, None]
@@ -105,17 +108,21 @@ class ExtendedHull:
     """(n_e + 1,) arc length of each vertex from E_0; cum[-1] = perimeter, m."""
 
     @classmethod
-    def from_points(cls, animals: np.ndarray, d_s: float, *, mitre_limit: float = MITRE_LIMIT) -> "ExtendedHull":
+    def from_points(
+        cls, animals: np.ndarray, d_s: float, *, mitre_limit: float = MITRE_LIMIT
+    ) -> ExtendedHull:
         """Extended hull of a herd (n, 2) at offset d_s (m); mitre_limit: see :func:`extended_hull_vertices`."""
         E, P = extended_hull_vertices(convex_hull(animals), d_s, mitre_limit=mitre_limit)
         return cls.from_vertices(E, P)
 
     @classmethod
-    def from_vertices(cls, E: np.ndarray, P: np.ndarray | None = None) -> "ExtendedHull":
+    def from_vertices(cls, E: np.ndarray, P: np.ndarray | None = None) -> ExtendedHull:
         E = np.asarray(E, dtype=float)
         AB = np.concatenate([E[1:], E[:1]]) - E
         seg = np.sqrt(np.sum(AB * AB, axis=1))
-        return cls(E, E.copy() if P is None else np.asarray(P, dtype=float), np.concatenate([[0.0], np.cumsum(seg)]))
+        return cls(
+            E, E.copy() if P is None else np.asarray(P, dtype=float), np.concatenate([[0.0], np.cumsum(seg)])
+        )
 
     def __post_init__(self) -> None:
         E = self.vertices
@@ -174,7 +181,9 @@ class ExtendedHull:
         if not ok.any():
             return float(self.project(o + u)[0][0])
         i = int(np.flatnonzero(ok)[np.argmin(lam[ok])])
-        return float(np.mod(self.cum[i] + np.clip(mu[i], 0, 1) * (self.cum[i + 1] - self.cum[i]), self.perimeter))
+        return float(
+            np.mod(self.cum[i] + np.clip(mu[i], 0, 1) * (self.cum[i + 1] - self.cum[i]), self.perimeter)
+        )
 
 
 def min_enclosing_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
@@ -197,8 +206,16 @@ def min_enclosing_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
         if abs(d) < 1e-12:  # collinear: the widest pair
             best = max((circ2(a, b), circ2(a, c), circ2(b, c)), key=lambda t: t[1])
             return best
-        ux = ((ax * ax + ay * ay) * (by - cy) + (bx * bx + by * by) * (cy - ay) + (cx * cx + cy * cy) * (ay - by)) / d
-        uy = ((ax * ax + ay * ay) * (cx - bx) + (bx * bx + by * by) * (ax - cx) + (cx * cx + cy * cy) * (bx - ax)) / d
+        ux = (
+            (ax * ax + ay * ay) * (by - cy)
+            + (bx * bx + by * by) * (cy - ay)
+            + (cx * cx + cy * cy) * (ay - by)
+        ) / d
+        uy = (
+            (ax * ax + ay * ay) * (cx - bx)
+            + (bx * bx + by * by) * (ax - cx)
+            + (cx * cx + cy * cy) * (bx - ax)
+        ) / d
         u = np.array([ux, uy])
         return u, float(np.linalg.norm(a - u))
 

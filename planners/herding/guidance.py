@@ -62,8 +62,9 @@ def steer(headings: np.ndarray, b: np.ndarray, V_max: float, U_max: float, dt: f
     return v, omega
 
 
-def fly_to_edge(drones: np.ndarray, headings: np.ndarray, hull: ExtendedHull, V_max: float, U_max: float,
-                dt: float):
+def fly_to_edge(
+    drones: np.ndarray, headings: np.ndarray, hull: ExtendedHull, V_max: float, U_max: float, dt: float
+):
     """Fly to edge (6.11)-(6.13): head for the closest point O of the closest edge.
 
     Returns (v, omega, b) with b (n, 2) the vector from each drone to O, m.
@@ -74,8 +75,9 @@ def fly_to_edge(drones: np.ndarray, headings: np.ndarray, hull: ExtendedHull, V_
     return v, omega, b
 
 
-def next_waypoint(hull: ExtendedHull, s_drone: np.ndarray, edge: np.ndarray, s_target: np.ndarray,
-                  direction: np.ndarray) -> np.ndarray:
+def next_waypoint(
+    hull: ExtendedHull, s_drone: np.ndarray, edge: np.ndarray, s_target: np.ndarray, direction: np.ndarray
+) -> np.ndarray:
     """O* of (6.14): the target if it lies before the next vertex in ``direction``, else that vertex.
 
     s_drone, s_target: (n,) arc positions, m; edge: (n,) current edge index; direction: (n,) +-1.
@@ -98,8 +100,16 @@ def next_waypoint(hull: ExtendedHull, s_drone: np.ndarray, edge: np.ndarray, s_t
     return hull.point_at(s_star)
 
 
-def fly_on_edge(drones: np.ndarray, headings: np.ndarray, hull: ExtendedHull, s_target: np.ndarray,
-                direction: np.ndarray, V_max: float, U_max: float, dt: float):
+def fly_on_edge(
+    drones: np.ndarray,
+    headings: np.ndarray,
+    hull: ExtendedHull,
+    s_target: np.ndarray,
+    direction: np.ndarray,
+    V_max: float,
+    U_max: float,
+    dt: float,
+):
     """Fly on edge (6.14)-(6.16): b* = b + o*, b keeping the drone on the hull, o* to O*.
 
     s_target: (n,) arc positions to reach, m; direction: (n,) +1 (increasing arc) or -1.

@@ -39,7 +39,6 @@ from droneplan.planners.herding.allocation import allocate_bruteforce, allocate_
 from droneplan.planners.herding.geometry import (
     ExtendedHull,
     convex_hull,
-    extended_hull_vertices,
     min_enclosing_circle,
 )
 from droneplan.planners.herding.guidance import fly_on_edge, fly_to_edge, steer
@@ -100,7 +99,9 @@ class _Herder(abc.ABC):
     name = "herder"
 
     def __init__(self, settings: HerderSettings | None = None):
-        self.settings = check_instance("settings", settings, HerderSettings, optional=True) or HerderSettings()
+        self.settings = (
+            check_instance("settings", settings, HerderSettings, optional=True) or HerderSettings()
+        )
         self.phase = HerdingPhase.GATHERING
 
     # -- the closed-loop contract

@@ -28,12 +28,16 @@ def thesis_altitude(z_s, params: SharkParams = THESIS_TABLE_5_1) -> tuple[np.nda
     case_a = (p.le - p.l1 < z) & (z <= 0)
     case_b = (p.lmin - p.l1 <= z) & (z <= p.le - p.l1)
     case_c = (p.lmin - p.l2 <= z) & (z < p.lmin - p.l1)
-    zo = np.select([case_a, case_b, case_c], [np.full(z.shape, p.le), z + p.l1, z + p.l2], default=p.lmin)  # 5.6
+    zo = np.select(
+        [case_a, case_b, case_c], [np.full(z.shape, p.le), z + p.l1, z + p.l2], default=p.lmin
+    )  # 5.6
     e_a = field_radius(p.le - z, p)
     e_c = field_radius(p.lmin - z, p)
     eps = np.select(  # 5.7
         [case_a, (p.lmin - p.l2 <= z) & (z <= p.le - p.l1), (p.lmin - p.lmax <= z) & (z < p.lmin - p.l2)],
-        [e_a, np.full(z.shape, p.eps_o), e_c], default=0.0)
+        [e_a, np.full(z.shape, p.eps_o), e_c],
+        default=0.0,
+    )
     if zo.ndim == 0:
         return float(zo), float(eps)
     return zo, eps

@@ -6,15 +6,28 @@ import numpy as np
 
 from droneplan.formulations.shark import greedy_assignment, solve_assignment, solve_interception
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
-from droneplan.scenarios.shark import THESIS_TABLE_5_1, InterceptionScenario, SharkParams, constant_velocity_trajectory, simulate
+from droneplan.scenarios.shark import (
+    THESIS_TABLE_5_1,
+    InterceptionScenario,
+    SharkParams,
+    constant_velocity_trajectory,
+    simulate,
+)
 from droneplan.solvers.result import SolveResult
 from droneplan.solvers.validation import check_array, check_instance, check_positive
 
 __all__ = ["interception_time_matrix", "allocate_operators"]
 
 
-def interception_time_matrix(operators, sharks_pos, sharks_vel, params: SharkParams = THESIS_TABLE_5_1, *,
-                             method: str = "virtual-shark", t_max: float = 30.0) -> np.ndarray:
+def interception_time_matrix(
+    operators,
+    sharks_pos,
+    sharks_vel,
+    params: SharkParams = THESIS_TABLE_5_1,
+    *,
+    method: str = "virtual-shark",
+    t_max: float = 30.0,
+) -> np.ndarray:
     """(n, s) predicted interception times (s) of each operator on each shark (inf if none).
 
     Sharks are predicted at constant velocity. method: "virtual-shark" (capture time of the
@@ -55,8 +68,16 @@ def interception_time_matrix(operators, sharks_pos, sharks_vel, params: SharkPar
     return C
 
 
-def allocate_operators(operators, sharks_pos, sharks_vel, humans, params: SharkParams = THESIS_TABLE_5_1, *,
-                       method: str = "virtual-shark", greedy: bool = False) -> SolveResult:
+def allocate_operators(
+    operators,
+    sharks_pos,
+    sharks_vel,
+    humans,
+    params: SharkParams = THESIS_TABLE_5_1,
+    *,
+    method: str = "virtual-shark",
+    greedy: bool = False,
+) -> SolveResult:
     """Allocate operators to sharks: optimal bottleneck assignment (or the greedy baseline).
 
     humans: (m, 2 or 3) swimmer positions (m); a shark's priority is its horizontal distance

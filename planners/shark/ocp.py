@@ -3,22 +3,31 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
 from droneplan.formulations.shark import InterceptionOCP, InterceptionPlan, solve_interception
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
-from droneplan.scenarios.shark import (THESIS_TABLE_5_1, InterceptionScenario, SharkCommand, SharkObservation, SharkParams,
-                                      SharkPhase, SharkTrajectory, clip_velocity, simulate)
+from droneplan.scenarios.shark import (
+    THESIS_TABLE_5_1,
+    InterceptionScenario,
+    SharkCommand,
+    SharkObservation,
+    SharkParams,
+    SharkPhase,
+    SharkTrajectory,
+    clip_velocity,
+    simulate,
+)
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_array, check_instance, check_positive
 
 __all__ = ["virtual_shark_plan", "optimal_interception", "OCPInterceptor"]
 
 
-def virtual_shark_plan(trajectory: SharkTrajectory, operator0, params: SharkParams = THESIS_TABLE_5_1, *,
-                       side: int | None = None) -> tuple[InterceptionPlan | None, VirtualSharkInterceptor]:
+def virtual_shark_plan(
+    trajectory: SharkTrajectory, operator0, params: SharkParams = THESIS_TABLE_5_1, *, side: int | None = None
+) -> tuple[InterceptionPlan | None, VirtualSharkInterceptor]:
     """Roll the virtual-shark interceptor out on a known path; its path up to the capture of S2 as a plan.
 
     Returns (plan or None if it never reached S2, the controller after the run; its
@@ -39,11 +48,17 @@ def virtual_shark_plan(trajectory: SharkTrajectory, operator0, params: SharkPara
         return None, vs
     k = int(round(vs.capture_time / params.Ts))
     s = side if side is not None else 0
-    return InterceptionPlan.from_samples(tr.t[:k + 1], tr.operator[:k + 1], s, "virtual-shark"), vs
+    return InterceptionPlan.from_samples(tr.t[: k + 1], tr.operator[: k + 1], s, "virtual-shark"), vs
 
 
-def optimal_interception(trajectory: SharkTrajectory, operator0, params: SharkParams = THESIS_TABLE_5_1, *,
-                         N: int = 50, time_limit: float | None = None) -> SolveResult:
+def optimal_interception(
+    trajectory: SharkTrajectory,
+    operator0,
+    params: SharkParams = THESIS_TABLE_5_1,
+    *,
+    N: int = 50,
+    time_limit: float | None = None,
+) -> SolveResult:
     """Offline optimum for a known path: the OCP warm-started from virtual-shark rollouts on both sides.
 
     Also tries the formulation's two crude starts; ``info["virtual_shark_T"]`` holds the thesis
@@ -90,15 +105,25 @@ class OCPInterceptor:
     terminal point and holds (``at_interception``, ``SharkPhase.HOLD``), as the thesis's step 3.
     """
 
-    def __init__(self, params: SharkParams = THESIS_TABLE_5_1, *, N: int = 20,
-                 path: SharkTrajectory | None = None, margin: float = 0.05, time_limit: float | None = None,
-                 max_iter: int = 300, hold_timeout: float = 1.0):
+    def __init__(
+        self,
+        params: SharkParams = THESIS_TABLE_5_1,
+        *,
+        N: int = 20,
+        path: SharkTrajectory | None = None,
+        margin: float = 0.05,
+        time_limit: float | None = None,
+        max_iter: int = 300,
+        hold_timeout: float = 1.0,
+    ):
         check_instance("params", params, SharkParams)
         check_positive("hold_timeout", hold_timeout)
         self.params, self.N, self.path, self.margin = params, N, path, margin
         self.time_limit = time_limit
         self.hold_timeout = hold_timeout
-        self.ocp = InterceptionOCP(params, N=N, path=path, margin=margin, time_limit=time_limit, max_iter=max_iter)
+        self.ocp = InterceptionOCP(
+            params, N=N, path=path, margin=margin, time_limit=time_limit, max_iter=max_iter
+        )
         self._start()
 
     def reset(self, scenario: InterceptionScenario, *, seed=None) -> None:
@@ -120,9 +145,12 @@ class OCPInterceptor:
 
     def _first_guesses(self, t, O, S, V):
         if self.path is not None:
-            sub = SharkTrajectory(self.path.t[: len(self.path.t) - int(round(t / self.params.Ts))],
-                                  self.path.pos[int(round(t / self.params.Ts)):],
-                                  self.path.vel[int(round(t / self.params.Ts)):], self.path.name)
+            sub = SharkTrajectory(
+                self.path.t[: len(self.path.t) - int(round(t / self.params.Ts))],
+                self.path.pos[int(round(t / self.params.Ts)) :],
+                self.path.vel[int(round(t / self.params.Ts)) :],
+                self.path.name,
+            )
             out = []
             for side in (1, -1):
                 plan, _ = virtual_shark_plan(sub, O, self.params, side=side)
@@ -177,7 +205,7 @@ class OCPInterceptor:
             return clip_velocity(p.VoMxy * d / (np.linalg.norm(d) + 1e-9), p)[0]
         plan = res.x
         self.plans.append(plan)
-        if plan.T <= p.Ts + 1e-9:  # reach the terminal point within this step, then hold
+        if p.Ts + 1e-9 >= plan.T:  # reach the terminal point within this step, then hold
             self.phase, self.at_interception = SharkPhase.HOLD, True
             self.capture_time = t + plan.T
             self._hold_since = t

@@ -31,11 +31,18 @@ import math
 
 import numpy as np
 
-from droneplan.solvers.validation import check_instance, check_positive
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark.altitude import thesis_altitude
-from droneplan.scenarios.shark import (THESIS_TABLE_5_1, InterceptionScenario, SharkCommand, SharkObservation, SharkParams,
-                                      SharkPhase, clip_velocity)
+from droneplan.scenarios.shark import (
+    THESIS_TABLE_5_1,
+    InterceptionScenario,
+    SharkCommand,
+    SharkObservation,
+    SharkParams,
+    SharkPhase,
+    clip_velocity,
+)
+from droneplan.solvers.validation import check_instance, check_positive
 
 __all__ = ["ClassicalPursuit", "VirtualSharkInterceptor"]
 
@@ -101,9 +108,16 @@ class VirtualSharkInterceptor:
     time step 3 was entered, i.e. the interception point was reached).
     """
 
-    def __init__(self, params: SharkParams = THESIS_TABLE_5_1, *, altitude: str = "exact",
-                 side: int | None = None, speed_eps: float = 0.05, hold_timeout: float = 1.0,
-                 restart_step1: bool = True):
+    def __init__(
+        self,
+        params: SharkParams = THESIS_TABLE_5_1,
+        *,
+        altitude: str = "exact",
+        side: int | None = None,
+        speed_eps: float = 0.05,
+        hold_timeout: float = 1.0,
+        restart_step1: bool = True,
+    ):
         if altitude not in ("exact", "thesis"):
             raise ValueError(f"altitude must be 'exact' or 'thesis', got {altitude!r}")
         if side not in (None, 1, -1):

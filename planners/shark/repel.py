@@ -13,17 +13,24 @@ Per step the operator (assigned to one shark) does:
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from droneplan.solvers.validation import check_array, check_instance, check_int, check_nonneg
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark.ocp import OCPInterceptor
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
-from droneplan.scenarios.shark import (THESIS_TABLE_5_1, InterceptionScenario, RepellingMode, RepellingObservation,
-                                      RepellingScenario, SharkCommand, SharkObservation, SharkParams, clip_velocity,
-                                      constant_velocity_trajectory)
+from droneplan.scenarios.shark import (
+    THESIS_TABLE_5_1,
+    InterceptionScenario,
+    RepellingMode,
+    RepellingObservation,
+    RepellingScenario,
+    SharkCommand,
+    SharkObservation,
+    SharkParams,
+    clip_velocity,
+    constant_velocity_trajectory,
+)
+from droneplan.solvers.validation import check_array, check_instance, check_int, check_nonneg
 
 __all__ = ["RepellingOperator"]
 
@@ -43,13 +50,28 @@ class RepellingOperator:
     params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     """
 
-    def __init__(self, shark: int, params: SharkParams = THESIS_TABLE_5_1, *, T_w: float = 4.0,
-                 follow_distance: float = 12.0, alert_radius: float = 150.0, cover_distance: float = 10.0,
-                 closing_speed: float = 0.5, safety_distance: float = 300.0, base=(0.0, -100.0, 2.0),
-                 interceptor: str = "virtual-shark"):
-        for name, v in dict(T_w=T_w, follow_distance=follow_distance, alert_radius=alert_radius,
-                            cover_distance=cover_distance, closing_speed=closing_speed,
-                            safety_distance=safety_distance).items():
+    def __init__(
+        self,
+        shark: int,
+        params: SharkParams = THESIS_TABLE_5_1,
+        *,
+        T_w: float = 4.0,
+        follow_distance: float = 12.0,
+        alert_radius: float = 150.0,
+        cover_distance: float = 10.0,
+        closing_speed: float = 0.5,
+        safety_distance: float = 300.0,
+        base=(0.0, -100.0, 2.0),
+        interceptor: str = "virtual-shark",
+    ):
+        for name, v in dict(
+            T_w=T_w,
+            follow_distance=follow_distance,
+            alert_radius=alert_radius,
+            cover_distance=cover_distance,
+            closing_speed=closing_speed,
+            safety_distance=safety_distance,
+        ).items():
             check_nonneg(name, v)
         check_int("shark", shark, min_value=0)
         check_instance("params", params, SharkParams)
@@ -127,6 +149,8 @@ class RepellingOperator:
             self._ctl = self._new_interceptor()
             # the interceptors read only the parameters from the scenario; the shark's path is unknown here
             flat_v = np.r_[V[:2], 0.0]
-            self._ctl.reset(InterceptionScenario(constant_velocity_trajectory(S, flat_v, duration=p.Ts, dt=p.Ts), p, O))
+            self._ctl.reset(
+                InterceptionScenario(constant_velocity_trajectory(S, flat_v, duration=p.Ts, dt=p.Ts), p, O)
+            )
         self.phase = RepellingMode.INTERCEPT
         return self._ctl.command(SharkObservation(t, O, S, V)).velocity

@@ -20,7 +20,6 @@ every problem (:mod:`droneplan.scenarios.loop`):
 - optional ``fallbacks`` (int), ``statuses`` and ``solve_times`` (list of s), counted in the trace.
 """
 
-
 from droneplan.scenarios.covert.dynamics import (
     Controller,
     CovertCommand,
@@ -37,11 +36,11 @@ from droneplan.scenarios.covert.dynamics import (
 )
 from droneplan.scenarios.covert.world import (
     CASE1_TERRAIN,
+    FIG_3_13_OBSTACLE,
     HABITAT,
     THESIS_TABLE_3_2,
     ZONE,
     CovertParams,
-    FIG_3_13_OBSTACLE,
     CovertScenario,
     Obstacle,
     Occlusion,

@@ -10,8 +10,14 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 
 from droneplan.scenarios.covert.world import CovertParams, CovertScenario
-from droneplan.solvers.validation import check_array, check_methods, check_nonneg, check_positive, resolve_seed
 from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
+from droneplan.solvers.validation import (
+    check_array,
+    check_methods,
+    check_nonneg,
+    check_positive,
+    resolve_seed,
+)
 
 __all__ = [
     "CovertPhase",
@@ -56,7 +62,9 @@ def bearing_changes(drone: Any, targets: Any, R: Any) -> np.ndarray:
     A = check_array("targets", targets)
     Rv = check_array("R", R, shape=(3,))
     if D.shape[-1:] != (3,) or A.shape[-1:] != (3,) or Rv.shape != (3,):
-        raise ValueError(f"drone (...,3), targets (...,n,3), R (3,) expected; got {D.shape}, {A.shape}, {Rv.shape}")
+        raise ValueError(
+            f"drone (...,3), targets (...,n,3), R (3,) expected; got {D.shape}, {A.shape}, {Rv.shape}"
+        )
     if not (np.isfinite(D).all() and np.isfinite(A).all() and np.isfinite(Rv).all()):
         raise ValueError("drone, targets and R must be finite")
     a = A - D[..., None, :]
@@ -115,7 +123,9 @@ def rotate_heading(h: Any, u: Any, dt: float) -> tuple[np.ndarray, np.ndarray]:
     return h_new, s_over * h + c_over * u
 
 
-def step_drone(D: Any, h: Any, u: Any, v: float, dt: float, params: CovertParams) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+def step_drone(
+    D: Any, h: Any, u: Any, v: float, dt: float, params: CovertParams
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """One plant step of (3.2)-(3.5): actuator limits, then the exact rotation of the heading.
 
     The command is made admissible first: u is projected on the plane orthogonal to h
@@ -237,8 +247,13 @@ class CovertTrace(LoopTrace):
 
     def frame(self, k: int) -> CovertFrame:
         """The state at recorded instant ``k`` (negative counts from the end)."""
-        return CovertFrame(t=float(self.t[k]), drone=self.drone[k], heading=self.heading[k], targets=self.targets[k],
-                           phase=self.phase[k])
+        return CovertFrame(
+            t=float(self.t[k]),
+            drone=self.drone[k],
+            heading=self.heading[k],
+            targets=self.targets[k],
+            phase=self.phase[k],
+        )
 
     @property
     def frames(self) -> list[CovertFrame]:
@@ -267,9 +282,15 @@ class CovertTrace(LoopTrace):
     """Centre of the observation sphere of the run (m)."""
 
 
-def simulate(scenario: CovertScenario, controller: Controller, *, noise: float = 0.0,
-             seed: int | np.random.Generator | None = None, max_time: float | None = None,
-             initial_heading: Any = None) -> CovertTrace:
+def simulate(
+    scenario: CovertScenario,
+    controller: Controller,
+    *,
+    noise: float = 0.0,
+    seed: int | np.random.Generator | None = None,
+    max_time: float | None = None,
+    initial_heading: Any = None,
+) -> CovertTrace:
     """Run ``controller`` on ``scenario`` in closed loop from D_s until it reports it is back.
 
     controller: a :class:`Controller` (``reset(scenario, seed=...)``, ``command(CovertObservation)
@@ -291,7 +312,11 @@ def simulate(scenario: CovertScenario, controller: Controller, *, noise: float =
     if t_stop / p.dt > 1e7:
         raise ValueError(f"max_time asks for {t_stop / p.dt:.3g} steps of dt = {p.dt} s, more than 1e7")
     D = p.D_s_arr.copy()
-    h = p.F_arr - D if initial_heading is None else check_array("initial_heading", initial_heading, shape=(3,))
+    h = (
+        p.F_arr - D
+        if initial_heading is None
+        else check_array("initial_heading", initial_heading, shape=(3,))
+    )
     if np.linalg.norm(h) == 0:
         raise ValueError("initial_heading must be a non-zero vector")
     h = h / np.linalg.norm(h)
@@ -347,15 +372,30 @@ def simulate(scenario: CovertScenario, controller: Controller, *, noise: float =
     t_f = float(t_arr[ret[0]]) if ret.size and on.size else None
     if on.size:
         i1 = ret[0] if ret.size else len(t_arr) - 1
-        dist = np.linalg.norm(drone[on[0]:i1 + 1] - p.F_arr, axis=1)
+        dist = np.linalg.norm(drone[on[0] : i1 + 1] - p.F_arr, axis=1)
         sphere_error = float(np.max(np.abs(dist - p.L_u)))
     else:
         sphere_error = math.nan
     bm = beta[~np.isnan(beta)]
-    final = CovertFrame(t=float(t_arr[-1]), drone=drone[-1], heading=np.asarray(hs[-1]), targets=targets[-1],
-                        phase=phase[-1])
+    final = CovertFrame(
+        t=float(t_arr[-1]), drone=drone[-1], heading=np.asarray(hs[-1]), targets=targets[-1], phase=phase[-1]
+    )
     return CovertTrace(
-        t=t_arr, final=final, seed=seed, **controller_counters(controller), drone=drone, heading=np.asarray(hs),
-        targets=targets, beta=beta, beta_max=float(bm.max()) if bm.size else math.nan, sphere_error=sphere_error,
-        t_a=t_a, t_f=t_f, phase=phase, u=np.asarray(us), v=np.asarray(vs), finished=finished, F=p.F,
+        t=t_arr,
+        final=final,
+        seed=seed,
+        **controller_counters(controller),
+        drone=drone,
+        heading=np.asarray(hs),
+        targets=targets,
+        beta=beta,
+        beta_max=float(bm.max()) if bm.size else math.nan,
+        sphere_error=sphere_error,
+        t_a=t_a,
+        t_f=t_f,
+        phase=phase,
+        u=np.asarray(us),
+        v=np.asarray(vs),
+        finished=finished,
+        F=p.F,
     )

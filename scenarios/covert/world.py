@@ -73,9 +73,12 @@ class CovertParams:
         if np.linalg.norm(np.subtract(self.D_s, self.F)) <= self.L_u:
             raise ValueError(
                 f"D_s must lie outside the observation sphere: |D_s - F| = "
-                f"{np.linalg.norm(np.subtract(self.D_s, self.F)):.3f} m <= L_u = {self.L_u} m")
+                f"{np.linalg.norm(np.subtract(self.D_s, self.F)):.3f} m <= L_u = {self.L_u} m"
+            )
         if self.U_max * self.dt > math.pi:
-            raise ValueError(f"U_max * dt must be <= pi (one step turns at most half a turn), got {self.U_max * self.dt}")
+            raise ValueError(
+                f"U_max * dt must be <= pi (one step turns at most half a turn), got {self.U_max * self.dt}"
+            )
 
     @property
     def F_arr(self) -> np.ndarray:
@@ -143,7 +146,9 @@ class TargetPath:
         if pts.shape[0] < 2:
             raise ValueError("points must not all coincide")
         object.__setattr__(self, "points", pts)
-        object.__setattr__(self, "_s", np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))]))
+        object.__setattr__(
+            self, "_s", np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+        )
 
     @property
     def length(self) -> float:
@@ -332,14 +337,17 @@ class CovertScenario:
             if not self.targets_stop and path.length < mission - self.params.V_T * self.params.dt:
                 raise ValueError(
                     f"paths[{j}] is {path.length:.3f} m long, shorter than the mission's V_T * duration = "
-                    f"{mission:.3f} m (the target would stop); pass targets_stop=True to allow it")
+                    f"{mission:.3f} m (the target would stop); pass targets_stop=True to allow it"
+                )
         R = self.params.R_arr
         for occ in self.occlusions:
             if occ.target >= len(self.paths):
                 raise ValueError(f"occlusion target {occ.target} out of range (n = {len(self.paths)})")
         for j, p in enumerate(self.paths):
             if np.min(np.linalg.norm(p.points - R, axis=1)) < 1e-6:
-                raise ValueError(f"target {j} passes through the reference point R (bearing change undefined)")
+                raise ValueError(
+                    f"target {j} passes through the reference point R (bearing change undefined)"
+                )
 
     @property
     def n_targets(self) -> int:
@@ -366,7 +374,9 @@ class CovertScenario:
             mask[..., occ.target] &= ~((t >= occ.start) & (t < occ.end))
         if self.obstacles and self.n_targets:
             if drone is None:
-                raise ValueError("drone is required: with obstacles, line of sight depends on the drone position")
+                raise ValueError(
+                    "drone is required: with obstacles, line of sight depends on the drone position"
+                )
             D = np.asarray(drone, dtype=float)
             if D.shape != t.shape + (3,) or not np.isfinite(D).all():
                 raise ValueError(f"drone must be a finite array of shape {t.shape + (3,)}, got {D.shape}")
@@ -422,8 +432,14 @@ CASE1_TERRAIN = Terrain(((150.0, 125.0, 25.0, 22.0), (60.0, 60.0, 6.0, 30.0), (1
 """Case 1 ground: a 25 m hill that target 1 climbs, and two low swells (m)."""
 
 
-def thesis_case(case: int, seed: int | np.random.Generator | None = 0, *, V_T: float | None = None,
-                occlusion: bool | str = False, params: CovertParams | None = None) -> CovertScenario:
+def thesis_case(
+    case: int,
+    seed: int | np.random.Generator | None = 0,
+    *,
+    V_T: float | None = None,
+    occlusion: bool | str = False,
+    params: CovertParams | None = None,
+) -> CovertScenario:
     """The thesis simulation cases (§3.5) over uneven terrain, with Table 3.2 parameters.
 
     case 1: two targets, target 1 on an S-shaped path whose second half climbs a hill,
@@ -446,7 +462,9 @@ def thesis_case(case: int, seed: int | np.random.Generator | None = 0, *, V_T: f
     if isinstance(occlusion, np.bool_):
         occlusion = bool(occlusion)
     if not isinstance(occlusion, (bool, str)):
-        raise TypeError(f"occlusion must be a bool or 'obstacle' / 'scripted', got {type(occlusion).__name__}")
+        raise TypeError(
+            f"occlusion must be a bool or 'obstacle' / 'scripted', got {type(occlusion).__name__}"
+        )
     if occlusion not in (False, True, "obstacle", "scripted"):
         raise ValueError(f"occlusion must be False, True, 'obstacle' or 'scripted', got {occlusion!r}")
     if isinstance(case, (bool, np.bool_)) or case not in (1, 2):
@@ -462,8 +480,9 @@ def thesis_case(case: int, seed: int | np.random.Generator | None = 0, *, V_T: f
         occ = (Occlusion(1, 90.0 * 2.0 / speed),) if occlusion == "scripted" else ()
         obstacles = (FIG_3_13_OBSTACLE,) if occlusion in (True, "obstacle") else ()
         label = {False: "", True: " (obstacle)", "obstacle": " (obstacle)", "scripted": " (occlusion window)"}
-        return CovertScenario(p, terrain, paths, occ, name="case 1" + label[occlusion], seed=None,
-                              obstacles=obstacles)
+        return CovertScenario(
+            p, terrain, paths, occ, name="case 1" + label[occlusion], seed=None, obstacles=obstacles
+        )
     if case == 2:
         if occlusion:
             raise ValueError("occlusion is defined for case 1 only (Fig. 3.13)")
@@ -473,8 +492,13 @@ def thesis_case(case: int, seed: int | np.random.Generator | None = 0, *, V_T: f
     raise ValueError(f"case must be 1 or 2, got {case!r}")
 
 
-def random_case(n_targets: int, seed: int | np.random.Generator | None = None, *,
-                params: CovertParams | None = None, n_hills: int = 4) -> CovertScenario:
+def random_case(
+    n_targets: int,
+    seed: int | np.random.Generator | None = None,
+    *,
+    params: CovertParams | None = None,
+    n_hills: int = 4,
+) -> CovertScenario:
     """Random targets on curvy paths over random smooth hills (the family of case 2).
 
     n_targets: number of targets (>= 1).
@@ -492,9 +516,14 @@ def random_case(n_targets: int, seed: int | np.random.Generator | None = None, *
     if not isinstance(p, CovertParams):
         raise TypeError(f"params must be CovertParams or None, got {type(params).__name__}")
     rng, used = resolve_seed(seed)
-    hills = np.column_stack([
-        rng.uniform(30.0, 190.0, n_hills), rng.uniform(30.0, 190.0, n_hills),
-        rng.uniform(5.0, 25.0, n_hills), rng.uniform(15.0, 35.0, n_hills)])
+    hills = np.column_stack(
+        [
+            rng.uniform(30.0, 190.0, n_hills),
+            rng.uniform(30.0, 190.0, n_hills),
+            rng.uniform(5.0, 25.0, n_hills),
+            rng.uniform(15.0, 35.0, n_hills),
+        ]
+    )
     terrain = Terrain(tuple(map(tuple, hills)))
     length = p.V_T * p.duration
     ds = 0.5
@@ -520,5 +549,3 @@ def random_case(n_targets: int, seed: int | np.random.Generator | None = None, *
             pos = nxt
         paths.append(_scale_to_length(xy, terrain, length))
     return CovertScenario(p, terrain, tuple(paths), (), name=f"random {n_targets} targets", seed=used)
-
-

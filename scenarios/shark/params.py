@@ -84,7 +84,9 @@ class SharkParams:
         if not self.VoMz > self.VsMz:
             raise ValueError(f"VoMz > VsMz violated (premise of Prop. 5.3.2): {self.VoMz} <= {self.VsMz}")
         if not self.Di > self.eps_o:
-            raise ValueError(f"Di > eps_o violated (premise of Prop. 5.3.2): Di={self.Di}, eps_o={self.eps_o}")
+            raise ValueError(
+                f"Di > eps_o violated (premise of Prop. 5.3.2): Di={self.Di}, eps_o={self.eps_o}"
+            )
 
     @property
     def VoM(self) -> float:

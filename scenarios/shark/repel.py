@@ -22,8 +22,14 @@ from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, insi
 from droneplan.scenarios.shark.simulate import SharkCommand, clip_velocity
 from droneplan.solvers.validation import as_generator, check_methods, check_positive, check_real
 
-__all__ = ["SharkBehaviour", "RepellingMode", "RepellingScenario", "RepellingObservation", "RepellingTrace",
-           "simulate_repelling"]
+__all__ = [
+    "SharkBehaviour",
+    "RepellingMode",
+    "RepellingScenario",
+    "RepellingObservation",
+    "RepellingTrace",
+    "simulate_repelling",
+]
 
 
 @dataclass(frozen=True)
@@ -136,9 +142,17 @@ class RepellingTrace:
     """Extra per-episode data (e.g. per-operator counters)."""
 
 
-def simulate_repelling(sharks0, operators0, swimmers, controllers, params: SharkParams = THESIS_TABLE_5_1,
-                       behaviour: SharkBehaviour = SharkBehaviour(), *, t_max: float = 300.0,
-                       seed=0) -> RepellingTrace:
+def simulate_repelling(
+    sharks0,
+    operators0,
+    swimmers,
+    controllers,
+    params: SharkParams = THESIS_TABLE_5_1,
+    behaviour: SharkBehaviour = SharkBehaviour(),
+    *,
+    t_max: float = 300.0,
+    seed=0,
+) -> RepellingTrace:
     """Simulate sharks hunting swimmers while operators repel them, at Ts.
 
     sharks0 (s,2|3), operators0 (n,3), swimmers (m,2|3) in m; controllers: one per operator,
@@ -186,10 +200,15 @@ def simulate_repelling(sharks0, operators0, swimmers, controllers, params: Shark
     for k in range(n_steps):
         t = k * Ts
         V = np.c_[behaviour.speed * np.cos(heading), behaviour.speed * np.sin(heading), np.zeros(s)]
-        cmds = [c.command(RepellingObservation(t, O[i].copy(), S.copy(), V.copy(), H.copy(), contact_prev[i].copy()))
-                for i, c in enumerate(controllers)]
-        vel = np.array([clip_velocity(cmd.velocity if isinstance(cmd, SharkCommand) else cmd, params)[0]
-                        for cmd in cmds]).reshape(-1, 3)
+        cmds = [
+            c.command(
+                RepellingObservation(t, O[i].copy(), S.copy(), V.copy(), H.copy(), contact_prev[i].copy())
+            )
+            for i, c in enumerate(controllers)
+        ]
+        vel = np.array(
+            [clip_velocity(cmd.velocity if isinstance(cmd, SharkCommand) else cmd, params)[0] for cmd in cmds]
+        ).reshape(-1, 3)
         On = O + Ts * vel
         On[:, 2] = np.clip(On[:, 2], params.lmin, params.le)
         # shark heading update
@@ -231,5 +250,15 @@ def simulate_repelling(sharks0, operators0, swimmers, controllers, params: Shark
         if (dist.min(axis=1) > behaviour.safety_distance).all():
             break
     dist = np.linalg.norm(H[None] - S[:, None, :2], axis=2).min(axis=1)
-    return RepellingTrace(np.array(ts), np.array(Ss), np.array(Os), np.array(Ms), reactions, ignored, attacked,
-                          dist > behaviour.safety_distance, ts[-1], seed if isinstance(seed, int) else None)
+    return RepellingTrace(
+        np.array(ts),
+        np.array(Ss),
+        np.array(Os),
+        np.array(Ms),
+        reactions,
+        ignored,
+        attacked,
+        dist > behaviour.safety_distance,
+        ts[-1],
+        seed if isinstance(seed, int) else None,
+    )

@@ -14,9 +14,21 @@ from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, fiel
 from droneplan.scenarios.shark.trajectories import SharkTrajectory
 from droneplan.solvers.validation import check_array, check_in_range, check_int, check_methods, check_real
 
-__all__ = ["SharkPhase", "InterceptionScenario", "SharkObservation", "SharkCommand", "SharkFrame",
-           "InterceptionController", "InterceptionTrace", "simulate", "simulate_interception", "operator_start",
-           "clip_velocity", "FRONTAL_TOL_DEG", "DEFAULT_BEARING_DEG"]
+__all__ = [
+    "SharkPhase",
+    "InterceptionScenario",
+    "SharkObservation",
+    "SharkCommand",
+    "SharkFrame",
+    "InterceptionController",
+    "InterceptionTrace",
+    "simulate",
+    "simulate_interception",
+    "operator_start",
+    "clip_velocity",
+    "FRONTAL_TOL_DEG",
+    "DEFAULT_BEARING_DEG",
+]
 
 DEFAULT_BEARING_DEG = -105.0
 """Default operator start bearing (deg) from the shark's initial heading: behind-right.
@@ -60,7 +72,9 @@ class InterceptionScenario:
             raise TypeError(f"trajectory must be a SharkTrajectory, got {type(self.trajectory).__name__}")
         if not isinstance(self.params, SharkParams):
             raise TypeError(f"params must be SharkParams, got {type(self.params).__name__}")
-        if self.trajectory.dt != self.params.Ts and not math.isclose(self.trajectory.dt, self.params.Ts, rel_tol=1e-9):
+        if self.trajectory.dt != self.params.Ts and not math.isclose(
+            self.trajectory.dt, self.params.Ts, rel_tol=1e-9
+        ):
             raise ValueError(f"trajectory dt={self.trajectory.dt} must equal Ts={self.params.Ts}")
         if self.operator0 is not None:
             O = check_array("operator0", self.operator0, shape=(3,))
@@ -173,8 +187,13 @@ class InterceptionTrace(LoopTrace):
 
     def frame(self, k: int) -> SharkFrame:
         """The state at recorded instant ``k`` (negative counts from the end)."""
-        return SharkFrame(t=float(self.t[k]), operator=self.operator[k], shark=self.shark[k],
-                          shark_vel=self.shark_vel[k], phase=self.phase[k])
+        return SharkFrame(
+            t=float(self.t[k]),
+            operator=self.operator[k],
+            shark=self.shark[k],
+            shark_vel=self.shark_vel[k],
+            phase=self.phase[k],
+        )
 
     @property
     def frames(self) -> list[SharkFrame]:
@@ -203,8 +222,13 @@ def clip_velocity(v, params: SharkParams) -> tuple[np.ndarray, bool]:
     return v, clipped
 
 
-def operator_start(trajectory: SharkTrajectory, params: SharkParams = THESIS_TABLE_5_1, *,
-                   bearing_deg: float = DEFAULT_BEARING_DEG, altitude: float | None = None) -> np.ndarray:
+def operator_start(
+    trajectory: SharkTrajectory,
+    params: SharkParams = THESIS_TABLE_5_1,
+    *,
+    bearing_deg: float = DEFAULT_BEARING_DEG,
+    altitude: float | None = None,
+) -> np.ndarray:
     """Operator start: Di metres from the shark horizontally, at ``bearing_deg`` from its initial heading.
 
     bearing 0 = straight ahead, -90 = to the right of the shark (default DEFAULT_BEARING_DEG); altitude defaults to le.
@@ -223,10 +247,18 @@ def operator_start(trajectory: SharkTrajectory, params: SharkParams = THESIS_TAB
     return np.array([s0[0] + params.Di * math.cos(psi), s0[1] + params.Di * math.sin(psi), z])
 
 
-def simulate(scenario: InterceptionScenario | SharkTrajectory, controller: InterceptionController,
-             params: SharkParams | None = None, *, seed: Any = None, operator0=None, bearing_deg: float | None = None,
-             t_max: float | None = None, frontal_tol_deg: float = FRONTAL_TOL_DEG,
-             substeps: int = 10) -> InterceptionTrace:
+def simulate(
+    scenario: InterceptionScenario | SharkTrajectory,
+    controller: InterceptionController,
+    params: SharkParams | None = None,
+    *,
+    seed: Any = None,
+    operator0=None,
+    bearing_deg: float | None = None,
+    t_max: float | None = None,
+    frontal_tol_deg: float = FRONTAL_TOL_DEG,
+    substeps: int = 10,
+) -> InterceptionTrace:
     """Run ``controller`` against the shark's path with the integrator dynamics (5.4) at Ts.
 
     scenario: an :class:`InterceptionScenario`, or a :class:`SharkTrajectory` with ``params``
@@ -246,20 +278,30 @@ def simulate(scenario: InterceptionScenario | SharkTrajectory, controller: Inter
         if params is not None or operator0 is not None or bearing_deg is not None:
             raise ValueError("params, operator0 and bearing_deg are already set by the InterceptionScenario")
     elif isinstance(scenario, SharkTrajectory):
-        scenario = InterceptionScenario(scenario, THESIS_TABLE_5_1 if params is None else params, operator0,
-                                        DEFAULT_BEARING_DEG if bearing_deg is None else bearing_deg)
+        scenario = InterceptionScenario(
+            scenario,
+            THESIS_TABLE_5_1 if params is None else params,
+            operator0,
+            DEFAULT_BEARING_DEG if bearing_deg is None else bearing_deg,
+        )
     else:
-        raise TypeError(f"scenario must be an InterceptionScenario or a SharkTrajectory, got {type(scenario).__name__}")
+        raise TypeError(
+            f"scenario must be an InterceptionScenario or a SharkTrajectory, got {type(scenario).__name__}"
+        )
     check_methods("controller", controller, ("reset", "command"))
     trajectory, params = scenario.trajectory, scenario.params
     if t_max is not None:
         check_in_range("t_max", t_max, 0.0, lo_open=True)
-    frontal_tol_deg = check_in_range("frontal_tol_deg", frontal_tol_deg, 0.0, 180.0, lo_open=True, hi_open=True)
+    frontal_tol_deg = check_in_range(
+        "frontal_tol_deg", frontal_tol_deg, 0.0, 180.0, lo_open=True, hi_open=True
+    )
     substeps = check_int("substeps", substeps, min_value=1, max_value=10_000)
     O = scenario.operator
     if np.hypot(*(O[:2] - trajectory.pos[0, :2])) <= params.eps_o:
         raise ValueError(f"initial horizontal separation must exceed eps_o={params.eps_o} (Prop. 5.3.2)")
-    n_max = len(trajectory.t) - 1 if t_max is None else min(len(trajectory.t) - 1, int(round(t_max / params.Ts)))
+    n_max = (
+        len(trajectory.t) - 1 if t_max is None else min(len(trajectory.t) - 1, int(round(t_max / params.Ts)))
+    )
     controller.reset(scenario, seed=seed)
     ops, ovs, phases = [O.copy()], [], []
     clipped_steps = 0
@@ -299,15 +341,35 @@ def simulate(scenario: InterceptionScenario | SharkTrajectory, controller: Inter
     eps = field_radius(op[:, 2] - sh[:, 2], params)
     D_h = np.hypot(*(op[:, :2] - sh[:, :2]).T)
     phase = np.empty(K, dtype=object)
-    phase[:] = phases + [phases[-1] if phases else SharkPhase(getattr(controller, "phase", SharkPhase.PURSUIT))]
-    common = dict(t=t, final=SharkFrame(t=float(t[-1]), operator=op[-1], shark=sh[-1], shark_vel=sv[-1],
-                                        phase=phase[-1]),
-                  seed=seed, **controller_counters(controller), operator=op, shark=sh, operator_vel=ov,
-                  shark_vel=sv, eps=eps, D_h=D_h, phase=phase, clipped_steps=clipped_steps,
-                  frontal_tol_deg=frontal_tol_deg, name=trajectory.name)
+    phase[:] = phases + [
+        phases[-1] if phases else SharkPhase(getattr(controller, "phase", SharkPhase.PURSUIT))
+    ]
+    common = dict(
+        t=t,
+        final=SharkFrame(t=float(t[-1]), operator=op[-1], shark=sh[-1], shark_vel=sv[-1], phase=phase[-1]),
+        seed=seed,
+        **controller_counters(controller),
+        operator=op,
+        shark=sh,
+        operator_vel=ov,
+        shark_vel=sv,
+        eps=eps,
+        D_h=D_h,
+        phase=phase,
+        clipped_steps=clipped_steps,
+        frontal_tol_deg=frontal_tol_deg,
+        name=trajectory.name,
+    )
     if contact is None:
-        return InterceptionTrace(**common, intercept_time=None, interception_distance=None, frontal=False,
-                                 frontal_angle=None, touched_early=False, contact_eps=None)
+        return InterceptionTrace(
+            **common,
+            intercept_time=None,
+            interception_distance=None,
+            frontal=False,
+            frontal_angle=None,
+            touched_early=False,
+            contact_eps=None,
+        )
     _, tc, Sc, Vc, Oc, ready = contact
     rel = Oc[:2] - Sc[:2]
     hv = Vc[:2]
@@ -317,9 +379,14 @@ def simulate(scenario: InterceptionScenario | SharkTrajectory, controller: Inter
         cosang = np.dot(rel, hv) / (np.linalg.norm(rel) * np.linalg.norm(hv))
         angle = math.degrees(math.acos(max(-1.0, min(1.0, cosang))))
     return InterceptionTrace(
-        **common, intercept_time=tc, interception_distance=float(np.linalg.norm(Sc - trajectory.pos[0])),
-        frontal=angle <= frontal_tol_deg, frontal_angle=angle, touched_early=not ready,
-        contact_eps=float(field_radius(Oc[2] - Sc[2], params)))
+        **common,
+        intercept_time=tc,
+        interception_distance=float(np.linalg.norm(Sc - trajectory.pos[0])),
+        frontal=angle <= frontal_tol_deg,
+        frontal_angle=angle,
+        touched_early=not ready,
+        contact_eps=float(field_radius(Oc[2] - Sc[2], params)),
+    )
 
 
 simulate_interception = simulate

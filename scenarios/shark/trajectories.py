@@ -23,8 +23,13 @@ from droneplan.solvers.validation import (
     resolve_seed,
 )
 
-__all__ = ["SharkTrajectory", "make_trajectory", "thesis_trajectories", "random_trajectory",
-           "constant_velocity_trajectory"]
+__all__ = [
+    "SharkTrajectory",
+    "make_trajectory",
+    "thesis_trajectories",
+    "random_trajectory",
+    "constant_velocity_trajectory",
+]
 
 
 @dataclass(frozen=True)
@@ -72,8 +77,17 @@ class SharkTrajectory:
         return float(np.linalg.norm(self.vel[m], axis=1).mean())
 
 
-def make_trajectory(heading, speed, depth, *, duration: float = 40.0, dt: float = 0.1,
-                    start=(0.0, 0.0), name: str = "", seed: int | None = None) -> SharkTrajectory:
+def make_trajectory(
+    heading,
+    speed,
+    depth,
+    *,
+    duration: float = 40.0,
+    dt: float = 0.1,
+    start=(0.0, 0.0),
+    name: str = "",
+    seed: int | None = None,
+) -> SharkTrajectory:
     """Integrate a unicycle path from heading(t) (rad), speed(t) (m/s, horizontal), depth(t) (m, <= 0).
 
     heading, speed, depth: each a function of time (vectorised over a numpy array of s) or
@@ -118,7 +132,9 @@ def _profile(name: str, f, tf: np.ndarray) -> np.ndarray:
     try:
         out = np.asarray(f(tf), dtype=float) * np.ones_like(tf)
     except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must map a numpy array of times (s) to numbers of the same shape ({exc})") from None
+        raise TypeError(
+            f"{name} must map a numpy array of times (s) to numbers of the same shape ({exc})"
+        ) from None
     if out.shape != tf.shape:
         raise ValueError(f"{name}(t) must have the shape of t {tf.shape}, got {out.shape}")
     if not np.all(np.isfinite(out)):
@@ -126,7 +142,9 @@ def _profile(name: str, f, tf: np.ndarray) -> np.ndarray:
     return out
 
 
-def thesis_trajectories(*, duration: float = 40.0, dt: float = THESIS_TABLE_5_1.Ts) -> dict[str, SharkTrajectory]:
+def thesis_trajectories(
+    *, duration: float = 40.0, dt: float = THESIS_TABLE_5_1.Ts
+) -> dict[str, SharkTrajectory]:
     """The four shark paths of Fig. 5.12 (our shapes; mean speeds near Table 5.2's 5.34/5.48/5.55/5.78 m/s).
 
     a: flat, constant depth (-3 m) and speed; b: flat, varying depth, constant speed;
@@ -138,20 +156,44 @@ def thesis_trajectories(*, duration: float = 40.0, dt: float = THESIS_TABLE_5_1.
     """
     c0 = lambda t: 0.0 * t  # noqa: E731
     return {
-        "a": make_trajectory(c0, lambda t: 5.34 + 0 * t, lambda t: -3.0 + 0 * t,
-                             duration=duration, dt=dt, name="a"),
-        "b": make_trajectory(c0, lambda t: 5.48 + 0 * t, lambda t: -3.0 + 1.2 * np.sin(0.35 * t),
-                             duration=duration, dt=dt, name="b"),
-        "c": make_trajectory(lambda t: -0.6 * np.sin(0.3 * t), lambda t: 5.9 + 0.55 * np.sin(0.7 * t + np.pi),
-                             lambda t: -3.0 + 0 * t, duration=duration, dt=dt, name="c"),
-        "d": make_trajectory(lambda t: -0.6 * np.sin(0.3 * t + 0.4) + 0.6 * np.sin(0.4),
-                             lambda t: 6.0 + 0.45 * np.sin(0.6 * t + np.pi),
-                             lambda t: -3.0 + 1.2 * np.sin(0.3 * t), duration=duration, dt=dt, name="d"),
+        "a": make_trajectory(
+            c0, lambda t: 5.34 + 0 * t, lambda t: -3.0 + 0 * t, duration=duration, dt=dt, name="a"
+        ),
+        "b": make_trajectory(
+            c0,
+            lambda t: 5.48 + 0 * t,
+            lambda t: -3.0 + 1.2 * np.sin(0.35 * t),
+            duration=duration,
+            dt=dt,
+            name="b",
+        ),
+        "c": make_trajectory(
+            lambda t: -0.6 * np.sin(0.3 * t),
+            lambda t: 5.9 + 0.55 * np.sin(0.7 * t + np.pi),
+            lambda t: -3.0 + 0 * t,
+            duration=duration,
+            dt=dt,
+            name="c",
+        ),
+        "d": make_trajectory(
+            lambda t: -0.6 * np.sin(0.3 * t + 0.4) + 0.6 * np.sin(0.4),
+            lambda t: 6.0 + 0.45 * np.sin(0.6 * t + np.pi),
+            lambda t: -3.0 + 1.2 * np.sin(0.3 * t),
+            duration=duration,
+            dt=dt,
+            name="d",
+        ),
     }
 
 
-def random_trajectory(seed, *, duration: float = 40.0, dt: float = THESIS_TABLE_5_1.Ts,
-                      params: SharkParams = THESIS_TABLE_5_1, curvy: bool = True) -> SharkTrajectory:
+def random_trajectory(
+    seed,
+    *,
+    duration: float = 40.0,
+    dt: float = THESIS_TABLE_5_1.Ts,
+    params: SharkParams = THESIS_TABLE_5_1,
+    curvy: bool = True,
+) -> SharkTrajectory:
     """A random path of the thesis family: random curvature, speed profile and depth profile.
 
     curvy=False keeps the heading constant (a flat path: the setting in which the proofs
@@ -182,14 +224,21 @@ def random_trajectory(seed, *, duration: float = 40.0, dt: float = THESIS_TABLE_
     zw = g.uniform(0.1, min(0.8, 0.9 * params.VsMz / max(za, 1e-9)))
     zph = g.uniform(0, 2 * np.pi)
     return make_trajectory(
-        lambda t: psi0 + a1 * np.sin(w1 * t + ph1) - a1 * np.sin(ph1) + a2 * np.sin(w2 * t + ph2) - a2 * np.sin(ph2),
+        lambda t: (
+            psi0 + a1 * np.sin(w1 * t + ph1) - a1 * np.sin(ph1) + a2 * np.sin(w2 * t + ph2) - a2 * np.sin(ph2)
+        ),
         lambda t: vm + va * np.sin(vw * t + vph),
         lambda t: zm + za * np.sin(zw * t + zph),
-        duration=duration, dt=dt, name=f"random-{s}" + ("" if curvy else "-flat"), seed=s)
+        duration=duration,
+        dt=dt,
+        name=f"random-{s}" + ("" if curvy else "-flat"),
+        seed=s,
+    )
 
 
-def constant_velocity_trajectory(pos, vel, *, duration: float = 40.0, dt: float = THESIS_TABLE_5_1.Ts,
-                                 name: str = "const") -> SharkTrajectory:
+def constant_velocity_trajectory(
+    pos, vel, *, duration: float = 40.0, dt: float = THESIS_TABLE_5_1.Ts, name: str = "const"
+) -> SharkTrajectory:
     """A straight path at constant velocity from ``pos`` (m) with ``vel`` (m/s).
 
     duration: length of the path (s).

@@ -99,7 +99,9 @@ def plot_deployment_region(problem: CellProblem, placed: Any = (), *, ax: Any = 
     region = deployment_region(problem, placed)
     geom = region.geometry(quad_segs=quad_segs)
     fig, ax = figure_axes(ax, figsize=(5.5, 5.5))
-    polys = list(geom.geoms) if isinstance(geom, MultiPolygon) else ([geom] if isinstance(geom, Polygon) else [])
+    polys = (
+        list(geom.geoms) if isinstance(geom, MultiPolygon) else ([geom] if isinstance(geom, Polygon) else [])
+    )
     for k, poly in enumerate(p for p in polys if not p.is_empty):
         ax.fill(*poly.exterior.xy, color="0.8", label="deployment region" if k == 0 else None)
         for hole in poly.interiors:

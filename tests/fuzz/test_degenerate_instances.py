@@ -10,15 +10,19 @@ import droneplan as dp
 
 
 def _problem(users, n_cells=2):
-    return dp.cells.CellProblem(users, [[0.0, 0.0]], n_cells, 500.0, 1000.0, 3500.0, 3000.0,
-                                bounds=(-3000.0, 3000.0, -3000.0, 3000.0))
+    return dp.cells.CellProblem(
+        users, [[0.0, 0.0]], n_cells, 500.0, 1000.0, 3500.0, 3000.0, bounds=(-3000.0, 3000.0, -3000.0, 3000.0)
+    )
 
 
-@pytest.mark.parametrize("users, expected", [
-    (np.full((12, 2), [1800.0, 0.0]), 12),  # all users at one point
-    (np.full((5, 2), [300.0, 0.0]), 0),  # zero coverable users: all already served by the GBS
-    (np.zeros((0, 2)), 0),  # no users at all
-])
+@pytest.mark.parametrize(
+    "users, expected",
+    [
+        (np.full((12, 2), [1800.0, 0.0]), 12),  # all users at one point
+        (np.full((5, 2), [300.0, 0.0]), 0),  # zero coverable users: all already served by the GBS
+        (np.zeros((0, 2)), 0),  # no users at all
+    ],
+)
 def test_cells_degenerate_users(users, expected):
     problem = _problem(users)
     milp = dp.cells.solve_milp(problem, time_limit=20)
@@ -40,8 +44,9 @@ def test_herding_more_drones_than_steering_points():
     """A herd at one point has 4 steering points (the square around it); 6 drones share them."""
     res = dp.herding.solve_allocation([1.0, 3.0, 5.0, 7.0, 9.0, 11.0], [0.5, 4.0], 12.0)
     assert res.status is dp.Status.OPTIMAL
-    assert dp.herding.check_allocation([1.0, 3.0, 5.0, 7.0, 9.0, 11.0], [0.5, 4.0], 12.0, res.x) == \
-        pytest.approx(res.objective)
+    assert dp.herding.check_allocation(
+        [1.0, 3.0, 5.0, 7.0, 9.0, 11.0], [0.5, 4.0], 12.0, res.x
+    ) == pytest.approx(res.objective)
 
 
 def test_shark_path_that_turns_back():
@@ -58,8 +63,10 @@ def test_shark_path_that_turns_back():
 def test_covert_targets_that_stop():
     """Targets whose paths end before the mission (targets_stop=True) stand still; the run finishes."""
     params = dp.covert.THESIS_TABLE_3_2
-    paths = (dp.covert.TargetPath([[120.0, 120.0, 0.0], [150.0, 130.0, 0.0]]),
-             dp.covert.TargetPath([[160.0, 100.0, 0.0], [160.0, 100.5, 0.0]]))
+    paths = (
+        dp.covert.TargetPath([[120.0, 120.0, 0.0], [150.0, 130.0, 0.0]]),
+        dp.covert.TargetPath([[160.0, 100.0, 0.0], [160.0, 100.5, 0.0]]),
+    )
     sc = dp.covert.CovertScenario(params, dp.covert.Terrain(), paths, targets_stop=True)
     trace = dp.covert.simulate(sc, dp.covert.SlidingModeObserver())
     assert trace.finished and np.isfinite(trace.beta_max)

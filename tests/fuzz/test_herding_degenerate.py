@@ -36,8 +36,13 @@ def test_a_collinear_herd_gathers(line):
         animals = np.column_stack([np.linspace(0.0, 1200.0, 30), np.full(30, 300.0)])
     else:
         animals = np.column_stack([np.full(30, 600.0), np.linspace(0.0, 600.0, 30)])
-    trace = dp.herding.simulate(replace(base, animals=animals), dp.herding.ProposedHerder(), t_max=900.0, seed=0,
-                                stop_after_gathering=True)
+    trace = dp.herding.simulate(
+        replace(base, animals=animals),
+        dp.herding.ProposedHerder(),
+        t_max=900.0,
+        seed=0,
+        stop_after_gathering=True,
+    )
     assert trace.gather_time is not None
     assert trace.footprint_radius[-1] <= base.params.R_c
 

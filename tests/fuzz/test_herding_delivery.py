@@ -59,7 +59,9 @@ def test_a_herd_that_spreads_while_driving_is_gathered_again():
     back to gathering when the footprint exceeds regroup_factor * R_c."""
     base = dp.herding.thesis_scenario(40, seed=0)
     params = replace(base.params, regroup_factor=1.0, graze_prob=1.0)
-    sc = replace(base, animals=_ring(params.R_c - 0.05, 40, base.goal + np.array([500.0, 0.0])), params=params)
+    sc = replace(
+        base, animals=_ring(params.R_c - 0.05, 40, base.goal + np.array([500.0, 0.0])), params=params
+    )
     idle = _Idle()
     trace = dp.herding.simulate(sc, idle, t_max=5.0, seed=1)
     assert trace.regroupings >= 1

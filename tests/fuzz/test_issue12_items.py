@@ -13,8 +13,16 @@ from droneplan.solvers.validation import MAX_ELEMENTS, resolve_seed
 
 @pytest.fixture(scope="module")
 def tiny_cells():
-    return dp.cells.CellProblem([[1500.0, 0.0], [1600.0, 100.0]], [[0.0, 0.0]], 1, 500.0, 1000.0, 3500.0, 3000.0,
-                                bounds=(-2500.0, 2500.0, -2500.0, 2500.0))
+    return dp.cells.CellProblem(
+        [[1500.0, 0.0], [1600.0, 100.0]],
+        [[0.0, 0.0]],
+        1,
+        500.0,
+        1000.0,
+        3500.0,
+        3000.0,
+        bounds=(-2500.0, 2500.0, -2500.0, 2500.0),
+    )
 
 
 def test_bools_are_not_numbers(tiny_cells):
@@ -76,15 +84,20 @@ def test_generated_covert_paths_last_the_whole_mission():
     assert all(abs(p.length - mission) < 1e-6 for p in sc.paths)
 
 
-@pytest.mark.parametrize("call", [
-    lambda: dp.cells.thesis_problem(1, seed="abc"),
-    lambda: dp.cells.genetic(dp.cells.CellProblem([[1500.0, 0.0]], [[0.0, 0.0]], 1, 500, 1000, 3500, 3000),
-                             seed="abc"),
-    lambda: dp.herding.thesis_scenario(5, seed="abc"),
-    lambda: dp.covert.thesis_case(1, seed="abc"),
-    lambda: dp.covert.random_case(2, seed="abc"),
-    lambda: dp.shark.random_trajectory(seed="abc"),
-], ids=["thesis_problem", "genetic", "thesis_scenario", "thesis_case", "random_case", "random_trajectory"])
+@pytest.mark.parametrize(
+    "call",
+    [
+        lambda: dp.cells.thesis_problem(1, seed="abc"),
+        lambda: dp.cells.genetic(
+            dp.cells.CellProblem([[1500.0, 0.0]], [[0.0, 0.0]], 1, 500, 1000, 3500, 3000), seed="abc"
+        ),
+        lambda: dp.herding.thesis_scenario(5, seed="abc"),
+        lambda: dp.covert.thesis_case(1, seed="abc"),
+        lambda: dp.covert.random_case(2, seed="abc"),
+        lambda: dp.shark.random_trajectory(seed="abc"),
+    ],
+    ids=["thesis_problem", "genetic", "thesis_scenario", "thesis_case", "random_case", "random_trajectory"],
+)
 def test_seed_of_the_wrong_type_is_a_type_error_naming_seed(call):
     """Item 5: seed='abc' failed inside numpy (or was silently accepted by thesis_case)."""
     with pytest.raises(TypeError, match="seed"):
@@ -102,11 +115,15 @@ def test_seed_none_is_drawn_and_recorded():
     assert np.array_equal(sc.paths[0].points, again.paths[0].points)
 
 
-@pytest.mark.parametrize("simulate, scenario", [
-    (dp.herding.simulate, lambda: dp.herding.thesis_scenario(5, seed=0)),
-    (dp.covert.simulate, lambda: dp.covert.thesis_case(1)),
-    (dp.shark.simulate, lambda: dp.shark.thesis_trajectories(duration=5.0)["a"]),
-], ids=["herding", "covert", "shark"])
+@pytest.mark.parametrize(
+    "simulate, scenario",
+    [
+        (dp.herding.simulate, lambda: dp.herding.thesis_scenario(5, seed=0)),
+        (dp.covert.simulate, lambda: dp.covert.thesis_case(1)),
+        (dp.shark.simulate, lambda: dp.shark.thesis_trajectories(duration=5.0)["a"]),
+    ],
+    ids=["herding", "covert", "shark"],
+)
 def test_controller_none_is_a_type_error(simulate, scenario):
     """Item 6: controller None gave an AttributeError from inside the simulator."""
     with pytest.raises(TypeError, match="controller|herder"):
@@ -133,13 +150,17 @@ def test_thesis_scenario_n_drones_bool_names_n_drones():
         dp.herding.thesis_scenario(10, n_drones=True)
 
 
-@pytest.mark.parametrize("call, name", [
-    (lambda: dp.herding.thesis_scenario(n_animals=10**12), "n_animals"),
-    (lambda: dp.cells.CellParams(n_clusters=10**12), "n_clusters"),
-    (lambda: dp.cells.uniform_users(0, mean_count=1e15), "mean_count"),
-    (lambda: dp.shark.make_trajectory(0.0, 5.0, -3.0, duration=1e12), "duration"),
-    (lambda: dp.shark.constant_velocity_trajectory([0, 0, -3], [1, 0, 0], duration=1e12), "duration"),
-], ids=["herd", "clusters", "users", "make_trajectory", "constant_velocity"])
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda: dp.herding.thesis_scenario(n_animals=10**12), "n_animals"),
+        (lambda: dp.cells.CellParams(n_clusters=10**12), "n_clusters"),
+        (lambda: dp.cells.uniform_users(0, mean_count=1e15), "mean_count"),
+        (lambda: dp.shark.make_trajectory(0.0, 5.0, -3.0, duration=1e12), "duration"),
+        (lambda: dp.shark.constant_velocity_trajectory([0, 0, -3], [1, 0, 0], duration=1e12), "duration"),
+    ],
+    ids=["herd", "clusters", "users", "make_trajectory", "constant_velocity"],
+)
 def test_absurd_sizes_are_refused_up_front(call, name):
     """Item 6: absurd sizes gave a numpy MemoryError after trying to allocate."""
     with pytest.raises(ValueError, match=name) as info:

@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import inspect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import pytest
@@ -59,8 +60,16 @@ class Spec:
 
 
 def _cells_problem():
-    return dp.cells.CellProblem([[1500.0, 0.0], [1600.0, 100.0], [-1700.0, 50.0]], [[0.0, 0.0]], 2, 500.0, 1000.0,
-                                3500.0, 3000.0, bounds=(-2500.0, 2500.0, -2500.0, 2500.0))
+    return dp.cells.CellProblem(
+        [[1500.0, 0.0], [1600.0, 100.0], [-1700.0, 50.0]],
+        [[0.0, 0.0]],
+        2,
+        500.0,
+        1000.0,
+        3500.0,
+        3000.0,
+        bounds=(-2500.0, 2500.0, -2500.0, 2500.0),
+    )
 
 
 def _small_params():
@@ -96,75 +105,159 @@ def _hull():
 P = _cells_problem
 SPECS: dict[str, Spec] = {
     # ---- cells
-    "CellParams": Spec(lambda: ((), {}), {"half_width": "positive", "R_d": "positive", "lambda_c": "nonneg",
-                                          "n_clusters": "int>=0", "gbs": "points2+"}),
-    "CellProblem": Spec(lambda: (([[1500.0, 0.0]], [[0.0, 0.0]], 1, 500.0, 1000.0, 3500.0, 3000.0), {}),
-                        {"users": "points2", "gbs": "points2+", "n_cells": "size", "R_d": "positive",
-                         "R_g": "positive", "r1": "positive", "r2": "positive"}),
+    "CellParams": Spec(
+        lambda: ((), {}),
+        {
+            "half_width": "positive",
+            "R_d": "positive",
+            "lambda_c": "nonneg",
+            "n_clusters": "int>=0",
+            "gbs": "points2+",
+        },
+    ),
+    "CellProblem": Spec(
+        lambda: (([[1500.0, 0.0]], [[0.0, 0.0]], 1, 500.0, 1000.0, 3500.0, 3000.0), {}),
+        {
+            "users": "points2",
+            "gbs": "points2+",
+            "n_cells": "size",
+            "R_d": "positive",
+            "R_g": "positive",
+            "r1": "positive",
+            "r2": "positive",
+        },
+    ),
     "matern_users": Spec(lambda: ((0, _small_params()), {}), {"seed": "seed", "params": "object"}),
-    "uniform_users": Spec(lambda: ((0, _small_params()), {"mean_count": 5.0}),
-                          {"seed": "seed", "mean_count": "nonneg", "params": "object"}),
+    "uniform_users": Spec(
+        lambda: ((0, _small_params()), {"mean_count": 5.0}),
+        {"seed": "seed", "mean_count": "nonneg", "params": "object"},
+    ),
     "thesis_instance": Spec(lambda: ((0, _small_params()), {}), {"seed": "seed", "params": "object"}),
-    "thesis_problem": Spec(lambda: ((1, 0), {"params": _small_params()}), {"n_cells": "int>=1", "seed": "seed"}),
-    "problem_from_instance": Spec(lambda: ((dp.cells.thesis_instance(0, _small_params()), 1), {}),
-                                  {"inst": "object", "n_cells": "int>=1"}),
+    "thesis_problem": Spec(
+        lambda: ((1, 0), {"params": _small_params()}), {"n_cells": "int>=1", "seed": "seed"}
+    ),
+    "problem_from_instance": Spec(
+        lambda: ((dp.cells.thesis_instance(0, _small_params()), 1), {}),
+        {"inst": "object", "n_cells": "int>=1"},
+    ),
     "evaluate": Spec(lambda: ((P(), [[1600.0, 0.0]]), {}), {"problem": "object", "positions": "points2"}),
-    "connected_mask": Spec(lambda: ((P(), np.array([[1600.0, 0.0]])), {}), {"problem": "object",
-                                                                             "positions": "points2"}),
+    "connected_mask": Spec(
+        lambda: ((P(), np.array([[1600.0, 0.0]])), {}), {"problem": "object", "positions": "points2"}
+    ),
     "candidate_sites": Spec(lambda: ((P(),), {}), {"problem": "object"}),
     "build_milp": Spec(lambda: ((P(),), {}), {"problem": "object"}),
-    "solve_milp": Spec(lambda: ((P(),), {"time_limit": 5.0}), {"problem": "object", "time_limit": "time_limit"}),
-    "coverage_upper_bound": Spec(lambda: ((P(),), {"time_limit": 5.0}),
-                                 {"problem": "object", "time_limit": "time_limit"}),
+    "solve_milp": Spec(
+        lambda: ((P(),), {"time_limit": 5.0}), {"problem": "object", "time_limit": "time_limit"}
+    ),
+    "coverage_upper_bound": Spec(
+        lambda: ((P(),), {"time_limit": 5.0}), {"problem": "object", "time_limit": "time_limit"}
+    ),
     "greedy_placement": Spec(lambda: ((P(), dp.cells.candidate_sites(P())), {}), {"problem": "object"}),
     "GASettings": Spec(lambda: ((), {}), {"T": "positive", "alpha": "positive", "p_m": "nonneg"}),
-    "genetic": Spec(lambda: ((P(),), {"pop_size": 4, "iter_max": 2, "restarts": 1, "seed": 0}),
-                    {"problem": "object", "pop_size": "size", "restarts": "size", "iter_max": "int>=0",
-                     "seed": "seed"}),
-    "genetic_polished": Spec(lambda: ((P(),), {"pop_size": 4, "iter_max": 2, "restarts": 1, "seed": 0}),
-                             {"problem": "object", "pop_size": "int>=1", "seed": "seed"}),
-    "polish": Spec(lambda: ((P(), [[1600.0, 0.0]]), {}), {"problem": "object", "positions": "points2",
-                                                           "max_passes": "int>=0"}),
-    "fitness": Spec(lambda: ((P(), np.zeros((3, 2, 2))), {}), {"problem": "object", "pop": "points2",
-                                                               "chunk": "int>=1"}),
-    "exhaustive": Spec(lambda: ((P(),), {"time_limit": 5.0}), {"problem": "object", "time_limit": "time_limit"}),
+    "genetic": Spec(
+        lambda: ((P(),), {"pop_size": 4, "iter_max": 2, "restarts": 1, "seed": 0}),
+        {"problem": "object", "pop_size": "size", "restarts": "size", "iter_max": "int>=0", "seed": "seed"},
+    ),
+    "genetic_polished": Spec(
+        lambda: ((P(),), {"pop_size": 4, "iter_max": 2, "restarts": 1, "seed": 0}),
+        {"problem": "object", "pop_size": "int>=1", "seed": "seed"},
+    ),
+    "polish": Spec(
+        lambda: ((P(), [[1600.0, 0.0]]), {}),
+        {"problem": "object", "positions": "points2", "max_passes": "int>=0"},
+    ),
+    "fitness": Spec(
+        lambda: ((P(), np.zeros((3, 2, 2))), {}), {"problem": "object", "pop": "points2", "chunk": "int>=1"}
+    ),
+    "exhaustive": Spec(
+        lambda: ((P(),), {"time_limit": 5.0}), {"problem": "object", "time_limit": "time_limit"}
+    ),
     "max_coverage_in_region": Spec(lambda: ((np.array([[0.0, 0.0]]), 500.0, None), {}), {}),
     "thesis_ga_settings": Spec(lambda: ((2,), {}), {"m": "int>=1"}),
-    "deployment_region": Spec(lambda: ((P(), [[1600.0, 0.0]]), {}), {"problem": "object", "placed": "points2"}),
+    "deployment_region": Spec(
+        lambda: ((P(), [[1600.0, 0.0]]), {}), {"problem": "object", "placed": "points2"}
+    ),
     "instance_features": Spec(lambda: ((P(),), {}), {"problem": "object"}),
-    "ga_ablation": Spec(lambda: ((), {"seeds": [0], "ms": (1,), "runs": 1, "variants": {"thesis": {}},
-                                      "es_limit": 5.0, "milp_limit": 5.0, "progress": False}),
-                        {"runs": "int>=1", "es_limit": "positive", "milp_limit": "positive"}),
+    "ga_ablation": Spec(
+        lambda: (
+            (),
+            {
+                "seeds": [0],
+                "ms": (1,),
+                "runs": 1,
+                "variants": {"thesis": {}},
+                "es_limit": 5.0,
+                "milp_limit": 5.0,
+                "progress": False,
+            },
+        ),
+        {"runs": "int>=1", "es_limit": "positive", "milp_limit": "positive"},
+    ),
     # ---- covert
-    "CovertParams": Spec(lambda: ((), {}), {"V_max": "positive", "U_max": "positive", "L_u": "positive",
-                                            "dt": "positive", "F": "vec3", "D_s": "vec3"}),
-    "CovertScenario": Spec(lambda: ((dp.covert.THESIS_TABLE_3_2, dp.covert.Terrain(), ()), {}),
-                           {"params": "object", "terrain": "object"}),
+    "CovertParams": Spec(
+        lambda: ((), {}),
+        {
+            "V_max": "positive",
+            "U_max": "positive",
+            "L_u": "positive",
+            "dt": "positive",
+            "F": "vec3",
+            "D_s": "vec3",
+        },
+    ),
+    "CovertScenario": Spec(
+        lambda: ((dp.covert.THESIS_TABLE_3_2, dp.covert.Terrain(), ()), {}),
+        {"params": "object", "terrain": "object"},
+    ),
     "Terrain": Spec(lambda: ((), {"hills": ((0.0, 0.0, 1.0, 5.0),)}), {}),
     "TargetPath": Spec(lambda: (([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]],), {}), {"points": "points3"}),
     "Occlusion": Spec(lambda: ((0, 1.0), {}), {"target": "int>=0", "start": "finite"}),
     "thesis_case": Spec(lambda: ((1,), {}), {"seed": "seed", "V_T": "positive", "params": "object?"}),
     "random_case": Spec(lambda: ((1, 0), {}), {"n_targets": "size", "seed": "seed", "n_hills": "int>=0"}),
-    "bearing_changes": Spec(lambda: (([0.0, 0.0, 10.0], [[5.0, 5.0, 0.0]], [10.0, 10.0, 40.0]), {}),
-                            {"drone": "points3", "R": "vec3"}),
-    "simulate@covert": Spec(lambda: ((_covert_case(), dp.covert.HoverBenchmark()), {"max_time": 1.0}),
-                            {"scenario": "object", "controller": "object", "noise": "nonneg",
-                             "max_time": "positive", "seed": "seed"}),
-    "MPCSettings": Spec(lambda: ((), {}), {"horizon": "int>=1", "step": "positive", "replan_every": "int>=1"}),
-    "build_bearing_mpc": Spec(lambda: ((dp.covert.THESIS_TABLE_3_2, 1), {}), {"params": "object",
-                                                                              "n_targets": "int>=0"}),
-    "sphere_minmax_bearing": Spec(lambda: ((dp.covert.THESIS_TABLE_3_2, [[150.0, 150.0, 0.0]]), {}),
-                                  {"params": "object", "targets": "points3"}),
-    "sphere_minmax_bearing_bnb": Spec(lambda: ((dp.covert.THESIS_TABLE_3_2, [[150.0, 150.0, 0.0]]), {}),
-                                      {"params": "object", "targets": "points3"}),
-    "Obstacle": Spec(lambda: ((((0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)), 5.0), {}),
-                     {"footprint": "points2", "height": "finite"}),
-    "mission_lower_bound": Spec(lambda: ((_covert_case(), 8.0), {"times": [0.0, 8.0, 60.0]}),
-                                {"scenario": "object", "t_a": "nonneg", "sphere_tol": "nonneg"}),
-    "mission_front": Spec(lambda: ((_covert_case(), [8.0, 12.0]), {"times": [0.0, 8.0, 60.0]}),
-                          {"scenario": "object", "sphere_tol": "nonneg", "t_end": "positive"}),
-    "stealth_front": Spec(lambda: ((_covert_case(), {"hover": _hover_run()}), {"n_arrivals": 2, "step": 20.0}),
-                          {"scenario": "object", "n_arrivals": "int>=1", "step": "positive"}),
+    "bearing_changes": Spec(
+        lambda: (([0.0, 0.0, 10.0], [[5.0, 5.0, 0.0]], [10.0, 10.0, 40.0]), {}),
+        {"drone": "points3", "R": "vec3"},
+    ),
+    "simulate@covert": Spec(
+        lambda: ((_covert_case(), dp.covert.HoverBenchmark()), {"max_time": 1.0}),
+        {
+            "scenario": "object",
+            "controller": "object",
+            "noise": "nonneg",
+            "max_time": "positive",
+            "seed": "seed",
+        },
+    ),
+    "MPCSettings": Spec(
+        lambda: ((), {}), {"horizon": "int>=1", "step": "positive", "replan_every": "int>=1"}
+    ),
+    "build_bearing_mpc": Spec(
+        lambda: ((dp.covert.THESIS_TABLE_3_2, 1), {}), {"params": "object", "n_targets": "int>=0"}
+    ),
+    "sphere_minmax_bearing": Spec(
+        lambda: ((dp.covert.THESIS_TABLE_3_2, [[150.0, 150.0, 0.0]]), {}),
+        {"params": "object", "targets": "points3"},
+    ),
+    "sphere_minmax_bearing_bnb": Spec(
+        lambda: ((dp.covert.THESIS_TABLE_3_2, [[150.0, 150.0, 0.0]]), {}),
+        {"params": "object", "targets": "points3"},
+    ),
+    "Obstacle": Spec(
+        lambda: ((((0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)), 5.0), {}),
+        {"footprint": "points2", "height": "finite"},
+    ),
+    "mission_lower_bound": Spec(
+        lambda: ((_covert_case(), 8.0), {"times": [0.0, 8.0, 60.0]}),
+        {"scenario": "object", "t_a": "nonneg", "sphere_tol": "nonneg"},
+    ),
+    "mission_front": Spec(
+        lambda: ((_covert_case(), [8.0, 12.0]), {"times": [0.0, 8.0, 60.0]}),
+        {"scenario": "object", "sphere_tol": "nonneg", "t_end": "positive"},
+    ),
+    "stealth_front": Spec(
+        lambda: ((_covert_case(), {"hover": _hover_run()}), {"n_arrivals": 2, "step": 20.0}),
+        {"scenario": "object", "n_arrivals": "int>=1", "step": "positive"},
+    ),
     "SlidingSettings": Spec(lambda: ((), {}), {"eps_line": "positive", "home_radius": "positive"}),
     "SlidingModeObserver": Spec(lambda: ((), {}), {"settings": "object?"}),
     "HoverBenchmark": Spec(lambda: ((), {}), {"settings": "object?"}),
@@ -173,88 +266,157 @@ SPECS: dict[str, Spec] = {
     "SafeguardSettings": Spec(lambda: ((), {}), {"margin": "nonneg", "envelope_speed": "positive"}),
     "SafeguardedMPCObserver": Spec(lambda: ((), {}), {"settings": "object?"}),
     # ---- shark
-    "SharkParams": Spec(lambda: ((), {}), {"lmin": "positive", "eps_o": "positive", "Ts": "positive",
-                                           "gamma": "positive", "le": "finite"}),
+    "SharkParams": Spec(
+        lambda: ((), {}),
+        {"lmin": "positive", "eps_o": "positive", "Ts": "positive", "gamma": "positive", "le": "finite"},
+    ),
     "field_radius": Spec(lambda: (([1.0, 4.0],), {}), {"h": "finite", "params": "object"}),
-    "touches": Spec(lambda: (([0.0, 0.0, -3.0], [0.0, 0.0, 2.0]), {}), {"shark": "points3", "operator": "points3",
-                                                                        "params": "object"}),
-    "SharkTrajectory": Spec(lambda: (([0.0, 0.1], np.zeros((2, 3)), np.zeros((2, 3))), {}),
-                            {"t": "finite", "pos": "points3", "vel": "points3"}),
-    "make_trajectory": Spec(lambda: ((0.0, 5.0, -3.0), {"duration": 2.0}),
-                            {"duration": "positive", "dt": "positive", "start": "vec2", "speed": "finite"}),
+    "touches": Spec(
+        lambda: (([0.0, 0.0, -3.0], [0.0, 0.0, 2.0]), {}),
+        {"shark": "points3", "operator": "points3", "params": "object"},
+    ),
+    "SharkTrajectory": Spec(
+        lambda: (([0.0, 0.1], np.zeros((2, 3)), np.zeros((2, 3))), {}),
+        {"t": "finite", "pos": "points3", "vel": "points3"},
+    ),
+    "make_trajectory": Spec(
+        lambda: ((0.0, 5.0, -3.0), {"duration": 2.0}),
+        {"duration": "positive", "dt": "positive", "start": "vec2", "speed": "finite"},
+    ),
     "thesis_trajectories": Spec(lambda: ((), {"duration": 2.0}), {"duration": "positive", "dt": "positive"}),
-    "random_trajectory": Spec(lambda: ((0,), {"duration": 2.0}), {"seed": "seed", "duration": "positive",
-                                                                  "params": "object"}),
-    "constant_velocity_trajectory": Spec(lambda: (([0.0, 0.0, -3.0], [5.0, 0.0, 0.0]), {"duration": 2.0}),
-                                         {"pos": "vec3", "vel": "vec3", "duration": "positive", "dt": "positive"}),
-    "operator_start": Spec(lambda: ((_path_a(),), {}), {"trajectory": "object", "params": "object",
-                                                        "bearing_deg": "finite"}),
-    "InterceptionScenario": Spec(lambda: ((_path_a(),), {}), {"trajectory": "object", "params": "object",
-                                                               "operator0": "vec3", "bearing_deg": "finite"}),
-    "simulate@shark": Spec(lambda: ((_path_a(), dp.shark.ClassicalPursuit()), {}),
-                           {"scenario": "object", "controller": "object", "params": "object?",
-                            "operator0": "vec3", "t_max": "positive", "substeps": "int>=1"}),
-    "simulate_interception": Spec(lambda: ((_path_a(), dp.shark.ClassicalPursuit()), {}),
-                                  {"scenario": "object", "controller": "object", "t_max": "positive"}),
-    "SharkBehaviour": Spec(lambda: ((), {}), {"speed": "positive", "turn_rate": "positive", "flee_time": "positive"}),
-    "simulate_repelling": Spec(lambda: (([[20.0, 0.0]], [[0.0, 5.0, 2.0]], [[0.0, 0.0]],
-                                         [dp.shark.RepellingOperator(0)]), {"t_max": 1.0}),
-                               {"params": "object", "behaviour": "object", "seed": "seed", "t_max": "positive"}),
+    "random_trajectory": Spec(
+        lambda: ((0,), {"duration": 2.0}), {"seed": "seed", "duration": "positive", "params": "object"}
+    ),
+    "constant_velocity_trajectory": Spec(
+        lambda: (([0.0, 0.0, -3.0], [5.0, 0.0, 0.0]), {"duration": 2.0}),
+        {"pos": "vec3", "vel": "vec3", "duration": "positive", "dt": "positive"},
+    ),
+    "operator_start": Spec(
+        lambda: ((_path_a(),), {}), {"trajectory": "object", "params": "object", "bearing_deg": "finite"}
+    ),
+    "InterceptionScenario": Spec(
+        lambda: ((_path_a(),), {}),
+        {"trajectory": "object", "params": "object", "operator0": "vec3", "bearing_deg": "finite"},
+    ),
+    "simulate@shark": Spec(
+        lambda: ((_path_a(), dp.shark.ClassicalPursuit()), {}),
+        {
+            "scenario": "object",
+            "controller": "object",
+            "params": "object?",
+            "operator0": "vec3",
+            "t_max": "positive",
+            "substeps": "int>=1",
+        },
+    ),
+    "simulate_interception": Spec(
+        lambda: ((_path_a(), dp.shark.ClassicalPursuit()), {}),
+        {"scenario": "object", "controller": "object", "t_max": "positive"},
+    ),
+    "SharkBehaviour": Spec(
+        lambda: ((), {}), {"speed": "positive", "turn_rate": "positive", "flee_time": "positive"}
+    ),
+    "simulate_repelling": Spec(
+        lambda: (
+            ([[20.0, 0.0]], [[0.0, 5.0, 2.0]], [[0.0, 0.0]], [dp.shark.RepellingOperator(0)]),
+            {"t_max": 1.0},
+        ),
+        {"params": "object", "behaviour": "object", "seed": "seed", "t_max": "positive"},
+    ),
     "optimal_altitude": Spec(lambda: ((-3.0,), {}), {"z_s": "finite", "params": "object"}),
     "InterceptionOCP": Spec(lambda: ((), {}), {"params": "object"}),
     "build_interception_nlp": Spec(lambda: ((), {}), {"params": "object"}),
-    "interception_time_bound": Spec(lambda: ((([0.0, 0.0, -3.0], [3.0, 0.0]), [-10.0, 5.0, 2.0]), {}),
-                                    {"operator0": "vec3", "params": "object", "t_max": "positive",
-                                     "t0": "nonneg"}),
-    "solve_interception": Spec(lambda: ((([0.0, 0.0, -3.0], [3.0, 0.0]), [-10.0, 5.0, 2.0]), {"N": 10}),
-                               {"operator0": "vec3", "params": "object"}),
+    "interception_time_bound": Spec(
+        lambda: ((([0.0, 0.0, -3.0], [3.0, 0.0]), [-10.0, 5.0, 2.0]), {}),
+        {"operator0": "vec3", "params": "object", "t_max": "positive", "t0": "nonneg"},
+    ),
+    "solve_interception": Spec(
+        lambda: ((([0.0, 0.0, -3.0], [3.0, 0.0]), [-10.0, 5.0, 2.0]), {"N": 10}),
+        {"operator0": "vec3", "params": "object"},
+    ),
     "build_assignment_model": Spec(lambda: ((np.ones((2, 2)), [0, 1]), {}), {"cost": "matrix"}),
-    "solve_assignment": Spec(lambda: ((np.ones((2, 2)),), {}), {"cost": "matrix", "time_limit": "time_limit"}),
-    "greedy_assignment": Spec(lambda: (([[0.0, 0.0, 2.0]], [[10.0, 0.0, -3.0]], [0], np.ones((1, 1))), {}),
-                              {"operators": "points3", "sharks_pos": "points3"}),
+    "solve_assignment": Spec(
+        lambda: ((np.ones((2, 2)),), {}), {"cost": "matrix", "time_limit": "time_limit"}
+    ),
+    "greedy_assignment": Spec(
+        lambda: (([[0.0, 0.0, 2.0]], [[10.0, 0.0, -3.0]], [0], np.ones((1, 1))), {}),
+        {"operators": "points3", "sharks_pos": "points3"},
+    ),
     "thesis_altitude": Spec(lambda: ((-3.0,), {}), {"z_s": "finite", "params": "object"}),
     "ClassicalPursuit": Spec(lambda: ((), {}), {"params": "object"}),
     "VirtualSharkInterceptor": Spec(lambda: ((), {}), {"params": "object"}),
     "OCPInterceptor": Spec(lambda: ((), {}), {"params": "object"}),
-    "optimal_interception": Spec(lambda: ((_path_a(), [-10.0, 5.0, 2.0]), {}),
-                                 {"trajectory": "object", "operator0": "vec3", "params": "object"}),
-    "virtual_shark_plan": Spec(lambda: ((_path_a(), [-10.0, 5.0, 2.0]), {}),
-                               {"trajectory": "object", "operator0": "vec3", "params": "object"}),
-    "allocate_operators": Spec(lambda: (([[0.0, 0.0, 2.0]], [[10.0, 0.0, -3.0]], [[1.0, 0.0, 0.0]], [[30.0, 0.0]]),
-                                        {}), {"operators": "points3", "sharks_pos": "points3",
-                                              "sharks_vel": "points3", "params": "object"}),
-    "interception_time_matrix": Spec(lambda: (([[0.0, 0.0, 2.0]], [[10.0, 0.0, -3.0]], [[1.0, 0.0, 0.0]]), {}),
-                                     {"operators": "points3", "sharks_pos": "points3", "sharks_vel": "points3",
-                                      "params": "object"}),
+    "optimal_interception": Spec(
+        lambda: ((_path_a(), [-10.0, 5.0, 2.0]), {}),
+        {"trajectory": "object", "operator0": "vec3", "params": "object"},
+    ),
+    "virtual_shark_plan": Spec(
+        lambda: ((_path_a(), [-10.0, 5.0, 2.0]), {}),
+        {"trajectory": "object", "operator0": "vec3", "params": "object"},
+    ),
+    "allocate_operators": Spec(
+        lambda: (([[0.0, 0.0, 2.0]], [[10.0, 0.0, -3.0]], [[1.0, 0.0, 0.0]], [[30.0, 0.0]]), {}),
+        {"operators": "points3", "sharks_pos": "points3", "sharks_vel": "points3", "params": "object"},
+    ),
+    "interception_time_matrix": Spec(
+        lambda: (([[0.0, 0.0, 2.0]], [[10.0, 0.0, -3.0]], [[1.0, 0.0, 0.0]]), {}),
+        {"operators": "points3", "sharks_pos": "points3", "sharks_vel": "points3", "params": "object"},
+    ),
     "RepellingOperator": Spec(lambda: ((0,), {}), {"shark": "int>=0", "params": "object"}),
     # ---- herding
-    "HerdingParams": Spec(lambda: ((), {}), {"V_max": "positive", "delta": "positive", "eta_d": "nonneg",
-                                             "n_drones": "int>=1", "beta": "positive", "goal_radius": "positive"}),
-    "HerdingScenario": Spec(lambda: ((_herd().params, _herd().animals, _herd().drones, _herd().headings,
-                                      _herd().goal), {}),
-                            {"params": "object", "animals": "points2+", "drones": "points2+", "goal": "vec2"}),
-    "thesis_scenario": Spec(lambda: ((6, 0), {"n_drones": 2}), {"n_animals": "size", "seed": "seed",
-                                                                "n_drones": "int>=1", "field_size": "vec2",
-                                                                "goal": "vec2"}),
+    "HerdingParams": Spec(
+        lambda: ((), {}),
+        {
+            "V_max": "positive",
+            "delta": "positive",
+            "eta_d": "nonneg",
+            "n_drones": "int>=1",
+            "beta": "positive",
+            "goal_radius": "positive",
+        },
+    ),
+    "HerdingScenario": Spec(
+        lambda: ((_herd().params, _herd().animals, _herd().drones, _herd().headings, _herd().goal), {}),
+        {"params": "object", "animals": "points2+", "drones": "points2+", "goal": "vec2"},
+    ),
+    "thesis_scenario": Spec(
+        lambda: ((6, 0), {"n_drones": 2}),
+        {"n_animals": "size", "seed": "seed", "n_drones": "int>=1", "field_size": "vec2", "goal": "vec2"},
+    ),
     "with_params": Spec(lambda: ((_herd(),), {"V_max": 20.0}), {"V_max": "positive"}),
-    "simulate@herding": Spec(lambda: ((_herd(), dp.herding.ProposedHerder()), {"t_max": 1.0, "seed": 0}),
-                             {"scenario": "object", "controller": "object", "t_max": "positive", "seed": "seed"}),
+    "simulate@herding": Spec(
+        lambda: ((_herd(), dp.herding.ProposedHerder()), {"t_max": 1.0, "seed": 0}),
+        {"scenario": "object", "controller": "object", "t_max": "positive", "seed": "seed"},
+    ),
     "footprint_radius": Spec(lambda: ((np.zeros((3, 2)),), {}), {"animals": "points2+"}),
-    "build_allocation_model": Spec(lambda: (([1.0, 5.0], [2.0], 10.0), {}),
-                                   {"drone_s": "arcs", "steer_s": "arcs", "perimeter": "positive"}),
-    "solve_allocation": Spec(lambda: (([1.0, 5.0], [2.0], 10.0), {}),
-                             {"drone_s": "arcs", "steer_s": "arcs", "perimeter": "positive"}),
-    "check_allocation": Spec(lambda: (([1.0, 5.0], [2.0], 10.0,
-                                       dp.herding.solve_allocation([1.0, 5.0], [2.0], 10.0).x), {}),
-                             {"drone_s": "arcs", "perimeter": "positive"}),
-    "allocate_bruteforce": Spec(lambda: (([1.0, 5.0], [2.0], 10.0), {}),
-                                {"drone_s": "arcs", "steer_s": "arcs", "perimeter": "positive"}),
-    "allocate_collision_blind": Spec(lambda: (([1.0, 5.0], [2.0], 10.0), {}),
-                                     {"drone_s": "arcs", "steer_s": "arcs", "perimeter": "positive"}),
-    "convex_hull": Spec(lambda: ((np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),), {}), {"points": "points2+"}),
+    "build_allocation_model": Spec(
+        lambda: (([1.0, 5.0], [2.0], 10.0), {}),
+        {"drone_s": "arcs", "steer_s": "arcs", "perimeter": "positive"},
+    ),
+    "solve_allocation": Spec(
+        lambda: (([1.0, 5.0], [2.0], 10.0), {}),
+        {"drone_s": "arcs", "steer_s": "arcs", "perimeter": "positive"},
+    ),
+    "check_allocation": Spec(
+        lambda: (([1.0, 5.0], [2.0], 10.0, dp.herding.solve_allocation([1.0, 5.0], [2.0], 10.0).x), {}),
+        {"drone_s": "arcs", "perimeter": "positive"},
+    ),
+    "allocate_bruteforce": Spec(
+        lambda: (([1.0, 5.0], [2.0], 10.0), {}),
+        {"drone_s": "arcs", "steer_s": "arcs", "perimeter": "positive"},
+    ),
+    "allocate_collision_blind": Spec(
+        lambda: (([1.0, 5.0], [2.0], 10.0), {}),
+        {"drone_s": "arcs", "steer_s": "arcs", "perimeter": "positive"},
+    ),
+    "convex_hull": Spec(
+        lambda: ((np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),), {}), {"points": "points2+"}
+    ),
     "min_enclosing_circle": Spec(lambda: ((np.array([[0.0, 0.0], [1.0, 0.0]]),), {}), {"points": "points2+"}),
-    "steering_points": Spec(lambda: ((_hull(), np.array([3.0, 3.0]), 2), {}),
-                            {"hull": "object", "centroid": "vec2", "n_drones": "int>=1"}),
+    "steering_points": Spec(
+        lambda: ((_hull(), np.array([3.0, 3.0]), 2), {}),
+        {"hull": "object", "centroid": "vec2", "n_drones": "int>=1"},
+    ),
     "HerderSettings": Spec(lambda: ((), {}), {"arrive_tol": "positive", "turn_tol": "positive"}),
     "ProposedHerder": Spec(lambda: ((), {}), {"settings": "object?"}),
     "BenchmarkHerder": Spec(lambda: ((), {}), {"settings": "object?"}),
@@ -262,20 +424,62 @@ SPECS: dict[str, Spec] = {
 
 PLOTTING = {
     # draw the library's own results on matplotlib axes; not fuzzed with bad data here
-    "plot_map", "plot_path", "plot_bearing", "plot_top_view", "plot_time_series", "plot_state", "plot_final",
-    "plot_footprint", "write_gif", "summary_table", "plot_deployment_region", "plot_stealth_front",
+    "plot_map",
+    "plot_path",
+    "plot_bearing",
+    "plot_top_view",
+    "plot_time_series",
+    "plot_state",
+    "plot_final",
+    "plot_footprint",
+    "write_gif",
+    "summary_table",
+    "plot_deployment_region",
+    "plot_stealth_front",
 }
 
 RESULT_TYPES = {
     # returned to the user, not called with user data (their fields are produced by the library)
-    "Instance", "Evaluation", "Candidates", "CellModel", "SolveResult", "Status", "Controller",
-    "CovertTrace", "MPCData", "MPCPlan", "BearingMPC", "RecedingBearingMPC", "solve_bearing_mpc",
-    "rollout_sliding", "InterceptionController", "InterceptionTrace", "RepellingTrace", "InterceptionPlan",
-    "Assignment", "HerdingTrace", "Allocation", "AllocationModel", "ExtendedHull", "MissionBound",
+    "Instance",
+    "Evaluation",
+    "Candidates",
+    "CellModel",
+    "SolveResult",
+    "Status",
+    "Controller",
+    "CovertTrace",
+    "MPCData",
+    "MPCPlan",
+    "BearingMPC",
+    "RecedingBearingMPC",
+    "solve_bearing_mpc",
+    "rollout_sliding",
+    "InterceptionController",
+    "InterceptionTrace",
+    "RepellingTrace",
+    "InterceptionPlan",
+    "Assignment",
+    "HerdingTrace",
+    "Allocation",
+    "AllocationModel",
+    "ExtendedHull",
+    "MissionBound",
     # the closed-loop contract's records and phase enums (built by the simulators and controllers)
-    "CovertCommand", "CovertFrame", "CovertObservation", "CovertPhase", "HerdingCommand", "HerdingFrame",
-    "HerdingObservation", "HerdingPhase", "SharkCommand", "SharkFrame", "SharkObservation", "SharkPhase",
-    "RepellingMode", "RepellingObservation", "RepellingScenario",
+    "CovertCommand",
+    "CovertFrame",
+    "CovertObservation",
+    "CovertPhase",
+    "HerdingCommand",
+    "HerdingFrame",
+    "HerdingObservation",
+    "HerdingPhase",
+    "SharkCommand",
+    "SharkFrame",
+    "SharkObservation",
+    "SharkPhase",
+    "RepellingMode",
+    "RepellingObservation",
+    "RepellingScenario",
     "Region",  # a deployment region as built by deployment_region
 }
 
@@ -296,7 +500,9 @@ CALLABLES = _public_callables()
 
 def test_every_public_callable_has_a_strategy():
     missing = sorted(set(CALLABLES) - set(SPECS) - RESULT_TYPES - PLOTTING)
-    assert not missing, f"public callables without a fuzz strategy in tests/fuzz/test_public_api.py: {missing}"
+    assert not missing, (
+        f"public callables without a fuzz strategy in tests/fuzz/test_public_api.py: {missing}"
+    )
     stale = sorted((set(SPECS) | RESULT_TYPES | PLOTTING) - set(CALLABLES))
     assert not stale, f"fuzz strategies for names that are no longer public: {stale}"
 
@@ -306,12 +512,17 @@ def _bound(fn, args, kwargs):
     return sig, sig.bind_partial(*args, **kwargs)
 
 
-BAD_CASES = [(name, param, kind, i) for name, spec in sorted(SPECS.items()) for param, kind in spec.checked.items()
-             for i in range(len(BAD[kind]))]
+BAD_CASES = [
+    (name, param, kind, i)
+    for name, spec in sorted(SPECS.items())
+    for param, kind in spec.checked.items()
+    for i in range(len(BAD[kind]))
+]
 
 
-@pytest.mark.parametrize("name, param, kind, i", BAD_CASES,
-                         ids=[f"{n}-{p}-{k}{i}" for n, p, k, i in BAD_CASES])
+@pytest.mark.parametrize(
+    "name, param, kind, i", BAD_CASES, ids=[f"{n}-{p}-{k}{i}" for n, p, k, i in BAD_CASES]
+)
 def test_bad_input_raises_a_clear_error_naming_the_parameter(name, param, kind, i):
     fn = CALLABLES[name]
     args, kwargs = SPECS[name].call()
@@ -336,7 +547,9 @@ def test_the_valid_call_works_and_gives_finite_numbers(name):
     _assert_finite(result)
 
 
-FINITE_EXEMPT = {"interception_time_matrix": "inf marks an operator-shark pair that cannot intercept (documented)"}
+FINITE_EXEMPT = {
+    "interception_time_matrix": "inf marks an operator-shark pair that cannot intercept (documented)"
+}
 
 
 def _assert_finite(result):
@@ -356,7 +569,9 @@ def _assert_finite(result):
 
 
 # -------------------------------------------------------------------------- random valid inputs
-points = st.lists(st.tuples(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3)), min_size=1, max_size=30).map(np.array)
+points = st.lists(st.tuples(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3)), min_size=1, max_size=30).map(
+    np.array
+)
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -371,10 +586,12 @@ def test_geometry_on_random_herds_is_finite_and_encloses(pts):
 
 
 @settings(max_examples=30, deadline=None)
-@given(st.lists(st.integers(0, 990).map(lambda k: k / 10), min_size=1, max_size=6),
-       st.lists(st.integers(0, 990).map(lambda k: k / 10), min_size=1, max_size=6))
+@given(
+    st.lists(st.integers(0, 990).map(lambda k: k / 10), min_size=1, max_size=6),
+    st.lists(st.integers(0, 990).map(lambda k: k / 10), min_size=1, max_size=6),
+)
 def test_allocation_on_random_positions_has_a_valid_status(drones, steer):
-    steer = steer[:len(drones)]
+    steer = steer[: len(drones)]
     res = dp.herding.solve_allocation(drones, steer, 100.0)
     if len(set(steer)) < len(steer):  # coincident steering points: (6.22)-(6.23) cannot both hold
         assert res.status is dp.Status.INFEASIBLE and "coincident" in res.message
@@ -393,8 +610,12 @@ def test_altitudes_on_random_depths_are_in_the_band(z_s):
 
 
 # -------------------------------------------------------------------------- deeper profile (-m slow)
-NUMBER_CASES = [(name, param, kind) for name, spec in sorted(SPECS.items()) for param, kind in spec.checked.items()
-                if kind in ("positive", "nonneg", "finite")]
+NUMBER_CASES = [
+    (name, param, kind)
+    for name, spec in sorted(SPECS.items())
+    for param, kind in spec.checked.items()
+    if kind in ("positive", "nonneg", "finite")
+]
 
 
 def _bad_number(kind: str):
@@ -430,15 +651,17 @@ def test_deep_bad_numbers_raise_a_clear_error(data):
 
 
 users = st.lists(st.tuples(st.floats(-2500, 2500), st.floats(-2500, 2500)), min_size=0, max_size=12).map(
-    lambda u: np.array(u, dtype=float).reshape(-1, 2))
+    lambda u: np.array(u, dtype=float).reshape(-1, 2)
+)
 
 
 @pytest.mark.slow
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(users, st.integers(1, 2))
 def test_deep_random_cells_instances_agree_with_the_bound(u, m):
-    problem = dp.cells.CellProblem(u, [[0.0, 0.0]], m, 500.0, 1000.0, 3500.0, 3000.0,
-                                   bounds=(-2500.0, 2500.0, -2500.0, 2500.0))
+    problem = dp.cells.CellProblem(
+        u, [[0.0, 0.0]], m, 500.0, 1000.0, 3500.0, 3000.0, bounds=(-2500.0, 2500.0, -2500.0, 2500.0)
+    )
     milp = dp.cells.solve_milp(problem, time_limit=15)
     assert milp.status in (dp.Status.OPTIMAL, dp.Status.FEASIBLE)
     ev = dp.cells.evaluate(problem, milp.x)

@@ -19,7 +19,7 @@ def test_random_group_sliding_beats_hover_and_is_near_the_proven_optimum():
     assert sl.finished and hv.finished
     assert sl.beta_max < hv.beta_max
     on = np.nonzero((sl.t >= sl.t_a) & (sl.t <= sl.t_f))[0]
-    for k in on[:: 100]:
+    for k in on[::100]:
         r = sphere_minmax_bearing(sc.params, sl.targets[k])
         # no point of the sphere beats the proven bound; the sliding mode is close to it
         assert sl.beta_m[k] >= r.bound - 1e-9

@@ -50,16 +50,25 @@ def test_allocators_drive_identical_runs():
 
 @pytest.mark.parametrize(
     "animals",
-    [np.full((30, 2), 100.0), np.column_stack([np.linspace(0, 200, 30), np.full(30, 50.0)]),
-     np.array([[50.0, 50.0]]), np.array([[0.0, 0.0], [40.0, 30.0]]),
-     np.array([[-300.0, 0.0], [0.0, 0.0], [-150.0, 200.0]])],
+    [
+        np.full((30, 2), 100.0),
+        np.column_stack([np.linspace(0, 200, 30), np.full(30, 50.0)]),
+        np.array([[50.0, 50.0]]),
+        np.array([[0.0, 0.0], [40.0, 30.0]]),
+        np.array([[-300.0, 0.0], [0.0, 0.0], [-150.0, 200.0]]),
+    ],
     ids=["one-point", "collinear", "single", "two", "triangle-3-vertices-4-drones"],
 )
 @pytest.mark.parametrize("cls", [ProposedHerder, BenchmarkHerder])
 def test_degenerate_herds_do_not_crash(animals, cls):
     base = thesis_scenario(5, seed=0)
-    sc = HerdingScenario(base.params, animals, np.array([[300.0, 0], [300, 50], [300, 100], [300, 150]]),
-                         base.headings, np.array([-300.0, 0.0]))
+    sc = HerdingScenario(
+        base.params,
+        animals,
+        np.array([[300.0, 0], [300, 50], [300, 100], [300, 150]]),
+        base.headings,
+        np.array([-300.0, 0.0]),
+    )
     herder = cls()
     tr = simulate(sc, herder, t_max=40.0, seed=0)
     assert np.all(np.isfinite(tr.footprint_radius)) and np.all(np.isfinite(tr.drones))
@@ -73,8 +82,14 @@ def test_cli_reproduce_quick_writes_tables_and_figures(tmp_path):
 
     assert main(["reproduce", "herding", "--quick", "--out", str(tmp_path)]) == 0
     out = tmp_path / "herding"
-    for name in ("fig_6_7.csv", "fig_6_7a_footprint.png", "fig_6_7bf_snapshots.png", "fig_6_8_to_6_10.csv",
-                 "fig_6_8_to_6_10_sweeps.png", "fig_6_7_runs.csv"):
+    for name in (
+        "fig_6_7.csv",
+        "fig_6_7a_footprint.png",
+        "fig_6_7bf_snapshots.png",
+        "fig_6_8_to_6_10.csv",
+        "fig_6_8_to_6_10_sweeps.png",
+        "fig_6_7_runs.csv",
+    ):
         assert (out / name).exists(), name
     import pandas as pd
 

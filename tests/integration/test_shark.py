@@ -28,6 +28,7 @@ def test_online_ocp_frontal_without_early_touch_on_random_curvy_paths(seed):
 @pytest.mark.slow
 def test_reproduce_shark_quick_cli(tmp_path):
     from droneplan.studies.cli import main
+
     assert main(["reproduce", "shark", "--quick", "--out", str(tmp_path)]) == 0
     for f in ("fig_5_10.png", "fig_5_11.png", "fig_5_12.png", "table_5_2.csv", "repelling.csv"):
         assert (tmp_path / "shark" / f).exists()

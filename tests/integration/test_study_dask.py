@@ -18,8 +18,9 @@ HELD_OUT = 1000  # seeds no test or tuning run used before
 
 @pytest.fixture(scope="module")
 def cluster():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as c:
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+    ) as c:
         yield c
 
 
@@ -34,7 +35,10 @@ def _invariants(df: pd.DataFrame) -> None:
 
 
 def test_gap_per_problem_on_a_local_cluster(tmp_path, cluster):
-    with ResultStore(tmp_path / STORE_NAME) as store, make_executor(dask_address=cluster.scheduler_address) as ex:
+    with (
+        ResultStore(tmp_path / STORE_NAME) as store,
+        make_executor(dask_address=cluster.scheduler_address) as ex,
+    ):
         herding.gap(seeds=1, executor=ex, out=tmp_path / "herding", store=store, first_seed=HELD_OUT)
         shark.gap(seeds=1, executor=ex, out=tmp_path / "shark", store=store, first_seed=HELD_OUT)
         cells.gap(seeds=1, executor=ex, out=tmp_path / "cells", store=store, first_seed=HELD_OUT, m=1)
@@ -51,7 +55,11 @@ def test_gap_per_problem_on_a_local_cluster(tmp_path, cluster):
 
 
 def _rows(mode: str, out, cluster) -> pd.DataFrame:
-    kw = {"dask_address": cluster.scheduler_address} if mode == "dask" else {"workers": 1 if mode == "serial" else 2}
+    kw = (
+        {"dask_address": cluster.scheduler_address}
+        if mode == "dask"
+        else {"workers": 1 if mode == "serial" else 2}
+    )
     with ResultStore(out / STORE_NAME) as store, make_executor(**kw) as ex:
         herding.gap(seeds=2, executor=ex, out=out, store=store, first_seed=HELD_OUT + 1)
         shark.gap(seeds=2, executor=ex, out=out, store=store, first_seed=HELD_OUT + 1)
@@ -68,6 +76,7 @@ def test_serial_processes_and_dask_give_the_same_rows(tmp_path, cluster):
         # values where both runs reached the same status, and allow only optimal <-> feasible otherwise
         same = serial["status"] == other["status"]
         assert set(map(tuple, np.sort(np.c_[serial["status"][~same], other["status"][~same]], axis=1))) <= {
-            ("feasible", "optimal")}
+            ("feasible", "optimal")
+        }
         assert same.mean() >= 0.9
         pd.testing.assert_frame_equal(serial[same], other[same], check_exact=False, rtol=1e-6)

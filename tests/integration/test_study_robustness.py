@@ -24,9 +24,13 @@ HELPER = Path(__file__).resolve().parents[1] / "unit" / "studies" / "study_tasks
 
 
 def _start(out: Path, mode: str, n: int, delay: float, env=None) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, str(HELPER), str(out), mode, str(n), str(delay)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, **(env or {})})
+    return subprocess.Popen(
+        [sys.executable, str(HELPER), str(out), mode, str(n), str(delay)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, **(env or {})},
+    )
 
 
 def _wait_started(proc: subprocess.Popen) -> None:
@@ -133,8 +137,13 @@ def test_failing_task_becomes_error_row_and_is_retried(tmp_path):
 
 # --------------------------------------------------------------------------- the CLI
 def _cli(*args, timeout=120) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "droneplan.studies.cli", *args], capture_output=True, text=True,
-                          timeout=timeout, check=False)
+    return subprocess.run(
+        [sys.executable, "-m", "droneplan.studies.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
 
 
 def test_cli_bad_out_and_unreachable_dask_give_one_line_errors(tmp_path):
@@ -161,9 +170,24 @@ def test_cli_bad_out_and_unreachable_dask_give_one_line_errors(tmp_path):
 
 def test_cli_ctrl_c_serial_exits_130_and_resumes(tmp_path):
     out = tmp_path / "o"
-    proc = subprocess.Popen([sys.executable, "-m", "droneplan.studies.cli", "gap", "herding", "--seeds", "40",
-                             "--workers", "1", "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "droneplan.studies.cli",
+            "gap",
+            "herding",
+            "--seeds",
+            "40",
+            "--workers",
+            "1",
+            "--out",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     _wait_rows(out / STORE_NAME, 8, timeout=120)
     t0 = time.monotonic()
     proc.send_signal(signal.SIGINT)

@@ -59,20 +59,34 @@ def test_formulation_solves_print_nothing(capfd):
     from droneplan.formulations.covert import MPCData
     from droneplan.formulations.shark.ocp import solve_interception
 
-    cells = CellProblem(users=np.array([[2.5, 0.0], [2.9, 0.3], [4.0, 1.0], [-3.0, 0.5]]),
-                        gbs=np.array([[0.0, 0.0]]), n_cells=2, R_d=1.0, R_g=1.0, r1=2.5, r2=2.5)
+    cells = CellProblem(
+        users=np.array([[2.5, 0.0], [2.9, 0.3], [4.0, 1.0], [-3.0, 0.5]]),
+        gbs=np.array([[0.0, 0.0]]),
+        n_cells=2,
+        R_d=1.0,
+        R_g=1.0,
+        r1=2.5,
+        r2=2.5,
+    )
     assert solve_milp(cells, backend="cp-sat", time_limit=20).has_solution
     scen = thesis_case(1, 0)
     model = build_bearing_mpc(scen.params, scen.n_targets)
     N = model.settings.horizon
-    data = MPCData(D0=np.array([0.0, 0.0, 20.0]), h0=np.array([1.0, 0.0, 0.0]),
-                   targets=np.tile(scen.params.F_arr + [5.0, 0.0, 0.0], (N, scen.n_targets, 1)),
-                   mask=np.ones(scen.n_targets, bool), sphere_lo=np.zeros(N), sphere_hi=np.full(N, 1e4),
-                   home_hi=np.full(N, 1e4), tangent=np.zeros(N, bool))
+    data = MPCData(
+        D0=np.array([0.0, 0.0, 20.0]),
+        h0=np.array([1.0, 0.0, 0.0]),
+        targets=np.tile(scen.params.F_arr + [5.0, 0.0, 0.0], (N, scen.n_targets, 1)),
+        mask=np.ones(scen.n_targets, bool),
+        sphere_lo=np.zeros(N),
+        sphere_hi=np.full(N, 1e4),
+        home_hi=np.full(N, 1e4),
+        tangent=np.zeros(N, bool),
+    )
     for backend in ("ipopt", "osqp"):
         assert RecedingBearingMPC(model, backend=backend).solve(data).has_solution
-    assert solve_interception((np.array([0, 0, -3.0]), np.array([5.0, 0.0])), np.array([40.0, 0, 2.0]),
-                              N=20).has_solution
+    assert solve_interception(
+        (np.array([0, 0, -3.0]), np.array([5.0, 0.0])), np.array([40.0, 0, 2.0]), N=20
+    ).has_solution
     assert solve_assignment(np.array([[3.0, 9.0], [4.0, 2.0]])).has_solution
     assert solve_allocation([0.0, 10.0, 20.0], [5.0, 30.0, 60.0], 100.0, method="cp-sat").has_solution
     out, _ = capfd.readouterr()

@@ -2,16 +2,32 @@ import itertools
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from droneplan.formulations.cells import (CellProblem, build_milp, candidate_sites, circle_intersections,
-                                coverage_upper_bound, evaluate, solve_milp)
+from droneplan.formulations.cells import (
+    CellProblem,
+    build_milp,
+    candidate_sites,
+    circle_intersections,
+    coverage_upper_bound,
+    evaluate,
+    solve_milp,
+)
 from droneplan.solvers.result import Status
 
 
 def small(users, m=2, gbs=((0.0, 0.0),), R_d=1.0, R_g=1.0, r1=2.5, r2=2.5, bounds=None):
-    return CellProblem(users=np.asarray(users, float), gbs=np.asarray(gbs, float), n_cells=m, R_d=R_d, R_g=R_g,
-                       r1=r1, r2=r2, bounds=bounds)
+    return CellProblem(
+        users=np.asarray(users, float),
+        gbs=np.asarray(gbs, float),
+        n_cells=m,
+        R_d=R_d,
+        R_g=R_g,
+        r1=r1,
+        r2=r2,
+        bounds=bounds,
+    )
 
 
 # ----------------------------------------------------------------- evaluate on hand-built cases
@@ -61,8 +77,14 @@ def test_evaluate_too_many_and_bounds():
 
 
 @settings(max_examples=30, deadline=None)
-@given(st.floats(-3, 3), st.floats(-3, 3), st.floats(0.2, 2.5), st.floats(-3, 3), st.floats(-3, 3),
-       st.floats(0.2, 2.5))
+@given(
+    st.floats(-3, 3),
+    st.floats(-3, 3),
+    st.floats(0.2, 2.5),
+    st.floats(-3, 3),
+    st.floats(-3, 3),
+    st.floats(0.2, 2.5),
+)
 def test_circle_intersections_lie_on_both_circles(x1, y1, r1, x2, y2, r2):
     pts = circle_intersections(np.array([x1, y1]), r1, np.array([x2, y2]), r2)
     for p in pts:
@@ -172,12 +194,14 @@ def test_infeasible_warm_start_returns_within_the_time_limit():
     import subprocess
     import sys
 
-    code = ("from droneplan.formulations.cells import CellProblem, solve_milp\n"
-            "p = CellProblem([[2000,0],[2100,50]], [[0,0]], 1, 500, 1000, 3500, 3000, "
-            "bounds=(-2500,2500,-2500,2500))\n"
-            "for w in ([[0, 0]], [[3000, 0]], [[2000, 0], [2100, 0], [0, 0]]):\n"
-            "    r = solve_milp(p, warm_start=w, time_limit=1)\n"
-            "    print(r.status.name, r.objective, r.info['warm_start']['used'])\n")
+    code = (
+        "from droneplan.formulations.cells import CellProblem, solve_milp\n"
+        "p = CellProblem([[2000,0],[2100,50]], [[0,0]], 1, 500, 1000, 3500, 3000, "
+        "bounds=(-2500,2500,-2500,2500))\n"
+        "for w in ([[0, 0]], [[3000, 0]], [[2000, 0], [2100, 0], [0, 0]]):\n"
+        "    r = solve_milp(p, warm_start=w, time_limit=1)\n"
+        "    print(r.status.name, r.objective, r.info['warm_start']['used'])\n"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     lines = out.stdout.split()
@@ -212,8 +236,9 @@ def _failing_backends(monkeypatch, names):
 
         def new_model(self):
             model = self.real.new_model()
-            model.solve = lambda **kw: SolveResult(Status.ERROR, backend=self.real.name, backend_status="ABNORMAL",
-                                                   message="forced failure")
+            model.solve = lambda **kw: SolveResult(
+                Status.ERROR, backend=self.real.name, backend_status="ABNORMAL", message="forced failure"
+            )
             return model
 
     def lookup(name, kind=None):
@@ -268,4 +293,6 @@ def test_time_limit_covers_model_building():
         res = solve_milp(p, time_limit=limit)
         assert res.solve_time <= limit + 4.0
         assert res.status in (Status.FEASIBLE, Status.OPTIMAL) and evaluate(p, res.x).feasible
-        assert res.objective == evaluate(p, res.x).covered and (res.bound is None or res.objective <= res.bound)
+        assert res.objective == evaluate(p, res.x).covered and (
+            res.bound is None or res.objective <= res.bound
+        )

@@ -18,7 +18,7 @@ from droneplan.formulations.covert import (
     rollout_guess,
     solve_bearing_mpc,
 )
-from droneplan.scenarios.covert import THESIS_TABLE_3_2, bearing_changes, step_drone, thesis_case
+from droneplan.scenarios.covert import THESIS_TABLE_3_2, bearing_changes, step_drone
 
 P = THESIS_TABLE_3_2
 SET = MPCSettings(horizon=5, step=0.5, replan_every=2)
@@ -96,8 +96,12 @@ def test_ipopt_plan_is_admissible_and_epigraph_tight(on_sphere):
     beta = bearing_changes(plan.D[1:], data.targets, P.R)
     assert res.objective == pytest.approx(beta.max(), abs=2e-3)
     # it is no worse than its starting point (zero commands: hover/coast)
-    x0 = rollout_guess(RecedingBearingMPC(build_bearing_mpc(P, 2, SET)).model, data,
-                       np.zeros((SET.horizon, 3)), np.zeros(SET.horizon))
+    x0 = rollout_guess(
+        RecedingBearingMPC(build_bearing_mpc(P, 2, SET)).model,
+        data,
+        np.zeros((SET.horizon, 3)),
+        np.zeros(SET.horizon),
+    )
     D0_nodes = np.vstack([data.D0] * SET.horizon)
     assert res.objective <= bearing_changes(D0_nodes, data.targets, P.R).max() + 1e-6
     assert x0.shape == (build_bearing_mpc(P, 2, SET).n_x,)
@@ -111,7 +115,7 @@ def test_single_static_target_on_sphere_reaches_its_camouflage_line():
     # point of the line R->A on the sphere
     d = (A[0] - R) / np.linalg.norm(A[0] - R)
     b = 2 * d @ (R - F)
-    c = (R - F) @ (R - F) - P.L_u ** 2
+    c = (R - F) @ (R - F) - P.L_u**2
     lam = (-b - math.sqrt(b * b - 4 * c)) / 2
     X = R + lam * d
     assert abs(np.linalg.norm(X - F) - P.L_u) < 1e-9
@@ -119,8 +123,16 @@ def test_single_static_target_on_sphere_reaches_its_camouflage_line():
     e /= np.linalg.norm(e)
     D0 = F + P.L_u * (X + 3.0 * e - F) / np.linalg.norm(X + 3.0 * e - F)
     N = SET.horizon
-    data = MPCData(D0, -e, np.broadcast_to(A, (N, 1, 3)).copy(), np.array([True]), np.full(N, P.L_u),
-                   np.full(N, P.L_u), np.full(N, np.inf), np.r_[False, np.ones(N - 1, bool)])
+    data = MPCData(
+        D0,
+        -e,
+        np.broadcast_to(A, (N, 1, 3)).copy(),
+        np.array([True]),
+        np.full(N, P.L_u),
+        np.full(N, P.L_u),
+        np.full(N, np.inf),
+        np.r_[False, np.ones(N - 1, bool)],
+    )
     res = solve_bearing_mpc(P, data, SET)
     assert res.has_solution
     beta_end = bearing_changes(res.x.D[-1], A, P.R)[0]

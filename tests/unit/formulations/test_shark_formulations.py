@@ -2,10 +2,12 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from droneplan.formulations.shark import optimal_altitude
-from droneplan.scenarios.shark import THESIS_TABLE_5_1 as P, field_radius
+from droneplan.scenarios.shark import THESIS_TABLE_5_1 as P
+from droneplan.scenarios.shark import field_radius
 
 
 @settings(max_examples=80, deadline=None)
@@ -33,7 +35,7 @@ def test_optimal_altitude_vectorised_and_bad_input():
 
 # ---------------------------------------------------------------- interception OCP
 from droneplan.formulations.shark import InterceptionOCP, build_interception_nlp, solve_interception  # noqa: E402
-from droneplan.scenarios.shark import inside_field, random_trajectory, thesis_trajectories  # noqa: E402
+from droneplan.scenarios.shark import inside_field, thesis_trajectories  # noqa: E402
 from droneplan.solvers.result import Status  # noqa: E402
 
 
@@ -48,7 +50,9 @@ def _check_plan(res, shark_at, O0):
     S_T, V_T = shark_at(plan.T)
     zo, eps = optimal_altitude(min(S_T[2], 0.0))
     goal = S_T[:2] + eps * (1 + P.gamma) * V_T[:2] / np.linalg.norm(V_T[:2])
-    assert np.allclose(plan.operator[-1, :2], goal, atol=1e-4) and math.isclose(plan.operator[-1, 2], zo, abs_tol=1e-4)
+    assert np.allclose(plan.operator[-1, :2], goal, atol=1e-4) and math.isclose(
+        plan.operator[-1, 2], zo, abs_tol=1e-4
+    )
     # no touch before T on a fine grid (between nodes the operator moves linearly)
     tt = np.linspace(0, plan.T, 1001)[:-1]
     S = np.array([shark_at(t)[0] for t in tt])

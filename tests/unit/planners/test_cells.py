@@ -1,14 +1,23 @@
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from droneplan.formulations.cells import CellProblem, circle_intersections, evaluate, solve_milp
 from droneplan.planners.cells import GASettings, Region, exhaustive, fitness, genetic, max_coverage_in_region
 
 
 def small(users, m=2, r1=3.0, r2=2.5, bounds=None):
-    return CellProblem(users=np.asarray(users, float), gbs=np.zeros((1, 2)), n_cells=m, R_d=1.0, R_g=1.0,
-                       r1=r1, r2=r2, bounds=bounds)
+    return CellProblem(
+        users=np.asarray(users, float),
+        gbs=np.zeros((1, 2)),
+        n_cells=m,
+        R_d=1.0,
+        R_g=1.0,
+        r1=r1,
+        r2=r2,
+        bounds=bounds,
+    )
 
 
 def random_small(seed, n, m, bounds=(-6, 6, -6, 6)):
@@ -106,8 +115,11 @@ def test_sweep_equals_brute_force(seed, n, n_placed, boxed):
     placed = rng.uniform(-4, 4, size=(n_placed, 2))
     box = tuple(rng.uniform(-4, -1, 2).tolist() + rng.uniform(1, 4, 2).tolist()) if boxed else None
     box = None if box is None else (box[0], box[2], box[1], box[3])
-    region = Region(exclude=((0.0, 0.0, 2.0),) + tuple((x, y, 2.0) for x, y in placed),
-                    link=((0.0, 0.0, 3.0),) + tuple((x, y, 2.5) for x, y in placed), box=box)
+    region = Region(
+        exclude=((0.0, 0.0, 2.0),) + tuple((x, y, 2.0) for x, y in placed),
+        link=((0.0, 0.0, 3.0),) + tuple((x, y, 2.5) for x, y in placed),
+        box=box,
+    )
     c, p = max_coverage_in_region(users, 1.0, region)
     assert c == brute_region(users, 1.0, region)
     if p is not None:
@@ -142,6 +154,7 @@ def test_exhaustive_time_limit_reports_incomplete():
 
 def test_polish_keeps_feasibility_and_never_loses():
     from droneplan.planners.cells import genetic_polished, polish
+
     for seed in range(3):
         p = random_small(seed, 20, 2)
         ga = genetic(p, pop_size=10, iter_max=5, restarts=2, seed=seed)
@@ -156,8 +169,10 @@ def test_polish_keeps_feasibility_and_never_loses():
 
 # ----------------------------------------------------------------- Fig. 4.2: deployment regions as geometry
 @settings(max_examples=25, deadline=None)
-@given(st.lists(st.tuples(st.floats(-6000, 6000), st.floats(-6000, 6000)), min_size=0, max_size=3),
-       st.integers(0, 2**31 - 1))
+@given(
+    st.lists(st.tuples(st.floats(-6000, 6000), st.floats(-6000, 6000)), min_size=0, max_size=3),
+    st.integers(0, 2**31 - 1),
+)
 def test_region_geometry_agrees_with_contains(placed, seed):
     from shapely import points as shp_points
 
@@ -176,8 +191,12 @@ def test_region_geometry_agrees_with_contains(placed, seed):
     for cx, cy, r in region.circles():
         far &= np.abs(np.hypot(q[:, 0] - cx, q[:, 1] - cy) - r) > 2 * err + 1e-3
     xmin, xmax, ymin, ymax = p.bounds
-    far &= np.minimum.reduce([np.abs(q[:, 0] - xmin), np.abs(q[:, 0] - xmax), np.abs(q[:, 1] - ymin),
-                              np.abs(q[:, 1] - ymax)]) > 1e-3
+    far &= (
+        np.minimum.reduce(
+            [np.abs(q[:, 0] - xmin), np.abs(q[:, 0] - xmax), np.abs(q[:, 1] - ymin), np.abs(q[:, 1] - ymax)]
+        )
+        > 1e-3
+    )
     covered = geom.covers(shp_points(q[far])) if not geom.is_empty else np.zeros(far.sum(), bool)
     assert np.array_equal(covered, inside[far])
 
@@ -186,8 +205,8 @@ def test_region_geometry_of_the_thesis_example():
     # Fig. 4.2: one GBS and one deployed drone-cell D_1; the region is the r1 or r2 reach
     # minus the two keep-out discs
     from droneplan.planners.cells import deployment_region
-    from droneplan.studies.plots import plot_deployment_region
     from droneplan.scenarios.cells import thesis_problem
+    from droneplan.studies.plots import plot_deployment_region
 
     p = thesis_problem(2, 0)
     d1 = np.array([[2500.0, 0.0]])
@@ -198,7 +217,11 @@ def test_region_geometry_of_the_thesis_example():
     grid = np.column_stack([xx.ravel(), yy.ravel()])
     frac = deployment_region(p, d1).contains(grid).mean()
     assert abs(g.area - frac * 1e8) / (frac * 1e8) < 0.01
-    assert not g.contains(shp_point(0, 0)) and not g.contains(shp_point(2500, 0)) and g.contains(shp_point(-2500, 0))
+    assert (
+        not g.contains(shp_point(0, 0))
+        and not g.contains(shp_point(2500, 0))
+        and g.contains(shp_point(-2500, 0))
+    )
     fig = plot_deployment_region(p, d1)
     assert fig.axes[0].get_xlabel() == "x (m)"
 

@@ -4,14 +4,21 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from droneplan.planners.covert import HoverBenchmark, SlidingModeObserver, SlidingSettings, W, g, selection_weights
+from droneplan.planners.covert import (
+    HoverBenchmark,
+    SlidingModeObserver,
+    SlidingSettings,
+    W,
+    g,
+    selection_weights,
+)
 from droneplan.scenarios.covert import THESIS_TABLE_3_2, CovertScenario, Terrain, simulate, thesis_case
 
 coord = st.floats(-100, 100, allow_nan=False, allow_infinity=False)
@@ -31,7 +38,9 @@ def test_W_is_unit_orthogonal_and_towards_mu2(m1, m2):
         assert abs(w @ e1) <= 1e-9
         assert w @ m2 > 0  # directed towards mu2
         # in the plane of mu1 and mu2
-        assert abs(np.linalg.det(np.vstack([w, m1, m2]))) <= 1e-6 * np.linalg.norm(m1) * max(1, np.linalg.norm(m2))
+        assert abs(np.linalg.det(np.vstack([w, m1, m2]))) <= 1e-6 * np.linalg.norm(m1) * max(
+            1, np.linalg.norm(m2)
+        )
 
 
 @settings(max_examples=30, deadline=None)
@@ -59,7 +68,7 @@ def test_selection_weights():
     assert w.sum() == pytest.approx(1.0) and w[2] == 0 and w[0] == w[1] > w[3] > 0
 
 
-@lru_cache(maxsize=None)
+@cache
 def _run(case: int, which: str):
     sc = thesis_case(case, 0)
     ctl = SlidingModeObserver() if which == "sliding" else HoverBenchmark()

@@ -8,7 +8,7 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from droneplan.formulations.herding import solve_allocation, z_coordinates
+from droneplan.formulations.herding import solve_allocation
 from droneplan.planners.herding import (
     ExtendedHull,
     F,
@@ -24,7 +24,9 @@ from droneplan.planners.herding import (
 )
 from droneplan.scenarios.herding import drone_step, thesis_scenario
 
-clouds = st.lists(st.tuples(st.floats(-500, 500), st.floats(-500, 500)), min_size=3, max_size=40).map(np.array)
+clouds = st.lists(st.tuples(st.floats(-500, 500), st.floats(-500, 500)), min_size=3, max_size=40).map(
+    np.array
+)
 
 
 @settings(max_examples=40, deadline=None)
@@ -56,8 +58,12 @@ def test_extended_hull_edges_parallel_at_distance_ds(pts, ds):
 
 @pytest.mark.parametrize(
     "pts",
-    [np.zeros((5, 2)), np.array([[0.0, 0.0], [10.0, 0.0], [20.0, 0.0], [5.0, 0.0]]),
-     np.array([[3.0, 4.0]]), np.array([[0.0, 0.0], [0.0, 7.0]])],
+    [
+        np.zeros((5, 2)),
+        np.array([[0.0, 0.0], [10.0, 0.0], [20.0, 0.0], [5.0, 0.0]]),
+        np.array([[3.0, 4.0]]),
+        np.array([[0.0, 0.0], [0.0, 7.0]]),
+    ],
 )
 def test_degenerate_herds_give_a_valid_extended_hull(pts):
     hull = ExtendedHull.from_points(pts, 30.0)
@@ -68,7 +74,7 @@ def test_degenerate_herds_give_a_valid_extended_hull(pts):
     assert np.all([poly.exterior.distance(shapely.Point(p)) >= 30.0 - 1e-9 for p in pts])
     assert all(poly.contains(shapely.Point(p)) for p in pts)
     s = steering_points(hull, pts.mean(axis=0), 4)
-    assert len(s) == 4 and np.all((0 <= s) & (s < hull.perimeter))
+    assert len(s) == 4 and np.all((s >= 0) & (s < hull.perimeter))
 
 
 @settings(max_examples=30, deadline=None)

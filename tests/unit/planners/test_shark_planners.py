@@ -2,18 +2,34 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark import ClassicalPursuit, VirtualSharkInterceptor, thesis_altitude
-from droneplan.scenarios.shark import (THESIS_TABLE_5_1 as P, field_radius, make_trajectory, random_trajectory,
-                             simulate, thesis_trajectories)
+from droneplan.scenarios.shark import (
+    THESIS_TABLE_5_1 as P,
+)
+from droneplan.scenarios.shark import (
+    field_radius,
+    make_trajectory,
+    random_trajectory,
+    simulate,
+    thesis_trajectories,
+)
 
 
 def test_thesis_altitude_is_eq_5_6_5_7():
     cases = {  # z_s: (z_o*, eps*) by hand from 5.6-5.7 with Table 5.1
-        0.0: (2.0, field_radius(2.0)), -2.0: (2.0, field_radius(4.0)), -3.0: (1.5, 3.5), -3.5: (1.0, 3.5),
-        -4.0: (3.5, 3.5), -6.0: (1.5, 3.5), -6.5: (1.0, 3.5), -8.0: (1.0, field_radius(9.0)), -10.5: (1.0, 0.0),
+        0.0: (2.0, field_radius(2.0)),
+        -2.0: (2.0, field_radius(4.0)),
+        -3.0: (1.5, 3.5),
+        -3.5: (1.0, 3.5),
+        -4.0: (3.5, 3.5),
+        -6.0: (1.5, 3.5),
+        -6.5: (1.0, 3.5),
+        -8.0: (1.0, field_radius(9.0)),
+        -10.5: (1.0, 0.0),
     }
     for z, (zo, eps) in cases.items():
         got = thesis_altitude(z)
@@ -74,8 +90,9 @@ def test_literal_classical_pursuit_stalls_under_altitude_floor():
 
 def test_virtual_shark_handles_stopping_and_deep_shark():
     # shark slows to a stop: the heading is kept, no NaN, interception still frontal
-    stop = make_trajectory(lambda t: 0 * t, lambda t: np.maximum(5.0 - 1.0 * t, 0.0), lambda t: -3 + 0 * t,
-                           duration=20)
+    stop = make_trajectory(
+        lambda t: 0 * t, lambda t: np.maximum(5.0 - 1.0 * t, 0.0), lambda t: -3 + 0 * t, duration=20
+    )
     _check_props(simulate(stop, VirtualSharkInterceptor()))
     # a shark below the field's reach: operator waits at lmin, never touches
     deep = make_trajectory(lambda t: 0 * t, lambda t: 4 + 0 * t, lambda t: -10.5 + 0 * t, duration=15)
@@ -139,6 +156,7 @@ def test_online_ocp_counts_its_pursuit_fallbacks_in_the_trace(budget):
 
 def test_allocation_optimal_not_worse_than_greedy():
     from droneplan.planners.shark import allocate_operators
+
     g = np.random.default_rng(5)
     O = np.c_[g.uniform(-40, 40, (3, 2)), np.full(3, 2.0)]
     S = np.c_[g.uniform(-40, 40, (3, 2)), np.full(3, -3.0)]
@@ -175,13 +193,16 @@ def test_repelling_drives_shark_away_where_idle_operator_lets_it_bite(seed):
     assert ctl.interceptions == tr.reactions[0] + tr.ignored[0]
     assert isinstance(ctl.phase, RepellingMode)
     again = simulate_repelling(S0, O0, H, [ctl], seed=seed, t_max=400)  # reset starts a fresh episode
-    assert ctl.interceptions == again.reactions[0] + again.ignored[0] and again.reactions[0] == tr.reactions[0]
+    assert (
+        ctl.interceptions == again.reactions[0] + again.ignored[0] and again.reactions[0] == tr.reactions[0]
+    )
     idle = simulate_repelling(S0, O0, H, [_Idle()], seed=seed, t_max=400)
     assert idle.attacked and idle.reactions[0] == 0
 
 
 def test_two_sharks_two_operators_with_allocation():
     from droneplan.planners.shark import allocate_operators
+
     H = np.array([[0.0, 0.0]])
     S0 = np.array([[90.0, 40.0, -3.0], [-80.0, 50.0, -3.0]])
     O0 = np.array([[-10.0, -20.0, 2.0], [10.0, -20.0, 2.0]])
@@ -205,8 +226,9 @@ def test_repelling_bad_input():
 
 
 def test_reversing_shark_literal_step_2_never_closes_restart_does():
-    rev = make_trajectory(lambda t: np.where(t < 2.0, 0.0, np.pi), lambda t: 4.5 + 0 * t, lambda t: -3 + 0 * t,
-                          duration=30)
+    rev = make_trajectory(
+        lambda t: np.where(t < 2.0, 0.0, np.pi), lambda t: 4.5 + 0 * t, lambda t: -3 + 0 * t, duration=30
+    )
     literal = simulate(rev, VirtualSharkInterceptor(restart_step1=False), bearing_deg=-60)
     assert not literal.intercepted and np.all(literal.phase[-50:] == 2)  # stuck in step 2
     fixed = simulate(rev, VirtualSharkInterceptor(), bearing_deg=-60)

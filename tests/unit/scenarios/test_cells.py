@@ -1,8 +1,15 @@
 import numpy as np
 import pytest
 
-from droneplan.scenarios.cells import (THESIS_TABLE_4_2, CellParams, CellProblem, expected_user_count, matern_users,
-                             thesis_problem, uniform_users)
+from droneplan.scenarios.cells import (
+    THESIS_TABLE_4_2,
+    CellParams,
+    CellProblem,
+    expected_user_count,
+    matern_users,
+    thesis_problem,
+    uniform_users,
+)
 
 
 def test_table_4_2_preset():
@@ -43,12 +50,22 @@ def test_thesis_problem():
     assert np.array_equal(p.active, g > 1000)
 
 
-@pytest.mark.parametrize("field,kw", [
-    ("r1", dict(r1=1.3)), ("r2", dict(r2=1.9)), ("R_d", dict(R_d=0.0)), ("R_g", dict(R_g=-1.0)),
-    ("n_cells", dict(n_cells=0)), ("users", dict(users=[[0.0, np.nan]])), ("users", dict(users=[[1, 2, 3]])),
-    ("gbs", dict(gbs=[[np.inf, 0]])), ("gbs", dict(gbs=np.zeros((0, 2)))), ("bounds", dict(bounds=(1, 0, 0, 1))),
-    ("r1", dict(r1=float("nan"))),
-])
+@pytest.mark.parametrize(
+    "field,kw",
+    [
+        ("r1", dict(r1=1.3)),
+        ("r2", dict(r2=1.9)),
+        ("R_d", dict(R_d=0.0)),
+        ("R_g", dict(R_g=-1.0)),
+        ("n_cells", dict(n_cells=0)),
+        ("users", dict(users=[[0.0, np.nan]])),
+        ("users", dict(users=[[1, 2, 3]])),
+        ("gbs", dict(gbs=[[np.inf, 0]])),
+        ("gbs", dict(gbs=np.zeros((0, 2)))),
+        ("bounds", dict(bounds=(1, 0, 0, 1))),
+        ("r1", dict(r1=float("nan"))),
+    ],
+)
 def test_validation_errors_name_the_field(field, kw):
     args = dict(users=[[3.0, 0.0]], gbs=[[0.0, 0.0]], n_cells=1, R_d=1.0, R_g=0.4, r1=2.0, r2=2.0)
     args.update(kw)

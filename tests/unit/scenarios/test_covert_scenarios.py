@@ -13,7 +13,6 @@ from hypothesis import strategies as st
 from droneplan.scenarios.covert import (
     THESIS_TABLE_3_2,
     CovertCommand,
-    CovertParams,
     CovertPhase,
     CovertScenario,
     Terrain,
@@ -33,15 +32,25 @@ vec3 = st.tuples(coord, coord, coord).map(np.array)
 def test_table_3_2_values():
     p = THESIS_TABLE_3_2
     assert (p.V_max, p.U_max, p.L_u, p.V_T, p.duration) == (10.0, 5.0, 200.0, 2.0, 120.0)
-    assert np.allclose(p.F, [200, 200, 0]) and np.allclose(p.R, [10, 10, 40]) and np.allclose(p.D_s, [20, 20, 38])
+    assert (
+        np.allclose(p.F, [200, 200, 0])
+        and np.allclose(p.R, [10, 10, 40])
+        and np.allclose(p.D_s, [20, 20, 38])
+    )
 
 
 def test_bearing_changes_hand_geometry():
     R = np.zeros(3)
     A = np.array([[10.0, 0.0, 0.0]])
     # angle at A between A->R = (-1,0,0) and A->D
-    cases = {(10, 10, 0): 90.0, (5, 0, 0): 0.0, (20, 0, 0): 180.0, (0, 10, 0): 45.0, (10, 0, 7): 90.0,
-             (0, 0, 10): 45.0}
+    cases = {
+        (10, 10, 0): 90.0,
+        (5, 0, 0): 0.0,
+        (20, 0, 0): 180.0,
+        (0, 10, 0): 45.0,
+        (10, 0, 7): 90.0,
+        (0, 0, 10): 45.0,
+    }
     for D, expected in cases.items():
         b = bearing_changes(np.array(D, float), A, R)
         assert b.shape == (1,)
@@ -127,9 +136,18 @@ def test_step_drone_enforces_bounds():
     assert np.linalg.norm(D1) <= p.V_max * p.dt + 1e-12
 
 
-@pytest.mark.parametrize("field,value", [("V_max", 0.0), ("U_max", -1.0), ("L_u", 0.0), ("duration", 0.0),
-                                         ("V_max", math.nan), ("F", (0.0, math.inf, 0.0)),
-                                         ("D_s", (200.0, 200.0, 10.0))])
+@pytest.mark.parametrize(
+    "field,value",
+    [
+        ("V_max", 0.0),
+        ("U_max", -1.0),
+        ("L_u", 0.0),
+        ("duration", 0.0),
+        ("V_max", math.nan),
+        ("F", (0.0, math.inf, 0.0)),
+        ("D_s", (200.0, 200.0, 10.0)),
+    ],
+)
 def test_params_reject_bad_values(field, value):
     with pytest.raises(ValueError, match=field):
         replace(THESIS_TABLE_3_2, **{field: value})
@@ -214,7 +232,8 @@ def test_simulate_heading_stays_unit_and_circle_radius():
 
 
 # ---------------------------------------------------------------- line of sight (shapely vs numpy)
-from hypothesis import given, settings, strategies as st  # noqa: E402
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st
 
 from droneplan.scenarios.covert import Obstacle  # noqa: E402
 
@@ -249,7 +268,9 @@ def test_line_of_sight_simple_cases_and_validation():
     assert not ob.blocks([-5, 5, 6.0], [15, 5, 6.0])  # above its top
     assert not ob.blocks([-5, 20, 1.0], [15, 20, 1.0])  # beside it
     assert ob.blocks([5, 5, 1.0], [20, 20, 40.0])  # starts inside
-    assert ob.blocks_shapely([-5, 5, 1.0], [15, 5, 1.0]) and not ob.blocks_shapely([-5, 20, 1.0], [15, 20, 1.0])
+    assert ob.blocks_shapely([-5, 5, 1.0], [15, 5, 1.0]) and not ob.blocks_shapely(
+        [-5, 20, 1.0], [15, 20, 1.0]
+    )
     with pytest.raises(ValueError, match="convex"):
         Obstacle(((0, 0), (10, 0), (5, 1), (10, 10), (0, 10)), 5.0)
     with pytest.raises(ValueError, match="footprint"):

@@ -4,7 +4,8 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from droneplan.scenarios.herding import (
     HerdingParams,
@@ -82,8 +83,9 @@ def test_repulsed_animals_move_away_from_a_lone_drone():
 
 def test_drone_step_limits_and_unit_heading():
     p = HerdingParams()
-    d, h = drone_step(np.zeros((4, 2)), np.zeros(4), np.array([100.0, -100, 10, 0]),
-                      np.array([50.0, -50, 1, 0]), p, 0.2)
+    d, h = drone_step(
+        np.zeros((4, 2)), np.zeros(4), np.array([100.0, -100, 10, 0]), np.array([50.0, -50, 1, 0]), p, 0.2
+    )
     assert np.allclose(np.linalg.norm(d, axis=1), [5.0, 5.0, 2.0, 0.0])  # |v| clipped to V_max
     assert np.allclose(h, [1.0, -1.0, 0.2, 0.0])  # |omega| clipped to U_max
 
@@ -94,10 +96,19 @@ def test_footprint_radius():
 
 @pytest.mark.parametrize(
     "kw, match",
-    [({"V_max": 0.0}, "V_max"), ({"U_max": -1.0}, "U_max"), ({"R_b": float("nan")}, "R_b"),
-     ({"d_s": 0}, "d_s"), ({"V_animal": -4.0}, "V_animal"), ({"beta": 0.0}, "beta"),
-     ({"n_drones": 0}, "n_drones"), ({"V_driving": 5.0}, "V_driving"), ({"graze_prob": 1.5}, "graze_prob"),
-     ({"R_c": 0.0}, "R_c"), ({"delta": -0.2}, "delta")],
+    [
+        ({"V_max": 0.0}, "V_max"),
+        ({"U_max": -1.0}, "U_max"),
+        ({"R_b": float("nan")}, "R_b"),
+        ({"d_s": 0}, "d_s"),
+        ({"V_animal": -4.0}, "V_animal"),
+        ({"beta": 0.0}, "beta"),
+        ({"n_drones": 0}, "n_drones"),
+        ({"V_driving": 5.0}, "V_driving"),
+        ({"graze_prob": 1.5}, "graze_prob"),
+        ({"R_c": 0.0}, "R_c"),
+        ({"delta": -0.2}, "delta"),
+    ],
 )
 def test_params_bad_input(kw, match):
     with pytest.raises(ValueError, match=match):

@@ -10,11 +10,15 @@ import droneplan as dp
 from droneplan.scenarios.loop import Controller, Frame, LoopTrace, controller_counters
 
 CONTROLLERS = [
-    (dp.covert, dp.covert.SlidingModeObserver), (dp.covert, dp.covert.HoverBenchmark),
-    (dp.covert, dp.covert.MPCObserver), (dp.covert, dp.covert.SafeguardedMPCObserver),
-    (dp.shark, dp.shark.ClassicalPursuit), (dp.shark, dp.shark.VirtualSharkInterceptor),
+    (dp.covert, dp.covert.SlidingModeObserver),
+    (dp.covert, dp.covert.HoverBenchmark),
+    (dp.covert, dp.covert.MPCObserver),
+    (dp.covert, dp.covert.SafeguardedMPCObserver),
+    (dp.shark, dp.shark.ClassicalPursuit),
+    (dp.shark, dp.shark.VirtualSharkInterceptor),
     (dp.shark, dp.shark.OCPInterceptor),
-    (dp.herding, dp.herding.ProposedHerder), (dp.herding, dp.herding.BenchmarkHerder),
+    (dp.herding, dp.herding.ProposedHerder),
+    (dp.herding, dp.herding.BenchmarkHerder),
 ]
 
 
@@ -39,12 +43,26 @@ def _runs():
     path = dp.shark.thesis_trajectories()["a"]
     herd_sc = dp.herding.thesis_scenario(15, seed=0, field_size=(100.0, 100.0), goal=(-100.0, 50.0))
     return {
-        "covert": (dp.covert.simulate(covert_sc, dp.covert.SlidingModeObserver(), seed=3, max_time=8.0),
-                   dp.covert.SlidingModeObserver, dp.covert.CovertPhase, dp.covert.CovertFrame),
-        "shark": (dp.shark.simulate(dp.shark.InterceptionScenario(path), dp.shark.VirtualSharkInterceptor(), seed=3),
-                  dp.shark.VirtualSharkInterceptor, dp.shark.SharkPhase, dp.shark.SharkFrame),
-        "herding": (dp.herding.simulate(herd_sc, dp.herding.ProposedHerder(), t_max=6.0, seed=3, frame_every=2.0),
-                    dp.herding.ProposedHerder, dp.herding.HerdingPhase, dp.herding.HerdingFrame),
+        "covert": (
+            dp.covert.simulate(covert_sc, dp.covert.SlidingModeObserver(), seed=3, max_time=8.0),
+            dp.covert.SlidingModeObserver,
+            dp.covert.CovertPhase,
+            dp.covert.CovertFrame,
+        ),
+        "shark": (
+            dp.shark.simulate(
+                dp.shark.InterceptionScenario(path), dp.shark.VirtualSharkInterceptor(), seed=3
+            ),
+            dp.shark.VirtualSharkInterceptor,
+            dp.shark.SharkPhase,
+            dp.shark.SharkFrame,
+        ),
+        "herding": (
+            dp.herding.simulate(herd_sc, dp.herding.ProposedHerder(), t_max=6.0, seed=3, frame_every=2.0),
+            dp.herding.ProposedHerder,
+            dp.herding.HerdingPhase,
+            dp.herding.HerdingFrame,
+        ),
     }
 
 
@@ -70,7 +88,9 @@ def test_traces_share_the_base(runs, problem):
 
 def test_final_states_match_the_sampled_series(runs):
     cov = runs["covert"][0]
-    assert np.array_equal(cov.final.drone, cov.drone[-1]) and np.array_equal(cov.final.targets, cov.targets[-1])
+    assert np.array_equal(cov.final.drone, cov.drone[-1]) and np.array_equal(
+        cov.final.targets, cov.targets[-1]
+    )
     sh = runs["shark"][0]
     assert np.array_equal(sh.final.operator, sh.operator[-1]) and sh.final.phase is sh.phase[-1]
     # herding samples animals only in frames: the final state is stored on its own
@@ -91,4 +111,8 @@ def test_controller_counters_normalise_status_names():
     c = controller_counters(C())
     assert c["fallbacks"] == 2 and c["status_counts"] == {"OPTIMAL": 2, "NO_SOLUTION": 1}
     assert c["solve_times"].tolist() == [0.1, 0.2, 0.3]
-    assert controller_counters(object()) == {"fallbacks": 0, "status_counts": {}, "solve_times": pytest.approx([])}
+    assert controller_counters(object()) == {
+        "fallbacks": 0,
+        "status_counts": {},
+        "solve_times": pytest.approx([]),
+    }

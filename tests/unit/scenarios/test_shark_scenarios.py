@@ -6,9 +6,20 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from droneplan.scenarios.shark import (THESIS_TABLE_5_1, InterceptionScenario, SharkCommand, SharkFrame, SharkParams,
-                                      SharkPhase, field_radius, inside_field, random_trajectory,
-                             simulate, thesis_trajectories, touches, operator_start)
+from droneplan.scenarios.shark import (
+    THESIS_TABLE_5_1,
+    InterceptionScenario,
+    SharkCommand,
+    SharkFrame,
+    SharkPhase,
+    field_radius,
+    inside_field,
+    operator_start,
+    random_trajectory,
+    simulate,
+    thesis_trajectories,
+    touches,
+)
 
 P = THESIS_TABLE_5_1
 
@@ -20,11 +31,19 @@ def test_table_5_1_values_and_speed_split():
     assert math.isclose(P.l2 + P.eps_o, P.lmax)  # ball model reaches exactly lmax
 
 
-@pytest.mark.parametrize("change, word", [
-    (dict(VoMxy=6.0), "VoMxy > VsMxy"), (dict(VoMz=0.5), "VoMz > VsMz"), (dict(lmin=2.0), "lmin < le"),
-    (dict(l1=8.0), "l1 < l2"), (dict(eps_o=0.0), "eps_o"), (dict(Di=3.0), "Di > eps_o"),
-    (dict(Ts=float("nan")), "Ts"), (dict(gamma=float("inf")), "gamma"),
-])
+@pytest.mark.parametrize(
+    "change, word",
+    [
+        (dict(VoMxy=6.0), "VoMxy > VsMxy"),
+        (dict(VoMz=0.5), "VoMz > VsMz"),
+        (dict(lmin=2.0), "lmin < le"),
+        (dict(l1=8.0), "l1 < l2"),
+        (dict(eps_o=0.0), "eps_o"),
+        (dict(Di=3.0), "Di > eps_o"),
+        (dict(Ts=float("nan")), "Ts"),
+        (dict(gamma=float("inf")), "gamma"),
+    ],
+)
 def test_bad_params_raise(change, word):
     with pytest.raises(ValueError, match=word):
         dataclasses.replace(P, **change)
@@ -55,7 +74,9 @@ def test_thesis_trajectories_family():
         sp = np.hypot(v.vel[:, 0], v.vel[:, 1])
         assert sp.max() <= P.VsMxy and np.abs(v.vel[:, 2]).max() <= P.VsMz and v.pos[:, 2].max() < 0
         # velocities are consistent with positions
-        assert np.allclose(np.diff(v.pos[:, :2], axis=0) / v.dt, 0.5 * (v.vel[1:, :2] + v.vel[:-1, :2]), atol=0.05)
+        assert np.allclose(
+            np.diff(v.pos[:, :2], axis=0) / v.dt, 0.5 * (v.vel[1:, :2] + v.vel[:-1, :2]), atol=0.05
+        )
         heading = np.unwrap(np.arctan2(v.vel[:, 1], v.vel[:, 0]))
         flat = np.ptp(heading) < 1e-9
         assert flat == (k in "ab")
@@ -120,7 +141,9 @@ def test_simulate_takes_a_scenario_and_fills_the_shared_trace_fields():
     assert new.seed == 7 and new.fallbacks == 0 and new.status_counts == {}
     # the final state is the last recorded instant, frames are SharkFrame objects
     assert isinstance(new.final, SharkFrame) and new.final.t == new.t[-1]
-    assert np.array_equal(new.final.operator, new.operator[-1]) and np.array_equal(new.final.shark, new.shark[-1])
+    assert np.array_equal(new.final.operator, new.operator[-1]) and np.array_equal(
+        new.final.shark, new.shark[-1]
+    )
     assert len(new.frames) == len(new.t) and all(f.phase is SharkPhase.PURSUIT for f in new.frames)
     with pytest.raises(ValueError, match="already set"):
         simulate(InterceptionScenario(tr, P), _Hover(), P)
@@ -138,5 +161,6 @@ def test_simulator_rejects_non_finite_input():
     class _Bad(_Hover):
         def command(self, obs):
             return SharkCommand(np.array([np.nan, 0.0, 0.0]))
+
     with pytest.raises(ValueError, match="non-finite"):
         simulate(tr, _Bad())

@@ -23,10 +23,25 @@ def fake_task(task: dict) -> list[dict]:
     time.sleep(float(task.get("delay", 0.0)))
     if str(seed) in os.environ.get("FAIL_SEEDS", "").split(","):
         raise RuntimeError(f"planned failure on seed {seed}")
-    return build_rows("herding", task["instance"], seed=seed, size=2, sense="min", outcomes=[
-        Outcome("good", "model", "optimal", objective=float(seed), bound=float(seed), bound_kind="proven-global",
-                time_s=0.0),
-        Outcome("worse", "heuristic", "feasible", objective=float(seed) + 1.0, time_s=0.0)])
+    return build_rows(
+        "herding",
+        task["instance"],
+        seed=seed,
+        size=2,
+        sense="min",
+        outcomes=[
+            Outcome(
+                "good",
+                "model",
+                "optimal",
+                objective=float(seed),
+                bound=float(seed),
+                bound_kind="proven-global",
+                time_s=0.0,
+            ),
+            Outcome("worse", "heuristic", "feasible", objective=float(seed) + 1.0, time_s=0.0),
+        ],
+    )
 
 
 def cpsat_task(task: dict) -> list[dict]:
@@ -43,13 +58,21 @@ def cpsat_task(task: dict) -> list[dict]:
     m.add_all_different([x[i] - i for i in range(n)])
     m.maximize(sum((i % 7) * x[i] for i in range(n)))
     res = solve_cpsat(m, variables=x, time_limit=20.0, workers=1)
-    return build_rows("herding", task["instance"], seed=int(task["seed"]), size=n, sense="max",
-                      outcomes=[Outcome.of("cp-sat", "model", res, bound_kind="proven-global")])
+    return build_rows(
+        "herding",
+        task["instance"],
+        seed=int(task["seed"]),
+        size=n,
+        sense="max",
+        outcomes=[Outcome.of("cp-sat", "model", res, bound_kind="proven-global")],
+    )
 
 
 def tasks(n: int, delay: float = 0.0) -> list[dict]:
-    return [{"problem": "herding", "instance": instance_id("test", seed=s), "seed": s, "delay": delay}
-            for s in range(n)]
+    return [
+        {"problem": "herding", "instance": instance_id("test", seed=s), "seed": s, "delay": delay}
+        for s in range(n)
+    ]
 
 
 def main(argv: list[str]) -> int:
@@ -66,8 +89,12 @@ def main(argv: list[str]) -> int:
             if mode == "dask":
                 from distributed import LocalCluster
 
-                with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cl, \
-                        make_executor(dask_address=cl.scheduler_address) as ex:
+                with (
+                    LocalCluster(
+                        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+                    ) as cl,
+                    make_executor(dask_address=cl.scheduler_address) as ex,
+                ):
                     print("started", flush=True)
                     map_rows(fn, tasks(n, delay), executor=ex, store=store)
             else:

@@ -7,6 +7,7 @@ import sys
 
 import pandas as pd
 import pytest
+
 from droneplan.studies import cli
 from droneplan.studies.common import ComparisonTable, make_executor, map_rows, summarize
 from droneplan.studies.store import (
@@ -19,8 +20,9 @@ from droneplan.studies.store import (
 
 
 def test_help_runs_and_names_available_problems():
-    out = subprocess.run([sys.executable, "-m", "droneplan.studies.cli", "--help"], capture_output=True, text=True,
-                         check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "droneplan.studies.cli", "--help"], capture_output=True, text=True, check=True
+    ).stdout
     for sub in ("reproduce", "gap", "bench"):
         assert sub in out
     avail = cli.available_problems()
@@ -39,8 +41,14 @@ def test_unavailable_or_unknown_problem_is_refused(monkeypatch):
 
 def _square(task):
     s = task["seed"]
-    return build_rows("herding", task["instance"], seed=s, size=1, sense="min",
-                      outcomes=[Outcome("square", "heuristic", "feasible", objective=float(s * s))])
+    return build_rows(
+        "herding",
+        task["instance"],
+        seed=s,
+        size=1,
+        sense="min",
+        outcomes=[Outcome("square", "heuristic", "feasible", objective=float(s * s))],
+    )
 
 
 def _tasks(n):
@@ -68,6 +76,7 @@ def test_serial_executor_runs_each_task_when_consumed(tmp_path):
     """--workers 1: the first task's row is on disk before the second task starts."""
     seen = []
     with ResultStore(tmp_path / STORE_NAME) as store:
+
         def probe(task):
             seen.append(store.count())
             return _square(task)
@@ -113,9 +122,17 @@ def test_comparison_table(tmp_path):
 def test_summarize_counts_and_gaps():
     rows = []
     for s in range(4):
-        rows += build_rows("cells", instance_id("t", seed=s), seed=s, size=3, sense="max", outcomes=[
-            Outcome("milp", "model", "optimal", objective=10.0, bound=10.0, bound_kind="candidate-set"),
-            Outcome("ga", "heuristic", "feasible", objective=10.0 - (s == 0) * 5.0)])
+        rows += build_rows(
+            "cells",
+            instance_id("t", seed=s),
+            seed=s,
+            size=3,
+            sense="max",
+            outcomes=[
+                Outcome("milp", "model", "optimal", objective=10.0, bound=10.0, bound_kind="candidate-set"),
+                Outcome("ga", "heuristic", "feasible", objective=10.0 - (s == 0) * 5.0),
+            ],
+        )
     summary = summarize(pd.DataFrame(rows), {("cells", "ga"): "P_Global = 1"}).set_index("method")
     assert summary.loc["ga", "count"] == 4 and summary.loc["ga", "best_rate"] == 0.75
     assert summary.loc["ga", "median_gap_to_bound"] == 0.0
@@ -125,14 +142,16 @@ def test_summarize_counts_and_gaps():
 
 
 def test_all_dependencies_import_in_one_process():
-    code = ("import cvxpy, casadi, osqp, shapely, scipy, pandas, matplotlib, tqdm;"
-            "from ortools.sat.python import cp_model; from ortools.linear_solver import pywraplp;"
-            "assert pywraplp.Solver.CreateSolver('HIGHS') is not None;"
-            "assert pywraplp.Solver.CreateSolver('SCIP') is not None;"
-            "import numpy as np; x = cvxpy.Variable(2);"
-            "p = cvxpy.Problem(cvxpy.Minimize(cvxpy.sum_squares(x - 1)), [cvxpy.sum(x) <= 1]);"
-            "p.solve();"
-            "assert abs(p.value - 0.5) < 1e-4; print('ok')")
+    code = (
+        "import cvxpy, casadi, osqp, shapely, scipy, pandas, matplotlib, tqdm;"
+        "from ortools.sat.python import cp_model; from ortools.linear_solver import pywraplp;"
+        "assert pywraplp.Solver.CreateSolver('HIGHS') is not None;"
+        "assert pywraplp.Solver.CreateSolver('SCIP') is not None;"
+        "import numpy as np; x = cvxpy.Variable(2);"
+        "p = cvxpy.Problem(cvxpy.Minimize(cvxpy.sum_squares(x - 1)), [cvxpy.sum(x) <= 1]);"
+        "p.solve();"
+        "assert abs(p.value - 0.5) < 1e-4; print('ok')"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip().endswith("ok")
@@ -140,9 +159,11 @@ def test_all_dependencies_import_in_one_process():
 
 def test_dask_executor_maps_rows(tmp_path):
     distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:
-        with ResultStore(tmp_path / STORE_NAME) as store, \
-                make_executor(dask_address=cluster.scheduler_address) as ex:
-            df = map_rows(_square, _tasks(3), executor=ex, store=store)
+    with (
+        distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
+    ) as cluster, ResultStore(tmp_path / STORE_NAME) as store,
+        make_executor(dask_address=cluster.scheduler_address) as ex,
+    ):
+        df = map_rows(_square, _tasks(3), executor=ex, store=store)
     assert sorted(df["objective"]) == [0, 1, 4]

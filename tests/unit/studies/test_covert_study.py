@@ -16,8 +16,12 @@ def _must_not_run(task):
 def test_gap_rows_are_consistent_and_resumable(tmp_path, monkeypatch):
     # the covert gap is the heaviest task: it also exercises the Dask path (threads in this process)
     distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as c, \
-            make_executor(dask_address=c.scheduler_address) as ex:
+    with (
+        distributed.LocalCluster(
+            n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
+        ) as c,
+        make_executor(dask_address=c.scheduler_address) as ex,
+    ):
         sc.gap(seeds=1, executor=ex, out=tmp_path)
         monkeypatch.setattr(sc, "gap_task", _must_not_run)
         sc.gap(seeds=1, executor=ex, out=tmp_path)  # resumes: nothing recomputed (else an error row)

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from droneplan.studies import herding as study
 from droneplan.studies.common import make_executor
 from droneplan.studies.store import load_results
@@ -10,8 +11,12 @@ from droneplan.studies.store import load_results
 @pytest.mark.parametrize("n", [2, 5, 7])
 def test_gap_task_allocators_agree_with_exact(n):
     for seed in range(3):
-        rows = {r["method"]: r for r in study.gap_task({"problem": "herding", "instance": f"gap:n={n},seed={seed}",
-                                                        "n": n, "seed": seed})}
+        rows = {
+            r["method"]: r
+            for r in study.gap_task(
+                {"problem": "herding", "instance": f"gap:n={n},seed={seed}", "n": n, "seed": seed}
+            )
+        }
         exact = rows["exact"]["objective"]
         assert rows["alg3"]["objective"] == pytest.approx(exact, abs=1e-9)
         assert rows["cp-sat"]["objective"] == pytest.approx(exact, abs=1e-9)
@@ -37,8 +42,17 @@ def test_gap_writes_resumable_store_and_table(tmp_path, capsys):
 
 
 def test_run_once_record():
-    r = study.run_once({"n": 20, "seed": 0, "method": "proposed", "t_max": 400.0, "field": 150.0,
-                        "gather_only": True, "snapshots": [0.0, 10.0]})
+    r = study.run_once(
+        {
+            "n": 20,
+            "seed": 0,
+            "method": "proposed",
+            "t_max": 400.0,
+            "field": 150.0,
+            "gather_only": True,
+            "snapshots": [0.0, 10.0],
+        }
+    )
     assert r["gather_time"] is not None and r["gather_after_hull"] is not None
     assert 0 < r["on_hull_time"] < r["gather_time"]
     assert r["max_animal_speed"] <= 4.0 + 1e-9
@@ -51,8 +65,16 @@ def test_run_once_record():
 def test_reproduce_runs_go_through_the_store_and_come_back(tmp_path):
     from droneplan.studies.store import STORE_NAME, ResultStore
 
-    task = {"problem": "herding", "instance": "fig-test:seed=0", "n": 20, "seed": 0, "t_max": 400.0,
-            "field": 150.0, "gather_only": True, "snapshots": [0.0, 10.0]}
+    task = {
+        "problem": "herding",
+        "instance": "fig-test:seed=0",
+        "n": 20,
+        "seed": 0,
+        "t_max": 400.0,
+        "field": 150.0,
+        "gather_only": True,
+        "snapshots": [0.0, 10.0],
+    }
     with ResultStore(tmp_path / STORE_NAME) as store, make_executor(1) as ex:
         recs = study._run_all([task], ex, store, "test")
     assert sorted(r["method"] for r in recs) == ["benchmark", "proposed"]

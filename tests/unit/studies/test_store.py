@@ -23,11 +23,29 @@ from droneplan.studies.store import (
 
 
 def _rows(seed=0, sense="min"):
-    return build_rows("herding", instance_id("t", seed=seed), seed=seed, size=3, sense=sense, outcomes=[
-        Outcome("exact", "model", "optimal", objective=10.0, bound=10.0, bound_kind="proven-global", time_s=0.1),
-        Outcome("heur", "heuristic", "feasible", objective=12.0, time_s=0.01, extras={"note": "x", "k": 3}),
-        Outcome("relax", "bound", "optimal", bound=8.0, bound_kind="proven-global"),
-        Outcome("inst", "bound", "optimal", bound=11.0, bound_kind="instantaneous")])
+    return build_rows(
+        "herding",
+        instance_id("t", seed=seed),
+        seed=seed,
+        size=3,
+        sense=sense,
+        outcomes=[
+            Outcome(
+                "exact",
+                "model",
+                "optimal",
+                objective=10.0,
+                bound=10.0,
+                bound_kind="proven-global",
+                time_s=0.1,
+            ),
+            Outcome(
+                "heur", "heuristic", "feasible", objective=12.0, time_s=0.01, extras={"note": "x", "k": 3}
+            ),
+            Outcome("relax", "bound", "optimal", bound=8.0, bound_kind="proven-global"),
+            Outcome("inst", "bound", "optimal", bound=11.0, bound_kind="instantaneous"),
+        ],
+    )
 
 
 def test_build_rows_fills_gaps_against_the_strongest_tightest_bound():
@@ -43,9 +61,20 @@ def test_build_rows_fills_gaps_against_the_strongest_tightest_bound():
 
 
 def test_build_rows_maximisation_and_bad_input():
-    rows = {r["method"]: r for r in build_rows("cells", "gap:seed=1", seed=1, size=3, sense="max", outcomes=[
-        Outcome("milp", "model", "optimal", objective=90, bound=100, bound_kind="candidate-set"),
-        Outcome("ga", "heuristic", "feasible", objective=80)])}
+    rows = {
+        r["method"]: r
+        for r in build_rows(
+            "cells",
+            "gap:seed=1",
+            seed=1,
+            size=3,
+            sense="max",
+            outcomes=[
+                Outcome("milp", "model", "optimal", objective=90, bound=100, bound_kind="candidate-set"),
+                Outcome("ga", "heuristic", "feasible", objective=80),
+            ],
+        )
+    }
     assert rows["ga"]["gap_to_bound"] == pytest.approx(0.2)
     assert rows["ga"]["gap_to_best"] == pytest.approx(10 / 90)
     with pytest.raises(ValueError, match="role"):
