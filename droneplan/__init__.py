@@ -18,6 +18,8 @@ contract every solve returns; ``run_gap(problem, seeds=..., out=...)`` runs a ga
 directory as one long-format DataFrame.
 """
 
+from typing import Any
+
 from droneplan import cells, covert, herding, shark
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.store import load_results
@@ -37,7 +39,7 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> Any:
     # run_gap lives in the CLI module; importing it lazily keeps `python -m droneplan.studies.cli`
     # free of runpy's "found in sys.modules" warning
     if name == "run_gap":

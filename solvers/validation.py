@@ -150,7 +150,9 @@ def check_array(
         if arr.ndim == 1 and arr.size == 0 and len(shape) == 2 and shape[0] is None:
             arr = arr.reshape(0, shape[1] if shape[1] is not None else 0)
         wanted = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
-        if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
+        if arr.ndim != len(shape) or any(
+            s is not None and s != a for s, a in zip(shape, arr.shape, strict=True)
+        ):
             raise ValueError(f"{name} must have shape {wanted}, got {arr.shape}")
     elif ndim is not None and arr.ndim != ndim:
         raise ValueError(f"{name} must be a {ndim}-D array, got shape {arr.shape}")

@@ -64,7 +64,7 @@ class StudyExecutor(cf.Executor):
         future: cf.Future = cf.Future()
         try:  # serial: run now; an interrupt propagates instead of hiding in the future
             future.set_result(fn(*args, **kwargs))
-        except Exception as exc:
+        except Exception as exc:  # noqa: BLE001 - any failure belongs in the future, as in a pool
             future.set_exception(exc)
         return future
 
@@ -74,13 +74,17 @@ class StudyExecutor(cf.Executor):
         return self._inner.map(fn, *iterables, timeout=timeout, chunksize=chunksize)
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        if self._inner is None:
+            return
         if self.kind == "dask":
             self._inner.shutdown(wait=wait and not cancel_futures)
-        elif self._inner is not None:
+        else:
             self._inner.shutdown(wait=wait, cancel_futures=cancel_futures)
 
     def kill(self) -> None:
         """Stop now: cancel queued tasks and end the worker processes this executor started."""
+        if self._inner is None:
+            return
         if self.kind == "processes":
             procs = list(
                 (getattr(self._inner, "_processes", None) or {}).values()
@@ -240,10 +244,14 @@ def open_store(store: ResultStore | None, out: str | os.PathLike) -> Iterator[Re
 
 
 # --------------------------------------------------------------------------- mapping tasks to rows
-def _call_task(fn: Callable[[Mapping[str, Any]], list[dict]], task: Mapping[str, Any]) -> list[dict]:
+TaskFn = Callable[[Mapping[str, Any]], Mapping[str, Any] | list[dict]]
+"""A study task: takes one task mapping and returns its rows (a list, or one row)."""
+
+
+def _call_task(fn: TaskFn, task: Mapping[str, Any]) -> list[dict]:
     """Run one task; an exception becomes the task's error row (an interrupt propagates)."""
     try:
-        rows = fn(task)
+        returned = fn(task)
     except Exception as exc:  # noqa: BLE001 - recorded, the study goes on
         return [
             error_row(
@@ -254,7 +262,7 @@ def _call_task(fn: Callable[[Mapping[str, Any]], list[dict]], task: Mapping[str,
                 size=task.get("size"),
             )
         ]
-    rows = [rows] if isinstance(rows, Mapping) else list(rows)
+    rows = [dict(returned)] if isinstance(returned, Mapping) else list(returned)
     for r in rows:
         if (r.get("problem"), r.get("instance")) != (task["problem"], task["instance"]):
             return [
@@ -270,7 +278,7 @@ def _call_task(fn: Callable[[Mapping[str, Any]], list[dict]], task: Mapping[str,
 
 
 def map_rows(
-    fn: Callable[[Mapping[str, Any]], list[dict]],
+    fn: TaskFn,
     tasks: Iterable[Mapping[str, Any]],
     *,
     executor: StudyExecutor,

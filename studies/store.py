@@ -85,7 +85,7 @@ import sqlite3
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Self
+from typing import Any, Self, TypeGuard
 
 import pandas as pd
 
@@ -222,9 +222,12 @@ class Outcome:
         objective: overrides ``result.objective`` (e.g. a unit conversion).
         """
         bound = result.bound if result.bound is not None and math.isfinite(result.bound) else None
-        kind = bound_kind if bound is not None else "none"
-        if bound is not None and bound_kind is None:
+        if bound is None:
+            kind = "none"
+        elif bound_kind is None:
             raise ValueError(f"method {method!r} has a bound: say what it is proven for (bound_kind)")
+        else:
+            kind = bound_kind
         obj = objective if objective is not None else (result.objective if result.has_solution else None)
         return cls(
             method=method,
@@ -245,7 +248,7 @@ def _rel_gap(value: float, ref: float, sense: str) -> float:
     return diff / max(abs(ref), _EPS)
 
 
-def _finite(v: Any) -> bool:
+def _finite(v: Any) -> TypeGuard[float]:
     return v is not None and isinstance(v, (int, float)) and math.isfinite(v)
 
 

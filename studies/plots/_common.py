@@ -25,9 +25,9 @@ def figure_axes(ax: Any = None, *, figsize: tuple[float, float] = (6.0, 4.5), pr
     want = projection or "rectilinear"
     if ax.name != want:
         raise ValueError(f"ax must be a {want!r} axes, got {ax.name!r}")
-    fig = ax.get_figure()
-    assert isinstance(fig, Figure)
-    return fig, ax
+    owner = ax.get_figure()
+    assert isinstance(owner, Figure)
+    return owner, ax
 
 
 def keep_in_view(ax: Any, points: Any, *, margin: float = 0.05) -> None:

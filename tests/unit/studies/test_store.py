@@ -121,7 +121,7 @@ def test_store_of_another_schema_or_not_a_store_is_refused(tmp_path):
     con.execute("INSERT INTO meta VALUES ('schema_version', '0')")
     con.commit()
     con.close()
-    with pytest.raises(StoreError, match="schema version 0.*Move it away"):
+    with pytest.raises(StoreError, match=r"schema version 0.*Move it away"):
         ResultStore(old)
     legacy = tmp_path / "legacy.sqlite"
     con = sqlite3.connect(legacy)
