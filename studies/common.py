@@ -250,30 +250,22 @@ TaskFn = Callable[[Mapping[str, Any]], Mapping[str, Any] | list[dict]]
 
 def _call_task(fn: TaskFn, task: Mapping[str, Any]) -> list[dict]:
     """Run one task; an exception becomes the task's error row (an interrupt propagates)."""
+
+    def failed(message: str) -> list[dict]:
+        return [
+            error_row(
+                task["problem"], task["instance"], message, seed=task.get("seed"), size=task.get("size")
+            )
+        ]
+
     try:
         returned = fn(task)
     except Exception as exc:  # noqa: BLE001 - recorded, the study goes on
-        return [
-            error_row(
-                task["problem"],
-                task["instance"],
-                f"{type(exc).__name__}: {exc}",
-                seed=task.get("seed"),
-                size=task.get("size"),
-            )
-        ]
+        return failed(f"{type(exc).__name__}: {exc}")
     rows = [dict(returned)] if isinstance(returned, Mapping) else list(returned)
     for r in rows:
         if (r.get("problem"), r.get("instance")) != (task["problem"], task["instance"]):
-            return [
-                error_row(
-                    task["problem"],
-                    task["instance"],
-                    f"task function returned a row of {r.get('problem')}/{r.get('instance')}",
-                    seed=task.get("seed"),
-                    size=task.get("size"),
-                )
-            ]
+            return failed(f"task function returned a row of {r.get('problem')}/{r.get('instance')}")
     return rows
 
 
