@@ -17,8 +17,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Literal, overload
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from droneplan.solvers.validation import (
     as_generator,
@@ -117,19 +119,49 @@ THESIS_TABLE_4_3 = {
 class Instance:
     """A generated user snapshot with the parameters it came from."""
 
-    users: np.ndarray
+    users: NDArray[np.float64]
     """User positions (n, 2) in metres."""
     params: CellParams
     """Scenario parameters (radii, GBS, area)."""
     seed: object = None
     """The seed the users were drawn with."""
-    cluster_centres: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    cluster_centres: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2)))
     """Cluster centres (N_c, 2) in metres (empty for non-clustered users)."""
 
 
-def _uniform_in_square(rng: np.random.Generator, k: int, params: CellParams) -> np.ndarray:
+def _uniform_in_square(rng: np.random.Generator, k: int, params: CellParams) -> NDArray[np.float64]:
     xmin, xmax, ymin, ymax = params.bounds
     return np.column_stack([rng.uniform(xmin, xmax, k), rng.uniform(ymin, ymax, k)])
+
+
+@overload
+def matern_users(
+    seed: int | np.random.Generator | None,
+    params: CellParams = ...,
+    *,
+    poisson_clusters: bool = ...,
+    return_centres: Literal[False] = ...,
+) -> NDArray[np.float64]: ...
+
+
+@overload
+def matern_users(
+    seed: int | np.random.Generator | None,
+    params: CellParams = ...,
+    *,
+    poisson_clusters: bool = ...,
+    return_centres: Literal[True],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+
+
+@overload
+def matern_users(
+    seed: int | np.random.Generator | None,
+    params: CellParams = ...,
+    *,
+    poisson_clusters: bool = ...,
+    return_centres: bool,
+) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64]]: ...
 
 
 def matern_users(
@@ -138,7 +170,7 @@ def matern_users(
     *,
     poisson_clusters: bool = False,
     return_centres: bool = False,
-):
+) -> NDArray[np.float64] | tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Users of a Matérn cluster process plus uniform background users (thesis §4.2).
 
     seed: int or numpy Generator.
@@ -156,8 +188,8 @@ def matern_users(
     centres = _uniform_in_square(rng, nc, params)
     radii = params.R_c * (1.0 - rng.uniform(0.0, 1.0, nc))  # U(0, R_c]
     counts = rng.poisson(params.lambda_c * np.pi * radii**2)
-    parts = []
-    for c, r, k in zip(centres, radii, counts):
+    parts: list[NDArray[np.float64]] = []
+    for c, r, k in zip(centres, radii, counts, strict=True):
         rho = r * np.sqrt(rng.uniform(0.0, 1.0, k))
         phi = rng.uniform(0.0, 2 * np.pi, k)
         parts.append(c + np.column_stack([rho * np.cos(phi), rho * np.sin(phi)]))
@@ -184,7 +216,7 @@ def uniform_users(
     params: CellParams = THESIS_TABLE_4_2,
     *,
     mean_count: float | None = None,
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Non-clustered users (Fig. 4.6): a homogeneous Poisson process over the area.
 
     mean_count: expected number of users; default :func:`expected_user_count(params)`
@@ -278,10 +310,31 @@ class CellProblem:
 
     __slots__ = ("R_d", "R_g", "active", "bounds", "gbs", "n_cells", "r1", "r2", "users")
 
-    def __init__(self, users, gbs, n_cells, R_d, R_g, r1, r2, bounds=None):
-        users = check_array("users", users, shape=(None, 2))
-        gbs = check_array("gbs", gbs, shape=(None, 2), min_rows=1)
-        check_size("users x gbs", users.shape[0] * gbs.shape[0])
+    # the slots' types (set once in __init__ through object.__setattr__)
+    users: NDArray[np.float64]
+    gbs: NDArray[np.float64]
+    n_cells: int
+    R_d: float
+    R_g: float
+    r1: float
+    r2: float
+    bounds: tuple[float, float, float, float] | None
+    active: NDArray[np.bool_]
+
+    def __init__(
+        self,
+        users: ArrayLike,
+        gbs: ArrayLike,
+        n_cells: int,
+        R_d: float,
+        R_g: float,
+        r1: float,
+        r2: float,
+        bounds: ArrayLike | None = None,
+    ) -> None:
+        pts = check_array("users", users, shape=(None, 2))
+        stations = check_array("gbs", gbs, shape=(None, 2), min_rows=1)
+        check_size("users x gbs", pts.shape[0] * stations.shape[0])
         n_cells = check_int("n_cells", n_cells, min_value=1)
         check_size("n_cells", 2 * n_cells)
         radii = {
@@ -293,33 +346,36 @@ class CellProblem:
             )
         if radii["r2"] < 2 * radii["R_d"]:
             raise ValueError(f"r2 must satisfy r2 >= 2 R_d (eq. 4.4): {radii['r2']} < 2 * {radii['R_d']}")
+        box: tuple[float, float, float, float] | None = None
         if bounds is not None:
-            b = tuple(float(v) for v in check_array("bounds (xmin, xmax, ymin, ymax)", bounds, shape=(4,)))
-            if not (b[0] < b[1] and b[2] < b[3]):
-                raise ValueError(f"bounds must satisfy xmin < xmax and ymin < ymax, got {b}")
-            bounds = b
+            xmin, xmax, ymin, ymax = (
+                float(v) for v in check_array("bounds (xmin, xmax, ymin, ymax)", bounds, shape=(4,))
+            )
+            box = (xmin, xmax, ymin, ymax)
+            if not (xmin < xmax and ymin < ymax):
+                raise ValueError(f"bounds must satisfy xmin < xmax and ymin < ymax, got {box}")
         d = (
-            np.sqrt(((users[:, None, :] - gbs[None, :, :]) ** 2).sum(-1))
-            if len(users)
-            else np.zeros((0, len(gbs)))
+            np.sqrt(((pts[:, None, :] - stations[None, :, :]) ** 2).sum(-1))
+            if len(pts)
+            else np.zeros((0, len(stations)))
         )
         active = ~np.any(d <= radii["R_g"], axis=1)
-        users.setflags(write=False)
-        gbs.setflags(write=False)
+        pts.setflags(write=False)
+        stations.setflags(write=False)
         active.setflags(write=False)
-        object.__setattr__(self, "users", users)
-        object.__setattr__(self, "gbs", gbs)
+        object.__setattr__(self, "users", pts)
+        object.__setattr__(self, "gbs", stations)
         object.__setattr__(self, "n_cells", int(n_cells))
         for k, v in radii.items():
             object.__setattr__(self, k, v)
-        object.__setattr__(self, "bounds", bounds)
+        object.__setattr__(self, "bounds", box)
         object.__setattr__(self, "active", active)
 
-    def __setattr__(self, name, value):  # immutable
+    def __setattr__(self, name: str, value: object) -> None:  # immutable
         raise AttributeError("CellProblem is immutable; use with_cells() or build a new one")
 
     @property
-    def targets(self) -> np.ndarray:
+    def targets(self) -> NDArray[np.float64]:
         """Users not served by a GBS (n', 2): the ones the objective counts."""
         return self.users[self.active]
 
