@@ -26,8 +26,10 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from droneplan.formulations.cells import TOL, CellProblem, evaluate
 from droneplan.scenarios.cells import THESIS_GA_TABLE_4_1, THESIS_TABLE_4_3
@@ -104,9 +106,9 @@ def _area(problem: CellProblem) -> tuple[float, float, float, float]:
     return (g[:, 0].min() - reach, g[:, 0].max() + reach, g[:, 1].min() - reach, g[:, 1].max() + reach)
 
 
-def _contributing(problem: CellProblem, pop: np.ndarray) -> np.ndarray:
+def _contributing(problem: CellProblem, pop: NDArray[np.float64]) -> NDArray[np.bool_]:
     """(P, m) bool: drone-cells that count towards the fitness (module docstring)."""
-    P, m, _ = pop.shape
+    _, m, _ = pop.shape
     xmin, xmax, ymin, ymax = _area(problem)
     ok = (
         (pop[..., 0] >= xmin - TOL)
@@ -129,7 +131,7 @@ def _contributing(problem: CellProblem, pop: np.ndarray) -> np.ndarray:
     return reach
 
 
-def fitness(problem: CellProblem, pop: np.ndarray, *, chunk: int = 2048) -> np.ndarray:
+def fitness(problem: CellProblem, pop: ArrayLike, *, chunk: int = 2048) -> NDArray[np.int64]:
     """GA fitness of a population (..., m, 2) in metres -> (...) covered users (int),
     counting only contributing drone-cells (module docstring). Vectorised over the
     population (in chunks of ``chunk`` chromosomes to bound memory).
@@ -141,13 +143,13 @@ def fitness(problem: CellProblem, pop: np.ndarray, *, chunk: int = 2048) -> np.n
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
     chunk = check_int("chunk", chunk, min_value=1)
-    pop = check_array("pop", pop)
-    if pop.ndim < 2 or pop.shape[-1] != 2:
-        raise ValueError(f"pop must have shape (..., m, 2) (positions in metres), got {pop.shape}")
-    if pop.ndim == 2:
-        pop = pop[None]
-    lead = pop.shape[:-2]
-    flat = pop.reshape(-1, *pop.shape[-2:])
+    arr = check_array("pop", pop)
+    if arr.ndim < 2 or arr.shape[-1] != 2:
+        raise ValueError(f"pop must have shape (..., m, 2) (positions in metres), got {arr.shape}")
+    if arr.ndim == 2:
+        arr = arr[None]
+    lead = arr.shape[:-2]
+    flat = arr.reshape(-1, *arr.shape[-2:])
     t = problem.targets
     out = np.zeros(len(flat), dtype=np.int64)
     if len(t) == 0:
@@ -163,7 +165,9 @@ def fitness(problem: CellProblem, pop: np.ndarray, *, chunk: int = 2048) -> np.n
     return out.reshape(lead)
 
 
-def _run_batch(problem: CellProblem, N: int, P: int, iter_max: int, s: GASettings, rng: np.random.Generator):
+def _run_batch(
+    problem: CellProblem, N: int, P: int, iter_max: int, s: GASettings, rng: np.random.Generator
+) -> tuple[NDArray[np.float64], NDArray[np.int_]]:
     """N independent GA runs (the restarts) advanced together: arrays are (N, P, m, 2).
     Every operator acts within its own run only, so this equals N sequential restarts."""
     m = problem.n_cells
@@ -174,7 +178,7 @@ def _run_batch(problem: CellProblem, N: int, P: int, iter_max: int, s: GASetting
     pop = rng.uniform(lo, hi, size=(N, P, m, 2))
     f = fitness(problem, pop)
     T = s.T
-    n_rep = int(math.floor(s.replace_frac * P))
+    n_rep = math.floor(s.replace_frac * P)
     runs = np.arange(N)[:, None]
     for _ in range(iter_max):
         # --- mutation (4.10) with simulated-annealing acceptance (per run's f_best)
@@ -310,7 +314,7 @@ class Region:
     box: tuple[float, float, float, float] | None = None
     """Operating area, or None."""
 
-    def contains(self, pts: np.ndarray) -> np.ndarray:
+    def contains(self, pts: ArrayLike) -> NDArray[np.bool_]:
         """(q,) bool for points (q, 2), with the package tolerance."""
         pts = np.asarray(pts, float).reshape(-1, 2)
         ok = np.ones(len(pts), dtype=bool)
@@ -337,7 +341,7 @@ class Region:
         """Every boundary circle (cx, cy, r) of the region, keep-out discs first."""
         return list(self.exclude) + list(self.link)
 
-    def geometry(self, *, quad_segs: int = 64):
+    def geometry(self, *, quad_segs: int = 64) -> Any:
         """The region as a shapely geometry (a (Multi)Polygon, empty when the region is):
         (union of ``link`` discs) intersected with ``box``, minus the union of ``exclude``
         discs. Discs are polygons with 4 * ``quad_segs`` vertices on the circle, so a
@@ -367,7 +371,7 @@ class Region:
         return r * (1.0 - math.cos(math.pi / (4 * quad_segs)))
 
 
-def deployment_region(problem: CellProblem, placed=()) -> Region:
+def deployment_region(problem: CellProblem, placed: ArrayLike = ()) -> Region:
     """Deployment region (Definition 4.3.1, Fig. 4.2) of one more drone-cell given the
     GBSs and drone-cells already ``placed`` ((k, 2) m): clear of every GBS cell
     (|D - G| >= R_g + R_d, 4.7) and of every placed cell (>= 2 R_d, 4.8), within r1 of a
@@ -376,15 +380,17 @@ def deployment_region(problem: CellProblem, placed=()) -> Region:
     return _region(problem, check_array("placed", placed, shape=(None, 2)))
 
 
-def _region(problem: CellProblem, placed: np.ndarray) -> Region:
+def _region(problem: CellProblem, placed: NDArray[np.float64]) -> Region:
     ex = [(g[0], g[1], problem.R_g + problem.R_d) for g in problem.gbs]
     ex += [(d[0], d[1], 2 * problem.R_d) for d in placed]
     lk = [(g[0], g[1], problem.r1) for g in problem.gbs] + [(d[0], d[1], problem.r2) for d in placed]
     return Region(tuple(ex), tuple(lk), problem.bounds)
 
 
-def _circle_line_angles(ox, oy, rho, box) -> np.ndarray:
-    out = []
+def _circle_line_angles(
+    ox: float, oy: float, rho: float, box: tuple[float, float, float, float] | None
+) -> NDArray[np.float64]:
+    out: list[float] = []
     if box is None:
         return np.zeros(0)
     for axis, val in ((0, box[0]), (0, box[1]), (1, box[2]), (1, box[3])):
@@ -395,7 +401,9 @@ def _circle_line_angles(ox, oy, rho, box) -> np.ndarray:
     return np.array(out)
 
 
-def max_coverage_in_region(users: np.ndarray, R_d: float, region: Region) -> tuple[int, np.ndarray | None]:
+def max_coverage_in_region(
+    users: ArrayLike, R_d: float, region: Region
+) -> tuple[int, NDArray[np.float64] | None]:
     """Maximum number of ``users`` ((n, 2) m) one radius-R_d disc centred in ``region``
     can cover, and a centre attaining it (None when the region is empty).
 
@@ -466,6 +474,20 @@ def max_coverage_in_region(users: np.ndarray, R_d: float, region: Region) -> tup
     return best, best_p
 
 
+@dataclass
+class _SearchState:
+    """The best placement found so far by :func:`exhaustive` and the enumeration's progress."""
+
+    val: int
+    """Users covered by ``pos`` (count)."""
+    pos: NDArray[np.float64]
+    """Drone-cell positions (k, 2) in metres."""
+    complete: bool = True
+    """False once the time limit stopped the enumeration."""
+    visited: int = 0
+    """Searches of the last drone-cell's region done (count)."""
+
+
 def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> SolveResult:
     """Algorithm 2 (thesis §4.3.1): drone-cells 1..m-1 visit every user location inside
     their deployment region (which depends on the GBSs and the cells placed before);
@@ -485,21 +507,21 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> Solv
     t0 = time.perf_counter()
     users = problem.targets
     m = problem.n_cells
-    best = {"val": 0, "pos": np.zeros((0, 2)), "complete": True, "visited": 0}
+    best = _SearchState(val=0, pos=np.zeros((0, 2)))
 
-    def rec(placed: np.ndarray, covered: np.ndarray) -> None:
+    def rec(placed: NDArray[np.float64], covered: NDArray[np.bool_]) -> None:
         if time_limit is not None and time.perf_counter() - t0 > time_limit:
-            best["complete"] = False
+            best.complete = False
             return
         region = _region(problem, placed)
         left = users[~covered]
         if len(placed) == m - 1:
             c, p = max_coverage_in_region(left, problem.R_d, region)
-            best["visited"] += 1
+            best.visited += 1
             if p is not None:
                 val = int(covered.sum()) + c
-                if val > best["val"]:
-                    best["val"], best["pos"] = val, np.vstack([placed, p[None]])
+                if val > best.val:
+                    best.val, best.pos = val, np.vstack([placed, p[None]])
             return
         inside = np.flatnonzero(region.contains(users))
         for j in inside:
@@ -507,14 +529,14 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> Solv
                 np.hypot(users[:, 0] - users[j, 0], users[:, 1] - users[j, 1]) <= problem.R_d + TOL
             )
             pl = np.vstack([placed, users[j][None]])
-            if int(newcov.sum()) > best["val"]:
-                best["val"], best["pos"] = int(newcov.sum()), pl
+            if int(newcov.sum()) > best.val:
+                best.val, best.pos = int(newcov.sum()), pl
             rec(pl, newcov)
-            if not best["complete"]:
+            if not best.complete:
                 return
 
     rec(np.zeros((0, 2)), np.zeros(len(users), dtype=bool))
-    ev = evaluate(problem, best["pos"])
+    ev = evaluate(problem, best.pos)
     if not ev.feasible:  # cannot happen by construction; never report an infeasible plan
         return SolveResult(
             Status.ERROR,
@@ -523,21 +545,21 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> Solv
             solve_time=time.perf_counter() - t0,
         )
     msg = "Algorithm 2 (exhaustive search, quasi-optimal)"
-    if not best["complete"]:
+    if not best.complete:
         msg += f"; stopped at the time limit {time_limit} s before finishing the enumeration"
     return SolveResult(
         Status.FEASIBLE,
         objective=float(ev.covered),
-        x=best["pos"],
+        x=best.pos,
         backend="exhaustive",
         message=msg,
         solve_time=time.perf_counter() - t0,
-        info={"complete": best["complete"], "last_cell_searches": best["visited"]},
+        info={"complete": best.complete, "last_cell_searches": best.visited},
     )
 
 
 # =========================================================================== improved variant
-def polish(problem: CellProblem, positions, *, max_passes: int = 10) -> np.ndarray:
+def polish(problem: CellProblem, positions: ArrayLike, *, max_passes: int = 10) -> NDArray[np.float64]:
     """Coordinate ascent on a feasible placement (not in the thesis): move one drone-cell
     at a time to the best point of its deployment region given the others (the
     constrained single-disc sweep), keeping the move only when the whole placement
@@ -575,7 +597,7 @@ def polish(problem: CellProblem, positions, *, max_passes: int = 10) -> np.ndarr
     return pos
 
 
-def genetic_polished(problem: CellProblem, **kwargs) -> SolveResult:
+def genetic_polished(problem: CellProblem, **kwargs: Any) -> SolveResult:
     """The thesis GA (:func:`genetic`, same arguments) followed by :func:`polish` of its
     best plan. An improved variant beside the faithful baseline, not the thesis method.
 
