@@ -49,8 +49,8 @@ def plot_map(
             ax.add_patch(Circle(g, problem.r1, fill=False, color="tab:blue", ls="--", lw=0.6))
     ax.scatter(*problem.gbs.T, marker="^", s=60, c="tab:blue", zorder=3, label="GBS (cell radius R_g)")
     # backhaul links in use
-    link_ok = dict(color="tab:green", lw=1.2)
-    link_bad = dict(color="tab:red", lw=1.2, ls="--")
+    link_ok: dict[str, Any] = dict(color="tab:green", lw=1.2)  # matplotlib line style keywords
+    link_bad: dict[str, Any] = dict(color="tab:red", lw=1.2, ls="--")
     for i, d in enumerate(pos):
         style = link_ok if ev.connected[i] else link_bad
         for g in problem.gbs:
@@ -59,8 +59,8 @@ def plot_map(
         for j in range(i + 1, len(pos)):
             if np.hypot(*(d - pos[j])) <= problem.r2:
                 ax.plot(*np.c_[d, pos[j]], **style)
-    for d in pos:
-        ax.add_patch(Circle(d, problem.R_d, fill=False, color="k", lw=1.0))
+    for dx, dy in pos:
+        ax.add_patch(Circle((dx, dy), problem.R_d, fill=False, color="k", lw=1.0))
     if len(pos):
         ax.scatter(*pos.T, marker="s", s=30, c="k", zorder=3, label="drone-cells (coverage radius R_d)")
     handles, labels = ax.get_legend_handles_labels()
