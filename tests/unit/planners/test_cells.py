@@ -31,7 +31,7 @@ def test_fitness_matches_evaluate_of_contributing_cells():
     rng = np.random.default_rng(1)
     pop = rng.uniform(-5, 5, size=(200, 3, 2))
     f = fitness(p, pop)
-    for chrom, fv in zip(pop, f):
+    for chrom, fv in zip(pop, f, strict=True):
         # brute force: the largest feasible subset of cells that the fitness rule keeps
         ev = evaluate(p, chrom)
         if ev.feasible:
@@ -116,8 +116,8 @@ def test_sweep_equals_brute_force(seed, n, n_placed, boxed):
     box = tuple(rng.uniform(-4, -1, 2).tolist() + rng.uniform(1, 4, 2).tolist()) if boxed else None
     box = None if box is None else (box[0], box[2], box[1], box[3])
     region = Region(
-        exclude=((0.0, 0.0, 2.0),) + tuple((x, y, 2.0) for x, y in placed),
-        link=((0.0, 0.0, 3.0),) + tuple((x, y, 2.5) for x, y in placed),
+        exclude=((0.0, 0.0, 2.0), *((x, y, 2.0) for x, y in placed)),
+        link=((0.0, 0.0, 3.0), *((x, y, 2.5) for x, y in placed)),
         box=box,
     )
     c, p = max_coverage_in_region(users, 1.0, region)

@@ -51,7 +51,7 @@ def test_thesis_problem():
 
 
 @pytest.mark.parametrize(
-    "field,kw",
+    ("field", "kw"),
     [
         ("r1", dict(r1=1.3)),
         ("r2", dict(r2=1.9)),
