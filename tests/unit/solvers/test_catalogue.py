@@ -54,16 +54,16 @@ def _knapsack_bruteforce() -> tuple[int, tuple[int, ...]]:
 def _knapsack_cpsat():
     m = cp_model.CpModel()
     x = [m.new_bool_var(f"x{i}") for i in range(len(VALUES))]
-    m.add(sum(w * v for w, v in zip(WEIGHTS, x)) <= CAPACITY)
-    m.maximize(sum(c * v for c, v in zip(VALUES, x)))
+    m.add(sum(w * v for w, v in zip(WEIGHTS, x, strict=True)) <= CAPACITY)
+    m.maximize(sum(c * v for c, v in zip(VALUES, x, strict=True)))
     return m, x
 
 
 def _knapsack_mip(backend):
     s = new_mip(backend)
     x = [s.BoolVar(f"x{i}") for i in range(len(VALUES))]
-    s.Add(sum(w * v for w, v in zip(WEIGHTS, x)) <= CAPACITY)
-    s.Maximize(sum(c * v for c, v in zip(VALUES, x)))
+    s.Add(sum(w * v for w, v in zip(WEIGHTS, x, strict=True)) <= CAPACITY)
+    s.Maximize(sum(c * v for c, v in zip(VALUES, x, strict=True)))
     return s, x
 
 
@@ -106,21 +106,21 @@ def test_knapsack_cpsat_with_parameters():
 
 def test_knapsack_cpsat_warm_start_used_and_optimum_unchanged():
     m, x = _knapsack_cpsat()
-    res = solve_cpsat(m, variables=x, workers=1, hint=dict(zip(x, FEASIBLE_START)))
+    res = solve_cpsat(m, variables=x, workers=1, hint=dict(zip(x, FEASIBLE_START, strict=True)))
     assert res.warm_started
     _check_knapsack(res)
 
 
 def test_knapsack_scip_warm_start_used_and_optimum_unchanged():
     s, x = _knapsack_mip("scip")
-    res = solve_mip(s, variables=x, warm_start=dict(zip(x, FEASIBLE_START)))
+    res = solve_mip(s, variables=x, warm_start=dict(zip(x, FEASIBLE_START, strict=True)))
     assert res.warm_started
     _check_knapsack(res)
 
 
 def test_highs_warm_start_reported_as_unused():
     s, x = _knapsack_mip("highs")
-    res = solve_mip(s, variables=x, warm_start=dict(zip(x, FEASIBLE_START)))
+    res = solve_mip(s, variables=x, warm_start=dict(zip(x, FEASIBLE_START, strict=True)))
     assert not res.warm_started and "warm start not passed" in res.message
     _check_knapsack(res)
 
@@ -134,7 +134,7 @@ UNIVERSE = range(6)
 def _setcover_bruteforce() -> int:
     best = None
     for pick in itertools.product([0, 1], repeat=len(SETS)):
-        covered = set().union(*(S for S, p in zip(SETS, pick) if p))
+        covered = set().union(*(S for S, p in zip(SETS, pick, strict=True) if p))
         if covered >= set(UNIVERSE):
             cost = int(np.dot(pick, COSTS))
             best = cost if best is None else min(best, cost)
@@ -147,14 +147,14 @@ def test_setcover_minimisation_bound_semantics_cpsat_and_mip():
     x = [m.new_bool_var(f"s{i}") for i in range(len(SETS))]
     for e in UNIVERSE:
         m.add(sum(x[i] for i, S in enumerate(SETS) if e in S) >= 1)
-    m.minimize(sum(c * v for c, v in zip(COSTS, x)))
+    m.minimize(sum(c * v for c, v in zip(COSTS, x, strict=True)))
     results = [solve_cpsat(m, variables=x, workers=1)]
     for backend in MIP_BACKENDS:
         s = new_mip(backend)
         y = [s.BoolVar(f"s{i}") for i in range(len(SETS))]
         for e in UNIVERSE:
             s.Add(sum(y[i] for i, S in enumerate(SETS) if e in S) >= 1)
-        s.Minimize(sum(c * v for c, v in zip(COSTS, y)))
+        s.Minimize(sum(c * v for c, v in zip(COSTS, y, strict=True)))
         results.append(solve_mip(s, variables=y))
     for res in results:
         assert res.status is Status.OPTIMAL, res
@@ -349,8 +349,8 @@ def test_bad_input_raises():
     qp = OsqpSolver(*_qp_data())
     with pytest.raises(ValueError, match="warm_start x has 3 entries"):
         qp.solve(warm_start=(np.zeros(3), None))
+    P, q, A, _, u = _qp_data()
     with pytest.raises(ValueError, match="l must be <= u"):
-        P, q, A, l, u = _qp_data()
         OsqpSolver(P, q, A, u + 1, u)
     with pytest.raises(ValueError, match="x0 has 3 entries"):
         _nlp().solve(x0=[0, 0, 0])
