@@ -1,4 +1,4 @@
-"""Every ```python block of README.md runs (in a temporary working directory), so the quickstart cannot rot."""
+"""Every ```python block of README.md runs (in a temporary directory), so the quickstart cannot rot."""
 
 import os
 import re

@@ -16,7 +16,7 @@ def _problem(users, n_cells=2):
 
 
 @pytest.mark.parametrize(
-    "users, expected",
+    ("users", "expected"),
     [
         (np.full((12, 2), [1800.0, 0.0]), 12),  # all users at one point
         (np.full((5, 2), [300.0, 0.0]), 0),  # zero coverable users: all already served by the GBS

@@ -116,7 +116,7 @@ def test_seed_none_is_drawn_and_recorded():
 
 
 @pytest.mark.parametrize(
-    "simulate, scenario",
+    ("simulate", "scenario"),
     [
         (dp.herding.simulate, lambda: dp.herding.thesis_scenario(5, seed=0)),
         (dp.covert.simulate, lambda: dp.covert.thesis_case(1)),
@@ -126,7 +126,7 @@ def test_seed_none_is_drawn_and_recorded():
 )
 def test_controller_none_is_a_type_error(simulate, scenario):
     """Item 6: controller None gave an AttributeError from inside the simulator."""
-    with pytest.raises(TypeError, match="controller|herder"):
+    with pytest.raises(TypeError, match=r"controller|herder"):
         simulate(scenario(), None)
 
 
@@ -151,7 +151,7 @@ def test_thesis_scenario_n_drones_bool_names_n_drones():
 
 
 @pytest.mark.parametrize(
-    "call, name",
+    ("call", "name"),
     [
         (lambda: dp.herding.thesis_scenario(n_animals=10**12), "n_animals"),
         (lambda: dp.cells.CellParams(n_clusters=10**12), "n_clusters"),

@@ -521,7 +521,7 @@ BAD_CASES = [
 
 
 @pytest.mark.parametrize(
-    "name, param, kind, i", BAD_CASES, ids=[f"{n}-{p}-{k}{i}" for n, p, k, i in BAD_CASES]
+    ("name", "param", "kind", "i"), BAD_CASES, ids=[f"{n}-{p}-{k}{i}" for n, p, k, i in BAD_CASES]
 )
 def test_bad_input_raises_a_clear_error_naming_the_parameter(name, param, kind, i):
     fn = CALLABLES[name]

@@ -17,8 +17,9 @@ from pathlib import Path
 
 import pytest
 
-pytestmark = pytest.mark.slow  # real subprocesses killed at random moments: ~3 min, run in CI
 from droneplan.studies.store import STORE_NAME, ResultStore, load_results
+
+pytestmark = pytest.mark.slow  # real subprocesses killed at random moments: ~3 min, run in CI
 
 HELPER = Path(__file__).resolve().parents[1] / "unit" / "studies" / "study_tasks.py"
 

@@ -15,9 +15,11 @@ def _public_modules() -> list[str]:
     for layer in LAYERS:
         pkg = importlib.import_module(f"droneplan.{layer}")
         names.append(pkg.__name__)
-        for info in pkgutil.walk_packages(pkg.__path__, f"droneplan.{layer}."):
-            if not info.name.rsplit(".", 1)[-1].startswith("_"):
-                names.append(info.name)
+        names.extend(
+            info.name
+            for info in pkgutil.walk_packages(pkg.__path__, f"droneplan.{layer}.")
+            if not info.name.rsplit(".", 1)[-1].startswith("_")
+        )
     return names
 
 
