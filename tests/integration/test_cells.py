@@ -18,7 +18,7 @@ def test_reproduce_quick_writes_tables_and_orders_methods(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("m,backend", [(3, "cp-sat"), (4, "cp-sat"), (4, "highs")])
+@pytest.mark.parametrize(("m", "backend"), [(3, "cp-sat"), (4, "cp-sat"), (4, "highs")])
 def test_thesis_scale_milp_proven_optimal(m, backend):
     from droneplan.formulations.cells import evaluate, solve_milp
     from droneplan.scenarios.cells import thesis_problem

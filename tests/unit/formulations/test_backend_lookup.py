@@ -75,7 +75,7 @@ def test_formulation_solves_print_nothing(capfd):
     data = MPCData(
         D0=np.array([0.0, 0.0, 20.0]),
         h0=np.array([1.0, 0.0, 0.0]),
-        targets=np.tile(scen.params.F_arr + [5.0, 0.0, 0.0], (N, scen.n_targets, 1)),
+        targets=np.tile(scen.params.F_arr + np.array([5.0, 0.0, 0.0]), (N, scen.n_targets, 1)),
         mask=np.ones(scen.n_targets, bool),
         sphere_lo=np.zeros(N),
         sphere_hi=np.full(N, 1e4),

@@ -22,7 +22,7 @@ CONTROLLERS = [
 ]
 
 
-@pytest.mark.parametrize("module, cls", CONTROLLERS, ids=lambda x: getattr(x, "__name__", ""))
+@pytest.mark.parametrize(("module", "cls"), CONTROLLERS, ids=lambda x: getattr(x, "__name__", ""))
 def test_every_controller_has_the_same_methods(module, cls):
     for name in ("reset", "command"):
         assert callable(getattr(cls, name, None)), f"{cls.__name__} has no {name}"
@@ -105,7 +105,7 @@ def test_final_states_match_the_sampled_series(runs):
 def test_controller_counters_normalise_status_names():
     class C:
         fallbacks = 2
-        statuses = ["optimal", "OPTIMAL", dp.Status.NO_SOLUTION]
+        statuses = ("optimal", "OPTIMAL", dp.Status.NO_SOLUTION)
         solve_times = np.array([0.1, 0.2, 0.3])
 
     c = controller_counters(C())

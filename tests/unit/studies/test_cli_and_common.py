@@ -161,8 +161,9 @@ def test_dask_executor_maps_rows(tmp_path):
     distributed = pytest.importorskip("distributed")
     with (
         distributed.LocalCluster(
-        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
-    ) as cluster, ResultStore(tmp_path / STORE_NAME) as store,
+            n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
+        ) as cluster,
+        ResultStore(tmp_path / STORE_NAME) as store,
         make_executor(dask_address=cluster.scheduler_address) as ex,
     ):
         df = map_rows(_square, _tasks(3), executor=ex, store=store)
