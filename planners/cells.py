@@ -264,10 +264,9 @@ def genetic(
     N = N0 if restarts is None else restarts
     for name, v, lo in (("pop_size", P, 2), ("iter_max", iter_max, 0), ("restarts", N, 1)):
         check_int(name, v, min_value=lo)
-    check_size(
-        "restarts x pop_size x n_cells x users",
-        int(N) * int(P) * problem.n_cells * max(len(problem.targets), 1),
-    )
+    # The population arrays are (restarts, pop_size, m, 2); fitness() evaluates coverage in
+    # blocks of `chunk` chromosomes, so the user count does not multiply the memory.
+    check_size("restarts x pop_size x n_cells x 2", int(N) * int(P) * problem.n_cells * 2)
     if settings is not None and not isinstance(settings, GASettings):
         raise TypeError(f"settings must be GASettings or None, got {type(settings).__name__}")
     s = settings or GASettings()
