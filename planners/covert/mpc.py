@@ -14,9 +14,10 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.planners.covert.sliding import (
     DONE,
@@ -32,12 +33,18 @@ from droneplan.planners.covert.sliding import (
 from droneplan.scenarios.covert import (
     CovertCommand,
     CovertObservation,
+    CovertParams,
+    CovertPhase,
     CovertScenario,
     bearing_changes,
     rotate_heading,
 )
 from droneplan.solvers.registry import get_backend
+from droneplan.solvers.result import SolveResult
 from droneplan.solvers.validation import check_in_range, check_int, check_nonneg, check_positive
+
+if TYPE_CHECKING:  # formulations.covert is imported when a controller is built (it loads CasADi)
+    from droneplan.formulations.covert import BearingMPC, MPCData, MPCPlan, MPCSettings, RecedingBearingMPC
 
 __all__ = ["MPCObserverSettings", "MPCObserver", "SafeguardSettings", "SafeguardedMPCObserver"]
 
@@ -74,8 +81,8 @@ class MPCObserver(_PhasedController):
     from the previous plan shifted by one period (the first period: the sliding-mode
     rollout), apply the first command. A failed solve applies the sliding-mode command
     instead and is counted in ``fallbacks``. ``starts`` records, per solve, the start of the
-    result that was kept ("sliding-rollout" or "shifted-plan"; "" when the solve failed). Within home_radius of D_s the drone flies
-    straight home as in the sliding-mode Retreat.
+    result that was kept ("sliding-rollout" or "shifted-plan"; "" when the solve failed).
+    Within home_radius of D_s the drone flies straight home as in the sliding-mode Retreat.
 
     settings: SlidingSettings of the phase logic and the fallback law (default: SlidingSettings()).
     mpc: MPCSettings of the bearing MPC (default: MPCSettings()).
@@ -85,7 +92,7 @@ class MPCObserver(_PhasedController):
     def __init__(
         self,
         settings: SlidingSettings | None = None,
-        mpc: Any = None,
+        mpc: MPCSettings | None = None,
         observer: MPCObserverSettings | None = None,
     ):
         super().__init__(settings)
@@ -93,7 +100,8 @@ class MPCObserver(_PhasedController):
 
         self.mpc_settings = mpc if mpc is not None else MPCSettings()
         self.observer = observer if observer is not None else MPCObserverSettings()
-        self._solver = None
+        self._solver: RecedingBearingMPC | None = None
+        self._key: tuple[CovertParams, int] | None = None
         self.statuses: list[str] = []
         self.predicted_beta: list[float] = []
 
@@ -107,18 +115,22 @@ class MPCObserver(_PhasedController):
             self._solver = RecedingBearingMPC(model, backend=self.observer.backend)
             self._key = key
         self._hist_t: list[float] = []
-        self._hist_A: list[np.ndarray] = []
-        self._prev = None
-        self._prev_phase = None
-        self._phase_start = (0.0, 0.0)
+        self._hist_A: list[NDArray[np.float64]] = []
+        self._prev: SolveResult | None = None
+        self._prev_phase: CovertPhase | None = None
+        self._phase_start: tuple[float, float] = (0.0, 0.0)
         self.statuses = []
         self.starts: list[str] = []
         self.predicted_beta = []
         self.restarts = 0
-        self._hold = None
+        # between replans: (turn axis, or None when the sliding-mode law flies this interval;
+        # turn rate (rad/s); periods left; speed (m/s))
+        self._hold: tuple[NDArray[np.float64] | None, float, int, float] | None = None
 
     # -- target prediction
-    def _fit(self, obs: CovertObservation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _fit(
+        self, obs: CovertObservation
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
         """Record this measurement; constant-velocity fit (position (n,3) m, velocity (n,3) m/s,
         fitted (n,) bool) of each target over the last ``window`` measurements, at time obs.t."""
         A_meas = obs.drone + obs.rel  # NaN rows for unobservable targets
@@ -147,18 +159,18 @@ class MPCObserver(_PhasedController):
                     vel[j] = vel[j] * (self.params.V_T * 1.5 / speed)
             else:
                 pos[j] = Aj[-1]
-        self._fitted = (pos, vel)
+        self._fitted: tuple[NDArray[np.float64], NDArray[np.float64]] = (pos, vel)
         return pos, vel, fitted
 
-    def _predict(self, obs: CovertObservation, times: np.ndarray) -> np.ndarray:
+    def _predict(self, obs: CovertObservation, times: NDArray[np.float64]) -> NDArray[np.float64]:
         """(len(times), n, 3) predicted positions at obs.t + times (F for targets not seen now)."""
         pos, vel, _ = self._fit(obs)
         return pos[None] + times[:, None, None] * vel[None]
 
     # -- phase constraints
     def _phase_bounds(
-        self, obs: CovertObservation, node_t: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        self, obs: CovertObservation, node_t: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         p = self.params
         N = node_t.size
         d0 = float(np.linalg.norm(p.F_arr - obs.drone))
@@ -180,7 +192,7 @@ class MPCObserver(_PhasedController):
         home = np.maximum(self.settings.home_radius * 0.5, np.maximum(sched, catch_up))
         return np.zeros(N), inf, home
 
-    def _shifted_guess(self, model, data) -> np.ndarray | None:
+    def _shifted_guess(self, model: BearingMPC, data: MPCData) -> NDArray[np.float64]:
         from droneplan.formulations.covert import rollout_guess
 
         prev = self._prev
@@ -195,7 +207,9 @@ class MPCObserver(_PhasedController):
         idx = np.clip(np.searchsorted(plan.times, tq, side="right") - 1, 0, N - 1)
         return rollout_guess(model, data, plan.u[idx], plan.v[idx])
 
-    def _sliding_rollout(self, model, data, times) -> tuple[np.ndarray, np.ndarray]:
+    def _sliding_rollout(
+        self, model: BearingMPC, data: MPCData, times: NDArray[np.float64] | None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         from droneplan.scenarios.covert import rotate_heading
 
         p = self.params
@@ -220,6 +234,7 @@ class MPCObserver(_PhasedController):
         self._update_phase_mpc(obs)
         p = self.params
         solver = self._solver
+        assert solver is not None, "reset() builds the solver"
         model = solver.model
         node_t = np.cumsum(model.durations)
         pred = self._predict(obs, node_t)
@@ -280,6 +295,7 @@ class MPCObserver(_PhasedController):
             self._prev = None
             return self.sliding_command(obs)  # and re-solve at the next period
         self._prev = res
+        assert res.objective is not None  # has_solution: the objective is set
         self.predicted_beta.append(res.objective)
         if self._prefer_sliding(obs, res, model):
             self._hold = (None, 0.0, model.settings.replan_every - 1, 0.0)
@@ -287,7 +303,7 @@ class MPCObserver(_PhasedController):
         plan = res.x
         u = np.asarray(plan.u[0], float)
         u = u - np.dot(u, obs.heading) * obs.heading
-        nu = np.linalg.norm(u)
+        nu = float(np.linalg.norm(u))
         if nu > p.U_max:
             u = u * (p.U_max / nu)
         v = float(np.clip(plan.v[0], -p.V_max, p.V_max))
@@ -296,7 +312,7 @@ class MPCObserver(_PhasedController):
         self._hold = (axis, nu, model.settings.replan_every - 1, v)
         return CovertCommand(u, v)
 
-    def _prefer_sliding(self, obs: CovertObservation, res: Any, model: Any) -> bool:
+    def _prefer_sliding(self, obs: CovertObservation, res: SolveResult, model: BearingMPC) -> bool:
         """Whether to fly the sliding-mode law instead of the solved plan (never, here)."""
         return False
 
@@ -370,7 +386,7 @@ class SafeguardedMPCObserver(MPCObserver):
     def __init__(
         self,
         settings: SlidingSettings | None = None,
-        mpc: Any = None,
+        mpc: MPCSettings | None = None,
         observer: MPCObserverSettings | None = None,
         safeguard: SafeguardSettings | None = None,
     ):
@@ -387,16 +403,16 @@ class SafeguardedMPCObserver(MPCObserver):
         self.late_sliding = 0
 
     # -- the common metric
-    def _fine_targets(self, steps: int, mask: np.ndarray) -> np.ndarray:
+    def _fine_targets(self, steps: int, mask: NDArray[np.bool_]) -> NDArray[np.float64]:
         pos, vel = self._fitted
         t = np.arange(steps + 1) * self.params.dt
         return (pos[None] + t[:, None, None] * vel[None])[:, mask]
 
-    def _score(self, D: np.ndarray, A: np.ndarray) -> float:
+    def _score(self, D: NDArray[np.float64], A: NDArray[np.float64]) -> float:
         """max over instants 1..K and targets of beta (rad) for positions D (K+1,3), targets A (K+1,k,3)."""
         return float(np.max(bearing_changes(D[1:], A[1:], self.params.R)))
 
-    def _replay_plan(self, obs: CovertObservation, plan: Any, model: Any) -> np.ndarray:
+    def _replay_plan(self, obs: CovertObservation, plan: MPCPlan, model: BearingMPC) -> NDArray[np.float64]:
         """Positions (K+1, 3) at the control instants when the controller applies ``plan``."""
         p = self.params
         D, h = obs.drone.copy(), obs.heading.copy()
@@ -409,27 +425,27 @@ class SafeguardedMPCObserver(MPCObserver):
                 u, nu = u * (p.U_max / nu), p.U_max
             axis = np.cross(h, u / nu) if nu > 1e-12 else np.zeros(3)
             v = float(np.clip(plan.v[k], -p.V_max, p.V_max))
-            for _ in range(int(round(dur / p.dt))):
+            for _ in range(round(dur / p.dt)):
                 h_new, integral = rotate_heading(h, nu * np.cross(axis, h), p.dt)
                 D, h = D + v * integral, h_new
                 out.append(D.copy())
         return np.asarray(out)
 
-    def _prefer_sliding(self, obs: CovertObservation, res: Any, model: Any) -> bool:
+    def _prefer_sliding(self, obs: CovertObservation, res: SolveResult, model: BearingMPC) -> bool:
         t0 = time.perf_counter()
         try:
             return self._choose(obs, res, model)
         finally:  # the scoring is part of this replan's computing time
             self.solve_times[-1] += time.perf_counter() - t0
 
-    def _choose(self, obs: CovertObservation, res: Any, model: Any) -> bool:
+    def _choose(self, obs: CovertObservation, res: SolveResult, model: BearingMPC) -> bool:
         mask = obs.observable
         D_mpc = self._replay_plan(obs, res.x, model)
         K = D_mpc.shape[0] - 1
         A = self._fine_targets(K, mask)
         D_sl, _, _ = rollout_sliding(self.phase, obs.drone, obs.heading, A[:K], self.params, self.settings)
         sh = self.safeguard.score_horizon
-        W_ = K if sh is None else max(1, min(K, int(round(sh / self.params.dt))))
+        W_ = K if sh is None else max(1, min(K, round(sh / self.params.dt)))
         s_mpc, s_sl = self._score(D_mpc[: W_ + 1], A[: W_ + 1]), self._score(D_sl[: W_ + 1], A[: W_ + 1])
         if self.phase == TO_SPHERE and self.arrival_deadline is not None:
             # a plan that would not arrive by the deadline is not admissible (its score would
@@ -453,15 +469,15 @@ class SafeguardedMPCObserver(MPCObserver):
         (rolled out for at most 3 straight-flight times + 10 s)."""
         p = self.params
         gap = max(0.0, float(np.linalg.norm(p.F_arr - obs.drone)) - p.L_u)
-        steps = int(round((3.0 * gap / p.V_max + 10.0) / p.dt))
+        steps = round((3.0 * gap / p.V_max + 10.0) / p.dt)
         A = self._fine_targets(steps, obs.observable)
         _, _, phases = rollout_sliding(TO_SPHERE, obs.drone, obs.heading, A[:steps], p, self.settings)
         on = [k for k, ph in enumerate(phases) if ph != TO_SPHERE]
         return (on[0] if on else steps) * p.dt
 
     def _phase_bounds(
-        self, obs: CovertObservation, node_t: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        self, obs: CovertObservation, node_t: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         lo, hi, home = super()._phase_bounds(obs, node_t)
         tol = self.safeguard.arrival_tolerance
         if self.phase != TO_SPHERE or tol is None:

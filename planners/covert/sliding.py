@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.scenarios.covert import (
     CovertCommand,
@@ -69,7 +70,7 @@ TO_SPHERE, ON_SPHERE, RETREAT, DONE = (
 
 
 # --------------------------------------------------------------------------- W and g
-def W(mu1: Any, mu2: Any) -> np.ndarray:
+def W(mu1: Any, mu2: Any) -> NDArray[np.float64]:
     """W(mu1, mu2) of (3.8)-(3.9), vectorised over leading axes.
 
     The unit vector in the plane of mu1 and mu2 orthogonal to mu1 and directed
@@ -90,7 +91,7 @@ def W(mu1: Any, mu2: Any) -> np.ndarray:
     return np.where(zero, 0.0, w / np.where(zero, 1.0, nw))
 
 
-def g(mu1: Any, mu2: Any) -> np.ndarray | float:
+def g(mu1: Any, mu2: Any) -> NDArray[np.float64] | float:
     """g(mu1, mu2) of (3.10): +1 if mu1 . mu2 > 0, else -1 (vectorised)."""
     d = np.sum(np.asarray(mu1, float) * np.asarray(mu2, float), axis=-1)
     out = np.where(d > 0, 1.0, -1.0)
@@ -135,16 +136,20 @@ class SlidingSettings:
 
 
 # --------------------------------------------------------------------------- the laws
-def _p_term(p_m: np.ndarray, settings: SlidingSettings) -> np.ndarray:
+def _p_term(p_m: NDArray[np.float64], settings: SlidingSettings) -> NDArray[np.float64]:
     """The p_m term of (3.17)/(3.19): saturated p_m / max(|p_m|, eps_line), else p_m or its direction."""
     if settings.saturation:
-        return p_m / max(np.linalg.norm(p_m), settings.eps_line)
+        return p_m / max(float(np.linalg.norm(p_m)), settings.eps_line)
     return p_m / np.linalg.norm(p_m) if settings.unit_p else p_m
 
 
 def _steer_for(
-    phase: str, D: np.ndarray, p_m: np.ndarray, params: CovertParams, settings: SlidingSettings
-) -> np.ndarray:
+    phase: str,
+    D: NDArray[np.float64],
+    p_m: NDArray[np.float64],
+    params: CovertParams,
+    settings: SlidingSettings,
+) -> NDArray[np.float64]:
     """b_m of the phase given p_m, the vector to the chosen target's constraint line."""
     f = params.F_arr - D
     s = params.D_s_arr - D
@@ -153,14 +158,14 @@ def _steer_for(
             return W(f, p_m)
         e = f / np.linalg.norm(f)
         w = p_m - np.dot(e, p_m) * e
-        return w / max(np.linalg.norm(w), settings.eps_line)
+        return w / max(float(np.linalg.norm(w)), settings.eps_line)
     goal = f if phase == TO_SPHERE else s
     if np.linalg.norm(p_m) < 1e-9:
-        return goal / max(np.linalg.norm(goal), 1e-12)
+        return goal / max(float(np.linalg.norm(goal)), 1e-12)
     return _p_term(p_m, settings) + W(p_m, goal)
 
 
-def selection_weights(beta: np.ndarray, settings: SlidingSettings) -> np.ndarray:
+def selection_weights(beta: NDArray[np.float64], settings: SlidingSettings) -> NDArray[np.float64]:
     """Weights of the targets in the steering vector (A1, (3.13)).
 
     Literal law: 1 for the target with the largest bearing change, 0 for the others.
@@ -178,8 +183,12 @@ def selection_weights(beta: np.ndarray, settings: SlidingSettings) -> np.ndarray
 
 
 def sliding_steering(
-    phase: str, D: np.ndarray, A: np.ndarray, params: CovertParams, settings: SlidingSettings
-) -> np.ndarray:
+    phase: str,
+    D: NDArray[np.float64],
+    A: NDArray[np.float64],
+    params: CovertParams,
+    settings: SlidingSettings,
+) -> NDArray[np.float64]:
     """The steering vector b_m (m or unit, as in the thesis) of the current phase.
 
     D: drone position (3,); A: observable target positions (k, 3), k may be 0.
@@ -195,7 +204,8 @@ def sliding_steering(
     if phase not in (TO_SPHERE, ON_SPHERE, RETREAT):
         return np.zeros(3)
     if k == 0:
-        return {TO_SPHERE: f, ON_SPHERE: np.zeros(3), RETREAT: s}[phase]
+        goals: dict[str, NDArray[np.float64]] = {TO_SPHERE: f, ON_SPHERE: np.zeros(3), RETREAT: s}
+        return goals[phase]
     if phase == RETREAT and np.linalg.norm(s) <= settings.home_radius:
         return s
     beta = bearing_changes(D, A, params.R)
@@ -209,14 +219,14 @@ def sliding_steering(
 
 
 def turn_command(
-    h: np.ndarray,
-    b: np.ndarray,
+    h: NDArray[np.float64],
+    b: NDArray[np.float64],
     params: CovertParams,
     settings: SlidingSettings,
     dt: float,
     *,
     throttle: bool = False,
-) -> tuple[np.ndarray, float]:
+) -> tuple[NDArray[np.float64], float]:
     """The control (3.15): turn h towards b (or -h when b is behind) and fly at +-V_max.
 
     Literal law: u = U_max g(h, b) W(h, b), v = V_max g(h, b). Saturated law: the turn
@@ -229,7 +239,7 @@ def turn_command(
     nb = float(np.linalg.norm(b))
     if nb < 1e-12:
         return np.zeros(3), 0.0
-    sign = g(h, b)
+    sign = float(g(h, b))  # h and b are single vectors: g is a scalar
     Wv = W(h, b)
     if not settings.saturation:
         return params.U_max * sign * Wv, params.V_max * sign
@@ -240,9 +250,11 @@ def turn_command(
     return rate * sign * Wv, v
 
 
-def _cap_speed(v: float, h: np.ndarray, toward: np.ndarray, room: float, dt: float) -> float:
+def _cap_speed(
+    v: float, h: NDArray[np.float64], toward: NDArray[np.float64], room: float, dt: float
+) -> float:
     """Limit |v| so that one step along +-h does not advance more than ``room`` along ``toward``."""
-    e = toward / max(np.linalg.norm(toward), 1e-12)
+    e = toward / max(float(np.linalg.norm(toward)), 1e-12)
     closing = math.copysign(1.0, v) * float(np.dot(h, e))
     if closing <= 1e-6:
         return v
@@ -257,15 +269,22 @@ class _PhasedController:
         self.settings = settings if settings is not None else SlidingSettings()
         if not isinstance(self.settings, SlidingSettings):
             raise TypeError("settings must be a SlidingSettings")
-        self.params: CovertParams | None = None
+        self._params: CovertParams | None = None
         self.phase = TO_SPHERE
         self.finished = False
         self.fallbacks = 0
         self.solve_times: list[float] = []
 
+    @property
+    def params(self) -> CovertParams:
+        """The parameters of the scenario of the current run (set by :meth:`reset`)."""
+        if self._params is None:
+            raise RuntimeError("reset() must be called before the controller is used")
+        return self._params
+
     def reset(self, scenario: CovertScenario, *, seed: Any = None) -> None:
         """Start a run on ``scenario`` (the laws are deterministic: ``seed`` is unused)."""
-        self.params = scenario.params
+        self._params = scenario.params
         self.scenario = scenario
         self.phase = TO_SPHERE
         self.finished = False
@@ -289,7 +308,7 @@ class _PhasedController:
             self.phase = DONE
             self.finished = True
 
-    def _limit(self, u: np.ndarray, v: float, obs: CovertObservation) -> CovertCommand:
+    def _limit(self, u: NDArray[np.float64], v: float, obs: CovertObservation) -> CovertCommand:
         """Saturated variant only: do not cross the sphere on arrival, do not overshoot D_s."""
         p = self.params
         if not self.settings.saturation:
@@ -297,10 +316,10 @@ class _PhasedController:
         D, h = obs.drone, obs.heading
         if self.phase == TO_SPHERE:
             f = p.F_arr - D
-            v = _cap_speed(v, h, f, np.linalg.norm(f) - p.L_u, p.dt)
+            v = _cap_speed(v, h, f, float(np.linalg.norm(f)) - p.L_u, p.dt)
         elif self.phase == RETREAT:
             s = p.D_s_arr - D
-            v = _cap_speed(v, h, s, np.linalg.norm(s), p.dt)
+            v = _cap_speed(v, h, s, float(np.linalg.norm(s)), p.dt)
         return CovertCommand(u, v)
 
     def sliding_command(self, obs: CovertObservation) -> CovertCommand:
@@ -347,9 +366,9 @@ class HoverBenchmark(_PhasedController):
         u, v = turn_command(obs.heading, b, p, sat, p.dt)
         f = p.F_arr - obs.drone
         if self.phase == TO_SPHERE:
-            v = _cap_speed(v, obs.heading, f, np.linalg.norm(f) - p.L_u, p.dt)
+            v = _cap_speed(v, obs.heading, f, float(np.linalg.norm(f)) - p.L_u, p.dt)
         else:
-            v = _cap_speed(v, obs.heading, b, np.linalg.norm(b), p.dt)
+            v = _cap_speed(v, obs.heading, b, float(np.linalg.norm(b)), p.dt)
         return CovertCommand(u, v)
 
 
@@ -360,7 +379,7 @@ def rollout_sliding(
     targets: Any,
     params: CovertParams,
     settings: SlidingSettings | None = None,
-) -> tuple[np.ndarray, np.ndarray, list[CovertPhase]]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64], list[CovertPhase]]:
     """Open-loop prediction of the :class:`SlidingModeObserver` from (D, h) in ``phase``.
 
     targets: (K, k, 3) positions (m) of the observable targets at the K control instants
@@ -375,12 +394,14 @@ def rollout_sliding(
     """
     st = settings if settings is not None else SlidingSettings()
     p = params
+    phase = CovertPhase(phase)  # ValueError for an unknown phase name
     A_all = np.asarray(targets, dtype=float)
     if A_all.ndim != 3 or A_all.shape[2] != 3:
         raise ValueError(f"targets must have shape (K, k, 3), got {A_all.shape}")
     D = np.asarray(D, dtype=float).copy()
     h = np.asarray(h, dtype=float).copy()
-    Ds, hs, phases = [D.copy()], [h.copy()], []
+    Ds, hs = [D.copy()], [h.copy()]
+    phases: list[CovertPhase] = []
     for k in range(A_all.shape[0]):
         if phase == TO_SPHERE and np.linalg.norm(p.F_arr - D) <= p.L_u + st.arrival_tol:
             phase = ON_SPHERE
@@ -394,10 +415,10 @@ def rollout_sliding(
             u, v = turn_command(h, b, p, st, p.dt, throttle=phase == ON_SPHERE)
             if st.saturation and phase == TO_SPHERE:
                 f = p.F_arr - D
-                v = _cap_speed(v, h, f, np.linalg.norm(f) - p.L_u, p.dt)
+                v = _cap_speed(v, h, f, float(np.linalg.norm(f)) - p.L_u, p.dt)
             elif st.saturation and phase == RETREAT:
                 s = p.D_s_arr - D
-                v = _cap_speed(v, h, s, np.linalg.norm(s), p.dt)
+                v = _cap_speed(v, h, s, float(np.linalg.norm(s)), p.dt)
         D, h, _, _ = step_drone(D, h, u, v, p.dt, p)
         Ds.append(D.copy())
         hs.append(h.copy())
