@@ -18,10 +18,10 @@ A_jk (3.6). For beta <= 90 deg the constraint says tan beta_jk <= tau_k, so mini
 minimises the maximum bearing change (tan is increasing), with polynomial (smooth)
 constraints. We first used the epigraph of the minimum cosine: it is smooth too, but
 flat near beta = 0 (1 - cos beta ~ beta^2/2), so IPOPT stopped ~1.5 deg short of the
-camouflage line; tan beta ~ beta is not flat there. The dynamics are the plant's exact zero-order-hold rotation
-(:func:`scenarios.covert.rotate_heading`), written with power series of
-theta^2 = |u|^2 Delta^2 so that they are smooth at u = 0; on the first interval they
-are the plant's step exactly.
+camouflage line; tan beta ~ beta is not flat there. The dynamics are the plant's exact
+zero-order-hold rotation (:func:`scenarios.covert.rotate_heading`), written with power
+series of theta^2 = |u|^2 Delta^2 so that they are smooth at u = 0; on the first interval
+they are the plant's step exactly.
 
 Two ways to solve it:
 - backend "ipopt": IPOPT (warm-started from the shifted previous solution, with its duals);
@@ -40,6 +40,7 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.scenarios.covert import CovertParams
 from droneplan.solvers.base import NlpSolver
@@ -186,13 +187,13 @@ class BearingMPC:
     """The MPC settings the model was built with."""
     n_targets: int
     """Number of targets in the model (count)."""
-    nlp: dict
+    nlp: dict[str, Any]
     """{"x", "f", "g", "p"} CasADi SX expressions."""
     durations: np.ndarray
     """(N,) interval lengths (s)."""
-    idx: dict
+    idx: dict[str, Any]
     """Index arrays into x: "u" (N,3), "v" (N,), "D" (N,3), "h" (N,3), "tau_k" (N,), "tau" ()."""
-    gidx: dict
+    gidx: dict[str, NDArray[np.intp]]
     """Index arrays into g: "dyn", "orth", "unorm", "sphere", "home", "epi" (N,n), "link", "tangent"."""
 
     @property
@@ -301,7 +302,7 @@ def build_bearing_mpc(
     x = ca.SX.sym("x", nx)
     pv = ca.SX.sym("p", 6 + N * n * 3)
     D_prev, h_prev = pv[0:3], pv[3:6]
-    idx = {
+    idx: dict[str, Any] = {  # index arrays, and the int index of tau
         "u": np.zeros((N, 3), int),
         "v": np.zeros(N, int),
         "D": np.zeros((N, 3), int),
@@ -312,8 +313,9 @@ def build_bearing_mpc(
     tau = x[per * N + N]
     idx["tau_k"] = np.arange(per * N, per * N + N)
     idx["tau"] = per * N + N
-    smooth = 0
-    u_last = v_last = None
+    smooth: Any = 0  # a CasADi expression once a second node exists
+    u_last: Any = None
+    v_last: Any = None
     for k in range(N):
         b = per * k
         idx["u"][k] = np.arange(b, b + 3)
@@ -360,11 +362,13 @@ def build_bearing_mpc(
         ("link", g_link),
         ("tangent", g_tan),
     ]
-    gs, gidx, off = [], {}, 0
+    gs: list[Any] = []
+    gidx: dict[str, NDArray[np.intp]] = {}
+    off = 0
     for name, items in groups:
         expr = ca.vertcat(*items) if items else ca.SX(0, 1)
         m = int(expr.numel())
-        gidx[name] = np.arange(off, off + m)
+        gidx[name] = np.arange(off, off + m, dtype=np.intp)
         off += m
         gs.append(expr)
     gidx["epi"] = gidx["epi"].reshape(N, n)
@@ -392,7 +396,10 @@ def rollout_guess(model: BearingMPC, data: MPCData, u: np.ndarray, v: np.ndarray
         h_new, integral = rotate_heading(h, uk, float(dt))
         D = D + vk * integral
         h = h_new
-        us.append(uk), vs.append(vk), Ds.append(D), hs.append(h)
+        us.append(uk)
+        vs.append(vk)
+        Ds.append(D)
+        hs.append(h)
     x = model.pack(np.array(us), np.array(vs), np.array(Ds), np.array(hs))
     tk = _node_max_tan(model, data, np.array(Ds))
     x[model.idx["tau_k"]] = tk
@@ -569,10 +576,11 @@ def sphere_minmax_bearing(params: CovertParams, targets: Any, *, c_start: float 
     per angle, cvxpy; no grid, no tolerance to choose): objective = max_j beta_j at the
     returned point x (3,) of the sphere (m), bound = a certified lower bound (rad), equal to
     about 1e-5 rad (1e-4 rad near 0). Where that program does not apply (R inside the
-    observation ball, or an optimum of 90 deg or more), the branch and bound :func:`sphere_minmax_bearing_bnb` answers
-    instead (``backend`` says which). params: the problem (F, L_u, R; CovertParams);
-    targets: (n, 3) positions (m), n >= 1, none on the sphere. c_start: cos of an angle believed below the optimum (e.g. the previous instant's optimum
-    minus a margin), to save solves along a sequence of instants.
+    observation ball, or an optimum of 90 deg or more), the branch and bound
+    :func:`sphere_minmax_bearing_bnb` answers instead (``backend`` says which).
+    params: the problem (F, L_u, R; CovertParams); targets: (n, 3) positions (m), n >= 1,
+    none on the sphere. c_start: cos of an angle believed below the optimum (e.g. the
+    previous instant's optimum minus a margin), to save solves along a sequence of instants.
     """
     from droneplan.formulations.covert_bounds import instant_minmax_bearing
 
@@ -632,7 +640,7 @@ def sphere_minmax_bearing_bnb(
         dth = cells[:, 1] - cells[:, 0]
         dph = cells[:, 3] - cells[:, 2]
         rho = 0.5 * L * (dth + smax * dph)
-        vals = bearing_changes(C, np.broadcast_to(A, (len(C),) + A.shape), R).max(axis=1)
+        vals = bearing_changes(C, np.broadcast_to(A, (len(C), *A.shape)), R).max(axis=1)
         dist = np.linalg.norm(C[:, None, :] - A[None], axis=-1).min(axis=1)
         lip_ok = dist > rho
         lb = np.where(lip_ok, vals - rho / np.where(lip_ok, dist - rho, 1.0), -math.inf)

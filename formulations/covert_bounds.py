@@ -36,6 +36,7 @@ from typing import Any
 
 import cvxpy as cp
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_array, check_bool, check_instance, check_nonneg, check_positive
@@ -51,6 +52,10 @@ __all__ = [
 _C_WIDTH = 1e-9  # the search stops when the bracket on cos(theta*) is this narrow
 _DELTA_C = 1e-6  # certification: first step in cos(theta) above the bracket (about 1e-5 rad in theta)
 _S_TOL = 1e-7  # certified infeasible when s < -_S_TOL (scaled: 20 um at L_u = 200 m), 10x solver tolerance
+
+
+_Eval = tuple[float, float, NDArray[np.float64]]
+"""One solve of the slack SOCP at a given c: (s(c), ds/dc, y)."""
 
 
 class InstantMinmaxProgram:
@@ -86,7 +91,7 @@ class InstantMinmaxProgram:
         self.problem = cp.Problem(cp.Maximize(self.s), cons)
         assert self.problem.is_dpp()
 
-    def _s(self, c: float) -> tuple[float, float, np.ndarray] | None:
+    def _s(self, c: float) -> _Eval | None:
         """(s(c), ds/dc, y) or None when the solver failed; s = -inf when the balls do not meet."""
         self.c.value = c
         try:
@@ -111,7 +116,7 @@ class InstantMinmaxProgram:
         balls: Any = None,
         c_start: float | None = None,
         radius: float | None = None,
-    ) -> tuple[float | None, float | None, np.ndarray | None, int, str]:
+    ) -> tuple[float | None, float | None, NDArray[np.float64] | None, int, str]:
         """(cos of the certified lower bound, cos of the best feasible angle, its point D (m), solves, note).
 
         targets: (n, 3) m; balls: (n_balls, 4) rows (centre (3) m, radius m); c_start: a cos(theta)
@@ -136,7 +141,7 @@ class InstantMinmaxProgram:
             self.P.value, self.r.value = np.zeros((1, 3)), np.ones(1)
         solves = 0
 
-        def ev(c):
+        def ev(c: float) -> _Eval | None:
             nonlocal solves
             solves += 1
             return self._s(c)
@@ -145,7 +150,8 @@ class InstantMinmaxProgram:
         # neither convex nor concave in general, so the search takes Newton steps from the
         # known ends of the bracket (closest to the root first) and bisects when both leave it
         lo, hi = 0.0, 1.0
-        f_lo = f_hi = None
+        f_lo: _Eval | None = None
+        f_hi: _Eval | None = None
         hi_accurate = False
         c = float(c_start) if c_start is not None and 0.0 < c_start < 1.0 else 0.0
         while solves < 60:
@@ -168,14 +174,16 @@ class InstantMinmaxProgram:
                 break
             if f_hi is None and hi == 1.0 and c == 1.0:  # s(1) > 0: every cone met at theta = 0
                 return 1.0, 1.0, F + L * self._point(f_lo), solves, ""
-            ends = [e for e in ((lo, f_lo), (hi, f_hi)) if e[1] is not None]
+            ends = [(c0, r0) for c0, r0 in ((lo, f_lo), (hi, f_hi)) if r0 is not None]
             cands = [
                 c0 - r0[0] / r0[1]
                 for c0, r0 in sorted(ends, key=lambda e: abs(e[1][0]))
                 if r0[1] < 0 and math.isfinite(r0[0])
             ]
-            c = next((x for x in cands if lo < x < hi), None)
-            if c is None:
+            c_next = next((x for x in cands if lo < x < hi), None)
+            if c_next is not None:
+                c = c_next
+            else:
                 c = 0.0 if f_lo is None else 1.0 if f_hi is None else 0.5 * (lo + hi)
         if f_lo is None:
             return None, None, None, solves, "no feasible angle found"
@@ -194,7 +202,8 @@ class InstantMinmaxProgram:
             step *= 10
         return c_cert, lo, F + L * self._point(f_lo), solves, ""
 
-    def _point(self, r) -> np.ndarray:
+    def _point(self, r: _Eval | None) -> NDArray[np.float64]:
+        assert r is not None, "called once a feasible angle (s > 0) was found"
         return r[2]
 
 
@@ -208,7 +217,7 @@ def _program(n: int, n_balls: int) -> InstantMinmaxProgram:
     return _PROGRAMS[key]
 
 
-def _to_sphere(params: Any, D: np.ndarray) -> np.ndarray:
+def _to_sphere(params: Any, D: NDArray[np.float64]) -> NDArray[np.float64]:
     """The point where the segment from D (inside the ball) to R (outside) crosses the sphere."""
     F, L, R = params.F_arr, params.L_u, params.R_arr
     d = R - D
@@ -281,8 +290,8 @@ class MissionBound:
     times (s).
     """
 
-    t: np.ndarray
-    per_instant: np.ndarray
+    t: NDArray[np.float64]
+    per_instant: NDArray[np.float64]
     value: float
     t_a: float
     t_f: float
@@ -293,7 +302,9 @@ class MissionBound:
         return float(self.t[int(np.nanargmax(self.per_instant))])
 
 
-def _instant_balls(p: Any, t: float, t_a: float, t_f: float, t_end: float, retreat: bool, sphere_tol: float):
+def _instant_balls(
+    p: Any, t: float, t_a: float, t_f: float, t_end: float, retreat: bool, sphere_tol: float
+) -> tuple[float, list[NDArray[np.float64]]]:
     """(radius around F, extra balls) of the set a drone of the class can occupy at time t."""
     balls = [np.r_[p.D_s_arr, p.V_max * t]]
     if retreat:
@@ -387,7 +398,7 @@ def mission_front(
     A_all = scenario.targets_at(tt)
     obs = scenario.observable_at(tt)
 
-    def run(mask_t: np.ndarray, t_a: float) -> np.ndarray:
+    def run(mask_t: NDArray[np.bool_], t_a: float) -> NDArray[np.float64]:
         out = np.full(tt.shape, np.nan)
         c_prev = None
         for k in np.nonzero(mask_t)[0]:
@@ -412,7 +423,9 @@ def mission_front(
     return fronts
 
 
-def _mission_instant(p: Any, A: np.ndarray, balls: list, radius_F: float, c_start: float | None):
+def _mission_instant(
+    p: Any, A: NDArray[np.float64], balls: list[NDArray[np.float64]], radius_F: float, c_start: float | None
+) -> tuple[float, float] | None:
     """Certified min max beta over {|D - F| <= radius_F} ∩ balls, as (bound rad, cos) or None."""
     extra = list(balls)
     prog = _program(A.shape[0], len(extra))
@@ -422,4 +435,5 @@ def _mission_instant(p: Any, A: np.ndarray, balls: list, radius_F: float, c_star
         return None
     if c_lo is None:
         return None
+    assert c_best is not None  # a certified bound comes with the best feasible angle
     return math.acos(min(c_lo, 1.0)), c_best
