@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+from typing import overload
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams
 from droneplan.solvers.validation import check_array, check_instance
@@ -10,7 +13,15 @@ from droneplan.solvers.validation import check_array, check_instance
 __all__ = ["optimal_altitude"]
 
 
-def optimal_altitude(z_s, params: SharkParams = THESIS_TABLE_5_1) -> tuple[np.ndarray, np.ndarray]:
+@overload
+def optimal_altitude(z_s: float, params: SharkParams = ...) -> tuple[float, float]: ...
+@overload
+def optimal_altitude(
+    z_s: ArrayLike, params: SharkParams = ...
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+def optimal_altitude(
+    z_s: ArrayLike, params: SharkParams = THESIS_TABLE_5_1
+) -> tuple[float, float] | tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Exact maximiser of the interception radius eps(z_o - z_s) over lmin <= z_o <= le.
 
     z_s: shark altitude(s) (m, <= 0), scalar or array. Returns (z_o*, eps*) in metres,

@@ -96,18 +96,17 @@ def build_assignment_model(cost, sharks):
     ]
     Z = m.new_int_var(0, big, "Z")
     for j in range(len(sharks)):
-        m.add_exactly_one([x[i][j] for i in range(n) if x[i][j] is not None])
+        m.add_exactly_one([v for v in (x[i][j] for i in range(n)) if v is not None])
     for i in range(n):
         row = [v for v in x[i] if v is not None]
         if row:
             m.add_at_most_one(row)
-        for j in range(len(sharks)):
-            if x[i][j] is not None:
-                m.add(int(q[i, j]) <= Z).only_enforce_if(x[i][j])
+        for j, v in enumerate(x[i]):
+            if v is not None:
+                m.add(int(q[i, j]) <= Z).only_enforce_if(v)
     M = big * len(sharks) + 1
     m.minimize(
-        M * Z
-        + sum(int(q[i, j]) * x[i][j] for i in range(n) for j in range(len(sharks)) if x[i][j] is not None)
+        M * Z + sum(int(q[i, j]) * v for i, row in enumerate(x) for j, v in enumerate(row) if v is not None)
     )
     return m, x, Z
 
@@ -134,7 +133,7 @@ def solve_assignment(
         sharks = select_sharks(shark_to_human, n)
     else:
         sharks = np.arange(s)
-    model, x, Z = build_assignment_model(c, sharks)
+    model, x, _ = build_assignment_model(c, sharks)
     flat = [v for row in x for v in row if v is not None]
     idx = [(i, j) for i, row in enumerate(x) for j, v in enumerate(row) if v is not None]
     res = get_backend(backend, kind="cp").solve_cp(
@@ -143,7 +142,7 @@ def solve_assignment(
     if not res.has_solution:
         return dataclasses.replace(res, message=f"assignment: {res.message}")
     op = np.full(len(sharks), -1)
-    for (i, j), val in zip(idx, res.x):
+    for (i, j), val in zip(idx, res.x, strict=True):  # one value per variable of ``flat``
         if val:
             op[j] = i
     latest, total = assignment_cost(c, sharks, op)

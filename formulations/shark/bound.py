@@ -31,9 +31,11 @@ covers the offset eps_o (1 + gamma).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Sequence
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
 from droneplan.solvers.result import SolveResult, Status
@@ -59,29 +61,31 @@ def _eps_zo(z_s: np.ndarray, params: SharkParams) -> tuple[np.ndarray, np.ndarra
     return zo, np.where(reach, eps, 0.0)
 
 
-def _shark_model(shark, t0: float):
+def _shark_model(
+    shark: SharkTrajectory | Sequence[ArrayLike], t0: float
+) -> Callable[[ArrayLike], tuple[NDArray[np.float64], NDArray[np.float64]]]:
     """(S(t) (K,3), V(t) (K,2)) for plan times t (K,), as the OCP sees the path."""
     if isinstance(shark, SharkTrajectory):
         grid = [np.asarray(shark.t, float)]
         fs = [ca.interpolant(f"bs{i}", "bspline", grid, shark.pos[:, i]) for i in range(3)]
         fv = [ca.interpolant(f"bv{i}", "bspline", grid, shark.vel[:, i]) for i in range(2)]
 
-        def model(t):
+        def path_model(t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
             tt = ca.DM(np.atleast_1d(np.asarray(t, float) + t0)).T
             S = np.column_stack([np.asarray(f(tt)).ravel() for f in fs])
             V = np.column_stack([np.asarray(f(tt)).ravel() for f in fv])
             return S, V
 
-        return model
+        return path_model
     S0 = np.asarray(shark[0], float)
     V0 = np.asarray(shark[1], float)[:2]
 
-    def model(t):
-        t = np.atleast_1d(np.asarray(t, float))
-        S = np.column_stack([S0[0] + V0[0] * t, S0[1] + V0[1] * t, np.full(t.shape, S0[2])])
-        return S, np.tile(V0, (t.size, 1))
+    def line_model(t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        tt = np.atleast_1d(np.asarray(t, float))
+        S = np.column_stack([S0[0] + V0[0] * tt, S0[1] + V0[1] * tt, np.full(tt.shape, S0[2])])
+        return S, np.tile(V0, (tt.size, 1))
 
-    return model
+    return line_model
 
 
 def frontal_point(shark, t, params: SharkParams = THESIS_TABLE_5_1, *, t0: float = 0.0):

@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import casadi as ca
 import numpy as np
@@ -100,28 +102,33 @@ def casadi_optimal_altitude(z_s, params: SharkParams):
     return zo, eps
 
 
-def _path_functions(path: SharkTrajectory | None):
-    """(S(t, p), V(t, p), n_p): shark position (3) and horizontal velocity (2) as CasADi functions."""
+_PathFunction = Callable[[Any, Any], Any]
+"""f(t, p) -> a CasADi expression, for symbolic time t and parameter vector p."""
+
+
+def _path_functions(path: SharkTrajectory | None) -> tuple[_PathFunction, _PathFunction, int, Any]:
+    """(S(t, p), V(t, p), n_p, symbol class): shark position (3) and horizontal velocity (2)
+    as CasADi functions, the parameter count and the CasADi symbol class (SX or MX)."""
     if path is None:  # constant-velocity prediction, p = [S0 (3), V0 (2)]
 
-        def S(t, p):
+        def S_line(t: Any, p: Any) -> Any:
             return ca.vertcat(p[0] + p[3] * t, p[1] + p[4] * t, p[2])
 
-        def V(t, p):
+        def V_line(t: Any, p: Any) -> Any:
             return ca.vertcat(p[3], p[4])
 
-        return S, V, 5, ca.SX
+        return S_line, V_line, 5, ca.SX
     grid = [np.asarray(path.t, float)]
     fx = [ca.interpolant(f"s{i}", "bspline", grid, path.pos[:, i]) for i in range(3)]
     fv = [ca.interpolant(f"v{i}", "bspline", grid, path.vel[:, i]) for i in range(2)]
 
-    def S(t, p):  # p = [t0]
+    def S_path(t: Any, p: Any) -> Any:  # p = [t0]
         return ca.vertcat(*[f(p[0] + t) for f in fx])
 
-    def V(t, p):
+    def V_path(t: Any, p: Any) -> Any:
         return ca.vertcat(*[f(p[0] + t) for f in fv])
 
-    return S, V, 1, ca.MX
+    return S_path, V_path, 1, ca.MX
 
 
 def build_interception_nlp(
@@ -153,18 +160,16 @@ def build_interception_nlp(
     dyn = ca.vec(O[:, 1:] - O[:, :-1] - h * U)
     spd = ca.sum1(U[:2, :] ** 2).T
     lift = ca.DM([0, 0, 1])
-    clear = []
+    clear: list[Any] = []
     rmin2 = (params.eps_o + margin) ** 2
     for k in range(1, N):
         Sk = S(k * h, p)
-        for lj in (params.l1, params.l2):
-            clear.append(ca.sumsqr(Sk - (O[:, k] - lj * lift)) - rmin2)
+        clear.extend(ca.sumsqr(Sk - (O[:, k] - lj * lift)) - rmin2 for lj in (params.l1, params.l2))
     for k in range(N):
         Sk = S((k + 0.5) * h, p)
         Om = 0.5 * (O[:, k] + O[:, k + 1])
         r2 = rmin2 if k < N - 1 else params.eps_o**2
-        for lj in (params.l1, params.l2):
-            clear.append(ca.sumsqr(Sk - (Om - lj * lift)) - r2)
+        clear.extend(ca.sumsqr(Sk - (Om - lj * lift)) - r2 for lj in (params.l1, params.l2))
     ST = S(T, p)
     VT = V(T, p)
     u = VT / ca.sqrt(ca.sumsqr(VT) + 1e-6)
@@ -193,7 +198,7 @@ class InterceptionOCP:
     backend: a registered "nlp" backend that solves to a local optimum ("ipopt").
     """
 
-    BACKEND_OPTIONS = {"ipopt": {"tol": 1e-6, "acceptable_tol": 1e-4}}
+    BACKEND_OPTIONS: ClassVar[dict[str, dict[str, float]]] = {"ipopt": {"tol": 1e-6, "acceptable_tol": 1e-4}}
     """Backend options by backend name (``max_iter`` is added from the argument)."""
 
     def __init__(
@@ -268,7 +273,8 @@ class InterceptionOCP:
         return self.path.at(t0 + t)[0]
 
     def default_guesses(self, operator0, *, t0: float = 0.0, shark_state=None) -> list[InterceptionPlan]:
-        """Two crude starting plans, one per side of the path: via a point beside the shark, then to the goal."""
+        """Two crude starting plans, one per side of the path: via a point beside the shark, then
+        to the goal."""
         p = self.params
         O0 = np.asarray(operator0, float)
         out = []
@@ -322,9 +328,11 @@ class InterceptionOCP:
         lbx, ubx = self._bounds(O0, t0)
         if guess is not None:
             x0 = self.vector(guess)
-        elif warm_start is not None and warm_start.has_solution:
-            x0 = self.vector(warm_start.x) if isinstance(warm_start.x, InterceptionPlan) else None
-        else:
+        elif (
+            warm_start is not None and warm_start.has_solution and isinstance(warm_start.x, InterceptionPlan)
+        ):
+            x0 = self.vector(warm_start.x)
+        else:  # also a solved warm_start without a plan (x0 was None: np.clip raised TypeError)
             x0 = self.vector(self.default_guesses(O0, t0=t0, shark_state=shark_state)[0])
         x0 = np.clip(x0, lbx, ubx)
         ws = None
@@ -407,26 +415,27 @@ def solve_interception(
             "operator0 must start with the shark outside both balls"
         )
     starts = list(warm_starts) or ocp.default_guesses(O0, t0=t0, shark_state=state)
-    best, best_start, tried = None, None, []
+    best: SolveResult | None = None
+    best_start: InterceptionPlan | None = None
+    best_T = math.inf  # best.objective
+    tried = []
     for g in starts:
         r = ocp.solve(O0, t0=t0, shark_state=state, guess=g)
         tried.append((g.origin, g.side, r.status.name, None if r.x is None else r.objective))
-        ok = r.status in (Status.OPTIMAL, Status.FEASIBLE)
-        if ok and (
+        if r.status not in (Status.OPTIMAL, Status.FEASIBLE):
+            continue
+        assert r.objective is not None  # a solved OCP reports its T
+        if (
             best is None
-            or r.objective < best.objective - 1e-9
-            or (
-                best.status != Status.OPTIMAL
-                and r.status == Status.OPTIMAL
-                and r.objective <= best.objective + 1e-6
-            )
+            or r.objective < best_T - 1e-9
+            or (best.status != Status.OPTIMAL and r.status == Status.OPTIMAL and r.objective <= best_T + 1e-6)
         ):
-            best, best_start = r, g
+            best, best_start, best_T = r, g, r.objective
     try:
         lb = interception_time_bound(shark, O0, params, t0=t0, t_max=t_max)
         bound = lb.bound
         bound_msg = lb.message
-    except Exception as exc:  # a bound that could not be computed is None, never a number
+    except Exception as exc:  # noqa: BLE001  # a bound that could not be computed is None, never a number
         bound, bound_msg = None, f"no bound: {type(exc).__name__}: {exc}"
     if best is None:
         last = r
@@ -436,8 +445,9 @@ def solve_interception(
             info={**last.info, "tried": tried, "start_won": None},
             message=f"no start converged: {tried}; {bound_msg}",
         )
-    if bound is not None and best.objective < bound - 1e-6:  # cannot happen unless a constraint is violated
-        bound_msg += f"; WARNING: OCP T={best.objective:.6f} s is below it (constraint violation?)"
+    if bound is not None and best_T < bound - 1e-6:  # cannot happen unless a constraint is violated
+        bound_msg += f"; WARNING: OCP T={best_T:.6f} s is below it (constraint violation?)"
+    assert best_start is not None  # set with best
     won = best_start.origin or "unknown"
     return dataclasses.replace(
         best,
