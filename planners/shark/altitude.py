@@ -7,7 +7,10 @@ is the exact maximiser.
 
 from __future__ import annotations
 
+from typing import overload
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, field_radius
 from droneplan.solvers.validation import check_array, check_instance
@@ -15,7 +18,15 @@ from droneplan.solvers.validation import check_array, check_instance
 __all__ = ["thesis_altitude"]
 
 
-def thesis_altitude(z_s, params: SharkParams = THESIS_TABLE_5_1) -> tuple[np.ndarray, np.ndarray]:
+@overload
+def thesis_altitude(z_s: float, params: SharkParams = ...) -> tuple[float, float]: ...
+@overload
+def thesis_altitude(
+    z_s: ArrayLike, params: SharkParams = ...
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+def thesis_altitude(
+    z_s: ArrayLike, params: SharkParams = THESIS_TABLE_5_1
+) -> tuple[float, float] | tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(z_o*, eps*) of eqs. 5.6 and 5.7 for shark altitude(s) z_s (m, <= 0), verbatim.
 
     params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).

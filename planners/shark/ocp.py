@@ -1,8 +1,10 @@
-"""Solver-backed interception: virtual-shark warm starts for the OCP and the receding-horizon OCPInterceptor."""
+"""Solver-backed interception: virtual-shark warm starts for the OCP and the receding-horizon
+OCPInterceptor."""
 
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -46,7 +48,7 @@ def virtual_shark_plan(
     tr = simulate(InterceptionScenario(trajectory, params, operator0), vs)
     if vs.capture_time is None:
         return None, vs
-    k = int(round(vs.capture_time / params.Ts))
+    k = round(vs.capture_time / params.Ts)
     s = side if side is not None else 0
     return InterceptionPlan.from_samples(tr.t[: k + 1], tr.operator[: k + 1], s, "virtual-shark"), vs
 
@@ -76,7 +78,7 @@ def optimal_interception(
     check_instance("params", params, SharkParams)
     operator0 = check_array("operator0", operator0, shape=(3,))
     starts = []
-    ref_plan, ref = virtual_shark_plan(trajectory, operator0, params)
+    _, ref = virtual_shark_plan(trajectory, operator0, params)
     for side in (1, -1):
         plan, _ = virtual_shark_plan(trajectory, operator0, params, side=side)
         if plan is not None:
@@ -136,9 +138,9 @@ class OCPInterceptor:
         self.phase = SharkPhase.APPROACH
         self.at_interception = False
         self.fallbacks = 0
-        self.capture_time = None
+        self.capture_time: float | None = None
         self._last: SolveResult | None = None
-        self._hold_since = None
+        self._hold_since: float | None = None  # time the final hold began (s)
         self.solve_times: list[float] = []
         self.statuses: list[str] = []
         self.plans: list[InterceptionPlan] = []
@@ -146,9 +148,9 @@ class OCPInterceptor:
     def _first_guesses(self, t, O, S, V):
         if self.path is not None:
             sub = SharkTrajectory(
-                self.path.t[: len(self.path.t) - int(round(t / self.params.Ts))],
-                self.path.pos[int(round(t / self.params.Ts)) :],
-                self.path.vel[int(round(t / self.params.Ts)) :],
+                self.path.t[: len(self.path.t) - round(t / self.params.Ts)],
+                self.path.pos[round(t / self.params.Ts) :],
+                self.path.vel[round(t / self.params.Ts) :],
                 self.path.name,
             )
             out = []
@@ -175,13 +177,16 @@ class OCPInterceptor:
             self.statuses.append(res.status.name)
             if res.status in ok:
                 return res
-        best = None
+        best: SolveResult | None = None
+        best_T = math.inf  # best.objective
         for g in self._first_guesses(t, O, S, V):
             r = self.ocp.solve(O, guess=g, **kw)
             self.solve_times.append(r.solve_time)
             self.statuses.append(r.status.name)
-            if r.status in ok and (best is None or r.objective < best.objective):
-                best = r
+            if r.status in ok:
+                assert r.objective is not None  # a solved OCP reports its T
+                if best is None or r.objective < best_T:
+                    best, best_T = r, r.objective
         return best
 
     def command(self, obs: SharkObservation) -> SharkCommand:
@@ -193,6 +198,7 @@ class OCPInterceptor:
         p = self.params
         O = np.asarray(operator, float)
         if self.phase == SharkPhase.HOLD:
+            assert self._hold_since is not None  # set on entering the hold
             if t - self._hold_since <= self.hold_timeout + 1e-9:
                 return np.zeros(3)
             self.phase, self._last, self.at_interception = SharkPhase.APPROACH, None, False

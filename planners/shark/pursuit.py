@@ -143,8 +143,8 @@ class VirtualSharkInterceptor:
         self.at_interception = False
         self.capture_time: float | None = None
         self._heading = np.array([1.0, 0.0])
-        self._side2 = None
-        self._hold_since = None
+        self._side2: int | None = None  # side of the line through S2 in step 2 (+1 left, -1 right)
+        self._hold_since: float | None = None  # time step 3 was entered (s)
 
     # geometry -----------------------------------------------------------------------------
     def altitude_target(self, z_s: float) -> tuple[float, float]:
@@ -208,9 +208,11 @@ class VirtualSharkInterceptor:
             self.phase = SharkPhase.HOLD
             self.capture_time = t
             self._hold_since = t
-        if self.phase == SharkPhase.HOLD and t - self._hold_since > self.hold_timeout + 1e-9:
-            self.phase = SharkPhase.APPROACH
-            self._hold_since = None
+        if self.phase == SharkPhase.HOLD:
+            assert self._hold_since is not None  # set on entering step 3
+            if t - self._hold_since > self.hold_timeout + 1e-9:
+                self.phase = SharkPhase.APPROACH
+                self._hold_since = None
         self.at_interception = self.phase == SharkPhase.HOLD
 
         if self.phase == SharkPhase.APPROACH:  # 5.14 with the final-step saturation
@@ -226,6 +228,7 @@ class VirtualSharkInterceptor:
             cross = u[0] * rel[1] - u[1] * rel[0]
             if abs(cross) > 1e-9:
                 self._side2 = 1 if cross > 0 else -1  # side of the line through S2 (fix of 5.20)
+            assert self._side2 is not None  # set on entering step 2
             pp = self._side2 * _rot_left(u)
             d_next = S2[:2] + p.Ts * vxy - O[:2]
             if np.linalg.norm(d_next) <= p.VoMxy * p.Ts:

@@ -14,6 +14,7 @@ Per step the operator (assigned to one shark) does:
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark.ocp import OCPInterceptor
@@ -90,22 +91,28 @@ class RepellingOperator:
         self.phase = RepellingMode.FOLLOW
         self.interceptions = 0
         self._wait_until = -np.inf
-        self._ctl = None
+        self._ctl: OCPInterceptor | VirtualSharkInterceptor | None = None
 
     def reset(self, scenario: RepellingScenario, *, seed=None) -> None:
         """Start an episode (the scenario's params replace the constructor's; ``seed`` unused)."""
         self.params = scenario.params
         self._start()
 
-    def _new_interceptor(self):
+    def _new_interceptor(self) -> OCPInterceptor | VirtualSharkInterceptor:
         if self.kind == "ocp":
             return OCPInterceptor(self.params, N=15)
         return VirtualSharkInterceptor(self.params)
 
-    def _goto(self, O, target, feedforward=np.zeros(2)) -> np.ndarray:
+    def _goto(
+        self,
+        O: NDArray[np.float64],
+        target: NDArray[np.float64],
+        feedforward: NDArray[np.float64] | None = None,
+    ) -> NDArray[np.float64]:
         p = self.params
         d = target - O
-        vxy = feedforward + d[:2] / p.Ts
+        ff = np.zeros(2) if feedforward is None else feedforward
+        vxy = ff + d[:2] / p.Ts
         n = np.linalg.norm(vxy)
         if n > p.VoMxy:
             vxy = vxy * p.VoMxy / n
