@@ -322,7 +322,7 @@ def simulate(
     h = h / np.linalg.norm(h)
     controller.reset(scenario, seed=seed)
     n = scenario.n_targets
-    steps = int(math.ceil(t_stop / p.dt - 1e-9))
+    steps = math.ceil(t_stop / p.dt - 1e-9)
     ts, Ds, hs, us, vs, phases = [], [], [], [], [], []
     finished = False
     for k in range(steps + 1):

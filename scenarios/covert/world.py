@@ -137,6 +137,8 @@ class TargetPath:
 
     points: np.ndarray = field(repr=False)
     """(m, 3) samples of the path on the terrain (m)."""
+    _s: np.ndarray = field(init=False, repr=False, compare=False)
+    """(m,) arc length (m) at each sample, set from ``points``."""
 
     def __post_init__(self) -> None:
         pts = check_array("points", self.points, shape=(None, 3), min_rows=2)
@@ -153,14 +155,14 @@ class TargetPath:
     @property
     def length(self) -> float:
         """Length of the path (m)."""
-        return float(self._s[-1])  # type: ignore[attr-defined]
+        return float(self._s[-1])
 
     def at(self, s: Any) -> np.ndarray:
         """Positions (..., 3) at arc lengths s (m), clipped to [0, length] (the target then stands)."""
         s = np.clip(np.asarray(s, dtype=float), 0.0, self.length)
-        out = np.empty(s.shape + (3,))
+        out = np.empty((*s.shape, 3))
         for c in range(3):
-            out[..., c] = np.interp(s, self._s, self.points[:, c])  # type: ignore[attr-defined]
+            out[..., c] = np.interp(s, self._s, self.points[:, c])
         return out
 
 
@@ -358,7 +360,7 @@ class CovertScenario:
         """True target positions at time(s) t (s): shape t.shape + (n, 3) (m)."""
         t = np.asarray(t, dtype=float)
         if not self.paths:
-            return np.zeros(t.shape + (0, 3))
+            return np.zeros((*t.shape, 0, 3))
         return np.stack([p.at(self.params.V_T * t) for p in self.paths], axis=-2)
 
     def observable_at(self, t: Any, drone: Any = None) -> np.ndarray:
@@ -369,7 +371,7 @@ class CovertScenario:
         windows apply in both cases.
         """
         t = np.asarray(t, dtype=float)
-        mask = np.ones(t.shape + (self.n_targets,), dtype=bool)
+        mask = np.ones((*t.shape, self.n_targets), dtype=bool)
         for occ in self.occlusions:
             mask[..., occ.target] &= ~((t >= occ.start) & (t < occ.end))
         if self.obstacles and self.n_targets:
@@ -378,8 +380,8 @@ class CovertScenario:
                     "drone is required: with obstacles, line of sight depends on the drone position"
                 )
             D = np.asarray(drone, dtype=float)
-            if D.shape != t.shape + (3,) or not np.isfinite(D).all():
-                raise ValueError(f"drone must be a finite array of shape {t.shape + (3,)}, got {D.shape}")
+            if D.shape != (*t.shape, 3) or not np.isfinite(D).all():
+                raise ValueError(f"drone must be a finite array of shape {(*t.shape, 3)}, got {D.shape}")
             A = self.targets_at(t)
             for ob in self.obstacles:
                 mask &= ~ob.blocks(D[..., None, :], A)
@@ -418,7 +420,7 @@ def _scale_to_length(xy: np.ndarray, terrain: Terrain, length: float) -> TargetP
     if path.length >= length:
         # cut at arc length ``length``, keeping the vertices (resampling would cut corners
         # and leave the path shorter than the mission, so the target would stop early)
-        keep = path.points[path._s < length]  # type: ignore[attr-defined]
+        keep = path.points[path._s < length]
         return TargetPath(np.vstack([keep, path.at(length)[None, :]]))
     # extend along the last direction on the ground
     d = xy[-1] - xy[-2]
@@ -527,7 +529,7 @@ def random_case(
     terrain = Terrain(tuple(map(tuple, hills)))
     length = p.V_T * p.duration
     ds = 0.5
-    m = int(math.ceil(length / ds)) + 1
+    m = math.ceil(length / ds) + 1
     paths = []
     centre = np.array([140.0, 140.0])
     lo, hi = HABITAT

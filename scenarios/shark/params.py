@@ -105,7 +105,8 @@ class SharkParams:
 
 
 THESIS_TABLE_5_1 = SharkParams()
-"""Table 5.1 (lmin=1, le=2, l1=4.5, l2=7.5, lmax=11, eps_o=3.5 m, VoM=8 m/s, Di=13 m, Ts=0.1 s) with our VoM split."""
+"""Table 5.1 (lmin=1, le=2, l1=4.5, l2=7.5, lmax=11, eps_o=3.5 m, VoM=8 m/s, Di=13 m,
+Ts=0.1 s) with our VoM split."""
 
 
 def field_radius(h, params: SharkParams = THESIS_TABLE_5_1) -> np.ndarray:
@@ -139,13 +140,12 @@ def inside_field(shark, operator, params: SharkParams = THESIS_TABLE_5_1) -> np.
         np.broadcast_shapes(s.shape, o.shape)
     except ValueError:
         raise ValueError(f"shark {s.shape} and operator {o.shape} must broadcast together") from None
-    out = None
+    dist = []  # clearance to ball 1, ball 2
     for lk in (params.l1, params.l2):
         c = np.array(o, dtype=float)
         c[..., 2] = c[..., 2] - lk
-        dist = np.linalg.norm(s - c, axis=-1) - params.eps_o
-        out = dist if out is None else np.minimum(out, dist)
-    return out
+        dist.append(np.linalg.norm(s - c, axis=-1) - params.eps_o)
+    return np.minimum(dist[0], dist[1])
 
 
 def touches(shark, operator, params: SharkParams = THESIS_TABLE_5_1) -> np.ndarray:

@@ -196,7 +196,7 @@ def simulate_repelling(
     contact_prev = np.zeros((len(O), s), bool)
     ts, Ss, Os, Ms = [0.0], [S.copy()], [O.copy()], [mode.copy()]
     attacked = False
-    n_steps = int(round(t_max / Ts))
+    n_steps = round(t_max / Ts)
     for k in range(n_steps):
         t = k * Ts
         V = np.c_[behaviour.speed * np.cos(heading), behaviour.speed * np.sin(heading), np.zeros(s)]

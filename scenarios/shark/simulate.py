@@ -231,7 +231,8 @@ def operator_start(
 ) -> np.ndarray:
     """Operator start: Di metres from the shark horizontally, at ``bearing_deg`` from its initial heading.
 
-    bearing 0 = straight ahead, -90 = to the right of the shark (default DEFAULT_BEARING_DEG); altitude defaults to le.
+    bearing 0 = straight ahead, -90 = to the right of the shark (default DEFAULT_BEARING_DEG);
+    altitude defaults to le.
 
     trajectory: the shark's SharkTrajectory (its first sample is used).
     params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
@@ -299,9 +300,7 @@ def simulate(
     O = scenario.operator
     if np.hypot(*(O[:2] - trajectory.pos[0, :2])) <= params.eps_o:
         raise ValueError(f"initial horizontal separation must exceed eps_o={params.eps_o} (Prop. 5.3.2)")
-    n_max = (
-        len(trajectory.t) - 1 if t_max is None else min(len(trajectory.t) - 1, int(round(t_max / params.Ts)))
-    )
+    n_max = len(trajectory.t) - 1 if t_max is None else min(len(trajectory.t) - 1, round(t_max / params.Ts))
     controller.reset(scenario, seed=seed)
     ops, ovs, phases = [O.copy()], [], []
     clipped_steps = 0
@@ -341,8 +340,9 @@ def simulate(
     eps = field_radius(op[:, 2] - sh[:, 2], params)
     D_h = np.hypot(*(op[:, :2] - sh[:, :2]).T)
     phase = np.empty(K, dtype=object)
-    phase[:] = phases + [
-        phases[-1] if phases else SharkPhase(getattr(controller, "phase", SharkPhase.PURSUIT))
+    phase[:] = [
+        *phases,
+        phases[-1] if phases else SharkPhase(getattr(controller, "phase", SharkPhase.PURSUIT)),
     ]
     common = dict(
         t=t,

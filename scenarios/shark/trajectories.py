@@ -65,7 +65,8 @@ class SharkTrajectory:
         return float(self.t[-1])
 
     def at(self, t) -> tuple[np.ndarray, np.ndarray]:
-        """Position (m) and velocity (m/s) at time(s) ``t`` by linear interpolation (clamped to the horizon)."""
+        """Position (m) and velocity (m/s) at time(s) ``t`` by linear interpolation (clamped to the
+        horizon)."""
         t = np.asarray(t, dtype=float)
         p = np.stack([np.interp(t, self.t, self.pos[:, i]) for i in range(3)], axis=-1)
         v = np.stack([np.interp(t, self.t, self.vel[:, i]) for i in range(3)], axis=-1)
@@ -109,7 +110,7 @@ def make_trajectory(
             value = check_array(name, f, shape=())  # a number: held constant
             profiles.append(lambda t, value=float(value): np.full(np.shape(t), value))
     heading, speed, depth = profiles
-    n = int(round(duration / dt)) + 1
+    n = round(duration / dt) + 1
     t = np.arange(n) * dt
     # integrate on a 10x finer grid (midpoint rule) then subsample
     sub = 10
@@ -250,6 +251,6 @@ def constant_velocity_trajectory(
     duration = check_positive("duration", duration)
     dt = check_positive("dt", dt)
     check_size("duration / dt", int(min(duration / dt, 1e15)) * 9)
-    n = int(round(duration / dt)) + 1
+    n = round(duration / dt) + 1
     t = np.arange(n) * dt
     return SharkTrajectory(t, pos + t[:, None] * vel, np.tile(vel, (n, 1)), name=name)
