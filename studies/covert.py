@@ -17,9 +17,12 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -83,8 +86,11 @@ def _instant_optima(tr: CovertTrace, scenario) -> tuple[np.ndarray, np.ndarray, 
         r = sphere_minmax_bearing(scenario.params, tr.targets[k][obs], c_start=c)
         if not r.has_solution:
             continue
+        assert r.objective is not None  # has_solution: the optimum is set
         c = max(math.cos(r.objective) - 1e-3, 0.0)
-        ks.append(k), lbs.append(r.bound), best.append(r.objective)
+        ks.append(k)
+        lbs.append(r.bound)
+        best.append(r.objective)
     return np.asarray(ks, int), np.asarray(lbs), np.asarray(best)
 
 
@@ -130,7 +136,7 @@ def _plot_beta(traces: dict[str, CovertTrace], path: Path, title: str, per_targe
 # --------------------------------------------------------------------------- reproduce
 def _case_table(case: int, traces, scenario, thesis: dict, out: Path, safe: SafeguardedMPCObserver) -> dict:
     h, s, m = traces["hover"], traces["sliding"], traces["mpc"]
-    lb, best, excess = _oracle_on_sphere(s, scenario)
+    lb, _, excess = _oracle_on_sphere(s, scenario)
     tab = ComparisonTable(f"Case {case}: maximum recorded bearing change (Fig. 3.{10 if case == 1 else 14})")
     tab.add(
         "beta_max hover benchmark (deg)",
@@ -177,7 +183,8 @@ def _case_table(case: int, traces, scenario, thesis: dict, out: Path, safe: Safe
         None,
         g.beta_max * DEG,
         f"per replan: MPC plan or sliding rollout, lower predicted max beta (margin "
-        f"{safe.safeguard.margin * DEG:.2f} deg); MPC executed at {safe.choices.count('mpc')}/{len(safe.choices)} replans",
+        f"{safe.safeguard.margin * DEG:.2f} deg); MPC executed at "
+        f"{safe.choices.count('mpc')}/{len(safe.choices)} replans",
     )
     tab.add(
         "safeguarded MPC vs sliding (%)",
@@ -342,8 +349,8 @@ def _noise_study(quick: bool, out: Path) -> None:
                     "max_err_deg": np.max(errs) * DEG,
                 }
             )
-        e2 = [r["max_err_deg"] for r in rows if r["case"] == case and r["noise"] == 0.02][0]
-        e10 = [r["max_err_deg"] for r in rows if r["case"] == case and r["noise"] == 0.10][0]
+        e2 = next(r["max_err_deg"] for r in rows if r["case"] == case and r["noise"] == 0.02)
+        e10 = next(r["max_err_deg"] for r in rows if r["case"] == case and r["noise"] == 0.10)
         tab.add(
             f"case {case}: max error of beta_max at 2% (deg)",
             "< 0.3",
@@ -465,7 +472,7 @@ def reproduce(*, quick: bool, out: Path) -> None:
 GAP_THESIS = {("covert", "sliding"): "-28.9 % / -33.1 % vs hover (cases 1, 2; Figs. 3.10, 3.14)"}
 
 
-def gap_task(task: dict) -> list[dict]:
+def gap_task(task: Mapping[str, Any]) -> list[dict]:
     """One random target group in the results schema: hover, sliding mode, MPC and safeguarded
     MPC (objective = max recorded bearing change beta_max, deg, minimised) and the proven
     on-sphere instantaneous optimum as a bound."""
@@ -528,8 +535,9 @@ def gap_task(task: dict) -> list[dict]:
         mb = mission_lower_bound(
             sc, sl.t_a, sl.t_f, t_end=float(sl.t[-1]), times=np.arange(0.0, sl.t[-1] + 1e-9, 0.5)
         )
-        sliding_row = next(o for o in outcomes if o.method == "sliding")
-        sliding_row.extras["mission_bound_deg"] = mb.value * DEG if np.isfinite(mb.value) else None
+        i = next(i for i, o in enumerate(outcomes) if o.method == "sliding")
+        mission = {"mission_bound_deg": mb.value * DEG if np.isfinite(mb.value) else None}
+        outcomes[i] = dataclasses.replace(outcomes[i], extras={**outcomes[i].extras, **mission})
     return build_rows("covert", task["instance"], seed=seed, size=n, sense="min", outcomes=outcomes)
 
 
@@ -594,7 +602,11 @@ def bench(*, quick: bool, out: Path) -> None:
     rows = []
     # (backend, replan_every, cases): replanning every 5 periods (0.5 s, the default) and at the
     # plant's period (0.1 s)
-    configs = [("ipopt", 5, (1, 2)), ("osqp", 5, (1, 2)), ("osqp", 1, (1, 2))]
+    configs: list[tuple[str, int, tuple[int, ...]]] = [
+        ("ipopt", 5, (1, 2)),
+        ("osqp", 5, (1, 2)),
+        ("osqp", 1, (1, 2)),
+    ]
     if not quick:
         configs.append(("ipopt", 1, (1,)))
     sliding = {}

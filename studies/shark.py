@@ -11,7 +11,9 @@ and the optimal operator-shark assignment vs greedy nearest-operator.
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -132,6 +134,8 @@ def _table_5_2(out: Path, table: ComparisonTable, quick: bool) -> dict:
         off = optimal_interception(tr, O0, N=40 if quick else 60)
         off_ctl = OCPInterceptor(N=30 if quick else 40, path=tr)
         offsim = simulate(tr, off_ctl)
+        # the thesis paths: the OCP solves and the virtual shark reaches its interception point
+        assert off.objective is not None and vs_ctl.capture_time is not None, name
         runs[name] = (tr, vs, on, offsim)
         sp, dist = TABLE_5_2[name]
         table.add(
@@ -144,7 +148,8 @@ def _table_5_2(out: Path, table: ComparisonTable, quick: bool) -> dict:
             f"Table 5.2 ({name}): interception distance, virtual shark (m)",
             dist,
             vs.interception_distance,
-            f"|S(contact) - S(0)|, start {P.Di} m at -105 deg; frontal={vs.frontal}, early={vs.touched_early}",
+            f"|S(contact) - S(0)|, start {P.Di} m at -105 deg; frontal={vs.frontal}, "
+            f"early={vs.touched_early}",
         )
         table.add(
             f"Table 5.2 ({name}): interception distance, online OCP (m)",
@@ -197,7 +202,7 @@ def _table_5_2(out: Path, table: ComparisonTable, quick: bool) -> dict:
 
 def _fig_5_12(out: Path, runs: dict) -> None:
     fig, ax = plt.subplots(4, 4, figsize=(17, 14))
-    for r, (name, (tr, vs, on, off)) in enumerate(runs.items()):
+    for r, (name, (_, vs, _, off)) in enumerate(runs.items()):
         a = ax[r]
         pair = {"virtual shark": vs, "offline OCP": off}
         plot_top_view(pair, ax=a[0], title=f"({name}) top view")
@@ -244,7 +249,7 @@ def _repel_episode(n_sharks: int, seed: int, interceptor: str, T_w: float) -> di
     V0 = np.c_[d / np.linalg.norm(d, axis=1)[:, None] * beh.speed, np.zeros(n_sharks)]
     alloc = allocate_operators(O0, S0, V0, H)
     ctls = [RepellingOperator(0, interceptor=interceptor, T_w=T_w) for _ in range(n_sharks)]
-    for j, i in zip(alloc.x.sharks, alloc.x.operator):
+    for j, i in zip(alloc.x.sharks, alloc.x.operator, strict=True):  # one operator per selected shark
         ctls[i] = RepellingOperator(int(j), interceptor=interceptor, T_w=T_w)
     tr = simulate_repelling(S0, O0, H, ctls, behaviour=beh, seed=seed, t_max=600)
     return dict(
@@ -288,7 +293,7 @@ def _repelling(out: Path, table: ComparisonTable, quick: bool) -> None:
 
 
 # --------------------------------------------------------------------------- gap
-def gap_task(task: dict) -> list[dict]:
+def gap_task(task: Mapping[str, Any]) -> list[dict]:
     """One instance in the results schema (objectives in s, minimised).
 
     ``kind="path"``: a random curvy shark path; the virtual shark's time to its interception
@@ -471,7 +476,11 @@ def bench(*, quick: bool, out: Path) -> None:
     n_rand = 10 if quick else 50
     for s in range(n_rand):
         paths[f"r{s}"] = random_trajectory(1000 + s)
-    solve_times, warm_times, ratios_abcd, ratios_rand, missing = [], [], [], [], []
+    solve_times: list[float] = []
+    warm_times: list[float] = []
+    ratios_abcd: list[float] = []
+    ratios_rand: list[float] = []
+    missing: list[str] = []
     for name, tr in paths.items():
         if name in "abcd" or (not quick and name in ("r0", "r1", "r2", "r3")) or (quick and name == "r0"):
             ctl = OCPInterceptor(N=20)
