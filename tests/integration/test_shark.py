@@ -1,4 +1,5 @@
-"""End to end: the online OCP interceptor keeps the Prop. 5.3.2-5.3.4 guarantees where the thesis algorithm loses them."""
+"""End to end: the online OCP interceptor keeps the Prop. 5.3.2-5.3.4 guarantees where the thesis
+algorithm loses them."""
 
 import numpy as np
 import pytest

@@ -37,7 +37,7 @@ def _data(on_sphere: bool, targets: np.ndarray, n_nodes: int) -> MPCData:
         h0 = (F - D0) / np.linalg.norm(F - D0)
         lo = np.full(n_nodes, P.L_u)
         hi = np.full(n_nodes, np.linalg.norm(F - D0))
-    A = np.broadcast_to(targets, (n_nodes,) + targets.shape).copy()
+    A = np.broadcast_to(targets, (n_nodes, *targets.shape)).copy()
     tangent = np.zeros(n_nodes, bool)
     if on_sphere:
         tangent[1:] = True

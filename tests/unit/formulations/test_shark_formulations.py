@@ -1,3 +1,5 @@
+import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -5,9 +7,20 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from droneplan.formulations.shark import optimal_altitude
+from droneplan.formulations.shark import (
+    InterceptionOCP,
+    InterceptionPlan,
+    assignment_cost,
+    build_interception_nlp,
+    greedy_assignment,
+    optimal_altitude,
+    select_sharks,
+    solve_assignment,
+    solve_interception,
+)
 from droneplan.scenarios.shark import THESIS_TABLE_5_1 as P
-from droneplan.scenarios.shark import field_radius
+from droneplan.scenarios.shark import field_radius, inside_field, thesis_trajectories
+from droneplan.solvers.result import Status
 
 
 @settings(max_examples=80, deadline=None)
@@ -27,16 +40,13 @@ def test_optimal_altitude_vectorised_and_bad_input():
     zo, eps = optimal_altitude(z)
     assert zo.shape == z.shape and np.all(eps >= 0)
     assert optimal_altitude(-20.0) == (P.lmin, 0.0)  # out of reach: wait at lmin
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="must be finite"):
         optimal_altitude(float("nan"))
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="must be <= 0"):
         optimal_altitude(0.5)
 
 
 # ---------------------------------------------------------------- interception OCP
-from droneplan.formulations.shark import InterceptionOCP, build_interception_nlp, solve_interception  # noqa: E402
-from droneplan.scenarios.shark import inside_field, thesis_trajectories  # noqa: E402
-from droneplan.solvers.result import Status  # noqa: E402
 
 
 def _check_plan(res, shark_at, O0):
@@ -81,22 +91,34 @@ def test_offline_ocp_respects_model_on_thesis_path_b():
     assert res.objective * P.VoMxy >= np.linalg.norm(res.x.operator[-1, :2] - O0[:2]) - 1e-6
 
 
+def test_ocp_solve_with_a_solved_warm_start_without_a_plan_uses_the_default_guess():
+    """A solved warm_start whose x is not an InterceptionPlan (here the raw vector) is not a
+    starting plan: the solve starts from the default guess, as without warm_start."""
+    ocp = InterceptionOCP(N=10)
+    O0 = np.array([-5.0, -12.0, 2.0])
+    state = (np.zeros(3), np.array([1.0, 0.0]))
+    cold = ocp.solve(O0, shark_state=state)
+    assert cold.has_solution
+    foreign = dataclasses.replace(cold, x=np.asarray(cold.info["x_vector"]))
+    res = ocp.solve(O0, shark_state=state, warm_start=foreign)
+    assert res.has_solution
+    assert isinstance(res.x, InterceptionPlan)
+    assert abs(res.objective - cold.objective) < 1e-3
+
+
 def test_ocp_bad_input():
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="N must be >= 2"):
         build_interception_nlp(N=1)
     ocp = InterceptionOCP(N=5)
     with pytest.raises(ValueError, match="shark_state"):
         ocp.solve(np.zeros(3))
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="operator0 must be a finite"):
         ocp.solve(np.array([np.nan, 0, 1]), shark_state=(np.zeros(3), np.ones(2)))
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="SharkTrajectory or"):
         solve_interception((np.zeros(3),), np.zeros(3))
 
 
 # ---------------------------------------------------------------- assignment
-import itertools  # noqa: E402
-
-from droneplan.formulations.shark import assignment_cost, greedy_assignment, select_sharks, solve_assignment  # noqa: E402
 
 
 def _brute(cost, sharks):
@@ -132,5 +154,5 @@ def test_select_sharks_thesis_rule_and_bad_input():
     assert select_sharks([50.0, 10.0, 30.0, 5.0], 2).tolist() == [1, 3]
     with pytest.raises(ValueError, match="shark_to_human"):
         solve_assignment(np.ones((2, 3)))
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="cost entries must be >= 0"):
         solve_assignment(np.array([[1.0, -2.0]]))

@@ -13,13 +13,26 @@ from hypothesis import strategies as st
 
 from droneplan.planners.covert import (
     HoverBenchmark,
+    MPCObserver,
+    MPCObserverSettings,
+    SafeguardedMPCObserver,
+    SafeguardSettings,
     SlidingModeObserver,
     SlidingSettings,
     W,
     g,
+    rollout_sliding,
     selection_weights,
 )
-from droneplan.scenarios.covert import THESIS_TABLE_3_2, CovertScenario, Terrain, simulate, thesis_case
+from droneplan.scenarios.covert import (
+    THESIS_TABLE_3_2,
+    CovertPhase,
+    CovertScenario,
+    Terrain,
+    simulate,
+    thesis_case,
+)
+from droneplan.solvers.result import SolveResult, Status
 
 coord = st.floats(-100, 100, allow_nan=False, allow_infinity=False)
 vec3 = st.tuples(coord, coord, coord).map(np.array)
@@ -56,7 +69,7 @@ def test_W_vectorised_and_g():
     m2 = np.array([[1.0, 1.0, 0], [3.0, 1.0, 0]])
     assert np.allclose(W(m1, m2), [[0, 1, 0], [1, 0, 0]])
     assert g([1, 0, 0], [1, 5, 0]) == 1 and g([1, 0, 0], [0, 1, 0]) == -1 and g([1, 0, 0], [-1, 0, 0]) == -1
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="non-zero finite mu1"):
         W(np.zeros(3), np.ones(3))
 
 
@@ -106,7 +119,7 @@ def test_hover_stays_put_on_the_sphere():
 
 def test_sliding_equalises_the_two_bearing_changes_on_the_sphere():
     """Fig. 3.11: beta_1 and beta_2 almost the same during the observation (min-max)."""
-    sc, sl = _run(1, "sliding")
+    _, sl = _run(1, "sliding")
     on = (sl.t >= sl.t_a + 5) & (sl.t <= sl.t_f)
     diff = np.abs(sl.beta[on, 0] - sl.beta[on, 1])
     assert np.degrees(np.median(diff)) < 1.0
@@ -138,8 +151,6 @@ def test_settings_validation():
 
 
 # --------------------------------------------------------------------------- MPC observer
-from droneplan.planners.covert import MPCObserver, MPCObserverSettings  # noqa: E402
-from droneplan.solvers.result import SolveResult, Status  # noqa: E402
 
 
 @pytest.mark.parametrize("backend", ["ipopt", "osqp"])
@@ -173,9 +184,9 @@ def test_mpc_warm_starts_are_reported_as_what_they_were(monkeypatch):
     ctl = MPCObserver()
     simulate(thesis_case(1), ctl, max_time=6.0)
     assert seen and seen[0][1] == "sliding-rollout"  # the first solve starts from the sliding rollout
-    for given, label, res in seen:
+    for handed, label, res in seen:
         # warm_started is True exactly when a start was handed over, and info names it
-        assert res.warm_started == given and res.info["start"] == label
+        assert res.warm_started == handed and res.info["start"] == label
         assert isinstance(res.info["duals_reused"], bool)
     # later solves start from the previous plan shifted by one period, reusing its duals
     later = [r for g, lab, r in seen[1:] if lab == "shifted-plan"]
@@ -209,7 +220,6 @@ def test_mpc_observer_settings_validation():
 
 
 # --------------------------------------------------------------------------- safeguarded MPC
-from droneplan.planners.covert import SafeguardedMPCObserver, SafeguardSettings, rollout_sliding  # noqa: E402
 
 
 def test_rollout_sliding_reproduces_the_closed_loop_on_true_targets():
@@ -225,6 +235,19 @@ def test_rollout_sliding_reproduces_the_closed_loop_on_true_targets():
     assert list(tr.phase[:K]) == phases
     with pytest.raises(ValueError, match="targets"):
         rollout_sliding("to-sphere", tr.drone[0], tr.heading[0], tr.targets[0], sc.params)
+    # the phases come back as CovertPhase members; an unknown phase name is refused
+    assert all(isinstance(ph, CovertPhase) for ph in phases)
+    with pytest.raises(ValueError, match="sideways"):
+        rollout_sliding("sideways", tr.drone[0], tr.heading[0], tr.targets[:K], sc.params)
+
+
+def test_controller_params_need_a_reset():
+    ctl = SlidingModeObserver()
+    with pytest.raises(RuntimeError, match="reset"):
+        _ = ctl.params
+    sc = thesis_case(1)
+    ctl.reset(sc)
+    assert ctl.params is sc.params
 
 
 def test_safeguard_with_a_huge_margin_is_the_sliding_mode():
@@ -253,7 +276,7 @@ def test_safeguarded_mpc_bounds_deadline_and_choice_rule():
     assert np.all(np.abs(tr.distance_to_F[tr.t >= tr.t_a] - p.L_u) <= 1.0)
     # every executed candidate has a predicted score no worse than the other one (minus the margin)
     assert len(ctl.choices) == len(ctl.predicted_scores) > 10
-    for (s_mpc, s_sl), c in zip(ctl.predicted_scores, ctl.choices):
+    for (s_mpc, s_sl), c in zip(ctl.predicted_scores, ctl.choices, strict=True):
         assert (c == "mpc") == (s_mpc <= s_sl - ctl.safeguard.margin)
 
 

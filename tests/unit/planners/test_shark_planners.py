@@ -6,17 +6,29 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from droneplan.formulations.shark import optimal_altitude
-from droneplan.planners.shark import ClassicalPursuit, VirtualSharkInterceptor, thesis_altitude
+from droneplan.planners.shark import (
+    ClassicalPursuit,
+    OCPInterceptor,
+    RepellingOperator,
+    VirtualSharkInterceptor,
+    optimal_interception,
+    thesis_altitude,
+)
 from droneplan.scenarios.shark import (
     THESIS_TABLE_5_1 as P,
 )
 from droneplan.scenarios.shark import (
+    RepellingMode,
+    SharkBehaviour,
     field_radius,
     make_trajectory,
+    operator_start,
     random_trajectory,
     simulate,
+    simulate_repelling,
     thesis_trajectories,
 )
+from droneplan.solvers.result import Status
 
 
 def test_thesis_altitude_is_eq_5_6_5_7():
@@ -101,16 +113,13 @@ def test_virtual_shark_handles_stopping_and_deep_shark():
 
 
 def test_virtual_shark_bad_options():
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="side must be"):
         VirtualSharkInterceptor(side=2)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="altitude must be"):
         VirtualSharkInterceptor(altitude="x")
 
 
 # ---------------------------------------------------------------- OCP vs virtual shark
-from droneplan.planners.shark import OCPInterceptor, optimal_interception  # noqa: E402
-from droneplan.scenarios.shark import operator_start  # noqa: E402
-from droneplan.solvers.result import Status  # noqa: E402
 
 
 @pytest.mark.parametrize("name", "abcd")
@@ -168,8 +177,6 @@ def test_allocation_optimal_not_worse_than_greedy():
 
 
 # ---------------------------------------------------------------- repelling (procedure 1-5 of §5.3.1)
-from droneplan.planners.shark import RepellingOperator  # noqa: E402
-from droneplan.scenarios.shark import RepellingMode, SharkBehaviour, simulate_repelling  # noqa: E402
 
 
 class _Idle:
@@ -210,18 +217,18 @@ def test_two_sharks_two_operators_with_allocation():
     V0 = np.array([-(S0[j, :2]) / np.linalg.norm(S0[j, :2]) * beh.speed for j in range(2)])
     alloc = allocate_operators(O0, S0, np.c_[V0, np.zeros(2)], H)
     ctls = [None, None]
-    for j, i in zip(alloc.x.sharks, alloc.x.operator):
+    for j, i in zip(alloc.x.sharks, alloc.x.operator, strict=True):
         ctls[i] = RepellingOperator(int(j))
     tr = simulate_repelling(S0, O0, H, ctls, behaviour=beh, seed=1, t_max=400)
     assert not tr.attacked and tr.left.all() and (tr.reactions >= 1).all()
 
 
 def test_repelling_bad_input():
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="T_w must be >= 0"):
         RepellingOperator(0, T_w=-1)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match=r"return_prob must be in \[0, 1\]"):
         SharkBehaviour(return_prob=2)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="one controller per operator"):
         simulate_repelling(np.zeros((1, 2)), np.zeros((1, 3)), np.ones((1, 2)), [])
 
 

@@ -15,6 +15,7 @@ from droneplan.scenarios.covert import (
     CovertCommand,
     CovertPhase,
     CovertScenario,
+    Obstacle,
     Terrain,
     bearing_changes,
     measure,
@@ -99,11 +100,11 @@ def test_nearest_on_line_is_the_perpendicular_foot(D, A, R):
 
 
 def test_bearing_changes_bad_input():
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="coincides with the reference point"):
         bearing_changes(np.zeros(3), np.array([[1.0, 2.0, 3.0]]), [1.0, 2.0, 3.0])
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="drone must be finite"):
         bearing_changes(np.array([np.nan, 0, 0]), np.ones((1, 3)), np.zeros(3))
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="coincides with the drone"):
         bearing_changes(np.ones(3), np.ones((1, 3)), np.zeros(3))
 
 
@@ -137,7 +138,7 @@ def test_step_drone_enforces_bounds():
 
 
 @pytest.mark.parametrize(
-    "field,value",
+    ("field", "value"),
     [
         ("V_max", 0.0),
         ("U_max", -1.0),
@@ -153,7 +154,7 @@ def test_params_reject_bad_values(field, value):
         replace(THESIS_TABLE_3_2, **{field: value})
 
 
-@pytest.mark.parametrize("case,n", [(1, 2), (2, 10)])
+@pytest.mark.parametrize(("case", "n"), [(1, 2), (2, 10)])
 def test_thesis_cases_walk_on_the_terrain_at_V_T(case, n):
     sc = thesis_case(case, 3)
     assert sc.n_targets == n
@@ -194,7 +195,7 @@ def test_case_speed_and_occlusion():
     with pytest.raises(ValueError, match="occlusion"):
         thesis_case(1, occlusion="sometimes")
     assert thesis_case(2, 5).targets_at(10.0).tolist() == thesis_case(2, 5).targets_at(10.0).tolist()
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="case must be 1 or 2"):
         thesis_case(3)
 
 
@@ -232,10 +233,6 @@ def test_simulate_heading_stays_unit_and_circle_radius():
 
 
 # ---------------------------------------------------------------- line of sight (shapely vs numpy)
-from hypothesis import given, settings  # noqa: E402
-from hypothesis import strategies as st
-
-from droneplan.scenarios.covert import Obstacle  # noqa: E402
 
 
 def _random_obstacle(rng):

@@ -32,7 +32,7 @@ def test_table_5_1_values_and_speed_split():
 
 
 @pytest.mark.parametrize(
-    "change, word",
+    ("change", "word"),
     [
         (dict(VoMxy=6.0), "VoMxy > VsMxy"),
         (dict(VoMz=0.5), "VoMz > VsMz"),
@@ -103,7 +103,7 @@ def test_operator_start_and_bad_start():
     assert math.isclose(np.hypot(*(o[:2] - tr.pos[0, :2])), P.Di)
     with pytest.raises(ValueError, match="exceed eps_o"):
         simulate(tr, _Hover(), operator0=tr.pos[0] + [1.0, 0, 5.0])
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="bearing_deg must be finite"):
         operator_start(tr, bearing_deg=float("nan"))
 
 
