@@ -115,21 +115,21 @@ class MPCSettings:
 class MPCData:
     """The numbers of one MPC instance (one control step)."""
 
-    D0: np.ndarray
+    D0: NDArray[np.float64]
     """Current drone position (3,) (m)."""
-    h0: np.ndarray
+    h0: NDArray[np.float64]
     """Current unit heading (3,)."""
-    targets: np.ndarray
+    targets: NDArray[np.float64]
     """(N, n, 3) predicted target positions at the horizon nodes 1..N (m)."""
-    mask: np.ndarray
+    mask: NDArray[np.bool_]
     """(n,) bool: target counted in the objective (observable)."""
-    sphere_lo: np.ndarray
+    sphere_lo: NDArray[np.float64]
     """(N,) lower bounds on |D_k - F| (m)."""
-    sphere_hi: np.ndarray
+    sphere_hi: NDArray[np.float64]
     """(N,) upper bounds on |D_k - F| (m)."""
-    home_hi: np.ndarray
+    home_hi: NDArray[np.float64]
     """(N,) upper bounds on |D_k - D_s| (m) (inf: none)."""
-    tangent: np.ndarray | None = None
+    tangent: NDArray[np.bool_] | None = None
     """(N,) bool: heading at node k must be (nearly, TANGENT_TOL_DEG) tangent to the sphere,
     (D_k - F) . h_k ~ 0 (implied by keeping |D - F| constant in continuous time while moving);
     None: nowhere."""
@@ -139,15 +139,15 @@ class MPCData:
 class MPCPlan:
     """A solution of the MPC: commands and predicted states on the horizon."""
 
-    times: np.ndarray
+    times: NDArray[np.float64]
     """(N+1,) node times from now (s)."""
-    u: np.ndarray
+    u: NDArray[np.float64]
     """(N, 3) heading-rate commands (rad/s)."""
-    v: np.ndarray
+    v: NDArray[np.float64]
     """(N,) speeds (m/s)."""
-    D: np.ndarray
+    D: NDArray[np.float64]
     """(N+1, 3) predicted positions (m), D[0] the current one."""
-    h: np.ndarray
+    h: NDArray[np.float64]
     """(N+1, 3) predicted headings."""
     tau: float
     """Epigraph value: maximum over the horizon of tan(predicted bearing change)."""
@@ -168,7 +168,7 @@ def _series(theta2: Any, offset: int, terms: int = _SERIES_TERMS) -> Any:
     return out
 
 
-def cos_bearing_symbolic(D: Any, A: Any, R: np.ndarray, eps: float = 1e-6) -> Any:
+def cos_bearing_symbolic(D: Any, A: Any, R: NDArray[np.float64], eps: float = 1e-6) -> Any:
     """CasADi expression of cos beta (3.6) for drone D and target A (3-vectors): the twin of
     :func:`scenarios.covert.bearing_changes` (beta = arccos of this)."""
     c = A - R
@@ -189,7 +189,7 @@ class BearingMPC:
     """Number of targets in the model (count)."""
     nlp: dict[str, Any]
     """{"x", "f", "g", "p"} CasADi SX expressions."""
-    durations: np.ndarray
+    durations: NDArray[np.float64]
     """(N,) interval lengths (s)."""
     idx: dict[str, Any]
     """Index arrays into x: "u" (N,3), "v" (N,), "D" (N,3), "h" (N,3), "tau_k" (N,), "tau" ()."""
@@ -204,7 +204,7 @@ class BearingMPC:
     def n_g(self) -> int:
         return int(self.nlp["g"].numel())
 
-    def pack_params(self, data: MPCData) -> np.ndarray:
+    def pack_params(self, data: MPCData) -> NDArray[np.float64]:
         """The parameter vector p of ``data``; masked-out targets get a harmless position (F)."""
         A = np.array(data.targets, dtype=float).reshape(self.settings.horizon, self.n_targets, 3)
         mask = np.asarray(data.mask, bool)
@@ -213,7 +213,9 @@ class BearingMPC:
             raise ValueError("predicted positions of observable targets must be finite")
         return np.concatenate([np.asarray(data.D0, float), np.asarray(data.h0, float), A.ravel()])
 
-    def bounds(self, data: MPCData) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def bounds(
+        self, data: MPCData
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """(lbx, ubx, lbg, ubg) for ``data``."""
         p, N = self.params, self.settings.horizon
         lbx = np.full(self.n_x, -np.inf)
@@ -243,7 +245,7 @@ class BearingMPC:
         ubg[gi["tangent"]] = np.where(tan, band, np.inf)
         return lbx, ubx, lbg, ubg
 
-    def unpack(self, x: np.ndarray, data: MPCData) -> MPCPlan:
+    def unpack(self, x: NDArray[np.float64], data: MPCData) -> MPCPlan:
         """The plan held in the decision vector ``x``."""
         x = np.asarray(x, float)
         D = np.vstack([data.D0, x[self.idx["D"]]])
@@ -259,12 +261,12 @@ class BearingMPC:
 
     def pack(
         self,
-        plan_u: np.ndarray,
-        plan_v: np.ndarray,
-        D: np.ndarray,
-        h: np.ndarray,
-        tau_k: np.ndarray | None = None,
-    ) -> np.ndarray:
+        plan_u: NDArray[np.float64],
+        plan_v: NDArray[np.float64],
+        D: NDArray[np.float64],
+        h: NDArray[np.float64],
+        tau_k: NDArray[np.float64] | None = None,
+    ) -> NDArray[np.float64]:
         """A decision vector from commands (N,3),(N,) and node states D, h (N,3) (nodes 1..N)."""
         x = np.zeros(self.n_x)
         x[self.idx["u"]] = plan_u
@@ -376,7 +378,9 @@ def build_bearing_mpc(
     return BearingMPC(params, st, n, nlp, durations, idx, gidx)
 
 
-def rollout_guess(model: BearingMPC, data: MPCData, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+def rollout_guess(
+    model: BearingMPC, data: MPCData, u: NDArray[np.float64], v: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """A decision vector consistent with the dynamics for commands u (N,3), v (N,).
 
     Each u_k is first made admissible (orthogonal to the node's heading, |u| <= U_max).
@@ -407,7 +411,7 @@ def rollout_guess(model: BearingMPC, data: MPCData, u: np.ndarray, v: np.ndarray
     return x
 
 
-def _node_max_tan(model: BearingMPC, data: MPCData, D: np.ndarray) -> np.ndarray:
+def _node_max_tan(model: BearingMPC, data: MPCData, D: NDArray[np.float64]) -> NDArray[np.float64]:
     mask = np.asarray(data.mask, bool)
     if not mask.any():
         return np.zeros(len(D))
@@ -438,7 +442,11 @@ def _result_with_plan(model: BearingMPC, data: MPCData, res: SolveResult, how: s
 
 
 def solve_bearing_mpc(
-    params: CovertParams, data: MPCData, settings: MPCSettings | None = None, *, x0: np.ndarray | None = None
+    params: CovertParams,
+    data: MPCData,
+    settings: MPCSettings | None = None,
+    *,
+    x0: NDArray[np.float64] | None = None,
 ) -> SolveResult:
     """Build the MPC for ``data`` and solve it once with IPOPT (x = :class:`MPCPlan`).
 
@@ -526,7 +534,7 @@ class RecedingBearingMPC:
         self,
         data: MPCData,
         *,
-        x0: np.ndarray | None = None,
+        x0: NDArray[np.float64] | None = None,
         warm: SolveResult | None = None,
         start: str | None = None,
     ) -> SolveResult:
@@ -548,7 +556,7 @@ class RecedingBearingMPC:
         )
 
     def _solve(
-        self, data: MPCData, *, x0: np.ndarray | None = None, warm: SolveResult | None = None
+        self, data: MPCData, *, x0: NDArray[np.float64] | None = None, warm: SolveResult | None = None
     ) -> SolveResult:
         m = self.model
         p = m.pack_params(data)
@@ -558,7 +566,7 @@ class RecedingBearingMPC:
             x0 = rollout_guess(m, data, np.zeros((N, 3)), np.full(N, 0.5 * m.params.V_max))
         ws = warm if (self._adapter.reuses_duals and warm is not None and warm.has_solution) else None
 
-        def project(z: np.ndarray) -> np.ndarray:
+        def project(z: NDArray[np.float64]) -> NDArray[np.float64]:
             # onto the plant: admissible commands, states re-simulated exactly
             return rollout_guess(m, data, z[m.idx["u"]], z[m.idx["v"]])
 

@@ -26,6 +26,7 @@ from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.formulations.covert import MPCSettings, sphere_minmax_bearing
 from droneplan.planners.covert import (
@@ -67,14 +68,16 @@ def _pct(a: float, b: float) -> float:
     return 100.0 * (a - b) / b
 
 
-def _on_sphere(tr: CovertTrace) -> np.ndarray:
+def _on_sphere(tr: CovertTrace) -> NDArray[np.bool_]:
     if tr.t_a is None:
         return np.zeros(tr.t.size, bool)
     end = tr.t_f if tr.t_f is not None else tr.t[-1]
     return (tr.t >= tr.t_a) & (tr.t <= end)
 
 
-def _instant_optima(tr: CovertTrace, scenario) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _instant_optima(
+    tr: CovertTrace, scenario
+) -> tuple[NDArray[np.int_], NDArray[np.float64], NDArray[np.float64]]:
     """(k, bound, best): at every control instant k of tr's time on the sphere, the certified lower
     bound and the value of min over the sphere of max_j beta_j over the observable targets (rad)."""
     ks, lbs, best = [], [], []

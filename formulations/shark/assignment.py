@@ -16,8 +16,10 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 from ortools.sat.python import cp_model
 
 from droneplan.solvers.registry import get_backend
@@ -40,13 +42,13 @@ _SCALE = 1000  # ms
 class Assignment:
     """operator[j]: index of the operator sent to selected shark sharks[j]; latest, total: s."""
 
-    sharks: np.ndarray
-    operator: np.ndarray
+    sharks: NDArray[np.integer[Any]]
+    operator: NDArray[np.integer[Any]]
     latest: float
     total: float
 
 
-def _check_cost(cost) -> np.ndarray:
+def _check_cost(cost) -> NDArray[np.float64]:
     c = check_array("cost", cost, finite=False)
     if c.ndim != 2 or c.size == 0:
         raise ValueError("cost must be a non-empty (n_operators, n_sharks) matrix")
@@ -55,7 +57,7 @@ def _check_cost(cost) -> np.ndarray:
     return c
 
 
-def select_sharks(shark_to_human, n_operators: int) -> np.ndarray:
+def select_sharks(shark_to_human, n_operators: int) -> NDArray[np.integer[Any]]:
     """Indices of the sharks to serve: all if s <= n, else the n closest to humans (thesis §5.3.1).
 
     shark_to_human: (s,) distance (m) from each shark to its nearest human.

@@ -48,7 +48,7 @@ _LIP_OVERSAMPLE = 20  # derivative of G sampled at dt / 20 ...
 _LIP_MARGIN = 1.5  # ... and inflated by 50% for the Lipschitz constant (G is a C2 cubic B-spline)
 
 
-def _eps_zo(z_s: np.ndarray, params: SharkParams) -> tuple[np.ndarray, np.ndarray]:
+def _eps_zo(z_s: NDArray[np.float64], params: SharkParams) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The OCP's terminal altitude and radius (numeric twin of `casadi_optimal_altitude`)."""
     z = np.minimum(z_s, 0.0)
     z1 = np.clip(z + params.l1, params.lmin, params.le)

@@ -30,6 +30,7 @@ from typing import Any, ClassVar
 
 import casadi as ca
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
 from droneplan.solvers.registry import available_backends, get_backend
@@ -57,15 +58,15 @@ class InterceptionPlan:
     guesses, "virtual-shark" for the thesis heuristic's rollout, "" unknown).
     """
 
-    t: np.ndarray
-    operator: np.ndarray
-    velocity: np.ndarray
+    t: NDArray[np.float64]
+    operator: NDArray[np.float64]
+    velocity: NDArray[np.float64]
     """(N, 3) piecewise-constant operator velocities (m/s), one per interval."""
     T: float
     side: int = 0
     origin: str = ""
 
-    def position(self, t) -> np.ndarray:
+    def position(self, t) -> NDArray[np.float64]:
         """Planned position (m) at time(s) t (s), clamped to [0, T]."""
         t = np.clip(np.asarray(t, float), 0.0, self.T)
         return np.stack([np.interp(t, self.t, self.operator[:, i]) for i in range(3)], axis=-1)
@@ -247,7 +248,7 @@ class InterceptionOCP:
         ubx = np.r_[t_hi, ubO.ravel(), ubU.ravel()]
         return lbx, ubx
 
-    def vector(self, plan: InterceptionPlan) -> np.ndarray:
+    def vector(self, plan: InterceptionPlan) -> NDArray[np.float64]:
         """The decision vector of a plan (resampled to N intervals)."""
         r = plan.resample(self.N)
         vel = np.clip(

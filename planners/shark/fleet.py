@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.formulations.shark import greedy_assignment, solve_assignment, solve_interception
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
@@ -27,7 +28,7 @@ def interception_time_matrix(
     *,
     method: str = "virtual-shark",
     t_max: float = 30.0,
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """(n, s) predicted interception times (s) of each operator on each shark (inf if none).
 
     Sharks are predicted at constant velocity. method: "virtual-shark" (capture time of the

@@ -7,6 +7,7 @@ import dataclasses
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.formulations.shark import InterceptionOCP, InterceptionPlan, solve_interception
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
@@ -194,7 +195,7 @@ class OCPInterceptor:
         v = self._velocity(obs.t, obs.operator, obs.shark_pos, obs.shark_vel)
         return SharkCommand(v, self.at_interception)
 
-    def _velocity(self, t: float, operator, shark_pos, shark_vel) -> np.ndarray:
+    def _velocity(self, t: float, operator, shark_pos, shark_vel) -> NDArray[np.float64]:
         p = self.params
         O = np.asarray(operator, float)
         if self.phase == SharkPhase.HOLD:

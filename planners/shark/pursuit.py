@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark.altitude import thesis_altitude
@@ -87,7 +88,7 @@ class ClassicalPursuit:
         return SharkCommand(clip_velocity(self.params.VoM * d / n, self.params)[0], True)
 
 
-def _rot_left(u: np.ndarray) -> np.ndarray:
+def _rot_left(u: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.array([-u[1], u[0]])
 
 
@@ -190,7 +191,7 @@ class VirtualSharkInterceptor:
         v = self._velocity(obs.t, obs.operator, obs.shark_pos, obs.shark_vel)
         return SharkCommand(v, self.at_interception)
 
-    def _velocity(self, t: float, operator, shark_pos, shark_vel) -> np.ndarray:
+    def _velocity(self, t: float, operator, shark_pos, shark_vel) -> NDArray[np.float64]:
         p = self.params
         O = np.asarray(operator, float)
         Vs = np.asarray(shark_vel, float)

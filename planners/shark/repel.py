@@ -124,7 +124,7 @@ class RepellingOperator:
         v = self._velocity(obs.t, obs.operator, obs.sharks_pos, obs.sharks_vel, obs.swimmers, obs.contact)
         return SharkCommand(v, True)
 
-    def _velocity(self, t, operator, sharks_pos, sharks_vel, swimmers, contact) -> np.ndarray:
+    def _velocity(self, t, operator, sharks_pos, sharks_vel, swimmers, contact) -> NDArray[np.float64]:
         p = self.params
         O = np.asarray(operator, float)
         S = np.asarray(sharks_pos, float)[self.shark]

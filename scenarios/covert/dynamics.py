@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from typing import Any, NamedTuple, Protocol
 
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.scenarios.covert.world import CovertParams, CovertScenario
 from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
@@ -49,7 +50,7 @@ class CovertPhase(enum.StrEnum):
 
 
 # --------------------------------------------------------------------------- geometry
-def bearing_changes(drone: Any, targets: Any, R: Any) -> np.ndarray:
+def bearing_changes(drone: Any, targets: Any, R: Any) -> NDArray[np.float64]:
     """Bearing changes beta_j (3.6) in radians, vectorised.
 
     drone: (..., 3) drone positions D (m); targets: (..., n, 3) target positions A_j (m),
@@ -80,7 +81,7 @@ def bearing_changes(drone: Any, targets: Any, R: Any) -> np.ndarray:
     return np.arctan2(cross, dot)
 
 
-def nearest_on_line(a: Any, r: Any) -> np.ndarray:
+def nearest_on_line(a: Any, r: Any) -> NDArray[np.float64]:
     """p_j of (3.11): vector from the drone to the nearest point of the line through A_j and R.
 
     a: (..., 3) vectors a_j = A_j - D; r: (3,) or (..., 3) vector r = R - D (m). Returns (..., 3) (m).
@@ -96,7 +97,7 @@ def nearest_on_line(a: Any, r: Any) -> np.ndarray:
     return ((aa - ra) * r + (rr - ra) * a) / den
 
 
-def rotate_heading(h: Any, u: Any, dt: float) -> tuple[np.ndarray, np.ndarray]:
+def rotate_heading(h: Any, u: Any, dt: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Exact zero-order-hold step of dh/dt = u, dD/dt = h over dt with u orthogonal to h.
 
     The heading rotates at the constant rate |u| (rad/s) in the plane of (h, u):
@@ -125,7 +126,7 @@ def rotate_heading(h: Any, u: Any, dt: float) -> tuple[np.ndarray, np.ndarray]:
 
 def step_drone(
     D: Any, h: Any, u: Any, v: float, dt: float, params: CovertParams
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float]:
     """One plant step of (3.2)-(3.5): actuator limits, then the exact rotation of the heading.
 
     The command is made admissible first: u is projected on the plane orthogonal to h
@@ -145,7 +146,7 @@ def step_drone(
     return np.asarray(D, float) + v * integral, h_new, u, v
 
 
-def measure(true_rel: np.ndarray, noise: float, rng: np.random.Generator) -> np.ndarray:
+def measure(true_rel: NDArray[np.float64], noise: float, rng: np.random.Generator) -> NDArray[np.float64]:
     """Noisy measurement of the vectors a_j: each component times (1 + noise * U(-1, 1)).
 
     noise: amplitude as a fraction of the true measurement (thesis: 0.02 to 0.10).
@@ -162,17 +163,17 @@ class CovertObservation:
 
     t: float
     """Time (s)."""
-    drone: np.ndarray
+    drone: NDArray[np.float64]
     """Drone position D (3,) (m), from GPS."""
-    heading: np.ndarray
+    heading: NDArray[np.float64]
     """Drone heading h (3,), unit."""
-    rel: np.ndarray
+    rel: NDArray[np.float64]
     """Measured vectors a_j = A_j - D (n, 3) (m); rows of unobservable targets are NaN."""
-    observable: np.ndarray
+    observable: NDArray[np.bool_]
     """(n,) bool: target j is observable (line of sight)."""
 
     @property
-    def targets(self) -> np.ndarray:
+    def targets(self) -> NDArray[np.float64]:
         """Measured absolute positions of the observable targets (k, 3) (m)."""
         return self.drone + self.rel[self.observable]
 
@@ -180,7 +181,7 @@ class CovertObservation:
 class CovertCommand(NamedTuple):
     """A drone command for one control period (3.2)-(3.5); the simulator makes it admissible."""
 
-    u: np.ndarray
+    u: NDArray[np.float64]
     """(3,) heading rate dh/dt (rad/s), orthogonal to the heading."""
     v: float
     """Speed along the heading (m/s)."""
@@ -203,11 +204,11 @@ class Controller(Protocol):
 class CovertFrame(Frame):
     """The state of a covert run at one instant."""
 
-    drone: np.ndarray
+    drone: NDArray[np.float64]
     """(3,) drone position D (m)."""
-    heading: np.ndarray
+    heading: NDArray[np.float64]
     """(3,) unit heading h."""
-    targets: np.ndarray
+    targets: NDArray[np.float64]
     """(n, 3) true target positions (m)."""
     phase: CovertPhase
     """Controller phase."""
@@ -218,13 +219,13 @@ class CovertTrace(LoopTrace):
     """A closed-loop run. Arrays are sampled at the control instants t_k = k dt (``t``, s);
     ``final`` is the last recorded instant."""
 
-    drone: np.ndarray
+    drone: NDArray[np.float64]
     """(T, 3) drone positions (m)."""
-    heading: np.ndarray
+    heading: NDArray[np.float64]
     """(T, 3) headings (unit)."""
-    targets: np.ndarray
+    targets: NDArray[np.float64]
     """(T, n, 3) true target positions (m)."""
-    beta: np.ndarray
+    beta: NDArray[np.float64]
     """(T, n) true bearing changes (rad); NaN where the target is not observable."""
     beta_max: float
     """Maximum recorded beta_m over the run (rad); the thesis's headline metric (nan if no target)."""
@@ -234,15 +235,15 @@ class CovertTrace(LoopTrace):
     """Arrival time on the observation sphere (s)."""
     t_f: float | None
     """Time the drone leaves the sphere (start of the retreat) (s)."""
-    phase: np.ndarray
+    phase: NDArray[np.object_]
     """(T,) :class:`CovertPhase` of the controller after each command (object array)."""
-    u: np.ndarray
+    u: NDArray[np.float64]
     """(T, 3) commanded u as returned by the controller (NaN on the last row)."""
-    v: np.ndarray
+    v: NDArray[np.float64]
     """(T,) commanded v (m/s) (NaN on the last row)."""
     finished: bool
     """The controller reported that it was back at D_s."""
-    solve_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    solve_times: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     """Per-step solver times reported by the controller (s)."""
 
     def frame(self, k: int) -> CovertFrame:
@@ -261,7 +262,7 @@ class CovertTrace(LoopTrace):
         return [self.frame(k) for k in range(len(self.t))]
 
     @property
-    def beta_m(self) -> np.ndarray:
+    def beta_m(self) -> NDArray[np.float64]:
         """(T,) maximum bearing change over the observable targets (rad; NaN if none)."""
         out = np.full(self.beta.shape[0], np.nan)
         if self.beta.shape[1]:
@@ -270,11 +271,11 @@ class CovertTrace(LoopTrace):
         return out
 
     @property
-    def distance_to_F(self) -> np.ndarray:
+    def distance_to_F(self) -> NDArray[np.float64]:
         """(T,) |D - F| (m)."""
         return self.distance_to(self.F)
 
-    def distance_to(self, point: Any) -> np.ndarray:
+    def distance_to(self, point: Any) -> NDArray[np.float64]:
         """(T,) distance from the drone to a point (m)."""
         return np.linalg.norm(self.drone - np.asarray(point, float), axis=1)
 

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.solvers.validation import (
     check_array,
@@ -81,17 +82,17 @@ class CovertParams:
             )
 
     @property
-    def F_arr(self) -> np.ndarray:
+    def F_arr(self) -> NDArray[np.float64]:
         """F as a numpy array (m)."""
         return np.asarray(self.F)
 
     @property
-    def R_arr(self) -> np.ndarray:
+    def R_arr(self) -> NDArray[np.float64]:
         """R as a numpy array (m)."""
         return np.asarray(self.R)
 
     @property
-    def D_s_arr(self) -> np.ndarray:
+    def D_s_arr(self) -> NDArray[np.float64]:
         """D_s as a numpy array (m)."""
         return np.asarray(self.D_s)
 
@@ -117,7 +118,7 @@ class Terrain:
             raise ValueError("hills: every sigma must be > 0")
         object.__setattr__(self, "hills", tuple(tuple(float(v) for v in row) for row in arr))
 
-    def height(self, x: Any, y: Any) -> np.ndarray:
+    def height(self, x: Any, y: Any) -> NDArray[np.float64]:
         """Ground height (m) at planar coordinates x, y (m), vectorised (broadcast)."""
         x = np.asarray(x, dtype=float)
         y = np.asarray(y, dtype=float)
@@ -135,9 +136,9 @@ class TargetPath:
     points: (m, 3) densely sampled positions on the ground (m), in walking order.
     """
 
-    points: np.ndarray = field(repr=False)
+    points: NDArray[np.float64] = field(repr=False)
     """(m, 3) samples of the path on the terrain (m)."""
-    _s: np.ndarray = field(init=False, repr=False, compare=False)
+    _s: NDArray[np.float64] = field(init=False, repr=False, compare=False)
     """(m,) arc length (m) at each sample, set from ``points``."""
 
     def __post_init__(self) -> None:
@@ -157,7 +158,7 @@ class TargetPath:
         """Length of the path (m)."""
         return float(self._s[-1])
 
-    def at(self, s: Any) -> np.ndarray:
+    def at(self, s: Any) -> NDArray[np.float64]:
         """Positions (..., 3) at arc lengths s (m), clipped to [0, length] (the target then stands)."""
         s = np.clip(np.asarray(s, dtype=float), 0.0, self.length)
         out = np.empty((*s.shape, 3))
@@ -166,7 +167,7 @@ class TargetPath:
         return out
 
 
-def _drape(xy: np.ndarray, terrain: Terrain) -> np.ndarray:
+def _drape(xy: NDArray[np.float64], terrain: Terrain) -> NDArray[np.float64]:
     return np.column_stack([xy[:, 0], xy[:, 1], terrain.height(xy[:, 0], xy[:, 1])])
 
 
@@ -219,7 +220,7 @@ class Obstacle:
 
         return Polygon(np.asarray(self.footprint, dtype=float))
 
-    def _halfplanes(self) -> tuple[np.ndarray, np.ndarray]:
+    def _halfplanes(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(normals (m, 2), offsets (m,)): the footprint is {p : normals @ p <= offsets}."""
         pts = np.asarray(self.polygon.exterior.coords)[:-1]
         if self.polygon.exterior.is_ccw is False:
@@ -228,7 +229,7 @@ class Obstacle:
         nrm = np.column_stack([e[:, 1], -e[:, 0]])  # outward for a counter-clockwise ring
         return nrm, np.sum(nrm * pts, axis=1)
 
-    def blocks(self, drone: Any, targets: Any) -> np.ndarray:
+    def blocks(self, drone: Any, targets: Any) -> NDArray[np.bool_]:
         """Whether the prism blocks each segment drone -> target, vectorised (numpy).
 
         drone: (..., 3) m; targets: (..., 3) m (broadcast). Clips each segment's ground
@@ -356,14 +357,14 @@ class CovertScenario:
         """Number of targets."""
         return len(self.paths)
 
-    def targets_at(self, t: Any) -> np.ndarray:
+    def targets_at(self, t: Any) -> NDArray[np.float64]:
         """True target positions at time(s) t (s): shape t.shape + (n, 3) (m)."""
         t = np.asarray(t, dtype=float)
         if not self.paths:
             return np.zeros((*t.shape, 0, 3))
         return np.stack([p.at(self.params.V_T * t) for p in self.paths], axis=-2)
 
-    def observable_at(self, t: Any, drone: Any = None) -> np.ndarray:
+    def observable_at(self, t: Any, drone: Any = None) -> NDArray[np.bool_]:
         """Boolean mask t.shape + (n,): target has line of sight to the drone at t.
 
         drone: drone position(s) t.shape + (3,) (m); needed when the scenario has obstacles
@@ -395,7 +396,7 @@ def _s_path(terrain: Terrain, length: float, m: int = 2000) -> TargetPath:
     u = np.linspace(0.0, 1.0, m)
     x0, y0, x1, y1 = 30.0, 150.0, 150.0, 125.0
 
-    def build(amp: float) -> np.ndarray:
+    def build(amp: float) -> NDArray[np.float64]:
         return np.column_stack([x0 + (x1 - x0) * u, y0 + (y1 - y0) * u + amp * np.sin(2.0 * math.pi * u)])
 
     lo, hi = 0.0, 100.0
@@ -414,7 +415,7 @@ def _straight_path(terrain: Terrain, length: float, start, end, m: int = 2000) -
     return _scale_to_length(xy, terrain, length)
 
 
-def _scale_to_length(xy: np.ndarray, terrain: Terrain, length: float) -> TargetPath:
+def _scale_to_length(xy: NDArray[np.float64], terrain: Terrain, length: float) -> TargetPath:
     """Drape a planar curve and cut (or extend linearly) it to 3D length ``length``."""
     path = TargetPath(_drape(xy, terrain))
     if path.length >= length:

@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass, fields
 
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.solvers.validation import check_array, check_positive, check_real
 
@@ -99,7 +100,7 @@ class SharkParams:
         return math.hypot(self.VsMxy, self.VsMz)
 
     @property
-    def ball_depths(self) -> np.ndarray:
+    def ball_depths(self) -> NDArray[np.float64]:
         """Depths (l1, l2) of the two ball centres below the operator (m)."""
         return np.array([self.l1, self.l2])
 
@@ -109,7 +110,7 @@ THESIS_TABLE_5_1 = SharkParams()
 Ts=0.1 s) with our VoM split."""
 
 
-def field_radius(h, params: SharkParams = THESIS_TABLE_5_1) -> np.ndarray:
+def field_radius(h, params: SharkParams = THESIS_TABLE_5_1) -> NDArray[np.float64]:
     """Radius eps(h) (m) of the field on the plane h metres below the operator (vectorised, eq. 5.2).
 
     0 where neither ball reaches the plane.
@@ -124,7 +125,7 @@ def field_radius(h, params: SharkParams = THESIS_TABLE_5_1) -> np.ndarray:
     return np.sqrt(np.clip(r2, 0.0, None)).max(axis=-1)
 
 
-def inside_field(shark, operator, params: SharkParams = THESIS_TABLE_5_1) -> np.ndarray:
+def inside_field(shark, operator, params: SharkParams = THESIS_TABLE_5_1) -> NDArray[np.float64]:
     """Signed clearance (m): min over the balls of |shark - centre| - eps_o; <= 0 means touching.
 
     shark, operator: arrays (..., 3) in metres (broadcast together).
@@ -148,7 +149,7 @@ def inside_field(shark, operator, params: SharkParams = THESIS_TABLE_5_1) -> np.
     return np.minimum(dist[0], dist[1])
 
 
-def touches(shark, operator, params: SharkParams = THESIS_TABLE_5_1) -> np.ndarray:
+def touches(shark, operator, params: SharkParams = THESIS_TABLE_5_1) -> NDArray[np.bool_]:
     """True where the shark's snout (a point) is inside either ball of the field (DESIGN §4).
 
     operator: (..., 3) operator positions (m).

@@ -15,8 +15,10 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, inside_field
 from droneplan.scenarios.shark.simulate import SharkCommand, clip_velocity
@@ -88,11 +90,11 @@ class RepellingMode(enum.StrEnum):
 class RepellingScenario:
     """A repelling episode's set-up (what ``controller.reset`` receives)."""
 
-    sharks0: np.ndarray
+    sharks0: NDArray[np.float64]
     """(s, 3) initial shark positions (m)."""
-    operators0: np.ndarray
+    operators0: NDArray[np.float64]
     """(n, 3) initial operator positions (m)."""
-    swimmers: np.ndarray
+    swimmers: NDArray[np.float64]
     """(m, 2) swimmer positions (m)."""
     params: SharkParams = THESIS_TABLE_5_1
     """Problem parameters (Table 5.1)."""
@@ -106,15 +108,15 @@ class RepellingObservation:
 
     t: float
     """Time (s)."""
-    operator: np.ndarray
+    operator: NDArray[np.float64]
     """(3,) this operator's position (m)."""
-    sharks_pos: np.ndarray
+    sharks_pos: NDArray[np.float64]
     """(s, 3) shark positions (m)."""
-    sharks_vel: np.ndarray
+    sharks_vel: NDArray[np.float64]
     """(s, 3) shark velocities (m/s)."""
-    swimmers: np.ndarray
+    swimmers: NDArray[np.float64]
     """(m, 2) swimmer positions (m)."""
-    contact: np.ndarray
+    contact: NDArray[np.bool_]
     """(s,) bool: this operator's field touched that shark during the last step."""
 
 
@@ -128,14 +130,14 @@ class RepellingTrace:
     left (s,) bool: shark beyond the safety distance; end_time (s); seed.
     """
 
-    t: np.ndarray
-    sharks: np.ndarray
-    operators: np.ndarray
-    mode: np.ndarray
-    reactions: np.ndarray
-    ignored: np.ndarray
+    t: NDArray[np.float64]
+    sharks: NDArray[np.float64]
+    operators: NDArray[np.float64]
+    mode: NDArray[np.integer[Any]]
+    reactions: NDArray[np.integer[Any]]
+    ignored: NDArray[np.integer[Any]]
     attacked: bool
-    left: np.ndarray
+    left: NDArray[np.bool_]
     end_time: float
     seed: int | None = None
     info: dict = field(default_factory=dict)

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from typing import Any, NamedTuple, Protocol
 
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, field_radius, inside_field
@@ -85,7 +86,7 @@ class InterceptionScenario:
         check_real("bearing_deg", self.bearing_deg)
 
     @property
-    def operator(self) -> np.ndarray:
+    def operator(self) -> NDArray[np.float64]:
         """The operator's start position (3,) (m)."""
         if self.operator0 is None:
             return operator_start(self.trajectory, self.params, bearing_deg=self.bearing_deg)
@@ -98,18 +99,18 @@ class SharkObservation:
 
     t: float
     """Time (s)."""
-    operator: np.ndarray
+    operator: NDArray[np.float64]
     """(3,) operator position O (m)."""
-    shark_pos: np.ndarray
+    shark_pos: NDArray[np.float64]
     """(3,) shark snout position S (m)."""
-    shark_vel: np.ndarray
+    shark_vel: NDArray[np.float64]
     """(3,) shark velocity (m/s)."""
 
 
 class SharkCommand(NamedTuple):
     """An operator command for the next Ts."""
 
-    velocity: np.ndarray
+    velocity: NDArray[np.float64]
     """(3,) operator velocity (m/s); the simulator clips it to |v_xy| <= VoMxy, |v_z| <= VoMz."""
     at_interception: bool = True
     """The controller has reached its interception point, so a field contact during this step is
@@ -135,11 +136,11 @@ class InterceptionController(Protocol):
 class SharkFrame(Frame):
     """The state of an interception run at one instant."""
 
-    operator: np.ndarray
+    operator: NDArray[np.float64]
     """(3,) operator position (m)."""
-    shark: np.ndarray
+    shark: NDArray[np.float64]
     """(3,) shark position (m)."""
-    shark_vel: np.ndarray
+    shark_vel: NDArray[np.float64]
     """(3,) shark velocity (m/s)."""
     phase: SharkPhase
     """Controller phase."""
@@ -162,13 +163,13 @@ class InterceptionTrace(LoopTrace):
     and solve statuses.
     """
 
-    operator: np.ndarray
-    shark: np.ndarray
-    operator_vel: np.ndarray
-    shark_vel: np.ndarray
-    eps: np.ndarray
-    D_h: np.ndarray
-    phase: np.ndarray
+    operator: NDArray[np.float64]
+    shark: NDArray[np.float64]
+    operator_vel: NDArray[np.float64]
+    shark_vel: NDArray[np.float64]
+    eps: NDArray[np.float64]
+    D_h: NDArray[np.float64]
+    phase: NDArray[np.object_]
     intercept_time: float | None
     interception_distance: float | None
     frontal: bool
@@ -182,7 +183,7 @@ class InterceptionTrace(LoopTrace):
     info: dict = field(default_factory=dict)
     """Extra per-run data from the controller and simulator."""
 
-    solve_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    solve_times: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     """Per-solve times reported by the controller (s)."""
 
     def frame(self, k: int) -> SharkFrame:
@@ -206,7 +207,7 @@ class InterceptionTrace(LoopTrace):
         return self.intercept_time is not None
 
 
-def clip_velocity(v, params: SharkParams) -> tuple[np.ndarray, bool]:
+def clip_velocity(v, params: SharkParams) -> tuple[NDArray[np.float64], bool]:
     """Clip a velocity (3,) to |v_xy| <= VoMxy and |v_z| <= VoMz; return it and whether it was clipped."""
     v = np.array(v, dtype=float)
     if not np.all(np.isfinite(v)):
@@ -228,7 +229,7 @@ def operator_start(
     *,
     bearing_deg: float = DEFAULT_BEARING_DEG,
     altitude: float | None = None,
-) -> np.ndarray:
+) -> NDArray[np.float64]:
     """Operator start: Di metres from the shark horizontally, at ``bearing_deg`` from its initial heading.
 
     bearing 0 = straight ahead, -90 = to the right of the shark (default DEFAULT_BEARING_DEG);

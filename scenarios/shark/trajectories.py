@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams
 from droneplan.solvers.validation import (
@@ -40,9 +41,9 @@ class SharkTrajectory:
     name: label. seed: the seed that generated it (None for deterministic paths).
     """
 
-    t: np.ndarray
-    pos: np.ndarray
-    vel: np.ndarray
+    t: NDArray[np.float64]
+    pos: NDArray[np.float64]
+    vel: NDArray[np.float64]
     name: str = ""
     seed: int | None = None
 
@@ -64,7 +65,7 @@ class SharkTrajectory:
         """Last sample time (s)."""
         return float(self.t[-1])
 
-    def at(self, t) -> tuple[np.ndarray, np.ndarray]:
+    def at(self, t) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Position (m) and velocity (m/s) at time(s) ``t`` by linear interpolation (clamped to the
         horizon)."""
         t = np.asarray(t, dtype=float)
@@ -111,10 +112,10 @@ def make_trajectory(
             profiles.append(lambda t, value=float(value): np.full(np.shape(t), value))
     heading, speed, depth = profiles
     n = round(duration / dt) + 1
-    t = np.arange(n) * dt
+    t = np.arange(n, dtype=np.float64) * dt
     # integrate on a 10x finer grid (midpoint rule) then subsample
     sub = 10
-    tf = np.arange((n - 1) * sub + 1) * (dt / sub)
+    tf = np.arange((n - 1) * sub + 1, dtype=np.float64) * (dt / sub)
     psi = _profile("heading", heading, tf)
     v = _profile("speed", speed, tf)
     vx, vy = v * np.cos(psi), v * np.sin(psi)
@@ -128,7 +129,7 @@ def make_trajectory(
     return SharkTrajectory(t, pos, vel, name=name, seed=seed)
 
 
-def _profile(name: str, f, tf: np.ndarray) -> np.ndarray:
+def _profile(name: str, f, tf: NDArray[np.float64]) -> NDArray[np.float64]:
     """f(tf) broadcast to tf's shape, checked finite."""
     try:
         out = np.asarray(f(tf), dtype=float) * np.ones_like(tf)
@@ -252,5 +253,5 @@ def constant_velocity_trajectory(
     dt = check_positive("dt", dt)
     check_size("duration / dt", int(min(duration / dt, 1e15)) * 9)
     n = round(duration / dt) + 1
-    t = np.arange(n) * dt
+    t = np.arange(n, dtype=np.float64) * dt
     return SharkTrajectory(t, pos + t[:, None] * vel, np.tile(vel, (n, 1)), name=name)

@@ -6,6 +6,7 @@ import math
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from droneplan.scenarios.covert import CovertScenario, CovertTrace
 from droneplan.studies.plots._common import as_trace_dict, figure_axes
@@ -13,7 +14,7 @@ from droneplan.studies.plots._common import as_trace_dict, figure_axes
 __all__ = ["plot_path", "plot_bearing", "plot_stealth_front"]
 
 
-def _sphere_patch(scenario: CovertScenario, drone_paths: list[np.ndarray], n: int = 20):
+def _sphere_patch(scenario: CovertScenario, drone_paths: list[NDArray[np.float64]], n: int = 20):
     """Wireframe (x, y, z in m) of the part of the observation sphere |D - F| = L_u the drones fly near:
     their azimuth range about F widened by 0.3 rad, elevations from 0 up to theirs plus 0.3 rad."""
     p = scenario.params
