@@ -80,7 +80,7 @@ class CpSatAdapter(BackendAdapter, CpBackend, LinearBackend):
             raise TypeError(f"model must be a cp_model.CpModel, got {type(model).__name__}")
         check_time_limit(time_limit)
         _check_workers(workers)
-        model.clear_hints()  # type: ignore[no-untyped-call]
+        model.clear_hints()  # type: ignore[no-untyped-call]  # OR-Tools ships this method unannotated
         if hint:
             for var, value in hint.items():
                 model.add_hint(var, int(value))

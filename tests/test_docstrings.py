@@ -100,7 +100,7 @@ def _attribute_docs(cls: type) -> dict[str, str]:
             source = textwrap.dedent(inspect.getsource(klass))
         except (OSError, TypeError):
             continue
-        body = ast.parse(source).body[0].body  # type: ignore[attr-defined]
+        body = ast.parse(source).body[0].body  # type: ignore[attr-defined]  # a def statement (parsed from a function), which has a body
         for stmt, nxt in zip(body, [*body[1:], None], strict=True):
             target = stmt.target if isinstance(stmt, ast.AnnAssign) else None
             if (

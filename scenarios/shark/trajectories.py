@@ -156,7 +156,7 @@ def thesis_trajectories(
     duration: length of each path (s).
     dt: sampling time (s).
     """
-    c0 = lambda t: 0.0 * t  # noqa: E731
+    c0 = lambda t: 0.0 * t  # noqa: E731  # a one-line coordinate function, like its neighbours in the dict
     return {
         "a": make_trajectory(
             c0, lambda t: 5.34 + 0 * t, lambda t: -3.0 + 0 * t, duration=duration, dt=dt, name="a"
