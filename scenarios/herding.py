@@ -325,11 +325,19 @@ def animal_step(
         k = min(params.n_neighbours, n - 1) + 1
         dist, idx = cKDTree(animals, balanced_tree=False, compact_nodes=False).query(pos, k=k)
         dist, idx = dist[:, 1:], idx[:, 1:]  # drop self (distance 0 ranks first)
-        nb = animals[idx]  # (m, k-1, 2)
-        away = pos[:, None, :] - nb
-        w = np.where(dist < params.r_a, 1.0 / np.maximum(dist, 1e-12), 0.0)  # unit vectors of close ones
-        R_a = _unit(np.einsum("mk,mkc->mc", w, away))
-        C = _unit(nb.mean(axis=1) - pos)
+        # neighbour-major layout (k-1, m, 2): the sums over neighbours below add whole (m, 2)
+        # slices in neighbour order, the order (and so the rounding) of a sequential sum
+        nb = animals[idx.T]
+        w = np.where(dist < params.r_a, 1.0 / np.maximum(dist, 1e-12), 0.0).T  # unit vectors of close ones
+        push = w[:, :, None] * (pos - nb)
+        R_a_sum = np.zeros_like(pos)
+        for j in range(k - 1):
+            R_a_sum += push[j]
+        nb_sum = nb[0].copy()
+        for j in range(1, k - 1):
+            nb_sum += nb[j]
+        R_a = _unit(R_a_sum)
+        C = _unit(nb_sum / (k - 1) - pos)
     else:
         R_a = C = np.zeros((movers.size, 2))
     aff = affected[movers]

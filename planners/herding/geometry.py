@@ -191,12 +191,20 @@ def min_enclosing_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
 
     Welzl's randomised incremental algorithm (expected O(n)); apply it to the hull
     vertices for speed. Deterministic order (no shuffling) keeps it reproducible.
+    The three nested loops ("the first point outside the current circle") scan the
+    points with one vectorised distance test per scan; points the test cannot place
+    safely inside are re-tested with the scalar test, so the result is the same as
+    the point-by-point loops to the last bit.
     """
-    P = list(check_array("points", points, shape=(None, 2), min_rows=1))
+    arr = check_array("points", points, shape=(None, 2), min_rows=1)
+    P = list(arr)
+
+    def norm(v: np.ndarray) -> float:  # bit-identical to np.linalg.norm of a 1-D float vector
+        return math.sqrt(v.dot(v))
 
     def circ2(a, b):
         c = (a + b) / 2
-        return c, float(np.linalg.norm(a - c))
+        return c, norm(a - c)
 
     def circ3(a, b, c):
         ax, ay = a
@@ -217,21 +225,40 @@ def min_enclosing_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
             + (cx * cx + cy * cy) * (bx - ax)
         ) / d
         u = np.array([ux, uy])
-        return u, float(np.linalg.norm(a - u))
+        return u, norm(a - u)
 
     def inside(circle, p):
-        return np.linalg.norm(p - circle[0]) <= circle[1] * (1 + 1e-12) + 1e-9
+        return norm(p - circle[0]) <= circle[1] * (1 + 1e-12) + 1e-9
 
+    def first_outside(circle, lo: int, hi: int) -> int:
+        """Smallest index in [lo, hi) of a point not ``inside`` circle (hi if none)."""
+        head = min(hi, lo + 4)  # short scans (the common case on ordered hulls): scalar
+        for q in range(lo, head):
+            if not inside(circle, P[q]):
+                return q
+        if head >= hi:
+            return hi
+        rel = arr[head:hi] - circle[0]
+        dist = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
+        # surely inside, whatever the rounding of the scalar norm (a few ulps); NaN is not
+        sure = dist <= (circle[1] * (1 + 1e-12) + 1e-9) * (1 - 1e-13)
+        for q in np.flatnonzero(~sure):
+            if not inside(circle, P[head + int(q)]):
+                return head + int(q)
+        return hi
+
+    n = len(P)
     c = (P[0], 0.0)
-    for i in range(1, len(P)):
-        if inside(c, P[i]):
-            continue
+    i = first_outside(c, 1, n)
+    while i < n:
         c = (P[i], 0.0)
-        for j in range(i):
-            if inside(c, P[j]):
-                continue
+        j = first_outside(c, 0, i)
+        while j < i:
             c = circ2(P[i], P[j])
-            for k in range(j):
-                if not inside(c, P[k]):
-                    c = circ3(P[i], P[j], P[k])
+            k = first_outside(c, 0, j)
+            while k < j:
+                c = circ3(P[i], P[j], P[k])
+                k = first_outside(c, k + 1, j)
+            j = first_outside(c, j + 1, i)
+        i = first_outside(c, i + 1, n)
     return np.asarray(c[0], dtype=float), float(c[1])
