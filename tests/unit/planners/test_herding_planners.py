@@ -251,3 +251,63 @@ def test_fly_to_edge_vector_matches_6_11_and_remark_6_4_2(pts, drone):
     assert np.linalg.norm(b[0]) == pytest.approx(np.linalg.norm(best), rel=1e-9, abs=1e-7)
     assert hull.project((d + b[0])[None, :])[1] == pytest.approx((d + b[0])[None, :], abs=1e-6)
     assert abs(v[0]) <= 25.0 and abs(w[0]) <= 5.0
+
+
+def _welzl_point_by_point(points):
+    """The deterministic Welzl loops, one point at a time (the form before the scans were vectorised)."""
+    P = list(np.asarray(points, dtype=float))
+
+    def circ2(a, b):
+        c = (a + b) / 2
+        return c, float(np.linalg.norm(a - c))
+
+    def circ3(a, b, c):
+        (ax, ay), (bx, by), (cx, cy) = a, b, c
+        d = 2 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by))
+        if abs(d) < 1e-12:
+            return max((circ2(a, b), circ2(a, c), circ2(b, c)), key=lambda t: t[1])
+        s2a, s2b, s2c = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
+        u = np.array(
+            [
+                (s2a * (by - cy) + s2b * (cy - ay) + s2c * (ay - by)) / d,
+                (s2a * (cx - bx) + s2b * (ax - cx) + s2c * (bx - ax)) / d,
+            ]
+        )
+        return u, float(np.linalg.norm(a - u))
+
+    def inside(circle, p):
+        return np.linalg.norm(p - circle[0]) <= circle[1] * (1 + 1e-12) + 1e-9
+
+    c = (P[0], 0.0)
+    for i in range(1, len(P)):
+        if inside(c, P[i]):
+            continue
+        c = (P[i], 0.0)
+        for j in range(i):
+            if inside(c, P[j]):
+                continue
+            c = circ2(P[i], P[j])
+            for k in range(j):
+                if not inside(c, P[k]):
+                    c = circ3(P[i], P[j], P[k])
+    return np.asarray(c[0], dtype=float), float(c[1])
+
+
+@pytest.mark.parametrize("kind", ["uniform", "hull", "grid", "circle"])
+def test_min_enclosing_circle_bit_identical_to_point_by_point_loops(kind):
+    """The vectorised scans change the speed only: the same circle to the last bit (reproducible runs)."""
+    rng = np.random.default_rng(11)
+    for _ in range(60):
+        n = int(rng.integers(1, 50))
+        if kind == "uniform":
+            pts = rng.uniform(-300, 300, (n, 2))
+        elif kind == "hull":  # what the driving herders pass: ccw hull vertices, the slow order for Welzl
+            pts = convex_hull(rng.normal(0, 80, (10 * n + 3, 2)))
+        elif kind == "grid":  # duplicates and exact ties
+            pts = np.round(rng.uniform(-4, 4, (n, 2)))
+        else:  # cocircular points
+            ang = np.sort(rng.uniform(0, 2 * math.pi, n))
+            pts = 40 * np.column_stack([np.cos(ang), np.sin(ang)])
+        c, r = min_enclosing_circle(pts)
+        c_ref, r_ref = _welzl_point_by_point(pts)
+        assert np.array_equal(c, c_ref) and r == r_ref

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy.spatial import cKDTree
 
 from droneplan.scenarios.herding import (
     HerdingParams,
@@ -17,6 +18,7 @@ from droneplan.scenarios.herding import (
     table_6_2_for,
     thesis_scenario,
 )
+from droneplan.scenarios.herding import _unit as unit
 
 
 def test_thesis_scenario_layout():
@@ -129,3 +131,43 @@ def test_scenario_bad_input():
         HerdingScenario(sc.params, sc.animals + np.nan, sc.drones, sc.headings, sc.goal)
     with pytest.raises(ValueError, match="field width"):
         thesis_scenario(10, field_size=(0.0, 10.0))
+
+
+@pytest.mark.parametrize("n", [2, 30, 400])
+def test_animal_step_bit_identical_to_einsum_and_mean_formulation(n):
+    """animal_step sums over neighbours slice by slice; the step equals the (m, k, 2) einsum / mean
+    formulation of the model to the last bit, so the faster layout leaves every trajectory unchanged."""
+    rng = np.random.default_rng(n)
+    p = HerdingParams(graze_prob=0.5)
+    side = 3 * math.sqrt(n) + 1  # dense: many neighbours closer than r_a
+    animals = rng.uniform(0, side, (n, 2))
+    heading = unit(rng.normal(size=(n, 2)))
+    drones = np.array([[side + 90.0, side / 2], [-500.0, -500.0]])  # one reaches 10 m into the herd
+    new, new_head, affected = animal_step(animals, heading, drones, p, seed=5)
+    # the reference formulation of the module docstring, with the same random draws
+    r = np.random.default_rng(5)
+    c = animals.mean(axis=0)
+    cone = barking_mask(animals, drones, c, p.R_b, p.beta)
+    aff = cone.any(axis=1)
+    movers = np.flatnonzero(aff | (r.random(n) < p.graze_prob))
+    assert np.array_equal(affected, aff)
+    if n > 2:  # the case covers barked-at, grazing and standing animals
+        assert 0 < aff.sum() < movers.size < n
+    pos = animals[movers]
+    eps = unit(r.normal(size=(movers.size, 2)))
+    k = min(p.n_neighbours, n - 1) + 1
+    dist, idx = cKDTree(animals).query(pos, k=k)
+    dist, idx = dist[:, 1:], idx[:, 1:]
+    nb = animals[idx]
+    w = np.where(dist < p.r_a, 1.0 / np.maximum(dist, 1e-12), 0.0)
+    R_a = unit(np.einsum("mk,mkc->mc", w, pos[:, None, :] - nb))
+    C = unit(nb.mean(axis=1) - pos)
+    rel = pos[:, None, :] - drones[None, :, :]
+    R_d = unit(np.einsum("md,mdc->mc", cone[movers] / np.sqrt(np.sum(rel * rel, axis=2)), rel))
+    herd = p.eta_d * R_d + p.eta_L * C + p.eta_r * R_a + p.eta_i * heading[movers] + p.eta_e * eps
+    direction = unit(np.where(aff[movers, None], herd, p.eta_r * R_a + p.eta_e * eps))
+    speed = np.where(aff[movers], p.V_animal, p.graze_speed)
+    expected = animals.copy()
+    expected[movers] = pos + (speed * p.delta)[:, None] * direction
+    assert np.array_equal(new, expected)
+    assert np.array_equal(new_head[movers], direction)
