@@ -138,7 +138,8 @@ def validate_allocation_input(drone_s, steer_s, perimeter) -> tuple[np.ndarray, 
         raise ValueError("steer_s must hold at least one steering point")
     if s.size > d.size:
         raise ValueError(
-            f"mismatched lengths: {s.size} steering points for {d.size} drones (need len(steer_s) <= len(drone_s))"
+            f"mismatched lengths: {s.size} steering points for {d.size} drones "
+            "(need len(steer_s) <= len(drone_s))"
         )
     return d, s, perimeter
 
@@ -202,10 +203,7 @@ def check_allocation(drone_s, steer_s, perimeter, allocation: Allocation, *, tol
     zstar = np.empty(n)
     for rank, j in enumerate(order):
         zj, zpj = z[rank], zp_all[tgt[j]]
-        if allocation.direction[j] > 0:
-            zs = zpj + (M if zpj < zj else 0.0)
-        else:
-            zs = zpj - (M if zpj > zj else 0.0)
+        zs = zpj + (M if zpj < zj else 0.0) if allocation.direction[j] > 0 else zpj - (M if zpj > zj else 0.0)
         zstar[rank] = zs
         assert abs(abs(zs - zj) - allocation.travel[j]) <= tol * max(1.0, M), "travel matches (6.20)"
     if n > 1:
@@ -317,8 +315,8 @@ def build_allocation_model(drone_s, steer_s, perimeter) -> AllocationModel:
 
     model = cp_model.CpModel()
     x = [model.new_bool_var(f"x_{c[0]}_{c[1]}_{c[2]:+d}") for c in choices]
-    by_drone = [[] for _ in range(n)]
-    by_point = [[] for _ in range(n)]
+    by_drone: list[list[int]] = [[] for _ in range(n)]
+    by_point: list[list[int]] = [[] for _ in range(n)]
     for idx, c in enumerate(choices):
         by_drone[c[0]].append(idx)
         by_point[c[1]].append(idx)
@@ -345,7 +343,7 @@ def _decode(am: AllocationModel, values: np.ndarray, n: int) -> Allocation:
     target = np.full(n, -1, dtype=int)
     direction = np.zeros(n, dtype=int)
     travel = np.zeros(n)
-    for c, v in zip(am.choices, values):
+    for c, v in zip(am.choices, values, strict=True):  # one value per model variable
         if v:
             target[c[0]], direction[c[0]], travel[c[0]] = c[1], c[2], c[4]
     return Allocation(target, direction, travel, am.points)
@@ -354,7 +352,7 @@ def _decode(am: AllocationModel, values: np.ndarray, n: int) -> Allocation:
 def _hint(am: AllocationModel, hint: Allocation) -> dict:
     chosen = {(j, int(hint.target[j]), int(hint.direction[j])) for j in range(len(hint.target))}
     out = {}
-    for c, var in zip(am.choices, am.variables):
+    for c, var in zip(am.choices, am.variables, strict=True):
         key = (c[0], c[1], c[2])
         # sigma=-1 for z'==z was merged into sigma=+1
         out[var] = int(key in chosen or (c[2] == 1 and (c[0], c[1], -1) in chosen and c[4] == 0.0))
@@ -428,7 +426,7 @@ def solve_allocation(
     if not res.has_solution:
         return res
     alloc = _decode(am, res.x, n)
-    obj = float(am.travel_values[int(round(res.objective))])
+    obj = float(am.travel_values[round(res.objective)])
     b = int(np.ceil(res.bound - 1e-9))
     bound = float(am.travel_values[min(max(b, 0), len(am.travel_values) - 1)])
     msg = "objective/bound mapped back from travel ranks (exact, no rounding)"

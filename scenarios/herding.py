@@ -45,7 +45,7 @@ import enum
 import math
 import time
 from dataclasses import dataclass, field, replace
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -114,7 +114,8 @@ class HerdingParams:
     d_s: float = 30.0
     """Drone-to-animal distance: offset of the extended hull, m."""
     R_c: float = 60.0
-    """Gathering ends when every animal is within R_c of the centroid, m (60 for 200, 110 for 1000 animals)."""
+    """Gathering ends when every animal is within R_c of the centroid, m (60 for 200, 110 for 1000
+    animals)."""
     V_driving: float = 3.8
     """Speed of the driving formation towards G, m/s (3.8 for 200, 1.9 for 1000 animals)."""
     n_drones: int = 4
@@ -247,18 +248,17 @@ def thesis_scenario(
     fs = check_array("field_size", field_size, shape=(2,))
     w = check_positive("field_size[0] (field width)", fs[0])
     h = check_positive("field_size[1] (field height)", fs[1])
-    if goal is not None:
-        goal = check_array("goal", goal, shape=(2,))
+    goal_xy = None if goal is None else check_array("goal", goal, shape=(2,))
     rng = as_generator(seed)
     R_c, V_drv = table_6_2_for(int(n_animals))
-    kw = {"R_c": R_c, "V_driving": V_drv, "n_drones": n_drones}
+    kw: dict[str, Any] = {"R_c": R_c, "V_driving": V_drv, "n_drones": n_drones}
     kw.update(overrides)
     params = HerdingParams(**kw)
     animals = rng.uniform((0.0, 0.0), (w, h), size=(int(n_animals), 2))
     ys = h / 2 + 50.0 * (np.arange(n_drones) - (n_drones - 1) / 2)
     drones = np.column_stack([np.full(n_drones, w + 80.0), ys])
     headings = np.full(n_drones, math.pi)  # facing the field
-    g = np.array(goal if goal is not None else (w / 2 - 900.0, h / 2), dtype=float)
+    g = np.array(goal_xy if goal_xy is not None else (w / 2 - 900.0, h / 2), dtype=float)
     return HerdingScenario(params, animals, drones, headings, g, (0.0, 0.0, w, h))
 
 
@@ -312,7 +312,7 @@ def animal_step(
     n = animals.shape[0]
     centroid = animals.mean(axis=0) if centroid is None else centroid
     cone = barking_mask(animals, drones, centroid, params.R_b, params.beta, barking)
-    affected = cone.any(axis=1)
+    affected = np.asarray(cone.any(axis=1), dtype=bool)
     grazing = (~affected) & (rng.random(n) < params.graze_prob)
     movers = np.flatnonzero(affected | grazing)
     new_pos = animals.copy()
@@ -437,6 +437,8 @@ class HerdingFrame(Frame):
 class HerdingTrace(LoopTrace):
     """What :func:`simulate` records (times in s, distances in m); ``final`` holds the last state."""
 
+    final: HerdingFrame
+    """The state at the end of the run (always stored)."""
     footprint_radius: np.ndarray
     """(T,) max animal-to-centroid distance, m."""
     centroid: np.ndarray
@@ -506,7 +508,7 @@ def simulate(
         raise TypeError(f"scenario must be a HerdingScenario, got {type(scenario).__name__}")
     check_methods("controller", controller, ("reset", "command"))
     t_max = check_positive("t_max", t_max)
-    check_size("t_max", int(math.ceil(t_max / scenario.params.delta)) * scenario.animals.shape[0])
+    check_size("t_max", math.ceil(t_max / scenario.params.delta) * scenario.animals.shape[0])
     if frame_every is not None:
         check_positive("frame_every", frame_every)
     p = scenario.params
@@ -520,7 +522,7 @@ def simulate(
     drones = scenario.drones.copy()
     headings = scenario.headings.copy()
     controller.reset(scenario, seed=seed)
-    n_steps = int(math.ceil(t_max / dt))
+    n_steps = math.ceil(t_max / dt)
     ts, radii, cents, dpos, phases, delivered = [], [], [], [], [], []
     regroupings = 0
     snaps_todo = sorted(float(s) for s in snapshot_times)

@@ -15,7 +15,9 @@ import contextlib
 import json
 import os
 import time
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -127,7 +129,7 @@ def run_once(task: dict) -> dict:
         stop_after_gathering=bool(task.get("gather_only")),
     )
     cpu = time.process_time() - c0
-    every = max(1, int(round(float(task.get("curve_every", 5.0)) / sc.params.delta)))
+    every = max(1, round(float(task.get("curve_every", 5.0)) / sc.params.delta))
     hull_t = herder.all_on_hull_time
     return {
         **{k: task[k] for k in task if k not in ("params", "snapshots")},
@@ -161,7 +163,7 @@ def _minutes(v) -> float | None:
 
 
 # --------------------------------------------------------------------------- reproduce
-def run_pair(task: dict) -> list[dict]:
+def run_pair(task: Mapping[str, Any]) -> list[dict]:
     """One reproduce instance: the proposed and the benchmark herder on the same scenario,
     as two rows of the results schema (objective = total time for Fig. 6.7, gathering time
     for the sweeps, s; status ``no_solution`` when the run did not finish within t_max).
@@ -255,7 +257,7 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
     rows = _run_all(tasks, executor, store, "Fig. 6.7 runs")
     table = ComparisonTable("Fig. 6.7: gathering and total herding time (4 drones, 1200 m x 600 m field)")
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    csv_rows = []
+    csv_rows: list[dict[str, Any]] = []
     for n in plan:
         for m, style in (("proposed", "-"), ("benchmark", "--")):
             rs = [r for r in rows if r["n"] == n and r["method"] == m]
@@ -263,8 +265,8 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
             tot = [r["total_time"] for r in rs]
             how = (
                 f"mean over {len(rs)} seeds of simulate(); gathering ends when every animal is within "
-                f"R_c = {rs[0]['R_c']:.0f} m of the centroid; {sum(v is None for v in g)} runs did not gather "
-                f"within 45 min"
+                f"R_c = {rs[0]['R_c']:.0f} m of the centroid; "
+                f"{sum(v is None for v in g)} runs did not gather within 45 min"
             )
             if m == "proposed":
                 table.add(
@@ -282,10 +284,11 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
                     "criterion (a centroid-at-G rule would count a split herd as delivered)",
                 )
             else:
-                prop = [r for r in rows if r["n"] == n and r["method"] == "proposed"]
+                prop = {r["seed"]: r for r in rows if r["n"] == n and r["method"] == "proposed"}
+                both = [(b, prop[b["seed"]]) for b in rs if b["seed"] in prop]  # paired by seed
                 pairs = [
                     (b["total_time"], p["total_time"])
-                    for b, p in zip(rs, prop)
+                    for b, p in both
                     if b["total_time"] is not None and p["total_time"] is not None
                 ]
                 extra = _minutes(_mean([b - p for b, p in pairs])) if pairs else None
@@ -297,7 +300,7 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
                 )
                 gpairs = [
                     (b["gather_time"], p["gather_time"])
-                    for b, p in zip(rs, prop)
+                    for b, p in both
                     if b["gather_time"] is not None and p["gather_time"] is not None
                 ]
                 table.add(
@@ -311,22 +314,22 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
             curves = np.array([np.pad(r["curve_r"], (0, T - len(r["curve_r"])), mode="edge") for r in rs])
             t = max((r["curve_t"] for r in rs), key=len)
             ax.plot(t / 60.0, curves.mean(axis=0), style, label=f"{n} animals, {m}")
-            for r in rs:
-                csv_rows.append(
-                    {
-                        k: r[k]
-                        for k in (
-                            "n",
-                            "seed",
-                            "method",
-                            "gather_time",
-                            "total_time",
-                            "on_hull_time",
-                            "wall_time",
-                            "max_animal_speed",
-                        )
-                    }
-                )
+            csv_rows.extend(
+                {
+                    k: r[k]
+                    for k in (
+                        "n",
+                        "seed",
+                        "method",
+                        "gather_time",
+                        "total_time",
+                        "on_hull_time",
+                        "wall_time",
+                        "max_animal_speed",
+                    )
+                }
+                for r in rs
+            )
     prop_rows = [r for r in rows if r["method"] == "proposed"]
     table.add(
         "proposed runs: allocations that let drones pass each other",
@@ -363,7 +366,7 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
         ("benchmark", 480.0, "(f) 8 min, benchmark"),
     ]
     goal = next((r["goal"] for r in rows if r["n"] == 1000 and r["seed"] == 0), None)
-    for a, (m, t, title) in zip(axes, panels):
+    for a, (m, t, title) in zip(axes, panels, strict=True):  # 5 axes for 5 panels
         if t in snap.get(m, {}):
             plot_state(snap[m][t], goal=goal, ax=a, title=title)
         else:
@@ -379,7 +382,7 @@ def _sweeps(out: Path, quick: bool, executor, store) -> None:
     n_animals = 100 if quick else 200
     seeds = range(1) if quick else range(5)
     tasks = []
-    for name, (label, full, qv, _, key) in SWEEPS.items():
+    for name, (_label, full, qv, _, key) in SWEEPS.items():
         for value in qv if quick else full:
             for s in seeds:
                 for n in (
@@ -417,10 +420,12 @@ def _sweeps(out: Path, quick: bool, executor, store) -> None:
     fig, axes = plt.subplots(2, 3, figsize=(13, 7))
     import pandas as pd
 
-    flat = []
-    for a, (name, (label, full, qv, statement, _)) in zip(axes.flat, SWEEPS.items()):
+    flat: list[dict[str, Any]] = []
+    for a, (name, (label, full, qv, statement, _)) in zip(
+        axes.flat, SWEEPS.items(), strict=True
+    ):  # 2 x 3 axes, 6 sweeps
         values = qv if quick else full
-        cells = {v: [] for v in values}
+        cells: dict[Any, list[str]] = {v: [] for v in values}
         sizes = sorted({r["n"] for r in rows if r["sweep"] == name})
         for n_sw, (m, style) in [
             (n_sw, ms) for n_sw in sizes for ms in (("proposed", "o-"), ("benchmark", "s--"))
@@ -437,18 +442,18 @@ def _sweeps(out: Path, quick: bool, executor, store) -> None:
                 fails = sum(x is None for x in g)
                 tag = m[0] if len(sizes) == 1 else f"{m[0]}{n_sw}"
                 cells[v].append(f"{tag} {'—' if ys[-1] is None else f'{ys[-1]:.1f}'}{'*' * fails}")
-                for r in rs:
-                    flat.append(
-                        {
-                            "sweep": name,
-                            "value": v,
-                            "n": n_sw,
-                            "method": m,
-                            "seed": r["seed"],
-                            "gather_after_hull": r["gather_after_hull"],
-                            "gather_time": r["gather_time"],
-                        }
-                    )
+                flat.extend(
+                    {
+                        "sweep": name,
+                        "value": v,
+                        "n": n_sw,
+                        "method": m,
+                        "seed": r["seed"],
+                        "gather_after_hull": r["gather_after_hull"],
+                        "gather_time": r["gather_time"],
+                    }
+                    for r in rs
+                )
             a.plot(
                 values,
                 [np.nan if y is None else y for y in ys],
@@ -511,7 +516,7 @@ GAP_SIZES = (2, 4, 6, 7, 8, 16, 64)
 GAP_THESIS = {("herding", "alg3"): "exact (Alg. 3 enumerates all n!·2^n allocations)"}
 
 
-def gap_task(task: dict) -> list[dict]:
+def gap_task(task: Mapping[str, Any]) -> list[dict]:
     """One allocation instance in the results schema: exact, Algorithm 3, CP-SAT and the
     collision-blind relaxation (a lower bound); objective = max travel (m), minimised."""
     n, seed = int(task["n"]), int(task["seed"])
@@ -613,11 +618,12 @@ def gap(
 
 # --------------------------------------------------------------------------- bench
 def bench(*, quick: bool, out: Path) -> None:
-    """Allocation timings (exact n=64, Alg.3/exact n=7), simulation speed (1000 animals), proposed vs benchmark."""
+    """Allocation timings (exact n=64, Alg.3/exact n=7), simulation speed (1000 animals), proposed vs
+    benchmark; a comparison table in ``out``."""
     out = Path(out)
     table = ComparisonTable("Herding benchmarks (measured in this run)")
     d, s, M = random_allocation_instance(64, 0)
-    res, t64 = timed(solve_allocation, d, s, M, repeat=50)
+    _, t64 = timed(solve_allocation, d, s, M, repeat=50)
     table.add(
         "exact allocation, n = 64 (ms)", "target < 10", t64 * 1e3, "median of 50 solves, random hull instance"
     )
@@ -631,7 +637,7 @@ def bench(*, quick: bool, out: Path) -> None:
         f"medians: Alg. 3 {t_bf * 1e3:.1f} ms, exact {t_ex * 1e3:.3f} ms",
     )
     d, s, M = random_allocation_instance(12, 2)
-    cp, t_cp = timed(solve_allocation, d, s, M, method="cp-sat", repeat=3)
+    _, t_cp = timed(solve_allocation, d, s, M, method="cp-sat", repeat=3)
     table.add("CP-SAT / exact time ratio, n = 12", "—", t_cp / t_ex, f"CP-SAT {t_cp * 1e3:.1f} ms (1 worker)")
     t_sim = 300.0 if quick else 1200.0
     r = run_once({"n": 1000, "seed": 0, "method": "proposed", "t_max": t_sim, "gather_only": False})
@@ -659,7 +665,7 @@ def bench(*, quick: bool, out: Path) -> None:
         rows = list(ex.map(run_once, tasks))
     gp = [r["gather_time"] for r in rows if r["method"] == "proposed"]
     gb = [r["gather_time"] for r in rows if r["method"] == "benchmark"]
-    pairs = [(p, b) for p, b in zip(gp, gb) if p is not None and b is not None]
+    pairs = [(p, b) for p, b in zip(gp, gb, strict=True) if p is not None and b is not None]  # task order
     faster = (1 - np.mean([p for p, _ in pairs]) / np.mean([b for _, b in pairs])) if pairs else None
     table.add(
         f"proposed gathers faster than benchmark ({seeds} seeds, 200 animals)",

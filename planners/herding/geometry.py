@@ -111,7 +111,10 @@ class ExtendedHull:
     def from_points(
         cls, animals: np.ndarray, d_s: float, *, mitre_limit: float = MITRE_LIMIT
     ) -> ExtendedHull:
-        """Extended hull of a herd (n, 2) at offset d_s (m); mitre_limit: see :func:`extended_hull_vertices`."""
+        """Extended hull of a herd (n, 2) at offset d_s (m).
+
+        mitre_limit: see :func:`extended_hull_vertices`.
+        """
         E, P = extended_hull_vertices(convex_hull(animals), d_s, mitre_limit=mitre_limit)
         return cls.from_vertices(E, P)
 
@@ -242,9 +245,9 @@ def min_enclosing_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
         dist = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
         # surely inside, whatever the rounding of the scalar norm (a few ulps); NaN is not
         sure = dist <= (circle[1] * (1 + 1e-12) + 1e-9) * (1 - 1e-13)
-        for q in np.flatnonzero(~sure):
-            if not inside(circle, P[head + int(q)]):
-                return head + int(q)
+        for off in np.flatnonzero(~sure).tolist():
+            if not inside(circle, P[head + off]):
+                return head + off
         return hi
 
     n = len(P)

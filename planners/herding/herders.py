@@ -119,14 +119,17 @@ class _Herder(abc.ABC):
         self.n_allocations = 0
         self.n_crossing_allocations = 0
         self.all_on_hull_time = None
-        self.drive_centre = None
-        self.drive_slot = None
+        self.drive_centre: np.ndarray | None = None
+        self.drive_slot: np.ndarray | None = None
         self.drive_toggle = np.zeros(n, dtype=bool)
         self.fallbacks = 0  # allocations without a solution (the drones then hold position)
         self.statuses: list[str] = []  # status of every allocation solve
 
     def command(self, obs: HerdingObservation) -> HerdingCommand:
-        """Speeds (m/s) and heading rates (rad/s) of the drones for this sub-step (replanning on ``obs.replan``)."""
+        """Speeds (m/s) and heading rates (rad/s) of the drones for this sub-step.
+
+        Replans (hull, allocation or driving formation) when ``obs.replan``.
+        """
         if obs.replan:
             self._observe(obs.animals, obs.centroid, obs.phase, obs.drones)
         return HerdingCommand(*self._control(obs.t, obs.drones, obs.headings, obs.dt))
@@ -158,11 +161,13 @@ class _Herder(abc.ABC):
         if self.phase == HerdingPhase.DRIVING:
             b = self.Q_target - drones
             return steer(headings, b, p.V_max, p.U_max, dt)
+        hull = self.hull
+        assert hull is not None  # gathering: _observe built it on this step's first sub-step
         v = np.zeros(len(drones))
         omega = np.zeros(len(drones))
         off = ~self.on_hull
         if off.any():
-            v_o, w_o, b = fly_to_edge(drones[off], headings[off], self.hull, p.V_max, p.U_max, dt)
+            v_o, w_o, b = fly_to_edge(drones[off], headings[off], hull, p.V_max, p.U_max, dt)
             v[off], omega[off] = v_o, w_o
             arrived = np.linalg.norm(b, axis=1) < self.settings.arrive_tol
             idx = np.flatnonzero(off)[arrived]
@@ -174,9 +179,9 @@ class _Herder(abc.ABC):
             if self.allocated:
                 tgt, dirn = self.s_target[on], self.direction[on]
             else:  # waiting for the others to arrive: hold position on the hull
-                s_now = self.hull.project(drones[on])[0]
+                s_now = hull.project(drones[on])[0]
                 tgt, dirn = s_now, np.ones(on.sum(), dtype=int)
-            v_n, w_n, _ = fly_on_edge(drones[on], headings[on], self.hull, tgt, dirn, p.V_max, p.U_max, dt)
+            v_n, w_n, _ = fly_on_edge(drones[on], headings[on], hull, tgt, dirn, p.V_max, p.U_max, dt)
             v[on], omega[on] = v_n, w_n
         return v, omega
 
@@ -188,17 +193,18 @@ class _Herder(abc.ABC):
     def _plan_driving(self, animals, drones) -> None:
         p = self.p
         hv = convex_hull(animals)
-        centre, radius = min_enclosing_circle(hv)
+        centre, _ = min_enclosing_circle(hv)
         to_goal = self.goal - centre
         dist_goal = float(np.linalg.norm(to_goal))
-        if self.drive_centre is None:
-            self.drive_centre = centre.copy()
+        c = self.drive_centre
+        if c is None:
+            c = centre.copy()
         else:  # L follows the herd's extended circle at no more than V_driving
-            gap = centre - self.drive_centre
+            gap = centre - c
             dn = float(np.linalg.norm(gap))
             step = p.V_driving * p.delta
-            self.drive_centre = centre.copy() if dn <= step else self.drive_centre + gap / dn * step
-        c = self.drive_centre
+            c = centre.copy() if dn <= step else c + gap / dn * step
+        self.drive_centre = c
         # the circle around L's centre that encloses the herd, grown by d_s (equals the
         # extended circle while L's centre is the enclosing circle's centre)
         R = float(np.max(np.linalg.norm(hv - c, axis=1))) + p.d_s
@@ -206,13 +212,15 @@ class _Herder(abc.ABC):
         n = p.n_drones
         angles = phi0 - math.pi / 2 + math.pi * np.arange(n + 1) / n
         Q = c + R * np.column_stack([np.cos(angles), np.sin(angles)])
-        if self.drive_slot is None:
+        slot = self.drive_slot
+        if slot is None:
             # slots in angular order of the drones around the centre: nobody crosses
             rel = np.arctan2(drones[:, 1] - c[1], drones[:, 0] - c[0])
             order = np.argsort(np.mod(rel - (phi0 - math.pi), 2 * math.pi))
-            self.drive_slot = np.empty(n, dtype=int)
-            self.drive_slot[order] = np.arange(n)
-        lo, hi = Q[self.drive_slot], Q[self.drive_slot + 1]
+            slot = np.empty(n, dtype=int)
+            slot[order] = np.arange(n)
+            self.drive_slot = slot
+        lo, hi = Q[slot], Q[slot + 1]
         # side to side: turn round near the current end
         cur = np.where(self.drive_toggle[:, None], lo, hi)
         reached = np.linalg.norm(drones - cur, axis=1) < max(self.settings.turn_tol, p.V_max * p.delta)
@@ -232,6 +240,7 @@ class ProposedHerder(_Herder):
 
     def _plan_gathering(self, drones) -> None:
         hull = self.hull
+        assert hull is not None  # _observe builds it before planning
         M = hull.perimeter
         s_d = hull.project(drones)[0]
         steer_s = steering_points(hull, self.centroid, self.p.n_drones)
@@ -264,6 +273,7 @@ class BenchmarkHerder(_Herder):
 
     def _bounds(self):
         hull = self.hull
+        assert hull is not None  # _observe builds it before planning
         M = hull.perimeter
         n = self.p.n_drones
         s0 = hull.ray_s(self.centroid, 0.0)
@@ -272,6 +282,7 @@ class BenchmarkHerder(_Herder):
 
     def _plan_gathering(self, drones) -> None:
         starts, length, M = self._bounds()
+        assert self.hull is not None  # _observe builds it before planning
         s_d = self.hull.project(drones)[0]
         s_d = np.where(s_d >= M, 0.0, s_d)
         if self.segment is None:

@@ -115,7 +115,7 @@ def test_fewer_steering_points_than_drones_rule():
 
 
 @pytest.mark.parametrize(
-    "args, match",
+    ("args", "match"),
     [
         (([], [1.0], 10.0), "at least one drone"),
         (([1.0], [], 10.0), "at least one steering"),

@@ -35,7 +35,7 @@ def test_extended_hull_edges_parallel_at_distance_ds(pts, ds):
     P = convex_hull(pts)
     if len(P) < 3:
         return
-    E, corr = extended_hull_vertices(P, ds, mitre_limit=float("inf"))  # Definition 6.3.1 as written
+    E, _ = extended_hull_vertices(P, ds, mitre_limit=float("inf"))  # Definition 6.3.1 as written
     assert len(E) == len(P)  # one-to-one edges (Definition 6.3.1)
     if np.max(np.linalg.norm(E - P, axis=1)) > 100 * ds:
         return  # needle-sharp corner (mitre spike): the float comparisons below lose precision

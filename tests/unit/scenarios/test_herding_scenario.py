@@ -97,7 +97,7 @@ def test_footprint_radius():
 
 
 @pytest.mark.parametrize(
-    "kw, match",
+    ("kw", "match"),
     [
         ({"V_max": 0.0}, "V_max"),
         ({"U_max": -1.0}, "U_max"),
