@@ -470,7 +470,10 @@ def _sweeps(out: Path, quick: bool, executor, store) -> None:
             "; ".join(f"{v}: {' / '.join(c)}" for v, c in cells.items()),
             "value: p = proposed / b = benchmark mean; * = a run that did not gather in 40 min",
         )
-    fig.suptitle("Figs. 6.8-6.10 (reduced sweeps)")
+    fig.suptitle(
+        f"Figs. 6.8-6.10 ({n_animals} animals, {len(seeds)} seed(s) per point"
+        f"{', reduced sweeps' if quick else ''})"
+    )
     fig.tight_layout()
     fig.savefig(out / "fig_6_8_to_6_10_sweeps.png", dpi=110)
     plt.close(fig)
