@@ -8,10 +8,13 @@ that ``formulations.cells`` selects for 1-2 workers); bench also times HiGHS.
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
+import pandas as pd
 
 from droneplan.formulations.cells import evaluate, solve_milp
 from droneplan.planners.cells import (
@@ -23,7 +26,7 @@ from droneplan.planners.cells import (
     thesis_ga_settings,
 )
 from droneplan.scenarios.cells import THESIS_TABLE_4_3, thesis_problem
-from droneplan.solvers.result import Status
+from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.common import ComparisonTable, make_executor, map_rows, open_store, report_study
 from droneplan.studies.plots.cells import plot_deployment_region, plot_map
 from droneplan.studies.store import Outcome, build_rows, instance_id
@@ -48,7 +51,7 @@ INSTANCE_SEED = 0
 MILP_BACKEND = "cp-sat"
 
 
-def reproduce_task(task: dict) -> list[dict]:
+def reproduce_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
     """One reproduce instance of ch. 4 in the results schema (objective = covered users, maximised).
 
     kind ``exact``: MILP and exhaustive search (Alg. 2) on ``thesis_problem(m, seed)``;
@@ -96,9 +99,25 @@ def reproduce_task(task: dict) -> list[dict]:
     return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
 
 
-def _objective(df, instance: str, method: str):
+def _find_row(df: pd.DataFrame, instance: object, method: str) -> pd.Series | None:
+    """The row of ``method`` on ``instance`` in a results frame, or None if it is missing."""
     row = df[(df["instance"] == instance) & (df["method"] == method)]
     return row.iloc[0] if len(row) else None
+
+
+def _covered(result: SolveResult) -> float:
+    """Users covered by a GA / exhaustive / MILP result (they always return a plan)."""
+    if result.objective is None:
+        raise RuntimeError(f"{result.backend} returned no plan: {result.message}")
+    return float(result.objective)
+
+
+def _objective(df: pd.DataFrame, instance: object, method: str) -> pd.Series:
+    """The row of ``method`` on ``instance`` in a results frame; LookupError if it is missing."""
+    row = _find_row(df, instance, method)
+    if row is None:
+        raise LookupError(f"no {method!r} row for instance {instance!r} in the results store")
+    return row
 
 
 def reproduce(*, quick: bool, out: Path, executor=None, store=None) -> None:
@@ -179,10 +198,10 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
         f"{INSTANCE_SEED}; MILP backend {MILP_BACKEND})"
     )
     opt, milp_sol, rows = {}, {}, []
-    for m, task in zip(ms, exact):
+    for m, task in zip(ms, exact, strict=True):
         t_es, t_ga_th, _, P, N, pg = THESIS_TABLE_4_3[m]
         milp, es = _objective(df, task["instance"], "milp"), _objective(df, task["instance"], "exhaustive")
-        cont = _objective(df, task["instance"], "continuous-bound")
+        cont = _find_row(df, task["instance"], "continuous-bound")
         ga = df[df["instance"].isin([t["instance"] for t in ga43 if t["m"] == m]) & (df["method"] == "ga")]
         opt[m] = milp["objective"] if milp["status"] == "optimal" else None
         milp_sol[m] = milp
@@ -234,12 +253,10 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
             }
         )
     tab.emit(out, "table_4_3")
-    import pandas as pd
-
     pd.DataFrame(rows).to_csv(out / "table_4_3_raw.csv", index=False)
-    # ---------------------------------------------------------------- Fig 4.4 maps (re-solve: positions are not stored)
+    # ------------------------------------------------ Fig 4.4 maps (re-solve: positions are not stored)
     fig, axes = plt.subplots(1, len(ms), figsize=(5.5 * len(ms), 5.5))
-    for ax, m in zip(np.atleast_1d(axes), ms):
+    for ax, m in zip(np.atleast_1d(axes), ms, strict=True):
         p = thesis_problem(m, INSTANCE_SEED)
         r = solve_milp(p, backend=MILP_BACKEND, time_limit=milp_limit)
         plot_map(p, r.x, ax=ax, title=f"m={m}: {r.objective:g} users ({r.status.name})")
@@ -297,7 +314,7 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
     df = map_rows(reproduce_task, nc, executor=ex, store=st, desc="Fig. 4.6")
     t46 = ComparisonTable("Fig. 4.6 - users covered vs m, clustered vs non-clustered (same expected count)")
     cl, ncl = [], []
-    for m, task in zip(ms, nc):
+    for m, task in zip(ms, nc, strict=True):
         ru = _objective(df, task["instance"], "milp")
         cl.append(milp_sol[m]["objective"])
         ncl.append(ru["objective"])
@@ -432,14 +449,15 @@ def ga_ablation(
         p = thesis_problem(m, seed)
         es = exhaustive(p, time_limit=es_limit)
         milp = solve_milp(p, time_limit=milp_limit)
+        es_obj, milp_obj = _covered(es), _covered(milp)
         feats = instance_features(p)
-        P, N = thesis_ga_settings(m)
+        _, N = thesis_ga_settings(m)
         for name, spec in variants.items():
             n_runs = runs if name == "thesis" or ablation_runs is None else ablation_runs
             s = GASettings(**spec.get("settings", {}))
             kw = {"restarts": 1, "iter_max": 50 * N} if spec.get("no_restarts") else {}
             objs = [
-                genetic(p, seed=10_000 * seed + 100 * m + r, settings=s, **kw).objective
+                _covered(genetic(p, seed=10_000 * seed + 100 * m + r, settings=s, **kw))
                 for r in range(n_runs)
             ]
             rows.append(
@@ -448,8 +466,8 @@ def ga_ablation(
                     "m": m,
                     "variant": name,
                     "runs": n_runs,
-                    "p_es": float(np.mean([o >= es.objective for o in objs])),
-                    "p_milp": float(np.mean([o >= milp.objective for o in objs]))
+                    "p_es": float(np.mean([o >= es_obj for o in objs])),
+                    "p_milp": float(np.mean([o >= milp_obj for o in objs]))
                     if milp.status is Status.OPTIMAL
                     else None,
                     "mean_obj": float(np.mean(objs)),
@@ -514,7 +532,7 @@ def _distribution_rows(t: ComparisonTable, df, m: int, limit: float) -> None:
 GAP_THESIS = {("cells", "ga"): "P_Global = 1.0 at m=3 (Table 4.3)"}
 
 
-def gap_task(task: dict) -> list[dict]:
+def gap_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
     """One instance in the results schema: GA and exhaustive (Alg. 2) vs the MILP and its
     bounds; objective = covered users, maximised."""
     seed, m = int(task["seed"]), int(task["m"])

@@ -104,10 +104,10 @@ def evaluate(problem: CellProblem, positions) -> Evaluation:
         v += [f"drone-cell {i} outside bounds" for i in np.flatnonzero(out)]
     if k:
         dg = _dist(pos, problem.gbs)
-        for i, h in zip(*np.nonzero(dg < problem.R_g + problem.R_d - TOL)):
+        for i, h in zip(*np.nonzero(dg < problem.R_g + problem.R_d - TOL), strict=True):
             v.append(f"drone-cell {i} overlaps GBS {h} cell: distance {dg[i, h]:.3f} < R_g + R_d (4.7)")
         dd = _dist(pos, pos)
-        for i, h in zip(*np.nonzero(np.triu(dd < 2 * problem.R_d - TOL, 1))):
+        for i, h in zip(*np.nonzero(np.triu(dd < 2 * problem.R_d - TOL, 1)), strict=True):
             v.append(f"drone-cells {i} and {h} overlap: distance {dd[i, h]:.3f} < 2 R_d (4.8)")
     conn = connected_mask(problem, pos)
     v += [f"drone-cell {i} has no backhaul path to a GBS" for i in np.flatnonzero(~conn)]
@@ -196,8 +196,10 @@ def raw_candidate_points(problem: CellProblem) -> np.ndarray:
     parts = [t, pair_intersections(t, R)]
     if len(t):
         for g in problem.gbs:
-            for rad in (problem.r1, problem.R_g + problem.R_d):
-                parts.append(circle_intersections(t, R, np.broadcast_to(g, t.shape), rad))
+            parts.extend(
+                circle_intersections(t, R, np.broadcast_to(g, t.shape), rad)
+                for rad in (problem.r1, problem.R_g + problem.R_d)
+            )
         if problem.bounds is not None:
             xmin, xmax, ymin, ymax = problem.bounds
             for axis, val in ((0, xmin), (0, xmax), (1, ymin), (1, ymax)):

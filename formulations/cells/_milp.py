@@ -264,6 +264,17 @@ def greedy_placement(problem: CellProblem, cand: Candidates) -> np.ndarray:
 
 # --------------------------------------------------------------------------- model
 @dataclass
+class _SearchState:
+    """Incumbent and bookkeeping shared by the rounds of ``solve_milp``'s target scheme."""
+
+    inc: np.ndarray  # incumbent placement (m, 2), m
+    inc_val: float  # users it covers
+    rounds: int = 0  # model solves so far
+    raw: str = ""  # the last backend status code
+    stats: dict[str, Any] = field(default_factory=dict)  # the last model's size
+
+
+@dataclass
 class CellModel:
     """A built candidate model (the output of :func:`build_milp`)."""
 
@@ -291,16 +302,14 @@ class CellModel:
 
 def _grid_cliques(points: np.ndarray, R_d: float) -> list[np.ndarray]:
     side = (2 * R_d - TOL) / math.sqrt(2)  # same half-open square => distance < 2 R_d - TOL
-    out = []
+    out: list[np.ndarray] = []
     for sx, sy in ((0, 0), (0.5, 0), (0, 0.5), (0.5, 0.5)):
         key = np.floor(points / side - np.array([sx, sy])).astype(np.int64)
         _, inv = np.unique(key, axis=0, return_inverse=True)
         inv = inv.ravel()
         order = np.argsort(inv, kind="stable")
         bounds = np.flatnonzero(np.diff(inv[order])) + 1
-        for grp in np.split(order, bounds):
-            if len(grp) > 1:
-                out.append(np.sort(grp))
+        out.extend(np.sort(grp) for grp in np.split(order, bounds) if len(grp) > 1)
     return out
 
 
@@ -412,7 +421,9 @@ def build_milp(
         both = np.concatenate([extra, extra[:, ::-1]])
         both = both[np.argsort(both[:, 0], kind="stable")]
         starts = np.flatnonzero(np.r_[True, np.diff(both[:, 0]) != 0])
-        for k, (lo, hi) in enumerate(zip(starts.tolist(), np.r_[starts[1:], len(both)].tolist())):
+        for k, (lo, hi) in enumerate(
+            zip(starts.tolist(), np.r_[starts[1:], len(both)].tolist(), strict=True)
+        ):
             a, bs = int(both[lo, 0]), both[lo:hi, 1].tolist()
             cap = min(len(bs), 5, max(problem.n_cells - 1, 0))
             lin.add(lin.sum([x[b] for b in bs]) + cap * x[a] <= cap)
@@ -481,9 +492,9 @@ def build_milp(
                 return None
     if y:
         if objective_range is not None:
-            lo, hi = objective_range
-            lin.add(lin.sum(y.values()) >= int(math.ceil(lo - 1e-9)))
-            lin.add(lin.sum(y.values()) <= int(math.floor(hi + 1e-9)))
+            obj_lo, obj_hi = objective_range
+            lin.add(lin.sum(y.values()) >= math.ceil(obj_lo - 1e-9))
+            lin.add(lin.sum(y.values()) <= math.floor(obj_hi + 1e-9))
         lin.maximize(lin.sum(y.values()))
     stats = {
         "candidates": len(cand.points),
@@ -518,7 +529,7 @@ def _add_cuts(
     """Append to ``cuts`` the cuts violated by the chosen sites (global indices ``chosen`` at
     ``pos``): a clique around each overlapping pair and the connectivity cuts of item 3a."""
     d = np.hypot(pos[:, None, 0] - pos[None, :, 0], pos[:, None, 1] - pos[None, :, 1])
-    for a, b in zip(*np.nonzero(np.triu(d < 2 * problem.R_d - TOL, 1))):
+    for a, b in zip(*np.nonzero(np.triu(d < 2 * problem.R_d - TOL, 1)), strict=True):
         mid = (pos[a] + pos[b]) / 2
         # d/2 < rho and 2 rho < 2 R_d - TOL: the ball holds both sites and is a clique
         rho = (d[a, b] + 2 * problem.R_d - TOL) / 4
@@ -603,7 +614,7 @@ def _hint(problem: CellProblem, mdl: CellModel, placement: np.ndarray) -> dict:
         if len(j):
             on[j[0]] = True
     hint = {v: bool(on[i]) for i, v in enumerate(mdl.x)}
-    covered = set()
+    covered: set[int] = set()
     for i in np.flatnonzero(on):
         covered.update(int(u) for u in mdl.cover[i])
     hint.update({v: u in covered for u, v in mdl.y.items()})
@@ -688,8 +699,8 @@ def solve_milp(
         wv = evaluate(problem, w).covered
         dropped = len(warm) - len(w)
         why = (
-            f"{dropped} of {len(warm)} given sites dropped to make it feasible (outside bounds, in a GBS cell, "
-            f"overlapping, without backhaul or beyond n_cells); "
+            f"{dropped} of {len(warm)} given sites dropped to make it feasible (outside bounds, "
+            f"in a GBS cell, overlapping, without backhaul or beyond n_cells); "
             if dropped
             else ""
         )
@@ -782,12 +793,13 @@ def solve_milp(
         )
     # B_{m-1} for the pruning of item 1; B_m (>= B_{m-1}, weaker but still exact pruning)
     # when there is less time left than the first relaxation took
-    if time_limit is not None and left() < relax.solve_time:
+    time_left = left()
+    if time_left is not None and time_left < relax.solve_time:
         b_prev = ub
     else:
         relax_prev = coverage_upper_bound(problem, problem.n_cells - 1, time_limit=left())
         b_prev = n_active if relax_prev.bound is None else float(relax_prev.bound)
-    state = {"inc": inc, "inc_val": inc_val, "rounds": 0, "raw": "", "stats": {}}
+    state = _SearchState(inc=inc, inc_val=float(inc_val))
 
     tree = cKDTree(cand.points)
     cuts: list = []
@@ -798,24 +810,24 @@ def solve_milp(
         ("stopped", bound of the restricted problem)."""
         rbound = math.inf
         deadline = None if time_limit is None else t0 + time_limit
-        while state["rounds"] < max_rounds:
+        while state.rounds < max_rounds:
             if expired():
                 return "stopped", rbound
-            state["rounds"] += 1
+            state.rounds += 1
             mdl = build_milp(
                 problem,
                 backend=backend,
                 candidates=cand,
                 keep=keep,
                 deadline=deadline,
-                objective_range=(state["inc_val"], ub),
+                objective_range=(state.inc_val, ub),
                 connectivity=connectivity,
                 cuts=cuts,
             )
             if mdl is None or expired():  # building can be long: the limit covers it
                 return "stopped", rbound
-            state["stats"] = mdl.stats
-            hint = _hint(problem, mdl, state["inc"])
+            state.stats = mdl.stats
+            hint = _hint(problem, mdl, state.inc)
             res = mdl.model.solve(
                 variables=mdl.x,
                 time_limit=left(),
@@ -823,12 +835,12 @@ def solve_milp(
                 hint={v: int(b) for v, b in hint.items()},
                 options=FEW_WORKER_OPTIONS.get(backend) if workers <= 2 else None,
             )
-            state["raw"] = res.backend_status
+            state.raw = res.backend_status
             if res.status is Status.INFEASIBLE:
                 # nothing in the restricted relaxation reaches the incumbent's value (the
                 # incumbent itself is feasible for it, so this only happens at rounding
                 # edges): the restricted optimum is at most the incumbent's value
-                return "optimal", float(state["inc_val"])
+                return "optimal", float(state.inc_val)
             if res.bound is not None:
                 rbound = min(rbound, math.floor(res.bound + 1e-6))
             if not res.has_solution:
@@ -842,8 +854,8 @@ def solve_milp(
                 )
             feas = pos if ev.feasible else _feasible_subset(problem, pos)
             cv = evaluate(problem, feas).covered
-            if cv > state["inc_val"]:
-                state["inc"], state["inc_val"] = feas, cv
+            if cv > state.inc_val:
+                state.inc, state.inc_val = feas, cv
             if res.status is not Status.OPTIMAL:
                 return "stopped", rbound
             if ev.feasible:
@@ -857,26 +869,23 @@ def solve_milp(
     # with g = incumbent value (the plain pruning of item 1).
     best_bound = ub
     status = Status.FEASIBLE
-    g = state["inc_val"] + 0.5 * (ub - state["inc_val"])
+    g = state.inc_val + 0.5 * (ub - state.inc_val)
     while True:
-        g = max(g, state["inc_val"])
-        final = g <= state["inc_val"]
-        keep = reduce_candidates(problem, cand, g, state["inc"], b_prev)
+        g = max(g, state.inc_val)
+        final = g <= state.inc_val
+        keep = reduce_candidates(problem, cand, g, state.inc, b_prev)
         outcome, val = solve_restricted(keep)
         if outcome == "optimal" and (val > g or final):
             status = Status.OPTIMAL
-            best_bound = min(best_bound, max(val, state["inc_val"]))
+            best_bound = min(best_bound, max(val, state.inc_val))
             break
         if outcome == "stopped":
-            if final:
-                best_bound = min(best_bound, val)
-            else:
-                # restricted to sites of value > g: solutions worth more than g are bounded by
-                # val; others are bounded by g
-                best_bound = min(best_bound, max(val, math.floor(g)))
+            # restricted to sites of value > g (unless final): solutions worth more than g are
+            # bounded by val; others are bounded by g
+            best_bound = min(best_bound, val if final else max(val, math.floor(g)))
             break
-        g = state["inc_val"] + 0.5 * (g - state["inc_val"]) if g - state["inc_val"] > 2 else state["inc_val"]
-    inc, rounds, raw, last_stats = state["inc"], state["rounds"], state["raw"], state["stats"]
+        g = state.inc_val + 0.5 * (g - state.inc_val) if g - state.inc_val > 2 else state.inc_val
+    inc, rounds, raw, last_stats = state.inc, state.rounds, state.raw, state.stats
     obj = float(evaluate(problem, inc).covered)
     if obj >= best_bound:
         status = Status.OPTIMAL
