@@ -217,18 +217,20 @@ def _run(args) -> int:
                 store.export(args.out / "results.csv")
         errors = store.frame()
         errors = errors[errors["status"] == "error"]
-        if len(errors):
-            first = errors.iloc[0]
-            print(
-                f"droneplan: {len(errors)} task(s) ended in an error row (first: {first['problem']} "
-                f"{first['instance']}: {first['message']}); rerun the same command to retry them",
-                file=sys.stderr,
-            )
-            return 1
     if args.command == "reproduce" and args.report:
+        # written even when some tasks errored: the report shows what finished, and the error
+        # rows' tables say so; the exit code below still reports the errors
         from droneplan.studies.report import write_report
 
         print(f"report: {write_report(args.out, problems=problems)}", flush=True)
+    if len(errors):
+        first = errors.iloc[0]
+        print(
+            f"droneplan: {len(errors)} task(s) ended in an error row (first: {first['problem']} "
+            f"{first['instance']}: {first['message']}); rerun the same command to retry them",
+            file=sys.stderr,
+        )
+        return 1
     return 0
 
 

@@ -168,3 +168,30 @@ def test_dask_executor_maps_rows(tmp_path):
     ):
         df = map_rows(_square, _tasks(3), executor=ex, store=store)
     assert sorted(df["objective"]) == [0, 1, 4]
+
+
+def _failing_task(task):
+    raise RuntimeError(f"planned failure on {task['instance']}")
+
+
+def test_reproduce_report_is_written_when_a_task_errors(tmp_path, monkeypatch):
+    """An error row does not suppress --report: the page shows what finished, the exit code is 1."""
+    import types
+
+    def reproduce(*, quick, out, executor, store):
+        map_rows(_square, _tasks(2), executor=executor, store=store)
+        map_rows(
+            _failing_task,
+            [{"problem": "herding", "instance": "t:bad", "seed": 9}],
+            executor=executor,
+            store=store,
+        )
+        ComparisonTable("fake table").emit(out, "fake")
+
+    monkeypatch.setattr(cli, "_load", lambda problem: types.SimpleNamespace(reproduce=reproduce))
+    monkeypatch.setattr(cli, "available_problems", lambda: ["herding"])
+    code = cli.main(["reproduce", "herding", "--quick", "--out", str(tmp_path), "--workers", "1", "--report"])
+    assert code == 1
+    assert (tmp_path / "report.html").is_file()
+    rows = pd.read_csv(tmp_path / "results.csv")
+    assert sorted(rows["status"].unique()) == ["error", "feasible"]
