@@ -1,0 +1,283 @@
+"""Exact combinatorial branch and bound over the candidate sites (thesis ch. 4).
+
+Solves the same *candidate problem* as the MILP of ``_milp`` (choose at most m candidate
+sites, pairwise non-overlapping, every one linked to a GBS through chosen sites, maximise
+the users covered) by depth-first enumeration with exact pruning. Every placement X is
+enumerated as the sequence of its sites in one fixed order (weight |S(c)| descending,
+ties by index), so each X is reached from exactly one branch; a branch is cut only when
+a valid upper bound on everything below it is <= the incumbent value, so the search
+proves optimality when it ends.
+
+Why each element is exact:
+
+1. **Additive bound.** Below a node holding sites P (last in the order: site i), every
+   completion Q consists of sites after i that do not overlap P or each other, and
+   |S(P u Q)| <= |S(P)| + sum_{q in Q} |S(q)| (a union is at most the sum). Non-overlap
+   makes this nearly tight: two chosen sites >= 2 R_d - TOL apart share only users in a
+   lens of width ~TOL. The sum is never used as a value, only as a bound; values are
+   exact unions (bitsets).
+2. **Clique partition.** The sites are partitioned once into cliques of the conflict
+   graph: a site's clique holds the still unassigned sites within R_d - TOL of it, which
+   are pairwise < 2 R_d - 2 TOL apart, so they overlap pairwise and at most one of them
+   is chosen. Hence sum_{q in Q} |S(q)| <= the sum of the r largest per-clique maxima
+   over the sites still compatible with P (r = free slots). Sites overlapping P are not
+   compatible, so a cluster already covered by P does not count again.
+3. **Relay lower bound.** In a connected placement the path from a GBS to a chosen site
+   a passes through chosen sites; between consecutive P-sites s, t (or the GBS and the
+   first one) on it lie at least ceil((|s - t| - r2 - TOL) / (r2 + TOL)) further sites
+   (ceil((|a - G| - r1 - TOL) / (r2 + TOL)) from the GBS), every link being at most
+   r2 + TOL (r1 + TOL to a GBS). The shortest such path count over the complete graph
+   on P and the GBSs is a lower bound on the relays outside P that P needs, so a branch
+   with more needed relays than free slots holds no feasible placement. (Ceilings are
+   taken of x - 1e-6 so rounding can only lower the bound.)
+4. **Order cut.** Sites after i weigh at most |S(j)| for the next candidate j, so once
+   |S(P)| + r |S(j)| <= incumbent no later candidate can lead above it.
+
+The search stops at the time limit with the incumbent and a valid bound: every
+unexplored branch lies below a node on the current path, whose bound was computed.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from droneplan.formulations.cells._core import TOL, Candidates, evaluate
+from droneplan.scenarios.cells import CellProblem
+
+
+@dataclass
+class BnbResult:
+    """Outcome of :func:`branch_and_bound`."""
+
+    positions: np.ndarray
+    """(k, 2) the best placement found (m)."""
+    value: int
+    """Users it covers."""
+    bound: float
+    """Upper bound on the candidate problem (== value when ``proven``)."""
+    proven: bool
+    """True when the search finished (the placement is optimal over the candidates)."""
+    nodes: int
+    """Search nodes visited."""
+
+
+class _Timeout(Exception):
+    pass
+
+
+@dataclass
+class _State:
+    best_val: int
+    nodes: int = 0
+    best: list[int] | None = None
+
+
+def _relay_cost(d: np.ndarray, reach: float, r2: float) -> np.ndarray:
+    """Lower bound on the relays needed to bridge a distance ``d`` when the first link
+    reaches ``reach`` and each further link r2 (tolerances included, item 3)."""
+    x = (d - reach - TOL) / (r2 + TOL) - 1e-6
+    return np.maximum(np.ceil(x), 0.0)
+
+
+def branch_and_bound(
+    problem: CellProblem,
+    cand: Candidates,
+    incumbent: np.ndarray,
+    incumbent_value: int,
+    *,
+    upper: float = math.inf,
+    time_limit: float | None = None,
+) -> BnbResult:
+    """Exact search of the candidate problem (module docstring).
+
+    problem: the CellProblem; cand: its candidate sites (``candidate_sites``);
+    incumbent: a feasible placement ((k, 2) m) worth ``incumbent_value`` users;
+    upper: a known upper bound (e.g. the continuous one): the search stops once the
+    incumbent reaches it; time_limit: seconds (None: none).
+    """
+    t0 = time.perf_counter()
+    m = problem.n_cells
+    n = len(cand.points)
+    best_pos = np.asarray(incumbent, dtype=float).reshape(-1, 2)
+    best_val = int(incumbent_value)
+    if n == 0 or m == 0 or best_val >= upper:
+        return BnbResult(best_pos, best_val, float(min(upper, best_val) if n == 0 else upper), True, 0)
+    w_all = np.array([len(c) for c in cand.cover], dtype=np.int64)
+    order = np.lexsort((np.arange(n), -w_all))
+    pts = cand.points[order]
+    w = w_all[order]
+    bits = [0] * n
+    for k, i in enumerate(order.tolist()):
+        b = 0
+        for u in cand.cover[i].tolist():
+            b |= 1 << int(u)
+        bits[k] = b
+    # item 2: clique partition, heaviest unassigned site first
+    tree = cKDTree(pts)
+    clique = np.full(n, -1, dtype=np.int64)
+    n_cl = 0
+    for i in range(n):
+        if clique[i] >= 0:
+            continue
+        nb = np.asarray(tree.query_ball_point(pts[i], problem.R_d - TOL), dtype=np.int64)
+        nb = nb[clique[nb] < 0]
+        clique[nb] = n_cl
+        clique[i] = n_cl
+        n_cl += 1
+    # conflicts (4.8): distance < 2 R_d - TOL, as rows of a dense boolean matrix
+    conflict = np.zeros((n, n), dtype=bool)
+    pairs = tree.query_pairs(2 * problem.R_d, output_type="ndarray")
+    if len(pairs):
+        d = np.hypot(*(pts[pairs[:, 0]] - pts[pairs[:, 1]]).T)
+        pairs = pairs[d < 2 * problem.R_d - TOL]
+        conflict[pairs[:, 0], pairs[:, 1]] = True
+        conflict[pairs[:, 1], pairs[:, 0]] = True
+    dg = np.min(
+        np.hypot(pts[:, None, 0] - problem.gbs[None, :, 0], pts[:, None, 1] - problem.gbs[None, :, 1]), axis=1
+    )
+    cg = _relay_cost(dg, problem.r1, problem.r2)  # item 3, GBS -> site
+    r2 = problem.r2
+
+    def top_cliques(idx: np.ndarray, k: int) -> list[int]:
+        """The k largest per-clique maxima over the sites ``idx`` (sorted heaviest first)."""
+        out: list[int] = []
+        if k <= 0:
+            return out
+        seen: set[int] = set()
+        lo = 0
+        while lo < len(idx):
+            hi = min(len(idx), lo + 64)
+            for t, c in zip(idx[lo:hi].tolist(), clique[idx[lo:hi]].tolist(), strict=True):
+                if c not in seen:
+                    seen.add(c)
+                    out.append(int(w[t]))
+                    if len(out) == k:
+                        return out
+            lo = hi
+        return out
+
+    state = _State(best_val)
+    stack_bounds: list[float] = []
+    r1t, r2t = problem.r1 + TOL, problem.r2 + TOL
+
+    def expired() -> bool:
+        return time_limit is not None and time.perf_counter() - t0 >= time_limit
+
+    def dfs(P: list[int], ubits: int, cmask: np.ndarray, dist: np.ndarray, nb: float) -> None:
+        # dist[k]: relay lower bound from a GBS to P[k] (item 3)
+        state.nodes += 1
+        if state.nodes % 256 == 0 and expired():
+            raise _Timeout
+        val = ubits.bit_count()
+        pp = pts[P]
+        if P:
+            dpp = np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1])
+            link = dpp <= r2t
+            reach = dg[P] <= r1t
+            for _ in range(len(P)):
+                nr = reach | np.any(link & reach[None, :], axis=1)
+                if np.array_equal(nr, reach):
+                    break
+                reach = nr
+        else:
+            reach = np.zeros(0, dtype=bool)
+        if val > state.best_val and reach.all():
+            ev = evaluate(problem, pp)
+            if ev.feasible and ev.covered > state.best_val:
+                state.best_val, state.best = int(ev.covered), list(P)
+        r = m - len(P)
+        if r == 0:
+            return
+        z = state.best_val
+        # item 4: candidates heavy enough, then the relay lower bound of P + j (item 3)
+        C = np.flatnonzero(cmask)
+        C = C[val + r * w[C] > z]
+        if len(C) == 0:
+            return
+        cgj = cg[C]
+        if P:
+            dpj = np.hypot(pp[:, None, 0] - pts[C][None, :, 0], pp[:, None, 1] - pts[C][None, :, 1])
+            ej = _relay_cost(dpj, r2, r2)  # (|P|, |C|)
+            gj = np.minimum(cgj, np.min(dist[:, None] + ej, axis=0))  # GBS -> j, possibly via P
+            newd = np.minimum(dist[:, None], gj[None, :] + ej)  # P sites possibly via j
+            need = np.maximum(gj, newd.max(axis=0))
+        else:
+            gj = cgj
+            need = cgj
+            newd = np.zeros((0, len(C)))
+            dpj = np.zeros((0, len(C)))
+        ok = np.flatnonzero(need <= r - 1)
+        if len(ok) == 0:
+            return
+        Cok = C[ok]
+        # node bound: items 1-2 over the sites that can still join (need <= r - 1). Sites
+        # cut by item 4 weigh at most w_th; they may still be the lighter members of a
+        # completion, so missing clique values are padded with w_th.
+        w_th = max((z - val) // r, 0)
+        tops = top_cliques(Cok, r)
+        tops += [w_th] * (r - len(tops))
+        b = val + sum(tops)
+        # item 6: the first completion site on a path from a GBS links to a GBS or to a
+        # reached P site, so its relay lower bound gj is 0: one slot holds at most the
+        # heaviest candidate with gj = 0
+        g0 = gj[ok] <= 0
+        wg = max(int(w[Cok[g0][0]]) if g0.any() else 0, w_th)
+        b = min(b, val + wg + sum(tops[: r - 1]))
+        if not reach.all():
+            # item 5: the P sites without a link path to a GBS need a chosen site of the
+            # completion within r2 + TOL of one of them (the first site off that group on
+            # a path to a GBS); that slot holds at most the heaviest such site
+            near = np.any(dpj[:, ok][~reach] <= r2t, axis=0)
+            wb = max(int(w[Cok[near][0]]) if near.any() else 0, w_th)
+            b = min(b, val + wb + sum(tops[: r - 1]))
+        bf = min(float(b), nb)
+        if bf <= z:
+            return
+        stack_bounds.append(bf)
+        try:
+            for k in ok.tolist():
+                j = int(C[k])
+                z = state.best_val
+                if val + r * int(w[j]) <= z:
+                    break
+                cm = cmask & ~conflict[j]
+                cm[: j + 1] = False
+                nd = np.append(newd[:, k], gj[k]) if P else np.array([gj[k]])
+                # shortest paths can only shorten further inside P + j: recompute exactly
+                pj = [*P, j]
+                dfs(pj, ubits | bits[j], cm, _close(pts[pj], nd, r2), bf)
+        finally:
+            stack_bounds.pop()
+
+    root_mask = np.ones(n, dtype=bool)
+    proven = True
+    try:
+        dfs([], 0, root_mask, np.zeros(0), float(upper))
+    except _Timeout:
+        proven = False
+    bound = float(state.best_val) if proven else max(float(state.best_val), max(stack_bounds, default=upper))
+    bound = min(bound, float(upper)) if upper < math.inf else bound
+    if state.best is not None:
+        best_pos = pts[state.best]
+    return BnbResult(best_pos, int(state.best_val), bound, proven, int(state.nodes))
+
+
+def _close(pp: np.ndarray, dist: np.ndarray, r2: float) -> np.ndarray:
+    """Shortest relay counts from a GBS to each of the sites ``pp`` given their direct
+    estimates ``dist``: relax through the complete graph of link costs (item 3)."""
+    k = len(pp)
+    if k <= 1:
+        return dist
+    e = _relay_cost(np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1]), r2, r2)
+    d = dist.copy()
+    for _ in range(k):
+        nd = np.minimum(d, np.min(d[:, None] + e, axis=0))
+        if np.array_equal(nd, d):
+            break
+        d = nd
+    return d
