@@ -77,6 +77,16 @@ class _State:
     best: list[int] | None = None
 
 
+_POP8 = np.array([bin(i).count("1") for i in range(256)], dtype=np.int64)
+
+
+def _popcount_rows(a: np.ndarray) -> np.ndarray:
+    """Number of set bits in each row of a 2-D unsigned integer array."""
+    if hasattr(np, "bitwise_count"):
+        return np.bitwise_count(a).sum(axis=1, dtype=np.int64)
+    return _POP8[np.ascontiguousarray(a).view(np.uint8)].sum(axis=1)
+
+
 def _relay_cost(d: np.ndarray, reach: float, r2: float) -> np.ndarray:
     """Lower bound on the relays needed to bridge a distance ``d`` when the first link
     reaches ``reach`` and each further link r2 (tolerances included, item 3)."""
@@ -117,6 +127,13 @@ def branch_and_bound(
         for u in cand.cover[i].tolist():
             b |= 1 << int(u)
         bits[k] = b
+    # item 7: coverage sets as packed bit rows (users of cover, in the sorted order)
+    n_words = max((len(problem.targets) + 63) // 64, 1)
+    member = np.zeros((n, n_words * 64), dtype=bool)
+    for k, i in enumerate(order.tolist()):
+        member[k, cand.cover[i]] = True
+    packed = np.packbits(member, axis=1, bitorder="little").view(np.uint64)
+    del member
     # item 2: clique partition, heaviest unassigned site first
     tree = cKDTree(pts)
     clique = np.full(n, -1, dtype=np.int64)
@@ -124,7 +141,12 @@ def branch_and_bound(
     for i in range(n):
         if clique[i] >= 0:
             continue
-        nb = np.asarray(tree.query_ball_point(pts[i], problem.R_d - TOL), dtype=np.int64)
+        # centred on the centroid of the users the site covers (a cluster's heaviest sites
+        # ring its centre, so one disc there holds all of them), else on the site itself
+        ctr = problem.targets[cand.cover[order[i]]].mean(axis=0) if w[i] else pts[i]
+        if math.dist(ctr, pts[i]) >= problem.R_d - 2 * TOL:
+            ctr = pts[i]
+        nb = np.asarray(tree.query_ball_point(ctr, problem.R_d - 2 * TOL), dtype=np.int64)
         nb = nb[clique[nb] < 0]
         clique[nb] = n_cl
         clique[i] = n_cl
@@ -168,6 +190,83 @@ def branch_and_bound(
     def expired() -> bool:
         return time_limit is not None and time.perf_counter() - t0 >= time_limit
 
+    def greedy_dual(P: list[int], C: np.ndarray, dist: np.ndarray, r: int) -> float:
+        """Item 7: an upper bound on |S(Q) - S(P)| over completions Q of at most r sites of
+        C that fit the relay bound of P + q, by submodularity of coverage."""
+        if P:
+            pp = pts[P]
+            ej = _relay_cost(
+                np.hypot(pp[:, None, 0] - pts[C][None, :, 0], pp[:, None, 1] - pts[C][None, :, 1]), r2, r2
+            )
+            gj = np.minimum(cg[C], np.min(dist[:, None] + ej, axis=0))
+            need = np.maximum(gj, np.minimum(dist[:, None], gj[None, :] + ej).max(axis=0))
+            C = C[need <= r - 1]
+            covered = np.bitwise_or.reduce(packed[P], axis=0)
+        else:
+            C = C[cg[C] <= r - 1]
+            covered = np.zeros(packed.shape[1], dtype=packed.dtype)
+        if len(C) == 0:
+            return 0.0
+        rows = packed[C]
+        f_g = 0
+        best = math.inf
+        for k in range(r + 1):
+            gain = _popcount_rows(rows & ~covered)
+            top = gain if len(gain) <= r else np.partition(gain, len(gain) - r)[-r:]
+            best = min(best, f_g + int(top.sum()))
+            if k == r:
+                break
+            g = int(np.argmax(gain))
+            if gain[g] == 0:
+                break
+            f_g += int(gain[g])
+            covered = covered | rows[g]
+        return float(best)
+
+    def reach_of(P: list[int]) -> np.ndarray:
+        """(|P|,) bool: sites of P with a link path (<= r1 + TOL to a GBS, <= r2 + TOL
+        between sites, the tests of ``evaluate``) to a GBS through P."""
+        pp = pts[P]
+        link = np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1]) <= r2t
+        reach = dg[P] <= r1t
+        for _ in range(len(P)):
+            nr = reach | np.any(link & reach[None, :], axis=1)
+            if np.array_equal(nr, reach):
+                break
+            reach = nr
+        return reach
+
+    def last_site(P: list[int], ubits: int, C: np.ndarray, reach: np.ndarray, val: int) -> None:
+        """The last free slot: every candidate q of C (sorted heaviest first, each keeping
+        P + q non-overlapping) that makes P + q connected (the exact link test of
+        ``evaluate``), while |S(P)| + |S(q)| can beat the incumbent."""
+        C = C[val + w[C] > state.best_val]
+        if len(C) == 0:
+            return
+        pp = pts[P]
+        if P:
+            link = np.hypot(pp[:, None, 0] - pts[C][None, :, 0], pp[:, None, 1] - pts[C][None, :, 1]) <= r2t
+            rq = (dg[C] <= r1t) | np.any(link & reach[:, None], axis=0)
+            ok = rq
+            if not reach.all():
+                adj = np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1]) <= r2t
+                R = reach[:, None] | (link & rq[None, :])
+                for _ in range(len(P)):
+                    nr = R | np.any(adj[:, :, None] & R[None, :, :], axis=1)
+                    if np.array_equal(nr, R):
+                        break
+                    R = nr
+                ok = rq & R.all(axis=0)
+        else:
+            ok = dg[C] <= r1t
+        for q in C[ok].tolist():
+            if val + int(w[q]) <= state.best_val:
+                break
+            if (ubits | bits[q]).bit_count() > state.best_val:
+                ev = evaluate(problem, pts[[*P, q]])
+                if ev.feasible and ev.covered > state.best_val:
+                    state.best_val, state.best = int(ev.covered), [*P, q]
+
     def dfs(P: list[int], ubits: int, cmask: np.ndarray, dist: np.ndarray, nb: float) -> None:
         # dist[k]: relay lower bound from a GBS to P[k] (item 3)
         state.nodes += 1
@@ -194,8 +293,17 @@ def branch_and_bound(
         if r == 0:
             return
         z = state.best_val
+        if r == 1:
+            last_site(P, ubits, np.flatnonzero(cmask), reach, val)
+            return
         # item 4: candidates heavy enough, then the relay lower bound of P + j (item 3)
         C = np.flatnonzero(cmask)
+        if r >= 3:  # item 7 over every candidate that fits the relay bound
+            cover_bound = greedy_dual(P, C, dist, r)
+            if val + cover_bound <= z:
+                return
+        else:
+            cover_bound = math.inf
         C = C[val + r * w[C] > z]
         if len(C) == 0:
             return
@@ -235,16 +343,38 @@ def branch_and_bound(
             near = np.any(dpj[:, ok][~reach] <= r2t, axis=0)
             wb = max(int(w[Cok[near][0]]) if near.any() else 0, w_th)
             b = min(b, val + wb + sum(tops[: r - 1]))
-        bf = min(float(b), nb)
+        bf = min(float(b), val + cover_bound, nb)
         if bf <= z:
             return
         stack_bounds.append(bf)
+        if r == 2:  # the last two slots without a search node per first site (same test)
+            full = np.flatnonzero(cmask)
+            neg_w = -w[full]  # non-decreasing
         try:
             for k in ok.tolist():
                 j = int(C[k])
                 z = state.best_val
                 if val + r * int(w[j]) <= z:
                     break
+                if r == 2:
+                    state.nodes += 1
+                    if state.nodes % 256 == 0 and expired():
+                        raise _Timeout
+                    ubj = ubits | bits[j]
+                    valj = ubj.bit_count()
+                    lo = int(np.searchsorted(full, j, side="right"))
+                    hi = int(np.searchsorted(neg_w, valj - z, side="left"))  # w > z - valj
+                    pj = [*P, j]
+                    if valj > z:  # P + j alone
+                        rj = reach_of(pj)
+                        if rj.all():
+                            ev = evaluate(problem, pts[pj])
+                            if ev.feasible and ev.covered > state.best_val:
+                                state.best_val, state.best = int(ev.covered), pj
+                    if hi > lo:
+                        cq = full[lo:hi]
+                        last_site(pj, ubj, cq[~conflict[j, cq]], reach_of(pj), valj)
+                    continue
                 cm = cmask & ~conflict[j]
                 cm[: j + 1] = False
                 nd = np.append(newd[:, k], gj[k]) if P else np.array([gj[k]])
