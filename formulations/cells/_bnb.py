@@ -200,20 +200,23 @@ def branch_and_bound(
             )
             gj = np.minimum(cg[C], np.min(dist[:, None] + ej, axis=0))
             need = np.maximum(gj, np.minimum(dist[:, None], gj[None, :] + ej).max(axis=0))
-            C = C[need <= r - 1]
+            keep = need <= r - 1
+            C, g0 = C[keep], gj[keep] <= 0
             covered = np.bitwise_or.reduce(packed[P], axis=0)
         else:
             C = C[cg[C] <= r - 1]
+            g0 = cg[C] <= 0
             covered = np.zeros(packed.shape[1], dtype=packed.dtype)
-        if len(C) == 0:
-            return 0.0
+        if len(C) == 0 or not g0.any():
+            return 0.0  # item 6: a non-empty completion holds a site with gj = 0
         rows = packed[C]
         f_g = 0
         best = math.inf
         for k in range(r + 1):
             gain = _popcount_rows(rows & ~covered)
-            top = gain if len(gain) <= r else np.partition(gain, len(gain) - r)[-r:]
-            best = min(best, f_g + int(top.sum()))
+            top = np.sort(gain if len(gain) <= r else np.partition(gain, len(gain) - r)[-r:])
+            # item 6 again: one of the r gains is that of a site with gj = 0
+            best = min(best, f_g + int(top.sum()), f_g + int(gain[g0].max()) + int(top[1:].sum()))
             if k == r:
                 break
             g = int(np.argmax(gain))
@@ -383,6 +386,69 @@ def branch_and_bound(
                 dfs(pj, ubits | bits[j], cm, _close(pts[pj], nd, r2), bf)
         finally:
             stack_bounds.pop()
+
+    def connecting(R: list[int], C: np.ndarray) -> np.ndarray:
+        """(|C|,) bool: R + q is connected (the link tests of ``evaluate``) for q in C."""
+        if not R:
+            return dg[C] <= r1t
+        pr = pts[R]
+        reach = reach_of(R)
+        link = np.hypot(pr[:, None, 0] - pts[C][None, :, 0], pr[:, None, 1] - pts[C][None, :, 1]) <= r2t
+        rq = (dg[C] <= r1t) | np.any(link & reach[:, None], axis=0)
+        if reach.all():
+            return rq
+        adj = np.hypot(pr[:, None, 0] - pr[None, :, 0], pr[:, None, 1] - pr[None, :, 1]) <= r2t
+        R2 = reach[:, None] | (link & rq[None, :])
+        for _ in range(len(R)):
+            nr = R2 | np.any(adj[:, :, None] & R2[None, :, :], axis=1)
+            if np.array_equal(nr, R2):
+                break
+            R2 = nr
+        return rq & R2.all(axis=0)
+
+    def local_search(X: list[int]) -> None:
+        """Primal heuristic (no effect on exactness): replace one site of X by the candidate
+        that covers most, keeping X feasible, while that improves; the result becomes the
+        incumbent only after ``evaluate`` confirms it."""
+        cur = int(_popcount_rows(np.bitwise_or.reduce(packed[X], axis=0)[None, :])[0]) if X else 0
+        for _ in range(50):
+            if expired():
+                break
+            moved = False
+            for i in range(len(X) + (len(X) < m)):
+                R = X[:i] + X[i + 1 :]
+                mask = ~np.any(conflict[R], axis=0) if R else np.ones(n, dtype=bool)
+                mask[R] = False
+                C = np.flatnonzero(mask)
+                if len(C) == 0:
+                    continue
+                covR = (
+                    np.bitwise_or.reduce(packed[R], axis=0) if R else np.zeros(packed.shape[1], packed.dtype)
+                )
+                valR = int(_popcount_rows(covR[None, :])[0])
+                gain = _popcount_rows(packed[C] & ~covR)
+                good = np.flatnonzero(valR + gain > cur)
+                if len(good) == 0:
+                    continue
+                good = good[connecting(R, C[good])]
+                if len(good) == 0:
+                    continue
+                q = int(C[good[np.argmax(gain[good])]])
+                X, cur, moved = [*R, q], valR + int(gain[good].max()), True
+                break
+            if not moved:
+                break
+        ev = evaluate(problem, pts[X])
+        if ev.feasible and ev.covered > state.best_val:
+            state.best_val, state.best = int(ev.covered), list(X)
+
+    start = []
+    for p0 in best_pos:
+        hit = np.flatnonzero(np.hypot(*(pts - p0).T) <= 1e-3)
+        if len(hit):
+            start.append(int(hit[0]))
+    if len(start) == len(best_pos):
+        local_search(sorted(set(start)))
 
     root_mask = np.ones(n, dtype=bool)
     proven = True
