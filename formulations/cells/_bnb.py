@@ -31,7 +31,27 @@ Why each element is exact:
    with more needed relays than free slots holds no feasible placement. (Ceilings are
    taken of x - 1e-6 so rounding can only lower the bound.)
 4. **Order cut.** Sites after i weigh at most |S(j)| for the next candidate j, so once
-   |S(P)| + r |S(j)| <= incumbent no later candidate can lead above it.
+   |S(P)| + r |S(j)| <= incumbent no later candidate can lead above it. Sites cut this
+   way weigh at most w_th = floor((z - |S(P)|) / r); they may still be the lighter
+   members of a completion, so the clique values of item 2 are padded with w_th when
+   fewer than r cliques remain among the heavier sites.
+5. **Bridge slot.** If some P sites have no link path to a GBS through P (the link
+   tests of ``evaluate``), the first site off that group on a path to a GBS is a
+   completion site within r2 + TOL of one of them; so one of the r slots holds at most
+   the heaviest such candidate.
+6. **Linkable slot.** The first completion site on a path from a GBS links to a GBS or
+   to a P site reached through P, so its relay lower bound (item 3) is 0; one slot holds
+   at most the heaviest candidate with that bound 0 (and a node with none has no
+   non-empty completion).
+7. **Greedy dual of coverage.** For any set G of sites, coverage is monotone and
+   submodular, so |S(Q) - S(P)| <= f(G) + sum_{q in Q} gain(q | G) <= f(G) + the r
+   largest gains (f, gains over the users outside S(P), Q among the candidates that pass
+   item 3); G runs through the greedy sets G_0 = {}, G_1, ..., G_r, and item 6 applies to
+   the gains as well. Used at nodes with >= 3 free slots (measured: no cut at 2).
+
+The last two slots are enumerated without a search node per site (the same tests,
+vectorised over the candidates), and a 1-swap local search improves the start; it is a
+primal heuristic only (its result is checked with ``evaluate`` before it is used).
 
 The search stops at the time limit with the incumbent and a valid bound: every
 unexplored branch lies below a node on the current path, whose bound was computed.
@@ -198,8 +218,8 @@ def branch_and_bound(
             ej = _relay_cost(
                 np.hypot(pp[:, None, 0] - pts[C][None, :, 0], pp[:, None, 1] - pts[C][None, :, 1]), r2, r2
             )
-            gj = np.minimum(cg[C], np.min(dist[:, None] + ej, axis=0))
-            need = np.maximum(gj, np.minimum(dist[:, None], gj[None, :] + ej).max(axis=0))
+            gj, newd = _through(dist, gj_direct=cg[C], ej=ej, epp=pp_cost(P))
+            need = np.maximum(gj, newd.max(axis=0))
             keep = need <= r - 1
             C, g0 = C[keep], gj[keep] <= 0
             covered = np.bitwise_or.reduce(packed[P], axis=0)
@@ -225,6 +245,11 @@ def branch_and_bound(
             f_g += int(gain[g])
             covered = covered | rows[g]
         return float(best)
+
+    def pp_cost(P: list[int]) -> np.ndarray:
+        """(|P|, |P|) relay lower bounds between the sites of P (item 3)."""
+        pp = pts[P]
+        return _relay_cost(np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1]), r2, r2)
 
     def reach_of(P: list[int]) -> np.ndarray:
         """(|P|,) bool: sites of P with a link path (<= r1 + TOL to a GBS, <= r2 + TOL
@@ -314,8 +339,7 @@ def branch_and_bound(
         if P:
             dpj = np.hypot(pp[:, None, 0] - pts[C][None, :, 0], pp[:, None, 1] - pts[C][None, :, 1])
             ej = _relay_cost(dpj, r2, r2)  # (|P|, |C|)
-            gj = np.minimum(cgj, np.min(dist[:, None] + ej, axis=0))  # GBS -> j, possibly via P
-            newd = np.minimum(dist[:, None], gj[None, :] + ej)  # P sites possibly via j
+            gj, newd = _through(dist, gj_direct=cgj, ej=ej, epp=pp_cost(P))
             need = np.maximum(gj, newd.max(axis=0))
         else:
             gj = cgj
@@ -461,6 +485,25 @@ def branch_and_bound(
     if state.best is not None:
         best_pos = pts[state.best]
     return BnbResult(best_pos, int(state.best_val), bound, proven, int(state.nodes))
+
+
+def _through(
+    dist: np.ndarray, *, gj_direct: np.ndarray, ej: np.ndarray, epp: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Item 3 for P + j, vectorised over candidates j: shortest relay counts in the
+    complete graph on the GBSs, P and j. ``dist`` (|P|,) holds them for P alone (closed
+    over P), ``gj_direct`` (|C|,) the GBS -> j costs, ``ej`` (|P|, |C|) the P -> j costs,
+    ``epp`` (|P|, |P|) the P -> P costs. Returns (gj, newd): GBS -> j and GBS -> each P
+    site, every path through j included (relaxed to closure: a path may enter j and then
+    pass through further P sites)."""
+    gj = np.minimum(gj_direct, np.min(dist[:, None] + ej, axis=0))
+    newd = np.minimum(dist[:, None], gj[None, :] + ej)
+    for _ in range(len(dist)):
+        nd = np.minimum(newd, np.min(newd[:, None, :] + epp[:, :, None], axis=0))
+        if np.array_equal(nd, newd):
+            break
+        newd = nd
+    return gj, newd
 
 
 def _close(pp: np.ndarray, dist: np.ndarray, r2: float) -> np.ndarray:
