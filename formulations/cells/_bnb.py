@@ -47,11 +47,18 @@ Why each element is exact:
    submodular, so |S(Q) - S(P)| <= f(G) + sum_{q in Q} gain(q | G) <= f(G) + the r
    largest gains (f, gains over the users outside S(P), Q among the candidates that pass
    item 3); G runs through the greedy sets G_0 = {}, G_1, ..., G_r, and item 6 applies to
-   the gains as well. Used at nodes with >= 3 free slots (measured: no cut at 2).
+   the gains as well. Used at nodes with >= 2 free slots.
+8. **Two relay slots.** If an unreached P site a has relay lower bound >= 2, its path
+   to a GBS holds >= 2 completion sites; the one next to the GBS side (item 6) and the
+   one next to a's group (item 5) are then distinct, so two slots are bounded by the
+   heaviest linkable and the heaviest bridge candidate (items 5, 6 and 7 combined).
 
 The last two slots are enumerated without a search node per site (the same tests,
-vectorised over the candidates), and a 1-swap local search improves the start; it is a
-primal heuristic only (its result is checked with ``evaluate`` before it is used).
+vectorised over the candidates). Two primal heuristics improve the start before the
+search: a 1-swap local search, then an exchange search that re-solves exactly (with the
+search below, rooted there) every incumbent minus 1 or 2 of its sites. Both only propose
+placements, checked with ``evaluate`` before they become the incumbent; exactness rests
+on the bounds above alone.
 
 The search stops at the time limit with the incumbent and a valid bound: every
 unexplored branch lies below a node on the current path, whose bound was computed.
@@ -59,6 +66,7 @@ unexplored branch lies below a node on the current path, whose bound was compute
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import dataclass
@@ -210,7 +218,7 @@ def branch_and_bound(
     def expired() -> bool:
         return time_limit is not None and time.perf_counter() - t0 >= time_limit
 
-    def greedy_dual(P: list[int], C: np.ndarray, dist: np.ndarray, r: int) -> float:
+    def greedy_dual(P: list[int], C: np.ndarray, dist: np.ndarray, reach: np.ndarray, r: int) -> float:
         """Item 7: an upper bound on |S(Q) - S(P)| over completions Q of at most r sites of
         C that fit the relay bound of P + q, by submodularity of coverage."""
         if P:
@@ -223,12 +231,24 @@ def branch_and_bound(
             keep = need <= r - 1
             C, g0 = C[keep], gj[keep] <= 0
             covered = np.bitwise_or.reduce(packed[P], axis=0)
+            if reach.all():
+                near = None
+            else:  # item 5: bridge candidates, within r2 + TOL of an unreached P site
+                pu = pp[~reach]
+                near = np.any(
+                    np.hypot(pu[:, None, 0] - pts[C][None, :, 0], pu[:, None, 1] - pts[C][None, :, 1]) <= r2t,
+                    axis=0,
+                )
+                if not near.any():
+                    return -math.inf  # P cannot be completed: no feasible placement below
         else:
             C = C[cg[C] <= r - 1]
             g0 = cg[C] <= 0
             covered = np.zeros(packed.shape[1], dtype=packed.dtype)
+            near = None
         if len(C) == 0 or not g0.any():
             return 0.0  # item 6: a non-empty completion holds a site with gj = 0
+        two = near is not None and r >= 2 and float(dist[~reach].max()) >= 2
         rows = packed[C]
         f_g = 0
         best = math.inf
@@ -237,6 +257,10 @@ def branch_and_bound(
             top = np.sort(gain if len(gain) <= r else np.partition(gain, len(gain) - r)[-r:])
             # item 6 again: one of the r gains is that of a site with gj = 0
             best = min(best, f_g + int(top.sum()), f_g + int(gain[g0].max()) + int(top[1:].sum()))
+            if near is not None:  # item 5: one gain from a bridge, two distinct ones (item 8)
+                best = min(best, f_g + int(gain[near].max()) + int(top[1:].sum()))
+                if two:
+                    best = min(best, f_g + int(gain[near].max()) + int(gain[g0].max()) + int(top[2:].sum()))
             if k == r:
                 break
             g = int(np.argmax(gain))
@@ -326,8 +350,8 @@ def branch_and_bound(
             return
         # item 4: candidates heavy enough, then the relay lower bound of P + j (item 3)
         C = np.flatnonzero(cmask)
-        if r >= 3:  # item 7 over every candidate that fits the relay bound
-            cover_bound = greedy_dual(P, C, dist, r)
+        if r >= 2:  # item 7 over every candidate that fits the relay bound
+            cover_bound = greedy_dual(P, C, dist, reach, r)
             if val + cover_bound <= z:
                 return
         else:
@@ -370,6 +394,8 @@ def branch_and_bound(
             near = np.any(dpj[:, ok][~reach] <= r2t, axis=0)
             wb = max(int(w[Cok[near][0]]) if near.any() else 0, w_th)
             b = min(b, val + wb + sum(tops[: r - 1]))
+            if r >= 2 and float(dist[~reach].max()) >= 2:  # item 8
+                b = min(b, val + wb + wg + sum(tops[: r - 2]))
         bf = min(float(b), val + cover_bound, nb)
         if bf <= z:
             return
@@ -466,6 +492,29 @@ def branch_and_bound(
         if ev.feasible and ev.covered > state.best_val:
             state.best_val, state.best = int(ev.covered), list(X)
 
+    def exchange(X: list[int]) -> None:
+        """Primal heuristic (no effect on exactness): for every set D of 1 or 2 sites of
+        the incumbent X, search all completions of X - D exactly (the search below, rooted
+        at X - D) for one better than the incumbent; repeat from each improvement."""
+        improved = True
+        while improved and not expired():
+            improved = False
+            for k in (1, 2):
+                for D in itertools.combinations(range(len(X)), k):
+                    R = sorted(X[i] for i in range(len(X)) if i not in D)
+                    mask = ~np.any(conflict[R], axis=0) if R else np.ones(n, dtype=bool)
+                    mask[R] = False
+                    ub = 0
+                    for i in R:
+                        ub |= bits[i]
+                    before = state.best_val
+                    dfs(R, ub, mask, _close(pts[R], cg[R], r2), math.inf)
+                    if state.best_val > before and state.best is not None:
+                        X, improved = sorted(state.best), True
+                        break
+                if improved:
+                    break
+
     start = []
     for p0 in best_pos:
         hit = np.flatnonzero(np.hypot(*(pts - p0).T) <= 1e-3)
@@ -473,6 +522,12 @@ def branch_and_bound(
             start.append(int(hit[0]))
     if len(start) == len(best_pos):
         local_search(sorted(set(start)))
+        if state.best is None:
+            state.best = sorted(set(start))
+        try:
+            exchange(state.best)
+        except _Timeout:
+            pass
 
     root_mask = np.ones(n, dtype=bool)
     proven = True
