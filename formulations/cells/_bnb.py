@@ -66,6 +66,7 @@ unexplored branch lies below a node on the current path, whose bound was compute
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import math
 import time
@@ -524,10 +525,8 @@ def branch_and_bound(
         local_search(sorted(set(start)))
         if state.best is None:
             state.best = sorted(set(start))
-        try:
+        with contextlib.suppress(_Timeout):
             exchange(state.best)
-        except _Timeout:
-            pass
 
     root_mask = np.ones(n, dtype=bool)
     proven = True
