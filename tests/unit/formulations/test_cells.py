@@ -112,10 +112,10 @@ def random_small(seed, n, m):
 
 
 @pytest.mark.parametrize("seed", range(4))
-@pytest.mark.parametrize("backend", ["cp-sat", "highs"])
-def test_milp_equals_brute_force_m2(seed, backend):
+@pytest.mark.parametrize(("backend", "engine"), [("cp-sat", "milp"), ("highs", "milp"), ("cp-sat", "bnb")])
+def test_milp_equals_brute_force_m2(seed, backend, engine):
     p = random_small(seed, 14, 2)
-    res = solve_milp(p, backend=backend, time_limit=60)
+    res = solve_milp(p, backend=backend, time_limit=60, engine=engine)
     assert res.status is Status.OPTIMAL
     assert res.objective == brute_force(p)
     ev = evaluate(p, res.x)
@@ -123,39 +123,40 @@ def test_milp_equals_brute_force_m2(seed, backend):
     assert res.objective <= res.bound <= res.info["continuous_bound"]
 
 
-@pytest.mark.parametrize("connectivity", ["lazy", "hops"])
+@pytest.mark.parametrize(("connectivity", "engine"), [("lazy", "milp"), ("hops", "milp"), ("lazy", "bnb")])
 @pytest.mark.parametrize("seed", range(6))
-def test_milp_equals_brute_force_m3(seed, connectivity):
+def test_milp_equals_brute_force_m3(seed, connectivity, engine):
     p = random_small(seed, 9, 3)
-    res = solve_milp(p, time_limit=60, connectivity=connectivity)
+    res = solve_milp(p, time_limit=60, connectivity=connectivity, engine=engine)
     assert res.status is Status.OPTIMAL and res.objective == brute_force(p)
     assert evaluate(p, res.x).feasible
 
 
 def test_cut_loop_is_exercised():
     # on these instances the first relaxed lazy model violates overlap/backhaul: cuts are needed
-    rounds = [solve_milp(random_small(s, 14, 2)).info["rounds"] for s in range(4)]
+    rounds = [solve_milp(random_small(s, 14, 2), engine="milp").info["rounds"] for s in range(4)]
     assert max(rounds) >= 2
 
 
+@pytest.mark.parametrize("engine", ["milp", "bnb"])
 @pytest.mark.parametrize("connectivity", ["lazy", "hops"])
 @pytest.mark.parametrize("backend", ["cp-sat", "highs"])
-def test_relay_chain_needs_three_hop_levels(backend, connectivity):
+def test_relay_chain_needs_three_hop_levels(backend, connectivity, engine):
     # users 2.5, 5 and 7.5 from the GBS: the last is covered only at the end of a chain of
     # three drone-cells (levels 1, 2, 3), which the hop-level model must admit
     p = small([[2.5, 0.0], [5.0, 0.0], [7.5, 0.0]], m=3, r1=2.5, r2=2.5)
-    res = solve_milp(p, backend=backend, time_limit=60, connectivity=connectivity)
+    res = solve_milp(p, backend=backend, time_limit=60, connectivity=connectivity, engine=engine)
     assert res.status is Status.OPTIMAL and res.objective == 3 and len(res.x) == 3
     assert evaluate(p, res.x).feasible
     # with two drone-cells the third user is out of reach (levels stop at m = 2)
-    r2 = solve_milp(p.with_cells(2), backend=backend, time_limit=60, connectivity=connectivity)
+    r2 = solve_milp(p.with_cells(2), backend=backend, time_limit=60, connectivity=connectivity, engine=engine)
     assert r2.status is Status.OPTIMAL and r2.objective == 2 and evaluate(p, r2.x).feasible
 
 
 def test_warm_start_is_kept_and_used():
     p = random_small(3, 7, 2)
-    res = solve_milp(p, backend="highs")
-    warm = solve_milp(p, backend="scip", warm_start=res.x)
+    res = solve_milp(p, backend="highs", engine="milp")
+    warm = solve_milp(p, backend="scip", warm_start=res.x, engine="milp")
     assert warm.status is Status.OPTIMAL and warm.objective == res.objective
 
 
@@ -296,3 +297,98 @@ def test_time_limit_covers_model_building():
         assert res.objective == evaluate(p, res.x).covered and (
             res.bound is None or res.objective <= res.bound
         )
+
+
+# ----------------------------------------------------------------- exact branch and bound (issue 13)
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000), st.integers(3, 10), st.integers(1, 3))
+def test_bnb_equals_brute_force(seed, n, m):
+    # same candidate set, every placement enumerated: the B&B optimum must match, stay below
+    # the continuous bound, and be a feasible placement worth what it says
+    p = random_small(seed, n, m)
+    res = solve_milp(p, engine="bnb", time_limit=60)
+    assert res.status is Status.OPTIMAL and res.objective == brute_force(p) == res.bound
+    ev = evaluate(p, res.x)
+    assert ev.feasible and ev.covered == res.objective
+    assert res.info["continuous_bound"] is None or res.bound <= res.info["continuous_bound"]
+
+
+def test_bnb_counts_a_shared_lens_user_once():
+    # two drone-cells exactly 2 R_d apart both cover the user midway (a lens user): the
+    # additive bound counts it twice, the value must count it once
+    users = [[4.0, 0.0], [5.0, 0.0], [6.0, 0.0], [4.0, 0.3], [6.0, 0.3]]
+    p = small(users, m=2, r1=6.5, r2=2.5)
+    res = solve_milp(p, engine="bnb")
+    assert res.status is Status.OPTIMAL and res.objective == brute_force(p) == 5
+    assert evaluate(p, res.x).covered == 5
+
+
+def test_bnb_with_relays_and_two_gbs():
+    # two GBSs; clusters reachable only through relays on either side
+    rng = np.random.default_rng(7)
+    users = np.concatenate([rng.normal([7.0, 0.0], 0.3, (5, 2)), rng.normal([-9.0, 0.0], 0.3, (3, 2))])
+    p = small(users, m=3, gbs=((0.0, 0.0), (-4.0, 0.0)), r1=3.0, r2=2.5)
+    res = solve_milp(p, engine="bnb")
+    assert res.status is Status.OPTIMAL and res.objective == brute_force(p)
+    assert evaluate(p, res.x).feasible
+
+
+def test_bnb_time_limit_gives_a_valid_bound():
+    from droneplan.scenarios.cells import thesis_problem
+
+    p = thesis_problem(4, 1)
+    ref = solve_milp(p, engine="bnb", time_limit=0.5)
+    assert ref.status in (Status.FEASIBLE, Status.OPTIMAL) and evaluate(p, ref.x).feasible
+    assert ref.objective <= ref.bound <= ref.info["continuous_bound"]
+
+
+def test_user_clique_rows_are_cliques():
+    # item 5 of the model: every at-most-one row over the sites covering a user must hold
+    # only pairwise overlapping sites (a lens user, covered by two compatible sites, gets none)
+    from droneplan.formulations.cells._core import TOL
+    from droneplan.formulations.cells._milp import _user_clique_sites
+
+    for seed in range(3):
+        p = random_small(seed, 14, 2)
+        cand = candidate_sites(p)
+        rows = _user_clique_sites(cand.points, cand.cover, p.targets, p.R_d)
+        for sites in rows.values():
+            q = cand.points[sites]
+            d = np.hypot(q[:, None, 0] - q[None, :, 0], q[:, None, 1] - q[None, :, 1])
+            assert np.all(d[np.triu_indices(len(q), 1)] < 2 * p.R_d - TOL)
+    lens = small([[4.0, 0.0], [5.0, 0.0], [6.0, 0.0]], m=2, r1=6.5)
+    cand = candidate_sites(lens)
+    assert 1 not in _user_clique_sites(cand.points, cand.cover, lens.targets, lens.R_d)
+
+
+@pytest.mark.parametrize("block", range(4))
+def test_relay_bound_through_a_new_site_is_the_shortest_path(block):
+    # item 3 of _bnb: the relay lower bounds of P + j must be shortest paths over the
+    # complete graph (a path may enter j and go on through other P sites); an overestimate
+    # would prune feasible branches. The one-step update used first was wrong on ~0.3 % of
+    # such random cases, hence many of them.
+    for seed in range(block * 500, (block + 1) * 500):
+        _check_relay_bound(seed)
+
+
+def _check_relay_bound(seed):
+    from droneplan.formulations.cells._bnb import _close, _relay_cost, _through
+
+    rng = np.random.default_rng(seed)
+    r1, r2 = 3.0, 2.5
+    k, c = int(rng.integers(1, 5)), int(rng.integers(1, 5))
+    pp, cc = rng.uniform(-12, 12, (k, 2)), rng.uniform(-12, 12, (c, 2))
+
+    def cost(a, b):
+        return _relay_cost(np.hypot(a[:, None, 0] - b[None, :, 0], a[:, None, 1] - b[None, :, 1]), r2, r2)
+
+    cg = lambda q: _relay_cost(np.hypot(q[:, 0], q[:, 1]), r1, r2)  # noqa: E731
+    dist = _close(pp, cg(pp), r2)
+    gj, newd = _through(dist, gj_direct=cg(cc), ej=cost(pp, cc), epp=cost(pp, pp))
+    for j in range(c):
+        nodes = np.concatenate([pp, cc[j : j + 1]])
+        d = cg(nodes)
+        e = cost(nodes, nodes)
+        for _ in range(len(nodes)):  # Bellman-Ford from the GBS
+            d = np.minimum(d, np.min(d[:, None] + e, axis=0))
+        assert gj[j] == d[-1] and np.array_equal(newd[:, j], d[:-1])

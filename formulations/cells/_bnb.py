@@ -1,0 +1,577 @@
+"""Exact combinatorial branch and bound over the candidate sites (thesis ch. 4).
+
+Solves the same *candidate problem* as the MILP of ``_milp`` (choose at most m candidate
+sites, pairwise non-overlapping, every one linked to a GBS through chosen sites, maximise
+the users covered) by depth-first enumeration with exact pruning. Every placement X is
+enumerated as the sequence of its sites in one fixed order (weight |S(c)| descending,
+ties by index), so each X is reached from exactly one branch; a branch is cut only when
+a valid upper bound on everything below it is <= the incumbent value, so the search
+proves optimality when it ends.
+
+Why each element is exact:
+
+1. **Additive bound.** Below a node holding sites P (last in the order: site i), every
+   completion Q consists of sites after i that do not overlap P or each other, and
+   |S(P u Q)| <= |S(P)| + sum_{q in Q} |S(q)| (a union is at most the sum). Non-overlap
+   makes this nearly tight: two chosen sites >= 2 R_d - TOL apart share only users in a
+   lens of width ~TOL. The sum is never used as a value, only as a bound; values are
+   exact unions (bitsets).
+2. **Clique partition.** The sites are partitioned once into cliques of the conflict
+   graph: a site's clique holds the still unassigned sites within R_d - TOL of it, which
+   are pairwise < 2 R_d - 2 TOL apart, so they overlap pairwise and at most one of them
+   is chosen. Hence sum_{q in Q} |S(q)| <= the sum of the r largest per-clique maxima
+   over the sites still compatible with P (r = free slots). Sites overlapping P are not
+   compatible, so a cluster already covered by P does not count again.
+3. **Relay lower bound.** In a connected placement the path from a GBS to a chosen site
+   a passes through chosen sites; between consecutive P-sites s, t (or the GBS and the
+   first one) on it lie at least ceil((|s - t| - r2 - TOL) / (r2 + TOL)) further sites
+   (ceil((|a - G| - r1 - TOL) / (r2 + TOL)) from the GBS), every link being at most
+   r2 + TOL (r1 + TOL to a GBS). The shortest such path count over the complete graph
+   on P and the GBSs is a lower bound on the relays outside P that P needs, so a branch
+   with more needed relays than free slots holds no feasible placement. (Ceilings are
+   taken of x - 1e-6 so rounding can only lower the bound.)
+4. **Order cut.** Sites after i weigh at most |S(j)| for the next candidate j, so once
+   |S(P)| + r |S(j)| <= incumbent no later candidate can lead above it. Sites cut this
+   way weigh at most w_th = floor((z - |S(P)|) / r); they may still be the lighter
+   members of a completion, so the clique values of item 2 are padded with w_th when
+   fewer than r cliques remain among the heavier sites.
+5. **Bridge slot.** If some P sites have no link path to a GBS through P (the link
+   tests of ``evaluate``), the first site off that group on a path to a GBS is a
+   completion site within r2 + TOL of one of them; so one of the r slots holds at most
+   the heaviest such candidate.
+6. **Linkable slot.** The first completion site on a path from a GBS links to a GBS or
+   to a P site reached through P, so its relay lower bound (item 3) is 0; one slot holds
+   at most the heaviest candidate with that bound 0 (and a node with none has no
+   non-empty completion).
+7. **Greedy dual of coverage.** For any set G of sites, coverage is monotone and
+   submodular, so |S(Q) - S(P)| <= f(G) + sum_{q in Q} gain(q | G) <= f(G) + the r
+   largest gains (f, gains over the users outside S(P), Q among the candidates that pass
+   item 3); G runs through the greedy sets G_0 = {}, G_1, ..., G_r, and item 6 applies to
+   the gains as well. Used at nodes with >= 3 free slots (at 2 it cost more than it cut:
+   m=4 seed 3 not proven in 59 s cpu, against 14 s without it).
+8. **Two relay slots.** If an unreached P site a has relay lower bound >= 2, its path
+   to a GBS holds >= 2 completion sites; the one next to the GBS side (item 6) and the
+   one next to a's group (item 5) are then distinct, so two slots are bounded by the
+   heaviest linkable and the heaviest bridge candidate (items 5, 6 and 7 combined).
+
+The last two slots are enumerated without a search node per site (the same tests,
+vectorised over the candidates). Two primal heuristics improve the start before the
+search: a 1-swap local search, then an exchange search that re-solves exactly (with the
+search below, rooted there) every incumbent minus 1 or 2 of its sites. Both only propose
+placements, checked with ``evaluate`` before they become the incumbent; exactness rests
+on the bounds above alone.
+
+The search stops at the time limit with the incumbent and a valid bound: every
+unexplored branch lies below a node on the current path, whose bound was computed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from droneplan.formulations.cells._core import TOL, Candidates, evaluate
+from droneplan.scenarios.cells import CellProblem
+
+
+@dataclass
+class BnbResult:
+    """Outcome of :func:`branch_and_bound`."""
+
+    positions: np.ndarray
+    """(k, 2) the best placement found (m)."""
+    value: int
+    """Users it covers."""
+    bound: float
+    """Upper bound on the candidate problem (== value when ``proven``)."""
+    proven: bool
+    """True when the search finished (the placement is optimal over the candidates)."""
+    nodes: int
+    """Search nodes visited."""
+
+
+class _Timeout(Exception):
+    pass
+
+
+@dataclass
+class _State:
+    best_val: int
+    nodes: int = 0
+    best: list[int] | None = None
+
+
+_POP8 = np.array([bin(i).count("1") for i in range(256)], dtype=np.int64)
+
+
+def _popcount_rows(a: np.ndarray) -> np.ndarray:
+    """Number of set bits in each row of a 2-D unsigned integer array."""
+    if hasattr(np, "bitwise_count"):
+        return np.bitwise_count(a).sum(axis=1, dtype=np.int64)
+    return _POP8[np.ascontiguousarray(a).view(np.uint8)].sum(axis=1)
+
+
+def _relay_cost(d: np.ndarray, reach: float, r2: float) -> np.ndarray:
+    """Lower bound on the relays needed to bridge a distance ``d`` when the first link
+    reaches ``reach`` and each further link r2 (tolerances included, item 3)."""
+    x = (d - reach - TOL) / (r2 + TOL) - 1e-6
+    return np.maximum(np.ceil(x), 0.0)
+
+
+def branch_and_bound(
+    problem: CellProblem,
+    cand: Candidates,
+    incumbent: np.ndarray,
+    incumbent_value: int,
+    *,
+    upper: float = math.inf,
+    time_limit: float | None = None,
+) -> BnbResult:
+    """Exact search of the candidate problem (module docstring).
+
+    problem: the CellProblem; cand: its candidate sites (``candidate_sites``);
+    incumbent: a feasible placement ((k, 2) m) worth ``incumbent_value`` users;
+    upper: a known upper bound (e.g. the continuous one): the search stops once the
+    incumbent reaches it; time_limit: seconds (None: none).
+    """
+    t0 = time.perf_counter()
+    m = problem.n_cells
+    n = len(cand.points)
+    best_pos = np.asarray(incumbent, dtype=float).reshape(-1, 2)
+    best_val = int(incumbent_value)
+    if n == 0 or m == 0 or best_val >= upper:
+        return BnbResult(best_pos, best_val, float(min(upper, best_val) if n == 0 else upper), True, 0)
+    w_all = np.array([len(c) for c in cand.cover], dtype=np.int64)
+    order = np.lexsort((np.arange(n), -w_all))
+    pts = cand.points[order]
+    w = w_all[order]
+    bits = [0] * n
+    for k, i in enumerate(order.tolist()):
+        b = 0
+        for u in cand.cover[i].tolist():
+            b |= 1 << int(u)
+        bits[k] = b
+    # item 7: coverage sets as packed bit rows (users of cover, in the sorted order)
+    n_words = max((len(problem.targets) + 63) // 64, 1)
+    member = np.zeros((n, n_words * 64), dtype=bool)
+    for k, i in enumerate(order.tolist()):
+        member[k, cand.cover[i]] = True
+    packed = np.packbits(member, axis=1, bitorder="little").view(np.uint64)
+    del member
+    # item 2: clique partition, heaviest unassigned site first
+    tree = cKDTree(pts)
+    clique = np.full(n, -1, dtype=np.int64)
+    n_cl = 0
+    for i in range(n):
+        if clique[i] >= 0:
+            continue
+        # centred on the centroid of the users the site covers (a cluster's heaviest sites
+        # ring its centre, so one disc there holds all of them), else on the site itself
+        ctr = problem.targets[cand.cover[order[i]]].mean(axis=0) if w[i] else pts[i]
+        if math.dist(ctr, pts[i]) >= problem.R_d - 2 * TOL:
+            ctr = pts[i]
+        nb = np.asarray(tree.query_ball_point(ctr, problem.R_d - 2 * TOL), dtype=np.int64)
+        nb = nb[clique[nb] < 0]
+        clique[nb] = n_cl
+        clique[i] = n_cl
+        n_cl += 1
+    # conflicts (4.8): distance < 2 R_d - TOL, as rows of a dense boolean matrix
+    conflict = np.zeros((n, n), dtype=bool)
+    pairs = tree.query_pairs(2 * problem.R_d, output_type="ndarray")
+    if len(pairs):
+        d = np.hypot(*(pts[pairs[:, 0]] - pts[pairs[:, 1]]).T)
+        pairs = pairs[d < 2 * problem.R_d - TOL]
+        conflict[pairs[:, 0], pairs[:, 1]] = True
+        conflict[pairs[:, 1], pairs[:, 0]] = True
+    dg = np.min(
+        np.hypot(pts[:, None, 0] - problem.gbs[None, :, 0], pts[:, None, 1] - problem.gbs[None, :, 1]), axis=1
+    )
+    cg = _relay_cost(dg, problem.r1, problem.r2)  # item 3, GBS -> site
+    r2 = problem.r2
+
+    def top_cliques(idx: np.ndarray, k: int) -> list[int]:
+        """The k largest per-clique maxima over the sites ``idx`` (sorted heaviest first)."""
+        out: list[int] = []
+        if k <= 0:
+            return out
+        seen: set[int] = set()
+        lo = 0
+        while lo < len(idx):
+            hi = min(len(idx), lo + 64)
+            for t, c in zip(idx[lo:hi].tolist(), clique[idx[lo:hi]].tolist(), strict=True):
+                if c not in seen:
+                    seen.add(c)
+                    out.append(int(w[t]))
+                    if len(out) == k:
+                        return out
+            lo = hi
+        return out
+
+    state = _State(best_val)
+    stack_bounds: list[float] = []
+    r1t, r2t = problem.r1 + TOL, problem.r2 + TOL
+
+    def expired() -> bool:
+        return time_limit is not None and time.perf_counter() - t0 >= time_limit
+
+    def greedy_dual(P: list[int], C: np.ndarray, dist: np.ndarray, reach: np.ndarray, r: int) -> float:
+        """Item 7: an upper bound on |S(Q) - S(P)| over completions Q of at most r sites of
+        C that fit the relay bound of P + q, by submodularity of coverage."""
+        if P:
+            pp = pts[P]
+            ej = _relay_cost(
+                np.hypot(pp[:, None, 0] - pts[C][None, :, 0], pp[:, None, 1] - pts[C][None, :, 1]), r2, r2
+            )
+            gj, newd = _through(dist, gj_direct=cg[C], ej=ej, epp=pp_cost(P))
+            need = np.maximum(gj, newd.max(axis=0))
+            keep = need <= r - 1
+            C, g0 = C[keep], gj[keep] <= 0
+            covered = np.bitwise_or.reduce(packed[P], axis=0)
+            if reach.all():
+                near = None
+            else:  # item 5: bridge candidates, within r2 + TOL of an unreached P site
+                pu = pp[~reach]
+                near = np.any(
+                    np.hypot(pu[:, None, 0] - pts[C][None, :, 0], pu[:, None, 1] - pts[C][None, :, 1]) <= r2t,
+                    axis=0,
+                )
+                if not near.any():
+                    return -math.inf  # P cannot be completed: no feasible placement below
+        else:
+            C = C[cg[C] <= r - 1]
+            g0 = cg[C] <= 0
+            covered = np.zeros(packed.shape[1], dtype=packed.dtype)
+            near = None
+        if len(C) == 0 or not g0.any():
+            return 0.0  # item 6: a non-empty completion holds a site with gj = 0
+        two = near is not None and r >= 2 and float(dist[~reach].max()) >= 2
+        rows = packed[C]
+        f_g = 0
+        best = math.inf
+        for k in range(r + 1):
+            gain = _popcount_rows(rows & ~covered)
+            top = np.sort(gain if len(gain) <= r else np.partition(gain, len(gain) - r)[-r:])
+            # item 6 again: one of the r gains is that of a site with gj = 0
+            best = min(best, f_g + int(top.sum()), f_g + int(gain[g0].max()) + int(top[1:].sum()))
+            if near is not None:  # item 5: one gain from a bridge, two distinct ones (item 8)
+                best = min(best, f_g + int(gain[near].max()) + int(top[1:].sum()))
+                if two:
+                    best = min(best, f_g + int(gain[near].max()) + int(gain[g0].max()) + int(top[2:].sum()))
+            if k == r:
+                break
+            g = int(np.argmax(gain))
+            if gain[g] == 0:
+                break
+            f_g += int(gain[g])
+            covered = covered | rows[g]
+        return float(best)
+
+    def pp_cost(P: list[int]) -> np.ndarray:
+        """(|P|, |P|) relay lower bounds between the sites of P (item 3)."""
+        pp = pts[P]
+        return _relay_cost(np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1]), r2, r2)
+
+    def reach_of(P: list[int]) -> np.ndarray:
+        """(|P|,) bool: sites of P with a link path (<= r1 + TOL to a GBS, <= r2 + TOL
+        between sites, the tests of ``evaluate``) to a GBS through P."""
+        pp = pts[P]
+        link = np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1]) <= r2t
+        reach = dg[P] <= r1t
+        for _ in range(len(P)):
+            nr = reach | np.any(link & reach[None, :], axis=1)
+            if np.array_equal(nr, reach):
+                break
+            reach = nr
+        return reach
+
+    def last_site(P: list[int], ubits: int, C: np.ndarray, reach: np.ndarray, val: int) -> None:
+        """The last free slot: every candidate q of C (sorted heaviest first, each keeping
+        P + q non-overlapping) that makes P + q connected (the exact link test of
+        ``evaluate``), while |S(P)| + |S(q)| can beat the incumbent."""
+        C = C[val + w[C] > state.best_val]
+        if len(C) == 0:
+            return
+        pp = pts[P]
+        if P:
+            link = np.hypot(pp[:, None, 0] - pts[C][None, :, 0], pp[:, None, 1] - pts[C][None, :, 1]) <= r2t
+            rq = (dg[C] <= r1t) | np.any(link & reach[:, None], axis=0)
+            ok = rq
+            if not reach.all():
+                adj = np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1]) <= r2t
+                R = reach[:, None] | (link & rq[None, :])
+                for _ in range(len(P)):
+                    nr = R | np.any(adj[:, :, None] & R[None, :, :], axis=1)
+                    if np.array_equal(nr, R):
+                        break
+                    R = nr
+                ok = rq & R.all(axis=0)
+        else:
+            ok = dg[C] <= r1t
+        for q in C[ok].tolist():
+            if val + int(w[q]) <= state.best_val:
+                break
+            if (ubits | bits[q]).bit_count() > state.best_val:
+                ev = evaluate(problem, pts[[*P, q]])
+                if ev.feasible and ev.covered > state.best_val:
+                    state.best_val, state.best = int(ev.covered), [*P, q]
+
+    def dfs(P: list[int], ubits: int, cmask: np.ndarray, dist: np.ndarray, nb: float) -> None:
+        # dist[k]: relay lower bound from a GBS to P[k] (item 3)
+        state.nodes += 1
+        if state.nodes % 256 == 0 and expired():
+            raise _Timeout
+        val = ubits.bit_count()
+        pp = pts[P]
+        if P:
+            dpp = np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1])
+            link = dpp <= r2t
+            reach = dg[P] <= r1t
+            for _ in range(len(P)):
+                nr = reach | np.any(link & reach[None, :], axis=1)
+                if np.array_equal(nr, reach):
+                    break
+                reach = nr
+        else:
+            reach = np.zeros(0, dtype=bool)
+        if val > state.best_val and reach.all():
+            ev = evaluate(problem, pp)
+            if ev.feasible and ev.covered > state.best_val:
+                state.best_val, state.best = int(ev.covered), list(P)
+        r = m - len(P)
+        if r == 0:
+            return
+        z = state.best_val
+        if r == 1:
+            last_site(P, ubits, np.flatnonzero(cmask), reach, val)
+            return
+        # item 4: candidates heavy enough, then the relay lower bound of P + j (item 3)
+        C = np.flatnonzero(cmask)
+        if r >= 3:  # item 7 over every candidate that fits the relay bound
+            cover_bound = greedy_dual(P, C, dist, reach, r)
+            if val + cover_bound <= z:
+                return
+        else:
+            cover_bound = math.inf
+        C = C[val + r * w[C] > z]
+        if len(C) == 0:
+            return
+        cgj = cg[C]
+        if P:
+            dpj = np.hypot(pp[:, None, 0] - pts[C][None, :, 0], pp[:, None, 1] - pts[C][None, :, 1])
+            ej = _relay_cost(dpj, r2, r2)  # (|P|, |C|)
+            gj, newd = _through(dist, gj_direct=cgj, ej=ej, epp=pp_cost(P))
+            need = np.maximum(gj, newd.max(axis=0))
+        else:
+            gj = cgj
+            need = cgj
+            newd = np.zeros((0, len(C)))
+            dpj = np.zeros((0, len(C)))
+        ok = np.flatnonzero(need <= r - 1)
+        if len(ok) == 0:
+            return
+        Cok = C[ok]
+        # node bound: items 1-2 over the sites that can still join (need <= r - 1). Sites
+        # cut by item 4 weigh at most w_th; they may still be the lighter members of a
+        # completion, so missing clique values are padded with w_th.
+        w_th = max((z - val) // r, 0)
+        tops = top_cliques(Cok, r)
+        tops += [w_th] * (r - len(tops))
+        b = val + sum(tops)
+        # item 6: the first completion site on a path from a GBS links to a GBS or to a
+        # reached P site, so its relay lower bound gj is 0: one slot holds at most the
+        # heaviest candidate with gj = 0
+        g0 = gj[ok] <= 0
+        wg = max(int(w[Cok[g0][0]]) if g0.any() else 0, w_th)
+        b = min(b, val + wg + sum(tops[: r - 1]))
+        if not reach.all():
+            # item 5: the P sites without a link path to a GBS need a chosen site of the
+            # completion within r2 + TOL of one of them (the first site off that group on
+            # a path to a GBS); that slot holds at most the heaviest such site
+            near = np.any(dpj[:, ok][~reach] <= r2t, axis=0)
+            wb = max(int(w[Cok[near][0]]) if near.any() else 0, w_th)
+            b = min(b, val + wb + sum(tops[: r - 1]))
+            if r >= 2 and float(dist[~reach].max()) >= 2:  # item 8
+                b = min(b, val + wb + wg + sum(tops[: r - 2]))
+        bf = min(float(b), val + cover_bound, nb)
+        if bf <= z:
+            return
+        stack_bounds.append(bf)
+        if r == 2:  # the last two slots without a search node per first site (same test)
+            full = np.flatnonzero(cmask)
+            neg_w = -w[full]  # non-decreasing
+        try:
+            for k in ok.tolist():
+                j = int(C[k])
+                z = state.best_val
+                if val + r * int(w[j]) <= z:
+                    break
+                if r == 2:
+                    state.nodes += 1
+                    if state.nodes % 256 == 0 and expired():
+                        raise _Timeout
+                    ubj = ubits | bits[j]
+                    valj = ubj.bit_count()
+                    lo = int(np.searchsorted(full, j, side="right"))
+                    hi = int(np.searchsorted(neg_w, valj - z, side="left"))  # w > z - valj
+                    pj = [*P, j]
+                    if valj > z:  # P + j alone
+                        rj = reach_of(pj)
+                        if rj.all():
+                            ev = evaluate(problem, pts[pj])
+                            if ev.feasible and ev.covered > state.best_val:
+                                state.best_val, state.best = int(ev.covered), pj
+                    if hi > lo:
+                        cq = full[lo:hi]
+                        last_site(pj, ubj, cq[~conflict[j, cq]], reach_of(pj), valj)
+                    continue
+                cm = cmask & ~conflict[j]
+                cm[: j + 1] = False
+                nd = np.append(newd[:, k], gj[k]) if P else np.array([gj[k]])
+                # shortest paths can only shorten further inside P + j: recompute exactly
+                pj = [*P, j]
+                dfs(pj, ubits | bits[j], cm, _close(pts[pj], nd, r2), bf)
+        finally:
+            stack_bounds.pop()
+
+    def connecting(R: list[int], C: np.ndarray) -> np.ndarray:
+        """(|C|,) bool: R + q is connected (the link tests of ``evaluate``) for q in C."""
+        if not R:
+            return dg[C] <= r1t
+        pr = pts[R]
+        reach = reach_of(R)
+        link = np.hypot(pr[:, None, 0] - pts[C][None, :, 0], pr[:, None, 1] - pts[C][None, :, 1]) <= r2t
+        rq = (dg[C] <= r1t) | np.any(link & reach[:, None], axis=0)
+        if reach.all():
+            return rq
+        adj = np.hypot(pr[:, None, 0] - pr[None, :, 0], pr[:, None, 1] - pr[None, :, 1]) <= r2t
+        R2 = reach[:, None] | (link & rq[None, :])
+        for _ in range(len(R)):
+            nr = R2 | np.any(adj[:, :, None] & R2[None, :, :], axis=1)
+            if np.array_equal(nr, R2):
+                break
+            R2 = nr
+        return rq & R2.all(axis=0)
+
+    def local_search(X: list[int]) -> None:
+        """Primal heuristic (no effect on exactness): replace one site of X by the candidate
+        that covers most, keeping X feasible, while that improves; the result becomes the
+        incumbent only after ``evaluate`` confirms it."""
+        cur = int(_popcount_rows(np.bitwise_or.reduce(packed[X], axis=0)[None, :])[0]) if X else 0
+        for _ in range(50):
+            if expired():
+                break
+            moved = False
+            for i in range(len(X) + (len(X) < m)):
+                R = X[:i] + X[i + 1 :]
+                mask = ~np.any(conflict[R], axis=0) if R else np.ones(n, dtype=bool)
+                mask[R] = False
+                C = np.flatnonzero(mask)
+                if len(C) == 0:
+                    continue
+                covR = (
+                    np.bitwise_or.reduce(packed[R], axis=0) if R else np.zeros(packed.shape[1], packed.dtype)
+                )
+                valR = int(_popcount_rows(covR[None, :])[0])
+                gain = _popcount_rows(packed[C] & ~covR)
+                good = np.flatnonzero(valR + gain > cur)
+                if len(good) == 0:
+                    continue
+                good = good[connecting(R, C[good])]
+                if len(good) == 0:
+                    continue
+                q = int(C[good[np.argmax(gain[good])]])
+                X, cur, moved = [*R, q], valR + int(gain[good].max()), True
+                break
+            if not moved:
+                break
+        ev = evaluate(problem, pts[X])
+        if ev.feasible and ev.covered > state.best_val:
+            state.best_val, state.best = int(ev.covered), list(X)
+
+    def exchange(X: list[int]) -> None:
+        """Primal heuristic (no effect on exactness): for every set D of 1 or 2 sites of
+        the incumbent X, search all completions of X - D exactly (the search below, rooted
+        at X - D) for one better than the incumbent; repeat from each improvement."""
+        improved = True
+        while improved and not expired():
+            improved = False
+            for k in (1, 2):
+                for D in itertools.combinations(range(len(X)), k):
+                    R = sorted(X[i] for i in range(len(X)) if i not in D)
+                    mask = ~np.any(conflict[R], axis=0) if R else np.ones(n, dtype=bool)
+                    mask[R] = False
+                    ub = 0
+                    for i in R:
+                        ub |= bits[i]
+                    before = state.best_val
+                    dfs(R, ub, mask, _close(pts[R], cg[R], r2), math.inf)
+                    if state.best_val > before and state.best is not None:
+                        X, improved = sorted(state.best), True
+                        break
+                if improved:
+                    break
+
+    start = []
+    for p0 in best_pos:
+        hit = np.flatnonzero(np.hypot(*(pts - p0).T) <= 1e-3)
+        if len(hit):
+            start.append(int(hit[0]))
+    if len(start) == len(best_pos):
+        local_search(sorted(set(start)))
+        if state.best is None:
+            state.best = sorted(set(start))
+        with contextlib.suppress(_Timeout):
+            exchange(state.best)
+
+    root_mask = np.ones(n, dtype=bool)
+    proven = True
+    try:
+        dfs([], 0, root_mask, np.zeros(0), float(upper))
+    except _Timeout:
+        proven = False
+    bound = float(state.best_val) if proven else max(float(state.best_val), max(stack_bounds, default=upper))
+    bound = min(bound, float(upper)) if upper < math.inf else bound
+    if state.best is not None:
+        best_pos = pts[state.best]
+    return BnbResult(best_pos, int(state.best_val), bound, proven, int(state.nodes))
+
+
+def _through(
+    dist: np.ndarray, *, gj_direct: np.ndarray, ej: np.ndarray, epp: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Item 3 for P + j, vectorised over candidates j: shortest relay counts in the
+    complete graph on the GBSs, P and j. ``dist`` (|P|,) holds them for P alone (closed
+    over P), ``gj_direct`` (|C|,) the GBS -> j costs, ``ej`` (|P|, |C|) the P -> j costs,
+    ``epp`` (|P|, |P|) the P -> P costs. Returns (gj, newd): GBS -> j and GBS -> each P
+    site, every path through j included (relaxed to closure: a path may enter j and then
+    pass through further P sites)."""
+    gj = np.minimum(gj_direct, np.min(dist[:, None] + ej, axis=0))
+    newd = np.minimum(dist[:, None], gj[None, :] + ej)
+    for _ in range(len(dist)):
+        nd = np.minimum(newd, np.min(newd[:, None, :] + epp[:, :, None], axis=0))
+        if np.array_equal(nd, newd):
+            break
+        newd = nd
+    return gj, newd
+
+
+def _close(pp: np.ndarray, dist: np.ndarray, r2: float) -> np.ndarray:
+    """Shortest relay counts from a GBS to each of the sites ``pp`` given their direct
+    estimates ``dist``: relax through the complete graph of link costs (item 3)."""
+    k = len(pp)
+    if k <= 1:
+        return dist
+    e = _relay_cost(np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1]), r2, r2)
+    d = dist.copy()
+    for _ in range(k):
+        nd = np.minimum(d, np.min(d[:, None] + e, axis=0))
+        if np.array_equal(nd, d):
+            break
+        d = nd
+    return d
