@@ -425,6 +425,7 @@ def build_milp(
     cuts: for "lazy", cuts found so far: ("clique", idx) or ("conn", W_idx, boundary_idx),
         indices into the full candidate set (restricted to ``keep``: dropped sites are 0, so a
         restricted cut stays valid).
+    user_cliques: add the per-user at-most-one rows of item 5 (default True).
     """
     check_instance("problem", problem, CellProblem)
     if connectivity not in CONNECTIVITY:
