@@ -252,9 +252,11 @@ def _fitness(
 
 def _run_batch(
     problem: CellProblem, N: int, P: int, iter_max: int, s: GASettings, rng: np.random.Generator
-) -> tuple[NDArray[np.float64], NDArray[np.int_]]:
+) -> tuple[NDArray[np.float64], NDArray[np.int_], NDArray[np.float64]]:
     """N independent GA runs (the restarts) advanced together: arrays are (N, P, m, 2).
-    Every operator acts within its own run only, so this equals N sequential restarts."""
+    Every operator acts within its own run only, so this equals N sequential restarts.
+    Returns each run's best chromosome, its fitness and the share of the final population
+    identical to it."""
     m = problem.n_cells
     xmin, xmax, ymin, ymax = _area(problem)
     lo = np.array([xmin, ymin])
@@ -321,7 +323,10 @@ def _run_batch(
             f[runs, worst] = f[np.arange(N), best][:, None]
         T *= s.alpha
     i = np.argmax(f, axis=1)
-    return pop[np.arange(N), i].copy(), f[np.arange(N), i].astype(int)
+    best_chrom = pop[np.arange(N), i]
+    # how far each run's population has collapsed: the share of chromosomes equal to its best
+    share = np.all(pop == best_chrom[:, None], axis=(2, 3)).mean(axis=1)
+    return best_chrom.copy(), f[np.arange(N), i].astype(int), share
 
 
 def genetic(
@@ -344,7 +349,9 @@ def genetic(
     Returns a SolveResult with status FEASIBLE (no bound), ``x`` the contributing
     drone-cells (k, 2) of the best chromosome (m), ``objective`` their covered users,
     ``iterations`` = restarts * iter_max, and ``info``: ``restart_bests`` (best fitness of
-    each restart), ``chromosome`` (the full m x 2 best chromosome), ``seed``.
+    each restart), ``final_best_share`` (per restart, the fraction of the final population
+    identical to its best chromosome: 1 means the population has collapsed), ``chromosome``
+    (the full m x 2 best chromosome), ``seed``.
 
     problem: the CellProblem (users, GBSs, m, radii in metres).
     """
@@ -364,7 +371,7 @@ def genetic(
     rng, drawn = resolve_seed(seed)
     seed = seed if drawn is None else drawn  # the seed drawn for seed=None is recorded
     t0 = time.perf_counter()
-    chromos, fvals = _run_batch(problem, int(N), int(P), int(iter_max), s, rng)
+    chromos, fvals, share = _run_batch(problem, int(N), int(P), int(iter_max), s, rng)
     bests = [int(v) for v in fvals]
     k = int(np.argmax(bests))
     chrom = chromos[k]
@@ -382,6 +389,7 @@ def genetic(
         iterations=int(N * iter_max),
         info={
             "restart_bests": bests,
+            "final_best_share": [float(v) for v in share],
             "chromosome": chrom,
             "seed": seed if not isinstance(seed, np.random.Generator) else None,
             "pop_size": int(P),
