@@ -453,10 +453,12 @@ GA_VARIANTS: dict[str, dict[str, Any]] = {
     "abs-step": {"label": "absolute mutation step R_d", "settings": {"mutation_step": 500.0}},
     "repl50": {"label": "replace worst 50%", "settings": {"replace_frac": 0.5}},
     "no-restarts": {"label": "no restarts (1 run, same generations)", "no_restarts": True},
+    "restarts-x4": {"label": "4 x N_start restarts (4 x the budget)", "restarts_factor": 4},
 }
 """GA ablation variants (issue 13.4), keyed by a short name: the faithful thesis GA and one
 change each, as :class:`GASettings` fields (``settings``) or run shape (``no_restarts``: one
-run of N_start x 50 generations); ``label`` says what changes. Only "thesis" is the thesis
+run of N_start x 50 generations; ``restarts_factor``: that many times N_start restarts, to see
+whether the budget closes the gap); ``label`` says what changes. Only "thesis" is the thesis
 method. Every variant's run r uses the same seed as the thesis GA's run r (paired runs)."""
 
 
@@ -521,8 +523,11 @@ def ablation_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
     else:
         spec = GA_VARIANTS[task["variant"]]
         kw: dict[str, Any] = {}
+        n_start = thesis_ga_settings(m)[1]
         if spec.get("no_restarts"):
-            kw = {"restarts": 1, "iter_max": 50 * thesis_ga_settings(m)[1]}
+            kw = {"restarts": 1, "iter_max": 50 * n_start}
+        elif "restarts_factor" in spec:
+            kw = {"restarts": int(spec["restarts_factor"]) * n_start}
         ga = genetic(p, seed=int(task["run_seed"]), settings=GASettings(**spec.get("settings", {})), **kw)
         share = float(np.mean(ga.info["final_best_share"]))
         outcomes = [
