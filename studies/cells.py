@@ -214,7 +214,11 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
         milp_sol[m] = milp
         succ = None if opt[m] is None else float((ga["objective"] == opt[m]).mean())
         succ_pol = None if opt[m] is None else float((ga["cells_polished"] == opt[m]).mean())
-        es_time = f"{es['time_s']:.3g}" + ("" if es["cells_es_complete"] else f" (stopped at {es_limit:g} s)")
+        es_time = (
+            float(es["time_s"])
+            if es["cells_es_complete"]
+            else f"{es['time_s']:.3g} (stopped at {es_limit:g} s)"
+        )
         tab.add(
             f"m={m} T_ES (s)",
             t_es,
