@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import tempfile
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +27,13 @@ from droneplan.planners.cells import (
     polish,
     thesis_ga_settings,
 )
-from droneplan.scenarios.cells import THESIS_TABLE_4_3, problem_from_instance, thesis_instance, thesis_problem
+from droneplan.scenarios.cells import (
+    THESIS_TABLE_4_2,
+    THESIS_TABLE_4_3,
+    problem_from_instance,
+    thesis_instance,
+    thesis_problem,
+)
 from droneplan.solvers.result import SolveResult
 from droneplan.studies.common import ComparisonTable, make_executor, map_rows, open_store, report_study
 from droneplan.studies.plots.cells import plot_deployment_region, plot_map
@@ -38,6 +45,7 @@ __all__ = [
     "reproduce_task",
     "reproduce",
     "GA_VARIANTS",
+    "INSTANCE_VARIANTS",
     "instance_features",
     "ablation_task",
     "ablation_tasks",
@@ -435,7 +443,7 @@ def _ablation_figure(abl: pd.DataFrame, summ: pd.DataFrame, path: Path) -> None:
     for k, v in enumerate(variants):
         g = summ[summ["variant"] == v].set_index("m").reindex(ms)
         x = np.arange(len(ms)) + (k - (len(variants) - 1) / 2) * w
-        ax.bar(x, g["p_global_es"], w, label=GA_VARIANTS[v]["label"])
+        ax.bar(x, g["p_global_es"], w, label=g["label"].dropna().iloc[0])
         ax.plot(x, g["p_global_milp"].astype(float), "k_", ms=8)
     ax.set_xticks(np.arange(len(ms)), [f"m={m}" for m in ms])
     ax.set_ylabel("P_Global (fraction of runs)")
@@ -445,8 +453,8 @@ def _ablation_figure(abl: pd.DataFrame, summ: pd.DataFrame, path: Path) -> None:
     ax = axes[1]
     th = abl[abl["variant"] == "thesis"]
     for m, g in th.groupby("m"):
-        ax.plot(g["users_in_reach"], g["p_es"], "o", label=f"m={m}")
-    ax.set_xlabel("users in reach of m drone-cells (count)")
+        ax.plot(g["users_direct_reach"], g["p_es"], "o", label=f"m={m}")
+    ax.set_xlabel("users within r1 + R_d of the GBS (count)")
     ax.set_ylabel("thesis GA P_Global vs ES, per seed")
     ax.set_ylim(-0.05, 1.05)
     ax.legend(fontsize=8)
@@ -469,6 +477,18 @@ change each, as :class:`GASettings` fields (``settings``) or run shape (``no_res
 run of N_start x 50 generations; ``restarts_factor``: that many times N_start restarts, to see
 whether the budget closes the gap); ``label`` says what changes. Only "thesis" is the thesis
 method. Every variant's run r uses the same seed as the thesis GA's run r (paired runs)."""
+
+
+INSTANCE_VARIANTS: dict[str, dict[str, Any]] = {
+    "thesis": {"label": "Table 4.2 users", "params": {}},
+    "clusters-only": {
+        "label": "thesis GA, clusters only (Table 4.2 without background users, lambda_nc = 0)",
+        "params": {"lambda_nc": 0.0},
+    },
+}
+"""Instance side of the ablation: the Table 4.2 snapshot of a seed, and the same snapshot without
+its uniform background users (the clustered users are drawn first, so they are the same
+users). The thesis GA and both references run on each."""
 
 
 def instance_features(problem, centres=None) -> dict:
@@ -510,11 +530,13 @@ def ablation_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
     """One task of the GA ablation (issue 13.4) in the results schema (objective = covered users).
 
     kind ``ref``: exhaustive search (Alg. 2, ``es_limit`` s) and the MILP (``milp_limit`` s) on
-    ``thesis_problem(m, seed)``, with the instance features as extras; kind ``run``: one GA run
-    of variant ``variant`` (a key of :data:`GA_VARIANTS`) seeded by ``run_seed``.
+    ``thesis_problem(m, seed)`` (with the users of ``users``, a key of :data:`INSTANCE_VARIANTS`,
+    default "thesis"), with the instance features as extras; kind ``run``: one GA run of variant
+    ``variant`` (a key of :data:`GA_VARIANTS`) seeded by ``run_seed`` on that instance.
     """
     m, seed = int(task["m"]), int(task["seed"])
-    inst = thesis_instance(seed)
+    params = replace(THESIS_TABLE_4_2, **INSTANCE_VARIANTS[task.get("users", "thesis")]["params"])
+    inst = thesis_instance(seed, params)
     p = problem_from_instance(inst, m)
     if task["kind"] == "ref":
         feats = instance_features(p, inst.cluster_centres)
@@ -544,7 +566,12 @@ def ablation_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
                 "ga",
                 "heuristic",
                 ga,
-                extras={"variant": task["variant"], "run_seed": int(task["run_seed"]), "best_share": share},
+                extras={
+                    "variant": task["variant"],
+                    "users": task.get("users", "thesis"),
+                    "run_seed": int(task["run_seed"]),
+                    "best_share": share,
+                },
             )
         ]
     return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
@@ -557,18 +584,27 @@ def ablation_tasks(
     runs: int,
     ablation_runs: int | None = None,
     variants=None,
+    instances=None,
     es_limit: float,
     milp_limit: float,
 ) -> list[dict[str, Any]]:
-    """The tasks of the GA ablation: one ``ref`` task per (seed, m) and one ``run`` task per
-    (seed, m, variant, run); ``runs`` runs of the thesis GA, ``ablation_runs`` (default ``runs``)
-    of each other variant. Instance ids carry the limits, so other limits are new tasks."""
+    """The tasks of the GA ablation: per (seed, m, instance variant) one ``ref`` task; on the
+    Table 4.2 users one ``run`` task per (GA variant, run), ``runs`` runs of the thesis GA and
+    ``ablation_runs`` (default ``runs``) of each other GA variant; on each other instance variant
+    (keys of :data:`INSTANCE_VARIANTS`, default all) ``ablation_runs`` runs of the thesis GA.
+    Instance ids carry the limits, so other limits are new tasks."""
     from droneplan.solvers.validation import check_int, check_positive
 
     variants = list(GA_VARIANTS) if variants is None else list(variants)
     unknown = [v for v in variants if v not in GA_VARIANTS]
     if unknown:
         raise ValueError(f"variants must be keys of GA_VARIANTS {list(GA_VARIANTS)}, got {unknown}")
+    instances = list(INSTANCE_VARIANTS) if instances is None else list(instances)
+    unknown = [v for v in instances if v not in INSTANCE_VARIANTS]
+    if unknown:
+        raise ValueError(
+            f"instances must be keys of INSTANCE_VARIANTS {list(INSTANCE_VARIANTS)}, got {unknown}"
+        )
     runs = check_int("runs", runs, min_value=1)
     ablation_runs = runs if ablation_runs is None else check_int("ablation_runs", ablation_runs, min_value=1)
     seeds = [check_int("seeds", s, min_value=0) for s in seeds]
@@ -577,32 +613,43 @@ def ablation_tasks(
     tasks: list[dict[str, Any]] = []
     for seed in seeds:
         for m in ms:
-            tasks.append(
-                {
-                    "problem": "cells",
-                    "instance": instance_id("ablation-ref", m=m, seed=seed, es=es_limit, milp=milp_limit),
-                    "kind": "ref",
-                    "m": m,
-                    "seed": seed,
-                    "size": m,
-                    "es_limit": es_limit,
-                    "milp_limit": milp_limit,
-                }
-            )
-            tasks.extend(
-                {
-                    "problem": "cells",
-                    "instance": instance_id("ablation-ga", m=m, seed=seed, variant=v, run=r),
-                    "kind": "run",
-                    "m": m,
-                    "seed": seed,
-                    "size": m,
-                    "variant": v,
-                    "run_seed": 10_000 * seed + 100 * m + r,
-                }
-                for v in variants
-                for r in range(runs if v == "thesis" else ablation_runs)
-            )
+            for users in instances:
+                tag = {} if users == "thesis" else {"users": users}  # thesis ids stay as they were
+                tasks.append(
+                    {
+                        "problem": "cells",
+                        "instance": instance_id(
+                            "ablation-ref", m=m, seed=seed, es=es_limit, milp=milp_limit, **tag
+                        ),
+                        "kind": "ref",
+                        "m": m,
+                        "seed": seed,
+                        "size": m,
+                        "users": users,
+                        "es_limit": es_limit,
+                        "milp_limit": milp_limit,
+                    }
+                )
+                plan = (
+                    [(v, runs if v == "thesis" else ablation_runs) for v in variants]
+                    if users == "thesis"
+                    else [("thesis", ablation_runs)]
+                )
+                tasks.extend(
+                    {
+                        "problem": "cells",
+                        "instance": instance_id("ablation-ga", m=m, seed=seed, variant=v, run=r, **tag),
+                        "kind": "run",
+                        "m": m,
+                        "seed": seed,
+                        "size": m,
+                        "users": users,
+                        "variant": v,
+                        "run_seed": 10_000 * seed + 100 * m + r,
+                    }
+                    for v, n in plan
+                    for r in range(n)
+                )
     return tasks
 
 
@@ -627,7 +674,15 @@ def ablation_frame(df: pd.DataFrame, tasks: list[dict[str, Any]]) -> pd.DataFram
             and pd.notna(es[k])
         }
         proven = milp["status"] == "optimal"
-        runs = [t for t in tasks if t["kind"] == "run" and t["seed"] == ref["seed"] and t["m"] == ref["m"]]
+        users = ref.get("users", "thesis")
+        runs = [
+            t
+            for t in tasks
+            if t["kind"] == "run"
+            and t["seed"] == ref["seed"]
+            and t["m"] == ref["m"]
+            and t.get("users", "thesis") == users
+        ]
         for v in dict.fromkeys(t["variant"] for t in runs):
             ids = [
                 (t["instance"], "ga")
@@ -642,8 +697,11 @@ def ablation_frame(df: pd.DataFrame, tasks: list[dict[str, Any]]) -> pd.DataFram
                 {
                     "seed": ref["seed"],
                     "m": ref["m"],
-                    "variant": v,
-                    "label": GA_VARIANTS[v]["label"],
+                    "variant": v if users == "thesis" else users,
+                    "users": users,
+                    "label": GA_VARIANTS[v]["label"]
+                    if users == "thesis"
+                    else INSTANCE_VARIANTS[users]["label"],
                     "runs": len(obj),
                     "p_es": float(np.mean(obj >= es["objective"])),
                     "p_milp": float(np.mean(obj >= milp["objective"])) if proven else None,
@@ -762,6 +820,7 @@ def ga_ablation(
     ms,
     runs: int,
     variants=None,
+    instances=None,
     es_limit: float = 600.0,
     milp_limit: float = 300.0,
     ablation_runs: int | None = None,
@@ -776,9 +835,11 @@ def ga_ablation(
 
     seeds: thesis-scale instance seeds; ms: numbers of drone-cells (1-4); runs: GA runs of the
     thesis variant per instance; ablation_runs: runs of each other variant (default ``runs``);
-    variants: keys of :data:`GA_VARIANTS` (default all); es_limit, milp_limit: time limits (s)
-    of the exhaustive search (a stopped search still gives its best value, flagged
-    ``es_complete``) and of the MILP (``p_milp`` is None unless it is proven optimal).
+    variants: keys of :data:`GA_VARIANTS` (default all); instances: keys of
+    :data:`INSTANCE_VARIANTS` (default all; :func:`ablation_tasks` says what runs on each);
+    es_limit, milp_limit: time limits (s) of the exhaustive search (a stopped search still
+    gives its best value, flagged ``es_complete``) and of the MILP (``p_milp`` is None unless
+    it is proven optimal).
 
     Returns :func:`ablation_frame`'s table (one row per seed, m, variant); its
     ``attrs["finding"]`` holds :func:`ablation_finding`'s text and ``attrs["summary"]``
@@ -790,6 +851,7 @@ def ga_ablation(
         runs=runs,
         ablation_runs=ablation_runs,
         variants=variants,
+        instances=instances,
         es_limit=es_limit,
         milp_limit=milp_limit,
     )

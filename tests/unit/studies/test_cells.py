@@ -70,7 +70,11 @@ def test_ga_ablation_rows_respect_the_milp_optimum(tmp_path):
     variants = ["thesis", "noSA", "no-restarts"]
     kw = {"seeds": [0], "ms": (1,), "runs": 2, "variants": variants, "es_limit": 60, "milp_limit": 60}
     df = study.ga_ablation(**kw, out=tmp_path)
-    assert list(df["variant"]) == variants
+    assert list(df["variant"]) == [*variants, "clusters-only"]
+    # the clusters-only instance is the same snapshot without its background users
+    th, cl = df.iloc[0], df.iloc[-1]
+    assert cl["users"] == "clusters-only" and cl["active_users"] < th["active_users"]
+    assert cl["milp_obj"] <= th["milp_obj"] and cl["clusters_in_reach"] == th["clusters_in_reach"]
     assert (df["milp_status"] == "OPTIMAL").all()
     # every GA plan and the exhaustive-search plan are feasible placements: never above the optimum
     assert (df["best_obj"] <= df["milp_obj"]).all() and (df["es_obj"] <= df["milp_obj"]).all()
@@ -83,7 +87,8 @@ def test_ga_ablation_rows_respect_the_milp_optimum(tmp_path):
     # one task per (seed, m) reference and per GA run, all in the store: a rerun computes nothing
     with ResultStore(tmp_path / "results.sqlite") as st:
         rows = st.frame()
-        assert set(rows["study"]) == {"ablation-ref", "ablation-ga"} and len(rows) == 2 + 2 + 2 + 2
+        # per instance variant: ES + MILP rows; thesis users: 3 variants x 2 runs; clusters only: 2 runs
+        assert set(rows["study"]) == {"ablation-ref", "ablation-ga"} and len(rows) == (2 + 3 * 2) + (2 + 2)
         with make_executor(1) as ex:
             again = study.ga_ablation(**kw, executor=ex, store=st)
         assert len(st.frame()) == len(rows)
@@ -94,10 +99,12 @@ def test_ablation_tasks_pair_the_variants_runs_with_the_thesis_runs():
     tasks = study.ablation_tasks(seeds=[0, 1], ms=(1, 2), runs=3, ablation_runs=2, es_limit=5, milp_limit=5)
     refs = [t for t in tasks if t["kind"] == "ref"]
     runs = [t for t in tasks if t["kind"] == "run"]
-    assert len(refs) == 4 and len(runs) == 4 * (3 + 2 * (len(study.GA_VARIANTS) - 1))
+    n_other = len(study.INSTANCE_VARIANTS) - 1
+    assert len(refs) == 4 * (1 + n_other)
+    assert len(runs) == 4 * (3 + 2 * (len(study.GA_VARIANTS) - 1)) + 4 * n_other * 2
     assert len({t["instance"] for t in tasks}) == len(tasks)
     for t in runs:
-        if t["variant"] != "thesis":
+        if t["variant"] != "thesis" and t["users"] == "thesis":
             twin = [
                 u
                 for u in runs
@@ -106,5 +113,7 @@ def test_ablation_tasks_pair_the_variants_runs_with_the_thesis_runs():
                 == t["instance"].replace(f"variant={t['variant']}", "")
             ]
             assert len(twin) == 1 and twin[0]["run_seed"] == t["run_seed"]
+    with pytest.raises(ValueError, match="instances"):
+        study.ablation_tasks(seeds=[0], ms=(1,), runs=1, instances=["nope"], es_limit=5, milp_limit=5)
     with pytest.raises(ValueError, match="variants"):
         study.ablation_tasks(seeds=[0], ms=(1,), runs=1, variants=["nope"], es_limit=5, milp_limit=5)
