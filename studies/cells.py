@@ -297,8 +297,6 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
         plot_map(p, r.x, ax=ax, title=f"m={m}: {r.objective:g} users ({r.status.name})")
     fig.savefig(out / "fig_4_4_maps.png", dpi=110)
     plt.close(fig)
-    # ---------------------------------------------------------------- GA ablation (issue 13.4)
-    _reproduce_ablation(quick, out, ex, st)
     # ---------------------------------------------------------------- Fig 4.3 restart strategy, m = 2
     df = map_rows(reproduce_task, fig43, executor=ex, store=st, desc="Fig. 4.3")
     opt2 = milp_sol[2]["objective"]
@@ -374,6 +372,8 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
     fig = plot_deployment_region(thesis_problem(2, INSTANCE_SEED), [[2500.0, 0.0]])  # GBS at (0, 0) and D_1
     fig.savefig(out / "fig_4_2_region.png", dpi=110)
     plt.close(fig)
+    # ------------------------------------------------- GA ablation (issue 13.4), the longest part
+    _reproduce_ablation(quick, out, ex, st)
 
 
 ABLATION_FULL: dict[str, Any] = {"seeds": range(10), "ms": (1, 2, 3), "runs": 20, "ablation_runs": 10}
