@@ -435,7 +435,7 @@ def _reproduce_ablation(quick: bool, out: Path, ex, st) -> pd.DataFrame:
 
 
 def _ablation_figure(abl: pd.DataFrame, summ: pd.DataFrame, path: Path) -> None:
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5.6))
     ax = axes[0]
     ms = sorted(summ["m"].unique())
     variants = list(dict.fromkeys(summ["variant"]))
@@ -449,7 +449,7 @@ def _ablation_figure(abl: pd.DataFrame, summ: pd.DataFrame, path: Path) -> None:
     ax.set_ylabel("P_Global (fraction of runs)")
     ax.set_ylim(0, 1.05)
     ax.set_title("bars: vs exhaustive search; black ticks: vs MILP optimum", fontsize=9)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2)
     ax = axes[1]
     th = abl[abl["variant"] == "thesis"]
     for m, g in th.groupby("m"):
