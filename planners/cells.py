@@ -131,10 +131,93 @@ def _contributing(problem: CellProblem, pop: NDArray[np.float64]) -> NDArray[np.
     return reach
 
 
+@dataclass(frozen=True)
+class _UserGrid:
+    """Active users bucketed on a square grid of side ``h >= R_d + TOL``: every user within
+    ``R_d + TOL`` of a point lies in the 3 x 3 block of cells around the point's cell, so
+    coverage is tested only against that block (``nbr``) instead of against every user."""
+
+    x0: float
+    """Lower-left corner of the grid, x (m)."""
+    y0: float
+    """Lower-left corner of the grid, y (m)."""
+    h: float
+    """Cell side (m), at least R_d + TOL."""
+    nx: int
+    """Cells along x (count)."""
+    ny: int
+    """Cells along y (count)."""
+    nbr: NDArray[np.intp]
+    """(nx * ny, K) indices of the users in each cell's 3 x 3 block, padded with n (a far dummy)."""
+    tx: NDArray[np.float64]
+    """(n + 1,) user x coordinates (m), the dummy last."""
+    ty: NDArray[np.float64]
+    """(n + 1,) user y coordinates (m), the dummy last."""
+
+
+_FAR = 1e100
+"""Coordinate of the padding user (m): never within R_d of a finite position."""
+
+
+def _user_grid(problem: CellProblem) -> _UserGrid:
+    t = problem.targets
+    n = len(t)
+    r = problem.R_d + TOL
+    lo = t.min(axis=0)
+    extent = float(np.max(t.max(axis=0) - lo))
+    # a margin keeps |u - q| <= r => |cell(u) - cell(q)| <= 1 despite rounding in floor(); the
+    # grid is coarsened so that it never has more than ~4 cells per user
+    h = max(r * (1.0 + 1e-6), extent / max(1.0, math.sqrt(4.0 * n)) * (1.0 + 1e-6))
+    g = np.floor((t - lo) / h).astype(np.intp)
+    nx, ny = int(g[:, 0].max()) + 1, int(g[:, 1].max()) + 1
+    buckets: dict[tuple[int, int], list[int]] = {}
+    for i, (gx, gy) in enumerate(g.tolist()):
+        buckets.setdefault((gx, gy), []).append(i)
+    lists = [
+        [i for dx in (-1, 0, 1) for dy in (-1, 0, 1) for i in buckets.get((gx + dx, gy + dy), ())]
+        for gx in range(nx)
+        for gy in range(ny)
+    ]
+    K = max(1, max(len(li) for li in lists))
+    nbr = np.full((nx * ny, K), n, dtype=np.intp)
+    for c, li in enumerate(lists):
+        nbr[c, : len(li)] = li
+    tx = np.append(t[:, 0], _FAR)
+    ty = np.append(t[:, 1], _FAR)
+    return _UserGrid(float(lo[0]), float(lo[1]), h, nx, ny, nbr, tx, ty)
+
+
+def _covered_counts(
+    problem: CellProblem, grid: _UserGrid, blk: NDArray[np.float64], contrib: NDArray[np.bool_]
+) -> NDArray[np.int64]:
+    """Users within R_d of a contributing drone-cell, per chromosome of ``blk`` (B, m, 2).
+
+    The distance test is evaluate()'s: sqrt(dx**2 + dy**2) <= R_d + TOL, on the users of the
+    3 x 3 grid block around each drone-cell (all the users that can pass it); a user covered
+    by several drone-cells of a chromosome is counted once."""
+    B = len(blk)
+    n = len(grid.tx) - 1
+    ix = np.clip(np.floor((blk[..., 0] - grid.x0) / grid.h), 0, grid.nx - 1).astype(np.intp)
+    iy = np.clip(np.floor((blk[..., 1] - grid.y0) / grid.h), 0, grid.ny - 1).astype(np.intp)
+    idx = grid.nbr[ix * grid.ny + iy]  # (B, m, K)
+    dx = grid.tx[idx] - blk[..., 0, None]
+    dy = grid.ty[idx] - blk[..., 1, None]
+    cov = (np.sqrt(dx * dx + dy * dy) <= problem.R_d + TOL) & contrib[:, :, None]
+    rows = np.broadcast_to(np.arange(B)[:, None, None], idx.shape)
+    mark = np.zeros((B, n + 1), dtype=bool)
+    mark[rows[cov], idx[cov]] = True
+    return mark[:, :n].sum(axis=1)
+
+
 def fitness(problem: CellProblem, pop: ArrayLike, *, chunk: int = 2048) -> NDArray[np.int64]:
     """GA fitness of a population (..., m, 2) in metres -> (...) covered users (int),
     counting only contributing drone-cells (module docstring). Vectorised over the
     population (in chunks of ``chunk`` chromosomes to bound memory).
+
+    A user counts when it lies within R_d of a contributing drone-cell by the test of
+    :func:`~droneplan.formulations.cells.evaluate` (``sqrt(dx**2 + dy**2) <= R_d + TOL``),
+    so a chromosome's fitness equals ``evaluate`` of its contributing drone-cells. Only the
+    users bucketed near each drone-cell are tested (a grid of side >= R_d + TOL).
 
     problem: the CellProblem (users, GBSs, m, radii in metres).
     pop: (..., m, 2) chromosomes, drone-cell positions (m).
@@ -146,37 +229,42 @@ def fitness(problem: CellProblem, pop: ArrayLike, *, chunk: int = 2048) -> NDArr
     arr = check_array("pop", pop)
     if arr.ndim < 2 or arr.shape[-1] != 2:
         raise ValueError(f"pop must have shape (..., m, 2) (positions in metres), got {arr.shape}")
+    return _fitness(problem, arr, None, chunk)
+
+
+def _fitness(
+    problem: CellProblem, arr: NDArray[np.float64], grid: _UserGrid | None, chunk: int = 2048
+) -> NDArray[np.int64]:
+    """:func:`fitness` without argument checks; ``grid`` is the problem's user grid (built if None)."""
     if arr.ndim == 2:
         arr = arr[None]
     lead = arr.shape[:-2]
     flat = arr.reshape(-1, *arr.shape[-2:])
-    t = problem.targets
     out = np.zeros(len(flat), dtype=np.int64)
-    if len(t) == 0:
+    if len(problem.targets) == 0 or len(flat) == 0:
         return out.reshape(lead)
-    tt = (t**2).sum(-1)
+    grid = _user_grid(problem) if grid is None else grid
     for a in range(0, len(flat), chunk):
         blk = flat[a : a + chunk]
-        contrib = _contributing(problem, blk)
-        q = blk.reshape(-1, 2)
-        d2 = ((q**2).sum(-1)[:, None] + tt[None, :] - 2.0 * (q @ t.T)).reshape(len(blk), blk.shape[1], len(t))
-        cov = (d2 <= (problem.R_d + TOL) ** 2) & contrib[:, :, None]
-        out[a : a + chunk] = cov.any(axis=1).sum(axis=1)
+        out[a : a + chunk] = _covered_counts(problem, grid, blk, _contributing(problem, blk))
     return out.reshape(lead)
 
 
 def _run_batch(
     problem: CellProblem, N: int, P: int, iter_max: int, s: GASettings, rng: np.random.Generator
-) -> tuple[NDArray[np.float64], NDArray[np.int_]]:
+) -> tuple[NDArray[np.float64], NDArray[np.int_], NDArray[np.float64]]:
     """N independent GA runs (the restarts) advanced together: arrays are (N, P, m, 2).
-    Every operator acts within its own run only, so this equals N sequential restarts."""
+    Every operator acts within its own run only, so this equals N sequential restarts.
+    Returns each run's best chromosome, its fitness and the share of the final population
+    identical to it."""
     m = problem.n_cells
     xmin, xmax, ymin, ymax = _area(problem)
     lo = np.array([xmin, ymin])
     hi = np.array([xmax, ymax])
     origin = problem.gbs[0]
+    grid = _user_grid(problem) if len(problem.targets) else None
     pop = rng.uniform(lo, hi, size=(N, P, m, 2))
-    f = fitness(problem, pop)
+    f = _fitness(problem, pop, grid)
     T = s.T
     n_rep = math.floor(s.replace_frac * P)
     runs = np.arange(N)[:, None]
@@ -196,7 +284,7 @@ def _run_batch(
         changed = mask.any(axis=(2, 3))
         fc = f.copy()
         if changed.any():
-            fc[changed] = fitness(problem, cand[changed])
+            fc[changed] = _fitness(problem, cand[changed], grid)
         delta = fc - f
         accept = changed & ((delta >= 0) | (rng.random((N, P)) < np.exp(np.minimum(delta, 0) / T)))
         pop = np.where(accept[..., None, None], cand, pop)
@@ -220,8 +308,13 @@ def _run_batch(
         ya = pop[rr, ia, r, 1].copy()
         pop[rr, ia, r, 1] = pop[rr, ib, r, 1]
         pop[rr, ib, r, 1] = ya
+        # the fitness is a function of the chromosome alone: re-evaluate the crossed ones only
+        if len(rr):
+            crossed = np.zeros((N, P), dtype=bool)
+            crossed[rr, ia] = True
+            crossed[rr, ib] = True
+            f[crossed] = _fitness(problem, pop[crossed], grid)
         # --- select: worst 20% of each run replaced by its best
-        f = fitness(problem, pop)
         if n_rep:
             order = np.argsort(f, axis=1, kind="stable")
             best = order[:, -1]
@@ -230,7 +323,10 @@ def _run_batch(
             f[runs, worst] = f[np.arange(N), best][:, None]
         T *= s.alpha
     i = np.argmax(f, axis=1)
-    return pop[np.arange(N), i].copy(), f[np.arange(N), i].astype(int)
+    best_chrom = pop[np.arange(N), i]
+    # how far each run's population has collapsed: the share of chromosomes equal to its best
+    share = np.all(pop == best_chrom[:, None], axis=(2, 3)).mean(axis=1)
+    return best_chrom.copy(), f[np.arange(N), i].astype(int), share
 
 
 def genetic(
@@ -253,7 +349,9 @@ def genetic(
     Returns a SolveResult with status FEASIBLE (no bound), ``x`` the contributing
     drone-cells (k, 2) of the best chromosome (m), ``objective`` their covered users,
     ``iterations`` = restarts * iter_max, and ``info``: ``restart_bests`` (best fitness of
-    each restart), ``chromosome`` (the full m x 2 best chromosome), ``seed``.
+    each restart), ``final_best_share`` (per restart, the fraction of the final population
+    identical to its best chromosome: 1 means the population has collapsed), ``chromosome``
+    (the full m x 2 best chromosome), ``seed``.
 
     problem: the CellProblem (users, GBSs, m, radii in metres).
     """
@@ -273,7 +371,7 @@ def genetic(
     rng, drawn = resolve_seed(seed)
     seed = seed if drawn is None else drawn  # the seed drawn for seed=None is recorded
     t0 = time.perf_counter()
-    chromos, fvals = _run_batch(problem, int(N), int(P), int(iter_max), s, rng)
+    chromos, fvals, share = _run_batch(problem, int(N), int(P), int(iter_max), s, rng)
     bests = [int(v) for v in fvals]
     k = int(np.argmax(bests))
     chrom = chromos[k]
@@ -291,6 +389,7 @@ def genetic(
         iterations=int(N * iter_max),
         info={
             "restart_bests": bests,
+            "final_best_share": [float(v) for v in share],
             "chromosome": chrom,
             "seed": seed if not isinstance(seed, np.random.Generator) else None,
             "pop_size": int(P),
@@ -416,7 +515,15 @@ def max_coverage_in_region(
     Circles whose neighbourhood holds no more users than the best count so far are
     skipped (they cannot improve it).
     """
-    users = np.asarray(users, float).reshape(-1, 2)
+    return _max_coverage(np.asarray(users, float).reshape(-1, 2), R_d, region)
+
+
+def _max_coverage(
+    users: NDArray[np.float64], R_d: float, region: Region, floor: int = -1
+) -> tuple[int, NDArray[np.float64] | None]:
+    """:func:`max_coverage_in_region`; with ``floor`` >= 0 it also skips the circles whose
+    neighbourhood holds no more than ``floor`` users, so it returns the true maximum and
+    the same centre whenever that maximum exceeds ``floor`` (else a lower count)."""
     best, best_p = -1, None
     circles = [(u[0], u[1], R_d) for u in users] + region.circles()
     if len(users):
@@ -427,20 +534,31 @@ def max_coverage_in_region(
     if region.box is not None:
         xmin, xmax, ymin, ymax = region.box
         extra += [(xmin, ymin), (xmin, ymax), (xmax, ymin), (xmax, ymax)]
-    for p in list(users) + extra:  # user points and box corners
-        if region.contains(np.asarray(p))[0]:
-            c = (
-                int((np.hypot(users[:, 0] - p[0], users[:, 1] - p[1]) <= R_d + TOL).sum())
+    # user points and box corners, in that order: the first feasible point of largest count
+    cand = np.concatenate([users, np.asarray(extra, float).reshape(-1, 2)])
+    if len(cand):
+        feas = region.contains(cand)
+        if feas.any():
+            pts = cand[feas]
+            cnt = (
+                (
+                    np.hypot(users[None, :, 0] - pts[:, 0, None], users[None, :, 1] - pts[:, 1, None])
+                    <= R_d + TOL
+                ).sum(1)
                 if len(users)
-                else 0
+                else np.zeros(len(pts), dtype=np.intp)
             )
-            if c > best:
-                best, best_p = c, np.asarray(p, float)
+            j = int(np.argmax(cnt))
+            best, best_p = int(cnt[j]), pts[j].copy()
     all_c = np.array(circles) if circles else np.zeros((0, 3))
-    for ox, oy, rho in circles:
-        near = tree.query_ball_point((ox, oy), rho + R_d + TOL) if len(users) else []
-        if len(near) <= best:
+    if not len(users):
+        return (0, None) if best_p is None else (best, best_p)
+    # how many users each circle's neighbourhood holds, for all circles in one call
+    n_near = tree.query_ball_point(all_c[:, :2], all_c[:, 2] + R_d + TOL, return_length=True)
+    for (ox, oy, rho), k in zip(circles, n_near.tolist(), strict=True):
+        if k <= max(best, floor):
             continue
+        near = tree.query_ball_point((ox, oy), rho + R_d + TOL)
         lu = users[near]
         ang = [np.zeros(1)]
         # events of user discs and region circles on this circle
@@ -485,9 +603,41 @@ class _SearchState:
     """False once the time limit stopped the enumeration."""
     visited: int = 0
     """Searches of the last drone-cell's region done (count)."""
+    skipped: int = 0
+    """Searches of the last drone-cell's region skipped by the bound (count)."""
+    pruned: int = 0
+    """Subtrees (a drone-cell 1..m-2 and everything after it) skipped by the bound (count)."""
 
 
-def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> SolveResult:
+class _DiscBound:
+    """Upper bound on the users one radius-R_d disc can add: a disc covering users u and v
+    has |u - v| <= 2 (R_d + TOL), so it covers at most the number of still-uncovered
+    users within that distance of one of them (``near`` holds the pairs, with a margin)."""
+
+    def __init__(self, problem: CellProblem):
+        t = problem.targets
+        self.users = t
+        self.R_d = problem.R_d
+        d = np.sqrt(((t[:, None, :] - t[None, :, :]) ** 2).sum(-1))
+        self.near = (d <= 2.0 * (problem.R_d + TOL) + 1e-6 * (1.0 + problem.R_d)).astype(np.int32)
+
+    def one_disc(self, eligible: NDArray[np.bool_]) -> int:
+        """Most of the ``eligible`` users one disc can cover (an upper bound)."""
+        if not eligible.any():
+            return 0
+        return int((self.near[eligible] @ eligible.astype(np.int32)).max())
+
+    def reachable(self, region: Region) -> NDArray[np.bool_]:
+        """Users that a disc centred in ``region`` can cover: within R_d (+ margin) of a
+        backhaul disc of the region (a necessary condition)."""
+        t = self.users
+        ok = np.zeros(len(t), dtype=bool)
+        for cx, cy, r in region.link:
+            ok |= np.hypot(t[:, 0] - cx, t[:, 1] - cy) <= r + self.R_d + 2 * TOL + 1e-6 * (1.0 + r)
+        return ok
+
+
+def exhaustive(problem: CellProblem, *, time_limit: float | None = None, prune: bool = True) -> SolveResult:
     """Algorithm 2 (thesis §4.3.1): drone-cells 1..m-1 visit every user location inside
     their deployment region (which depends on the GBSs and the cells placed before);
     the m-th is placed by :func:`max_coverage_in_region` in its region; the best
@@ -495,27 +645,46 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> Solv
 
     time_limit: stop enumerating after this many seconds (s) and return the best found
         with status FEASIBLE and ``info["complete"] = False``.
+    prune: skip, in the same enumeration order, every last-cell search and every subtree
+        that cannot cover *more* users than the best found so far: with c users covered
+        and k drone-cells still to place, at most c + k * B users, B the bound of
+        :class:`_DiscBound` on what one disc adds (over the users it can reach, for the
+        last cell). The search keeps a new best only when it is strictly better, so the
+        returned value and plan are those of the plain enumeration (``prune=False``), the
+        Algorithm 2 of the thesis, which is only faster; ``solve_time`` is the honest wall
+        time of the pruned search.
 
-    Returns a SolveResult (no bound): ``x`` positions (k, 2), ``objective`` covered users.
+    Returns a SolveResult (no bound): ``x`` positions (k, 2), ``objective`` covered users;
+    ``info``: ``complete``, ``last_cell_searches`` (done), ``last_cell_skipped`` and
+    ``subtrees_pruned`` (skipped by the bound).
 
     problem: the CellProblem (users, GBSs, m, radii in metres).
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
     time_limit = check_time_limit(time_limit)
+    if not isinstance(prune, bool):
+        raise TypeError(f"prune must be a bool, got {type(prune).__name__}")
     t0 = time.perf_counter()
     users = problem.targets
     m = problem.n_cells
     best = _SearchState(val=0, pos=np.zeros((0, 2)))
+    bound = _DiscBound(problem) if prune and len(users) else None
 
     def rec(placed: NDArray[np.float64], covered: NDArray[np.bool_]) -> None:
         if time_limit is not None and time.perf_counter() - t0 > time_limit:
             best.complete = False
             return
         region = _region(problem, placed)
-        left = users[~covered]
         if len(placed) == m - 1:
-            c, p = max_coverage_in_region(left, problem.R_d, region)
+            if bound is not None:
+                gain = bound.one_disc(~covered & bound.reachable(region))
+                if int(covered.sum()) + gain <= best.val:
+                    best.skipped += 1
+                    return
+            left = users[~covered]
+            # circles that cannot lift the total above the best are skipped (_max_coverage)
+            c, p = _max_coverage(left, problem.R_d, region, best.val - int(covered.sum()) if prune else -1)
             best.visited += 1
             if p is not None:
                 val = int(covered.sum()) + c
@@ -530,6 +699,14 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> Solv
             pl = np.vstack([placed, users[j][None]])
             if int(newcov.sum()) > best.val:
                 best.val, best.pos = int(newcov.sum()), pl
+            # the cells after this one add at most (m - len(pl)) discs' worth of users
+            if (
+                bound is not None
+                and len(pl) < m - 1
+                and int(newcov.sum()) + (m - len(pl)) * bound.one_disc(~newcov) <= best.val
+            ):
+                best.pruned += 1
+                continue
             rec(pl, newcov)
             if not best.complete:
                 return
@@ -544,6 +721,8 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> Solv
             solve_time=time.perf_counter() - t0,
         )
     msg = "Algorithm 2 (exhaustive search, quasi-optimal)"
+    if prune:
+        msg += "; bound-pruned enumeration (same result as the plain one)"
     if not best.complete:
         msg += f"; stopped at the time limit {time_limit} s before finishing the enumeration"
     return SolveResult(
@@ -553,7 +732,12 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None) -> Solv
         backend="exhaustive",
         message=msg,
         solve_time=time.perf_counter() - t0,
-        info={"complete": best.complete, "last_cell_searches": best.visited},
+        info={
+            "complete": best.complete,
+            "last_cell_searches": best.visited,
+            "last_cell_skipped": best.skipped,
+            "subtrees_pruned": best.pruned,
+        },
     )
 
 

@@ -8,7 +8,9 @@ that ``formulations.cells`` selects for 1-2 workers); bench also times HiGHS.
 from __future__ import annotations
 
 import contextlib
+import tempfile
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -25,8 +27,14 @@ from droneplan.planners.cells import (
     polish,
     thesis_ga_settings,
 )
-from droneplan.scenarios.cells import THESIS_TABLE_4_3, thesis_problem
-from droneplan.solvers.result import SolveResult, Status
+from droneplan.scenarios.cells import (
+    THESIS_TABLE_4_2,
+    THESIS_TABLE_4_3,
+    problem_from_instance,
+    thesis_instance,
+    thesis_problem,
+)
+from droneplan.solvers.result import SolveResult
 from droneplan.studies.common import ComparisonTable, make_executor, map_rows, open_store, report_study
 from droneplan.studies.plots.cells import plot_deployment_region, plot_map
 from droneplan.studies.store import Outcome, build_rows, instance_id
@@ -37,7 +45,14 @@ __all__ = [
     "reproduce_task",
     "reproduce",
     "GA_VARIANTS",
+    "INSTANCE_VARIANTS",
     "instance_features",
+    "ablation_task",
+    "ablation_tasks",
+    "ablation_frame",
+    "ablation_summary",
+    "ablation_correlations",
+    "ablation_finding",
     "ga_ablation",
     "milp_seed_distribution",
     "GAP_THESIS",
@@ -207,15 +222,34 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
         milp_sol[m] = milp
         succ = None if opt[m] is None else float((ga["objective"] == opt[m]).mean())
         succ_pol = None if opt[m] is None else float((ga["cells_polished"] == opt[m]).mean())
-        es_time = f"{es['time_s']:.3g}" + ("" if es["cells_es_complete"] else f" (stopped at {es_limit:g} s)")
-        tab.add(f"m={m} T_ES (s)", t_es, es_time, "Algorithm 2, wall time on this machine")
+        es_time = (
+            float(es["time_s"])
+            if es["cells_es_complete"]
+            else f"{es['time_s']:.3g} (stopped at {es_limit:g} s)"
+        )
+        tab.add(
+            f"m={m} T_ES (s)",
+            t_es,
+            es_time,
+            "Algorithm 2, wall time on this machine (bound-pruned enumeration: the plain one's result)",
+        )
         tab.add(
             f"m={m} T_GA (s)",
             t_ga_th,
             float(ga["time_s"].mean()),
             f"mean over {len(ga)} GA runs, P={P}, N_start={N}, iter_max=50",
         )
-        tab.add(f"m={m} P_Global", pg, succ, f"fraction of {len(ga)} GA runs reaching the MILP optimum")
+        succ_es = float((ga["objective"] >= es["objective"]).mean())
+        tab.add(
+            f"m={m} P_Global vs ES (thesis criterion)",
+            pg,
+            succ_es,
+            f"fraction of {len(ga)} GA runs reaching the exhaustive-search value {es['objective']:g}"
+            + ("" if es["cells_es_complete"] else " (ES stopped at its limit: best found)"),
+        )
+        tab.add(
+            f"m={m} P_Global vs MILP", pg, succ, f"fraction of {len(ga)} GA runs reaching the MILP optimum"
+        )
         tab.add(
             f"m={m} P_Global GA+polish (ours)",
             None,
@@ -244,6 +278,7 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
                 "ga_best": ga["objective"].max(),
                 "ga_mean_time": ga["time_s"].mean(),
                 "ga_success": succ,
+                "ga_success_vs_es": succ_es,
                 "ga_polish_success": succ_pol,
                 "milp_obj": milp["objective"],
                 "milp_bound": milp["bound"],
@@ -337,74 +372,446 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
     fig = plot_deployment_region(thesis_problem(2, INSTANCE_SEED), [[2500.0, 0.0]])  # GBS at (0, 0) and D_1
     fig.savefig(out / "fig_4_2_region.png", dpi=110)
     plt.close(fig)
-    # ---------------------------------------------------------------- GA ablation (issue 13.4)
+    # ------------------------------------------------- GA ablation (issue 13.4), the longest part
+    _reproduce_ablation(quick, out, ex, st)
+
+
+ABLATION_FULL: dict[str, Any] = {"seeds": range(10), "ms": (1, 2, 3), "runs": 20, "ablation_runs": 10}
+"""Size of the ablation in the full ``reproduce cells``: thesis GA 10 seeds x 20 runs, each other
+variant 10 runs per seed (paired with the thesis GA's first 10 run seeds)."""
+ABLATION_QUICK: dict[str, Any] = {"seeds": range(2), "ms": (1, 2), "runs": 3, "ablation_runs": 2}
+"""Size of the ablation under ``--quick``."""
+
+
+def _reproduce_ablation(quick: bool, out: Path, ex, st) -> pd.DataFrame:
+    size = ABLATION_QUICK if quick else ABLATION_FULL
     abl = ga_ablation(
-        seeds=range(3) if quick else range(10),
-        ms=(1,) if quick else (1, 2, 3),
-        runs=3 if quick else 20,
-        ablation_runs=3 if quick else 5,
+        **size,
         es_limit=60.0 if quick else 1800.0,
         milp_limit=60.0 if quick else 600.0,
+        executor=ex,
+        store=st,
     )
-    abl.to_csv(out / "ga_ablation.csv", index=False)
-    tab_a = ComparisonTable(
-        "GA ablation - P_Global of the thesis GA and of one change at a time "
-        f"({abl['seed'].nunique()} thesis-scale seeds; see ga_ablation.csv)"
+    summ, corr = ablation_summary(abl), ablation_correlations(abl)
+    abl.to_csv(out / "ga_ablation_seeds.csv", index=False)  # ga_ablation.csv is the table below
+    summ.to_csv(out / "ga_ablation_summary.csv", index=False)
+    corr.to_csv(out / "ga_ablation_correlations.csv", index=False)
+    tab = ComparisonTable(
+        f"GA ablation (issue 13.4) - P_Global vs exhaustive search (the thesis's criterion) / vs the MILP "
+        f"optimum, {abl['seed'].nunique()} thesis-scale seeds; per-seed rows in ga_ablation_seeds.csv"
     )
-    for (m, name), grp in abl.groupby(["m", "variant"], sort=False):
-        tab_a.add(
-            f"m={m} {name}: P_Global vs ES / vs MILP",
-            1.0 if name == "thesis" else None,
-            f"{grp['p_es'].mean():.2f} / {grp['p_milp'].mean():.2f}",
-            f"{int(grp['runs'].iloc[0])} runs per seed; mean covered {grp['mean_obj'].mean():.1f}",
+    for r in summ.itertuples():
+        pm = "n/a" if r.p_global_milp is None or pd.isna(r.p_global_milp) else f"{r.p_global_milp:.2f}"
+        tab.add(
+            f"m={r.m} {r.label}: P_Global vs ES",
+            THESIS_TABLE_4_3[r.m][5] if r.variant == "thesis" else None,
+            float(r.p_global_es),
+            f"{r.seeds} seeds x {r.runs_per_seed} runs; vs MILP optimum {pm}; mean covered {r.mean_obj:.1f} "
+            f"(gap to MILP {r.mean_gap_to_milp:.1%}); final population {r.best_share:.0%} copies of its best",
         )
-    th = abl[abl["variant"] == "thesis"]
-    for m, grp in th.groupby("m"):
-        if len(grp) > 2 and grp["p_es"].std() > 0:
-            rho = grp[["p_es", "users_in_reach"]].corr(method="spearman").iloc[0, 1]
-            tab_a.add(
-                f"m={m} thesis GA: rank correlation of P_Global (vs ES) with users in reach",
+    for r in corr.itertuples():
+        if r.spearman is not None and not pd.isna(r.spearman):
+            tab.add(
+                f"m={r.m} thesis GA: rank correlation of P_Global with {r.feature}",
                 None,
-                f"{rho:.2f}",
-                "per seed, Spearman",
+                f"{r.spearman:+.2f}",
+                f"Spearman over {r.seeds} seeds",
             )
-    tab_a.emit(out, "ga_ablation")
+    feats = abl[abl["variant"] == "thesis"].groupby("m")
+    for m, g in feats:
+        tab.add(
+            f"m={m} instances: ES / MILP optimum (mean over seeds)",
+            None,
+            f"{g['es_obj'].mean():.1f} / {g['milp_obj'].mean():.1f}",
+            f"ES below the MILP optimum on {int((g['es_obj'] < g['milp_obj']).sum())} of {len(g)} seeds; "
+            f"users in reach {g['users_in_reach'].min()}-{g['users_in_reach'].max()}",
+        )
+    tab.emit(out, "ga_ablation")
+    finding = abl.attrs["finding"]
+    (out / "ga_ablation_finding.txt").write_text(finding + "\n")
+    print("GA ablation finding:\n" + finding + "\n", flush=True)
+    _ablation_figure(abl, summ, out / "ga_ablation.png")
+    return abl
 
 
-GA_VARIANTS = {
-    "thesis": {},
-    "SA at T=5 (scaled to the fitness)": {"settings": {"T": 5.0}},
-    "no SA (improvements only)": {"settings": {"T": 1e-9}},
-    "absolute mutation step R_d": {"settings": {"mutation_step": 500.0}},
-    "replace worst 50%": {"settings": {"replace_frac": 0.5}},
-    "no restarts (1 run, same generations)": {"no_restarts": True},
+def _ablation_figure(abl: pd.DataFrame, summ: pd.DataFrame, path: Path) -> None:
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5.6))
+    ax = axes[0]
+    ms = sorted(summ["m"].unique())
+    variants = list(dict.fromkeys(summ["variant"]))
+    w = 0.8 / max(1, len(variants))
+    for k, v in enumerate(variants):
+        g = summ[summ["variant"] == v].set_index("m").reindex(ms)
+        x = np.arange(len(ms)) + (k - (len(variants) - 1) / 2) * w
+        ax.bar(x, g["p_global_es"], w, label=g["label"].dropna().iloc[0])
+        ax.plot(x, g["p_global_milp"].astype(float), "k_", ms=8)
+    ax.set_xticks(np.arange(len(ms)), [f"m={m}" for m in ms])
+    ax.set_ylabel("P_Global (fraction of runs)")
+    ax.set_ylim(0, 1.05)
+    ax.set_title("bars: vs exhaustive search; black ticks: vs MILP optimum", fontsize=9)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2)
+    ax = axes[1]
+    th = abl[abl["variant"] == "thesis"]
+    for m, g in th.groupby("m"):
+        ax.plot(g["users_direct_reach"], g["p_es"], "o", label=f"m={m}")
+    ax.set_xlabel("users within r1 + R_d of the GBS (count)")
+    ax.set_ylabel("thesis GA P_Global vs ES, per seed")
+    ax.set_ylim(-0.05, 1.05)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+GA_VARIANTS: dict[str, dict[str, Any]] = {
+    "thesis": {"label": "thesis GA (Tables 4.1, 4.3)"},
+    "T5": {"label": "SA at T=5 (scaled to the fitness)", "settings": {"T": 5.0}},
+    "noSA": {"label": "no SA (improvements only)", "settings": {"T": 1e-9}},
+    "abs-step": {"label": "absolute mutation step R_d", "settings": {"mutation_step": 500.0}},
+    "repl50": {"label": "replace worst 50%", "settings": {"replace_frac": 0.5}},
+    "no-restarts": {"label": "no restarts (1 run, same generations)", "no_restarts": True},
+    "restarts-x4": {"label": "4 x N_start restarts (4 x the budget)", "restarts_factor": 4},
 }
-"""GA ablation variants (issue 13.4): the faithful thesis GA and one change each, as
-:class:`GASettings` fields or run shape. None of them is the thesis method except "thesis"."""
+"""GA ablation variants (issue 13.4), keyed by a short name: the faithful thesis GA and one
+change each, as :class:`GASettings` fields (``settings``) or run shape (``no_restarts``: one
+run of N_start x 50 generations; ``restarts_factor``: that many times N_start restarts, to see
+whether the budget closes the gap); ``label`` says what changes. Only "thesis" is the thesis
+method. Every variant's run r uses the same seed as the thesis GA's run r (paired runs)."""
 
 
-def instance_features(problem) -> dict:
+INSTANCE_VARIANTS: dict[str, dict[str, Any]] = {
+    "thesis": {"label": "Table 4.2 users", "params": {}},
+    "clusters-only": {
+        "label": "thesis GA, clusters only (Table 4.2 without background users, lambda_nc = 0)",
+        "params": {"lambda_nc": 0.0},
+    },
+}
+"""Instance side of the ablation: the Table 4.2 snapshot of a seed, and the same snapshot without
+its uniform background users (the clustered users are drawn first, so they are the same
+users). The thesis GA and both references run on each."""
+
+
+def instance_features(problem, centres=None) -> dict:
     """Descriptors of ``problem`` used to explain GA success (m, lengths in metres): active users,
     users within r1 + R_d of a GBS (coverable by a direct drone-cell), users within
-    r1 + (m - 1) r2 + R_d (coverable at all), and the continuous bound per drone-cell."""
+    r1 + (m - 1) r2 + R_d (coverable at all), and, given the cluster ``centres`` ((c, 2) m,
+    from :func:`~droneplan.scenarios.cells.thesis_instance`), the clusters whose centre lies
+    within that reach and within direct reach."""
     from droneplan.formulations.cells import CellProblem
     from droneplan.solvers.validation import check_instance
 
     check_instance("problem", problem, CellProblem)
-    t = problem.targets
-    dg = (
-        np.min(
-            np.hypot(t[:, None, 0] - problem.gbs[None, :, 0], t[:, None, 1] - problem.gbs[None, :, 1]), axis=1
+
+    def gbs_dist(pts):
+        pts = np.asarray(pts, float).reshape(-1, 2)
+        if not len(pts):
+            return np.zeros(0)
+        return np.min(
+            np.hypot(pts[:, None, 0] - problem.gbs[None, :, 0], pts[:, None, 1] - problem.gbs[None, :, 1]),
+            axis=1,
         )
-        if len(t)
-        else np.zeros(0)
-    )
+
+    dg = gbs_dist(problem.targets)
+    direct = problem.r1 + problem.R_d
     reach = problem.r1 + (problem.n_cells - 1) * problem.r2 + problem.R_d
-    return {
-        "active_users": len(t),
-        "users_direct_reach": int((dg <= problem.r1 + problem.R_d).sum()),
+    out = {
+        "active_users": len(problem.targets),
+        "users_direct_reach": int((dg <= direct).sum()),
         "users_in_reach": int((dg <= reach).sum()),
     }
+    if centres is not None:
+        dc = gbs_dist(centres)
+        out["clusters_direct_reach"] = int((dc <= direct).sum())
+        out["clusters_in_reach"] = int((dc <= reach).sum())
+    return out
+
+
+def ablation_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """One task of the GA ablation (issue 13.4) in the results schema (objective = covered users).
+
+    kind ``ref``: exhaustive search (Alg. 2, ``es_limit`` s) and the MILP (``milp_limit`` s) on
+    ``thesis_problem(m, seed)`` (with the users of ``users``, a key of :data:`INSTANCE_VARIANTS`,
+    default "thesis"), with the instance features as extras; kind ``run``: one GA run of variant
+    ``variant`` (a key of :data:`GA_VARIANTS`) seeded by ``run_seed`` on that instance.
+    """
+    m, seed = int(task["m"]), int(task["seed"])
+    params = replace(THESIS_TABLE_4_2, **INSTANCE_VARIANTS[task.get("users", "thesis")]["params"])
+    inst = thesis_instance(seed, params)
+    p = problem_from_instance(inst, m)
+    if task["kind"] == "ref":
+        feats = instance_features(p, inst.cluster_centres)
+        es = exhaustive(p, time_limit=float(task["es_limit"]))
+        milp = solve_milp(p, backend=MILP_BACKEND, time_limit=float(task["milp_limit"]))
+        outcomes = [
+            Outcome.of(
+                "exhaustive",
+                "heuristic",
+                es,
+                extras={**feats, "es_complete": bool(es.info["complete"])},
+            ),
+            Outcome.of("milp", "model", milp, bound_kind="candidate-set", extras=feats),
+        ]
+    else:
+        spec = GA_VARIANTS[task["variant"]]
+        kw: dict[str, Any] = {}
+        n_start = thesis_ga_settings(m)[1]
+        if spec.get("no_restarts"):
+            kw = {"restarts": 1, "iter_max": 50 * n_start}
+        elif "restarts_factor" in spec:
+            kw = {"restarts": int(spec["restarts_factor"]) * n_start}
+        ga = genetic(p, seed=int(task["run_seed"]), settings=GASettings(**spec.get("settings", {})), **kw)
+        share = float(np.mean(ga.info["final_best_share"]))
+        outcomes = [
+            Outcome.of(
+                "ga",
+                "heuristic",
+                ga,
+                extras={
+                    "variant": task["variant"],
+                    "users": task.get("users", "thesis"),
+                    "run_seed": int(task["run_seed"]),
+                    "best_share": share,
+                },
+            )
+        ]
+    return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
+
+
+def ablation_tasks(
+    *,
+    seeds,
+    ms,
+    runs: int,
+    ablation_runs: int | None = None,
+    variants=None,
+    instances=None,
+    es_limit: float,
+    milp_limit: float,
+) -> list[dict[str, Any]]:
+    """The tasks of the GA ablation: per (seed, m, instance variant) one ``ref`` task; on the
+    Table 4.2 users one ``run`` task per (GA variant, run), ``runs`` runs of the thesis GA and
+    ``ablation_runs`` (default ``runs``) of each other GA variant; on each other instance variant
+    (keys of :data:`INSTANCE_VARIANTS`, default all) ``ablation_runs`` runs of the thesis GA.
+    Instance ids carry the limits, so other limits are new tasks."""
+    from droneplan.solvers.validation import check_int, check_positive
+
+    variants = list(GA_VARIANTS) if variants is None else list(variants)
+    unknown = [v for v in variants if v not in GA_VARIANTS]
+    if unknown:
+        raise ValueError(f"variants must be keys of GA_VARIANTS {list(GA_VARIANTS)}, got {unknown}")
+    instances = list(INSTANCE_VARIANTS) if instances is None else list(instances)
+    unknown = [v for v in instances if v not in INSTANCE_VARIANTS]
+    if unknown:
+        raise ValueError(
+            f"instances must be keys of INSTANCE_VARIANTS {list(INSTANCE_VARIANTS)}, got {unknown}"
+        )
+    runs = check_int("runs", runs, min_value=1)
+    ablation_runs = runs if ablation_runs is None else check_int("ablation_runs", ablation_runs, min_value=1)
+    seeds = [check_int("seeds", s, min_value=0) for s in seeds]
+    ms = [check_int("ms", m, min_value=1, max_value=4) for m in ms]
+    es_limit, milp_limit = check_positive("es_limit", es_limit), check_positive("milp_limit", milp_limit)
+    tasks: list[dict[str, Any]] = []
+    for seed in seeds:
+        for m in ms:
+            for users in instances:
+                tag = {} if users == "thesis" else {"users": users}  # thesis ids stay as they were
+                tasks.append(
+                    {
+                        "problem": "cells",
+                        "instance": instance_id(
+                            "ablation-ref", m=m, seed=seed, es=es_limit, milp=milp_limit, **tag
+                        ),
+                        "kind": "ref",
+                        "m": m,
+                        "seed": seed,
+                        "size": m,
+                        "users": users,
+                        "es_limit": es_limit,
+                        "milp_limit": milp_limit,
+                    }
+                )
+                plan = (
+                    [(v, runs if v == "thesis" else ablation_runs) for v in variants]
+                    if users == "thesis"
+                    else [("thesis", ablation_runs)]
+                )
+                tasks.extend(
+                    {
+                        "problem": "cells",
+                        "instance": instance_id("ablation-ga", m=m, seed=seed, variant=v, run=r, **tag),
+                        "kind": "run",
+                        "m": m,
+                        "seed": seed,
+                        "size": m,
+                        "users": users,
+                        "variant": v,
+                        "run_seed": 10_000 * seed + 100 * m + r,
+                    }
+                    for v, n in plan
+                    for r in range(n)
+                )
+    return tasks
+
+
+def ablation_frame(df: pd.DataFrame, tasks: list[dict[str, Any]]) -> pd.DataFrame:
+    """Per (seed, m, variant): ``runs``, ``p_es`` (fraction of runs reaching the exhaustive-search
+    value, the thesis's criterion), ``p_milp`` (reaching the MILP optimum; None unless proven),
+    ``mean_obj``, ``best_obj``, ``best_share`` (mean share of a final population equal to its
+    best), the references and the instance features, from the rows of :func:`ablation_task`."""
+    by_id = df.set_index(["instance", "method"])
+    rows = []
+    refs = [t for t in tasks if t["kind"] == "ref"]
+    for ref in refs:
+        if (ref["instance"], "exhaustive") not in by_id.index or (ref["instance"], "milp") not in by_id.index:
+            continue  # the reference task failed (an error row): rerun to retry it
+        es = by_id.loc[(ref["instance"], "exhaustive")]
+        milp = by_id.loc[(ref["instance"], "milp")]
+        feats = {
+            k[len("cells_") :]: es[k]
+            for k in es.index
+            if k.startswith("cells_")
+            and k[len("cells_") :].split("_")[0] in ("active", "users", "clusters")
+            and pd.notna(es[k])
+        }
+        proven = milp["status"] == "optimal"
+        users = ref.get("users", "thesis")
+        runs = [
+            t
+            for t in tasks
+            if t["kind"] == "run"
+            and t["seed"] == ref["seed"]
+            and t["m"] == ref["m"]
+            and t.get("users", "thesis") == users
+        ]
+        for v in dict.fromkeys(t["variant"] for t in runs):
+            ids = [
+                (t["instance"], "ga")
+                for t in runs
+                if t["variant"] == v and (t["instance"], "ga") in by_id.index
+            ]
+            if not ids:
+                continue
+            ga = by_id.loc[ids]
+            obj = ga["objective"].astype(float).to_numpy()
+            rows.append(
+                {
+                    "seed": ref["seed"],
+                    "m": ref["m"],
+                    "variant": v if users == "thesis" else users,
+                    "users": users,
+                    "label": GA_VARIANTS[v]["label"]
+                    if users == "thesis"
+                    else INSTANCE_VARIANTS[users]["label"],
+                    "runs": len(obj),
+                    "p_es": float(np.mean(obj >= es["objective"])),
+                    "p_milp": float(np.mean(obj >= milp["objective"])) if proven else None,
+                    "mean_obj": float(obj.mean()),
+                    "best_obj": float(obj.max()),
+                    "best_share": float(ga["cells_best_share"].astype(float).mean()),
+                    "mean_time_s": float(ga["time_s"].astype(float).mean()),
+                    "es_obj": float(es["objective"]),
+                    "es_complete": bool(es["cells_es_complete"]),
+                    "es_time_s": float(es["time_s"]),
+                    "milp_obj": float(milp["objective"]),
+                    "milp_status": str(milp["status"]).upper(),
+                    "milp_bound": None if pd.isna(milp["bound"]) else float(milp["bound"]),
+                    **{k: int(v_) for k, v_ in feats.items()},
+                }
+            )
+    return pd.DataFrame(rows)
+
+
+def ablation_summary(abl: pd.DataFrame) -> pd.DataFrame:
+    """Per (m, variant) over seeds: seeds, runs per seed, P_Global vs ES and vs the MILP optimum
+    (pooled over runs; vs MILP over the seeds where it is proven), mean covered users, mean
+    relative gap to the MILP optimum, mean final-population share of the best chromosome."""
+    out = []
+    for (m, v), g in abl.groupby(["m", "variant"], sort=False):
+        pm = g["p_milp"].dropna()
+        out.append(
+            {
+                "m": m,
+                "variant": v,
+                "label": g["label"].iloc[0],
+                "seeds": len(g),
+                "runs_per_seed": int(g["runs"].iloc[0]),
+                "p_global_es": float(g["p_es"].mean()),
+                "p_global_milp": float(pm.mean()) if len(pm) else None,
+                "mean_obj": float(g["mean_obj"].mean()),
+                "mean_gap_to_milp": float(
+                    ((g["milp_obj"] - g["mean_obj"]) / g["milp_obj"].clip(lower=1)).mean()
+                ),
+                "best_share": float(g["best_share"].mean()),
+                "mean_time_s": float(g["mean_time_s"].mean()),
+            }
+        )
+    return pd.DataFrame(out)
+
+
+def _spearman(a, b) -> float | None:
+    a, b = pd.Series(np.asarray(a, float)), pd.Series(np.asarray(b, float))
+    if len(a) < 3 or a.std() == 0 or b.std() == 0:
+        return None
+    return float(a.rank().corr(b.rank()))
+
+
+def ablation_correlations(abl: pd.DataFrame) -> pd.DataFrame:
+    """Per m: Spearman rank correlation over seeds of the thesis GA's P_Global (vs ES) with each
+    instance feature (None when a column is constant or there are fewer than 3 seeds)."""
+    th = abl[abl["variant"] == "thesis"]
+    feats = [
+        c for c in ("users_in_reach", "users_direct_reach", "clusters_in_reach", "active_users") if c in th
+    ]
+    rows = [
+        {"m": m, "feature": f, "spearman": _spearman(g["p_es"], g[f]), "seeds": len(g)}
+        for m, g in th.groupby("m")
+        for f in feats
+    ]
+    return pd.DataFrame(rows)
+
+
+def ablation_finding(abl: pd.DataFrame) -> str:
+    """A short reading of the ablation, written from its numbers (the text of the reproduce
+    output and notebook 02): per m, the faithful GA against both references, every variant's
+    P_Global and mean covered users, and the rank correlations with the instance features."""
+    summ = ablation_summary(abl)
+    corr = ablation_correlations(abl)
+    lines = []
+    for m, g in summ.groupby("m", sort=True):
+        th = g[g["variant"] == "thesis"].iloc[0]
+        inst = abl[(abl["m"] == m) & (abl["variant"] == "thesis")]
+        pm = th["p_global_milp"]
+        pm_txt = "n/a (MILP not proven)" if pm is None or pd.isna(pm) else f"{pm:.0%}"
+        below = int((inst["es_obj"] < inst["milp_obj"]).sum())
+        line = (
+            f"m={m}: the faithful GA reaches the exhaustive-search value in {th['p_global_es']:.0%} of "
+            f"{th['seeds']} seeds x {th['runs_per_seed']} runs (thesis: {THESIS_TABLE_4_3[m][5]:.0%}) "
+            f"and the MILP optimum in {pm_txt}; it covers {th['mean_obj']:.1f} users on average against "
+            f"{inst['es_obj'].mean():.1f} (ES) and {inst['milp_obj'].mean():.1f} (MILP; ES is below it "
+            f"on {below} of {len(inst)} seeds); its final populations are {th['best_share']:.0%} copies "
+            "of their best chromosome."
+        )
+        others = g[g["variant"] != "thesis"].sort_values(["p_global_es", "mean_obj"], ascending=False)
+        if len(others):
+            line += " One change at a time (P_Global vs ES, mean covered): " + "; ".join(
+                f"{r['label']} {r['p_global_es']:.0%}, {r['mean_obj']:.1f}" for _, r in others.iterrows()
+            )
+            top = others.iloc[0]
+            if top["p_global_es"] >= 0.9:
+                line += f". {top['label']} alone brings P_Global to the thesis's level."
+            elif top["p_global_es"] > th["p_global_es"]:
+                line += f". No single change reaches the thesis's level; the largest rise is {top['label']}."
+            else:
+                line += ". No single change raises P_Global above the faithful GA's."
+        cm = corr[(corr["m"] == m) & corr["spearman"].notna()]
+        if len(cm):
+            line += (
+                " Rank correlation of the faithful GA's P_Global with instance features over seeds: "
+                + ", ".join(f"{r['feature']} {r['spearman']:+.2f}" for _, r in cm.iterrows())
+            )
+            line += "."
+        lines.append(line)
+    return "\n".join(lines)
 
 
 def ga_ablation(
@@ -413,74 +820,51 @@ def ga_ablation(
     ms,
     runs: int,
     variants=None,
+    instances=None,
     es_limit: float = 600.0,
     milp_limit: float = 300.0,
     ablation_runs: int | None = None,
-    progress: bool = True,
-):
-    """P_Global of the thesis GA and of the ablation variants (issue 13.4).
+    executor=None,
+    store=None,
+    out: Path | None = None,
+) -> pd.DataFrame:
+    """P_Global of the thesis GA and of the ablation variants (issue 13.4), through the results
+    store: every (seed, m) reference and every GA run is a task of :func:`ablation_task`, run by
+    ``executor`` (default: serial) into ``store`` (default ``out/results.sqlite``; a temporary
+    directory when ``out`` is None too), so an interrupted ablation resumes.
 
-    For every thesis-scale instance (seed in ``seeds``, m in ``ms``): the exhaustive-search
-    value (Algorithm 2, the thesis's success criterion), the MILP optimum, instance
-    features, and for each variant ``runs`` GA runs (``ablation_runs`` for the non-thesis
-    variants, default ``runs``) with their success against both references.
-    es_limit: time limit (s) of each exhaustive search (a stopped search still gives its best
-    value as the reference, flagged in ``es_complete``); milp_limit: time limit (s) of each
-    MILP solve (``p_milp`` is None unless it is proven optimal); progress: show a progress bar.
-    Returns a long DataFrame: one row per (seed, m, variant) with ``p_es`` (fraction of runs
-    reaching the ES value), ``p_milp`` (reaching the MILP optimum), ``mean_obj`` and the
-    references.
+    seeds: thesis-scale instance seeds; ms: numbers of drone-cells (1-4); runs: GA runs of the
+    thesis variant per instance; ablation_runs: runs of each other variant (default ``runs``);
+    variants: keys of :data:`GA_VARIANTS` (default all); instances: keys of
+    :data:`INSTANCE_VARIANTS` (default all; :func:`ablation_tasks` says what runs on each);
+    es_limit, milp_limit: time limits (s) of the exhaustive search (a stopped search still
+    gives its best value, flagged ``es_complete``) and of the MILP (``p_milp`` is None unless
+    it is proven optimal).
+
+    Returns :func:`ablation_frame`'s table (one row per seed, m, variant); its
+    ``attrs["finding"]`` holds :func:`ablation_finding`'s text and ``attrs["summary"]``
+    :func:`ablation_summary`'s table (per m and variant).
     """
-    import pandas as pd
-    from tqdm.auto import tqdm
-
-    from droneplan.solvers.validation import check_int, check_positive
-
-    variants = GA_VARIANTS if variants is None else variants
-    runs = check_int("runs", runs, min_value=1)
-    if ablation_runs is not None:
-        ablation_runs = check_int("ablation_runs", ablation_runs, min_value=1)
-    seeds = [check_int("seeds", s, min_value=0) for s in seeds]
-    ms = [check_int("ms", m, min_value=1, max_value=3) for m in ms]
-    es_limit, milp_limit = check_positive("es_limit", es_limit), check_positive("milp_limit", milp_limit)
-    rows = []
-    jobs = [(s, m) for s in seeds for m in ms]
-    for seed, m in tqdm(jobs, desc="GA ablation", disable=not progress):
-        p = thesis_problem(m, seed)
-        es = exhaustive(p, time_limit=es_limit)
-        milp = solve_milp(p, time_limit=milp_limit)
-        es_obj, milp_obj = _covered(es), _covered(milp)
-        feats = instance_features(p)
-        _, N = thesis_ga_settings(m)
-        for name, spec in variants.items():
-            n_runs = runs if name == "thesis" or ablation_runs is None else ablation_runs
-            s = GASettings(**spec.get("settings", {}))
-            kw = {"restarts": 1, "iter_max": 50 * N} if spec.get("no_restarts") else {}
-            objs = [
-                _covered(genetic(p, seed=10_000 * seed + 100 * m + r, settings=s, **kw))
-                for r in range(n_runs)
-            ]
-            rows.append(
-                {
-                    "seed": seed,
-                    "m": m,
-                    "variant": name,
-                    "runs": n_runs,
-                    "p_es": float(np.mean([o >= es_obj for o in objs])),
-                    "p_milp": float(np.mean([o >= milp_obj for o in objs]))
-                    if milp.status is Status.OPTIMAL
-                    else None,
-                    "mean_obj": float(np.mean(objs)),
-                    "best_obj": float(max(objs)),
-                    "es_obj": es.objective,
-                    "es_complete": es.info["complete"],
-                    "milp_obj": milp.objective,
-                    "milp_status": milp.status.name,
-                    "milp_bound": milp.bound,
-                    **feats,
-                }
-            )
-    return pd.DataFrame(rows)
+    tasks = ablation_tasks(
+        seeds=seeds,
+        ms=ms,
+        runs=runs,
+        ablation_runs=ablation_runs,
+        variants=variants,
+        instances=instances,
+        es_limit=es_limit,
+        milp_limit=milp_limit,
+    )
+    with contextlib.ExitStack() as stack:
+        ex = executor or stack.enter_context(make_executor(1))
+        if store is None and out is None:
+            out = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="droneplan-ablation-")))
+        st = stack.enter_context(open_store(store, out if out is not None else "."))
+        df = map_rows(ablation_task, tasks, executor=ex, store=st, desc="GA ablation")
+    abl = ablation_frame(df, tasks)
+    abl.attrs["finding"] = ablation_finding(abl)
+    abl.attrs["summary"] = ablation_summary(abl)
+    return abl
 
 
 def milp_seed_distribution(m: int, seeds, time_limit: float, *, progress: bool = True):

@@ -148,7 +148,7 @@ def test_exhaustive_single_cell_is_optimal():
 
 def test_exhaustive_time_limit_reports_incomplete():
     p = random_small(0, 40, 3)
-    r = exhaustive(p, time_limit=0.05)
+    r = exhaustive(p, time_limit=1e-6)  # stops at its first check, whatever the speed
     assert r.info["complete"] is False and evaluate(p, r.x).feasible
 
 
@@ -230,3 +230,166 @@ def shp_point(x, y):
     from shapely.geometry import Point
 
     return Point(x, y)
+
+
+# ----------------------------------------------------------------- speed-ups vs plain references
+def reference_fitness(p, pop):
+    """The GA fitness written plainly, one chromosome at a time: keep the drone-cells inside
+    the area, clear of every GBS cell and of every other drone-cell, and linked to a GBS
+    through such cells; count the users evaluate() sees covered by them."""
+    from droneplan.formulations.cells import TOL, connected_mask
+    from droneplan.planners.cells import _area
+
+    xmin, xmax, ymin, ymax = _area(p)
+    out = []
+    for chrom in np.asarray(pop, float).reshape(-1, p.n_cells, 2):
+        ok = np.array(
+            [
+                xmin - TOL <= x <= xmax + TOL
+                and ymin - TOL <= y <= ymax + TOL
+                and all(np.hypot(x - g[0], y - g[1]) >= p.R_g + p.R_d - TOL for g in p.gbs)
+                and all(
+                    np.hypot(x - o[0], y - o[1]) >= 2 * p.R_d - TOL for k, o in enumerate(chrom) if k != i
+                )
+                for i, (x, y) in enumerate(chrom)
+            ]
+        )
+        keep = connected_mask(p, chrom, usable=ok)
+        out.append(evaluate(p, chrom[keep]).covered)
+    return np.array(out)
+
+
+def test_fitness_equals_the_plain_formulation():
+    from droneplan.scenarios.cells import thesis_problem
+
+    rng = np.random.default_rng(3)
+    cases = [(random_small(s, 30, m), 6.5) for s, m in ((0, 1), (1, 2), (2, 3))]
+    cases += [(thesis_problem(m, seed=s), 5200.0) for s, m in ((0, 2), (4, 3))]
+    for p, half in cases:
+        pop = rng.uniform(-half, half, size=(300, p.n_cells, 2))
+        pop[:40] = np.clip(pop[:40], -half * 0.8, half * 0.8)  # some on the area's edge
+        # drone-cells on users and exactly 2 R_d apart: the boundary cases of the distance tests
+        t = p.targets
+        pop[40:60, 0] = t[rng.integers(0, len(t), 20)]
+        pop[40:60, -1] = pop[40:60, 0] + [2 * p.R_d, 0.0]
+        assert np.array_equal(fitness(p, pop), reference_fitness(p, pop))
+        assert np.array_equal(fitness(p, pop.reshape(30, 10, p.n_cells, 2)), fitness(p, pop).reshape(30, 10))
+
+
+def reference_ga(p, N, P, iter_max, s, seed):
+    """The GA generation loop written plainly (the whole population re-evaluated after the
+    crossover, the fitness by reference_fitness): the same random draws, so the same result."""
+    from droneplan.planners.cells import _area
+
+    rng = np.random.default_rng(seed)
+    m = p.n_cells
+    xmin, xmax, ymin, ymax = _area(p)
+    lo, hi = np.array([xmin, ymin]), np.array([xmax, ymax])
+    origin = p.gbs[0]
+
+    def fit(x):
+        return reference_fitness(p, x).reshape(x.shape[:-2])
+
+    pop = rng.uniform(lo, hi, size=(N, P, m, 2))
+    f = fit(pop)
+    T = s.T
+    n_rep = int(np.floor(s.replace_frac * P))
+    for _ in range(iter_max):
+        fbest = f.max(axis=1, keepdims=True).astype(float)
+        scale = np.where(fbest > 0, (1.0 - f / np.maximum(fbest, 1e-12)) ** 2, 1.0)
+        mask = rng.random((N, P, m, 2)) < s.p_m
+        sign = rng.choice([-1.0, 1.0], size=(N, P, m, 2))
+        step = sign * rng.random((N, P, m, 2)) * scale[..., None, None]
+        moved = (
+            origin + (pop - origin) * (1.0 + step)
+            if s.mutation_step is None
+            else pop + step * s.mutation_step
+        )
+        cand = np.clip(np.where(mask, moved, pop), lo, hi)
+        changed = mask.any(axis=(2, 3))
+        fc = f.copy()
+        if changed.any():
+            fc[changed] = fit(cand[changed][:, None])[:, 0]
+        delta = fc - f
+        accept = changed & ((delta >= 0) | (rng.random((N, P)) < np.exp(np.minimum(delta, 0) / T)))
+        pop = np.where(accept[..., None, None], cand, pop)
+        f = np.where(accept, fc, f)
+        perm = np.argsort(rng.random((N, P)), axis=1)
+        half = P // 2
+        a, b = perm[:, 0 : 2 * half : 2], perm[:, 1 : 2 * half : 2]
+        fmax = f.max(axis=1, keepdims=True).astype(float)
+        favg = f.mean(axis=1, keepdims=True)
+        fp = np.maximum(np.take_along_axis(f, a, 1), np.take_along_axis(f, b, 1))
+        spread = fmax - favg
+        pc = np.where(
+            fp >= favg, s.p_c1 - (s.p_c1 - s.p_c2) * (fp - favg) / np.where(spread > 0, spread, 1.0), s.p_c1
+        )
+        pc = np.where(spread > 0, pc, s.p_c2)
+        do = rng.random((N, half)) < pc
+        rows = rng.integers(0, m, size=(N, half))
+        for n_, c_ in zip(*np.nonzero(do), strict=True):
+            i, j, r = a[n_, c_], b[n_, c_], rows[n_, c_]
+            pop[n_, i, r, 1], pop[n_, j, r, 1] = pop[n_, j, r, 1], pop[n_, i, r, 1]
+        f = fit(pop)
+        if n_rep:
+            for n_ in range(N):
+                order = np.argsort(f[n_], kind="stable")
+                pop[n_, order[:n_rep]] = pop[n_, order[-1]]
+                f[n_, order[:n_rep]] = f[n_, order[-1]]
+        T *= s.alpha
+    i = np.argmax(f, axis=1)
+    return pop[np.arange(N), i], f[np.arange(N), i]
+
+
+@pytest.mark.parametrize(
+    ("seed", "m", "settings"),
+    [
+        (0, 1, GASettings()),
+        (1, 2, GASettings()),
+        (2, 3, GASettings(T=1e-9, replace_frac=0.5)),
+        (3, 2, GASettings(mutation_step=1.5)),
+    ],
+)
+def test_ga_equals_the_plain_generation_loop(seed, m, settings):
+    p = random_small(seed, 30, m)
+    r = genetic(p, pop_size=12, iter_max=15, restarts=3, seed=seed, settings=settings)
+    chroms, fvals = reference_ga(p, 3, 12, 15, settings, seed)
+    assert r.info["restart_bests"] == [int(v) for v in fvals]
+    assert np.array_equal(r.info["chromosome"], chroms[int(np.argmax(fvals))])
+
+
+def plain_exhaustive_value(p):
+    """Algorithm 2 by brute force: every sequence of user points for drone-cells 1..k (k < m),
+    each in its deployment region, counts; after m - 1 of them the constrained single-disc
+    sweep places the last one. The best covered count."""
+    from itertools import product
+
+    from droneplan.planners.cells import deployment_region
+
+    t = p.targets
+    best = 0
+    for k in range(p.n_cells):  # placements of k + 1 cells (prefixes count too)
+        for combo in product(range(len(t)), repeat=k):
+            pl = t[list(combo)].reshape(-1, 2)
+            if any(not deployment_region(p, pl[:i]).contains(pl[i])[0] for i in range(len(pl))):
+                continue
+            cov = np.zeros(len(t), bool)
+            for q in pl:
+                cov |= np.hypot(*(t - q).T) <= p.R_d + 1e-6
+            best = max(best, int(cov.sum()))
+            if k < p.n_cells - 1:
+                continue
+            c, q = max_coverage_in_region(t[~cov], p.R_d, deployment_region(p, pl))
+            if q is not None:
+                best = max(best, int(cov.sum()) + c)
+    return best
+
+
+@pytest.mark.parametrize(("seed", "m"), [(0, 2), (1, 2), (2, 3), (3, 3), (4, 2)])
+def test_pruned_exhaustive_equals_the_plain_enumeration(seed, m):
+    p = random_small(seed, 14 if m == 3 else 22, m)
+    pruned, plain = exhaustive(p), exhaustive(p, prune=False)
+    assert pruned.objective == plain.objective == plain_exhaustive_value(p)
+    assert np.array_equal(pruned.x, plain.x)  # strict improvements only: the same plan too
+    assert plain.info["last_cell_skipped"] == 0 and plain.info["subtrees_pruned"] == 0
+    assert pruned.info["last_cell_searches"] <= plain.info["last_cell_searches"]

@@ -3,6 +3,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+import pandas as pd
+import pytest
 
 from droneplan.formulations.cells import CellProblem
 from droneplan.studies import cells as study
@@ -61,19 +63,57 @@ def test_reproduce_tasks_emit_schema_rows_within_the_bounds():
     assert ga["objective"] <= ga["cells_polished"]  # polishing never loses users
 
 
-def test_ga_ablation_rows_respect_the_milp_optimum():
-    variants = {
-        "thesis": {},
-        "no SA (improvements only)": {"settings": {"T": 1e-9}},
-        "no restarts (1 run, same generations)": {"no_restarts": True},
-    }
-    df = study.ga_ablation(
-        seeds=[0], ms=(1,), runs=2, variants=variants, es_limit=60, milp_limit=60, progress=False
-    )
-    assert list(df["variant"]) == list(variants)
+def test_ga_ablation_rows_respect_the_milp_optimum(tmp_path):
+    from droneplan.studies.common import make_executor
+    from droneplan.studies.store import ResultStore
+
+    variants = ["thesis", "noSA", "no-restarts"]
+    kw = {"seeds": [0], "ms": (1,), "runs": 2, "variants": variants, "es_limit": 60, "milp_limit": 60}
+    df = study.ga_ablation(**kw, out=tmp_path)
+    assert list(df["variant"]) == [*variants, "clusters-only"]
+    # the clusters-only instance is the same snapshot without its background users
+    th, cl = df.iloc[0], df.iloc[-1]
+    assert cl["users"] == "clusters-only" and cl["active_users"] < th["active_users"]
+    assert cl["milp_obj"] <= th["milp_obj"] and cl["clusters_in_reach"] == th["clusters_in_reach"]
     assert (df["milp_status"] == "OPTIMAL").all()
     # every GA plan and the exhaustive-search plan are feasible placements: never above the optimum
     assert (df["best_obj"] <= df["milp_obj"]).all() and (df["es_obj"] <= df["milp_obj"]).all()
     assert df["p_es"].between(0, 1).all() and df["p_milp"].between(0, 1).all()
+    assert df["best_share"].between(0, 1).all()
     assert (df["users_direct_reach"] <= df["users_in_reach"]).all()
     assert (df["users_in_reach"] <= df["active_users"]).all()
+    assert (df["clusters_direct_reach"] <= df["clusters_in_reach"]).all()
+    assert "m=1: the faithful GA" in df.attrs["finding"]
+    # one task per (seed, m) reference and per GA run, all in the store: a rerun computes nothing
+    with ResultStore(tmp_path / "results.sqlite") as st:
+        rows = st.frame()
+        # per instance variant: ES + MILP rows; thesis users: 3 variants x 2 runs; clusters only: 2 runs
+        assert set(rows["study"]) == {"ablation-ref", "ablation-ga"} and len(rows) == (2 + 3 * 2) + (2 + 2)
+        with make_executor(1) as ex:
+            again = study.ga_ablation(**kw, executor=ex, store=st)
+        assert len(st.frame()) == len(rows)
+    pd.testing.assert_frame_equal(again, df)
+
+
+def test_ablation_tasks_pair_the_variants_runs_with_the_thesis_runs():
+    tasks = study.ablation_tasks(seeds=[0, 1], ms=(1, 2), runs=3, ablation_runs=2, es_limit=5, milp_limit=5)
+    refs = [t for t in tasks if t["kind"] == "ref"]
+    runs = [t for t in tasks if t["kind"] == "run"]
+    n_other = len(study.INSTANCE_VARIANTS) - 1
+    assert len(refs) == 4 * (1 + n_other)
+    assert len(runs) == 4 * (3 + 2 * (len(study.GA_VARIANTS) - 1)) + 4 * n_other * 2
+    assert len({t["instance"] for t in tasks}) == len(tasks)
+    for t in runs:
+        if t["variant"] != "thesis" and t["users"] == "thesis":
+            twin = [
+                u
+                for u in runs
+                if u["variant"] == "thesis"
+                and u["instance"].replace("variant=thesis", "")
+                == t["instance"].replace(f"variant={t['variant']}", "")
+            ]
+            assert len(twin) == 1 and twin[0]["run_seed"] == t["run_seed"]
+    with pytest.raises(ValueError, match="instances"):
+        study.ablation_tasks(seeds=[0], ms=(1,), runs=1, instances=["nope"], es_limit=5, milp_limit=5)
+    with pytest.raises(ValueError, match="variants"):
+        study.ablation_tasks(seeds=[0], ms=(1,), runs=1, variants=["nope"], es_limit=5, milp_limit=5)
