@@ -297,22 +297,7 @@ def branch_and_bound(
         C = C[val + w[C] > state.best_val]
         if len(C) == 0:
             return
-        pp = pts[P]
-        if P:
-            link = np.hypot(pp[:, None, 0] - pts[C][None, :, 0], pp[:, None, 1] - pts[C][None, :, 1]) <= r2t
-            rq = (dg[C] <= r1t) | np.any(link & reach[:, None], axis=0)
-            ok = rq
-            if not reach.all():
-                adj = np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1]) <= r2t
-                R = reach[:, None] | (link & rq[None, :])
-                for _ in range(len(P)):
-                    nr = R | np.any(adj[:, :, None] & R[None, :, :], axis=1)
-                    if np.array_equal(nr, R):
-                        break
-                    R = nr
-                ok = rq & R.all(axis=0)
-        else:
-            ok = dg[C] <= r1t
+        ok = connecting(P, C, reach)
         for q in C[ok].tolist():
             if val + int(w[q]) <= state.best_val:
                 break
@@ -439,12 +424,13 @@ def branch_and_bound(
         finally:
             stack_bounds.pop()
 
-    def connecting(R: list[int], C: np.ndarray) -> np.ndarray:
-        """(|C|,) bool: R + q is connected (the link tests of ``evaluate``) for q in C."""
+    def connecting(R: list[int], C: np.ndarray, reach: np.ndarray | None = None) -> np.ndarray:
+        """(|C|,) bool: R + q is connected (the link tests of ``evaluate``) for q in C;
+        ``reach`` is ``reach_of(R)`` when the caller has it already."""
         if not R:
             return dg[C] <= r1t
         pr = pts[R]
-        reach = reach_of(R)
+        reach = reach_of(R) if reach is None else reach
         link = np.hypot(pr[:, None, 0] - pts[C][None, :, 0], pr[:, None, 1] - pts[C][None, :, 1]) <= r2t
         rq = (dg[C] <= r1t) | np.any(link & reach[:, None], axis=0)
         if reach.all():
