@@ -97,7 +97,8 @@ class BnbResult:
 
 
 class _Timeout(Exception):
-    pass
+    """Raised inside the search when the time limit expires; caught by the solve, which then
+    returns the incumbent with the bound of the unexplored branches."""
 
 
 @dataclass
