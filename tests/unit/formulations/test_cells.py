@@ -313,6 +313,73 @@ def test_bnb_equals_brute_force(seed, n, m):
     assert res.info["continuous_bound"] is None or res.bound <= res.info["continuous_bound"]
 
 
+def brute_force_pruned(problem, *, backhaul=True, runner_up=False):
+    """Brute force over the same candidates, enumerating only pairwise non-overlapping
+    site sets (the others are infeasible), so m = 4-5 stays affordable; with
+    backhaul=False the backhaul test is dropped (the relaxation of _bnb items 9-10)."""
+    from droneplan.formulations.cells._core import TOL
+
+    cand = candidate_sites(problem)
+    q = cand.points
+    apart = np.hypot(q[:, None, 0] - q[None, :, 0], q[:, None, 1] - q[None, :, 1]) >= 2 * problem.R_d - TOL
+    best = 0
+    values = []
+
+    def grow(chosen, start):
+        nonlocal best
+        if chosen:
+            ev = evaluate(problem, q[chosen])
+            ok = ev.feasible or (not backhaul and all("backhaul" in v for v in ev.violations))
+            if ok:
+                values.append((ev.covered, list(chosen)))
+                best = max(best, ev.covered)
+        if len(chosen) == problem.n_cells:
+            return
+        for i in range(start, len(q)):
+            if all(apart[i, j] for j in chosen):
+                grow([*chosen, i], i + 1)
+
+    grow([], 0)
+    if runner_up:  # the best feasible placement below the optimum (positions, value)
+        below = [(v, c) for v, c in values if v < best] or [(0, [])]
+        v, c = max(below, key=lambda t: t[0])
+        return best, q[c].reshape(-1, 2), v
+    return best
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 10_000), st.integers(4, 9), st.integers(3, 5))
+def test_bnb_with_site_elimination_equals_brute_force(seed, n, m):
+    # m >= 3 switches on items 9-10 of _bnb (backhaul-free bounds, site elimination). The
+    # search starts, heuristics off, from the runner-up placement (one step below the
+    # optimum), so a site cleared one unit too eagerly loses the optimum
+    from droneplan.formulations.cells._bnb import branch_and_bound
+
+    p = random_small(seed, n, m)
+    best, runner_up, value = brute_force_pruned(p, runner_up=True)
+    res = branch_and_bound(p, candidate_sites(p), runner_up, value, heuristics=False)
+    assert res.proven and res.value == best == res.bound
+    ev = evaluate(p, res.positions)
+    assert ev.feasible and ev.covered == best
+    assert solve_milp(p, engine="bnb", time_limit=60).objective == best
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 10_000), st.integers(3, 9), st.integers(1, 4))
+def test_backhaul_free_relaxation_is_exact(seed, n, k):
+    # item 9's bounds come from searches on _without_backhaul(problem): every candidate
+    # links to every GBS and to every other, so the search must return the best k
+    # pairwise non-overlapping candidates with backhaul ignored
+    from droneplan.formulations.cells._bnb import _without_backhaul, branch_and_bound
+
+    p = random_small(seed, n, k)
+    cand = candidate_sites(p)
+    if len(cand.points) == 0:
+        return
+    res = branch_and_bound(_without_backhaul(p, cand.points)(k), cand, np.zeros((0, 2)), 0, eliminate=False)
+    assert res.proven and res.value == res.bound == brute_force_pruned(p, backhaul=False)
+
+
 def test_bnb_counts_a_shared_lens_user_once():
     # two drone-cells exactly 2 R_d apart both cover the user midway (a lens user): the
     # additive bound counts it twice, the value must count it once
