@@ -330,11 +330,18 @@ def branch_and_bound(
                     state.best_val, state.best = int(ev.covered), [*P, q]
 
     def dfs(
-        P: list[int], ubits: int, cmask: np.ndarray, dist: np.ndarray, nb: float, probe: bool = False
+        P: list[int],
+        ubits: int,
+        cmask: np.ndarray,
+        dist: np.ndarray,
+        nb: float,
+        probe: bool = False,
+        must: np.ndarray | None = None,
     ) -> float | None:
         """Search below the node P (``cmask``: the sites that may complete it). With
         ``probe``, only bound it: the node bound, or None when no placement P + Q with Q
-        from ``cmask`` covers more than the incumbent (item 10); nothing is searched."""
+        from ``cmask`` covers more than the incumbent (item 10); nothing is searched.
+        ``must`` (bool over the sites): only completions holding one of them (item 11)."""
         # dist[k]: relay lower bound from a GBS to P[k] (item 3)
         state.nodes += 1
         if state.nodes % 256 == 0 and expired():
@@ -361,9 +368,14 @@ def branch_and_bound(
             return math.inf  # probes are only made with >= 2 free slots; never prune here
         if r == 0:
             return None
+        if must is not None:  # item 11: completions must hold a site of ``must``
+            cmask_must = cmask & must
+            if not cmask_must.any():
+                return None
+            w_must = int(w[np.flatnonzero(cmask_must)[0]])
         z = state.best_val
         if r == 1:
-            last_site(P, ubits, np.flatnonzero(cmask), reach, val)
+            last_site(P, ubits, np.flatnonzero(cmask if must is None else cmask_must), reach, val)
             return None
         # item 4: candidates heavy enough, then the relay lower bound of P + j (item 3)
         C = np.flatnonzero(cmask)
@@ -413,6 +425,8 @@ def branch_and_bound(
             b = min(b, val + wb + sum(tops[: r - 1]))
             if r >= 2 and float(dist[~reach].max()) >= 2:  # item 8
                 b = min(b, val + wb + wg + sum(tops[: r - 2]))
+        if must is not None:  # item 11: one slot holds a site of ``must``
+            b = min(b, val + w_must + sum(tops[: r - 1]))
         bf = min(float(b), val + cover_bound, nb)
         if r < len(conf_bound):  # item 9
             bf = min(bf, val + conf_bound[r])
@@ -424,6 +438,7 @@ def branch_and_bound(
         if r == 2:  # the last two slots without a search node per first site (same test)
             full = np.flatnonzero(cmask)
             neg_w = -w[full]  # non-decreasing
+        explored: list[int] = []
         try:
             for k in ok.tolist():
                 j = int(C[k])
@@ -447,17 +462,62 @@ def branch_and_bound(
                                 state.best_val, state.best = int(ev.covered), pj
                     if hi > lo:
                         cq = full[lo:hi]
-                        last_site(pj, ubj, cq[~conflict[j, cq]], reach_of(pj), valj)
+                        cq = cq[~conflict[j, cq]]
+                        if must is not None and not must[j]:
+                            cq = cq[must[cq]]
+                        last_site(pj, ubj, cq, reach_of(pj), valj)
                     continue
                 cm = cmask & ~conflict[j]
                 cm[: j + 1] = False
+                child_must = None if must is None or must[j] else must
+                if must is None:  # item 11
+                    replace = replaced_by_sibling(P, ubits, j, cm, explored)
+                    explored.append(j)
+                    if replace is True:
+                        continue
+                    child_must = None if replace is None or replace is False else replace
                 nd = np.append(newd[:, k], gj[k]) if P else np.array([gj[k]])
                 # shortest paths can only shorten further inside P + j: recompute exactly
                 pj = [*P, j]
-                dfs(pj, ubits | bits[j], cm, _close(pts[pj], nd, r2), bf)
+                dfs(pj, ubits | bits[j], cm, _close(pts[pj], nd, r2), bf, must=child_must)
         finally:
             stack_bounds.pop()
         return None
+
+    def replaced_by_sibling(
+        P: list[int], ubits: int, b: int, cm: np.ndarray, explored: list[int]
+    ) -> bool | np.ndarray | None:
+        """Item 11 for the child P + b, given siblings ``explored`` before it: True when a
+        sibling can replace b in every completion (skip b), a bool mask E over the sites
+        when it can in every completion avoiding E (search only completions meeting E),
+        None when no sibling qualifies."""
+        new_b = bits[b] & ~ubits
+        best: np.ndarray | None = None
+        idx = None
+        for a in reversed(explored[-_SIBLINGS:]):
+            if new_b & ~bits[a] or math.dist(pts[a], pts[b]) > _SIBLING_RADIUS:
+                continue
+            if dg[b] <= r1t < dg[a]:
+                continue
+            if P:
+                pp = pts[P]
+                if np.any((np.hypot(*(pp - pts[b]).T) <= r2t) & (np.hypot(*(pp - pts[a]).T) > r2t)):
+                    continue
+            if idx is None:
+                idx = np.flatnonzero(cm)
+                q = pts[idx]
+                link_b = np.hypot(*(q - pts[b]).T) <= r2t
+            link_a = np.hypot(*(q - pts[a]).T) <= r2t
+            e = idx[conflict[a, idx] | (link_b & ~link_a)]
+            if len(e) == 0:
+                return True
+            if best is None or len(e) < len(best):
+                best = e
+        if best is None:
+            return None
+        mask = np.zeros(n, dtype=bool)
+        mask[best] = True
+        return mask
 
     def connecting(R: list[int], C: np.ndarray, reach: np.ndarray | None = None) -> np.ndarray:
         """(|C|,) bool: R + q is connected (the link tests of ``evaluate``) for q in C;
@@ -621,6 +681,12 @@ def _close(pp: np.ndarray, dist: np.ndarray, r2: float) -> np.ndarray:
             break
         d = nd
     return d
+
+
+_SIBLINGS = 8
+"""Item 11: explored siblings tried as replacements of a new child (the latest ones)."""
+_SIBLING_RADIUS = 250.0
+"""Item 11: only siblings this close (m) are tried; farther ones rarely qualify."""
 
 
 def _without_backhaul(problem: CellProblem, pts: np.ndarray):
