@@ -882,7 +882,13 @@ def solve_milp(
                 **info,
                 "global_optimal": glob,
                 "rounds": 0,
-                "model_stats": {"engine": "bnb", "candidates": len(cand.points), "nodes": bb.nodes},
+                "model_stats": {
+                    "engine": "bnb",
+                    "candidates": len(cand.points),
+                    "nodes": bb.nodes,
+                    "eliminated": bb.eliminated,
+                    "elimination_time": bb.elimination_time,
+                },
             },
         )
     # B_{m-1} for the pruning of item 1; B_m (>= B_{m-1}, weaker but still exact pruning)
