@@ -168,6 +168,7 @@ def branch_and_bound(
     time_limit: float | None = None,
     eliminate: bool = True,
     heuristics: bool = True,
+    free_bounds: list[float] | None = None,
 ) -> BnbResult:
     """Exact search of the candidate problem (module docstring).
 
@@ -176,7 +177,9 @@ def branch_and_bound(
     upper: a known upper bound (e.g. the continuous one): the search stops once the
     incumbent reaches it; time_limit: seconds (None: none); eliminate: use items 9-10
     (off inside their own backhaul-free searches); heuristics: run the primal heuristics
-    before the search (tests switch them off to start from a given incumbent).
+    before the search (tests switch them off to start from a given incumbent);
+    free_bounds: item 9's B_0, B_1, ... when known (the backhaul-free searches pass the
+    smaller ones on).
     """
     t0 = time.perf_counter()
     m = problem.n_cells
@@ -254,7 +257,7 @@ def branch_and_bound(
     state = _State(best_val)
     stack_bounds: list[float] = []
     # item 9: conf_bound[k] bounds the users any k pairwise non-overlapping candidates cover
-    conf_bound: list[float] = []
+    conf_bound: list[float] = list(free_bounds or [])
     r1t, r2t = problem.r1 + TOL, problem.r2 + TOL
 
     def expired() -> bool:
@@ -628,7 +631,7 @@ def branch_and_bound(
         """Items 9-10: fill ``conf_bound`` from exact backhaul-free searches, then clear in
         ``alive`` every site that no placement better than the incumbent can contain."""
         unlinked = _without_backhaul(problem, pts)
-        conf_bound.append(0.0)
+        conf_bound[:] = [0.0]
         # the backhaul-free searches get at most a quarter of the time left (a search cut
         # short still returns a valid bound)
         t_b = time.perf_counter()
@@ -637,7 +640,15 @@ def branch_and_bound(
             if expired():
                 raise _Timeout
             left = None if budget is None else max(budget - (time.perf_counter() - t_b), 0.01)
-            sub = branch_and_bound(unlinked(k), cand, np.zeros((0, 2)), 0, time_limit=left, eliminate=False)
+            sub = branch_and_bound(
+                unlinked(k),
+                cand,
+                np.zeros((0, 2)),
+                0,
+                time_limit=left,
+                eliminate=False,
+                free_bounds=conf_bound,
+            )
             conf_bound.append(sub.bound)
         alive &= w + conf_bound[m - 1] > state.best_val  # item 10, first test
         for _ in range(4):  # item 10, probes, until no site is cleared
