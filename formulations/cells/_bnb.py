@@ -178,8 +178,8 @@ def branch_and_bound(
     incumbent reaches it; time_limit: seconds (None: none); eliminate: use items 9-10
     (off inside their own backhaul-free searches); heuristics: run the primal heuristics
     before the search (tests switch them off to start from a given incumbent);
-    free_bounds: item 9's B_0, B_1, ... when known (the backhaul-free searches pass the
-    smaller ones on).
+    free_bounds: item 9's B_0, ..., B_{m-1} when known (each backhaul-free search gets
+    those of the smaller ones, so it eliminates sites without searching again).
     """
     t0 = time.perf_counter()
     m = problem.n_cells
@@ -630,26 +630,22 @@ def branch_and_bound(
     def eliminate_sites(alive: np.ndarray) -> None:
         """Items 9-10: fill ``conf_bound`` from exact backhaul-free searches, then clear in
         ``alive`` every site that no placement better than the incumbent can contain."""
-        unlinked = _without_backhaul(problem, pts)
-        conf_bound[:] = [0.0]
-        # the backhaul-free searches get at most a quarter of the time left (a search cut
-        # short still returns a valid bound)
-        t_b = time.perf_counter()
-        budget = None if time_limit is None else 0.25 * (time_limit - (t_b - t0))
-        for k in range(1, m):
-            if expired():
-                raise _Timeout
-            left = None if budget is None else max(budget - (time.perf_counter() - t_b), 0.01)
-            sub = branch_and_bound(
-                unlinked(k),
-                cand,
-                np.zeros((0, 2)),
-                0,
-                time_limit=left,
-                eliminate=False,
-                free_bounds=conf_bound,
-            )
-            conf_bound.append(sub.bound)
+        if len(conf_bound) < m:  # B_1 .. B_{m-1} not given: compute them
+            unlinked = _without_backhaul(problem, pts)
+            conf_bound[:] = [0.0]
+            # the backhaul-free searches get at most a quarter of the time left (a search cut
+            # short still returns a valid bound); each one eliminates sites with the bounds
+            # of the smaller ones
+            t_b = time.perf_counter()
+            budget = None if time_limit is None else 0.25 * (time_limit - (t_b - t0))
+            for k in range(1, m):
+                if expired():
+                    raise _Timeout
+                left = None if budget is None else max(budget - (time.perf_counter() - t_b), 0.01)
+                sub = branch_and_bound(
+                    unlinked(k), cand, np.zeros((0, 2)), 0, time_limit=left, free_bounds=conf_bound
+                )
+                conf_bound.append(sub.bound)
         alive &= w + conf_bound[m - 1] > state.best_val  # item 10, first test
         for _ in range(4):  # item 10, probes, until no site is cleared
             cleared = 0
