@@ -86,23 +86,26 @@ Why each element is exact:
 
 12. **Far-apart unreached groups.** Let the P sites without a link path to a GBS
    through P form k <= 3 groups (components of the link graph), pairwise more than
-   3 (r2 + TOL) apart, and let L be the remaining sites that are direct or linked to a
+   2 (r2 + TOL) apart, and let L be the remaining sites that are direct or linked to a
    reached P site. On a shortest path from a group g to a GBS, the node after the last
    g site is a completion site b_g linked to g (not a GBS, a reached site or another
    group: the group would be reached or larger). Bridges of different groups are
-   distinct (no site is within r2 + TOL of two groups). If b_g is not in L, the next
-   node is a completion site v linked to b_g, within 2 (r2 + TOL) of g, and neither a
-   bridge (a bridge of g' linked to b_g puts g' within 3 (r2 + TOL) of g) nor in another
-   group. So for each choice of which bridges lie outside L, the completion holds k
-   bridges (each at most the heaviest site of its kind near its group) and, if any
-   bridge lies outside L, one more site v, with the other r - k - 1 sites bounded by
-   the clique values of item 2. When that uses every slot, v is the successor of every
-   such group (linked to a bridge candidate of each) and ends their paths: it is in L
-   or linked to a bridge in L. When every bridge lies outside L, v or another site is
-   in L (item 6). ``_separated_groups`` takes the largest bound over the choices; at
-   r = 3 the successor's link to a bridge candidate is tested exactly, elsewhere by the
-   distance 2 (r2 + TOL). Measured on m = 6 seed 1 (Table 4.2): the subtree of its first
-   two sites took 82 s before, 4 s with item 12.
+   distinct (no site is within r2 + TOL of two groups), so the completion holds k
+   bridges, each at most the heaviest site near its group, and r - k other sites
+   bounded by the clique values of item 2. When the groups are also more than
+   3 (r2 + TOL) apart, successors count too. If b_g is not in L, the next node is a
+   completion site v linked to b_g, within 2 (r2 + TOL) of g, and neither a bridge (a
+   bridge of g' linked to b_g puts g' within 3 (r2 + TOL) of g) nor in another group.
+   So for each choice of which bridges lie outside L, the completion holds k bridges
+   (each at most the heaviest site of its kind near its group) and, if any bridge lies
+   outside L, one more site v, with the other r - k - 1 sites bounded by item 2. When
+   that uses every slot, v is the successor of every such group (linked to a bridge
+   candidate of each) and ends their paths: it is in L or linked to a bridge in L.
+   When every bridge lies outside L, v or another site is in L (item 6).
+   ``_separated_groups`` takes the largest bound over the choices; at r = 3 the
+   successor's link to a bridge candidate is tested exactly, elsewhere by the distance
+   2 (r2 + TOL). Measured on m = 6 seed 1 (Table 4.2): the subtree of its first two
+   sites took 82 s before, 4 s with item 12.
 
 The last two slots are enumerated without a search node per site (the same tests,
 vectorised over the candidates). Two primal heuristics improve the start before the
@@ -744,7 +747,8 @@ def _separated_groups(
 ) -> float:
     """Item 12: an upper bound on sum_{q in Q} w[q] over the completions Q (at most r
     sites of ``cmask``) that connect the placement P, when the unreached groups of P are
-    at most 3 and pairwise more than 3 r2t apart (else math.inf); -math.inf when no Q can.
+    at most 3 and pairwise more than 2 r2t apart (else math.inf; the successors are
+    charged beyond 3 r2t only); -math.inf when no Q can.
 
     pts (n, 2) sites (m), w (n,) their weights, dg (n,) their distances to the nearest
     GBS (m); P: indices of the placed sites, dpp their (|P|, |P|) distances (m), reach
@@ -769,9 +773,12 @@ def _separated_groups(
     if k > 3:
         return math.inf
     members = [un[group == g] for g in range(k)]
-    for g1, g2 in itertools.combinations(range(k), 2):
-        if dpp[np.ix_(members[g1], members[g2])].min() <= 3 * r2t:
-            return math.inf
+    apart = min(
+        (dpp[np.ix_(members[g1], members[g2])].min() for g1, g2 in itertools.combinations(range(k), 2)),
+        default=math.inf,
+    )
+    if apart <= 2 * r2t:
+        return math.inf
     full = np.flatnonzero(cmask)
     if len(full) == 0:
         return -math.inf
@@ -803,10 +810,16 @@ def _separated_groups(
         bridge_n.append(heaviest(near & ~in_l))
         # the successor is linked to a bridge outside L, so within 2 r2t of the group
         two = d_to[g] <= 2 * r2t
-        if r == 3:  # the exact link test pays here (measured: r = 2 nodes are many, r >= 4 ones
+        if (
+            r == 3 and apart > 3 * r2t
+        ):  # the exact link test pays here (measured: r = 2 nodes are many, r >= 4 ones
             # are mostly the elimination probes, where it cost 60 s on m = 6 seed 1)
             two &= _linked_to(pf, two, pf[near & ~in_l], r2t)
         succ_to.append(two)
+    if apart <= 3 * r2t:  # a successor may be another group's bridge: count the bridges only
+        if k > r:
+            return -math.inf
+        return sum(max(bridge_l[g], bridge_n[g]) for g in range(k)) + sum(tops[: r - k])
     best = -math.inf
     for outside in itertools.product((False, True), repeat=k):
         slots = k + any(outside)
