@@ -123,6 +123,8 @@ from __future__ import annotations
 import contextlib
 import itertools
 import math
+import multiprocessing
+import queue
 import time
 from dataclasses import dataclass
 
@@ -196,6 +198,7 @@ def branch_and_bound(
     eliminate: bool = True,
     heuristics: bool = True,
     free_bounds: list[float] | None = None,
+    workers: int = 1,
 ) -> BnbResult:
     """Exact search of the candidate problem (module docstring).
 
@@ -206,7 +209,10 @@ def branch_and_bound(
     (tests switch them off to check item 9's searches alone); heuristics: run the primal heuristics
     before the search (tests switch them off to start from a given incumbent);
     free_bounds: item 9's B_0, ..., B_{m-1} when known (each backhaul-free search gets
-    those of the smaller ones, so it eliminates sites without searching again).
+    those of the smaller ones, so it eliminates sites without searching again);
+    workers: processes that share the children of the root (``_split_root``); used when
+    m >= 3, there are at least ``_SPLIT_MIN_SITES`` candidates and processes can be
+    forked (else the search runs in this process alone).
     """
     t0 = time.perf_counter()
     m = problem.n_cells
@@ -289,6 +295,22 @@ def branch_and_bound(
 
     def expired() -> bool:
         return time_limit is not None and time.perf_counter() - t0 >= time_limit
+
+    # the split: (this worker's index, workers, depth whose children are dealt out) and the
+    # incumbent value the workers share
+    split = [0, 1, 0]
+    shared: list = []
+
+    def checkpoint() -> bool:
+        """Every 256 nodes: share the incumbent value with the other workers (a value only:
+        each worker keeps the placements it found), then test the time limit."""
+        if shared:
+            with shared[0].get_lock():
+                if state.best_val > shared[0].value:
+                    shared[0].value = state.best_val
+                elif shared[0].value > state.best_val:
+                    state.best_val = int(shared[0].value)
+        return expired()
 
     def greedy_dual(P: list[int], C: np.ndarray, dist: np.ndarray, reach: np.ndarray, r: int) -> float:
         """Item 7: an upper bound on |S(Q) - S(P)| over completions Q of at most r sites of
@@ -391,7 +413,7 @@ def branch_and_bound(
         ``must`` (bool over the sites): only completions holding one of them (item 11)."""
         # dist[k]: relay lower bound from a GBS to P[k] (item 3)
         state.nodes += 1
-        if state.nodes % 256 == 0 and expired():
+        if state.nodes % 256 == 0 and checkpoint():
             raise _Timeout
         val = ubits.bit_count()
         pp = pts[P]
@@ -493,14 +515,21 @@ def branch_and_bound(
             neg_w = -w[full]  # non-decreasing
         explored: list[int] = []
         try:
-            for k in ok.tolist():
+            dealt = split[1] > 1 and len(P) == split[2] and not probe
+            for pos, k in enumerate(ok.tolist()):
                 j = int(C[k])
                 z = state.best_val
                 if val + r * int(w[j]) <= z:
                     break
+                # the split: at depth split[2], worker i searches the children at positions
+                # i, i + workers, ... (the same in every worker: see _split_root)
+                mine = not dealt or pos % split[1] == split[0]
                 if r == 2:
+                    if not mine:
+                        explored.append(j)
+                        continue
                     state.nodes += 1
-                    if state.nodes % 256 == 0 and expired():
+                    if state.nodes % 256 == 0 and checkpoint():
                         raise _Timeout
                     ubj = ubits | bits[j]
                     valj = ubj.bit_count()
@@ -538,6 +567,8 @@ def branch_and_bound(
                     if replace is True:
                         continue
                     child_must = replace if isinstance(replace, np.ndarray) else None
+                if not mine:
+                    continue
                 nd = np.append(newd[:, k], gj[k]) if P else np.array([gj[k]])
                 # shortest paths can only shorten further inside P + j: recompute exactly
                 pj = [*P, j]
@@ -713,7 +744,33 @@ def branch_and_bound(
                 eliminate_sites(root_mask)
             finally:
                 elimination_time = time.perf_counter() - t_el
-        dfs([], 0, root_mask, np.zeros(0), float(upper))
+        if workers > 1 and m >= 3 and n >= _SPLIT_MIN_SITES and _can_fork():
+
+            def search_share(index: int) -> tuple[bool, float, list[int] | None, int, int, int]:
+                split[:] = [index, workers, 1 if m >= 4 else 0]
+                done = True
+                try:
+                    dfs([], 0, root_mask, np.zeros(0), float(upper))
+                except _Timeout:
+                    done = False
+                bound_i = (
+                    float(state.best_val) if done else max(state.best_val, max(stack_bounds, default=upper))
+                )
+                own = None if state.best is None else int(evaluate(problem, pts[state.best]).covered)
+                return done, bound_i, state.best, -1 if own is None else own, state.nodes, state.separated
+
+            nodes_before, separated_before = state.nodes, state.separated
+            shares = _split_root(search_share, workers, state.best_val, shared)
+            for _, _, placement, value, _, _ in shares:
+                if placement is not None and value > state.best_val:
+                    state.best_val, state.best = value, placement
+            state.nodes = nodes_before + sum(sh[4] - nodes_before for sh in shares)
+            state.separated = separated_before + sum(sh[5] - separated_before for sh in shares)
+            if not all(sh[0] for sh in shares):
+                stack_bounds.append(max(sh[1] for sh in shares))
+                raise _Timeout
+        else:
+            dfs([], 0, root_mask, np.zeros(0), float(upper))
     except _Timeout:
         proven = False
     bound = float(state.best_val) if proven else max(float(state.best_val), max(stack_bounds, default=upper))
@@ -730,6 +787,54 @@ def branch_and_bound(
         elimination_time=elimination_time,
         separated=int(state.separated),
     )
+
+
+_SPLIT_MIN_SITES = 1000
+"""Candidates from which ``branch_and_bound(workers > 1)`` splits the root (on smaller
+instances starting processes costs more than the search)."""
+
+
+def _can_fork() -> bool:
+    """True when worker processes can be forked here (a 'fork' start method, and this
+    process is not itself a daemonic worker, which may not have children)."""
+    return "fork" in multiprocessing.get_all_start_methods() and not multiprocessing.current_process().daemon
+
+
+def _split_root(search_share, workers: int, incumbent: int, shared: list) -> list:
+    """Run ``search_share(i)`` for i < ``workers`` in forked processes; return their results.
+
+    Worker i searches the root's children i, i + workers, ... (counted in the order of
+    the search). Item 11 stays exact across workers: every worker passes every child in
+    the same order, and each sibling's subtree is searched by the worker that owns it
+    against an incumbent no better than the final one. The workers share the incumbent
+    value through ``shared`` (filled here with the synchronised value) every 256 nodes."""
+    ctx = multiprocessing.get_context("fork")
+    value = ctx.Value("i", int(incumbent))
+    shared[:] = [value]
+    results = ctx.Queue()
+
+    def run(index: int) -> None:
+        results.put((index, search_share(index)))
+
+    procs = [ctx.Process(target=run, args=(i,), daemon=True) for i in range(workers)]
+    for proc in procs:
+        proc.start()
+    out: dict[int, tuple] = {}
+    try:
+        while len(out) < workers:
+            try:
+                index, share = results.get(timeout=1.0)
+                out[index] = share
+            except queue.Empty:
+                if any(p.exitcode not in (None, 0) for p in procs):
+                    raise RuntimeError("a branch-and-bound worker process failed") from None
+    finally:
+        for proc in procs:
+            proc.join(timeout=5.0)
+            if proc.is_alive():
+                proc.terminate()
+        shared.clear()
+    return [out[i] for i in range(workers)]
 
 
 def _separated_groups(

@@ -709,14 +709,15 @@ def solve_milp(
         backhaul dropped) becomes the incumbent and the backend's hint when it covers at
         least as many users as the built-in greedy start. ``info["warm_start"]`` says
         whether it was used and why not (``used``, ``value``, ``greedy_value``, ``reason``).
-    workers: CP-SAT workers / MIP threads.
+    workers: CP-SAT workers / MIP threads; for engine "bnb", processes that share the
+        search on thesis-scale instances (``_bnb.branch_and_bound``).
     connectivity: "lazy" (default) or "hops", the exact backhaul formulation (module
         docstring, item 3).
     max_rounds: at most this many model solves in the lazy cut loop (then FEASIBLE with the
         bound found so far).
     user_cliques: add the per-user at-most-one rows of item 5 to the model.
     engine: "bnb" (default): the exact combinatorial branch and bound of ``_bnb`` solves the
-        candidate problem (no model; ``backend``, ``workers``, ``connectivity`` unused);
+        candidate problem (no model; ``backend`` and ``connectivity`` unused);
         "milp": the candidate model on ``backend`` (items 1-5).
 
     Returns a SolveResult: ``x`` positions (k, 2) with k <= m, ``objective`` covered
@@ -851,7 +852,7 @@ def solve_milp(
             "time limit reached before the model was built; the plan is the greedy or warm start",
         )
     if engine == "bnb":
-        bb = branch_and_bound(problem, cand, inc, int(inc_val), upper=ub, time_limit=left())
+        bb = branch_and_bound(problem, cand, inc, int(inc_val), upper=ub, time_limit=left(), workers=workers)
         obj = float(evaluate(problem, bb.positions).covered)
         bnd = float(max(min(bb.bound, ub), obj))
         glob = cont_bound is not None and obj >= cont_bound
