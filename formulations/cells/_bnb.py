@@ -107,6 +107,10 @@ Why each element is exact:
    2 (r2 + TOL). Measured on m = 6 seed 1 (Table 4.2): the subtree of its first two
    sites took 82 s before, 4 s with item 12.
 
+With ``workers`` > 1 the search is split over forked processes (``_split_root``): each
+takes its share of the children of every node at depth 1 (m >= 4), so one heavy root
+child does not stay on one core.
+
 The last two slots are enumerated without a search node per site (the same tests,
 vectorised over the candidates). Two primal heuristics improve the start before the
 search: a 1-swap local search, then an exchange search that re-solves exactly (with the
@@ -803,11 +807,16 @@ def _can_fork() -> bool:
 def _split_root(search_share, workers: int, incumbent: int, shared: list) -> list:
     """Run ``search_share(i)`` for i < ``workers`` in forked processes; return their results.
 
-    Worker i searches the root's children i, i + workers, ... (counted in the order of
-    the search). Item 11 stays exact across workers: every worker passes every child in
-    the same order, and each sibling's subtree is searched by the worker that owns it
-    against an incumbent no better than the final one. The workers share the incumbent
-    value through ``shared`` (filled here with the synchronised value) every 256 nodes."""
+    Each worker walks the tree down to the split depth (the root's children for m >= 4,
+    the root for m = 3) and, at every node there, searches the children at positions i,
+    i + workers, ... of the node's candidate list. That list is the same in every worker
+    up to where a worker with a better incumbent cuts it (item 4 keeps a prefix), so
+    every child belongs to one worker, and a node pruned by one worker holds nothing
+    better than its incumbent. Item 11 stays exact across workers: every worker passes
+    every child in the same order, and each sibling's subtree is searched by the worker
+    that owns it against an incumbent no better than the final one. The workers share
+    the incumbent value through ``shared`` (filled here with the synchronised value)
+    every 256 nodes."""
     ctx = multiprocessing.get_context("fork")
     value = ctx.Value("i", int(incumbent))
     shared[:] = [value]
