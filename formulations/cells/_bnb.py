@@ -72,17 +72,30 @@ Why each element is exact:
    before: 2, 8 and 9); seeds 1, 3, 5 and 6 are still open (incumbents 6-11 % below B_6).
 
 11. **Sibling replacement.** At a node P, let a be a child searched before b (a earlier
-   in the order). If a covers every user b adds to S(P), is direct when b is, and links
-   to every P site b links to, then for each completion Q of P + b avoiding the set E of
-   remaining candidates that overlap a but not b or link to b but not to a, P + a + Q is
-   feasible, covers at least as much, and lies in a's subtree (Q comes after b, so after
-   a), which never holds a placement better than the final incumbent (by induction over
-   the children, a's own subtree being searched in full or under this same rule). So b
-   is skipped when E is empty, else searched only for completions holding a site of E
-   (``must``: a node without one left is cut, one slot holds at most the heaviest of E,
-   the last slots take only E sites). Siblings within 250 m, the 8 latest, are tried.
-   Clusters give many near-identical sites (the 24-user cluster of m = 6 seed 3 has 8),
-   each of which otherwise repeats a nearly identical subtree (50-60 s each there).
+   in the order). Suppose a is direct when b is, links to every P site that b links to,
+   and either covers every user that b adds to S(P) or keeps at least as many. "Keeps"
+   means the users of a outside S(P) and outside the lens that completion sites not
+   overlapping a can reach: those are the sites within 2 R_d of a, and they cover only
+   users at the edge of a's disc. Let E be the remaining candidates that overlap a but
+   not b, or link to b but not to a. Then for each completion Q of P + b that avoids E:
+   - P + a + Q is feasible;
+   - it covers at least as much: |S(P + a + Q)| = |S(P + Q)| + |S(a) - S(P + Q)|, and
+     |S(b) - S(P + Q)| <= |S(b) - S(P)|;
+   - it lies in a's subtree (Q comes after b, so after a).
+   That subtree never holds a placement better than the final incumbent, by induction
+   over the children: a's own subtree is searched in full or under this same rule.
+   So b is skipped when E is empty. Otherwise only completions holding a site of E are
+   searched (``must``):
+   - a node without an E site left is cut;
+   - one slot holds at most the heaviest E site;
+   - the last slots take only E sites;
+   - with at most ``_MUST_BRANCH`` E sites left and 3 or more free slots, the node
+     branches on them: it searches P + e for each E site e in turn, and e's completions
+     hold no earlier E site.
+   The 16 latest siblings within 600 m are tried. Clusters give many near-identical
+   sites: the 24-user cluster of m = 6 seed 3 has 8, and seed 6's 22-user clusters have
+   more than 20. Otherwise each of them repeats a nearly identical subtree (50-60 s each
+   on seed 3).
 
 12. **Far-apart unreached groups.** Let the P sites without a link path to a GBS
    through P form k <= 3 groups (components of the link graph), pairwise more than
@@ -102,10 +115,12 @@ Why each element is exact:
    that uses every slot, v is the successor of every such group (linked to a bridge
    candidate of each) and ends their paths: it is in L or linked to a bridge in L.
    When every bridge lies outside L, v or another site is in L (item 6).
-   ``_separated_groups`` takes the largest bound over the choices; at r = 3 the
-   successor's link to a bridge candidate is tested exactly, elsewhere by the distance
-   2 (r2 + TOL). Measured on m = 6 seed 1 (Table 4.2): the subtree of its first two
-   sites took 82 s before, 4 s with item 12.
+   ``_separated_groups`` takes the largest bound over the choices. The successor's
+   link to a bridge candidate is tested exactly, on the packed link rows of
+   ``_link_rows`` (built once per search). Testing it with coordinates took 140 of
+   241 s on m = 6 seed 1, so that version tested only at r = 3. Measured on m = 6
+   seed 1 (Table 4.2): the subtree of its first two sites took 82 s before item 12 and
+   4 s with it.
 
 With ``workers`` > 1 the search is split over forked processes (``_split_root``): each
 takes its share of the children of every node at depth 1 (m >= 4), so one heavy root
@@ -296,6 +311,14 @@ def branch_and_bound(
     # item 9: conf_bound[k] bounds the users any k pairwise non-overlapping candidates cover
     conf_bound: list[float] = list(free_bounds or [])
     r1t, r2t = problem.r1 + TOL, problem.r2 + TOL
+
+    links: list[np.ndarray] = []
+
+    def link_rows() -> np.ndarray:
+        """``_link_rows(pts, r2t)``, built on first use (item 12's exact link test)."""
+        if not links:
+            links.append(_link_rows(pts, r2t))
+        return links[0]
 
     def expired() -> bool:
         return time_limit is not None and time.perf_counter() - t0 >= time_limit
@@ -500,7 +523,7 @@ def branch_and_bound(
             if r >= 2 and float(dist[~reach].max()) >= 2:  # item 8
                 b = min(b, val + wb + wg + sum(tops[: r - 2]))
             if r >= 2:  # item 12: far-apart unreached groups need their own bridges
-                sep = _separated_groups(pts, w, dg, P, dpp, reach, cmask, r, tops, r1t, r2t)
+                sep = _separated_groups(pts, w, dg, P, dpp, reach, cmask, r, tops, r1t, r2t, link_rows())
                 if val + sep < b:
                     b_sep = val + sep
                     state.separated += 1
@@ -513,6 +536,15 @@ def branch_and_bound(
             return None
         if probe:
             return bf
+        if must is not None and r >= 3 and int(cmask_must.sum()) <= _MUST_BRANCH:
+            # item 11 by branching: every completion holds a site e of ``must``; search
+            # P + e for each e in turn, its completions holding no earlier one
+            stack_bounds.append(bf)
+            try:
+                must_branch(P, ubits, cmask, cmask_must, dist, r, bf)
+            finally:
+                stack_bounds.pop()
+            return None
         stack_bounds.append(bf)
         if r == 2:  # the last two slots without a search node per first site (same test)
             full = np.flatnonzero(cmask)
@@ -581,6 +613,38 @@ def branch_and_bound(
             stack_bounds.pop()
         return None
 
+    def must_branch(
+        P: list[int],
+        ubits: int,
+        cmask: np.ndarray,
+        cmask_must: np.ndarray,
+        dist: np.ndarray,
+        r: int,
+        nb: float,
+    ) -> None:
+        """Item 11 by branching: search the nodes P + e for the sites e of ``cmask_must``
+        (the sites of ``must`` left), each completed from ``cmask`` without the earlier
+        ones, so every completion holding a site of ``must`` is searched once. At the split
+        depth the e are dealt out like children (``_split_root``)."""
+        rest = cmask.copy()
+        epp = pp_cost(P) if P else np.zeros((0, 0))
+        for pos, e in enumerate(np.flatnonzero(cmask_must).tolist()):
+            rest[e] = False
+            if split[1] > 1 and len(P) == split[2] and pos % split[1] != split[0]:
+                continue
+            if P:
+                ee = _relay_cost(np.hypot(*(pts[P] - pts[e]).T)[:, None], r2, r2)
+                ge, nde = _through(dist, gj_direct=cg[[e]], ej=ee, epp=epp)
+                if max(float(ge[0]), float(nde.max())) > r - 1:  # item 3: P + e needs too many relays
+                    continue
+                nd = np.append(nde[:, 0], ge[0])
+            else:
+                if cg[e] > r - 1:
+                    continue
+                nd = np.array([cg[e]])
+            pe = [*P, e]
+            dfs(pe, ubits | bits[e], rest & ~conflict[e], _close(pts[pe], nd, r2), nb)
+
     def replaced_by_sibling(
         P: list[int], ubits: int, b: int, cm: np.ndarray, explored: list[int]
     ) -> bool | np.ndarray | None:
@@ -592,9 +656,7 @@ def branch_and_bound(
         best: np.ndarray | None = None
         idx = None
         for a in reversed(explored[-_SIBLINGS:]):
-            if new_b & ~bits[a] or math.dist(pts[a], pts[b]) > _SIBLING_RADIUS:
-                continue
-            if dg[b] <= r1t < dg[a]:
+            if math.dist(pts[a], pts[b]) > _SIBLING_RADIUS or dg[b] <= r1t < dg[a]:
                 continue
             if P:
                 pp = pts[P]
@@ -604,6 +666,16 @@ def branch_and_bound(
                 idx = np.flatnonzero(cm)
                 q = pts[idx]
                 link_b = np.hypot(*(q - pts[b]).T) <= r2t
+            if new_b & ~bits[a]:
+                # not a cover of b's new users: compare counts instead. A completion site
+                # that does not overlap a covers users of a only in a lens at the edge of
+                # a's disc (sites within 2 R_d of a); a keeps every other user of its own
+                lens = 0
+                near_a = np.hypot(*(q - pts[a]).T) <= 2 * problem.R_d + 1.0
+                for s in idx[near_a & ~conflict[a, idx]].tolist():
+                    lens |= bits[s]
+                if (bits[a] & ~ubits & ~lens).bit_count() < new_b.bit_count():
+                    continue
             link_a = np.hypot(*(q - pts[a]).T) <= r2t
             e = idx[conflict[a, idx] | (link_b & ~link_a)]
             if len(e) == 0:
@@ -858,6 +930,7 @@ def _separated_groups(
     tops: list[int],
     r1t: float,
     r2t: float,
+    links: np.ndarray | None = None,
 ) -> float:
     """Item 12: an upper bound on sum_{q in Q} w[q] over the completions Q (at most r
     sites of ``cmask``) that connect the placement P, when the unreached groups of P are
@@ -868,7 +941,7 @@ def _separated_groups(
     GBS (m); P: indices of the placed sites, dpp their (|P|, |P|) distances (m), reach
     (|P|,) which of them reach a GBS through P; tops: r values, the i-th bounding the
     i-th heaviest completion site outside the bridge and successor slots; r1t, r2t: the
-    link ranges with tolerance (m)."""
+    link ranges with tolerance (m); links: ``_link_rows(pts, r2t)`` (built here if None)."""
     un = np.flatnonzero(~reach)
     link = dpp[np.ix_(un, un)] <= r2t
     group = np.full(len(un), -1)
@@ -924,11 +997,10 @@ def _separated_groups(
         bridge_n.append(heaviest(near & ~in_l))
         # the successor is linked to a bridge outside L, so within 2 r2t of the group
         two = d_to[g] <= 2 * r2t
-        if (
-            r == 3 and apart > 3 * r2t
-        ):  # the exact link test pays here (measured: r = 2 nodes are many, r >= 4 ones
-            # are mostly the elimination probes, where it cost 60 s on m = 6 seed 1)
-            two &= _linked_to(pf, two, pf[near & ~in_l], r2t)
+        if apart > 3 * r2t:
+            if links is None:
+                links = _link_rows(pts, r2t)
+            two &= _linked_to(links, full, full[near & ~in_l])
         succ_to.append(two)
     if apart <= 3 * r2t:  # a successor may be another group's bridge: count the bridges only
         if k > r:
@@ -965,15 +1037,25 @@ def _separated_groups(
     return float(best)
 
 
-def _linked_to(p: np.ndarray, mask: np.ndarray, q: np.ndarray, reach: float) -> np.ndarray:
-    """(len(p),) bool: the points p[mask] within ``reach`` (m) of some point of q."""
-    out = np.zeros(len(p), dtype=bool)
-    idx = np.flatnonzero(mask)
-    for lo in range(0, len(idx), 256):
-        part = idx[lo : lo + 256]
-        d = np.hypot(p[part, None, 0] - q[None, :, 0], p[part, None, 1] - q[None, :, 1])
-        out[part] = np.any(d <= reach, axis=1)
+def _link_rows(pts: np.ndarray, reach: float) -> np.ndarray:
+    """(n, ceil(n / 8)) uint8: row i holds bit j (little-endian packing) when sites i and
+    j of ``pts`` ((n, 2) m) are within ``reach`` (m) of each other."""
+    n = len(pts)
+    out = np.zeros((n, (n + 7) // 8), dtype=np.uint8)
+    for lo in range(0, n, 512):
+        part = pts[lo : lo + 512]
+        d = np.hypot(part[:, None, 0] - pts[None, :, 0], part[:, None, 1] - pts[None, :, 1])
+        out[lo : lo + 512] = np.packbits(d <= reach, axis=1, bitorder="little")
     return out
+
+
+def _linked_to(links: np.ndarray, sites: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(len(sites),) bool: which of the sites (indices) are linked to some site of q
+    (indices), by the rows ``links`` of ``_link_rows``."""
+    if len(q) == 0:
+        return np.zeros(len(sites), dtype=bool)
+    row = np.bitwise_or.reduce(links[q], axis=0)
+    return np.unpackbits(row, count=len(links), bitorder="little").astype(bool)[sites]
 
 
 def _through(
@@ -1011,10 +1093,13 @@ def _close(pp: np.ndarray, dist: np.ndarray, r2: float) -> np.ndarray:
     return d
 
 
-_SIBLINGS = 8
+_SIBLINGS = 16
 """Item 11: explored siblings tried as replacements of a new child (the latest ones)."""
-_SIBLING_RADIUS = 250.0
+_SIBLING_RADIUS = 600.0
 """Item 11: only siblings this close (m) are tried; farther ones rarely qualify."""
+_MUST_BRANCH = 32
+"""Item 11: a node whose completions must hold one of at most this many sites branches
+on those sites (``must_branch``) instead of on its heaviest candidates."""
 
 
 def _without_backhaul(problem: CellProblem, pts: np.ndarray):

@@ -382,6 +382,24 @@ def test_bnb_on_clustered_users_equals_brute_force(seed, n_clusters, m):
     assert evaluate(p, res.positions).feasible
 
 
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 10_000), st.integers(2, 3), st.integers(3, 4))
+def test_bnb_on_wide_clusters_equals_brute_force(seed, n_clusters, m):
+    # wide clusters: sibling sites cover different subsets of a cluster and share users
+    # with sites just outside it, the case of item 11's count test (a sibling that keeps as
+    # many users outside the lens replaces b) and of its branching on the E sites
+    from droneplan.formulations.cells._bnb import branch_and_bound
+
+    rng = np.random.default_rng(seed)
+    centres = rng.uniform(-4, 4, size=(n_clusters, 2))
+    users = np.concatenate([rng.normal(c, 0.7, size=(4, 2)) for c in centres])
+    p = small(users, m=m, r1=3.0, r2=2.5)
+    best, runner_up, value = brute_force_pruned(p, runner_up=True)
+    res = branch_and_bound(p, candidate_sites(p), runner_up, value, heuristics=False, eliminate=False)
+    assert res.proven and res.value == best == res.bound
+    assert evaluate(p, res.positions).feasible
+
+
 @settings(max_examples=15, deadline=None)
 @given(st.integers(0, 10_000), st.integers(3, 9), st.integers(1, 4))
 def test_backhaul_free_relaxation_is_exact(seed, n, k):
