@@ -583,7 +583,9 @@ def branch_and_bound(
                         cq = cq[~conflict[j, cq]]
                         if must is not None and not must[j]:
                             cq = cq[must[cq]]
-                        if must is None and len(cq):  # item 11 (the lighter last sites are bounded)
+                        # item 11 (the lighter last sites are bounded); under ``must`` only
+                        # for j outside it, whose last site is then in ``must`` in any case
+                        if len(cq) and (must is None or not must[j]):
                             in_cq = np.zeros(n, dtype=bool)
                             in_cq[cq] = True
                             replace = replaced_by_sibling(P, ubits, j, in_cq, explored)
@@ -597,12 +599,19 @@ def branch_and_bound(
                 cm = cmask & ~conflict[j]
                 cm[: j + 1] = False
                 child_must = None if must is None or must[j] else must
-                if must is None:  # item 11
+                if must is None or child_must is not None:  # item 11
+                    # under ``must`` only for j outside it: the child keeps the smaller of
+                    # the two sets (each drops only completions held by an earlier child)
                     replace = replaced_by_sibling(P, ubits, j, cm, explored)
-                    explored.append(j)
                     if replace is True:
+                        explored.append(j)
                         continue
-                    child_must = replace if isinstance(replace, np.ndarray) else None
+                    if isinstance(replace, np.ndarray) and (
+                        child_must is None
+                        or np.count_nonzero(replace & cm) < np.count_nonzero(child_must & cm)
+                    ):
+                        child_must = replace
+                explored.append(j)
                 if not mine:
                     continue
                 nd = np.append(newd[:, k], gj[k]) if P else np.array([gj[k]])
