@@ -320,6 +320,23 @@ def branch_and_bound(
             links.append(_link_rows(pts, r2t))
         return links[0]
 
+    def link_matrix() -> np.ndarray:
+        """(n, n) bool: sites within r2 + TOL of each other (``link_rows`` unpacked, for
+        item 11), built on first use."""
+        if len(links) < 2:
+            links.append(np.unpackbits(link_rows(), axis=1, count=n, bitorder="little").view(bool))
+        return links[1]
+
+    lens_of: dict[int, np.ndarray] = {}
+
+    def lens_sites(a: int) -> np.ndarray:
+        """Item 11: the sites within 2 R_d (+ 2 m) of site a that do not overlap it, the
+        only ones that can cover users of a when a is placed."""
+        if a not in lens_of:
+            near = np.asarray(tree.query_ball_point(pts[a], 2 * problem.R_d + 2.0), dtype=np.int64)
+            lens_of[a] = np.sort(near[~conflict[a, near]])
+        return lens_of[a]
+
     def expired() -> bool:
         return time_limit is not None and time.perf_counter() - t0 >= time_limit
 
@@ -663,39 +680,30 @@ def branch_and_bound(
         None when no sibling qualifies."""
         new_b = bits[b] & ~ubits
         best: np.ndarray | None = None
-        idx = None
+        best_count = 0
+        linked = link_matrix()
         for a in reversed(explored[-_SIBLINGS:]):
             if math.dist(pts[a], pts[b]) > _SIBLING_RADIUS or dg[b] <= r1t < dg[a]:
                 continue
-            if P:
-                pp = pts[P]
-                if np.any((np.hypot(*(pp - pts[b]).T) <= r2t) & (np.hypot(*(pp - pts[a]).T) > r2t)):
-                    continue
-            if idx is None:
-                idx = np.flatnonzero(cm)
-                q = pts[idx]
-                link_b = np.hypot(*(q - pts[b]).T) <= r2t
+            if P and np.any(linked[b, P] & ~linked[a, P]):
+                continue
             if new_b & ~bits[a]:
                 # not a cover of b's new users: compare counts instead. A completion site
                 # that does not overlap a covers users of a only in a lens at the edge of
                 # a's disc (sites within 2 R_d of a); a keeps every other user of its own
                 lens = 0
-                near_a = np.hypot(*(q - pts[a]).T) <= 2 * problem.R_d + 1.0
-                for s in idx[near_a & ~conflict[a, idx]].tolist():
-                    lens |= bits[s]
+                for s in lens_sites(a).tolist():
+                    if cm[s]:
+                        lens |= bits[s]
                 if (bits[a] & ~ubits & ~lens).bit_count() < new_b.bit_count():
                     continue
-            link_a = np.hypot(*(q - pts[a]).T) <= r2t
-            e = idx[conflict[a, idx] | (link_b & ~link_a)]
-            if len(e) == 0:
+            e = cm & (conflict[a] | (linked[b] & ~linked[a]))
+            count = int(np.count_nonzero(e))
+            if count == 0:
                 return True
-            if best is None or len(e) < len(best):
-                best = e
-        if best is None:
-            return None
-        mask = np.zeros(n, dtype=bool)
-        mask[best] = True
-        return mask
+            if best is None or count < best_count:
+                best, best_count = e, count
+        return best
 
     def connecting(R: list[int], C: np.ndarray, reach: np.ndarray | None = None) -> np.ndarray:
         """(|C|,) bool: R + q is connected (the link tests of ``evaluate``) for q in C;
