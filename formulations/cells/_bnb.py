@@ -92,10 +92,15 @@ Why each element is exact:
    - with at most ``_MUST_BRANCH`` E sites left and 3 or more free slots, the node
      branches on them: it searches P + e for each E site e in turn, and e's completions
      hold no earlier E site.
-   The 16 latest siblings within 600 m are tried. Clusters give many near-identical
-   sites: the 24-user cluster of m = 6 seed 3 has 8, and seed 6's 22-user clusters have
-   more than 20. Otherwise each of them repeats a nearly identical subtree (50-60 s each
-   on seed 3).
+   Inside such a node (completions must meet a set M), a child b outside M is compared
+   with its siblings too: each of M and E drops only completions that an earlier child's
+   subtree holds, so b keeps the smaller of the two sets. The 16 latest siblings within
+   600 m are tried. Clusters give many near-identical sites: the 24-user cluster of m = 6
+   seed 3 has 8, and seed 6's 22-user clusters have more than 20. Otherwise each of them
+   repeats a nearly identical subtree (50-60 s each on seed 3). The sibling tests use the
+   link matrix (``link_matrix``) and, for the lens, the sites within 2 R_d + 2 m of a that
+   do not overlap it (``lens_sites``); with distances over every candidate, item 11 took
+   48 of 150 s on m = 6 seed 1.
 
 12. **Far-apart unreached groups.** Let the P sites without a link path to a GBS
    through P form k <= 3 groups (components of the link graph), pairwise more than
