@@ -364,22 +364,27 @@ def test_bnb_with_site_elimination_equals_brute_force(seed, n, m):
     assert solve_milp(p, engine="bnb", time_limit=60).objective == best
 
 
+def _check_bnb_on_clusters(seed, n_clusters, m, *, half_width, spread, per_cluster, eliminate=True):
+    """Branch and bound on users in Gaussian clusters equals brute force; started from the
+    runner-up placement with heuristics off (as above)."""
+    from droneplan.formulations.cells._bnb import branch_and_bound
+
+    rng = np.random.default_rng(seed)
+    centres = rng.uniform(-half_width, half_width, size=(n_clusters, 2))
+    users = np.concatenate([rng.normal(c, spread, size=(per_cluster, 2)) for c in centres])
+    p = small(users, m=m, r1=3.0, r2=2.5)
+    best, runner_up, value = brute_force_pruned(p, runner_up=True)
+    res = branch_and_bound(p, candidate_sites(p), runner_up, value, heuristics=False, eliminate=eliminate)
+    assert res.proven and res.value == best == res.bound
+    assert evaluate(p, res.positions).feasible
+
+
 @settings(max_examples=40, deadline=None)
 @given(st.integers(0, 10_000), st.integers(2, 4), st.integers(3, 4))
 def test_bnb_on_clustered_users_equals_brute_force(seed, n_clusters, m):
     # clustered users give many near-identical candidate sites, the case of _bnb item 11
-    # (a child skipped or restricted because an explored sibling can replace it); started
-    # from the runner-up placement with heuristics off, as above
-    from droneplan.formulations.cells._bnb import branch_and_bound
-
-    rng = np.random.default_rng(seed)
-    centres = rng.uniform(-5, 5, size=(n_clusters, 2))
-    users = np.concatenate([rng.normal(c, 0.35, size=(3, 2)) for c in centres])
-    p = small(users, m=m, r1=3.0, r2=2.5)
-    best, runner_up, value = brute_force_pruned(p, runner_up=True)
-    res = branch_and_bound(p, candidate_sites(p), runner_up, value, heuristics=False)
-    assert res.proven and res.value == best == res.bound
-    assert evaluate(p, res.positions).feasible
+    # (a child skipped or restricted because an explored sibling can replace it)
+    _check_bnb_on_clusters(seed, n_clusters, m, half_width=5, spread=0.35, per_cluster=3)
 
 
 @settings(max_examples=40, deadline=None)
@@ -388,16 +393,7 @@ def test_bnb_on_wide_clusters_equals_brute_force(seed, n_clusters, m):
     # wide clusters: sibling sites cover different subsets of a cluster and share users
     # with sites just outside it, the case of item 11's count test (a sibling that keeps as
     # many users outside the lens replaces b) and of its branching on the E sites
-    from droneplan.formulations.cells._bnb import branch_and_bound
-
-    rng = np.random.default_rng(seed)
-    centres = rng.uniform(-4, 4, size=(n_clusters, 2))
-    users = np.concatenate([rng.normal(c, 0.7, size=(4, 2)) for c in centres])
-    p = small(users, m=m, r1=3.0, r2=2.5)
-    best, runner_up, value = brute_force_pruned(p, runner_up=True)
-    res = branch_and_bound(p, candidate_sites(p), runner_up, value, heuristics=False, eliminate=False)
-    assert res.proven and res.value == best == res.bound
-    assert evaluate(p, res.positions).feasible
+    _check_bnb_on_clusters(seed, n_clusters, m, half_width=4, spread=0.7, per_cluster=4, eliminate=False)
 
 
 @settings(max_examples=15, deadline=None)
