@@ -396,6 +396,34 @@ def test_bnb_on_wide_clusters_equals_brute_force(seed, n_clusters, m):
     _check_bnb_on_clusters(seed, n_clusters, m, half_width=4, spread=0.7, per_cluster=4, eliminate=False)
 
 
+def test_sibling_count_test_discounts_the_lens():
+    # item 11's count test: sibling a (3 users) may replace b (2 users) only if a keeps 2
+    # users that no completion site reaches. Here s, touching a's disc without overlapping
+    # it, covers a's 2 edge users, so a keeps 1: P + b + s (4 users) beats P + a + s (3).
+    # Without the lens term b would be skipped and the search would return 3.
+    from droneplan.formulations.cells._bnb import branch_and_bound
+    from droneplan.formulations.cells._core import Candidates, coverage_lists
+
+    users = [[10.0, 0.0], [11.0, 0.0], [11.0, 0.0], [8.0, 0.0], [8.0, 0.0]]
+    p = small(users, m=2, gbs=((10.0, 5.0),), r1=20.0, r2=20.0)
+    a, b, s = [10.0, 0.0], [8.5, 0.0], [12.0, 0.0]  # a, b overlap; s is 2 R_d from a
+    pts = np.array([a, b, s])
+    cand = Candidates(
+        points=pts, cover=coverage_lists(pts, p.targets, p.R_d), direct=np.ones(3, bool), n_generated=3
+    )
+    assert [len(c) for c in cand.cover] == [3, 2, 2]
+    brute = max(
+        evaluate(p, pts[list(x)]).covered
+        for k in (1, 2)
+        for x in itertools.combinations(range(3), k)
+        if evaluate(p, pts[list(x)]).feasible
+    )
+    res = branch_and_bound(p, cand, np.array([a]), 3, heuristics=False, eliminate=False)
+    assert brute == 4
+    assert res.proven and res.value == 4 == res.bound
+    assert sorted(map(tuple, res.positions.tolist())) == sorted([tuple(b), tuple(s)])
+
+
 @settings(max_examples=15, deadline=None)
 @given(st.integers(0, 10_000), st.integers(3, 9), st.integers(1, 4))
 def test_backhaul_free_relaxation_is_exact(seed, n, k):
