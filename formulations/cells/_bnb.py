@@ -140,7 +140,11 @@ placements, checked with ``evaluate`` before they become the incumbent; exactnes
 on the bounds above alone.
 
 The search stops at the time limit with the incumbent and a valid bound: every
-unexplored branch lies below a node on the current path, whose bound was computed.
+unexplored placement lies below the current or a later child of a node on the current
+path, so it is bounded by that node's bound and (children come in weight order, item 4)
+by |S(P)| + r |S(j)| for the current child j; the largest of these level bounds over the
+path is reported (with workers, the largest over the workers). Before, the bound was
+lost as the time-out unwound the path, and a stopped search reported ``upper``.
 """
 
 from __future__ import annotations
@@ -192,6 +196,8 @@ class _State:
     best_val: int
     nodes: int = 0
     separated: int = 0
+    frontier: float | None = None
+    """At a time-out in the main search: the bound on every placement not yet searched."""
     best: list[int] | None = None
 
 
@@ -224,6 +230,7 @@ def branch_and_bound(
     heuristics: bool = True,
     free_bounds: list[float] | None = None,
     workers: int = 1,
+    node_limit: int | None = None,
 ) -> BnbResult:
     """Exact search of the candidate problem (module docstring).
 
@@ -237,7 +244,9 @@ def branch_and_bound(
     those of the smaller ones, so it eliminates sites without searching again);
     workers: processes that share the children of the root (``_split_root``); used when
     m >= 3, there are at least ``_SPLIT_MIN_SITES`` candidates and processes can be
-    forked (else the search runs in this process alone).
+    forked (else the search runs in this process alone); node_limit: stop like at the time
+    limit after about this many search nodes (checked every ``_CHECK_EVERY``; a
+    deterministic budget).
     """
     t0 = time.perf_counter()
     m = problem.n_cells
@@ -344,7 +353,19 @@ def branch_and_bound(
         return lens_of[a]
 
     def expired() -> bool:
+        if node_limit is not None and state.nodes >= node_limit:
+            return True
         return time_limit is not None and time.perf_counter() - t0 >= time_limit
+
+    in_main = [False]
+
+    def timed_out() -> _Timeout:
+        """The time-out, raised from the main search after recording the bound of what it
+        has not searched (``state.frontier``): every such placement lies below the current
+        or a later child of a node on the path, whose level bound ``stack_bounds`` holds."""
+        if in_main[0]:
+            state.frontier = max(stack_bounds, default=float(upper))  # empty: at the root
+        return _Timeout()
 
     # the split: (this worker's index, workers, depth whose children are dealt out) and the
     # incumbent value the workers share
@@ -352,7 +373,7 @@ def branch_and_bound(
     shared: list = []
 
     def checkpoint() -> bool:
-        """Every 256 nodes: share the incumbent value with the other workers (a value only:
+        """Every ``_CHECK_EVERY`` nodes: share the incumbent value with the other workers (a value only:
         each worker keeps the placements it found), then test the time limit."""
         if shared:
             with shared[0].get_lock():
@@ -463,8 +484,8 @@ def branch_and_bound(
         ``must`` (bool over the sites): only completions holding one of them (item 11)."""
         # dist[k]: relay lower bound from a GBS to P[k] (item 3)
         state.nodes += 1
-        if state.nodes % 256 == 0 and checkpoint():
-            raise _Timeout
+        if state.nodes % _CHECK_EVERY == 0 and checkpoint():
+            raise timed_out()
         val = ubits.bit_count()
         pp = pts[P]
         if P:
@@ -580,6 +601,8 @@ def branch_and_bound(
                 z = state.best_val
                 if val + r * int(w[j]) <= z:
                     break
+                # the level bound: this child and the later ones add r sites of weight <= w[j]
+                stack_bounds[-1] = min(bf, val + r * int(w[j]))
                 # the split: at depth split[2], worker i searches the children at positions
                 # i, i + workers, ... (the same in every worker: see _split_root)
                 mine = not dealt or pos % split[1] == split[0]
@@ -588,8 +611,8 @@ def branch_and_bound(
                         explored.append(j)
                         continue
                     state.nodes += 1
-                    if state.nodes % 256 == 0 and checkpoint():
-                        raise _Timeout
+                    if state.nodes % _CHECK_EVERY == 0 and checkpoint():
+                        raise timed_out()
                     ubj = ubits | bits[j]
                     valj = ubj.bit_count()
                     lo = int(np.searchsorted(full, j, side="right"))
@@ -833,6 +856,11 @@ def branch_and_bound(
         with contextlib.suppress(_Timeout):
             exchange(state.best)
 
+    def open_bound() -> float:
+        """After a time-out: the bound on the placements not searched (``upper`` when the
+        main search had not started)."""
+        return float(upper) if state.frontier is None else float(min(state.frontier, upper))
+
     root_mask = np.ones(n, dtype=bool)
     proven = True
     elimination_time = 0.0
@@ -848,13 +876,12 @@ def branch_and_bound(
             def search_share(index: int) -> tuple[bool, float, list[int] | None, int, int, int]:
                 split[:] = [index, workers, 1 if m >= 4 else 0]
                 done = True
+                in_main[0] = True
                 try:
                     dfs([], 0, root_mask, np.zeros(0), float(upper))
                 except _Timeout:
                     done = False
-                bound_i = (
-                    float(state.best_val) if done else max(state.best_val, max(stack_bounds, default=upper))
-                )
+                bound_i = float(state.best_val) if done else max(state.best_val, open_bound())
                 own = None if state.best is None else int(evaluate(problem, pts[state.best]).covered)
                 return done, bound_i, state.best, -1 if own is None else own, state.nodes, state.separated
 
@@ -866,13 +893,14 @@ def branch_and_bound(
             state.nodes = nodes_before + sum(sh[4] - nodes_before for sh in shares)
             state.separated = separated_before + sum(sh[5] - separated_before for sh in shares)
             if not all(sh[0] for sh in shares):
-                stack_bounds.append(max(sh[1] for sh in shares))
+                state.frontier = max(sh[1] for sh in shares)
                 raise _Timeout
         else:
+            in_main[0] = True
             dfs([], 0, root_mask, np.zeros(0), float(upper))
     except _Timeout:
         proven = False
-    bound = float(state.best_val) if proven else max(float(state.best_val), max(stack_bounds, default=upper))
+    bound = float(state.best_val) if proven else max(float(state.best_val), open_bound())
     bound = min(bound, float(upper)) if upper < math.inf else bound
     if state.best is not None:
         best_pos = pts[state.best]
@@ -887,6 +915,9 @@ def branch_and_bound(
         separated=int(state.separated),
     )
 
+
+_CHECK_EVERY = 256
+"""Search nodes between two checks of the limits (and shares of the incumbent value)."""
 
 _SPLIT_MIN_SITES = 1000
 """Candidates from which ``branch_and_bound(workers > 1)`` splits the root (on smaller
@@ -911,7 +942,7 @@ def _split_root(search_share, workers: int, incumbent: int, shared: list) -> lis
     every child in the same order, and each sibling's subtree is searched by the worker
     that owns it against an incumbent no better than the final one. The workers share
     the incumbent value through ``shared`` (filled here with the synchronised value)
-    every 256 nodes."""
+    every ``_CHECK_EVERY`` nodes."""
     ctx = multiprocessing.get_context("fork")
     value = ctx.Value("i", int(incumbent))
     shared[:] = [value]

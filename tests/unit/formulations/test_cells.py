@@ -2,7 +2,7 @@ import itertools
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from droneplan.formulations.cells import (
@@ -528,6 +528,69 @@ def test_bnb_with_far_apart_groups_equals_brute_force(seed, m):
     res = branch_and_bound(p, candidate_sites(p), runner_up, value, heuristics=False)
     assert res.proven and res.value == best == res.bound
     assert evaluate(p, res.positions).feasible
+
+
+def _node_limited(problem, limit, workers=1):
+    """branch_and_bound from an empty start, heuristics and site elimination off, stopped
+    after ``limit`` nodes (the limits checked at every node)."""
+    from droneplan.formulations.cells import _bnb
+
+    every = _bnb._CHECK_EVERY
+    _bnb._CHECK_EVERY = 1
+    try:
+        return _bnb.branch_and_bound(
+            problem,
+            candidate_sites(problem),
+            np.zeros((0, 2)),
+            0,
+            heuristics=False,
+            eliminate=False,
+            workers=workers,
+            node_limit=limit,
+        )
+    finally:
+        _bnb._CHECK_EVERY = every
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 10_000), st.integers(8, 14), st.integers(2, 4), st.integers(2, 40))
+@example(42, 14, 3, 20)
+@example(48, 14, 4, 12)
+@example(55, 14, 4, 8)
+@example(59, 14, 3, 8)
+def test_bnb_stopped_early_returns_a_valid_bound(seed, n, m, limit):
+    # a search stopped by its limit reports the bound of what it has not searched: the
+    # largest of the level bounds on the path (a node's bound, or the order bound of its
+    # current child). The examples are cases where the smallest one is below the optimum.
+    p = random_small(seed, n, m)
+    best = brute_force_pruned(p)
+    res = _node_limited(p, limit)
+    assert res.value <= best <= res.bound
+    if res.proven:
+        assert res.value == best == res.bound
+    if len(res.positions):
+        ev = evaluate(p, res.positions)
+        assert ev.feasible and ev.covered == res.value
+
+
+def test_bnb_bound_when_stopped_tightens_as_the_search_advances():
+    # before, a stopped search reported ``upper`` (here inf) whatever it had searched
+    bounds = np.array(
+        [[_node_limited(random_small(seed, 14, 4), limit).bound for limit in (2, 16)] for seed in range(8)]
+    )
+    assert np.all(np.isfinite(bounds))
+    assert np.all(bounds[:, 1] <= bounds[:, 0]) and np.any(bounds[:, 1] < bounds[:, 0])
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_bnb_split_stopped_early_returns_a_valid_bound(seed, monkeypatch):
+    from droneplan.formulations.cells import _bnb
+
+    monkeypatch.setattr(_bnb, "_SPLIT_MIN_SITES", 0)
+    p = random_small(seed, 12, 3 + seed % 2)
+    best = brute_force_pruned(p)
+    res = _node_limited(p, 6, workers=2)
+    assert res.value <= best <= res.bound < np.inf
 
 
 @pytest.mark.parametrize("seed", range(30))
