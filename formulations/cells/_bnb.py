@@ -327,20 +327,20 @@ def branch_and_bound(
     conf_bound: list[float] = list(free_bounds or [])
     r1t, r2t = problem.r1 + TOL, problem.r2 + TOL
 
-    links: list[np.ndarray] = []
+    link_cache: dict[str, np.ndarray] = {}
 
     def link_rows() -> np.ndarray:
         """``_link_rows(pts, r2t)``, built on first use (item 12's exact link test)."""
-        if not links:
-            links.append(_link_rows(pts, r2t))
-        return links[0]
+        if "rows" not in link_cache:
+            link_cache["rows"] = _link_rows(pts, r2t)
+        return link_cache["rows"]
 
     def link_matrix() -> np.ndarray:
         """(n, n) bool: sites within r2 + TOL of each other (``link_rows`` unpacked, for
         item 11), built on first use."""
-        if len(links) < 2:
-            links.append(np.unpackbits(link_rows(), axis=1, count=n, bitorder="little").view(bool))
-        return links[1]
+        if "matrix" not in link_cache:
+            link_cache["matrix"] = np.unpackbits(link_rows(), axis=1, count=n, bitorder="little").view(bool)
+        return link_cache["matrix"]
 
     lens_of: dict[int, np.ndarray] = {}
 
