@@ -1,0 +1,427 @@
+"""What researchers read off a study's rows: performance profiles, a summary table, figures, files.
+
+Every function takes the long-format rows of :mod:`droneplan.studies.store` (one row per
+``(problem, instance, method[, config])``) as a pandas DataFrame.
+
+Conventions shared by all of them
+---------------------------------
+- Rows of role ``bound`` prove bounds; they are not methods and are left out. Rows of role
+  ``task`` (a whole task that raised, with no method named) are counted by
+  :func:`summary_table` under the method ``task`` but take no part in the profiles.
+- A run is *solved* when its status is ``optimal`` or ``feasible``; every other status
+  (``infeasible``, ``invalid``, ``timeout``, ``error``, ``no_solution``, ...) is a failure,
+  whatever objective the row may carry.
+- When one method appears with several ``config`` hashes, each configuration is its own
+  method, labelled ``"<method>@<config>"``.
+- A frame without a ``flag`` column (written before schema v2) is read as if every flag
+  were ``''``.
+
+Performance profiles (Dolan and Moré, Math. Program. 91 (2002) 201-213)
+----------------------------------------------------------------------
+For each instance and each method run on it, the performance ratio ``r >= 1`` compares the
+method with the best *solved* run on that instance; a failed run gets ``r = inf``. The
+profile of a method is ``fraction(tau)``: the share of the instances on which that method
+was run (the others do not count for it) with ``r <= tau``.
+
+- ``measure="time"``: ``r = max(t, floor) / max(t_best, floor)`` with ``t_best`` the least
+  time of a solved run and ``floor = time_floor`` (1 ms by default), so runs faster than
+  the clock's useful resolution tie and a zero time never divides.
+- ``measure="objective"``: ``r = 1 + gap`` where ``gap`` is the relative gap to the best
+  solved objective ``b`` of the instance, measured as the store measures ``gap_to_best``:
+  ``(v - b) / max(|b|, 1e-9)`` for ``sense == "min"`` and ``(b - v) / max(|b|, 1e-9)`` for
+  ``"max"``. This is well defined for zero and negative objectives. For a minimisation
+  with positive objectives it equals the ratio ``v / b`` of Dolan and Moré; for a
+  maximisation it is ``2 - v / b``, which never exceeds ``b / v``. The gap is recomputed
+  over solved runs only, so a failed run's objective never sets the best; ``fraction(tau)``
+  therefore reads "share of instances solved within a relative gap ``tau - 1`` of the
+  best method".
+- A solved run without a finite measure (no time, no objective) is counted as a failure.
+- ``r <= tau`` is tested with a relative tolerance of 1e-12, so ratios that are equal on
+  paper compare equal in floating point.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import json
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+
+from droneplan.solvers.validation import check_array, check_instance, check_nonneg, check_positive
+
+__all__ = [
+    "SOLVED_STATUSES",
+    "FAILURE_COLUMNS",
+    "AT_BEST_TOL",
+    "performance_profile",
+    "shifted_geometric_mean",
+    "summary_table",
+    "summary_markdown",
+    "write_study_outputs",
+]
+
+SOLVED_STATUSES = ("optimal", "feasible")
+"""Statuses of a run that returned a usable plan; every other status is a failure."""
+
+FAILURE_COLUMNS = ("infeasible", "invalid", "timeout", "error", "no_solution")
+"""Failure statuses counted in columns of their own by :func:`summary_table` (others go to ``other``)."""
+
+AT_BEST_TOL = 1e-6
+"""A solved run is at the best when its ``gap_to_best`` is at most this (dimensionless)."""
+
+_GAP_FLOOR = 1e-9  # the store's denominator floor of a relative gap
+_RATIO_RTOL = 1e-12
+_NOT_METHODS = ("bound",)
+_NOT_PROFILED = ("bound", "task")
+
+
+# --------------------------------------------------------------------------- input handling
+def _require(df: Any, columns: Sequence[str], name: str = "df") -> pd.DataFrame:
+    check_instance(name, df, pd.DataFrame)
+    missing = [c for c in columns if c not in df.columns]
+    if missing:
+        raise ValueError(f"{name} lacks the column(s) {missing} of the results schema")
+    return df
+
+
+def _labelled(df: pd.DataFrame, exclude_roles: Sequence[str]) -> pd.DataFrame:
+    """The method rows with a ``label`` column: the method, or ``method@config`` when it has several."""
+    rows = df[~df["role"].isin(exclude_roles)].copy()
+    label = rows["method"].astype(str)
+    if "config" in rows.columns and len(rows):
+        cfg = rows["config"].astype(object).where(rows["config"].notna(), "")
+        n_cfg = cfg.groupby(label).transform("nunique")
+        several = n_cfg > 1
+        label = label.where(~several, label + "@" + cfg.astype(str))
+    rows["label"] = label.astype(object)
+    return rows
+
+
+def _solved(rows: pd.DataFrame) -> pd.Series:
+    return rows["status"].astype(str).isin(SOLVED_STATUSES)
+
+
+def _flags(rows: pd.DataFrame) -> pd.Series:
+    if "flag" not in rows.columns:
+        return pd.Series("", index=rows.index, dtype=object)
+    return rows["flag"].astype(object).where(rows["flag"].notna(), "").astype(str)
+
+
+# --------------------------------------------------------------------------- performance profile
+def performance_ratios(
+    df: pd.DataFrame, *, measure: Literal["objective", "time"] = "objective", time_floor: float = 1e-3
+) -> pd.DataFrame:
+    """Per (instance, method) the performance ratio of the module docstring (inf for a failure).
+
+    df: rows of the results schema; measure: ``"objective"`` or ``"time"``;
+    time_floor: least time (s) a run is credited with (see the module docstring).
+    Returns columns problem, instance, method, ratio (dimensionless, >= 1 or inf).
+    """
+    if measure not in ("objective", "time"):
+        raise ValueError(f"measure must be 'objective' or 'time', got {measure!r}")
+    floor = check_positive("time_floor", time_floor)
+    value_col = "objective" if measure == "objective" else "time_s"
+    needed = ["problem", "instance", "method", "role", "status", value_col]
+    if measure == "objective":
+        needed.append("sense")
+    rows = _labelled(_require(df, needed), _NOT_PROFILED)
+    dup = rows.duplicated(["problem", "instance", "label"], keep=False)
+    if dup.any():
+        first = rows[dup].iloc[0]
+        raise ValueError(
+            f"df has several rows for method {first['label']!r} on instance {first['instance']!r}; "
+            "a profile needs one run per (instance, method): filter the rows first"
+        )
+    value = pd.to_numeric(rows[value_col], errors="coerce").astype(float).to_numpy()
+    ok = _solved(rows).to_numpy() & np.isfinite(value)
+    ratio = np.full(len(rows), np.inf)
+    if measure == "time":
+        value = np.maximum(value, floor)
+    for idx in rows.groupby(["problem", "instance"], sort=False).indices.values():
+        good = idx[ok[idx]]
+        if not len(good):
+            continue
+        v = value[good]
+        if measure == "time":
+            ratio[good] = v / v.min()
+            continue
+        senses = set(rows["sense"].iloc[idx].astype(str))
+        if len(senses) != 1 or not senses <= {"min", "max"}:
+            inst = rows["instance"].iloc[idx[0]]
+            raise ValueError(
+                f"sense of instance {inst!r} must be one of 'min'/'max' for all rows, got {senses}"
+            )
+        if senses == {"min"}:
+            best = v.min()
+            gap = (v - best) / max(abs(best), _GAP_FLOOR)
+        else:
+            best = v.max()
+            gap = (best - v) / max(abs(best), _GAP_FLOOR)
+        ratio[good] = 1.0 + gap
+    return pd.DataFrame(
+        {
+            "problem": rows["problem"].to_numpy(),
+            "instance": rows["instance"].to_numpy(),
+            "method": rows["label"].to_numpy(),
+            "ratio": ratio,
+        }
+    )
+
+
+def performance_profile(
+    df: pd.DataFrame,
+    *,
+    measure: Literal["objective", "time"] = "objective",
+    taus: Any = None,
+    time_floor: float = 1e-3,
+) -> pd.DataFrame:
+    """The Dolan-Moré performance profile of every method (definition in the module docstring).
+
+    df: rows of the results schema; measure: ``"objective"`` (ratio ``1 + relative gap to
+    the best solved objective``, respecting ``sense``) or ``"time"`` (ratio to the least
+    time of a solved run); taus: the ratios (dimensionless, > 0) at which to evaluate the
+    profile, default every finite ratio that occurs plus 1; time_floor: least time (s) a run
+    is credited with in the time profile.
+    Returns a DataFrame with columns method, tau, fraction (the share of the method's
+    instances, a fraction in [0, 1], whose ratio is <= tau), methods in order of first
+    appearance and taus ascending; empty when ``df`` has no method rows.
+    """
+    ratios = performance_ratios(df, measure=measure, time_floor=time_floor)
+    if taus is None:
+        finite = ratios["ratio"].to_numpy()
+        grid = np.unique(np.concatenate([[1.0], finite[np.isfinite(finite)]]))
+    else:
+        grid = np.unique(check_array("taus", taus, ndim=1, min_rows=1))
+        if grid.min() <= 0:
+            raise ValueError(f"taus must be > 0, got {grid.min()}")
+    out = []
+    for method, g in ratios.groupby("method", sort=False):
+        r = g["ratio"].to_numpy()
+        frac = (r[None, :] <= grid[:, None] * (1 + _RATIO_RTOL)).mean(axis=1)
+        out.append(pd.DataFrame({"method": method, "tau": grid, "fraction": frac}))
+    if not out:
+        return pd.DataFrame(
+            {
+                "method": pd.Series(dtype=object),
+                "tau": pd.Series(dtype=float),
+                "fraction": pd.Series(dtype=float),
+            }
+        )
+    return pd.concat(out, ignore_index=True)
+
+
+# --------------------------------------------------------------------------- shifted geometric mean
+def shifted_geometric_mean(values: Any, shift: float = 1.0) -> float:
+    """``exp(mean(log(v + shift))) - shift`` of non-negative ``values``.
+
+    The usual mean of solve times in MIP benchmarking, with a shift of 1 s (T. Achterberg,
+    *Constraint Integer Programming*, PhD thesis, TU Berlin, 2007): the shift keeps the many
+    very short runs from dominating the mean as they would in a plain geometric mean.
+    values: finite numbers >= 0 (e.g. times in s), at least one, no NaN; shift: >= 0, in the
+    unit of ``values`` (0 gives the plain geometric mean). Returns a float in that unit.
+    """
+    v = check_array("values", values, ndim=1)
+    if v.size == 0:
+        raise ValueError("values must hold at least one number, got none")
+    if v.min() < 0:
+        raise ValueError(f"values must be >= 0, got {v.min()}")
+    s = check_nonneg("shift", shift)
+    with np.errstate(divide="ignore"):  # a zero with shift 0 gives log 0 = -inf and a mean of 0
+        return float(np.exp(np.mean(np.log(v + s))) - s)
+
+
+# --------------------------------------------------------------------------- summary table
+SUMMARY_COLUMNS = (
+    "problem",
+    "size",
+    "method",
+    "n",
+    "solved",
+    *FAILURE_COLUMNS,
+    "other",
+    "at_best",
+    "median_gap_to_bound",
+    "p95_gap_to_bound",
+    "median_gap_to_best",
+    "p95_gap_to_best",
+    "sgm_time_s",
+    "flagged",
+)
+"""Columns of :func:`summary_table`, in order."""
+
+
+def summary_table(df: pd.DataFrame, *, time_shift: float = 1.0) -> pd.DataFrame:
+    """One row per (problem, size, method): what happened to its runs and how good they were.
+
+    df: rows of the results schema (roles other than ``bound``; ``flag`` may be absent);
+    time_shift: shift (s) of the shifted geometric mean of the times.
+    Columns (``SUMMARY_COLUMNS``): ``n`` runs (count); ``solved`` (status optimal/feasible);
+    one count per failure status of ``FAILURE_COLUMNS`` and ``other`` for any further
+    status, so that ``solved + infeasible + invalid + timeout + error + no_solution + other
+    == n``; ``at_best`` solved runs with ``gap_to_best <= AT_BEST_TOL``; median and 95th
+    percentile (linear interpolation) of ``gap_to_bound`` and ``gap_to_best`` over solved
+    runs (relative gaps, dimensionless; NaN when none has one); ``sgm_time_s`` the shifted
+    geometric mean (s) of the times of all runs that recorded one, failures included (a
+    timeout counts with the time at which it was stopped); ``flagged`` runs whose ``flag``
+    is non-empty. Sorted by problem, size, median gap to the bound, median gap to the best
+    (missing gaps last), then method.
+    """
+    _require(df, ["problem", "size", "method", "role", "status"])
+    shift = check_nonneg("time_shift", time_shift)
+    rows = _labelled(df, _NOT_METHODS)
+    status = rows["status"].astype(str)
+    solved = _solved(rows)
+    flags = _flags(rows)
+    num = {
+        c: (
+            pd.to_numeric(rows[c], errors="coerce").astype(float)
+            if c in rows.columns
+            else pd.Series(np.nan, index=rows.index)
+        )
+        for c in ("gap_to_bound", "gap_to_best", "time_s")
+    }
+    out = []
+    for (problem, size, method), g in rows.groupby(["problem", "size", "label"], sort=False, dropna=False):
+        ix = g.index
+        sv = solved.loc[ix]
+        st = status.loc[ix]
+        rec: dict[str, Any] = {"problem": problem, "size": size, "method": method, "n": len(g)}
+        rec["solved"] = int(sv.sum())
+        for c in FAILURE_COLUMNS:
+            rec[c] = int((st == c).sum())
+        rec["other"] = len(g) - rec["solved"] - sum(rec[c] for c in FAILURE_COLUMNS)
+        rec["at_best"] = int((sv & (num["gap_to_best"].loc[ix] <= AT_BEST_TOL)).sum())
+        for c in ("gap_to_bound", "gap_to_best"):
+            v = num[c].loc[ix][sv].dropna()
+            rec[f"median_{c}"] = float(v.median()) if len(v) else math.nan
+            rec[f"p95_{c}"] = float(v.quantile(0.95)) if len(v) else math.nan
+        t = num["time_s"].loc[ix].dropna()
+        t = t[np.isfinite(t) & (t >= 0)]
+        rec["sgm_time_s"] = shifted_geometric_mean(t.to_numpy(), shift) if len(t) else math.nan
+        rec["flagged"] = int((flags.loc[ix] != "").sum())
+        out.append(rec)
+    table = pd.DataFrame(out, columns=list(SUMMARY_COLUMNS))
+    if not len(table):
+        return table
+    table = table.sort_values(
+        ["problem", "size", "median_gap_to_bound", "median_gap_to_best", "method"],
+        na_position="last",
+        kind="stable",
+    )
+    return table.reset_index(drop=True)
+
+
+def _cell(v: Any) -> str:
+    if v is None or v is pd.NA or (isinstance(v, float) and math.isnan(v)):
+        return "—"
+    if isinstance(v, (float, np.floating)):
+        return f"{v:.3g}"
+    return str(v).replace("|", "\\|")
+
+
+def summary_markdown(df: pd.DataFrame, *, time_shift: float = 1.0) -> str:
+    """:func:`summary_table` of ``df`` as GitHub Markdown: one section and table per problem.
+
+    df: rows of the results schema; time_shift: shift (s) of the mean time (see
+    :func:`summary_table`). Missing values show as ``—``; gaps are relative (dimensionless).
+    """
+    table = summary_table(df, time_shift=time_shift)
+    head = (
+        "Runs per (problem, size, method). solved: status optimal or feasible; at best: solved "
+        f"with gap to the best <= {AT_BEST_TOL:g}; gaps are relative, over solved runs; "
+        f"time: shifted geometric mean (shift {time_shift:g} s) over runs that recorded one; "
+        "flagged: rows with a non-empty flag."
+    )
+    if not len(table):
+        return head + "\n\n(no method rows)\n"
+    cols = [c for c in SUMMARY_COLUMNS if c != "problem"]
+    names = [c.replace("_", " ") for c in cols]
+    parts = [head]
+    for problem, g in table.groupby("problem", sort=False):
+        n_inst = df.loc[df["problem"] == problem, "instance"].nunique()
+        parts += [
+            "",
+            f"### {problem} ({n_inst} instances)",
+            "",
+            "| " + " | ".join(names) + " |",
+            "|" + "---|" * len(names),
+            *("| " + " | ".join(_cell(v) for v in r) + " |" for r in g[cols].itertuples(index=False)),
+        ]
+    return "\n".join(parts) + "\n"
+
+
+# --------------------------------------------------------------------------- files
+def _parquet_ready(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` with object columns pyarrow cannot type (mixed scalars, dicts) written as JSON text."""
+    pa = importlib.import_module("pyarrow")  # typed as Any: pyarrow ships no type information
+    out = df
+    for c in df.columns:
+        if df[c].dtype != object:
+            continue
+        try:
+            pa.array(df[c], from_pandas=True)
+        except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
+            if out is df:
+                out = df.copy()
+            out[c] = [None if v is None else json.dumps(v, default=str) for v in df[c]]
+    return out
+
+
+def write_study_outputs(df: pd.DataFrame, out: str | os.PathLike, *, stem: str = "study") -> dict[str, Path]:
+    """Write a study's summary, profiles, gap figure and rows into the folder ``out``.
+
+    df: rows of the results schema; out: folder (created with its parents); stem: prefix of
+    the file names (no path separators). Files: ``<stem>_summary.csv`` and
+    ``<stem>_summary.md`` (:func:`summary_table`), ``<stem>_profile_objective.png`` and
+    ``<stem>_profile_time.png`` (performance profiles), ``<stem>_gaps.png`` (distribution of
+    the gaps to the bound and to the best per method and size) and ``<stem>_rows.parquet``
+    (the rows; object columns pyarrow cannot type are stored as JSON text). Needs pyarrow for
+    the Parquet file: an ImportError saying so is raised before anything is written.
+    Returns ``{"summary_csv", "summary_md", "profile_objective", "profile_time", "gaps",
+    "rows"}`` mapped to the paths written.
+    """
+    _require(df, ["problem", "instance", "size", "method", "role", "sense", "status", "objective", "time_s"])
+    check_instance("stem", stem, str)
+    if not stem or any(sep in stem for sep in ("/", "\\", os.sep)):
+        raise ValueError(f"stem must be a non-empty file-name prefix without path separators, got {stem!r}")
+    check_instance("out", out, (str, os.PathLike))
+    if importlib.util.find_spec("pyarrow") is None:  # checked up front: no half-written output folder
+        raise ImportError(
+            "write_study_outputs writes the rows as Parquet, which needs pyarrow: pip install pyarrow"
+        )
+    import matplotlib.pyplot as plt
+
+    from droneplan.studies.plots.profiles import plot_gap_distribution, plot_performance_profile
+
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = {
+        "summary_csv": folder / f"{stem}_summary.csv",
+        "summary_md": folder / f"{stem}_summary.md",
+        "profile_objective": folder / f"{stem}_profile_objective.png",
+        "profile_time": folder / f"{stem}_profile_time.png",
+        "gaps": folder / f"{stem}_gaps.png",
+        "rows": folder / f"{stem}_rows.parquet",
+    }
+    summary_table(df).to_csv(paths["summary_csv"], index=False)
+    paths["summary_md"].write_text(summary_markdown(df))
+    measures: tuple[Literal["objective", "time"], ...] = ("objective", "time")
+    for measure in measures:
+        fig = plot_performance_profile(df, measure=measure)
+        fig.savefig(paths[f"profile_{measure}"], dpi=110)
+        plt.close(fig)
+    fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.2))
+    for ax, col in zip(axes, ("gap_to_bound", "gap_to_best"), strict=True):
+        plot_gap_distribution(df, column=col, ax=ax)
+    fig.tight_layout()
+    fig.savefig(paths["gaps"], dpi=110)
+    plt.close(fig)
+    _parquet_ready(df).to_parquet(paths["rows"], index=False)
+    return paths
