@@ -383,8 +383,8 @@ def project_local(lon: ArrayLike, lat: ArrayLike, origin: ArrayLike) -> NDArray[
     point at great-circle distance ``d`` (m) and bearing ``b`` (clockwise from north) from the
     origin maps to ``(d sin b, d cos b)``. Distances from the origin are exact on the sphere;
     between two points within 10 km of the origin the planar distance differs from the
-    great-circle one by less than 0.001 %. (The sphere differs from the WGS 84 ellipsoid by up
-    to about 0.5 % in distance; for local studies only the relative layout matters.) The point
+    great-circle one by less than 0.001 %. (Distances on the sphere differ from those on the WGS 84
+    ellipsoid by up to about 0.6 %, depending on latitude and direction: 3 m over 500 m.) The point
     antipodal to the origin has no image and raises ValueError. Inverse: :func:`unproject_local`.
     """
     lon0, lat0 = _check_origin(origin)

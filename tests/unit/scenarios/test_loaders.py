@@ -265,7 +265,8 @@ def test_pairwise_distances_within_20_km_match_haversine(origin, bearing, dist):
     i, j = np.triu_indices(k, 1)
     planar = np.hypot(*(xy[i] - xy[j]).T)
     sphere = haversine(lon[i], lat[i], lon[j], lat[j])
-    assert np.all(np.abs(planar - sphere) <= 1e-3 * sphere + 1e-6)
+    # 0.001 % as project_local's docstring states (the requirement was 0.1 %)
+    assert np.all(np.abs(planar - sphere) <= 1e-5 * sphere + 1e-6)
 
 
 def test_projection_refuses_bad_input():
