@@ -45,6 +45,7 @@ from droneplan.scenarios.cells import (
     thesis_problem,
     uniform_users,
 )
+from droneplan.scenarios.loaders import ProjectedCells, load_cells_csv, load_cells_geojson
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.cells import GA_VARIANTS, ga_ablation, instance_features
 from droneplan.studies.plots import plot_deployment_region, plot_map
@@ -62,6 +63,9 @@ __all__ = [
     "thesis_instance",
     "thesis_problem",
     "problem_from_instance",
+    "ProjectedCells",
+    "load_cells_csv",
+    "load_cells_geojson",
     # the model
     "Evaluation",
     "evaluate",

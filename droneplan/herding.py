@@ -40,6 +40,7 @@ from droneplan.scenarios.herding import (
     thesis_scenario,
     with_params,
 )
+from droneplan.scenarios.loaders import herding_scenario_from_csv, load_herd_csv
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.herding import summary_table, write_gif
 from droneplan.studies.plots import plot_final, plot_footprint, plot_state
@@ -51,6 +52,8 @@ __all__ = [
     "HerdingScenario",
     "thesis_scenario",
     "with_params",
+    "load_herd_csv",
+    "herding_scenario_from_csv",
     "HerdingTrace",
     "HerdingObservation",
     "HerdingCommand",

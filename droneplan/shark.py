@@ -32,6 +32,7 @@ from droneplan.planners.shark import (
     thesis_altitude,
     virtual_shark_plan,
 )
+from droneplan.scenarios.loaders import load_shark_track_csv
 from droneplan.scenarios.shark import (
     THESIS_TABLE_5_1,
     InterceptionController,
@@ -73,6 +74,7 @@ __all__ = [
     "thesis_trajectories",
     "random_trajectory",
     "constant_velocity_trajectory",
+    "load_shark_track_csv",
     "operator_start",
     "InterceptionScenario",
     "SharkObservation",
