@@ -358,19 +358,40 @@ def summary_markdown(df: pd.DataFrame, *, time_shift: float = 1.0) -> str:
 
 
 # --------------------------------------------------------------------------- files
+def _missing(v: Any) -> bool:
+    return v is None or v is pd.NA or (isinstance(v, float) and math.isnan(v))
+
+
+def _json_text(v: Any) -> str | None:
+    if _missing(v):
+        return None
+    if hasattr(v, "tolist"):  # numpy arrays and scalars
+        v = v.tolist()
+    return json.dumps(v, default=str)
+
+
 def _parquet_ready(df: pd.DataFrame) -> pd.DataFrame:
-    """``df`` with object columns pyarrow cannot type (mixed scalars, dicts) written as JSON text."""
+    """``df`` with object columns of lists, dicts or mixed scalars written as JSON text.
+
+    Such columns (problem extras such as a list of sites) would otherwise come back from
+    Parquet as arrays, or not be written at all; every other column round-trips unchanged.
+    """
     pa = importlib.import_module("pyarrow")  # typed as Any: pyarrow ships no type information
     out = df
     for c in df.columns:
         if df[c].dtype != object:
             continue
-        try:
-            pa.array(df[c], from_pandas=True)
-        except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
-            if out is df:
-                out = df.copy()
-            out[c] = [None if v is None else json.dumps(v, default=str) for v in df[c]]
+        present = [v for v in df[c] if not _missing(v)]
+        nested = any(isinstance(v, (list, tuple, dict, set, np.ndarray)) for v in present)
+        if not nested:
+            try:
+                pa.array(df[c], from_pandas=True)
+                continue
+            except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
+                pass
+        if out is df:
+            out = df.copy()
+        out[c] = pd.Series([_json_text(v) for v in df[c]], index=df.index, dtype=object)
     return out
 
 
@@ -382,7 +403,8 @@ def write_study_outputs(df: pd.DataFrame, out: str | os.PathLike, *, stem: str =
     ``<stem>_summary.md`` (:func:`summary_table`), ``<stem>_profile_objective.png`` and
     ``<stem>_profile_time.png`` (performance profiles), ``<stem>_gaps.png`` (distribution of
     the gaps to the bound and to the best per method and size) and ``<stem>_rows.parquet``
-    (the rows; object columns pyarrow cannot type are stored as JSON text). Needs pyarrow for
+    (the rows; a column of lists, dicts or mixed types is stored as JSON text, every other
+    column reads back unchanged with ``pandas.read_parquet``). Needs pyarrow for
     the Parquet file: an ImportError saying so is raised before anything is written.
     Returns ``{"summary_csv", "summary_md", "profile_objective", "profile_time", "gaps",
     "rows"}`` mapped to the paths written.

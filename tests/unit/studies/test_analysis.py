@@ -383,7 +383,7 @@ def test_gap_distribution_degenerate_cases(mixed, case):
 # --------------------------------------------------------------------------- files
 def test_write_study_outputs(tmp_path, mixed):
     pytest.importorskip("pyarrow")
-    df = mixed.assign(cells_users=[[1, 2]] * len(mixed), message="ok")
+    df = mixed.assign(message="ok")
     paths = write_study_outputs(df, tmp_path / "new" / "dir", stem="gap")
     names = {k: p.name for k, p in paths.items()}
     assert names == {
@@ -410,6 +410,26 @@ def test_parquet_keeps_mixed_object_columns_as_json(tmp_path, mixed):
     back = pd.read_parquet(paths["rows"])
     assert back["cells_extra"].tolist()[:3] == ["1", '"a"', '{"k": 1}'] and pd.isna(back["cells_extra"][3])
     pd.testing.assert_frame_equal(back.drop(columns="cells_extra"), df.drop(columns="cells_extra"))
+
+
+def test_parquet_round_trip_of_a_store_frame(tmp_path):
+    pytest.importorskip("pyarrow")
+    from droneplan.studies.store import Outcome, ResultStore, build_rows
+
+    with ResultStore(tmp_path / "r.sqlite") as store:
+        for s in range(2):
+            outcomes = [
+                Outcome(
+                    "ga", "heuristic", "feasible", objective=10.0 + s, time_s=0.5, extras={"sites": [1, s]}
+                ),
+                Outcome("milp", "model", "no_solution" if s else "optimal", objective=None if s else 12.0),
+            ]
+            store.write(build_rows("cells", f"t:seed={s}", seed=s, size=2, sense="max", outcomes=outcomes))
+        df = store.frame()
+    back = pd.read_parquet(write_study_outputs(df, tmp_path)["rows"])
+    # the list-valued extra comes back as JSON text (missing as null); the rest unchanged
+    assert back["cells_sites"].tolist()[0] == "[1, 0]" and pd.isna(back["cells_sites"].tolist()[1])
+    pd.testing.assert_frame_equal(back.drop(columns="cells_sites"), df.drop(columns="cells_sites"))
 
 
 def test_without_pyarrow_nothing_is_written(tmp_path, mixed, monkeypatch):
