@@ -60,6 +60,8 @@ __all__ = [
     "SOLVED_STATUSES",
     "FAILURE_COLUMNS",
     "AT_BEST_TOL",
+    "SUMMARY_COLUMNS",
+    "performance_ratios",
     "performance_profile",
     "shifted_geometric_mean",
     "summary_table",
