@@ -186,7 +186,7 @@ def check_allocation(drone_s, steer_s, perimeter, allocation: Allocation, *, tol
 
     Independent of how the allocation was found: recomputes each destination from
     the target and direction, the travel, and the order constraints on the z* axis.
-    Raises AssertionError naming the violated condition.
+    Raises ValueError naming the violated condition (an explicit check, kept under ``python -O``).
 
     drone_s, steer_s: drone and steering-point arc positions on the extended hull (m), in [0, perimeter).
     perimeter: extended-hull perimeter M (m).
@@ -198,17 +198,27 @@ def check_allocation(drone_s, steer_s, perimeter, allocation: Allocation, *, tol
     pts = np.asarray(allocation.points, dtype=float)
     n, M = d.size, float(perimeter)
     tgt = np.asarray(allocation.target)
-    assert sorted(tgt.tolist()) == list(range(n)), "every steering point gets exactly one drone"
+    if tgt.shape != (n,) or sorted(tgt.tolist()) != list(range(n)):
+        raise ValueError("allocation violates: every steering point gets exactly one drone")
+    if np.shape(allocation.direction) != (n,) or np.shape(allocation.travel) != (n,):
+        raise ValueError(f"allocation violates: direction and travel have one entry per drone ({n})")
+    if not np.all(np.isin(allocation.direction, (-1, 1))):
+        raise ValueError("allocation violates: every direction is +1 or -1")
     order, z, zp_all = z_coordinates(d, pts, M)
     zstar = np.empty(n)
     for rank, j in enumerate(order):
         zj, zpj = z[rank], zp_all[tgt[j]]
         zs = zpj + (M if zpj < zj else 0.0) if allocation.direction[j] > 0 else zpj - (M if zpj > zj else 0.0)
         zstar[rank] = zs
-        assert abs(abs(zs - zj) - allocation.travel[j]) <= tol * max(1.0, M), "travel matches (6.20)"
+        if not abs(abs(zs - zj) - allocation.travel[j]) <= tol * max(1.0, M):
+            raise ValueError(
+                f"allocation violates (6.20): travel of drone {j} does not match its destination"
+            )
     if n > 1:
-        assert np.all(np.diff(zstar) > 0), "(6.23) destinations keep the drones' order"
-        assert zstar[-1] < zstar[0] + M, "(6.22) destinations span less than one perimeter"
+        if not np.all(np.diff(zstar) > 0):
+            raise ValueError("allocation violates (6.23): destinations do not keep the drones' cyclic order")
+        if not zstar[-1] < zstar[0] + M:
+            raise ValueError("allocation violates (6.22): destinations span a whole perimeter or more")
     return float(np.max(allocation.travel))
 
 

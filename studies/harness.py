@@ -1,0 +1,328 @@
+"""Running a method on an instance and scoring what it returned, independently of the method.
+
+One *job* is one (instance, method) pair. It runs in a child process with a time limit
+(:mod:`droneplan.studies.runner`), so a method that hangs, sleeps or crashes costs one row and
+not the study. What the method returned is then scored by droneplan's own evaluator, never by
+the method's word:
+
+``cells``         the positions go through ``formulations.cells.evaluate`` (overlap, GBS
+                  overlap, backhaul, count, bounds); objective = covered users
+``allocation``    ``(target, direction)`` becomes an allocation whose travels droneplan computes
+                  and ``check_allocation`` verifies against (6.20)-(6.23); objective = max travel (m)
+closed loop       the controller runs inside the problem's simulator; objective = the simulator's
+                  metric (shark: time of first contact, s, which must be frontal and not early;
+                  covert: max recorded bearing change, deg; herding: gathering + driving time, s)
+
+Statuses of a row: ``optimal``/``feasible`` (a verified plan), ``infeasible`` (the plan violates a
+constraint, named in ``message``), ``invalid`` (a return value of the wrong type or shape, NaN or
+inf), ``no_solution`` (the method returned nothing), ``timeout``, ``error`` (the method raised; the
+exception in ``message``). A number the method claims goes to ``claimed_objective``; when it
+differs from droneplan's the row is flagged ``claim-mismatch``. Only droneplan's exact engines
+(``Method.trusted_bound``) put a bound in ``bound``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from droneplan.solvers.result import SolveResult, Status
+from droneplan.studies.instances import StudyInstance
+from droneplan.studies.methods import CLOSED_LOOP_KINDS, Method
+
+__all__ = ["Scored", "execute", "score", "SENSE_OF_KIND", "HERDING_T_MAX"]
+
+SENSE_OF_KIND = {
+    "cells": "max",
+    "allocation": "min",
+    "shark-path": "min",
+    "covert-run": "min",
+    "herding-run": "min",
+}
+"""The direction in which each kind's objective is better."""
+
+HERDING_T_MAX = 1800.0
+"""Simulated horizon of a herding run (s), as the simulator's default."""
+
+_CLAIM_TOL = 1e-6
+
+
+@dataclass
+class Scored:
+    """Droneplan's verdict on one job (the method-independent part of its row)."""
+
+    status: str
+    objective: float | None = None
+    bound: float | None = None
+    bound_kind: str = "none"
+    claimed_objective: float | None = None
+    flags: list[str] = field(default_factory=list)
+    message: str = ""
+    warm_started: bool = False
+    extras: dict[str, Any] = field(default_factory=dict)
+
+
+# --------------------------------------------------------------------------- in the child
+def execute(instance: StudyInstance, method: Method, seed: int, time_limit: float | None) -> Any:
+    """Run ``method`` on ``instance`` (in the job's child process) and return what is to be scored.
+
+    Static kinds return the method's raw return value; closed-loop kinds return the simulator's
+    metrics (a dict), because the controller only exists inside the simulation.
+    """
+    data = instance.data
+    if instance.kind == "cells":
+        return method.call(data, seed=seed, time_limit=time_limit)
+    if instance.kind == "allocation":
+        return method.call(
+            data.drone_s.copy(), data.steer_s.copy(), data.perimeter, seed=seed, time_limit=time_limit
+        )
+    ctl = method.controller()
+    if instance.kind == "shark-path":
+        from droneplan.scenarios.shark import simulate
+
+        shark = simulate(data, ctl, seed=seed)
+        return {
+            "intercept_time": shark.intercept_time,
+            "frontal": bool(shark.frontal),
+            "touched_early": bool(shark.touched_early),
+            "interception_distance": shark.interception_distance,
+            "fallbacks": int(shark.fallbacks),
+        }
+    if instance.kind == "covert-run":
+        from droneplan.scenarios.covert import simulate as simulate_covert
+
+        covert = simulate_covert(data, ctl, seed=seed)
+        return {
+            "beta_max_deg": math.degrees(covert.beta_max) if covert.beta_max is not None else None,
+            "sphere_error": covert.sphere_error,
+            "t_a": covert.t_a,
+            "fallbacks": int(covert.fallbacks),
+        }
+    from droneplan.scenarios.herding import simulate as simulate_herding
+
+    herd = simulate_herding(data, ctl, t_max=HERDING_T_MAX, seed=seed)
+    return {"total_time": herd.total_time, "gather_time": herd.gather_time, "fallbacks": int(herd.fallbacks)}
+
+
+# --------------------------------------------------------------------------- in the parent
+def _number(v: Any) -> float | None:
+    """A finite float from a Python or numpy number; None otherwise."""
+    if isinstance(v, (bool, np.bool_)) or v is None:
+        return None
+    if isinstance(v, (int, float, np.integer, np.floating)):
+        f = float(v)
+        return f if math.isfinite(f) else None
+    if isinstance(v, np.ndarray) and v.shape == () and v.dtype.kind in "iuf":
+        return _number(v.item())
+    return None
+
+
+def _describe(v: Any) -> str:
+    text = repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _claims(scored: Scored, result: SolveResult, method: Method) -> None:
+    """Record what a SolveResult claims beside droneplan's own numbers."""
+    claimed = result.objective
+    if claimed is not None:
+        num = _number(claimed)
+        if num is None:
+            scored.flags.append("claim-invalid")
+            scored.extras["claimed_objective_text"] = _describe(claimed)
+        else:
+            scored.claimed_objective = num
+    status = result.status
+    scored.extras["claimed_status"] = status.value if isinstance(status, Status) else _describe(status)
+    if not isinstance(status, Status):
+        scored.flags.append("claim-invalid")
+    scored.warm_started = bool(getattr(result, "warm_started", False))
+    if result.bound is not None and not method.trusted_bound:
+        scored.extras["claimed_bound"] = _number(result.bound)
+
+
+def _check_claim(scored: Scored) -> None:
+    if scored.claimed_objective is None or scored.objective is None:
+        return
+    if abs(scored.claimed_objective - scored.objective) > _CLAIM_TOL * max(1.0, abs(scored.objective)):
+        scored.flags.append("claim-mismatch")
+        scored.message = (
+            f"the method claims {scored.claimed_objective:g}, droneplan measures {scored.objective:g}; "
+            + scored.message
+        ).rstrip("; ")
+
+
+def _unwrap(returned: Any, method: Method, scored: Scored) -> tuple[Any, bool]:
+    """The plan inside ``returned`` and whether there is one (a SolveResult may carry none)."""
+    if isinstance(returned, SolveResult):
+        _claims(scored, returned, method)
+        if returned.x is None:
+            scored.status = "no_solution"
+            scored.message = f"the method returned no plan (its status: {scored.extras['claimed_status']})"
+            return None, False
+        return returned.x, True
+    return returned, True
+
+
+def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scored:
+    from droneplan.formulations.cells import evaluate
+
+    scored = Scored("feasible")
+    plan, has = _unwrap(returned, method, scored)
+    if not has:
+        return scored
+    try:
+        pos = np.asarray(plan, dtype=float)
+    except (TypeError, ValueError):
+        return Scored(
+            "invalid", message=f"positions must be numbers, got {_describe(plan)}", extras=scored.extras
+        )
+    if pos.size == 0:
+        pos = pos.reshape(0, 2)
+    if pos.ndim == 1 and pos.shape == (2,):
+        pos = pos.reshape(1, 2)
+    if pos.ndim != 2 or pos.shape[1] != 2:
+        return Scored(
+            "invalid", message=f"positions must have shape (k, 2), got {pos.shape}", extras=scored.extras
+        )
+    if not np.all(np.isfinite(pos)):
+        return Scored("invalid", message="positions contain NaN or inf", extras=scored.extras)
+    problem = instance.data
+    ev = evaluate(problem, pos)
+    scored.extras["n_placed"] = len(pos)
+    if not ev.feasible:
+        more = f" (+{len(ev.violations) - 3} more)" if len(ev.violations) > 3 else ""
+        scored.status = "infeasible"
+        scored.message = "; ".join(ev.violations[:3]) + more
+        scored.extras["covered_if_feasible"] = ev.covered
+        return scored
+    scored.objective = float(ev.covered)
+    if method.trusted_bound and isinstance(returned, SolveResult):
+        bound = _number(returned.bound)
+        if bound is not None:
+            scored.bound = bound
+            scored.bound_kind = "proven-global" if returned.info.get("global_optimal") else "candidate-set"
+        if returned.status is Status.OPTIMAL:
+            scored.status = "optimal"
+        scored.message = returned.message
+    _check_claim(scored)
+    return scored
+
+
+def _score_allocation(instance: StudyInstance, returned: Any, method: Method) -> Scored:
+    from droneplan.formulations.herding import Allocation, check_allocation, pad_steering_points
+
+    scored = Scored("feasible")
+    plan, has = _unwrap(returned, method, scored)
+    if not has:
+        return scored
+    data = instance.data
+    n, M = data.n, data.perimeter
+    if isinstance(plan, Allocation):
+        claimed_travel = _number(np.max(plan.travel)) if np.size(plan.travel) else None
+        if scored.claimed_objective is None and claimed_travel is not None:
+            scored.claimed_objective = claimed_travel
+        target, direction = plan.target, plan.direction
+    elif isinstance(plan, (tuple, list)) and len(plan) == 2:
+        target, direction = plan
+    else:
+        return Scored(
+            "invalid",
+            message="an allocation method returns (target, direction) or an Allocation, got "
+            + _describe(plan),
+            extras=scored.extras,
+        )
+    try:
+        t_arr = np.asarray(target)
+        d_arr = np.asarray(direction)
+    except (TypeError, ValueError):
+        return Scored(
+            "invalid", message="target and direction must be arrays of integers", extras=scored.extras
+        )
+    for name, arr in (("target", t_arr), ("direction", d_arr)):
+        if arr.shape != (n,):
+            return Scored(
+                "invalid", message=f"{name} must have shape ({n},), got {arr.shape}", extras=scored.extras
+            )
+        if arr.dtype.kind not in "iuf" or (arr.dtype.kind == "f" and not np.all(np.isfinite(arr))):
+            return Scored(
+                "invalid", message=f"{name} must hold finite integers, got {arr.dtype}", extras=scored.extras
+            )
+        if not np.all(arr == np.round(arr)):
+            return Scored(
+                "invalid", message=f"{name} must hold integers, got {_describe(arr)}", extras=scored.extras
+            )
+    t_int, d_int = t_arr.astype(int), d_arr.astype(int)
+    if np.any(t_int < 0) or np.any(t_int >= n):
+        return Scored("invalid", message=f"target indexes must lie in 0..{n - 1}", extras=scored.extras)
+    points = pad_steering_points(data.steer_s, n, M)
+    dest = points[t_int]
+    travel = np.where(d_int > 0, np.mod(dest - data.drone_s, M), np.mod(data.drone_s - dest, M))
+    alloc = Allocation(target=t_int, direction=d_int, travel=travel, points=points)
+    try:
+        value = check_allocation(data.drone_s, data.steer_s, M, alloc)
+    except ValueError as exc:
+        scored.status = "infeasible"
+        scored.message = str(exc)
+        scored.extras["max_travel_if_feasible"] = float(np.max(travel))
+        return scored
+    scored.objective = value
+    if method.trusted_bound and isinstance(returned, SolveResult) and returned.status is Status.OPTIMAL:
+        scored.status = "optimal"
+        scored.bound, scored.bound_kind = value, "proven-global"
+        scored.message = returned.message
+    _check_claim(scored)
+    return scored
+
+
+def _score_closed_loop(instance: StudyInstance, metrics: Mapping[str, Any]) -> Scored:
+    extras = {k: v for k, v in metrics.items() if k not in ("intercept_time", "beta_max_deg", "total_time")}
+    if instance.kind == "shark-path":
+        t = _number(metrics.get("intercept_time"))
+        if metrics.get("touched_early"):
+            return Scored(
+                "infeasible", message="the field touched the shark before the frontal contact", extras=extras
+            )
+        if t is None:
+            return Scored("no_solution", message="no contact within the shark path's horizon", extras=extras)
+        if not metrics.get("frontal"):
+            return Scored(
+                "infeasible",
+                message="first contact not frontal (the shark's heading does not point at the operator)",
+                extras={**extras, "contact_time_if_frontal": t},
+            )
+        return Scored("feasible", objective=t, message="time of first (frontal) contact, s", extras=extras)
+    if instance.kind == "covert-run":
+        b = _number(metrics.get("beta_max_deg"))
+        if b is None:
+            return Scored(
+                "no_solution", message="no bearing change recorded (no target observed)", extras=extras
+            )
+        return Scored(
+            "feasible", objective=b, message="max recorded bearing change beta_max, deg", extras=extras
+        )
+    total = _number(metrics.get("total_time"))
+    if total is None:
+        return Scored(
+            "no_solution",
+            message=f"the herd was not gathered and driven within {HERDING_T_MAX:g} s",
+            extras=extras,
+        )
+    return Scored("feasible", objective=total, message="gathering + driving time, s", extras=extras)
+
+
+def score(instance: StudyInstance, method: Method, returned: Any) -> Scored:
+    """Droneplan's verdict on what ``method`` returned for ``instance`` (module docstring: the rules)."""
+    if instance.kind == "cells":
+        return _score_cells(instance, returned, method)
+    if instance.kind == "allocation":
+        return _score_allocation(instance, returned, method)
+    if instance.kind in CLOSED_LOOP_KINDS:
+        if not isinstance(returned, Mapping):
+            return Scored("error", message=f"internal: the simulation returned {_describe(returned)}")
+        return _score_closed_loop(instance, returned)
+    raise ValueError(f"unknown instance kind {instance.kind!r}")

@@ -1,0 +1,326 @@
+"""The certified reference library: instances with their best known plans and proven bounds.
+
+Each family with a library has one file ``data/<family>.json.gz`` in this package: one entry per
+instance id with the best plan droneplan knows, its value (re-evaluated by droneplan's own
+evaluator when certified, and again by the tests), the best proven bound and its kind, the
+status (``optimal`` when value and bound meet), how it was obtained (engine, wall time, time
+limit, droneplan version, git commit, date) and the instance's fingerprint, so an entry is only
+used for exactly the data it was certified on.
+
+A study on library instances reads its reference from here instead of re-solving: it adds a
+``library`` row per instance (role ``model``) carrying that value and bound, against which the
+requested methods' gaps are measured. ``droneplan certify <family>`` (:func:`certify`) produces
+and extends the files; it resumes where it stopped and writes after every entry.
+
+How each kind is certified:
+
+``cells``        the exact branch and bound (``engine="bnb"``) within the time limit; the bound
+                 is for the candidate-site problem (``candidate-set``), or ``proven-global`` when
+                 the continuous-problem upper bound is attained
+``allocation``   the exact combinatorial algorithm, cross-checked by CP-SAT up to n = 16
+                 (``proven-global``)
+``shark-path``   the best frontal first-contact time of the built-in interceptors (virtual
+                 shark, classical pursuit, receding-horizon OCP) in closed loop; no bound is
+                 proven for the closed loop, so the entry holds the best known value only
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import functools
+import gzip
+import json
+import os
+import tempfile
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from droneplan.studies.instances import FAMILIES, StudyInstance, family_instances
+
+__all__ = [
+    "LIBRARY_FORMAT",
+    "LIBRARY_DIR",
+    "LIBRARY_FAMILIES",
+    "LibraryEntry",
+    "library_path",
+    "load_library",
+    "lookup",
+    "certify_instance",
+    "save_library",
+]
+
+LIBRARY_FORMAT = "droneplan-library"
+LIBRARY_DIR = Path(__file__).resolve().parent / "data"
+"""Where the shipped library files live (inside the installed package)."""
+
+LIBRARY_FAMILIES: dict[str, dict[str, Any]] = {
+    "table4.2": {"m": (1, 2, 3, 4, 5, 6), "seeds": 100},
+    "allocation": {"n": tuple(range(2, 65)), "seeds": 5},
+    "table5.1": {"path": ("a", "b", "c", "d")},
+    "random-path": {"seeds": 20},
+}
+"""The families the shipped library covers and the sizes and seeds it holds."""
+
+
+@dataclass(frozen=True)
+class LibraryEntry:
+    """One certified instance.
+
+    id, fingerprint: the instance's id and data hash. value: the best known objective (the
+    problem's units; verified by droneplan's evaluator). bound: the best proven bound (None when
+    none is proven) of kind ``bound_kind``. status: ``optimal`` when value meets bound, else
+    ``feasible``. sense: ``max`` or ``min``. plan: the best plan as JSON values (cells: positions
+    (k, 2) m; allocation: {"target", "direction"}; shark: {"controller"}). engine: what found and
+    proved it. time_s: its wall time (s); time_limit_s: the limit it ran under. droneplan_version,
+    git_commit, certified_at: provenance. message: the engine's message.
+    """
+
+    id: str
+    fingerprint: str
+    value: float
+    bound: float | None
+    bound_kind: str
+    status: str
+    sense: str
+    plan: Any
+    engine: str
+    time_s: float
+    time_limit_s: float | None
+    droneplan_version: str
+    git_commit: str | None
+    certified_at: str
+    message: str = ""
+
+    @property
+    def gap(self) -> float | None:
+        """Relative gap between value and bound (0 when proven optimal; None without a bound)."""
+        if self.bound is None:
+            return None
+        diff = (self.bound - self.value) if self.sense == "max" else (self.value - self.bound)
+        return diff / max(abs(self.bound), 1e-9)
+
+
+def library_path(family: str, directory: str | os.PathLike | None = None) -> Path:
+    """The library file of ``family`` (in ``directory``, default the package's ``LIBRARY_DIR``)."""
+    return Path(directory or LIBRARY_DIR) / f"{family}.json.gz"
+
+
+def _read(path: Path) -> dict[str, LibraryEntry]:
+    if not path.exists():
+        return {}
+    try:
+        doc = json.loads(gzip.decompress(path.read_bytes()).decode())
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{path}: not a readable library file ({type(exc).__name__}: {exc})") from None
+    if not isinstance(doc, Mapping) or doc.get("format") != LIBRARY_FORMAT:
+        raise ValueError(f"{path}: not a droneplan library file")
+    return {e["id"]: LibraryEntry(**e) for e in doc["entries"]}
+
+
+@functools.lru_cache(maxsize=16)
+def _cached(path: str, mtime: float) -> dict[str, LibraryEntry]:
+    return _read(Path(path))
+
+
+def load_library(family: str, directory: str | os.PathLike | None = None) -> dict[str, LibraryEntry]:
+    """Every entry of ``family``'s library by instance id (empty when it has none)."""
+    path = library_path(family, directory)
+    if not path.exists():
+        return {}
+    return dict(_cached(str(path), path.stat().st_mtime))
+
+
+def lookup(instance: StudyInstance, directory: str | os.PathLike | None = None) -> LibraryEntry | None:
+    """The library entry of ``instance``, or None (no library, no entry, or other data under that id)."""
+    if instance.family not in FAMILIES:
+        return None
+    entry = load_library(instance.family, directory).get(instance.id)
+    if entry is None or entry.fingerprint != instance.fingerprint():
+        return None
+    return entry
+
+
+def save_library(
+    family: str, entries: Mapping[str, LibraryEntry], directory: str | os.PathLike | None = None
+) -> Path:
+    """Write ``family``'s library atomically (sorted by id, gzip-compressed JSON)."""
+    path = library_path(family, directory)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fam = FAMILIES[family]
+    doc = {
+        "format": LIBRARY_FORMAT,
+        "family": family,
+        "family_version": fam.version,
+        "entries": [asdict(entries[k]) for k in sorted(entries)],
+    }
+    data = gzip.compress(json.dumps(doc, allow_nan=False, separators=(",", ":")).encode(), mtime=0)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    with os.fdopen(fd, "wb") as fh:
+        fh.write(data)
+    os.replace(tmp, path)
+    _cached.cache_clear()
+    return path
+
+
+# --------------------------------------------------------------------------- certifying one instance
+def _now() -> str:
+    return _dt.datetime.now(_dt.UTC).replace(microsecond=0).isoformat()
+
+
+def certify_instance(instance: StudyInstance, *, time_limit: float | None) -> dict[str, Any]:
+    """Find and prove the best plan of one instance (runs in a job's child process).
+
+    Returns the entry's fields except provenance (a dict); raises when the engine's plan does not
+    verify, so a wrong entry is never written.
+    """
+    kind = instance.kind
+    if kind == "cells":
+        return _certify_cells(instance, time_limit)
+    if kind == "allocation":
+        return _certify_allocation(instance, time_limit)
+    if kind == "shark-path":
+        return _certify_shark(instance)
+    raise ValueError(f"no certification procedure for {kind!r} instances")
+
+
+def _certify_cells(instance: StudyInstance, time_limit: float | None) -> dict[str, Any]:
+    from droneplan.formulations import cells
+
+    problem = instance.data
+    solve = getattr(cells, "solve_exact", None) or cells.solve_milp
+    res = solve(problem, engine="bnb", time_limit=time_limit, workers=1)
+    if res.x is None or res.objective is None:
+        raise RuntimeError(
+            f"{instance.id}: the branch and bound found no plan ({res.status.name}: {res.message})"
+        )
+    ev = cells.evaluate(problem, res.x)
+    if not ev.feasible or ev.covered != round(res.objective):
+        raise RuntimeError(
+            f"{instance.id}: the engine's plan does not verify (covers {ev.covered}, claims {res.objective}; "
+            f"{'; '.join(ev.violations)})"
+        )
+    bound = None if res.bound is None else float(res.bound)
+    kind = "proven-global" if res.info.get("global_optimal") else "candidate-set"
+    return {
+        "value": float(ev.covered),
+        "bound": bound,
+        "bound_kind": kind if bound is not None else "none",
+        "status": "optimal" if bound is not None and bound <= ev.covered + 1e-9 else "feasible",
+        "sense": "max",
+        "plan": np.asarray(res.x, dtype=float).reshape(-1, 2).tolist(),
+        "engine": "cells branch and bound (engine='bnb', workers=1)",
+        "time_s": float(res.solve_time),
+        "message": res.message,
+    }
+
+
+def _certify_allocation(instance: StudyInstance, time_limit: float | None) -> dict[str, Any]:
+    from droneplan.formulations.herding import check_allocation, solve_allocation
+
+    d = instance.data
+    res = solve_allocation(d.drone_s, d.steer_s, d.perimeter)
+    value = check_allocation(d.drone_s, d.steer_s, d.perimeter, res.x)
+    engine = "exact combinatorial allocation"
+    if d.n <= 16:
+        cp = solve_allocation(d.drone_s, d.steer_s, d.perimeter, method="cp-sat", time_limit=time_limit)
+        if (
+            cp.status.value != "optimal"
+            or cp.objective is None
+            or abs(float(cp.objective) - value) > 1e-6 * max(1.0, d.perimeter)
+        ):
+            raise RuntimeError(
+                f"{instance.id}: CP-SAT ({cp.status.name}, {cp.objective}) disagrees with exact {value}"
+            )
+        engine += " = CP-SAT assignment model"
+    return {
+        "value": value,
+        "bound": value,
+        "bound_kind": "proven-global",
+        "status": "optimal",
+        "sense": "min",
+        "plan": {
+            "target": np.asarray(res.x.target).tolist(),
+            "direction": np.asarray(res.x.direction).tolist(),
+        },
+        "engine": engine,
+        "time_s": float(res.solve_time),
+        "message": res.message,
+    }
+
+
+_SHARK_CONTROLLERS = ("virtual-shark", "classical-pursuit", "ocp")
+
+
+def _certify_shark(instance: StudyInstance) -> dict[str, Any]:
+    import time
+
+    from droneplan.studies.harness import execute, score
+    from droneplan.studies.methods import BUILTIN
+
+    best: tuple[float, str] | None = None
+    t0 = time.perf_counter()
+    tried = []
+    for name in _SHARK_CONTROLLERS:
+        method = BUILTIN[name]
+        verdict = score(instance, method, execute(instance, method, 0, None))
+        tried.append(
+            f"{name}: {verdict.status}" + (f" {verdict.objective:.3f} s" if verdict.objective else "")
+        )
+        if verdict.objective is not None and (best is None or verdict.objective < best[0]):
+            best = (verdict.objective, name)
+    if best is None:
+        raise RuntimeError(
+            f"{instance.id}: no built-in interceptor made a valid frontal contact ({'; '.join(tried)})"
+        )
+    return {
+        "value": best[0],
+        "bound": None,
+        "bound_kind": "none",
+        "status": "feasible",
+        "sense": "min",
+        "plan": {"controller": best[1]},
+        "engine": "best closed-loop frontal contact of " + ", ".join(_SHARK_CONTROLLERS),
+        "time_s": time.perf_counter() - t0,
+        "message": "; ".join(tried),
+    }
+
+
+def library_instances(family: str, **size: Any) -> list[StudyInstance]:
+    """The instances of ``family`` the shipped library covers (``LIBRARY_FAMILIES``), or ``size`` ones."""
+    if family not in LIBRARY_FAMILIES:
+        raise ValueError(
+            f"no certified library for family {family!r}; families: {', '.join(LIBRARY_FAMILIES)}"
+        )
+    spec: dict[str, Any] = {**LIBRARY_FAMILIES[family], **size}
+    return family_instances(family, **spec)
+
+
+def entry_from(
+    instance: StudyInstance, fields: Mapping[str, Any], *, time_limit: float | None, prov: Mapping[str, Any]
+) -> LibraryEntry:
+    """A :class:`LibraryEntry` from :func:`certify_instance`'s fields and the run's provenance."""
+    return LibraryEntry(
+        id=instance.id,
+        fingerprint=instance.fingerprint(),
+        time_limit_s=time_limit,
+        droneplan_version=str(prov.get("droneplan_version")),
+        git_commit=prov.get("git_commit"),
+        certified_at=_now(),
+        **fields,
+    )
+
+
+def entries_to_certify(
+    instances: Iterable[StudyInstance], existing: Mapping[str, LibraryEntry], *, force: bool, improve: bool
+) -> list[StudyInstance]:
+    """The instances without a current entry (or with an unproven one when ``improve``)."""
+    todo = []
+    for inst in instances:
+        e = existing.get(inst.id)
+        if force or e is None or e.fingerprint != inst.fingerprint() or (improve and e.status != "optimal"):
+            todo.append(inst)
+    return todo

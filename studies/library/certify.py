@@ -1,0 +1,108 @@
+"""``droneplan certify <family>``: produce or extend a family's certified library file.
+
+Every instance without a current entry is certified in its own time-limited child process
+(:mod:`droneplan.studies.runner`), ``workers`` at a time; the library file is rewritten after every
+entry, so an interrupted run keeps what it finished and the same command resumes it.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+from droneplan.solvers.validation import check_int, check_time_limit
+from droneplan.studies.library import (
+    LIBRARY_FAMILIES,
+    certify_instance,
+    entries_to_certify,
+    entry_from,
+    library_instances,
+    load_library,
+    save_library,
+)
+from droneplan.studies.provenance import provenance
+from droneplan.studies.runner import Job, run_jobs
+
+__all__ = ["certify", "CERTIFY_GRACE_S"]
+
+CERTIFY_GRACE_S = 30.0
+"""How long a certification may overrun its time limit before its process is killed (s): the
+engines stop themselves at the limit and return their best plan and bound."""
+
+
+def certify(
+    family: str,
+    *,
+    time_limit: float | None = 300.0,
+    workers: int | None = None,
+    directory: str | os.PathLike | None = None,
+    force: bool = False,
+    improve: bool = False,
+    progress: bool = True,
+    **size: Any,
+) -> dict[str, Any]:
+    """Certify the instances of ``family`` and write its library file; return a summary.
+
+    family: a family in ``LIBRARY_FAMILIES``. time_limit: per instance (s; None: none).
+    workers: instances certified at once (default: number of cores). directory: where the
+    library files are (default: the package's). force: redo every entry. improve: redo the
+    entries that are not proven optimal. progress: show a progress bar. size: the family's sizes
+    and ``seeds``/``first_seed`` (default: what ``LIBRARY_FAMILIES`` lists).
+    Returns {"family", "path", "certified", "failed", "entries", "proven"} (counts and the path).
+    """
+    if family not in LIBRARY_FAMILIES:
+        raise ValueError(
+            f"no certified library for family {family!r}; families: {', '.join(LIBRARY_FAMILIES)}"
+        )
+    time_limit = check_time_limit(time_limit)
+    workers = check_int("workers", workers if workers is not None else (os.cpu_count() or 1), min_value=1)
+    instances = library_instances(family, **size)
+    entries = load_library(family, directory)
+    todo = entries_to_certify(instances, entries, force=force, improve=improve)
+    by_id = {inst.id: inst for inst in todo}
+    jobs = [
+        Job(inst.id, certify_instance, (inst,), {"time_limit": time_limit}, time_limit=time_limit)
+        for inst in todo
+    ]
+    prov = provenance()
+    failed: list[str] = []
+    path = None
+    for outcome in run_jobs(
+        jobs, workers=workers, grace=CERTIFY_GRACE_S, progress=f"certify {family}" if progress else None
+    ):
+        inst = by_id[str(outcome.key)]
+        if outcome.status != "ok":
+            failed.append(f"{inst.id}: {outcome.status}: {outcome.error}")
+            continue
+        old = entries.get(inst.id)
+        new = entry_from(inst, outcome.value, time_limit=time_limit, prov=prov)
+        if (
+            old is not None
+            and old.fingerprint == new.fingerprint
+            and not force
+            and _better_or_equal(old, new)
+        ):
+            continue  # an improve run that did not improve keeps the older, better entry
+        entries[inst.id] = new
+        path = save_library(family, entries, directory)
+    wanted = {inst.id for inst in instances}
+    held = [e for k, e in entries.items() if k in wanted]
+    return {
+        "family": family,
+        "path": str(path) if path else None,
+        "certified": len(todo) - len(failed),
+        "failed": failed,
+        "entries": len(held),
+        "proven": sum(e.status == "optimal" for e in held),
+    }
+
+
+def _better_or_equal(old, new) -> bool:
+    """True when ``old`` is at least as good as ``new`` in value and bound."""
+    sign = 1 if old.sense == "max" else -1
+    value_ok = sign * (old.value - new.value) >= 0
+    if new.bound is None:
+        return value_ok
+    if old.bound is None:
+        return False
+    return value_ok and sign * (new.bound - old.bound) >= 0

@@ -1,0 +1,334 @@
+"""Methods of a gap study: the built-in ones by name and the user's own, under one contract per kind.
+
+A method is what a study runs on each instance. Built-in methods and the user's are treated alike:
+each is a :class:`Method` whose ``target`` follows the contract of the instance kind it runs on:
+
+``cells``        ``fn(problem: CellProblem, *, seed, time_limit) -> positions (k, 2)`` in metres,
+                 or a ``SolveResult`` whose ``x`` holds them
+``allocation``   ``fn(drone_s, steer_s, perimeter, *, seed, time_limit) -> (target, direction)``
+                 (``target[j]``: index of drone j's steering point in ``steer_s`` padded as by
+                 ``pad_steering_points``; ``direction[j]``: +1 or -1), or an ``Allocation``, or a
+                 ``SolveResult`` whose ``x`` is one
+``shark-path``, ``covert-run``, ``herding-run``
+                 a controller class of the closed-loop contract (``reset(scenario, *, seed)``,
+                 ``command(observation)``, ``phase``), instantiated without arguments for every run
+
+``seed`` is the instance's seed (0 when it has none) and ``time_limit`` the study's limit in
+seconds; a function may ignore them but must accept them as keywords. ``Method.params`` are
+passed on as further keywords (functions) or constructor arguments (classes) and are part of the
+configuration hash of every row. A method is given as a registered name (``BUILTIN``), a
+``"module:attribute"`` string, a function, a controller class, a ``(name, target)`` pair or a
+:class:`Method`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import inspect
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from droneplan.solvers.validation import check_time_limit
+
+__all__ = ["Method", "BUILTIN", "builtin_methods", "resolve_methods", "CLOSED_LOOP_KINDS"]
+
+CLOSED_LOOP_KINDS = ("shark-path", "covert-run", "herding-run")
+"""Instance kinds whose methods are controller classes run by the problem's simulator."""
+
+
+@dataclass(frozen=True)
+class Method:
+    """One method of a study.
+
+    name: the row's ``method`` (unique within a study). target: the function or controller class
+    (module docstring: the contract per kind). role: ``heuristic`` or ``model``. params: keyword
+    arguments for the target, recorded in every row. kinds: the instance kinds it runs on (empty:
+    decided by its contract, i.e. any kind that fits). trusted_bound: the method is one of
+    droneplan's exact engines, whose proven bound is recorded as a bound (a user method's claimed
+    bound is kept only as a claim). builtin: registered by droneplan.
+    """
+
+    name: str
+    target: Any
+    role: str = "heuristic"
+    params: Mapping[str, Any] = field(default_factory=dict)
+    kinds: tuple[str, ...] = ()
+    trusted_bound: bool = False
+    builtin: bool = False
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name.strip() or "\n" in self.name:
+            raise ValueError(f"a method name must be a non-empty one-line string, got {self.name!r}")
+        if self.role not in ("heuristic", "model"):
+            raise ValueError(f"method {self.name!r}: role must be 'heuristic' or 'model', got {self.role!r}")
+        if not callable(self.target):
+            raise TypeError(
+                f"method {self.name!r}: target must be a function or a class, got {self.target!r}"
+            )
+        if not isinstance(self.params, Mapping):
+            raise TypeError(
+                f"method {self.name!r}: params must be a mapping, got {type(self.params).__name__}"
+            )
+
+    @property
+    def is_class(self) -> bool:
+        """True for a controller class (closed-loop methods)."""
+        return inspect.isclass(self.target)
+
+    def fingerprint(self) -> str:
+        """What identifies this method's code: its qualified name and a hash of its source (16 hex)."""
+        target = self.target
+        mod = getattr(target, "__module__", "") or ""
+        qual = getattr(target, "__qualname__", repr(target))
+        try:
+            src = inspect.getsource(target)
+        except (OSError, TypeError):
+            code = getattr(target, "__code__", None)
+            src = repr(code.co_code) if code is not None else qual
+        return f"{mod}:{qual}#" + hashlib.sha256(src.encode()).hexdigest()[:16]
+
+    def call(self, *args: Any, seed: int, time_limit: float | None) -> Any:
+        """Run the method's target with the contract's keywords plus ``params``."""
+        return self.target(*args, seed=seed, time_limit=time_limit, **self.params)
+
+    def controller(self) -> Any:
+        """A new controller instance (closed-loop methods)."""
+        return self.target(**self.params)
+
+
+# --------------------------------------------------------------------------- built-ins
+def _cells_ga(problem, *, seed, time_limit):
+    from droneplan.planners.cells import genetic
+
+    return genetic(problem, seed=seed)
+
+
+def _cells_ga_polished(problem, *, seed, time_limit):
+    from droneplan.planners.cells import genetic_polished
+
+    return genetic_polished(problem, seed=seed)
+
+
+def _cells_exhaustive(problem, *, seed, time_limit):
+    from droneplan.planners.cells import exhaustive
+
+    return exhaustive(problem, time_limit=time_limit)
+
+
+def _cells_engine(engine: str) -> Callable[..., Any]:
+    def run(problem, *, seed, time_limit):
+        from droneplan.formulations import cells
+
+        solve = getattr(cells, "solve_exact", None)
+        if solve is None:  # before the explicit entry existed, solve_milp took the engine
+            solve = cells.solve_milp
+        return solve(problem, engine=engine, time_limit=time_limit, workers=1)
+
+    run.__name__ = run.__qualname__ = f"cells_{engine}"
+    return run
+
+
+def _cells_greedy(problem, *, seed, time_limit):
+    from droneplan.formulations.cells import greedy_placement
+
+    return greedy_placement(problem)
+
+
+def _alloc_exact(d, s, M, *, seed, time_limit):
+    from droneplan.formulations.herding import solve_allocation
+
+    return solve_allocation(d, s, M)
+
+
+def _alloc_cpsat(d, s, M, *, seed, time_limit):
+    from droneplan.formulations.herding import solve_allocation
+
+    return solve_allocation(d, s, M, method="cp-sat", time_limit=time_limit)
+
+
+def _alloc_alg3(d, s, M, *, seed, time_limit):
+    from droneplan.planners.herding import allocate_bruteforce
+
+    return allocate_bruteforce(d, s, M)
+
+
+def _alloc_blind(d, s, M, *, seed, time_limit):
+    from droneplan.planners.herding import allocate_collision_blind
+
+    return allocate_collision_blind(d, s, M)
+
+
+def _controller(module: str, name: str) -> Callable[..., Any]:
+    """A lazily imported controller class (so listing the built-ins imports no solver)."""
+
+    def make(**kwargs: Any) -> Any:
+        return getattr(importlib.import_module(module), name)(**kwargs)
+
+    make.__name__ = make.__qualname__ = name
+    make.__module__ = module
+    make.lazy_class = (module, name)  # type: ignore[attr-defined]
+    return make
+
+
+_CELLS = ("cells",)
+_ALLOC = ("allocation",)
+
+BUILTIN: dict[str, Method] = {
+    m.name: m
+    for m in (
+        Method("ga", _cells_ga, kinds=_CELLS, builtin=True),
+        Method("ga-polished", _cells_ga_polished, kinds=_CELLS, builtin=True),
+        Method("exhaustive", _cells_exhaustive, kinds=_CELLS, builtin=True),
+        Method("greedy", _cells_greedy, kinds=_CELLS, builtin=True),
+        Method("bnb", _cells_engine("bnb"), "model", kinds=_CELLS, trusted_bound=True, builtin=True),
+        Method("milp", _cells_engine("milp"), "model", kinds=_CELLS, trusted_bound=True, builtin=True),
+        Method("exact", _alloc_exact, "model", kinds=_ALLOC, trusted_bound=True, builtin=True),
+        Method("cp-sat", _alloc_cpsat, "model", kinds=_ALLOC, trusted_bound=True, builtin=True),
+        Method("alg3", _alloc_alg3, kinds=_ALLOC, builtin=True),
+        Method("collision-blind", _alloc_blind, kinds=_ALLOC, builtin=True),
+        Method(
+            "virtual-shark",
+            _controller("droneplan.planners.shark", "VirtualSharkInterceptor"),
+            kinds=("shark-path",),
+            builtin=True,
+        ),
+        Method(
+            "classical-pursuit",
+            _controller("droneplan.planners.shark", "ClassicalPursuit"),
+            kinds=("shark-path",),
+            builtin=True,
+        ),
+        Method(
+            "ocp",
+            _controller("droneplan.planners.shark", "OCPInterceptor"),
+            "model",
+            kinds=("shark-path",),
+            builtin=True,
+        ),
+        Method(
+            "sliding",
+            _controller("droneplan.planners.covert", "SlidingModeObserver"),
+            kinds=("covert-run",),
+            builtin=True,
+        ),
+        Method(
+            "hover",
+            _controller("droneplan.planners.covert", "HoverBenchmark"),
+            kinds=("covert-run",),
+            builtin=True,
+        ),
+        Method(
+            "mpc",
+            _controller("droneplan.planners.covert", "MPCObserver"),
+            "model",
+            kinds=("covert-run",),
+            builtin=True,
+        ),
+        Method(
+            "proposed",
+            _controller("droneplan.planners.herding", "ProposedHerder"),
+            kinds=("herding-run",),
+            builtin=True,
+        ),
+        Method(
+            "benchmark",
+            _controller("droneplan.planners.herding", "BenchmarkHerder"),
+            kinds=("herding-run",),
+            builtin=True,
+        ),
+    )
+}
+"""The registered methods by name (``bnb`` is the cells branch and bound, ``milp`` the cells MILP;
+``exact`` the exact allocation algorithm)."""
+
+
+def builtin_methods(kind: str) -> list[str]:
+    """Names of the registered methods for instances of ``kind``."""
+    return [n for n, m in BUILTIN.items() if kind in m.kinds]
+
+
+def _import_target(spec: str) -> Any:
+    mod, _, attr = spec.partition(":")
+    if not mod or not attr:
+        raise ValueError(f"method {spec!r}: write a user method as 'module:function' (or a registered name)")
+    try:
+        obj: Any = importlib.import_module(mod)
+    except ImportError as exc:
+        raise ValueError(f"method {spec!r}: cannot import module {mod!r} ({exc})") from None
+    for part in attr.split("."):
+        try:
+            obj = getattr(obj, part)
+        except AttributeError:
+            raise ValueError(f"method {spec!r}: module {mod!r} has no attribute {attr!r}") from None
+    return obj
+
+
+def _one(entry: Any, kind: str, position: int) -> Method:
+    if isinstance(entry, Method):
+        return entry
+    if isinstance(entry, tuple) and len(entry) == 2 and isinstance(entry[0], str):
+        name, target = entry
+        return _one(target, kind, position) if isinstance(target, Method) else Method(name, target)
+    if isinstance(entry, str):
+        if entry in BUILTIN:
+            return BUILTIN[entry]
+        if ":" in entry:
+            return Method(entry, _import_target(entry))
+        raise ValueError(
+            f"unknown method {entry!r}; registered for {kind}: {', '.join(builtin_methods(kind)) or 'none'} "
+            "(or give 'module:function', a function or a controller class)"
+        )
+    if callable(entry):
+        name = getattr(entry, "__name__", "") or type(entry).__name__
+        if name == "<lambda>":
+            name = f"lambda-{position}"
+        return Method(name, entry)
+    raise TypeError(
+        f"methods[{position}] must be a name, 'module:function', a function or a class, got {entry!r}"
+    )
+
+
+def resolve_methods(kind: str, methods: Any) -> list[Method]:
+    """The study's methods for instances of ``kind``, each checked against that kind's contract.
+
+    methods: one method or a list of them (module docstring: the accepted forms), or a mapping
+    ``{name: target}``.
+    """
+    if methods is None:
+        raise ValueError(
+            f"methods: name at least one method; registered for {kind}: {', '.join(builtin_methods(kind))}"
+        )
+    if isinstance(methods, Mapping):
+        entries: list[Any] = list(methods.items())
+    elif isinstance(methods, (str, Method, tuple)) or callable(methods):
+        entries = [methods]
+    else:
+        entries = list(methods)
+    if not entries:
+        raise ValueError("methods must not be empty")
+    out = [_one(e, kind, i) for i, e in enumerate(entries)]
+    names = [m.name for m in out]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"methods repeat names {dup}: give each a name, e.g. ('mine-2', fn)")
+    for m in out:
+        if m.kinds and kind not in m.kinds:
+            raise ValueError(
+                f"method {m.name!r} runs on {', '.join(m.kinds)} instances, not on {kind!r} instances"
+            )
+        closed = kind in CLOSED_LOOP_KINDS
+        lazy = hasattr(m.target, "lazy_class")
+        if closed and not (m.is_class or lazy):
+            raise TypeError(f"method {m.name!r}: {kind} instances take a controller class, got {m.target!r}")
+        if not closed and m.is_class:
+            raise TypeError(
+                f"method {m.name!r}: {kind} instances take a function, got the class {m.target.__name__}"
+            )
+    return out
+
+
+def check_study_time_limit(time_limit: Any) -> float | None:
+    """A study's per-method time limit (s): None or a finite number > 0."""
+    return check_time_limit(time_limit)

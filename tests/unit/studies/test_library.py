@@ -1,0 +1,113 @@
+"""The certified reference library shipped in the package: every stored plan re-evaluated by
+droneplan's evaluator to its stored value, and a sample re-proven (slow)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from droneplan.formulations.cells import evaluate
+from droneplan.formulations.herding import Allocation, check_allocation, pad_steering_points
+from droneplan.studies.instances import family_instances
+from droneplan.studies.library import (
+    LIBRARY_FAMILIES,
+    certify_instance,
+    library_instances,
+    load_library,
+    lookup,
+    save_library,
+)
+from droneplan.studies.library.certify import certify
+
+SHIPPED = [f for f in LIBRARY_FAMILIES if load_library(f)]
+
+
+def test_the_package_ships_a_library():
+    assert {"table4.2", "allocation"} <= set(SHIPPED)
+
+
+def _check_cells(inst, entry):
+    ev = evaluate(inst.data, np.asarray(entry.plan, dtype=float).reshape(-1, 2))
+    assert ev.feasible, (entry.id, ev.violations)
+    assert ev.covered == entry.value, entry.id
+
+
+def _check_allocation(inst, entry):
+    d = inst.data
+    n = d.n
+    points = pad_steering_points(d.steer_s, n, d.perimeter)
+    target, direction = np.asarray(entry.plan["target"]), np.asarray(entry.plan["direction"])
+    dest = points[target]
+    travel = np.where(
+        direction > 0, np.mod(dest - d.drone_s, d.perimeter), np.mod(d.drone_s - dest, d.perimeter)
+    )
+    value = check_allocation(d.drone_s, d.steer_s, d.perimeter, Allocation(target, direction, travel, points))
+    assert value == pytest.approx(entry.value, abs=1e-9 * d.perimeter), entry.id
+
+
+@pytest.mark.parametrize("family", SHIPPED)
+def test_every_stored_plan_re_evaluates_to_its_value(family):
+    entries = load_library(family)
+    checked = 0
+    for inst in library_instances(family):
+        entry = entries.get(inst.id)
+        if entry is None:
+            continue
+        assert lookup(inst) == entry  # the fingerprint matches the regenerated data
+        assert entry.status in ("optimal", "feasible")
+        if entry.bound is not None:
+            worse = (
+                entry.value > entry.bound + 1e-9 if entry.sense == "max" else entry.value < entry.bound - 1e-9
+            )
+            assert not worse, f"{entry.id}: value {entry.value} beats its own bound {entry.bound}"
+            assert (entry.status == "optimal") == (entry.gap is not None and abs(entry.gap) <= 1e-9)
+        if inst.kind == "cells":
+            _check_cells(inst, entry)
+        elif inst.kind == "allocation":
+            _check_allocation(inst, entry)
+        checked += 1
+    assert checked == len(entries)
+
+
+def test_lookup_refuses_other_data_under_the_same_id(tmp_path):
+    inst = family_instances("allocation", n=3, seeds=[0])[0]
+    fields = certify_instance(inst, time_limit=10)
+    from droneplan.studies.library import entry_from
+
+    entry = entry_from(inst, fields, time_limit=10, prov={"droneplan_version": "x", "git_commit": None})
+    save_library("allocation", {inst.id: entry}, tmp_path)
+    assert lookup(inst, tmp_path) == entry
+    forged = entry.__class__(**{**entry.__dict__, "fingerprint": "0" * 16})
+    save_library("allocation", {inst.id: forged}, tmp_path)
+    assert lookup(inst, tmp_path) is None
+
+
+def test_certify_resumes_and_records_provenance(tmp_path):
+    s1 = certify(
+        "allocation", n=[3, 4], seeds=2, directory=tmp_path, workers=1, progress=False, time_limit=10
+    )
+    assert s1["certified"] == 4 and s1["proven"] == 4 and not s1["failed"]
+    s2 = certify(
+        "allocation", n=[3, 4], seeds=2, directory=tmp_path, workers=1, progress=False, time_limit=10
+    )
+    assert s2["certified"] == 0 and s2["entries"] == 4
+    e = next(iter(load_library("allocation", tmp_path).values()))
+    assert e.droneplan_version and e.certified_at and "exact" in e.engine
+    with pytest.raises(ValueError, match="no certified library"):
+        certify("table6.2", directory=tmp_path)
+
+
+@pytest.mark.slow
+def test_a_sample_of_cells_entries_is_re_proven():
+    entries = load_library("table4.2")
+    rng = np.random.default_rng(0)
+    small = [
+        e for e in entries.values() if e.status == "optimal" and int(e.id.split("m=")[1].split(",")[0]) <= 4
+    ]
+    assert small
+    for entry in rng.choice(np.array(small, dtype=object), size=min(6, len(small)), replace=False):
+        m = int(entry.id.split("m=")[1].split(",")[0])
+        seed = int(entry.id.split("seed=")[1])
+        inst = family_instances("table4.2", m=m, seeds=[seed])[0]
+        again = certify_instance(inst, time_limit=120)
+        assert again["value"] == entry.value and again["bound"] == entry.bound, entry.id
