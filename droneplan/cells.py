@@ -1,23 +1,28 @@
-"""Drone-cell placement (thesis ch. 4): scenarios, the candidate MILP, the thesis GA and
-exhaustive search, plotting. Positions in metres.
+"""Drone-cell placement (thesis ch. 4): scenarios, two exact engines over the candidate
+sites (``solve_exact(engine="bnb")``, the combinatorial branch and bound, and
+``engine="milp"``, the candidate MILP; also as ``branch_and_bound`` and ``solve_milp``),
+the thesis GA and exhaustive search, plotting. Positions in metres.
 
     import droneplan as dp
     problem = dp.cells.thesis_problem(n_cells=2, seed=0)
     ga = dp.cells.genetic(problem, seed=0)
-    opt = dp.cells.solve_milp(problem, time_limit=60)
+    opt = dp.cells.solve_exact(problem, engine="bnb", warm_start=ga.x, time_limit=60)
 """
 
 from droneplan.formulations.cells import (
     BACKENDS,
+    ENGINES,
     Candidates,
     CellModel,
     Evaluation,
+    branch_and_bound,
     build_milp,
     candidate_sites,
     connected_mask,
     coverage_upper_bound,
     evaluate,
     greedy_placement,
+    solve_exact,
     solve_milp,
 )
 from droneplan.planners.cells import (
@@ -75,6 +80,9 @@ __all__ = [
     "CellModel",
     "build_milp",
     "solve_milp",
+    "solve_exact",
+    "branch_and_bound",
+    "ENGINES",
     "coverage_upper_bound",
     "greedy_placement",
     "BACKENDS",

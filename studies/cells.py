@@ -18,7 +18,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from droneplan.formulations.cells import evaluate, solve_milp
+from droneplan.formulations.cells import evaluate, solve_exact, solve_milp
 from droneplan.planners.cells import (
     GASettings,
     exhaustive,
@@ -78,7 +78,7 @@ def reproduce_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
     p = thesis_problem(m, seed, clustered=kind != "milp-nc")
     outcomes = []
     if kind in ("exact", "milp-nc"):
-        milp = solve_milp(p, backend=MILP_BACKEND, time_limit=float(task["milp_limit"]))
+        milp = solve_exact(p, engine="bnb", backend=MILP_BACKEND, time_limit=float(task["milp_limit"]))
         outcomes.append(Outcome.of("milp", "model", milp, bound_kind="candidate-set"))
         cont = milp.info.get("continuous_bound")
         if cont is not None:
@@ -256,7 +256,9 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
             succ_pol,
             "same GA runs, then coordinate ascent with the sweep (not in the thesis)",
         )
-        tab.add(f"m={m} MILP time (s)", None, float(milp["time_s"]), f"solve_milp status {milp['status']}")
+        tab.add(
+            f"m={m} MILP time (s)", None, float(milp["time_s"]), f"solve_exact (bnb) status {milp['status']}"
+        )
         tab.add(
             f"m={m} objectives ES / GA best / MILP",
             None,
@@ -293,7 +295,7 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
     fig, axes = plt.subplots(1, len(ms), figsize=(5.5 * len(ms), 5.5))
     for ax, m in zip(np.atleast_1d(axes), ms, strict=True):
         p = thesis_problem(m, INSTANCE_SEED)
-        r = solve_milp(p, backend=MILP_BACKEND, time_limit=milp_limit)
+        r = solve_exact(p, engine="bnb", backend=MILP_BACKEND, time_limit=milp_limit)
         plot_map(p, r.x, ax=ax, title=f"m={m}: {r.objective:g} users ({r.status.name})")
     fig.savefig(out / "fig_4_4_maps.png", dpi=110)
     plt.close(fig)
@@ -357,7 +359,7 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
             f"m={m} clustered / non-clustered",
             "clustered > non-clustered",
             f"{cl[-1]:g} / {ncl[-1]:g} (bound {ru['bound']:g}, {ru['status']})",
-            "solve_milp",
+            "solve_exact (engine bnb)",
         )
     t46.emit(out, "fig_4_6")
     fig, ax = plt.subplots(figsize=(5, 3))
@@ -541,7 +543,7 @@ def ablation_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
     if task["kind"] == "ref":
         feats = instance_features(p, inst.cluster_centres)
         es = exhaustive(p, time_limit=float(task["es_limit"]))
-        milp = solve_milp(p, backend=MILP_BACKEND, time_limit=float(task["milp_limit"]))
+        milp = solve_exact(p, engine="bnb", backend=MILP_BACKEND, time_limit=float(task["milp_limit"]))
         outcomes = [
             Outcome.of(
                 "exhaustive",
@@ -868,7 +870,7 @@ def ga_ablation(
 
 
 def milp_seed_distribution(m: int, seeds, time_limit: float, *, progress: bool = True):
-    """solve_milp (default backend, cold start) on thesis-scale instances: one row per seed.
+    """solve_exact (engine "bnb", cold start) on thesis-scale instances: one row per seed.
 
     m: drone-cells; seeds: instance seeds; time_limit: per solve (s); progress: progress bar.
     Rows hold status, objective, bound, gap, time_s (s) and the continuous bound.
@@ -878,7 +880,7 @@ def milp_seed_distribution(m: int, seeds, time_limit: float, *, progress: bool =
 
     rows = []
     for seed in tqdm(list(seeds), desc=f"cells MILP m={m}", disable=not progress):
-        r = solve_milp(thesis_problem(m, seed), backend=MILP_BACKEND, time_limit=time_limit)
+        r = solve_exact(thesis_problem(m, seed), engine="bnb", backend=MILP_BACKEND, time_limit=time_limit)
         rows.append(
             {
                 "m": m,
@@ -921,10 +923,12 @@ def gap_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
     bounds; objective = covered users, maximised."""
     seed, m = int(task["seed"]), int(task["m"])
     p = thesis_problem(m, seed)
-    milp = solve_milp(p, backend=MILP_BACKEND, time_limit=float(task.get("milp_limit", 300)))
+    milp = solve_exact(p, engine="bnb", backend=MILP_BACKEND, time_limit=float(task.get("milp_limit", 300)))
     ga = genetic(p, seed=seed)
     # the same model warm-started from the GA plan: cold vs warm solve time (issue 13.3)
-    warm = solve_milp(p, backend=MILP_BACKEND, time_limit=float(task.get("milp_limit", 300)), warm_start=ga.x)
+    warm = solve_exact(
+        p, engine="bnb", backend=MILP_BACKEND, time_limit=float(task.get("milp_limit", 300)), warm_start=ga.x
+    )
     es = exhaustive(p, time_limit=float(task.get("es_limit", 60)))
     cont = milp.info.get("continuous_bound")
     users = {"n_users": int(p.active.sum())}
@@ -986,8 +990,8 @@ def bench(*, quick: bool, out: Path) -> None:
     quick: the short version; out: output directory."""
     out = Path(out)
     t = ComparisonTable(
-        "cells bench (thesis-scale instances; solve_milp's default exact engine, the candidate-site "
-        "branch and bound; the HiGHS row is the model, engine='milp')"
+        "cells bench (thesis-scale instances; solve_exact(engine='bnb'), the candidate-site "
+        "branch and bound; the HiGHS row is the model, solve_milp)"
     )
     seeds = range(3) if quick else range(10)
     d4 = milp_seed_distribution(4, seeds, 120.0)
@@ -1002,7 +1006,7 @@ def bench(*, quick: bool, out: Path) -> None:
     pd.concat(dists).to_csv(out / "bench_cells_seeds.csv", index=False)
     p4 = thesis_problem(4, INSTANCE_SEED)
     m4 = d4[d4["seed"] == INSTANCE_SEED].iloc[0]
-    h4 = solve_milp(p4, backend="highs", time_limit=600, engine="milp")
+    h4 = solve_milp(p4, backend="highs", time_limit=600)
     t.add(
         "m=4 MILP (HiGHS) status",
         None,
@@ -1021,7 +1025,9 @@ def bench(*, quick: bool, out: Path) -> None:
         p6 = thesis_problem(6, INSTANCE_SEED)
         # the intended workflow: warm start from the GA polished by coordinate ascent
         g6 = genetic_polished(p6, pop_size=100, restarts=60, seed=6)
-        w6 = solve_milp(p6, backend=MILP_BACKEND, time_limit=max(300 - g6.solve_time, 1), warm_start=g6.x)
+        w6 = solve_exact(
+            p6, engine="bnb", backend=MILP_BACKEND, time_limit=max(300 - g6.solve_time, 1), warm_start=g6.x
+        )
         t.add(
             "m=6 GA+polish then MILP, gap within 300 s total",
             "<= 1%",
@@ -1030,7 +1036,7 @@ def bench(*, quick: bool, out: Path) -> None:
             f"(obj {g6.objective:g}) + MILP {w6.solve_time:.3g} s",
         )
     p3 = thesis_problem(3, INSTANCE_SEED)
-    m3 = solve_milp(p3, backend=MILP_BACKEND)
+    m3 = solve_exact(p3, engine="bnb", backend=MILP_BACKEND)
     runs = 3 if quick else 20
     ga3 = [genetic(p3, seed=300 + r) for r in range(runs)]
     t.add(

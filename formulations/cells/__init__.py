@@ -1,4 +1,5 @@
-"""Drone-cell placement (thesis ch. 4): the problem, its evaluation and the candidate MILP.
+"""Drone-cell placement (thesis ch. 4): the problem, its evaluation and two exact engines
+(the candidate MILP and a combinatorial branch and bound) behind one entry, ``solve_exact``.
 
 ``CellProblem`` is defined in ``scenarios.cells`` (data only, so the scenario layer can
 build instances without importing this one) and re-exported here.
@@ -14,15 +15,9 @@ from droneplan.formulations.cells._core import (
     evaluate,
     raw_candidate_points,
 )
-from droneplan.formulations.cells._milp import (
-    BACKENDS,
-    CellModel,
-    build_milp,
-    coverage_upper_bound,
-    greedy_placement,
-    reduce_candidates,
-    solve_milp,
-)
+from droneplan.formulations.cells._exact import ENGINES, branch_and_bound, solve_exact, solve_milp
+from droneplan.formulations.cells._milp import BACKENDS, CellModel, build_milp, reduce_candidates
+from droneplan.formulations.cells._prepare import coverage_upper_bound, greedy_placement
 from droneplan.scenarios.cells import CellProblem, problem_from_instance, thesis_problem
 
 __all__ = [
@@ -32,6 +27,7 @@ __all__ = [
     "CellModel",
     "TOL",
     "BACKENDS",
+    "ENGINES",
     "evaluate",
     "connected_mask",
     "candidate_sites",
@@ -42,6 +38,8 @@ __all__ = [
     "reduce_candidates",
     "build_milp",
     "solve_milp",
+    "solve_exact",
+    "branch_and_bound",
     "problem_from_instance",
     "thesis_problem",
 ]

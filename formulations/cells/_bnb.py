@@ -166,7 +166,7 @@ from droneplan.scenarios.cells import CellProblem
 
 @dataclass
 class BnbResult:
-    """Outcome of :func:`branch_and_bound`."""
+    """Outcome of :func:`search`."""
 
     positions: np.ndarray
     """(k, 2) the best placement found (m)."""
@@ -218,7 +218,7 @@ def _relay_cost(d: np.ndarray, reach: float, r2: float) -> np.ndarray:
     return np.maximum(np.ceil(x), 0.0)
 
 
-def branch_and_bound(
+def search(
     problem: CellProblem,
     cand: Candidates,
     incumbent: np.ndarray,
@@ -828,9 +828,7 @@ def branch_and_bound(
                 if expired():
                     raise _Timeout
                 left = None if budget is None else max(budget - (time.perf_counter() - t_b), 0.01)
-                sub = branch_and_bound(
-                    unlinked(k), cand, np.zeros((0, 2)), 0, time_limit=left, free_bounds=conf_bound
-                )
+                sub = search(unlinked(k), cand, np.zeros((0, 2)), 0, time_limit=left, free_bounds=conf_bound)
                 conf_bound.append(sub.bound)
         alive &= w + conf_bound[m - 1] > state.best_val  # item 10, first test
         for _ in range(4):  # item 10, probes, until no site is cleared
@@ -920,7 +918,7 @@ _CHECK_EVERY = 256
 """Search nodes between two checks of the limits (and shares of the incumbent value)."""
 
 _SPLIT_MIN_SITES = 1000
-"""Candidates from which ``branch_and_bound(workers > 1)`` splits the root (on smaller
+"""Candidates from which ``search(workers > 1)`` splits the root (on smaller
 instances starting processes costs more than the search)."""
 
 

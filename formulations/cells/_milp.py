@@ -63,15 +63,13 @@ and ~3*10^6 pairs within r2, far too many to write out):
    overlap pairwise and ``sum_{c covers u} x_c <= 1`` is a clique row. Measured on seed 3,
    m=4: bound 66 instead of 69 after 120 s; not enough to prove.
 
-``solve_milp`` uses this model with ``engine="milp"``. Its default engine is the exact
-combinatorial branch and bound of ``_bnb`` over the same candidate sites (additive
-coverage bound over conflict cliques, relay lower bounds, greedy dual of coverage), which
-proves the thesis-scale m=4 instances that this model could not.
+``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
+(``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
+search of ``_bnb``. Both start from ``_prepare.prepare`` (candidates, incumbent, bounds).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -80,21 +78,12 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from droneplan.formulations.cells._bnb import branch_and_bound
-from droneplan.formulations.cells._core import (
-    TOL,
-    Candidates,
-    as_positions,
-    candidate_sites,
-    coverage_lists,
-    evaluate,
-    merge_points,
-    pair_intersections,
-)
+from droneplan.formulations.cells._core import TOL, Candidates, candidate_sites, evaluate
+from droneplan.formulations.cells._prepare import Prepared, _feasible_subset, coverage_upper_bound
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_instance, check_time_limit
+from droneplan.solvers.validation import check_instance
 
 BACKENDS = tuple(available_backends("linear"))
 """Backends (registry names of kind "linear") that can solve the cells models here."""
@@ -106,173 +95,8 @@ BACKENDS = tuple(available_backends("linear"))
 FEW_WORKER_OPTIONS: dict[str, dict[str, Any]] = {"cp-sat": {"subsolvers": ["max_lp", "core"]}}
 """Backend options used when ``workers <= 2``, by registry name."""
 
-ENGINES = ("bnb", "milp")
-"""Exact engines of :func:`solve_milp`: the combinatorial branch and bound or the model."""
-
 CONNECTIVITY = ("lazy", "hops")
 """Exact backhaul formulations of the candidate model (module docstring, item 3)."""
-
-
-# --------------------------------------------------------------------------- relaxation bound
-def _maximal_sets(cover: list[np.ndarray]) -> list[np.ndarray]:
-    """Coverage sets with duplicates and subsets of other sets removed (largest first).
-
-    Exact for maximum coverage: replacing a disc by one covering a superset never
-    lowers the union."""
-    seen: dict[frozenset, None] = {}
-    for c in cover:
-        if len(c):
-            seen.setdefault(frozenset(c.tolist()), None)
-    kept: list[frozenset] = []
-    by_user: dict[int, list[int]] = {}
-    for s in sorted(seen, key=len, reverse=True):
-        u0 = min(s, key=lambda u: len(by_user.get(u, ())))
-        if any(s <= kept[k] for k in by_user.get(u0, ())):
-            continue
-        by_user_k = len(kept)
-        kept.append(s)
-        for u in s:
-            by_user.setdefault(u, []).append(by_user_k)
-    return [np.array(sorted(s), dtype=np.int64) for s in kept]
-
-
-def coverage_upper_bound(
-    problem: CellProblem,
-    n_discs: int | None = None,
-    *,
-    backend: str = "highs",
-    time_limit: float | None = None,
-) -> SolveResult:
-    """Maximum number of active users that ``n_discs`` radius-R_d discs can cover with
-    non-overlap, GBS clearance and backhaul all dropped: an upper bound of the
-    *continuous* placement problem.
-
-    Exactness of the finite model: for any disc centre p with covered set S, the
-    convex set A = intersection of the discs B(u, R_d), u in S, contains p; if A has
-    a vertex it is an intersection point of two user circles, and if it has none all
-    those discs coincide and the user point itself covers S. So user points plus
-    pairwise intersection points attain every maximal covered set.
-
-    Returns a SolveResult (objective = bound when proven optimal; ``bound`` is valid
-    for the continuous problem in any case).
-
-    backend: linear backend name ("highs", "cp-sat", "scip").
-    time_limit: wall-clock limit of the bound's solve (s), None: none.
-    """
-    check_instance("problem", problem, CellProblem)
-    time_limit = check_time_limit(time_limit)
-    m = problem.n_cells if n_discs is None else int(n_discs)
-    t0 = time.perf_counter()
-    t = problem.targets
-    if m <= 0 or len(t) == 0:
-        return SolveResult(
-            Status.OPTIMAL,
-            objective=0.0,
-            bound=0.0,
-            backend=backend,
-            solve_time=0.0,
-            message="continuous relaxation bound (trivial)",
-        )
-    pts = merge_points(np.concatenate([t, pair_intersections(t, problem.R_d)], axis=0))
-    sets = _maximal_sets(coverage_lists(pts, t, problem.R_d))
-    if len(sets) <= m:
-        v = float(len(np.unique(np.concatenate(sets))))
-        return SolveResult(
-            Status.OPTIMAL,
-            objective=v,
-            bound=v,
-            backend="enumeration",
-            solve_time=time.perf_counter() - t0,
-            message="continuous relaxation bound",
-        )
-    users = np.unique(np.concatenate(sets))
-    tried = []
-    res = None
-    for be in dict.fromkeys((backend, "cp-sat")):  # the requested backend, then CP-SAT as the fallback
-        left = None if time_limit is None else max(time_limit - (time.perf_counter() - t0), 0.01)
-        res = _max_coverage_model(sets, users, m, be, left)
-        tried.append(f"{be}: {res.status.name}" + (f" ({res.backend_status})" if res.backend_status else ""))
-        if res.status in (Status.OPTIMAL, Status.FEASIBLE, Status.NO_SOLUTION) and res.bound is not None:
-            break
-    assert res is not None
-    desc = (
-        f"continuous relaxation bound: max coverage by {m} discs over {len(sets)} maximal candidate sets, "
-        f"no overlap/backhaul constraints"
-    )
-    if res.bound is None or res.status not in (Status.OPTIMAL, Status.FEASIBLE, Status.NO_SOLUTION):
-        # never a silent stand-in (such as the user count): the caller sees None and why
-        return dataclasses.replace(
-            res,
-            bound=None,
-            objective=None,
-            x=None,
-            solve_time=time.perf_counter() - t0,
-            message=f"{desc}: not computed, no backend returned a bound ({'; '.join(tried)})",
-            info={**res.info, "tried": tried},
-        )
-    if len(tried) > 1:
-        desc += f"; computed by {res.backend} after {'; '.join(tried[:-1])}"
-    return dataclasses.replace(
-        res,
-        bound=math.floor(res.bound + 1e-6),
-        x=None,
-        solve_time=time.perf_counter() - t0,
-        message=desc,
-        info={**res.info, "tried": tried},
-    )
-
-
-def _max_coverage_model(
-    sets: list[np.ndarray], users: np.ndarray, m: int, backend: str, time_limit: float | None
-) -> SolveResult:
-    """Maximum coverage of ``users`` by ``m`` of ``sets`` on ``backend``; never raises on a solver failure."""
-    lin = get_backend(backend, kind="linear").new_model()
-    x = [lin.bool_var(f"x{k}") for k in range(len(sets))]
-    y = {int(u): lin.unit_var(f"y{u}") for u in users}
-    cov: dict[int, list] = {}
-    for k, st in enumerate(sets):
-        for u in st:
-            cov.setdefault(int(u), []).append(x[k])
-    for u, xs in cov.items():
-        lin.add_implies_any(y[u], xs)
-    lin.add(lin.sum(x) <= m)
-    lin.maximize(lin.sum(y.values()))
-    return lin.solve(variables=x, time_limit=time_limit, workers=1)
-
-
-# --------------------------------------------------------------------------- greedy incumbent
-def greedy_placement(problem: CellProblem, cand: Candidates) -> np.ndarray:
-    """A feasible placement built greedily over the candidates (primal heuristic used
-    for pruning): repeatedly add the site covering most new users among those that
-    keep the placement feasible (no overlap, linked to a GBS or a placed site).
-
-    problem: the CellProblem (users, GBSs, m, radii in metres).
-    cand: the Candidates of ``problem`` (candidate_sites).
-    """
-    check_instance("problem", problem, CellProblem)
-    pts = cand.points
-    if len(pts) == 0:
-        return np.zeros((0, 2))
-    n = len(problem.targets)
-    member = np.zeros((len(pts), max(n, 1)), dtype=bool)
-    for i, c in enumerate(cand.cover):
-        member[i, c] = True
-    covered = np.zeros(member.shape[1], dtype=bool)
-    ok = np.ones(len(pts), dtype=bool)
-    linked = cand.direct.copy()
-    chosen: list[int] = []
-    for _ in range(problem.n_cells):
-        gain = (member & ~covered).sum(1)
-        score = np.where(ok & linked, gain, -1)
-        i = int(np.argmax(score))
-        if score[i] <= 0:
-            break
-        chosen.append(i)
-        covered |= member[i]
-        d = np.hypot(*(pts - pts[i]).T)
-        ok &= d >= 2 * problem.R_d - TOL
-        linked |= d <= problem.r2 + TOL
-    return pts[chosen]
 
 
 # --------------------------------------------------------------------------- model
@@ -625,36 +449,6 @@ def _components_without_gbs(problem: CellProblem, pos: np.ndarray) -> list[np.nd
     return out
 
 
-def _feasible_subset(problem: CellProblem, pos: np.ndarray) -> np.ndarray:
-    """A feasible placement made of some of the sites ``pos`` ((k, 2) m): sites outside
-    ``bounds`` or inside a GBS keep-out disc (4.7) are dropped first (no other site can
-    repair them), then one of each overlapping pair (4.8) at a time, then the sites
-    without a backhaul path. Every pass removes at least one site, so this ends."""
-    pos = np.asarray(pos, dtype=float).reshape(-1, 2)
-    if len(pos):
-        dg = np.hypot(pos[:, None, 0] - problem.gbs[None, :, 0], pos[:, None, 1] - problem.gbs[None, :, 1])
-        ok = np.all(dg >= problem.R_g + problem.R_d - TOL, axis=1)
-        if problem.bounds is not None:
-            xmin, xmax, ymin, ymax = problem.bounds
-            ok &= (pos[:, 0] >= xmin - TOL) & (pos[:, 0] <= xmax + TOL)
-            ok &= (pos[:, 1] >= ymin - TOL) & (pos[:, 1] <= ymax + TOL)
-        pos = pos[ok]
-    while len(pos):
-        ev = evaluate(problem, pos)
-        if ev.feasible:
-            return pos
-        d = np.hypot(pos[:, None, 0] - pos[None, :, 0], pos[:, None, 1] - pos[None, :, 1])
-        np.fill_diagonal(d, np.inf)
-        bad = np.flatnonzero(np.any(d < 2 * problem.R_d - TOL, axis=1))
-        if len(bad):
-            pos = np.delete(pos, bad[-1], axis=0)
-        elif not ev.connected.all():
-            pos = pos[ev.connected]
-        else:  # more sites than n_cells: drop the last; the next pass re-checks connectivity
-            pos = pos[:-1]
-    return pos
-
-
 def _hint(problem: CellProblem, mdl: CellModel, placement: np.ndarray) -> dict:
     """A complete start assignment {variable: 0/1} of ``mdl`` for ``placement`` (sites of
     the model): site variables, covered users, and hop levels from a breadth-first search."""
@@ -685,234 +479,45 @@ def _hint(problem: CellProblem, mdl: CellModel, placement: np.ndarray) -> dict:
     return hint
 
 
-def solve_milp(
-    problem: CellProblem,
+def solve_model(
+    prep: Prepared,
     *,
-    backend: str = "cp-sat",
-    time_limit: float | None = None,
-    warm_start=None,
-    workers: int = 2,
+    backend: str,
+    workers: int,
     connectivity: str = "lazy",
     max_rounds: int = 200,
     user_cliques: bool = True,
-    engine: str = "bnb",
 ) -> SolveResult:
-    """Solve the candidate-site model with exact (hop-level) backhaul connectivity.
+    """Solve the candidate model (module docstring) from the prepared incumbent and bounds.
 
-    backend: "cp-sat" (default), "highs" or "scip".
-    time_limit: wall-clock limit (s) for the whole call, candidate generation and model
-        building included; when it is reached the best plan and bound found so far are
-        returned (FEASIBLE). None: no limit.
-    warm_start: drone-cell positions ((k, 2) m, e.g. the GA's). They are added to the
-        candidate set (so the result is never worse than a feasible warm start); their
-        feasible part (sites outside bounds, in a GBS cell, overlapping or without
-        backhaul dropped) becomes the incumbent and the backend's hint when it covers at
-        least as many users as the built-in greedy start. ``info["warm_start"]`` says
-        whether it was used and why not (``used``, ``value``, ``greedy_value``, ``reason``).
-    workers: CP-SAT workers / MIP threads; for engine "bnb", processes that share the
-        search on thesis-scale instances (``_bnb.branch_and_bound``).
-    connectivity: "lazy" (default) or "hops", the exact backhaul formulation (module
-        docstring, item 3).
-    max_rounds: at most this many model solves in the lazy cut loop (then FEASIBLE with the
-        bound found so far).
-    user_cliques: add the per-user at-most-one rows of item 5 to the model.
-    engine: "bnb" (default): the exact combinatorial branch and bound of ``_bnb`` solves the
-        candidate problem (no model; ``backend`` and ``connectivity`` unused);
-        "milp": the candidate model on ``backend`` (items 1-5).
-
-    Returns a SolveResult: ``x`` positions (k, 2) with k <= m, ``objective`` covered
-    users, ``bound`` an upper bound valid for the *candidate* problem (all user
-    points, pairwise R_d-circle intersections, R_d circles met with the r1 and
-    R_g + R_d circles and the area edges, and the warm start); ``info`` holds
-    ``continuous_bound`` (valid for the continuous problem: max coverage by m discs
-    without overlap/backhaul constraints; None, with the reason in ``message``, when no
-    backend could compute it), ``global_optimal`` (objective equals the
-    continuous bound), ``rounds`` (model solves: target scheme and cut rounds),
-    ``model_stats``. ``message`` says which bound is which.
+    prep: the output of ``_prepare.prepare`` (its clock and time limit cover this solve).
+    backend: linear backend name ("cp-sat", "highs", "scip").
+    workers: backend threads / CP-SAT workers.
+    connectivity: "lazy" or "hops" (module docstring, item 3).
+    max_rounds: model solves at most (target scheme and cut rounds).
+    user_cliques: add the per-user at-most-one rows of item 5.
     """
-    if not isinstance(problem, CellProblem):
-        raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
-    get_backend(backend, kind="linear")  # an unknown or unavailable backend raises ValueError here
-    if connectivity not in CONNECTIVITY:
-        raise ValueError(f"connectivity must be one of {CONNECTIVITY}, got {connectivity!r}")
-    if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
-    time_limit = check_time_limit(time_limit)
-    t0 = time.perf_counter()
-    warm = None if warm_start is None else as_positions(problem, warm_start)
-
-    def left() -> float | None:
-        return None if time_limit is None else max(time_limit - (time.perf_counter() - t0), 0.01)
-
-    def expired() -> bool:
-        return time_limit is not None and time.perf_counter() - t0 >= time_limit
-
-    n_active = float(len(problem.targets))
-    info: dict[str, Any] = {}
-    # candidates and the greedy incumbent first (fast), so a short time limit still returns a plan
-    cand = candidate_sites(problem, extra=warm)
-    inc = greedy_placement(problem, cand)
-    inc_val = evaluate(problem, inc).covered
-    warm_used = False
-    if warm is not None:  # the warm start (its feasible part) replaces greedy when at least as good
-        w = _feasible_subset(problem, warm)
-        wv = evaluate(problem, w).covered
-        dropped = len(warm) - len(w)
-        why = (
-            f"{dropped} of {len(warm)} given sites dropped to make it feasible (outside bounds, "
-            f"in a GBS cell, overlapping, without backhaul or beyond n_cells); "
-            if dropped
-            else ""
-        )
-        if len(w) and wv >= inc_val:
-            greedy_val = int(inc_val)
-            inc, inc_val, warm_used = w, wv, True
-            info["warm_start"] = {
-                "given": len(warm),
-                "used": True,
-                "value": wv,
-                "greedy_value": greedy_val,
-                "reason": why + f"its feasible part ({wv} users) is the incumbent and the hint",
-            }
-        else:
-            info["warm_start"] = {
-                "given": len(warm),
-                "used": False,
-                "value": wv,
-                "greedy_value": int(inc_val),
-                "reason": why
-                + (
-                    f"not used as incumbent: its feasible part covers {wv} users, "
-                    f"the built-in greedy start {inc_val}; its sites stay in the "
-                    "candidate set"
-                ),
-            }
-    relax = coverage_upper_bound(problem, problem.n_cells, time_limit=left())
-    cont_bound = None if relax.bound is None else float(relax.bound)
-    # internal bound for pruning and stopping: the relaxation's, or the trivial user count
-    # when it could not be computed (never reported as the continuous bound)
-    ub = n_active if cont_bound is None else cont_bound
-    info.update(
-        {
-            "continuous_bound": cont_bound,
-            "relaxation_time": relax.solve_time,
-            "relaxation_message": relax.message,
-        }
-    )
-    bound_note = (
-        "" if cont_bound is not None else f"; continuous-problem bound not available ({relax.message})"
-    )
-    if len(cand.points) == 0 or cont_bound == 0:
-        return SolveResult(
-            Status.OPTIMAL,
-            objective=0.0,
-            bound=0.0,
-            x=np.zeros((0, 2)),
-            backend=backend,
-            solve_time=time.perf_counter() - t0,
-            warm_started=False,
-            message="no user can be covered by a feasible drone-cell: optimum 0 (no sites)",
-            info={
-                **info,
-                "global_optimal": True,
-                "rounds": 0,
-                "model_stats": {"candidates": len(cand.points)},
-            },
-        )
-
-    def early(status: Status, bound: float | None, msg: str) -> SolveResult:
-        return SolveResult(
-            status,
-            objective=float(inc_val),
-            bound=bound,
-            x=inc,
-            backend=backend,
-            solve_time=time.perf_counter() - t0,
-            warm_started=warm_used,
-            message=msg + bound_note,
-            info={
-                **info,
-                "global_optimal": cont_bound is not None and inc_val >= cont_bound,
-                "rounds": 0,
-                "model_stats": {},
-            },
-        )
-
-    if inc_val >= ub:
-        return early(
-            Status.OPTIMAL,
-            ub,
-            "bound valid for the continuous problem (max coverage by m discs without "
-            "overlap/backhaul) and attained: globally optimal",
-        )
-    if expired():
-        return early(
-            Status.FEASIBLE,
-            cont_bound,
-            "time limit reached before the model was built; the plan is the greedy or warm start",
-        )
-    if engine == "bnb":
-        bb = branch_and_bound(problem, cand, inc, int(inc_val), upper=ub, time_limit=left(), workers=workers)
-        obj = float(evaluate(problem, bb.positions).covered)
-        bnd = float(max(min(bb.bound, ub), obj))
-        glob = cont_bound is not None and obj >= cont_bound
-        proven = bb.proven or obj >= bnd
-        msg = (
-            f"bound {bnd:g} valid for the candidate problem (the candidate sites described in the "
-            "docstring), from the exact combinatorial branch and bound (engine 'bnb'); "
-            + (
-                f"continuous-problem upper bound {cont_bound:g} (max coverage by m discs without "
-                "overlap/backhaul)"
-                if cont_bound is not None
-                else bound_note[2:]
-            )
-            + ("; attained: globally optimal" if glob else "")
-            + ("" if proven else f"; time limit reached after {bb.nodes} search nodes, optimality not proven")
-        )
-        return SolveResult(
-            Status.OPTIMAL if proven else Status.FEASIBLE,
-            objective=obj,
-            bound=obj if proven else bnd,
-            x=bb.positions,
-            backend="bnb",
-            message=msg,
-            solve_time=time.perf_counter() - t0,
-            iterations=bb.nodes,
-            warm_started=warm_used,
-            info={
-                **info,
-                "global_optimal": glob,
-                "rounds": 0,
-                "model_stats": {
-                    "engine": "bnb",
-                    "candidates": len(cand.points),
-                    "nodes": bb.nodes,
-                    "eliminated": bb.eliminated,
-                    "elimination_time": bb.elimination_time,
-                },
-            },
-        )
+    problem, cand, ub = prep.problem, prep.cand, prep.ub
     # B_{m-1} for the pruning of item 1; B_m (>= B_{m-1}, weaker but still exact pruning)
     # when there is less time left than the first relaxation took
-    time_left = left()
-    if time_left is not None and time_left < relax.solve_time:
+    time_left = prep.left()
+    if time_left is not None and time_left < prep.relax_time:
         b_prev = ub
     else:
-        relax_prev = coverage_upper_bound(problem, problem.n_cells - 1, time_limit=left())
-        b_prev = n_active if relax_prev.bound is None else float(relax_prev.bound)
-    state = _SearchState(inc=inc, inc_val=float(inc_val))
-
+        relax_prev = coverage_upper_bound(problem, problem.n_cells - 1, time_limit=prep.left())
+        b_prev = float(len(problem.targets)) if relax_prev.bound is None else float(relax_prev.bound)
+    state = _SearchState(inc=prep.inc, inc_val=float(prep.inc_val))
     tree = cKDTree(cand.points)
     cuts: list = []
+    deadline = None if prep.time_limit is None else prep.t0 + prep.time_limit
 
     def solve_restricted(keep: np.ndarray) -> tuple[str, float]:
         """Solve the model restricted to ``keep`` with ``sum y >= incumbent value`` exactly
         (one solve with hop levels, or the lazy cut loop). Returns ("optimal", value) or
         ("stopped", bound of the restricted problem)."""
         rbound = math.inf
-        deadline = None if time_limit is None else t0 + time_limit
         while state.rounds < max_rounds:
-            if expired():
+            if prep.expired():
                 return "stopped", rbound
             state.rounds += 1
             mdl = build_milp(
@@ -926,13 +531,13 @@ def solve_milp(
                 cuts=cuts,
                 user_cliques=user_cliques,
             )
-            if mdl is None or expired():  # building can be long: the limit covers it
+            if mdl is None or prep.expired():  # building can be long: the limit covers it
                 return "stopped", rbound
             state.stats = mdl.stats
             hint = _hint(problem, mdl, state.inc)
             res = mdl.model.solve(
                 variables=mdl.x,
-                time_limit=left(),
+                time_limit=prep.left(),
                 workers=workers,
                 hint={v: int(b) for v, b in hint.items()},
                 options=FEW_WORKER_OPTIONS.get(backend) if workers <= 2 else None,
@@ -987,34 +592,24 @@ def solve_milp(
             best_bound = min(best_bound, val if final else max(val, math.floor(g)))
             break
         g = state.inc_val + 0.5 * (g - state.inc_val) if g - state.inc_val > 2 else state.inc_val
-    inc, rounds, raw, last_stats = state.inc, state.rounds, state.raw, state.stats
-    obj = float(evaluate(problem, inc).covered)
+    obj = float(evaluate(problem, state.inc).covered)
     if obj >= best_bound:
         status = Status.OPTIMAL
-    glob = cont_bound is not None and obj >= cont_bound
-    msg = (
-        f"bound {best_bound:g} valid for the candidate problem (the candidate sites described in the "
-        f"docstring); "
-        + (
-            f"continuous-problem upper bound {cont_bound:g} (max coverage by m discs without "
-            f"overlap/backhaul)"
-            if cont_bound is not None
-            else bound_note[2:]
-        )
-        + ("; attained: globally optimal" if glob else "")
-    )
+    msg = prep.bound_text(best_bound, f"the candidate model on {backend} (engine 'milp')")
     if status is not Status.OPTIMAL:
-        msg += f"; stopped after {rounds} model solves (time limit or max_rounds) before proving optimality"
-    return SolveResult(
+        msg += (
+            f"; stopped after {state.rounds} model solves (time limit or max_rounds), optimality not proven"
+        )
+    return prep.result(
         status,
         objective=obj,
         bound=float(best_bound),
-        x=inc,
+        x=state.inc,
         backend=backend,
-        backend_status=raw,
+        backend_status=state.raw,
         message=msg,
-        solve_time=time.perf_counter() - t0,
-        iterations=rounds,
-        warm_started=warm_used,
-        info={**info, "global_optimal": glob, "rounds": rounds, "model_stats": last_stats},
+        engine="milp",
+        iterations=state.rounds,
+        rounds=state.rounds,
+        model_stats=state.stats,
     )

@@ -12,6 +12,7 @@ from droneplan.formulations.cells import (
     circle_intersections,
     coverage_upper_bound,
     evaluate,
+    solve_exact,
     solve_milp,
 )
 from droneplan.solvers.result import Status
@@ -115,7 +116,7 @@ def random_small(seed, n, m):
 @pytest.mark.parametrize(("backend", "engine"), [("cp-sat", "milp"), ("highs", "milp"), ("cp-sat", "bnb")])
 def test_milp_equals_brute_force_m2(seed, backend, engine):
     p = random_small(seed, 14, 2)
-    res = solve_milp(p, backend=backend, time_limit=60, engine=engine)
+    res = solve_exact(p, backend=backend, time_limit=60, engine=engine)
     assert res.status is Status.OPTIMAL
     assert res.objective == brute_force(p)
     ev = evaluate(p, res.x)
@@ -127,14 +128,14 @@ def test_milp_equals_brute_force_m2(seed, backend, engine):
 @pytest.mark.parametrize("seed", range(6))
 def test_milp_equals_brute_force_m3(seed, connectivity, engine):
     p = random_small(seed, 9, 3)
-    res = solve_milp(p, time_limit=60, connectivity=connectivity, engine=engine)
+    res = solve_exact(p, time_limit=60, connectivity=connectivity, engine=engine)
     assert res.status is Status.OPTIMAL and res.objective == brute_force(p)
     assert evaluate(p, res.x).feasible
 
 
 def test_cut_loop_is_exercised():
     # on these instances the first relaxed lazy model violates overlap/backhaul: cuts are needed
-    rounds = [solve_milp(random_small(s, 14, 2), engine="milp").info["rounds"] for s in range(4)]
+    rounds = [solve_exact(random_small(s, 14, 2), engine="milp").info["rounds"] for s in range(4)]
     assert max(rounds) >= 2
 
 
@@ -145,18 +146,20 @@ def test_relay_chain_needs_three_hop_levels(backend, connectivity, engine):
     # users 2.5, 5 and 7.5 from the GBS: the last is covered only at the end of a chain of
     # three drone-cells (levels 1, 2, 3), which the hop-level model must admit
     p = small([[2.5, 0.0], [5.0, 0.0], [7.5, 0.0]], m=3, r1=2.5, r2=2.5)
-    res = solve_milp(p, backend=backend, time_limit=60, connectivity=connectivity, engine=engine)
+    res = solve_exact(p, backend=backend, time_limit=60, connectivity=connectivity, engine=engine)
     assert res.status is Status.OPTIMAL and res.objective == 3 and len(res.x) == 3
     assert evaluate(p, res.x).feasible
     # with two drone-cells the third user is out of reach (levels stop at m = 2)
-    r2 = solve_milp(p.with_cells(2), backend=backend, time_limit=60, connectivity=connectivity, engine=engine)
+    r2 = solve_exact(
+        p.with_cells(2), backend=backend, time_limit=60, connectivity=connectivity, engine=engine
+    )
     assert r2.status is Status.OPTIMAL and r2.objective == 2 and evaluate(p, r2.x).feasible
 
 
 def test_warm_start_is_kept_and_used():
     p = random_small(3, 7, 2)
-    res = solve_milp(p, backend="highs", engine="milp")
-    warm = solve_milp(p, backend="scip", warm_start=res.x, engine="milp")
+    res = solve_exact(p, backend="highs", engine="milp")
+    warm = solve_exact(p, backend="scip", warm_start=res.x, engine="milp")
     assert warm.status is Status.OPTIMAL and warm.objective == res.objective
 
 
@@ -227,7 +230,7 @@ def test_warm_start_fate_is_reported():
 def _failing_backends(monkeypatch, names):
     """Make the registry hand out, for ``names``, models whose solve reports an ERROR status
     (as HiGHS does when another package in the process loaded its library globally)."""
-    import droneplan.formulations.cells._milp as milp
+    import droneplan.formulations.cells._prepare as prepare
     from droneplan.solvers.registry import get_backend
     from droneplan.solvers.result import SolveResult
 
@@ -246,7 +249,7 @@ def _failing_backends(monkeypatch, names):
         real = get_backend(name, kind)
         return Failing(real) if name in names else real
 
-    monkeypatch.setattr(milp, "get_backend", lookup)
+    monkeypatch.setattr(prepare, "get_backend", lookup)
 
 
 def test_continuous_bound_falls_back_to_cp_sat_when_the_relaxation_fails(monkeypatch):
@@ -263,6 +266,7 @@ def test_continuous_bound_falls_back_to_cp_sat_when_the_relaxation_fails(monkeyp
 
 def test_continuous_bound_is_none_with_a_message_when_every_backend_fails(monkeypatch):
     import droneplan.formulations.cells._milp as milp
+    import droneplan.formulations.cells._prepare as prepare
 
     p = random_small(1, 14, 2)
     ref = solve_milp(p)
@@ -273,6 +277,7 @@ def test_continuous_bound_is_none_with_a_message_when_every_backend_fails(monkey
     # missing instead of reporting a stand-in such as the user count
     monkeypatch.undo()
     monkeypatch.setattr(milp, "coverage_upper_bound", lambda *a, **k: b)
+    monkeypatch.setattr(prepare, "coverage_upper_bound", lambda *a, **k: b)
     res = solve_milp(p)
     assert res.info["continuous_bound"] is None and "not available" in res.message
     assert res.status is Status.OPTIMAL and res.objective == ref.objective
@@ -306,7 +311,7 @@ def test_bnb_equals_brute_force(seed, n, m):
     # same candidate set, every placement enumerated: the B&B optimum must match, stay below
     # the continuous bound, and be a feasible placement worth what it says
     p = random_small(seed, n, m)
-    res = solve_milp(p, engine="bnb", time_limit=60)
+    res = solve_exact(p, engine="bnb", time_limit=60)
     assert res.status is Status.OPTIMAL and res.objective == brute_force(p) == res.bound
     ev = evaluate(p, res.x)
     assert ev.feasible and ev.covered == res.objective
@@ -353,28 +358,28 @@ def test_bnb_with_site_elimination_equals_brute_force(seed, n, m):
     # m >= 3 switches on items 9-10 of _bnb (backhaul-free bounds, site elimination). The
     # search starts, heuristics off, from the runner-up placement (one step below the
     # optimum), so a site cleared one unit too eagerly loses the optimum
-    from droneplan.formulations.cells._bnb import branch_and_bound
+    from droneplan.formulations.cells._bnb import search
 
     p = random_small(seed, n, m)
     best, runner_up, value = brute_force_pruned(p, runner_up=True)
-    res = branch_and_bound(p, candidate_sites(p), runner_up, value, heuristics=False)
+    res = search(p, candidate_sites(p), runner_up, value, heuristics=False)
     assert res.proven and res.value == best == res.bound
     ev = evaluate(p, res.positions)
     assert ev.feasible and ev.covered == best
-    assert solve_milp(p, engine="bnb", time_limit=60).objective == best
+    assert solve_exact(p, engine="bnb", time_limit=60).objective == best
 
 
 def _check_bnb_on_clusters(seed, n_clusters, m, *, half_width, spread, per_cluster, eliminate=True):
     """Branch and bound on users in Gaussian clusters equals brute force; started from the
     runner-up placement with heuristics off (as above)."""
-    from droneplan.formulations.cells._bnb import branch_and_bound
+    from droneplan.formulations.cells._bnb import search
 
     rng = np.random.default_rng(seed)
     centres = rng.uniform(-half_width, half_width, size=(n_clusters, 2))
     users = np.concatenate([rng.normal(c, spread, size=(per_cluster, 2)) for c in centres])
     p = small(users, m=m, r1=3.0, r2=2.5)
     best, runner_up, value = brute_force_pruned(p, runner_up=True)
-    res = branch_and_bound(p, candidate_sites(p), runner_up, value, heuristics=False, eliminate=eliminate)
+    res = search(p, candidate_sites(p), runner_up, value, heuristics=False, eliminate=eliminate)
     assert res.proven and res.value == best == res.bound
     assert evaluate(p, res.positions).feasible
 
@@ -401,7 +406,7 @@ def test_sibling_count_test_discounts_the_lens():
     # users that no completion site reaches. Here s, touching a's disc without overlapping
     # it, covers a's 2 edge users, so a keeps 1: P + b + s (4 users) beats P + a + s (3).
     # Without the lens term b would be skipped and the search would return 3.
-    from droneplan.formulations.cells._bnb import branch_and_bound
+    from droneplan.formulations.cells._bnb import search
     from droneplan.formulations.cells._core import Candidates, coverage_lists
 
     users = [[10.0, 0.0], [11.0, 0.0], [11.0, 0.0], [8.0, 0.0], [8.0, 0.0]]
@@ -418,7 +423,7 @@ def test_sibling_count_test_discounts_the_lens():
         for x in itertools.combinations(range(3), k)
         if evaluate(p, pts[list(x)]).feasible
     )
-    res = branch_and_bound(p, cand, np.array([a]), 3, heuristics=False, eliminate=False)
+    res = search(p, cand, np.array([a]), 3, heuristics=False, eliminate=False)
     assert brute == 4
     assert res.proven and res.value == 4 == res.bound
     assert sorted(map(tuple, res.positions.tolist())) == sorted([tuple(b), tuple(s)])
@@ -430,13 +435,13 @@ def test_backhaul_free_relaxation_is_exact(seed, n, k):
     # item 9's bounds come from searches on _without_backhaul(problem): every candidate
     # links to every GBS and to every other, so the search must return the best k
     # pairwise non-overlapping candidates with backhaul ignored
-    from droneplan.formulations.cells._bnb import _without_backhaul, branch_and_bound
+    from droneplan.formulations.cells._bnb import _without_backhaul, search
 
     p = random_small(seed, n, k)
     cand = candidate_sites(p)
     if len(cand.points) == 0:
         return
-    res = branch_and_bound(_without_backhaul(p, cand.points)(k), cand, np.zeros((0, 2)), 0, eliminate=False)
+    res = search(_without_backhaul(p, cand.points)(k), cand, np.zeros((0, 2)), 0, eliminate=False)
     assert res.proven and res.value == res.bound == brute_force_pruned(p, backhaul=False)
 
 
@@ -518,14 +523,14 @@ def test_separated_groups_bound_is_often_attained():
 def test_bnb_with_far_apart_groups_equals_brute_force(seed, m):
     # clusters in different directions beyond the GBS's reach, so nodes hold far-apart
     # unreached groups (item 12); started from the runner-up with heuristics off
-    from droneplan.formulations.cells._bnb import branch_and_bound
+    from droneplan.formulations.cells._bnb import search
 
     rng = np.random.default_rng(seed)
     centres = rng.uniform(-9, 9, size=(3, 2))
     users = np.concatenate([rng.normal(c, 0.35, size=(3, 2)) for c in centres] + [rng.uniform(-9, 9, (4, 2))])
     p = small(users, m=m, r1=3.0, r2=2.5)
     best, runner_up, value = brute_force_pruned(p, runner_up=True)
-    res = branch_and_bound(p, candidate_sites(p), runner_up, value, heuristics=False)
+    res = search(p, candidate_sites(p), runner_up, value, heuristics=False)
     assert res.proven and res.value == best == res.bound
     assert evaluate(p, res.positions).feasible
 
@@ -538,7 +543,7 @@ def _node_limited(problem, limit, workers=1):
     every = _bnb._CHECK_EVERY
     _bnb._CHECK_EVERY = 1
     try:
-        return _bnb.branch_and_bound(
+        return _bnb.search(
             problem,
             candidate_sites(problem),
             np.zeros((0, 2)),
@@ -604,9 +609,7 @@ def test_bnb_split_over_two_processes_equals_brute_force(seed, monkeypatch):
     monkeypatch.setattr(_bnb, "_SPLIT_MIN_SITES", 0)
     p = random_small(seed, 9, 3 + seed % 2)
     best, runner_up, value = brute_force_pruned(p, runner_up=True)
-    res = _bnb.branch_and_bound(
-        p, candidate_sites(p), runner_up, value, heuristics=False, eliminate=False, workers=2
-    )
+    res = _bnb.search(p, candidate_sites(p), runner_up, value, heuristics=False, eliminate=False, workers=2)
     assert res.proven and res.value == best == res.bound
     ev = evaluate(p, res.positions)
     assert ev.feasible and ev.covered == best
@@ -617,7 +620,7 @@ def test_bnb_counts_a_shared_lens_user_once():
     # additive bound counts it twice, the value must count it once
     users = [[4.0, 0.0], [5.0, 0.0], [6.0, 0.0], [4.0, 0.3], [6.0, 0.3]]
     p = small(users, m=2, r1=6.5, r2=2.5)
-    res = solve_milp(p, engine="bnb")
+    res = solve_exact(p, engine="bnb")
     assert res.status is Status.OPTIMAL and res.objective == brute_force(p) == 5
     assert evaluate(p, res.x).covered == 5
 
@@ -627,7 +630,7 @@ def test_bnb_with_relays_and_two_gbs():
     rng = np.random.default_rng(7)
     users = np.concatenate([rng.normal([7.0, 0.0], 0.3, (5, 2)), rng.normal([-9.0, 0.0], 0.3, (3, 2))])
     p = small(users, m=3, gbs=((0.0, 0.0), (-4.0, 0.0)), r1=3.0, r2=2.5)
-    res = solve_milp(p, engine="bnb")
+    res = solve_exact(p, engine="bnb")
     assert res.status is Status.OPTIMAL and res.objective == brute_force(p)
     assert evaluate(p, res.x).feasible
 
@@ -636,7 +639,7 @@ def test_bnb_time_limit_gives_a_valid_bound():
     from droneplan.scenarios.cells import thesis_problem
 
     p = thesis_problem(4, 1)
-    ref = solve_milp(p, engine="bnb", time_limit=0.5)
+    ref = solve_exact(p, engine="bnb", time_limit=0.5)
     assert ref.status in (Status.FEASIBLE, Status.OPTIMAL) and evaluate(p, ref.x).feasible
     assert ref.objective <= ref.bound <= ref.info["continuous_bound"]
 
@@ -691,3 +694,29 @@ def _check_relay_bound(seed):
         for _ in range(len(nodes)):  # Bellman-Ford from the GBS
             d = np.minimum(d, np.min(d[:, None] + e, axis=0))
         assert gj[j] == d[-1] and np.array_equal(newd[:, j], d[:-1])
+
+
+# ----------------------------------------------------------------- the public entries
+def test_entries_name_their_engine_and_agree():
+    from droneplan.formulations.cells import branch_and_bound
+
+    p = random_small(2, 14, 3)
+    bb = branch_and_bound(p, workers=1)
+    ex = solve_exact(p, engine="bnb", workers=1)
+    mi = solve_milp(p, workers=1)
+    assert bb.info["engine"] == ex.info["engine"] == "bnb" and bb.backend == "bnb"
+    assert mi.info["engine"] == "milp" and mi.backend == "cp-sat" and "engine 'milp'" in mi.message
+    assert bb.status is ex.status is mi.status is Status.OPTIMAL
+    assert bb.objective == ex.objective == mi.objective == brute_force(p)
+
+
+def test_entries_reject_bad_engine_and_workers():
+    p = random_small(0, 3, 1)
+    with pytest.raises(ValueError, match="engine.*bnb.*milp"):
+        solve_exact(p, engine="cplex")
+    with pytest.raises(ValueError, match="workers"):
+        solve_exact(p, workers=0)
+    with pytest.raises(ValueError, match="connectivity"):
+        solve_exact(p, engine="milp", connectivity="flow")
+    with pytest.warns(DeprecationWarning, match="solve_exact"):
+        assert solve_milp(p, engine="bnb").info["engine"] == "bnb"

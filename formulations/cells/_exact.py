@@ -1,0 +1,246 @@
+"""The public exact solves of the candidate problem: one entry, two engines.
+
+:func:`solve_exact` prepares candidates, the incumbent (greedy and warm start) and the
+continuous bound once (``_prepare.prepare``) and hands them to either engine:
+
+- ``engine="bnb"``: the combinatorial branch and bound of ``_bnb`` (no model);
+- ``engine="milp"``: the candidate model of ``_milp`` on a linear backend.
+
+:func:`branch_and_bound` and :func:`solve_milp` are ``solve_exact`` with the engine fixed.
+Both engines solve the same candidate problem, so on a proven instance they agree on the
+optimum value (the tests check both against brute force).
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+from droneplan.formulations.cells._bnb import search
+from droneplan.formulations.cells._core import evaluate
+from droneplan.formulations.cells._milp import CONNECTIVITY, solve_model
+from droneplan.formulations.cells._prepare import Prepared, prepare
+from droneplan.scenarios.cells import CellProblem
+from droneplan.solvers.registry import get_backend
+from droneplan.solvers.result import SolveResult, Status
+from droneplan.solvers.validation import check_int
+
+ENGINES = ("bnb", "milp")
+"""Exact engines of :func:`solve_exact`: the combinatorial branch and bound or the model."""
+
+
+def _check_common(problem: CellProblem, engine: str, backend: str, connectivity: str, workers: int) -> None:
+    """The argument checks shared by the entries (each error names its parameter)."""
+    if not isinstance(problem, CellProblem):
+        raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
+    get_backend(backend, kind="linear")  # an unknown or unavailable backend raises ValueError here
+    if connectivity not in CONNECTIVITY:
+        raise ValueError(f"connectivity must be one of {CONNECTIVITY}, got {connectivity!r}")
+    check_int("workers", workers, min_value=1)
+
+
+def _early_exit(prep: Prepared, backend: str, engine: str) -> SolveResult | None:
+    """The result when no search is needed (nothing to cover, the incumbent attains the
+    bound, or no time is left), else None."""
+    if len(prep.cand.points) == 0 or prep.cont_bound == 0:
+        return prep.result(
+            Status.OPTIMAL,
+            objective=0.0,
+            bound=0.0,
+            x=prep.inc[:0].reshape(0, 2),
+            backend=backend,
+            message="no user can be covered by a feasible drone-cell: optimum 0 (no sites)",
+            engine=engine,
+            model_stats={"candidates": len(prep.cand.points)},
+        )
+    note = (
+        ""
+        if prep.cont_bound is not None
+        else f"; continuous-problem bound not available ({prep.info['relaxation_message']})"
+    )
+    if prep.inc_val >= prep.ub:
+        return prep.result(
+            Status.OPTIMAL,
+            objective=prep.inc_val,
+            bound=prep.ub,
+            x=prep.inc,
+            backend=backend,
+            message="bound valid for the continuous problem (max coverage by m discs without "
+            "overlap/backhaul) and attained: globally optimal" + note,
+            engine=engine,
+        )
+    if prep.expired():
+        return prep.result(
+            Status.FEASIBLE,
+            objective=prep.inc_val,
+            bound=prep.cont_bound,
+            x=prep.inc,
+            backend=backend,
+            message="time limit reached before the search started; the plan is the greedy or warm start"
+            + note,
+            engine=engine,
+        )
+    return None
+
+
+def _solve_bnb(prep: Prepared, workers: int) -> SolveResult:
+    """The combinatorial branch and bound (``_bnb.search``) from the prepared incumbent."""
+    problem = prep.problem
+    bb = search(
+        problem,
+        prep.cand,
+        prep.inc,
+        int(prep.inc_val),
+        upper=prep.ub,
+        time_limit=prep.left(),
+        workers=workers,
+    )
+    obj = float(evaluate(problem, bb.positions).covered)
+    bnd = float(max(min(bb.bound, prep.ub), obj))
+    proven = bb.proven or obj >= bnd
+    msg = prep.bound_text(bnd, "the exact combinatorial branch and bound (engine 'bnb')")
+    if not proven:
+        msg += f"; time limit reached after {bb.nodes} search nodes, optimality not proven"
+    return prep.result(
+        Status.OPTIMAL if proven else Status.FEASIBLE,
+        objective=obj,
+        bound=obj if proven else bnd,
+        x=bb.positions,
+        backend="bnb",
+        message=msg,
+        engine="bnb",
+        iterations=bb.nodes,
+        model_stats={
+            "engine": "bnb",
+            "candidates": len(prep.cand.points),
+            "nodes": bb.nodes,
+            "eliminated": bb.eliminated,
+            "elimination_time": bb.elimination_time,
+        },
+    )
+
+
+def solve_exact(
+    problem: CellProblem,
+    *,
+    engine: str = "bnb",
+    backend: str = "cp-sat",
+    time_limit: float | None = None,
+    warm_start=None,
+    workers: int = 2,
+    connectivity: str = "lazy",
+    max_rounds: int = 200,
+    user_cliques: bool = True,
+) -> SolveResult:
+    """Solve the candidate problem exactly with either engine (module docstring).
+
+    problem: the CellProblem (users, GBSs, m, radii in metres).
+    engine: "bnb" (default): the combinatorial branch and bound (no model; ``backend``,
+        ``connectivity``, ``max_rounds`` and ``user_cliques`` unused); "milp": the candidate
+        model on ``backend``.
+    backend: linear backend of the model and of the continuous bound's solve: "cp-sat"
+        (default), "highs" or "scip".
+    time_limit: wall-clock limit (s) for the whole call, candidate generation and model
+        building included; when it is reached the best plan and bound found so far are
+        returned (FEASIBLE). None: no limit.
+    warm_start: drone-cell positions ((k, 2) m, e.g. the GA's). They are added to the
+        candidate set (so the result is never worse than a feasible warm start); their
+        feasible part (sites outside bounds, in a GBS cell, overlapping or without
+        backhaul dropped) becomes the incumbent and the backend's hint when it covers at
+        least as many users as the built-in greedy start. ``info["warm_start"]`` says
+        whether it was used and why not (``used``, ``value``, ``greedy_value``, ``reason``).
+    workers: for engine "milp", CP-SAT workers / MIP threads; for "bnb", processes that
+        share the search on thesis-scale instances (forked; 1: this process alone).
+    connectivity: "lazy" (default) or "hops", the model's exact backhaul formulation.
+    max_rounds: at most this many model solves (engine "milp"; then FEASIBLE with the
+        bound found so far).
+    user_cliques: add the per-user at-most-one rows to the model (engine "milp").
+
+    Returns a SolveResult: ``x`` positions (k, 2) with k <= m, ``objective`` covered
+    users, ``bound`` an upper bound valid for the *candidate* problem (all user
+    points, pairwise R_d-circle intersections, R_d circles met with the r1 and
+    R_g + R_d circles and the area edges, and the warm start); ``backend`` "bnb" or the
+    model's backend; ``info`` holds ``engine``, ``continuous_bound`` (valid for the
+    continuous problem: max coverage by m discs without overlap/backhaul constraints;
+    None, with the reason in ``message``, when no backend could compute it),
+    ``global_optimal`` (objective equals the continuous bound), ``rounds`` (model solves),
+    ``model_stats``. ``message`` says which bound is which and which engine gave it.
+    """
+    _check_common(problem, engine, backend, connectivity, workers)
+    prep = prepare(problem, warm_start=warm_start, time_limit=time_limit)
+    done = _early_exit(prep, "bnb" if engine == "bnb" else backend, engine)
+    if done is not None:
+        return done
+    if engine == "bnb":
+        return _solve_bnb(prep, workers)
+    return solve_model(
+        prep,
+        backend=backend,
+        workers=workers,
+        connectivity=connectivity,
+        max_rounds=max_rounds,
+        user_cliques=user_cliques,
+    )
+
+
+def branch_and_bound(
+    problem: CellProblem, *, time_limit: float | None = None, warm_start=None, workers: int = 2
+) -> SolveResult:
+    """The exact combinatorial branch and bound over the candidate sites:
+    ``solve_exact(problem, engine="bnb", ...)``.
+
+    problem: the CellProblem (users, GBSs, m, radii in metres).
+    time_limit: wall-clock limit (s) for the whole call, None: none.
+    warm_start: drone-cell positions ((k, 2) m) handed in as a start (``solve_exact``).
+    workers: processes that share the search (forked; 1: this process alone).
+    """
+    return solve_exact(problem, engine="bnb", time_limit=time_limit, warm_start=warm_start, workers=workers)
+
+
+def solve_milp(
+    problem: CellProblem,
+    *,
+    backend: str = "cp-sat",
+    time_limit: float | None = None,
+    warm_start=None,
+    workers: int = 2,
+    connectivity: str = "lazy",
+    max_rounds: int = 200,
+    user_cliques: bool = True,
+    engine: str = "milp",
+) -> SolveResult:
+    """The candidate MILP on a linear backend: ``solve_exact(problem, engine="milp", ...)``.
+
+    problem: the CellProblem (users, GBSs, m, radii in metres).
+    backend: "cp-sat" (default), "highs" or "scip".
+    time_limit: wall-clock limit (s) for the whole call, None: none.
+    warm_start: drone-cell positions ((k, 2) m) handed in as a start (``solve_exact``).
+    workers: CP-SAT workers / MIP threads.
+    connectivity: "lazy" (default) or "hops", the exact backhaul formulation.
+    max_rounds: at most this many model solves.
+    user_cliques: add the per-user at-most-one rows.
+    engine: "milp" (default). "bnb" is still accepted for callers written when it was the
+        default (a DeprecationWarning); use :func:`solve_exact` or :func:`branch_and_bound`.
+    """
+    if engine == "bnb":
+        warnings.warn(
+            "solve_milp(engine='bnb') runs no MILP; call solve_exact(engine='bnb') or branch_and_bound",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+    kw: dict[str, Any] = {
+        "connectivity": connectivity,
+        "max_rounds": max_rounds,
+        "user_cliques": user_cliques,
+    }
+    return solve_exact(
+        problem,
+        engine=engine,
+        backend=backend,
+        time_limit=time_limit,
+        warm_start=warm_start,
+        workers=workers,
+        **kw,
+    )
