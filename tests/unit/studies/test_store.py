@@ -107,7 +107,10 @@ def test_store_round_trip_replace_and_load_results(tmp_path):
     assert len(csv) == 8
 
 
-def test_load_results_on_empty_directory_has_the_schema(tmp_path):
+def test_load_results_of_an_empty_store_has_the_schema(tmp_path):
+    with pytest.raises(FileNotFoundError, match="no results store"):
+        load_results(tmp_path)  # a directory without a store
+    ResultStore(tmp_path / STORE_NAME).close()
     df = load_results(tmp_path)
     assert df.empty and list(df.columns) == list(COLUMNS)
     with pytest.raises(FileNotFoundError, match="out"):
