@@ -27,7 +27,8 @@ import numpy as np
 import pandas as pd
 from tqdm.auto import tqdm
 
-from droneplan.studies.store import STORE_NAME, ResultStore, error_row
+from droneplan.studies.provenance import config_hash, provenance, provenance_columns
+from droneplan.studies.store import COLUMNS, STORE_NAME, ResultStore, error_row
 
 __all__ = [
     "StudyExecutor",
@@ -36,6 +37,7 @@ __all__ = [
     "INTERRUPT_GRACE_S",
     "open_store",
     "map_rows",
+    "task_config",
     "DEVIATION_THRESHOLD",
     "ComparisonTable",
     "render_frame",
@@ -269,6 +271,44 @@ def _call_task(fn: TaskFn, task: Mapping[str, Any]) -> list[dict]:
     return rows
 
 
+def task_config(task: Mapping[str, Any]) -> str:
+    """The ``config`` of a task's rows: a hash of the task's settings and droneplan's source.
+
+    task: the task mapping; everything but ``problem`` and ``instance`` counts, together
+    with :func:`~droneplan.studies.provenance.provenance`'s ``code_hash``, so changing a
+    setting or the code gives new rows instead of resuming old ones. Raises TypeError when
+    the task holds a value that is not JSON-like.
+    """
+    settings = {k: v for k, v in task.items() if k not in ("problem", "instance")}
+    try:
+        return config_hash({"task": settings, "code_hash": provenance()["code_hash"]})
+    except TypeError as exc:
+        raise TypeError(f"task {task.get('instance')!r}: {exc}") from None
+
+
+class _Recorder:
+    """Stamps each task's rows with its config and the provenance columns, writes them, counts."""
+
+    def __init__(self, store: ResultStore, configs: Mapping[tuple[str, str], str], bar: Any):
+        self.store, self.configs, self.bar = store, configs, bar
+        self.superseded = 0
+
+    def write(self, task: Mapping[str, Any], rows: list[dict]) -> None:
+        config = self.configs[(task["problem"], task["instance"])]
+        stamped = []
+        for r in rows:
+            r = dict(r)
+            r["config"] = config
+            for k, v in provenance_columns().items():
+                if r.get(k) is None:
+                    r[k] = v
+            stamped.append(r)
+        self.superseded += self.store.write(stamped)
+        if self.superseded:
+            self.bar.set_postfix_str(f"{self.superseded} older rows set aside", refresh=False)
+        self.bar.update(1)
+
+
 def map_rows(
     fn: TaskFn,
     tasks: Iterable[Mapping[str, Any]],
@@ -277,17 +317,22 @@ def map_rows(
     store: ResultStore,
     desc: str = "",
 ) -> pd.DataFrame:
-    """Run ``fn(task)`` for every task whose instance is not yet in ``store`` (or errored).
+    """Run ``fn(task)`` for every task whose rows are not yet in ``store`` (or errored).
 
     Each task is a dict with ``problem`` and ``instance`` (and optionally ``seed``, ``size``);
     ``fn`` must be picklable (a module-level function) and return that instance's rows
-    (:func:`~droneplan.studies.store.build_rows`). Each task's rows are written in one
-    transaction as it finishes, with a progress bar. A task that raises becomes an error
-    row (rerun on the next call); Ctrl-C stops the study (KeyboardInterrupt), keeping every
-    row finished before it and discarding results that came back after it.
+    (:func:`~droneplan.studies.store.build_rows`). Each row gets the task's ``config``
+    (:func:`task_config`: its settings and the code) and the provenance columns; a task
+    counts as done when its instance has rows of that config and no error row, so a rerun
+    after a code or settings change computes new rows, and the older rows of the same
+    methods are set aside (the count is shown on the progress bar and printed once). Each
+    task's rows are written in one transaction as it finishes. A task that raises becomes
+    an error row (rerun on the next call); Ctrl-C stops the study (KeyboardInterrupt),
+    keeping every row finished before it and discarding results that came back after it.
 
-    Returns the rows of the given tasks' instances (old and new) in the schema of
-    :mod:`droneplan.studies.store`.
+    executor: from :func:`make_executor`; store: the open results store; desc: the
+    progress bar's label. Returns the current rows of the given tasks' instances (old and
+    new) in the schema of :mod:`droneplan.studies.store`.
     """
     tasks = list(tasks)
     for t in tasks:
@@ -296,28 +341,42 @@ def map_rows(
     keys = [(t["problem"], t["instance"]) for t in tasks]
     if len(set(keys)) != len(keys):
         raise ValueError("tasks repeat an instance id")
-    done = store.done_instances()
-    todo = [t for t, k in zip(tasks, keys, strict=False) if k not in done]
+    configs = {k: task_config(t) for k, t in zip(keys, tasks, strict=True)}
+    done = store.done_configs()
+    todo = [t for t, k in zip(tasks, keys, strict=True) if (*k, configs[k]) not in done]
     with _InterruptGuard(executor) as guard, tqdm(total=len(todo), desc=desc, disable=not todo) as bar:
-        if executor.kind == "serial":
-            for task in todo:
-                guard.check()
-                rows = _call_task(fn, task)
-                guard.rearm()
-                guard.check()  # Ctrl-C during the task: its result is not recorded
-                store.write(rows)
-                bar.update(1)
-        else:
-            _map_parallel(fn, todo, executor, store, guard, bar)
+        recorder = _Recorder(store, configs, bar)
+        try:
+            if executor.kind == "serial":
+                for task in todo:
+                    guard.check()
+                    rows = _call_task(fn, task)
+                    guard.rearm()
+                    guard.check()  # Ctrl-C during the task: its result is not recorded
+                    recorder.write(task, rows)
+            else:
+                _map_parallel(fn, todo, executor, recorder, guard)
+        finally:
+            if recorder.superseded:
+                print(
+                    f"droneplan: {desc or 'study'}: {recorder.superseded} row(s) of an earlier code or "
+                    "settings version set aside (load_results(..., include_superseded=True) shows them)",
+                    file=sys.stderr,
+                    flush=True,
+                )
     wanted = set(keys)
     problems = {p for p, _ in wanted}
     frames = [store.frame(problem=p) for p in sorted(problems)]
     df = pd.concat(frames, ignore_index=True) if frames else store.frame()
-    mask = [(p, i) in wanted for p, i in zip(df["problem"], df["instance"], strict=False)]
-    return df[mask].dropna(axis=1, how="all").reset_index(drop=True) if len(df) else df
+    if not len(df):
+        return df
+    mask = [(p, i) in wanted for p, i in zip(df["problem"], df["instance"], strict=True)]
+    df = df[mask].reset_index(drop=True)
+    empty_extras = [c for c in df.columns if c not in COLUMNS and df[c].isna().all()]
+    return df.drop(columns=empty_extras)
 
 
-def _map_parallel(fn, todo, executor: StudyExecutor, store: ResultStore, guard: _InterruptGuard, bar) -> None:
+def _map_parallel(fn, todo, executor: StudyExecutor, recorder: _Recorder, guard: _InterruptGuard) -> None:
     queue = list(reversed(todo))
     pending: dict[cf.Future, Mapping[str, Any]] = {}
     try:
@@ -344,8 +403,7 @@ def _map_parallel(fn, todo, executor: StudyExecutor, store: ResultStore, guard: 
                             size=task.get("size"),
                         )
                     ]
-                store.write(rows)
-                bar.update(1)
+                recorder.write(task, rows)
     except BaseException:
         for fut in pending:
             fut.cancel()
@@ -499,6 +557,7 @@ def summarize(df: pd.DataFrame, thesis: Mapping[tuple[str, str], str] | None = N
     from ``thesis[(problem, method)]``).
     """
     thesis = thesis or {}
+    df = _with_columns(df)
     out = []
     for (problem, method), g in df.groupby(["problem", "method"], sort=False):
         solved = g["status"].isin(["optimal", "feasible"])
@@ -522,7 +581,31 @@ def summarize(df: pd.DataFrame, thesis: Mapping[tuple[str, str], str] | None = N
         rec["median_time_s"] = float(t.median()) if len(t) else None
         rec["thesis"] = thesis.get((problem, method), "")
         out.append(rec)
-    return pd.DataFrame(out)
+    return pd.DataFrame(out, columns=_SUMMARY_COLUMNS)
+
+
+_SUMMARY_COLUMNS = [
+    "problem",
+    "method",
+    "role",
+    "count",
+    "success_rate",
+    "errors",
+    "best_rate",
+    *(f"{stat}_{col}" for col in ("gap_to_bound", "gap_to_best") for stat in ("median", "mean", "p95")),
+    "gap_bound_kind",
+    "median_time_s",
+    "thesis",
+]
+
+
+def _with_columns(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` with every schema column present (a frame of error rows may lack the gap columns)."""
+    missing = [c for c in COLUMNS if c not in df.columns]
+    df = df.assign(**dict.fromkeys(missing)) if missing else df.copy()
+    for c in ("objective", "bound", "gap_to_bound", "gap_to_best", "time_s"):
+        df[c] = pd.to_numeric(df[c], errors="coerce").astype(float)
+    return df
 
 
 def report_study(
@@ -537,6 +620,7 @@ def report_study(
     ``out/gap_<problem>.png`` (gap distribution per method); returns the summary."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    df = _with_columns(df)
     summary = summarize(df, thesis)
     summary.to_csv(out / "gap_summary.csv", index=False)
     shown = summary[
@@ -586,6 +670,7 @@ def gap_figure(df: pd.DataFrame, path: Path, *, title: str = "") -> Path:
     """Box plots of gap_to_bound and gap_to_best per method (one dot per instance)."""
     import matplotlib.pyplot as plt
 
+    df = _with_columns(df)
     rows = df[df["role"] != "bound"]
     methods = list(dict.fromkeys(rows["method"]))
     fig, axes = plt.subplots(1, 2, figsize=(max(6.0, 1.3 * len(methods) + 3), 3.8), squeeze=False)
