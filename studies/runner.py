@@ -65,11 +65,14 @@ import threading
 import time
 import traceback as tb_module
 import warnings
-from collections.abc import Callable, Hashable, Iterable, Iterator, Mapping, Sized
+from collections.abc import Callable, Generator, Hashable, Iterable, Iterator, Mapping, Sized
 from dataclasses import dataclass, field
 from typing import Any
 
 from tqdm.auto import tqdm
+
+if sys.platform != "win32":  # imported here, not in the child: an import after a fork can deadlock
+    import resource
 
 from droneplan.solvers.validation import check_instance, check_int, check_nonneg, check_time_limit
 
@@ -156,7 +159,8 @@ def run_isolated(job: Job, *, grace: float = 2.0, memory_limit: int | None = Non
     memory_limit: address-space limit of the child (bytes); None: no limit.
     """
     check_instance("job", job, Job)
-    return next(iter(run_jobs([job], workers=1, grace=grace, memory_limit=memory_limit)))
+    with contextlib.closing(run_jobs([job], workers=1, grace=grace, memory_limit=memory_limit)) as outcomes:
+        return next(outcomes)
 
 
 def run_jobs(
@@ -166,7 +170,7 @@ def run_jobs(
     grace: float = 2.0,
     memory_limit: int | None = None,
     progress: str | None = None,
-) -> Iterator[JobOutcome]:
+) -> Generator[JobOutcome, None, None]:
     """Run every job in a forked child process; yield their outcomes as they finish.
 
     jobs: the :class:`Job` s to run (any iterable; consumed lazily, ``workers`` at a time).
@@ -208,7 +212,7 @@ def _require_fork() -> None:
 # --------------------------------------------------------------------------- the parent
 def _run(
     jobs: Iterable[Job], workers: int, grace: float, memory_limit: int | None, progress: str | None
-) -> Iterator[JobOutcome]:
+) -> Generator[JobOutcome, None, None]:
     total = len(jobs) if isinstance(jobs, Sized) else None
     source = iter(jobs)
     running: dict[int, _Child] = {}  # by the read end of the child's pipe
@@ -493,8 +497,6 @@ def _child_main(job: Job, w: int, close_fds: list[int], memory_limit: int | None
         for fd in close_fds:
             with contextlib.suppress(OSError):
                 os.close(fd)
-        import resource
-
         with contextlib.suppress(ValueError, OSError):
             resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
         if memory_limit is not None:

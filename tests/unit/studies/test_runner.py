@@ -238,6 +238,22 @@ def test_cpu_time_counts_the_child_and_the_processes_it_waited_for():
     assert waited.cpu_s >= 0.25
 
 
+def _run_inside_a_pool_worker(n: int) -> tuple[bool, str, object]:
+    import multiprocessing
+
+    outcome = run_isolated(Job("in-pool", lambda: n + 1))  # a lambda: a pool could not even send it
+    return multiprocessing.current_process().daemon, outcome.status, outcome.value
+
+
+def test_jobs_run_inside_a_daemonic_pool_worker():
+    import multiprocessing
+
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        daemon, status, value = pool.apply(_run_inside_a_pool_worker, (41,))
+    assert daemon  # where multiprocessing itself refuses to start children
+    assert (status, value) == ("ok", 42)
+
+
 # --------------------------------------------------------------------------- process groups
 @pytest.mark.parametrize(
     ("then", "limit", "status"), [("hang", 0.3, "timeout"), ("return", None, "ok"), ("exit", None, "crashed")]
