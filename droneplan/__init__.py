@@ -13,9 +13,11 @@ Front doors, one per problem (each re-exports what a user of that problem needs)
 
 The layers (``droneplan.scenarios``, ``.formulations``, ``.solvers``, ``.planners``,
 ``.studies``) hold the implementation; ``SolveResult``/``Status`` are the result
-contract every solve returns; ``run_gap(problem, seeds=..., out=...)`` runs a gap study like
-``droneplan gap`` and ``load_results(out)`` reads every study row under an ``--out``
-directory as one long-format DataFrame.
+contract every solve returns; ``gap(problem, methods=[...], instances=..., out=...)`` runs an
+open gap study of registered and the user's own methods on instance families, the certified
+library or the user's data (``droneplan gap --method``), ``run_gap(problem, seeds=..., out=...)``
+the built-in gap study of a problem like ``droneplan gap``, and ``load_results(out)`` reads
+every study row of an ``--out`` directory as one long-format DataFrame.
 """
 
 from typing import Any
@@ -35,6 +37,7 @@ __all__ = [
     "Status",
     "load_results",
     "run_gap",
+    "gap",
     "__version__",
 ]
 
@@ -46,4 +49,8 @@ def __getattr__(name: str) -> Any:
         from droneplan.studies.cli import run_gap
 
         return run_gap
+    if name == "gap":
+        from droneplan.studies.study import gap
+
+        return gap
     raise AttributeError(f"module 'droneplan' has no attribute {name!r}")

@@ -11,8 +11,9 @@ Conventions shared by all of them
 - A run is *solved* when its status is ``optimal`` or ``feasible``; every other status
   (``infeasible``, ``invalid``, ``timeout``, ``error``, ``no_solution``, ...) is a failure,
   whatever objective the row may carry.
-- When one method appears with several ``config`` hashes, each configuration is its own
-  method, labelled ``"<method>@<config>"``.
+- A method is its name: its ``config`` hash differs from instance to instance (it hashes the
+  instance's data too), so configurations are not methods. Pass current rows only (what
+  ``load_results`` returns by default): two rows of one method on one instance are refused.
 - A frame without a ``flag`` column (written before schema v2) is read as if every flag
   were ``''``.
 
@@ -94,15 +95,9 @@ def _require(df: Any, columns: Sequence[str], name: str = "df") -> pd.DataFrame:
 
 
 def _labelled(df: pd.DataFrame, exclude_roles: Sequence[str]) -> pd.DataFrame:
-    """The method rows with a ``label`` column: the method, or ``method@config`` when it has several."""
+    """The method rows with a ``label`` column (the method's name)."""
     rows = df[~df["role"].isin(exclude_roles)].copy()
-    label = rows["method"].astype(str)
-    if "config" in rows.columns and len(rows):
-        cfg = rows["config"].astype(object).where(rows["config"].notna(), "")
-        n_cfg = cfg.groupby(label).transform("nunique")
-        several = n_cfg > 1
-        label = label.where(~several, label + "@" + cfg.astype(str))
-    rows["label"] = label.astype(object)
+    rows["label"] = rows["method"].astype(str).astype(object)
     return rows
 
 

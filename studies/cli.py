@@ -104,12 +104,64 @@ def _parser() -> argparse.ArgumentParser:
     )
     _executor_options(gap)
     gap.add_argument(
+        "--method",
+        dest="methods",
+        action="append",
+        metavar="NAME|MODULE:FUNCTION",
+        help="run an open study of these methods (repeat the option): a registered name (droneplan "
+        "list) or the user's function or controller class as module:attribute",
+    )
+    gap.add_argument(
+        "--instances",
+        metavar="FAMILY|PATH",
+        default=None,
+        help="open study instances: a family name (droneplan list) or an instance file or directory",
+    )
+    gap.add_argument("--m", default=None, help="cells families: number(s) of drone-cells, e.g. 4 or 3,4")
+    gap.add_argument("--n", default=None, help="allocation family: number(s) of drones, e.g. 8 or 8,16")
+    gap.add_argument(
+        "--size",
+        action="append",
+        default=[],
+        metavar="KEY=VALUES",
+        help="another size parameter of the family, e.g. path=a,b or n_targets=3 (repeatable)",
+    )
+    gap.add_argument(
+        "--time-limit",
+        type=float,
+        default=None,
+        metavar="S",
+        help="open study: wall-time limit per method and instance in seconds (default 300); a method "
+        "still running is stopped and recorded as timeout",
+    )
+    gap.add_argument(
         "--out",
         type=Path,
         default=Path("results"),
         help="directory for the store results.sqlite, results.csv and per-problem summaries/figures "
         "(default: results)",
     )
+
+    cert = sub.add_parser(
+        "certify",
+        help="certify a family's instances (best plan, proven bound) into the reference library",
+    )
+    cert.add_argument("family", help="a family with a library: " + ", ".join(_library_families()))
+    cert.add_argument("--m", default=None, help="cells: number(s) of drone-cells (default: the library's)")
+    cert.add_argument("--n", default=None, help="allocation: number(s) of drones (default: the library's)")
+    cert.add_argument("--seeds", type=int, default=None, help="number of seeds (default: the library's)")
+    cert.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
+    cert.add_argument(
+        "--time-limit", type=float, default=300.0, metavar="S", help="per instance (default 300 s)"
+    )
+    cert.add_argument("--workers", type=int, default=None, help="instances at once (default: cores)")
+    cert.add_argument("--force", action="store_true", help="recertify every entry")
+    cert.add_argument("--improve", action="store_true", help="recertify the entries not proven optimal")
+    cert.add_argument(
+        "--library-dir", type=Path, default=None, help="where the library files are (default: the package's)"
+    )
+
+    sub.add_parser("list", help="instance families (with their library entries) and registered methods")
 
     bench = sub.add_parser("bench", help="performance ratios measured in one run", epilog=epilog)
     bench.add_argument("problem", nargs="?", default="all", choices=choices)
@@ -179,7 +231,132 @@ def _writable_out(out: Path) -> None:
         raise StudyError(f"cannot write to --out {out}: permission denied")
 
 
+def _library_families() -> list[str]:
+    from droneplan.studies.library import LIBRARY_FAMILIES
+
+    return list(LIBRARY_FAMILIES)
+
+
+def _sizes(args) -> dict:
+    """The family size options (--m, --n, --size KEY=VALUES) as keyword arguments."""
+    out: dict = {}
+    pairs = [("m", args.m), ("n", args.n)]
+    for item in getattr(args, "size", []) or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key or not value:
+            raise SystemExit(f"droneplan: --size takes KEY=VALUES, got {item!r}")
+        pairs.append((key.strip(), value))
+    for key, value in pairs:
+        if value is None:
+            continue
+        values: list[int | str] = []
+        for text in str(value).split(","):
+            text = text.strip()
+            try:
+                values.append(int(text))
+            except ValueError:
+                values.append(text)
+        out[key] = values if len(values) > 1 else values[0]
+    return out
+
+
+def _run_list() -> int:
+    from droneplan.studies.instances import FAMILIES
+    from droneplan.studies.library import load_library
+    from droneplan.studies.methods import builtin_methods
+
+    print("instance families (name@version: problem, kind, size parameters; library entries):")
+    for fam in FAMILIES.values():
+        n_lib = len(load_library(fam.name))
+        grid = ", ".join(f"{k} in {list(fam.defaults.get(k, ()))}" for k in fam.grid) or "-"
+        print(f"  {fam.name}@{fam.version}: {fam.problem}, {fam.kind}; {grid}; {n_lib} certified")
+        print(f"      {fam.describe}")
+    print("registered methods by instance kind:")
+    for kind in ("cells", "allocation", "shark-path", "covert-run", "herding-run"):
+        print(f"  {kind}: {', '.join(builtin_methods(kind))}")
+    return 0
+
+
+def _run_certify(args) -> int:
+    from droneplan.studies.library.certify import certify
+
+    size = _sizes(args)
+    if args.seeds is not None:
+        size["seeds"] = args.seeds
+    if args.first_seed:
+        size["first_seed"] = args.first_seed
+    try:
+        summary = certify(
+            args.family,
+            time_limit=args.time_limit,
+            workers=args.workers,
+            directory=args.library_dir,
+            force=args.force,
+            improve=args.improve,
+            **size,
+        )
+    except ValueError as exc:
+        raise StudyError(str(exc)) from None
+    print(
+        f"certify {summary['family']}: {summary['certified']} certified now, {summary['entries']} entries "
+        f"({summary['proven']} proven optimal) in {summary['path'] or 'the library (unchanged)'}",
+        flush=True,
+    )
+    for line in summary["failed"]:
+        print(f"  failed: {line}", file=sys.stderr)
+    return 1 if summary["failed"] else 0
+
+
+def _run_open_gap(args) -> int:
+    from droneplan.studies.analysis import summary_markdown, write_study_outputs
+    from droneplan.studies.study import gap as open_gap
+
+    if args.problem == "all":
+        raise SystemExit("droneplan: --method/--instances need one problem (cells, herding, shark or covert)")
+    size = _sizes(args)
+    if args.instances is None or args.instances in _families():
+        size.update(seeds=args.seeds, first_seed=args.first_seed)
+    try:
+        df = open_gap(
+            args.problem,
+            methods=args.methods or _default_methods(args.problem, args.instances),
+            instances=args.instances,
+            out=args.out,
+            workers=args.workers,
+            dask=args.dask,
+            time_limit=args.time_limit,
+            **size,
+        )
+    except (ValueError, TypeError, FileNotFoundError) as exc:
+        raise StudyError(str(exc).splitlines()[0]) from None
+    paths = write_study_outputs(df, args.out / args.problem, stem="gap")
+    print(summary_markdown(df), flush=True)
+    print(
+        f"rows: {args.out / STORE_NAME} (results.csv, results.parquet); summary and figures: "
+        f"{', '.join(str(p) for p in paths.values())}",
+        flush=True,
+    )
+    return 0
+
+
+def _families() -> set[str]:
+    from droneplan.studies.instances import FAMILIES
+
+    return set(FAMILIES)
+
+
+def _default_methods(problem: str, instances) -> list[str]:
+    raise SystemExit("droneplan: name the methods with --method (droneplan list shows the registered ones)")
+
+
 def _run(args) -> int:
+    if args.command == "list":
+        return _run_list()
+    if args.command == "certify":
+        return _run_certify(args)
+    if args.command == "gap" and (args.methods or args.instances):
+        _writable_out(args.out)
+        return _run_open_gap(args)
     problems = _resolve(args.problem)
     if args.command == "gap" and args.seeds < 1:
         raise SystemExit(f"droneplan: --seeds must be >= 1, got {args.seeds}")
@@ -215,6 +392,7 @@ def _run(args) -> int:
                     )
             finally:
                 store.export(args.out / "results.csv")
+                store.export(args.out / "results.parquet")
         errors = store.frame()
         errors = errors[errors["status"] == "error"]
     if args.command == "reproduce" and args.report:

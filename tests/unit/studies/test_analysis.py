@@ -146,11 +146,14 @@ def test_solved_without_a_time_counts_as_failure():
     assert r == [math.inf, 1.0]
 
 
-def test_several_configs_of_a_method_are_separate_methods(three):
-    extra = three[three["method"] == "A"].assign(config="bbbb", time_s=lambda d: d["time_s"] * 2)
-    df = pd.concat([three.assign(config="aaaa"), extra], ignore_index=True)
-    prof = performance_profile(df, measure="time", taus=[1.0])
-    assert set(prof["method"]) == {"A@aaaa", "A@bbbb", "B", "C"}
+def test_a_method_is_one_method_whatever_its_per_instance_configs(three):
+    # the config hash covers the instance's data, so it differs between the instances of one method
+    cfg = three["instance"].astype(str) + "-" + three["method"].astype(str)
+    prof = performance_profile(three.assign(config=cfg), measure="time", taus=[1.0])
+    assert set(prof["method"]) == {"A", "B", "C"}
+    superseded = three[three["method"] == "A"].assign(config="older")
+    with pytest.raises(ValueError, match="several rows for method 'A'"):
+        performance_profile(pd.concat([three.assign(config=cfg), superseded], ignore_index=True))
 
 
 def test_duplicate_runs_and_bad_arguments_are_refused(three):

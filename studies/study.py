@@ -1,0 +1,338 @@
+"""Open gap studies: the user's methods against droneplan's on families, library or own instances.
+
+:func:`gap` is the one way to run a study. For every (instance, method) pair it runs one job in
+a child process with a time limit (:mod:`droneplan.studies.runner`), scores what came back with
+droneplan's own evaluator (:mod:`droneplan.studies.harness`) and writes one row to the store at
+``out`` with provenance and a configuration hash (:mod:`droneplan.studies.provenance`). On
+instances of the certified library (:mod:`droneplan.studies.library`) it adds a ``library`` row
+with the certified value and bound instead of re-solving. A rerun resumes: jobs whose row is in
+the store under the same configuration are not run again; a job whose configuration changed
+(code, method, parameters, time limit, instance data) is run again and its old row is set aside.
+
+The gaps of every row (``gap_to_bound``, ``gap_to_best``) are computed when the store is read,
+over the current rows of each instance.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import sys
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from droneplan.studies.harness import SENSE_OF_KIND, Scored, execute, score
+from droneplan.studies.instances import StudyInstance, resolve_instances
+from droneplan.studies.library import lookup
+from droneplan.studies.methods import Method, check_study_time_limit, resolve_methods
+from droneplan.studies.provenance import config_hash, provenance, provenance_columns
+from droneplan.studies.runner import Job, JobOutcome, run_isolated, run_jobs
+from droneplan.studies.store import PROBLEMS, STORE_NAME, Outcome, ResultStore, build_rows
+
+__all__ = ["gap", "summary", "StudyPlan", "plan_study", "DEFAULT_TIME_LIMIT", "GRACE_S", "LIBRARY_METHOD"]
+
+DEFAULT_TIME_LIMIT = 300.0
+"""Per-method, per-instance wall-time limit (s) when a study is given none."""
+
+GRACE_S = 3.0
+"""How long a job may overrun its time limit before the harness kills it (s)."""
+
+LIBRARY_METHOD = "library"
+"""The ``method`` of the reference row read from the certified library."""
+
+STUDY = "gap"
+
+
+@dataclass(frozen=True)
+class _Task:
+    instance: StudyInstance
+    method: Method
+    config: str
+    params: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class StudyPlan:
+    """What a study will do: its instances, methods and the jobs with their configuration hashes."""
+
+    problem: str
+    kind: str
+    instances: list[StudyInstance]
+    methods: list[Method]
+    time_limit: float | None
+    tasks: list[_Task]
+
+
+def _params_json(method: Method) -> dict[str, Any]:
+    try:
+        config_hash(dict(method.params))
+        return dict(method.params)
+    except TypeError:
+        return {k: repr(v) for k, v in method.params.items()}
+
+
+def plan_study(
+    problem: str, *, methods: Any, instances: Any = None, time_limit: float | None = None, **size: Any
+) -> StudyPlan:
+    """Resolve a study's instances and methods and hash each job's configuration (runs nothing).
+
+    Arguments as in :func:`gap`.
+    """
+    if problem not in PROBLEMS:
+        raise ValueError(f"problem must be one of {', '.join(PROBLEMS)}, got {problem!r}")
+    limit = DEFAULT_TIME_LIMIT if time_limit is None else check_study_time_limit(time_limit)
+    insts = resolve_instances(problem, instances, **size)
+    kinds = sorted({i.kind for i in insts})
+    if len(kinds) != 1:
+        raise ValueError(f"a study runs on one kind of instance; these mix {', '.join(kinds)}")
+    kind = kinds[0]
+    meths = resolve_methods(kind, methods)
+    if any(m.name == LIBRARY_METHOD for m in meths):
+        raise ValueError(f"method name {LIBRARY_METHOD!r} is reserved for the certified reference row")
+    code = provenance()["code_hash"]
+    tasks = []
+    for inst in insts:
+        fp = inst.fingerprint()
+        for m in meths:
+            params = _params_json(m)
+            cfg = config_hash(
+                {
+                    "method": m.name,
+                    "code": m.fingerprint(),
+                    "params": params,
+                    "time_limit": limit,
+                    "instance": fp,
+                    "family_version": inst.version,
+                    "droneplan": code,
+                }
+            )
+            tasks.append(_Task(inst, m, cfg, params))
+    return StudyPlan(problem, kind, insts, meths, limit, tasks)
+
+
+def _row(
+    task: _Task, verdict: Scored, *, time_s: float | None, cpu_s: float | None, time_limit: float | None
+) -> dict:
+    inst, m = task.instance, task.method
+    outcome = Outcome(
+        method=m.name,
+        role=m.role,
+        status=verdict.status,
+        objective=verdict.objective,
+        bound=verdict.bound,
+        bound_kind=verdict.bound_kind if verdict.bound is not None else "none",
+        time_s=time_s,
+        warm_started=verdict.warm_started,
+        message=verdict.message,
+        extras={**verdict.extras, "cpu_s": cpu_s, "builtin": m.builtin},
+    )
+    (row,) = build_rows(
+        inst.problem,
+        inst.id,
+        seed=inst.seed,
+        size=inst.size,
+        sense=SENSE_OF_KIND[inst.kind],
+        outcomes=[outcome],
+        study=STUDY,
+    )
+    row.update(
+        config=task.config,
+        flag=";".join(dict.fromkeys(verdict.flags)),
+        claimed_objective=verdict.claimed_objective,
+        family=inst.family,
+        family_version=inst.version,
+        method_params=json.dumps(task.params, sort_keys=True),
+        time_limit_s=time_limit,
+        **provenance_columns(),
+    )
+    return row
+
+
+def _library_row(inst: StudyInstance) -> dict | None:
+    entry = lookup(inst)
+    if entry is None:
+        return None
+    outcome = Outcome(
+        method=LIBRARY_METHOD,
+        role="model",
+        status=entry.status,
+        objective=entry.value,
+        bound=entry.bound,
+        bound_kind=entry.bound_kind if entry.bound is not None else "none",
+        time_s=entry.time_s,
+        message=f"certified library: {entry.engine}, {entry.certified_at}, "
+        f"droneplan {entry.droneplan_version}",
+        extras={"library_gap": entry.gap},
+    )
+    (row,) = build_rows(
+        inst.problem,
+        inst.id,
+        seed=inst.seed,
+        size=inst.size,
+        sense=entry.sense,
+        outcomes=[outcome],
+        study=STUDY,
+    )
+    row.update(
+        config=config_hash(
+            {"library": entry.fingerprint, "certified_at": entry.certified_at, "value": entry.value}
+        ),
+        flag="",
+        claimed_objective=None,
+        family=inst.family,
+        family_version=inst.version,
+        method_params="{}",
+        time_limit_s=entry.time_limit_s,
+        droneplan_version=entry.droneplan_version,
+        git_commit=entry.git_commit,
+        code_hash=None,
+        packages=None,
+        cpu=None,
+        cores=None,
+        finished_at=entry.certified_at,
+    )
+    return row
+
+
+def _verdict(task: _Task, outcome: JobOutcome) -> Scored:
+    if outcome.status == "ok":
+        try:
+            return score(task.instance, task.method, outcome.value)
+        except Exception as exc:  # noqa: BLE001 - a return value that breaks the scoring is the method's
+            return Scored("invalid", message=f"could not score the return value: {type(exc).__name__}: {exc}")
+    if outcome.status == "timeout":
+        return Scored("timeout", message=outcome.error)
+    if outcome.status == "crashed":
+        return Scored("error", message=f"the method's process {outcome.error}")
+    return Scored("error", message=outcome.error)
+
+
+@contextlib.contextmanager
+def _dask_outcomes(address: str, jobs: list[Job], grace: float) -> Iterator[Iterator[JobOutcome]]:
+    """Outcomes of ``jobs`` computed on a Dask cluster (each job isolated on its worker)."""
+    import concurrent.futures as cf
+
+    from droneplan.studies.common import make_executor
+
+    with make_executor(dask_address=address) as ex:
+        futures = [ex.submit(run_isolated, job, grace=grace) for job in jobs]
+
+        def gen() -> Iterator[JobOutcome]:
+            for fut in cf.as_completed(futures):
+                yield fut.result()
+
+        yield gen()
+
+
+def gap(
+    problem: str,
+    *,
+    methods: Any,
+    instances: Any = None,
+    out: str | os.PathLike,
+    workers: int | None = None,
+    dask: str | None = None,
+    time_limit: float | None = None,
+    progress: bool = True,
+    **size: Any,
+) -> pd.DataFrame:
+    """Run a gap study of ``methods`` on ``instances`` and return its rows (long format).
+
+    problem: ``cells``, ``herding``, ``shark`` or ``covert``.
+    methods: registered names (``"ga"``, ``"exhaustive"``, ``"bnb"``, ``"milp"``, ``"exact"``,
+        ``"alg3"``, ``"virtual-shark"``, ``"sliding"`` ...), ``"module:function"`` strings, the
+        user's functions or controller classes, ``(name, target)`` pairs or
+        :class:`~droneplan.studies.methods.Method` objects (one or a list; contracts in
+        :mod:`droneplan.studies.methods`).
+    instances: None (the problem's default family), a family name, a path to an instance file or
+        directory, or a list of instances / data objects
+        (:func:`~droneplan.studies.instances.resolve_instances`).
+    out: directory of the results store (``out/results.sqlite``, exported to ``results.csv`` and
+        ``results.parquet`` after the run).
+    workers: jobs run at once on this machine (default: the number of cores).
+    dask: address of a Dask scheduler to run the jobs on instead.
+    time_limit: wall-time limit per method and instance (s; default ``DEFAULT_TIME_LIMIT``); a job
+        still running ``GRACE_S`` after it is killed and recorded as ``timeout``.
+    progress: show a progress bar.
+    size: the family's size parameters (``m=4``, ``n=[8, 16]``) and ``seeds``, ``first_seed``.
+
+    Returns the current rows of these instances for these methods and the library reference, with
+    gaps filled in; rows already in the store under the same configuration are reused, not rerun.
+    """
+    plan = plan_study(problem, methods=methods, instances=instances, time_limit=time_limit, **size)
+    n_workers = (os.cpu_count() or 1) if workers is None else workers
+    if isinstance(n_workers, bool) or not isinstance(n_workers, int) or n_workers < 1:
+        raise ValueError(f"workers must be an int >= 1, got {workers!r}")
+    out = Path(out)
+    with ResultStore(out / STORE_NAME) as store:
+        done = store.done_keys(problem)
+        lib_rows = [r for r in (_library_row(i) for i in plan.instances) if r is not None]
+        set_aside = store.write([r for r in lib_rows if _key(r) not in done]) if lib_rows else 0
+        todo = [t for t in plan.tasks if (problem, t.instance.id, t.method.name, t.config) not in done]
+        claimed, busy = [], 0
+        for t in todo:
+            if store.try_claim((problem, t.instance.id, t.method.name, t.config)):
+                claimed.append(t)
+            else:
+                busy += 1
+        by_key = {(t.instance.id, t.method.name): t for t in claimed}
+        jobs = [
+            Job(
+                (t.instance.id, t.method.name),
+                execute,
+                (t.instance, t.method, t.instance.seed or 0, plan.time_limit),
+                time_limit=plan.time_limit,
+            )
+            for t in claimed
+        ]
+        desc = f"{problem} gap" if progress else None
+        try:
+            with (
+                _dask_outcomes(dask, jobs, GRACE_S)
+                if dask
+                else contextlib.nullcontext(run_jobs(jobs, workers=n_workers, grace=GRACE_S, progress=desc))
+            ) as outcomes:
+                for oc in outcomes:
+                    task = by_key[oc.key]  # type: ignore[index]
+                    row = _row(
+                        task, _verdict(task, oc), time_s=oc.wall_s, cpu_s=oc.cpu_s, time_limit=plan.time_limit
+                    )
+                    set_aside += store.write([row])
+                    store.release((problem, task.instance.id, task.method.name, task.config))
+        finally:
+            for t in claimed:
+                with contextlib.suppress(Exception):
+                    store.release((problem, t.instance.id, t.method.name, t.config))
+        _report_counts(len(plan.tasks), len(claimed), busy, set_aside)
+        df = store.frame(problem=problem)
+        for suffix in ("csv", "parquet"):
+            store.export(out / f"results.{suffix}")
+    wanted_ids = {i.id for i in plan.instances}
+    wanted_methods = {m.name for m in plan.methods} | {LIBRARY_METHOD}
+    mask = df["instance"].isin(wanted_ids) & df["method"].isin(wanted_methods)
+    return df[mask].reset_index(drop=True)
+
+
+def _key(row: dict) -> tuple:
+    return (row["problem"], row["instance"], row["method"], row["config"])
+
+
+def _report_counts(total: int, ran: int, busy: int, set_aside: int) -> None:
+    parts = [f"{ran} of {total} jobs run", f"{total - ran - busy} reused from the store"]
+    if busy:
+        parts.append(f"{busy} running in another study on the same store (not repeated)")
+    if set_aside:
+        parts.append(f"{set_aside} older rows computed under other settings set aside")
+    print("droneplan gap: " + "; ".join(parts), file=sys.stderr, flush=True)
+
+
+def summary(df: pd.DataFrame) -> pd.DataFrame:
+    """The per-method summary of a study's rows (:func:`droneplan.studies.analysis.summary_table`)."""
+    from droneplan.studies.analysis import summary_table
+
+    return summary_table(df)
