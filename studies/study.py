@@ -190,10 +190,10 @@ def _library_row(inst: StudyInstance) -> dict | None:
         time_limit_s=entry.time_limit_s,
         droneplan_version=entry.droneplan_version,
         git_commit=entry.git_commit,
-        code_hash=None,
-        packages=None,
-        cpu=None,
-        cores=None,
+        code_hash=entry.code_hash,
+        packages=None if entry.packages is None else json.dumps(dict(entry.packages), sort_keys=True),
+        cpu=entry.cpu,
+        cores=entry.cores,
         finished_at=entry.certified_at,
     )
     return row

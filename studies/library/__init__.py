@@ -94,6 +94,10 @@ class LibraryEntry:
     git_commit: str | None
     certified_at: str
     message: str = ""
+    code_hash: str | None = None
+    packages: Mapping[str, Any] | None = None
+    cpu: str | None = None
+    cores: int | None = None
 
     @property
     def gap(self) -> float | None:
@@ -310,6 +314,10 @@ def entry_from(
         droneplan_version=str(prov.get("droneplan_version")),
         git_commit=prov.get("git_commit"),
         certified_at=_now(),
+        code_hash=prov.get("code_hash"),
+        packages=prov.get("packages"),
+        cpu=prov.get("cpu"),
+        cores=prov.get("cores"),
         **fields,
     )
 
