@@ -15,7 +15,6 @@ from droneplan.formulations.herding import solve_allocation
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.cli import main
 from droneplan.studies.library import load_library
-from droneplan.studies.methods import Method
 
 
 # --------------------------------------------------------------------------- user methods
@@ -130,7 +129,9 @@ def test_rerun_resumes_changed_settings_recompute_and_new_methods_keep_rows(tmp_
 def test_a_changed_user_method_is_recomputed(tmp_path, capsys):
     mod = tmp_path / "user_heuristics_mod.py"
     mod.write_text(
-        "import numpy as np\ndef h(d, s, M, *, seed, time_limit):\n    return np.arange(len(d)), np.ones(len(d), int)\n"
+        "import numpy as np\n"
+        "def h(d, s, M, *, seed, time_limit):\n"
+        "    return np.arange(len(d)), np.ones(len(d), int)\n"
     )
     sys.path.insert(0, str(tmp_path))
     try:
@@ -199,7 +200,7 @@ def test_instances_from_files_and_objects(tmp_path):
 def test_bad_study_arguments(tmp_path):
     with pytest.raises(ValueError, match="unknown method"):
         droneplan.gap("cells", methods=["nope"], out=tmp_path)
-    with pytest.raises(ValueError, match="unknown instance family|neither an instance family"):
+    with pytest.raises(ValueError, match=r"unknown instance family|neither an instance family"):
         droneplan.gap("cells", methods=["greedy"], instances="table9.9", out=tmp_path)
     with pytest.raises(ValueError, match="problem must be one of"):
         droneplan.gap("sheep", methods=["greedy"], out=tmp_path)
@@ -223,8 +224,19 @@ def test_cli_open_study_and_its_errors(tmp_path, capsys, monkeypatch):
     )
     monkeypatch.syspath_prepend(str(pkg))
     out = tmp_path / "out"
-    rc = main(["gap", "herding", "--n", "4,5", "--seeds", "2", "--method", "exact", "--method", "cli_user_mod:mine",
-               "--time-limit", "10", "--workers", "1", "--out", str(out)])  # fmt: skip
+    args = [
+        "gap",
+        "herding",
+        "--n",
+        "4,5",
+        "--seeds",
+        "2",
+        "--method",
+        "exact",
+        "--method",
+        "cli_user_mod:mine",
+    ]
+    rc = main([*args, "--time-limit", "10", "--workers", "1", "--out", str(out)])
     assert rc == 0
     text = capsys.readouterr().out
     assert "cli_user_mod:mine" in text and (out / "herding" / "gap_profile_objective.png").exists()
