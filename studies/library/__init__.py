@@ -27,6 +27,7 @@ How each kind is certified:
 from __future__ import annotations
 
 import datetime as _dt
+import fcntl
 import functools
 import gzip
 import json
@@ -149,11 +150,31 @@ def lookup(instance: StudyInstance, directory: str | os.PathLike | None = None) 
 
 
 def save_library(
-    family: str, entries: Mapping[str, LibraryEntry], directory: str | os.PathLike | None = None
+    family: str,
+    entries: Mapping[str, LibraryEntry],
+    directory: str | os.PathLike | None = None,
+    *,
+    merge: bool = False,
 ) -> Path:
-    """Write ``family``'s library atomically (sorted by id, gzip-compressed JSON)."""
+    """Write ``family``'s library atomically (sorted by id, gzip-compressed JSON).
+
+    merge: add ``entries`` to what the file holds now (read under an exclusive lock, so
+    concurrent certify runs on one family never drop each other's entries) instead of
+    replacing the file's content.
+    """
     path = library_path(family, directory)
     path.parent.mkdir(parents=True, exist_ok=True)
+    if not merge:
+        return _write(family, path, entries)
+    with open(path.with_name(f".{path.name}.lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            return _write(family, path, {**_read(path), **entries})
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+def _write(family: str, path: Path, entries: Mapping[str, LibraryEntry]) -> Path:
     fam = FAMILIES[family]
     doc = {
         "format": LIBRARY_FORMAT,

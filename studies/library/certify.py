@@ -84,7 +84,7 @@ def certify(
         ):
             continue  # an improve run that did not improve keeps the older, better entry
         entries[inst.id] = new
-        path = save_library(family, entries, directory)
+        path = save_library(family, {inst.id: new}, directory, merge=True)
     wanted = {inst.id for inst in instances}
     held = [e for k, e in entries.items() if k in wanted]
     return {
