@@ -38,8 +38,25 @@ __all__ = [
     "load_results",
     "run_gap",
     "gap",
+    "summary_table",
+    "performance_profile",
+    "plot_performance_profile",
+    "family_instances",
+    "save_instance",
+    "load_instance",
     "__version__",
 ]
+
+_STUDY_NAMES = (
+    "gap",
+    "summary_table",
+    "performance_profile",
+    "plot_performance_profile",
+    "family_instances",
+    "save_instance",
+    "load_instance",
+)
+"""Study names resolved on first use (importing them loads the study machinery)."""
 
 
 def __getattr__(name: str) -> Any:
@@ -49,8 +66,15 @@ def __getattr__(name: str) -> Any:
         from droneplan.studies.cli import run_gap
 
         return run_gap
-    if name == "gap":
-        from droneplan.studies.study import gap
+    if name in _STUDY_NAMES:
+        from droneplan.studies.analysis import performance_profile, summary_table  # noqa: F401
+        from droneplan.studies.instances import family_instances, load_instance, save_instance  # noqa: F401
+        from droneplan.studies.plots.profiles import plot_performance_profile  # noqa: F401
+        from droneplan.studies.study import gap  # noqa: F401
 
-        return gap
+        return locals()[name]
     raise AttributeError(f"module 'droneplan' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -637,7 +637,10 @@ def resolve_instances(problem: str, instances: Any = None, **size: Any) -> list[
 
 # --------------------------------------------------------------------------- files
 def save_instance(instance: Any, path: str | Path) -> Path:
-    """Write one instance to a JSON file (``.json``, or gzip-compressed ``.json.gz``); returns the path."""
+    """Write one instance to a JSON file (``.json``, or gzip-compressed ``.json.gz``); returns the path.
+
+    instance: a StudyInstance or a data object (:func:`as_instance`). path: the file to write.
+    """
     inst = as_instance(instance)
     path = Path(path)
     text = json.dumps(inst.to_dict(), allow_nan=False)
@@ -649,7 +652,10 @@ def save_instance(instance: Any, path: str | Path) -> Path:
 
 
 def load_instance(path: str | Path) -> StudyInstance:
-    """Read one instance file written by :func:`save_instance`; :class:`InstanceFileError` on a bad file."""
+    """Read one instance file written by :func:`save_instance`; :class:`InstanceFileError` on a bad file.
+
+    path: the ``.json`` or ``.json.gz`` file.
+    """
     path = Path(path)
     try:
         raw = gzip.decompress(path.read_bytes()).decode() if path.name.endswith(".gz") else path.read_text()
