@@ -119,12 +119,9 @@ def _cells_exhaustive(problem, *, seed, time_limit):
 
 def _cells_engine(engine: str) -> Callable[..., Any]:
     def run(problem, *, seed, time_limit):
-        from droneplan.formulations import cells
+        from droneplan.formulations.cells import solve_exact
 
-        solve = getattr(cells, "solve_exact", None)
-        if solve is None:  # before the explicit entry existed, solve_milp took the engine
-            solve = cells.solve_milp
-        return solve(problem, engine=engine, time_limit=time_limit, workers=1)
+        return solve_exact(problem, engine=engine, time_limit=time_limit, workers=1)
 
     run.__name__ = run.__qualname__ = f"cells_{engine}"
     return run

@@ -34,7 +34,16 @@ from droneplan.studies.provenance import config_hash, provenance, provenance_col
 from droneplan.studies.runner import Job, JobOutcome, run_isolated, run_jobs
 from droneplan.studies.store import PROBLEMS, STORE_NAME, Outcome, ResultStore, build_rows
 
-__all__ = ["gap", "summary", "StudyPlan", "plan_study", "DEFAULT_TIME_LIMIT", "GRACE_S", "LIBRARY_METHOD"]
+__all__ = [
+    "gap",
+    "summary",
+    "bench_library_study",
+    "StudyPlan",
+    "plan_study",
+    "DEFAULT_TIME_LIMIT",
+    "GRACE_S",
+    "LIBRARY_METHOD",
+]
 
 DEFAULT_TIME_LIMIT = 300.0
 """Per-method, per-instance wall-time limit (s) when a study is given none."""
@@ -329,6 +338,56 @@ def _report_counts(total: int, ran: int, busy: int, set_aside: int) -> None:
     if set_aside:
         parts.append(f"{set_aside} older rows computed under other settings set aside")
     print("droneplan gap: " + "; ".join(parts), file=sys.stderr, flush=True)
+
+
+def bench_library_study(
+    out: str | os.PathLike,
+    *,
+    method: Any = "greedy",
+    m: int = 3,
+    seeds: int = 100,
+    resolve: int = 3,
+    workers: int = 2,
+) -> dict[str, float]:
+    """Time a study of a cheap method over library instances against re-solving their optima, in one run.
+
+    out: a scratch directory for the study's store. method: the method studied. m, seeds: the
+    Table 4.2 instances (m drone-cells, seeds 0 .. seeds - 1). resolve: how many of them are
+    re-solved by the exact branch and bound to estimate what re-solving all would cost (s).
+    workers: jobs at once.
+    Returns wall and CPU seconds of the study, the estimated wall time of re-solving every
+    instance on ``workers`` cores, their ratio and the 1-minute load average before and after.
+    """
+    import resource
+    import time
+
+    from droneplan.formulations.cells import solve_exact
+    from droneplan.studies.instances import family_instances
+
+    def cpu() -> float:
+        own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+        return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+    load0 = os.getloadavg()[0]
+    c0, t0 = cpu(), time.perf_counter()
+    df = gap("cells", methods=[method], m=m, seeds=seeds, out=out, workers=workers, progress=False)
+    wall, cpu_s = time.perf_counter() - t0, cpu() - c0
+    if (df["method"] == LIBRARY_METHOD).sum() < seeds:
+        raise RuntimeError(f"the library lacks some of the {seeds} instances at m={m}")
+    times = []
+    for inst in family_instances("table4.2", m=m, seeds=resolve):
+        t1 = time.perf_counter()
+        solve_exact(inst.data, engine="bnb", workers=1)
+        times.append(time.perf_counter() - t1)
+    resolve_wall = sum(times) / len(times) * seeds / workers
+    return {
+        "study_wall_s": wall,
+        "study_cpu_s": cpu_s,
+        "resolve_wall_s_estimate": resolve_wall,
+        "ratio": wall / resolve_wall,
+        "load_before": load0,
+        "load_after": os.getloadavg()[0],
+    }
 
 
 def summary(df: pd.DataFrame) -> pd.DataFrame:

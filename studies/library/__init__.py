@@ -216,8 +216,7 @@ def _certify_cells(instance: StudyInstance, time_limit: float | None) -> dict[st
     from droneplan.formulations import cells
 
     problem = instance.data
-    solve = getattr(cells, "solve_exact", None) or cells.solve_milp
-    res = solve(problem, engine="bnb", time_limit=time_limit, workers=1)
+    res = cells.solve_exact(problem, engine="bnb", time_limit=time_limit, workers=1)
     if res.x is None or res.objective is None:
         raise RuntimeError(
             f"{instance.id}: the branch and bound found no plan ({res.status.name}: {res.message})"
