@@ -47,7 +47,8 @@ class Method:
     arguments for the target, recorded in every row. kinds: the instance kinds it runs on (empty:
     decided by its contract, i.e. any kind that fits). trusted_bound: the method is one of
     droneplan's exact engines, whose proven bound is recorded as a bound (a user method's claimed
-    bound is kept only as a claim). builtin: registered by droneplan.
+    bound is kept only as a claim). builtin: registered by droneplan. time_limit: the method's own
+    wall-time limit in seconds, replacing the study's (None: the study's).
     """
 
     name: str
@@ -57,6 +58,7 @@ class Method:
     kinds: tuple[str, ...] = ()
     trusted_bound: bool = False
     builtin: bool = False
+    time_limit: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip() or "\n" in self.name:
@@ -71,6 +73,8 @@ class Method:
             raise TypeError(
                 f"method {self.name!r}: params must be a mapping, got {type(self.params).__name__}"
             )
+        limit = check_time_limit(self.time_limit, f"method {self.name!r} time_limit")
+        object.__setattr__(self, "time_limit", limit)
 
     @property
     def is_class(self) -> bool:

@@ -63,6 +63,7 @@ class _Task:
     method: Method
     config: str
     params: dict[str, Any]
+    time_limit: float | None
 
 
 @dataclass(frozen=True)
@@ -109,18 +110,19 @@ def plan_study(
         fp = inst.fingerprint()
         for m in meths:
             params = _params_json(m)
+            own_limit = limit if m.time_limit is None else m.time_limit
             cfg = config_hash(
                 {
                     "method": m.name,
                     "code": m.fingerprint(),
                     "params": params,
-                    "time_limit": limit,
+                    "time_limit": own_limit,
                     "instance": fp,
                     "family_version": inst.version,
                     "droneplan": code,
                 }
             )
-            tasks.append(_Task(inst, m, cfg, params))
+            tasks.append(_Task(inst, m, cfg, params, own_limit))
     return StudyPlan(problem, kind, insts, meths, limit, tasks)
 
 
@@ -222,13 +224,16 @@ def _verdict(task: _Task, outcome: JobOutcome) -> Scored:
 
 
 @contextlib.contextmanager
-def _dask_outcomes(address: str, jobs: list[Job], grace: float) -> Iterator[Iterator[JobOutcome]]:
-    """Outcomes of ``jobs`` computed on a Dask cluster (each job isolated on its worker)."""
+def _dask_outcomes(
+    address: str | None, jobs: list[Job], grace: float, executor: Any = None
+) -> Iterator[Iterator[JobOutcome]]:
+    """Outcomes of ``jobs`` computed on a Dask cluster (each job isolated in a child on its worker)."""
     import concurrent.futures as cf
 
     from droneplan.studies.common import make_executor
 
-    with make_executor(dask_address=address) as ex:
+    with contextlib.ExitStack() as stack:
+        ex = executor if executor is not None else stack.enter_context(make_executor(dask_address=address))
         futures = [ex.submit(run_isolated, job, grace=grace) for job in jobs]
 
         def gen() -> Iterator[JobOutcome]:
@@ -248,6 +253,8 @@ def gap(
     dask: str | None = None,
     time_limit: float | None = None,
     progress: bool = True,
+    store: ResultStore | None = None,
+    executor: Any = None,
     **size: Any,
 ) -> pd.DataFrame:
     """Run a gap study of ``methods`` on ``instances`` and return its rows (long format).
@@ -268,6 +275,11 @@ def gap(
     time_limit: wall-time limit per method and instance (s; default ``DEFAULT_TIME_LIMIT``); a job
         still running ``GRACE_S`` after it is killed and recorded as ``timeout``.
     progress: show a progress bar.
+    store: an open :class:`~droneplan.studies.store.ResultStore` to write to instead of
+        ``out/results.sqlite`` (the built-in studies share one).
+    executor: a :class:`~droneplan.studies.common.StudyExecutor` whose kind decides where the jobs
+        run (serial: one at a time; processes: as many as its slots; dask: on its cluster), instead
+        of ``workers``/``dask``.
     size: the family's size parameters (``m=4``, ``n=[8, 16]``) and ``seeds``, ``first_seed``.
 
     Returns the current rows of these instances for these methods and the library reference, with
@@ -277,8 +289,16 @@ def gap(
     n_workers = (os.cpu_count() or 1) if workers is None else workers
     if isinstance(n_workers, bool) or not isinstance(n_workers, int) or n_workers < 1:
         raise ValueError(f"workers must be an int >= 1, got {workers!r}")
+    dask_executor = None
+    if executor is not None:
+        if executor.kind == "dask":
+            dask_executor = executor
+        else:
+            n_workers = executor.slots
     out = Path(out)
-    with ResultStore(out / STORE_NAME) as store:
+    with contextlib.ExitStack() as stack:
+        if store is None:
+            store = stack.enter_context(ResultStore(out / STORE_NAME))
         done = store.done_keys(problem)
         lib_rows = [r for r in (_library_row(i) for i in plan.instances) if r is not None]
         set_aside = store.write([r for r in lib_rows if _key(r) not in done]) if lib_rows else 0
@@ -294,22 +314,22 @@ def gap(
             Job(
                 (t.instance.id, t.method.name),
                 execute,
-                (t.instance, t.method, t.instance.seed or 0, plan.time_limit),
-                time_limit=plan.time_limit,
+                (t.instance, t.method, t.instance.seed or 0, t.time_limit),
+                time_limit=t.time_limit,
             )
             for t in claimed
         ]
         desc = f"{problem} gap" if progress else None
         try:
             with (
-                _dask_outcomes(dask, jobs, GRACE_S)
-                if dask
+                _dask_outcomes(dask, jobs, GRACE_S, dask_executor)
+                if dask or dask_executor is not None
                 else contextlib.nullcontext(run_jobs(jobs, workers=n_workers, grace=GRACE_S, progress=desc))
             ) as outcomes:
                 for oc in outcomes:
                     task = by_key[oc.key]  # type: ignore[index]
                     row = _row(
-                        task, _verdict(task, oc), time_s=oc.wall_s, cpu_s=oc.cpu_s, time_limit=plan.time_limit
+                        task, _verdict(task, oc), time_s=oc.wall_s, cpu_s=oc.cpu_s, time_limit=task.time_limit
                     )
                     set_aside += store.write([row])
                     store.release((problem, task.instance.id, task.method.name, task.config))
@@ -319,6 +339,7 @@ def gap(
                     store.release((problem, t.instance.id, t.method.name, t.config))
         _report_counts(len(plan.tasks), len(claimed), busy, set_aside)
         df = store.frame(problem=problem)
+        out.mkdir(parents=True, exist_ok=True)
         for suffix in ("csv", "parquet"):
             store.export(out / f"results.{suffix}")
     wanted_ids = {i.id for i in plan.instances}
