@@ -56,7 +56,8 @@ __all__ = [
     "ga_ablation",
     "milp_seed_distribution",
     "GAP_THESIS",
-    "gap_task",
+    "GAP_METHODS",
+    "GAP_EXHAUSTIVE_LIMIT",
     "gap",
     "bench",
 ]
@@ -918,65 +919,45 @@ def _distribution_rows(t: ComparisonTable, df, m: int, limit: float) -> None:
 GAP_THESIS = {("cells", "ga"): "P_Global = 1.0 at m=3 (Table 4.3)"}
 
 
-def gap_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
-    """One instance in the results schema: GA and exhaustive (Alg. 2) vs the MILP and its
-    bounds; objective = covered users, maximised."""
-    seed, m = int(task["seed"]), int(task["m"])
-    p = thesis_problem(m, seed)
-    milp = solve_exact(p, engine="bnb", backend=MILP_BACKEND, time_limit=float(task.get("milp_limit", 300)))
-    ga = genetic(p, seed=seed)
-    # the same model warm-started from the GA plan: cold vs warm solve time (issue 13.3)
-    warm = solve_exact(
-        p, engine="bnb", backend=MILP_BACKEND, time_limit=float(task.get("milp_limit", 300)), warm_start=ga.x
-    )
-    es = exhaustive(p, time_limit=float(task.get("es_limit", 60)))
-    cont = milp.info.get("continuous_bound")
-    users = {"n_users": int(p.active.sum())}
-    outcomes = [
-        Outcome.of("milp", "model", milp, bound_kind="candidate-set", extras=users),
-        Outcome.of(
-            "milp-warm",
-            "model",
-            warm,
-            bound_kind="candidate-set",
-            extras={**users, "warm_start_reason": warm.info.get("warm_start", {}).get("reason", "")},
-        ),
-        Outcome.of("ga", "heuristic", ga, extras=users),
-        Outcome.of("exhaustive", "heuristic", es, extras={**users, "es_complete": bool(es.info["complete"])}),
-    ]
-    if cont is not None:
-        outcomes.append(
-            Outcome(
-                "continuous-bound",
-                "bound",
-                milp.status.value,
-                bound=float(cont),
-                bound_kind="proven-global",
-                message="upper bound of the continuous problem",
-                extras=users,
-            )
-        )
-    return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
+GAP_METHODS = ("ga", "exhaustive", "bnb")
+"""The registered methods of the built-in cells gap study (exhaustive search stops at
+``GAP_EXHAUSTIVE_LIMIT`` and returns its best plan)."""
+
+GAP_EXHAUSTIVE_LIMIT = 60.0
+"""Wall-time limit of Algorithm 2 in the built-in gap study (s); the thesis needed 1449 s at m=3."""
 
 
-def gap(*, seeds: int, executor, out: Path, store=None, m: int = 3, first_seed: int = 0):
-    """GA and exhaustive vs MILP per instance (thesis scale, ``m`` drone-cells), in the store;
-    method "milp-warm" is the MILP warm-started from the GA plan (compare its ``time_s`` and
-    ``warm_started`` with the cold "milp" row).
+def gap(*, seeds: int, executor=None, out: Path, store=None, m: int = 3, first_seed: int = 0):
+    """GA and exhaustive search (Alg. 2) vs the exact branch and bound and the certified library on
+    Table 4.2 instances with ``m`` drone-cells (an open study of registered methods, ``droneplan.gap``).
 
-    seeds: number of instances; executor: from ``make_executor``; out: directory for the
-    summary and figure; store: the results store (default ``out/results.sqlite``).
-    Returns the rows of these instances.
+    seeds: number of instances; executor: where the jobs run (from ``make_executor``; default: one
+    per core); out: directory for the summary and figure; store: the results store (default
+    ``out/results.sqlite``). Returns the rows of these instances.
     first_seed: seed of the first instance (instances first_seed .. first_seed + seeds - 1).
     m: number of drone-cells.
     """
+    import dataclasses
+
+    from droneplan.studies.methods import BUILTIN
+    from droneplan.studies.study import gap as open_gap
+
     out = Path(out)
-    tasks = [
-        {"problem": "cells", "instance": instance_id("gap", m=m, seed=s), "seed": s, "m": m, "size": m}
-        for s in range(first_seed, first_seed + seeds)
+    methods = [
+        dataclasses.replace(BUILTIN[name], time_limit=GAP_EXHAUSTIVE_LIMIT) if name == "exhaustive" else name
+        for name in GAP_METHODS
     ]
-    with open_store(store, out) as st:
-        df = map_rows(gap_task, tasks, executor=executor, store=st, desc="cells gap")
+    df = open_gap(
+        "cells",
+        methods=methods,
+        instances="table4.2",
+        m=m,
+        seeds=seeds,
+        first_seed=first_seed,
+        out=out,
+        store=store,
+        executor=executor,
+    )
     report_study(df, out, "cells", thesis=GAP_THESIS, title=f"cells: covered users, m={m}")
     return df
 
