@@ -103,6 +103,27 @@ def _hull():
 
 
 P = _cells_problem
+
+_DATA: dict[str, str] = {}
+
+
+def _data_file(name: str) -> str:
+    """A small data file of the users' formats (written once per session) for the loaders."""
+    if not _DATA:
+        import tempfile
+        from pathlib import Path
+
+        d = Path(tempfile.mkdtemp(prefix="droneplan-fuzz-"))
+        (d / "points.csv").write_text("x,y\n1500,0\n1600,100\n-1700,50\n")
+        (d / "track.csv").write_text("t,x,y\n0,0,0\n1,1,0\n2,2,0.5\n3,3,1\n")
+        (d / "points.geojson").write_text(
+            '{"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {}, '
+            '"geometry": {"type": "MultiPoint", "coordinates": [[10.0, 47.0], [10.01, 47.01]]}}]}'
+        )
+        _DATA.update({p.name: str(p) for p in d.iterdir()})
+    return _DATA[name]
+
+
 SPECS: dict[str, Spec] = {
     # ---- cells
     "CellParams": Spec(
@@ -146,6 +167,26 @@ SPECS: dict[str, Spec] = {
     ),
     "candidate_sites": Spec(lambda: ((P(),), {}), {"problem": "object"}),
     "build_milp": Spec(lambda: ((P(),), {}), {"problem": "object"}),
+    "load_cells_csv": Spec(
+        lambda: ((_data_file("points.csv"),), {"n_cells": 2}), {"n_cells": "int>=1", "params": "object?"}
+    ),
+    "load_cells_geojson": Spec(
+        lambda: ((_data_file("points.geojson"),), {"n_cells": 2}), {"n_cells": "int>=1", "origin": "vec2"}
+    ),
+    # a file name that is no file is reported with the file's name; the loaders' tests check those
+    "load_herd_csv": Spec(lambda: ((_data_file("points.csv"),), {}), {}),
+    "herding_scenario_from_csv": Spec(
+        lambda: ((_data_file("points.csv"),), {"n_drones": 2}), {"n_drones": "int>=1"}
+    ),
+    "load_shark_track_csv": Spec(
+        lambda: ((_data_file("track.csv"),), {}), {"dt": "positive", "depth": "finite"}
+    ),
+    "solve_exact": Spec(
+        lambda: ((P(),), {"time_limit": 5.0}), {"problem": "object", "time_limit": "time_limit"}
+    ),
+    "branch_and_bound": Spec(
+        lambda: ((P(),), {"time_limit": 5.0}), {"problem": "object", "time_limit": "time_limit"}
+    ),
     "solve_milp": Spec(
         lambda: ((P(),), {"time_limit": 5.0}), {"problem": "object", "time_limit": "time_limit"}
     ),
@@ -439,6 +480,7 @@ PLOTTING = {
 
 RESULT_TYPES = {
     # returned to the user, not called with user data (their fields are produced by the library)
+    "ProjectedCells",
     "Instance",
     "Evaluation",
     "Candidates",
