@@ -379,6 +379,14 @@ class CellProblem:
         """Users not served by a GBS (n', 2): the ones the objective counts."""
         return self.users[self.active]
 
+    def __reduce__(self) -> tuple:
+        # pickled through the constructor (slots and the immutable __setattr__ defeat the default),
+        # so instances travel to worker processes and Dask workers
+        return (
+            CellProblem,
+            (self.users, self.gbs, self.n_cells, self.R_d, self.R_g, self.r1, self.r2, self.bounds),
+        )
+
     def with_cells(self, n_cells: int) -> CellProblem:
         """The same instance with another number of drone-cells."""
         return CellProblem(self.users, self.gbs, n_cells, self.R_d, self.R_g, self.r1, self.r2, self.bounds)

@@ -78,3 +78,17 @@ def test_params_validation():
         CellParams(R_c=0)
     with pytest.raises(ValueError, match="n_clusters"):
         CellParams(n_clusters=-1)
+
+
+def test_cell_problem_pickles_through_its_constructor():
+    import pickle
+
+    from droneplan.scenarios.cells import CellProblem
+
+    p = CellProblem(
+        [[1500.0, 0.0], [10.0, 0.0]], [[0.0, 0.0]], 2, 500.0, 1000.0, 3500.0, 3000.0, bounds=(-1, 1, -1, 1)
+    )
+    q = pickle.loads(pickle.dumps(p))
+    assert repr(q) == repr(p)
+    np.testing.assert_array_equal(q.users, p.users)
+    np.testing.assert_array_equal(q.active, p.active)
