@@ -173,6 +173,17 @@ def _controller(module: str, name: str) -> Callable[..., Any]:
     return make
 
 
+_CONTROLLERS = (
+    # registered name, planners module, controller class, role, instance kind
+    ("virtual-shark", "shark", "VirtualSharkInterceptor", "heuristic", "shark-path"),
+    ("classical-pursuit", "shark", "ClassicalPursuit", "heuristic", "shark-path"),
+    ("ocp", "shark", "OCPInterceptor", "model", "shark-path"),
+    ("sliding", "covert", "SlidingModeObserver", "heuristic", "covert-run"),
+    ("hover", "covert", "HoverBenchmark", "heuristic", "covert-run"),
+    ("mpc", "covert", "MPCObserver", "model", "covert-run"),
+    ("proposed", "herding", "ProposedHerder", "heuristic", "herding-run"),
+    ("benchmark", "herding", "BenchmarkHerder", "heuristic", "herding-run"),
+)
 _CELLS = ("cells",)
 _ALLOC = ("allocation",)
 
@@ -189,55 +200,9 @@ BUILTIN: dict[str, Method] = {
         Method("cp-sat", _alloc_cpsat, "model", kinds=_ALLOC, trusted_bound=True, builtin=True),
         Method("alg3", _alloc_alg3, kinds=_ALLOC, builtin=True),
         Method("collision-blind", _alloc_blind, kinds=_ALLOC, builtin=True),
-        Method(
-            "virtual-shark",
-            _controller("droneplan.planners.shark", "VirtualSharkInterceptor"),
-            kinds=("shark-path",),
-            builtin=True,
-        ),
-        Method(
-            "classical-pursuit",
-            _controller("droneplan.planners.shark", "ClassicalPursuit"),
-            kinds=("shark-path",),
-            builtin=True,
-        ),
-        Method(
-            "ocp",
-            _controller("droneplan.planners.shark", "OCPInterceptor"),
-            "model",
-            kinds=("shark-path",),
-            builtin=True,
-        ),
-        Method(
-            "sliding",
-            _controller("droneplan.planners.covert", "SlidingModeObserver"),
-            kinds=("covert-run",),
-            builtin=True,
-        ),
-        Method(
-            "hover",
-            _controller("droneplan.planners.covert", "HoverBenchmark"),
-            kinds=("covert-run",),
-            builtin=True,
-        ),
-        Method(
-            "mpc",
-            _controller("droneplan.planners.covert", "MPCObserver"),
-            "model",
-            kinds=("covert-run",),
-            builtin=True,
-        ),
-        Method(
-            "proposed",
-            _controller("droneplan.planners.herding", "ProposedHerder"),
-            kinds=("herding-run",),
-            builtin=True,
-        ),
-        Method(
-            "benchmark",
-            _controller("droneplan.planners.herding", "BenchmarkHerder"),
-            kinds=("herding-run",),
-            builtin=True,
+        *(
+            Method(name, _controller(f"droneplan.planners.{layer}", cls), role, kinds=(kind,), builtin=True)
+            for name, layer, cls, role, kind in _CONTROLLERS
         ),
     )
 }
