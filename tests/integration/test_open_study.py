@@ -252,3 +252,27 @@ def test_cli_open_study_and_its_errors(tmp_path, capsys, monkeypatch):
     assert "not a readable instance file" in capsys.readouterr().err
     assert main(["list"]) == 0
     assert "table4.2@1" in capsys.readouterr().out
+
+
+def test_cli_certify_writes_and_resumes_a_library(tmp_path, capsys):
+    args = [
+        "certify",
+        "allocation",
+        "--n",
+        "3,4",
+        "--seeds",
+        "2",
+        "--workers",
+        "1",
+        "--library-dir",
+        str(tmp_path),
+    ]
+    assert main(args) == 0
+    assert "4 certified now, 4 entries (4 proven optimal)" in capsys.readouterr().out
+    assert load_library("allocation", tmp_path).keys() == {
+        f"allocation@1:n={n},seed={s}" for n in (3, 4) for s in (0, 1)
+    }
+    assert main(args) == 0
+    assert "0 certified now, 4 entries" in capsys.readouterr().out
+    assert main(["certify", "table6.2", "--library-dir", str(tmp_path)]) == 2
+    assert "no certified library" in capsys.readouterr().err
