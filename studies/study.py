@@ -220,7 +220,8 @@ def _verdict(task: _Task, outcome: JobOutcome) -> Scored:
         return Scored("timeout", message=outcome.error)
     if outcome.status == "crashed":
         return Scored("error", message=f"the method's process {outcome.error}")
-    return Scored("error", message=outcome.error)
+    # the method's own traceback (its last frames) helps its author; the row keeps the one-line cause
+    return Scored("error", message=outcome.error, extras={"traceback": outcome.traceback[-2000:]})
 
 
 @contextlib.contextmanager

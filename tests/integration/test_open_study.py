@@ -63,6 +63,7 @@ def test_user_allocation_methods_are_scored_independently(tmp_path):
     assert status["wrong-type"] == {"invalid"}
     assert status["identity"] <= {"feasible", "infeasible"}
     assert (df.loc[df["method"] == "raises", "message"].str.contains("divided by zero")).all()
+    assert df.loc[df["method"] == "raises", "herding_traceback"].str.contains("in raises").all()
     # the library reference is there for every instance, and "good" meets it
     lib = df[df["method"] == "library"].set_index("instance")["objective"]
     good = df[df["method"] == "good"].set_index("instance")["objective"]
