@@ -288,6 +288,10 @@ def barking_mask(
     return inside
 
 
+_GRAZE_NEIGHBOURS = 4
+"""Neighbours a grazing animal's first, bounded search looks for (module docstring of animal_step)."""
+
+
 def animal_step(
     animals: np.ndarray,
     heading: np.ndarray,
@@ -306,12 +310,29 @@ def animal_step(
     barking: (n_d,) bool mask of drones that bark (default all);
     centroid: the herd centroid if already known (default: computed).
     Returns (new positions, new headings, affected mask (n,)).
+
+    Only the animals that need it get each part of the work: the barking cones are tested
+    for the animals within R_b of a drone (found in the neighbour tree); the attraction to
+    the neighbours' centre of mass is computed for the barked-at animals only (a grazing
+    animal does not use it); a grazing animal's repulsion first searches its neighbours
+    closer than r_a with a small bounded query and falls back to the full n_neighbours
+    search when that query comes back full. The step is the same as evaluating the model
+    for every moving animal, to the last bit.
     """
     dt = params.delta if dt is None else dt
     rng = as_generator(seed)
     n = animals.shape[0]
     centroid = animals.mean(axis=0) if centroid is None else centroid
-    cone = barking_mask(animals, drones, centroid, params.R_b, params.beta, barking)
+    tree = cKDTree(animals, balanced_tree=False, compact_nodes=False) if n > 1 else None
+    if tree is None:
+        cone = barking_mask(animals, drones, centroid, params.R_b, params.beta, barking)
+    else:
+        # the cones reach R_b: test only the animals of the drones' R_b balls (a superset)
+        balls = tree.query_ball_point(drones, params.R_b * (1 + 1e-9) + 1e-9)
+        near = np.unique(np.concatenate([np.asarray(b, dtype=np.intp) for b in balls]))
+        cone = np.zeros((n, drones.shape[0]), dtype=bool)
+        if near.size:
+            cone[near] = barking_mask(animals[near], drones, centroid, params.R_b, params.beta, barking)
     affected = np.asarray(cone.any(axis=1), dtype=bool)
     grazing = (~affected) & (rng.random(n) < params.graze_prob)
     movers = np.flatnonzero(affected | grazing)
@@ -320,44 +341,76 @@ def animal_step(
     if movers.size == 0:
         return new_pos, new_head, affected
     pos = animals[movers]
-    eps = _unit(rng.normal(size=(movers.size, 2)))
-    if n > 1:
-        k = min(params.n_neighbours, n - 1) + 1
-        dist, idx = cKDTree(animals, balanced_tree=False, compact_nodes=False).query(pos, k=k)
-        dist, idx = dist[:, 1:], idx[:, 1:]  # drop self (distance 0 ranks first)
-        # neighbour-major layout (k-1, m, 2): the sums over neighbours below add whole (m, 2)
-        # slices in neighbour order, the order (and so the rounding) of a sequential sum
-        nb = animals[idx.T]
-        w = np.where(dist < params.r_a, 1.0 / np.maximum(dist, 1e-12), 0.0).T  # unit vectors of close ones
-        push = w[:, :, None] * (pos - nb)
-        R_a_sum = np.zeros_like(pos)
-        for j in range(k - 1):
-            R_a_sum += push[j]
-        nb_sum = nb[0].copy()
-        for j in range(1, k - 1):
-            nb_sum += nb[j]
-        R_a = _unit(R_a_sum)
-        C = _unit(nb_sum / (k - 1) - pos)
-    else:
-        R_a = C = np.zeros((movers.size, 2))
+    m = movers.size
+    eps = _unit(rng.normal(size=(m, 2)))
     aff = affected[movers]
-    # repulsion from the barking drones whose cone holds the animal
-    rel = pos[:, None, :] - drones[None, :, :]
-    wd = cone[movers] / np.maximum(np.sqrt(np.sum(rel * rel, axis=2)), 1e-12)
-    R_d = _unit(np.einsum("md,mdc->mc", wd, rel))
-    herd = (
-        params.eta_d * R_d
-        + params.eta_L * C
-        + params.eta_r * R_a
-        + params.eta_i * heading[movers]
-        + params.eta_e * eps
-    )
-    graze = params.eta_r * R_a + params.eta_e * eps
-    direction = _unit(np.where(aff[:, None], herd, graze))
+    R_a = np.zeros((m, 2))
+    C = np.zeros((m, 2))
+    if tree is not None:
+        K = min(params.n_neighbours, n - 1)
+        full = aff.copy()  # rows that need the n_neighbours search
+        gz = np.flatnonzero(~aff)
+        if gz.size:
+            # a grazing animal only feels the neighbours closer than r_a (among its K nearest):
+            # look for a few within r_a; a full answer means there may be more
+            kk = min(_GRAZE_NEIGHBOURS, K)
+            dist, idx = tree.query(pos[gz], k=kk + 1, distance_upper_bound=params.r_a * (1 + 1e-9))
+            crowded = np.isfinite(dist[:, -1])
+            full[gz[crowded]] = True
+            rows = gz[~crowded]
+            if rows.size:
+                R_a[rows] = _repulsion(animals, pos[rows], dist[~crowded, 1:], idx[~crowded, 1:], params.r_a)
+        rows = np.flatnonzero(full)
+        if rows.size:
+            dist, idx = tree.query(pos[rows], k=K + 1)
+            dist, idx = dist[:, 1:], idx[:, 1:]  # drop self (distance 0 ranks first)
+            R_a[rows] = _repulsion(animals, pos[rows], dist, idx, params.r_a)
+            nb = animals[idx.T]
+            nb_sum = nb[0].copy()
+            for j in range(1, K):
+                nb_sum += nb[j]
+            C[rows] = _unit(nb_sum / K - pos[rows])
+    direction = np.empty((m, 2))
+    a_rows = np.flatnonzero(aff)
+    if a_rows.size:
+        # repulsion from the barking drones whose cone holds the animal
+        pa = pos[a_rows]
+        rel = pa[:, None, :] - drones[None, :, :]
+        wd = cone[movers[a_rows]] / np.maximum(np.sqrt(np.sum(rel * rel, axis=2)), 1e-12)
+        R_d = _unit(np.einsum("md,mdc->mc", wd, rel))
+        herd = (
+            params.eta_d * R_d
+            + params.eta_L * C[a_rows]
+            + params.eta_r * R_a[a_rows]
+            + params.eta_i * heading[movers[a_rows]]
+            + params.eta_e * eps[a_rows]
+        )
+        direction[a_rows] = _unit(herd)
+    g_rows = np.flatnonzero(~aff)
+    if g_rows.size:
+        direction[g_rows] = _unit(params.eta_r * R_a[g_rows] + params.eta_e * eps[g_rows])
     speed = np.where(aff, params.V_animal, params.graze_speed)
     new_pos[movers] = pos + (speed * dt)[:, None] * direction
     new_head[movers] = direction
     return new_pos, new_head, affected
+
+
+def _repulsion(
+    animals: np.ndarray, pos: np.ndarray, dist: np.ndarray, idx: np.ndarray, r_a: float
+) -> np.ndarray:
+    """R_a: the unit sum of the unit vectors away from the neighbours closer than r_a.
+
+    dist, idx: (m, k) neighbours in increasing distance (missing ones: inf, n). The sum runs
+    over the neighbours in that order, one (m, 2) slice at a time (a sequential sum's rounding;
+    far or missing neighbours add zeros, which change nothing).
+    """
+    nb = animals[np.minimum(idx, animals.shape[0] - 1).T]  # neighbour-major (k, m, 2)
+    w = np.where(dist < r_a, 1.0 / np.maximum(dist, 1e-12), 0.0).T
+    push = w[:, :, None] * (pos - nb)
+    R_a_sum = np.zeros_like(pos)
+    for j in range(push.shape[0]):
+        R_a_sum += push[j]
+    return _unit(R_a_sum)
 
 
 def drone_step(
