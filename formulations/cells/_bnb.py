@@ -231,6 +231,7 @@ def search(
     free_bounds: list[float] | None = None,
     workers: int = 1,
     node_limit: int | None = None,
+    main: bool = True,
 ) -> BnbResult:
     """Exact search of the candidate problem (module docstring).
 
@@ -246,7 +247,9 @@ def search(
     m >= 3, there are at least ``_SPLIT_MIN_SITES`` candidates and processes can be
     forked (else the search runs in this process alone); node_limit: stop like at the time
     limit after about this many search nodes (checked every ``_CHECK_EVERY``; a
-    deterministic budget).
+    deterministic budget); main: False runs the primal heuristics only (no elimination, no
+    main search; the result is not proven and its bound is ``upper``), to hand another
+    engine a start.
     """
     t0 = time.perf_counter()
     m = problem.n_cells
@@ -862,6 +865,9 @@ def search(
     root_mask = np.ones(n, dtype=bool)
     proven = True
     elimination_time = 0.0
+    if not main:
+        found = pts[state.best] if state.best is not None else best_pos
+        return BnbResult(found, int(state.best_val), float(upper), False, int(state.nodes))
     try:
         if eliminate and m >= 3:
             t_el = time.perf_counter()

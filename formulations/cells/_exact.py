@@ -85,6 +85,30 @@ def _early_exit(prep: Prepared, backend: str, engine: str) -> SolveResult | None
     return None
 
 
+def _polish(prep: Prepared) -> None:
+    """Improve the incumbent with the primal heuristics of ``_bnb`` (1-swap local search and
+    the exchange search; no elimination, no main search), at most a quarter of the time left.
+
+    Exactness does not depend on it: a placement only becomes the incumbent after
+    ``evaluate`` confirms it, and the model then proves or improves on its value alone.
+    The model's pruning and objective cut get stronger with a better incumbent: Table 4.2
+    m = 4 seed 3, CP-SAT, 120 s: from greedy (55) not proven (bound 66); from 64 proven."""
+    left = prep.left()
+    budget = _POLISH_MAX_S if left is None else min(_POLISH_MAX_S, 0.25 * left)
+    start = int(prep.inc_val)
+    bb = search(
+        prep.problem, prep.cand, prep.inc, start, upper=prep.ub, time_limit=budget, workers=1, main=False
+    )
+    ev = evaluate(prep.problem, bb.positions)
+    if ev.feasible and ev.covered > prep.inc_val:
+        prep.inc, prep.inc_val = bb.positions, int(ev.covered)
+    prep.info["incumbent"] = {"start": start, "polished": int(prep.inc_val)}
+
+
+_POLISH_MAX_S = 30.0
+"""Seconds at most for ``_polish``."""
+
+
 def _solve_bnb(prep: Prepared, workers: int) -> SolveResult:
     """The combinatorial branch and bound (``_bnb.search``) from the prepared incumbent."""
     problem = prep.problem
@@ -130,7 +154,7 @@ def solve_exact(
     time_limit: float | None = None,
     warm_start=None,
     workers: int = 2,
-    connectivity: str = "lazy",
+    connectivity: str = "hops",
     max_rounds: int = 200,
     user_cliques: bool = True,
 ) -> SolveResult:
@@ -153,7 +177,9 @@ def solve_exact(
         whether it was used and why not (``used``, ``value``, ``greedy_value``, ``reason``).
     workers: for engine "milp", CP-SAT workers / MIP threads; for "bnb", processes that
         share the search on thesis-scale instances (forked; 1: this process alone).
-    connectivity: "lazy" (default) or "hops", the model's exact backhaul formulation.
+    connectivity: "hops" (default) or "lazy", the model's exact backhaul formulation (hop
+        levels measured faster: Table 4.2 m = 4 seed 3, CP-SAT, 1 worker, from the optimum
+        as incumbent: proven in 78 s, lazy cuts still at bound 66 after 120 s).
     max_rounds: at most this many model solves (engine "milp"; then FEASIBLE with the
         bound found so far).
     user_cliques: add the per-user at-most-one rows to the model (engine "milp").
@@ -175,6 +201,10 @@ def solve_exact(
         return done
     if engine == "bnb":
         return _solve_bnb(prep, workers)
+    _polish(prep)
+    done = _early_exit(prep, backend, engine)
+    if done is not None:
+        return done
     return solve_model(
         prep,
         backend=backend,
@@ -206,7 +236,7 @@ def solve_milp(
     time_limit: float | None = None,
     warm_start=None,
     workers: int = 2,
-    connectivity: str = "lazy",
+    connectivity: str = "hops",
     max_rounds: int = 200,
     user_cliques: bool = True,
     engine: str = "milp",
@@ -218,7 +248,7 @@ def solve_milp(
     time_limit: wall-clock limit (s) for the whole call, None: none.
     warm_start: drone-cell positions ((k, 2) m) handed in as a start (``solve_exact``).
     workers: CP-SAT workers / MIP threads.
-    connectivity: "lazy" (default) or "hops", the exact backhaul formulation.
+    connectivity: "hops" (default) or "lazy", the exact backhaul formulation.
     max_rounds: at most this many model solves.
     user_cliques: add the per-user at-most-one rows.
     engine: "milp" (default). "bnb" is still accepted for callers written when it was the

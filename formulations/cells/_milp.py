@@ -34,7 +34,7 @@ and ~3*10^6 pairs within r2, far too many to write out):
    at a (law of cosines), so at most 5 of them can be used together.
 3. **Connectivity**, two exact formulations (``connectivity=``):
 
-   a. **Lazy cuts** (default, measured faster on thesis-scale seeds). A non-direct site c
+   a. **Lazy cuts.** A non-direct site c
    (not within r1 of a GBS) needs a chosen, non-overlapping neighbour within r2:
    ``x_c <= sum_{d in N(c)} x_d``. That alone admits chosen groups that only link to each
    other; for such a group C found in a solution we add, for W = the non-direct sites
@@ -44,7 +44,9 @@ and ~3*10^6 pairs within r2, far too many to write out):
    placement, every model in the loop is a relaxation of the candidate problem (so its
    bound is valid at any time), and the loop stops only at a connected optimum.
 
-   b. **Hop levels** (no lazy rounds). A site within r1 of a GBS
+   b. **Hop levels** (default: no lazy rounds, and its LP charges the relays a far site
+   needs; Table 4.2 m = 4 seed 3, CP-SAT, 1 worker, from the optimum as incumbent:
+   proven in 78 s, while the lazy cuts stayed at bound 66 after 120 s). A site within r1 of a GBS
    is *direct* (level 1). A non-direct site c used at level l (2 <= l <= m) needs a
    used site at level l - 1 within r2 of it: ``z_{c,l} <= sum_{d in N(c)} z_{d,l-1}``
    (the level-1 variables are the direct sites' x), and ``x_c = sum_l z_{c,l}``.
@@ -62,6 +64,18 @@ and ~3*10^6 pairs within r2, far too many to write out):
    u; unless two of them are >= 2 R_d - TOL apart (u in a lens, both may be chosen), they
    overlap pairwise and ``sum_{c covers u} x_c <= 1`` is a clique row. Measured on seed 3,
    m=4: bound 66 instead of 69 after 120 s; not enough to prove.
+
+6. **Coverage without user variables (exact).** A user of item 5 is covered exactly when
+   ``sum_{c covers u} x_c = 1``, so it has no variable: its sites gain weight 1 in the
+   objective. Lens users with the same covering sites share one weighted variable
+   (``_coverage_objective``). On Table 4.2 m = 4 this leaves 0-1 user variables instead of
+   200-360.
+7. **Incumbent.** ``solve_exact`` polishes the greedy start with the branch and bound's
+   primal heuristics before the model is built (a start only: every value is checked with
+   ``evaluate``, and the model alone proves the bound). Items 1 and 4 prune with it.
+
+Measured (Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s each, items 3b, 6, 7): 8 of
+10 proven (0.3-80 s), seeds 4 and 5 open (51 / 59, 61 / 73).
 
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
@@ -196,6 +210,47 @@ def _user_clique_sites(
     return out
 
 
+def _coverage_objective(
+    lin, x: list, pts: np.ndarray, cover: list, problem: CellProblem, user_cliques: bool
+) -> tuple[dict, Any, int, int]:
+    """The covered-user count as a linear expression over the site variables ``x``.
+
+    Returns (y, objective, clique rows, users written without a variable):
+
+    - **Substitution (exact).** A user u whose covering sites C_u pairwise overlap (item 5)
+      is covered by at most one chosen site, so it is covered exactly when
+      ``sum_{c in C_u} x_c = 1``: it needs no variable, and each of its sites gains weight 1
+      in the objective (with the at-most-one row over C_u, which also tightens the LP).
+    - **Aggregation (exact).** The other users (in a lens, or all of them without
+      ``user_cliques``) with the same covering sites are covered together: one variable
+      y_g <= sum_{c in C_g} x_c counts all of them, with their number as its weight.
+
+    ``y`` maps a representative user of each aggregated group to its variable."""
+    by_user: dict[int, list[int]] = {}
+    for i, c in enumerate(cover):
+        for u in c.tolist():
+            by_user.setdefault(int(u), []).append(i)
+    cliques = (
+        _user_clique_sites(pts, cover, problem.targets, problem.R_d) if user_cliques and len(pts) else {}
+    )
+    site_w = np.zeros(len(pts), dtype=np.int64)
+    for sites in cliques.values():
+        site_w[sites] += 1
+        lin.add_at_most_one([x[i] for i in sites])
+    groups: dict[tuple[int, ...], list[int]] = {}
+    for u, sites in by_user.items():
+        if u not in cliques:
+            groups.setdefault(tuple(sites), []).append(u)
+    y: dict[int, Any] = {}
+    terms = [int(site_w[i]) * x[i] for i in np.flatnonzero(site_w).tolist()]
+    for sites, users in groups.items():
+        v = lin.unit_var(f"y{users[0]}")
+        y[users[0]] = v
+        lin.add_implies_any(v, [x[i] for i in sites])  # (4.9): counted only if a chosen site covers it
+        terms.append(len(users) * v)
+    return y, lin.sum(terms), len(cliques), len(cliques)
+
+
 def reduce_candidates(
     problem: CellProblem,
     cand: Candidates,
@@ -229,7 +284,7 @@ def build_milp(
     objective_range: tuple[float, float] | None = None,
     deadline: float | None = None,
     pair_limit: int = 50_000,
-    connectivity: str = "lazy",
+    connectivity: str = "hops",
     cuts: list | None = None,
     user_cliques: bool = True,
 ) -> CellModel | None:
@@ -243,9 +298,9 @@ def build_milp(
         there are at most this many, else as one aggregated row per site (item 2).
     deadline: a ``time.perf_counter()`` value; building stops and returns None once it
         has passed (None: no limit).
-    connectivity: "lazy" (item 3a: one neighbour row per non-direct site plus ``cuts``; a
-        relaxation until the cut loop of :func:`solve_milp` finds a connected optimum) or
-        "hops" (item 3b: the exact hop-level model).
+    connectivity: "hops" (default; item 3b: the exact hop-level model) or "lazy" (item 3a:
+        one neighbour row per non-direct site plus ``cuts``; a relaxation until the cut loop
+        of :func:`solve_milp` finds a connected optimum).
     cuts: for "lazy", cuts found so far: ("clique", idx) or ("conn", W_idx, boundary_idx),
         indices into the full candidate set (restricted to ``keep``: dropped sites are 0, so a
         restricted cut stays valid).
@@ -265,18 +320,7 @@ def build_milp(
     cover = [cand.cover[i] for i in idx]
     direct = cand.direct[idx]
     x = [lin.bool_var(f"x{i}") for i in range(len(pts))]
-    by_user: dict[int, list] = {}
-    for i, c in enumerate(cover):
-        for u in c:
-            by_user.setdefault(int(u), []).append(x[i])
-    y = {u: lin.unit_var(f"y{u}") for u in sorted(by_user)}
-    for u, xs in by_user.items():
-        lin.add_implies_any(y[u], xs)  # (4.9): a user counts only if a chosen site covers it
-    n_user_cliques = 0
-    if user_cliques and len(pts):
-        for sites in _user_clique_sites(pts, cover, problem.targets, problem.R_d).values():
-            lin.add_at_most_one([x[i] for i in sites])
-            n_user_cliques += 1
+    y, objective, n_user_cliques, n_subst = _coverage_objective(lin, x, pts, cover, problem, user_cliques)
     if x:
         lin.add(lin.sum(x) <= problem.n_cells)
     # (4.8) non-overlap: grid cliques, then every remaining conflicting pair
@@ -364,16 +408,17 @@ def build_milp(
                 n_level_terms += len(src)
             if late():
                 return None
-    if y:
+    if x:
         if objective_range is not None:
             obj_lo, obj_hi = objective_range
-            lin.add(lin.sum(y.values()) >= math.ceil(obj_lo - 1e-9))
-            lin.add(lin.sum(y.values()) <= math.floor(obj_hi + 1e-9))
-        lin.maximize(lin.sum(y.values()))
+            lin.add(objective >= math.ceil(obj_lo - 1e-9))
+            lin.add(objective <= math.floor(obj_hi + 1e-9))
+        lin.maximize(objective)
     stats = {
         "candidates": len(cand.points),
         "kept": len(pts),
         "users": len(y),
+        "substituted_users": n_subst,
         "grid_cliques": len(cliques),
         "extra_pairs": len(extra),
         "pairs_as_rows": len(extra) > pair_limit,
@@ -484,7 +529,7 @@ def solve_model(
     *,
     backend: str,
     workers: int,
-    connectivity: str = "lazy",
+    connectivity: str = "hops",
     max_rounds: int = 200,
     user_cliques: bool = True,
 ) -> SolveResult:
