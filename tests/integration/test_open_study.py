@@ -15,6 +15,7 @@ from droneplan.formulations.herding import solve_allocation
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.cli import main
 from droneplan.studies.library import load_library
+from droneplan.studies.methods import Method
 
 
 # --------------------------------------------------------------------------- user methods
@@ -277,3 +278,34 @@ def test_cli_certify_writes_and_resumes_a_library(tmp_path, capsys):
     assert "0 certified now, 4 entries" in capsys.readouterr().out
     assert main(["certify", "table6.2", "--library-dir", str(tmp_path)]) == 2
     assert "no certified library" in capsys.readouterr().err
+
+
+def _slow_identity(drone_s, steer_s, perimeter, *, seed, time_limit, log=""):
+    with open(log, "a") as fh:  # one line per call: the test counts the work done
+        fh.write(f"{seed} {len(drone_s)}\n")
+    time.sleep(0.3)
+    return identity_alloc(drone_s, steer_s, perimeter, seed=seed, time_limit=time_limit)
+
+
+def test_two_runs_on_one_out_share_the_work(tmp_path):
+    import multiprocessing as mp
+
+    log = tmp_path / "calls.txt"
+    method = Method("slow", _slow_identity, params={"log": str(log)})
+
+    def run() -> None:
+        droneplan.gap(
+            "herding", methods=[method], n=[3, 4], seeds=4, out=tmp_path / "o", workers=1, progress=False
+        )
+
+    ctx = mp.get_context("fork")
+    procs = [ctx.Process(target=run) for _ in range(2)]
+    for p in procs:
+        p.start()
+    for p in procs:
+        p.join(120)
+        assert p.exitcode == 0
+    calls = log.read_text().splitlines()
+    assert len(calls) == 8 and len(set(calls)) == 8  # every job once, none twice
+    df = droneplan.load_results(tmp_path / "o")
+    assert (df["method"] == "slow").sum() == 8 and not df.duplicated(["instance", "method"]).any()
