@@ -263,6 +263,26 @@ def thesis_scenario(
 
 
 # --------------------------------------------------------------------------- dynamics
+def _centroid(points: np.ndarray) -> np.ndarray:
+    """``points.mean(axis=0)`` of (n, 2) points to the last bit, about twice as fast.
+
+    numpy sums the rows of an (n, 2) array one after another (a sequential sum per column,
+    one short inner loop per row); the running sum gives the same additions in the same order.
+    """
+    return np.add.accumulate(points, axis=0)[-1] / points.shape[0]
+
+
+def _sq_dist(points: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Squared distances (n,) of (n, 2) points to ``centre`` (2,) or to (n, 2) points, m^2.
+
+    The same value as ``np.sum((points - centre) ** 2, axis=1)`` (dx*dx + dy*dy), without the
+    slow reduction over the short last axis.
+    """
+    d = points - centre
+    dx, dy = d[:, 0], d[:, 1]
+    return dx * dx + dy * dy
+
+
 def _unit(v: np.ndarray) -> np.ndarray:
     n = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
     return v / np.maximum(n, 1e-12)
@@ -319,27 +339,47 @@ def animal_step(
     search when that query comes back full. The step is the same as evaluating the model
     for every moving animal, to the last bit.
     """
+    new_pos, new_head, affected, _ = _animal_step(
+        animals, heading, drones, params, seed, dt, barking, centroid
+    )
+    return new_pos, new_head, affected
+
+
+def _animal_step(
+    animals: np.ndarray,
+    heading: np.ndarray,
+    drones: np.ndarray,
+    params: HerdingParams,
+    seed,
+    dt: float | None,
+    barking: np.ndarray | None,
+    centroid: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`animal_step`, also returning the indices of the animals that moved."""
     dt = params.delta if dt is None else dt
     rng = as_generator(seed)
     n = animals.shape[0]
-    centroid = animals.mean(axis=0) if centroid is None else centroid
+    centroid = _centroid(animals) if centroid is None else centroid
     tree = cKDTree(animals, balanced_tree=False, compact_nodes=False) if n > 1 else None
+    affected = np.zeros(n, dtype=bool)
     if tree is None:
         cone = barking_mask(animals, drones, centroid, params.R_b, params.beta, barking)
+        affected[:] = cone.any(axis=1)
     else:
         # the cones reach R_b: test only the animals of the drones' R_b balls (a superset)
         balls = tree.query_ball_point(drones, params.R_b * (1 + 1e-9) + 1e-9)
         near = np.unique(np.concatenate([np.asarray(b, dtype=np.intp) for b in balls]))
         cone = np.zeros((n, drones.shape[0]), dtype=bool)
         if near.size:
-            cone[near] = barking_mask(animals[near], drones, centroid, params.R_b, params.beta, barking)
-    affected = np.asarray(cone.any(axis=1), dtype=bool)
+            cone_near = barking_mask(animals[near], drones, centroid, params.R_b, params.beta, barking)
+            cone[near] = cone_near
+            affected[near] = cone_near.any(axis=1)
     grazing = (~affected) & (rng.random(n) < params.graze_prob)
     movers = np.flatnonzero(affected | grazing)
     new_pos = animals.copy()
     new_head = heading.copy()
     if movers.size == 0:
-        return new_pos, new_head, affected
+        return new_pos, new_head, affected, movers
     pos = animals[movers]
     m = movers.size
     eps = _unit(rng.normal(size=(m, 2)))
@@ -392,7 +432,7 @@ def animal_step(
     speed = np.where(aff, params.V_animal, params.graze_speed)
     new_pos[movers] = pos + (speed * dt)[:, None] * direction
     new_head[movers] = direction
-    return new_pos, new_head, affected
+    return new_pos, new_head, affected, movers
 
 
 def _repulsion(
@@ -588,13 +628,13 @@ def simulate(
     t0 = time.perf_counter()
     for step in range(n_steps + 1):
         t = step * dt
-        c = animals.mean(axis=0)
-        r = float(np.sqrt(np.max(np.sum((animals - c) ** 2, axis=1))))
+        c = _centroid(animals)
+        r = float(np.sqrt(np.max(_sq_dist(animals, c))))
         ts.append(t)
         radii.append(r)
         cents.append(c)
         dpos.append(drones.copy())
-        inside = np.sum((animals - scenario.goal) ** 2, axis=1) <= p.goal_radius**2
+        inside = _sq_dist(animals, scenario.goal) <= p.goal_radius**2
         delivered.append(float(np.mean(inside)))
         stop = False
         if phase == HerdingPhase.DRIVING and r > p.regroup_factor * p.R_c:
@@ -626,8 +666,10 @@ def simulate(
                 HerdingObservation(t + k * dts, animals, c, phase, drones, headings, dts, k == 0)
             )
             drones, headings = drone_step(drones, headings, cmd[0], cmd[1], p, dts)
-        new, heading, _ = animal_step(animals, heading, drones, p, rng, dt, centroid=c)
-        vmax_seen = max(vmax_seen, float(np.sqrt(np.max(np.sum((new - animals) ** 2, axis=1)))) / dt)
+        new, heading, _, moved = _animal_step(animals, heading, drones, p, rng, dt, None, c)
+        if moved.size:  # the others stood still
+            step_max = float(np.sqrt(np.max(_sq_dist(new[moved], animals[moved]))))
+            vmax_seen = max(vmax_seen, step_max / dt)
         animals = new
     phase_arr = np.empty(len(phases), dtype=object)
     phase_arr[:] = phases
