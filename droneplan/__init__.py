@@ -20,11 +20,13 @@ the built-in gap study of a problem like ``droneplan gap``, and ``load_results(o
 every study row of an ``--out`` directory as one long-format DataFrame.
 """
 
-from typing import Any
+import importlib
+from typing import TYPE_CHECKING, Any
 
-from droneplan import cells, covert, herding, shark
-from droneplan.solvers.result import SolveResult, Status
-from droneplan.studies.store import load_results
+if TYPE_CHECKING:  # the names for type checkers; at run time __getattr__ imports them
+    from droneplan import cells, covert, herding, shark
+    from droneplan.solvers.result import SolveResult, Status
+    from droneplan.studies.store import load_results
 
 __version__ = "0.1.0"
 
@@ -59,21 +61,42 @@ _STUDY_NAMES = (
 """Study names resolved on first use (importing them loads the study machinery)."""
 
 
+_FRONT_DOORS = ("cells", "covert", "herding", "shark")
+_LAYERS = ("solvers", "scenarios", "formulations", "planners", "studies")
+
+
 def __getattr__(name: str) -> Any:
+    """Import a front door or a public name on first use: ``import droneplan`` loads none of
+    the solver libraries, cvxpy, matplotlib or pandas; each loads with the first name that needs it."""
+    value: Any
+    if name in _FRONT_DOORS or name in _LAYERS:
+        value = importlib.import_module(f"droneplan.{name}")
     # run_gap lives in the CLI module; importing it lazily keeps `python -m droneplan.studies.cli`
     # free of runpy's "found in sys.modules" warning
-    if name == "run_gap":
+    elif name == "run_gap":
         from droneplan.studies.cli import run_gap
 
-        return run_gap
-    if name in _STUDY_NAMES:
+        value = run_gap
+    elif name in ("SolveResult", "Status"):
+        from droneplan.solvers.result import SolveResult, Status  # noqa: F401
+
+        value = locals()[name]
+    elif name == "load_results":
+        from droneplan.studies.store import load_results
+
+        value = load_results
+    elif name in _STUDY_NAMES:
         from droneplan.studies.analysis import performance_profile, summary_table  # noqa: F401
         from droneplan.studies.instances import family_instances, load_instance, save_instance  # noqa: F401
         from droneplan.studies.plots.profiles import plot_performance_profile  # noqa: F401
         from droneplan.studies.study import gap  # noqa: F401
 
-        return locals()[name]
-    raise AttributeError(f"module 'droneplan' has no attribute {name!r}")
+        value = locals()[name]
+    else:
+        raise AttributeError(f"module 'droneplan' has no attribute {name!r}")
+    if name != "run_gap":
+        globals()[name] = value  # later lookups skip __getattr__
+    return value
 
 
 def __dir__() -> list[str]:

@@ -2,13 +2,18 @@
 
 The built-in adapters are listed in ``_BUILTIN`` as ``name -> "module:Class"`` and
 imported on first use (so importing droneplan does not load every solver library).
-Adding a backend is one adapter file in ``solvers/`` plus one line in ``_BUILTIN``
-(or, from user code, one :func:`register_backend` call).
+``_BUILTIN_KINDS`` and ``_BUILTIN_REQUIRES`` describe them without importing them:
+:func:`available_backends` lists a built-in backend whose library is installed without
+loading the library (a built-in backend is loaded only by :func:`get_backend`, which then
+makes the full check, e.g. that OR-Tools was built with SCIP). Adding a backend is one
+adapter file in ``solvers/`` plus one line in each of those tables (or, from user code,
+one :func:`register_backend` call).
 """
 
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from typing import Any
 
 from droneplan.solvers.base import KINDS, BackendAdapter
@@ -28,6 +33,24 @@ _BUILTIN: dict[str, str] = {
     "ipopt": "droneplan.solvers.nlp:IpoptAdapter",
     "osqp": "droneplan.solvers.qp:OsqpAdapter",
 }
+
+_BUILTIN_KINDS: dict[str, frozenset[str]] = {
+    "cp-sat": frozenset({"cp", "linear"}),
+    "highs": frozenset({"linear"}),
+    "scip": frozenset({"linear"}),
+    "ipopt": frozenset({"nlp"}),
+    "osqp": frozenset({"nlp", "qp"}),
+}
+"""The capabilities of each built-in adapter (its ``kinds``; a test checks them against the adapters)."""
+
+_BUILTIN_REQUIRES: dict[str, str] = {
+    "cp-sat": "ortools",
+    "highs": "ortools",
+    "scip": "ortools",
+    "ipopt": "casadi",
+    "osqp": "osqp",
+}
+"""The top-level package each built-in adapter needs (looked up, not imported, to list it)."""
 
 _LOADED: dict[str, BackendAdapter] = {}
 _USER: dict[str, BackendAdapter] = {}
@@ -110,12 +133,22 @@ def get_backend(name: str, kind: str | None = None) -> Any:
     return adapter
 
 
-def available_backends(kind: str | None = None) -> list[str]:
-    """Names of the backends usable here, optionally only those offering ``kind``."""
-    _check_kind(kind)
-    out = []
-    for name in registered_backends():
+def _listed(name: str, kind: str | None) -> bool:
+    """Whether ``name`` offers ``kind`` and can run here; a built-in adapter not loaded yet is
+    judged from its tables, without importing it or its library."""
+    if name in _USER or name in _LOADED:
         adapter = _load(name)
-        if (kind is None or kind in adapter.kinds) and adapter.is_available():
-            out.append(name)
-    return out
+        return (kind is None or kind in adapter.kinds) and adapter.is_available()
+    if kind is not None and kind not in _BUILTIN_KINDS[name]:
+        return False
+    return importlib.util.find_spec(_BUILTIN_REQUIRES[name]) is not None
+
+
+def available_backends(kind: str | None = None) -> list[str]:
+    """Names of the backends usable here, optionally only those offering ``kind``.
+
+    Built-in backends are listed without importing them (their library is looked up on the
+    path); :func:`get_backend` loads one and checks it fully.
+    """
+    _check_kind(kind)
+    return [name for name in registered_backends() if _listed(name, kind)]

@@ -126,3 +126,44 @@ def test_run_native_turns_an_exception_into_error():
     res = run_native(ToyQpAdapter(), call, lambda *a: NativeReadout(), warm_started=True)
     assert res.status is Status.ERROR and "library crashed" in res.message
     assert res.backend_status == "exception" and res.warm_started and res.x is None
+
+
+def test_builtin_tables_match_the_adapters():
+    """The registry lists built-in backends from its tables; each table entry is the adapter's own."""
+    from droneplan.solvers import registry
+
+    assert set(registry._BUILTIN_KINDS) == set(registry._BUILTIN) == set(registry._BUILTIN_REQUIRES)
+    for name in registry._BUILTIN:
+        adapter = get_backend(name)
+        assert adapter.kinds == registry._BUILTIN_KINDS[name], name
+        module = type(adapter).__module__
+        assert registry._BUILTIN_REQUIRES[name] in _imported_by(module), name
+
+
+def _imported_by(module: str) -> set[str]:
+    import sys
+
+    source = sys.modules[module]
+    return {v.__name__.split(".")[0] for v in vars(source).values() if hasattr(v, "__name__")} | {
+        getattr(v, "__module__", "").split(".")[0] for v in vars(source).values()
+    }
+
+
+def test_listing_backends_imports_no_solver_library():
+    """available_backends answers from the registry's tables: no adapter and no solver library loads."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from droneplan.solvers.registry import available_backends\n"
+        "print(available_backends('linear'), available_backends())\n"
+        "print(sorted(m for m in ('ortools', 'casadi', 'osqp', 'cvxpy', 'highspy') if m in sys.modules))\n"
+        "print(sorted(m for m in sys.modules if m.startswith('droneplan.solvers.') and m.split('.')[-1]"
+        " in ('cpsat', 'mip', 'nlp', 'qp')))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    listed, libraries, adapters = out.strip().splitlines()
+    assert listed == "['cp-sat', 'highs', 'scip'] ['cp-sat', 'highs', 'ipopt', 'osqp', 'scip']"
+    assert libraries == "[]"
+    assert adapters == "[]"
