@@ -54,6 +54,7 @@ from droneplan.solvers.validation import (
     check_int,
     check_nonneg,
     check_positive,
+    check_work,
 )
 
 __all__ = [
@@ -587,7 +588,8 @@ def sphere_minmax_bearing(params: CovertParams, targets: Any, *, c_start: float 
     observation ball, or an optimum of 90 deg or more), the branch and bound
     :func:`sphere_minmax_bearing_bnb` answers instead (``backend`` says which).
     params: the problem (F, L_u, R; CovertParams); targets: (n, 3) positions (m), n >= 1,
-    none on the sphere. c_start: cos of an angle believed below the optimum (e.g. the
+    none on the sphere, coordinates at most 1e15 m in magnitude (``MAX_COORDINATE``: farther
+    targets would overflow the distances). c_start: cos of an angle believed below the optimum (e.g. the
     previous instant's optimum minus a margin), to save solves along a sequence of instants.
     """
     from droneplan.formulations.covert_bounds import instant_minmax_bearing
@@ -617,12 +619,19 @@ def sphere_minmax_bearing_bnb(
     others are split in four until the gap is below ``tol`` (rad) or ``max_cells`` cells were
     evaluated. Returns objective = best value found (rad; x = that point (3,)), bound = a
     proven lower bound (rad): no point of the sphere has a smaller maximum bearing change.
-    targets: (n, 3) positions (m), n >= 1, none on the sphere.
+    targets: (n, 3) positions (m), n >= 1, none on the sphere, each coordinate at most
+    ``MAX_COORDINATE`` (1e15 m) in magnitude.
 
     params: problem parameters, CovertParams (F, R, L_u in metres).
+    tol: optimality gap (rad) > 0 at which a cell is no longer split.
+    max_cells: cells evaluated at most (count >= 1; 8 array elements per cell, within the
+    element budget of ``solvers.validation.work_limits``).
     """
     check_instance("params", params, CovertParams)
     A = check_array("targets", targets, shape=(None, 3), min_rows=1)
+    tol = check_positive("tol", tol)
+    max_cells = check_int("max_cells", max_cells, min_value=1)
+    check_work("max_cells", 8 * max_cells, "elements")  # 4 bounds and 3 coordinates per cell
     from droneplan.scenarios.covert import bearing_changes
 
     t0 = time.perf_counter()

@@ -39,7 +39,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_array, check_bool, check_instance, check_nonneg, check_positive
+from droneplan.solvers.validation import (
+    check_array,
+    check_bool,
+    check_instance,
+    check_nonneg,
+    check_positive,
+    check_size,
+    check_work,
+)
 
 __all__ = [
     "InstantMinmaxProgram",
@@ -359,6 +367,8 @@ def mission_front(
 
     scenario: the targets' paths and the parameters (no obstacles); arrival_times: the t_a (s) of
     each class; t_f, times, retreat, t_end, sphere_tol: as in :func:`mission_lower_bound`.
+    Every instant is one convex program per arrival time at worst: more than the solves budget
+    (``solvers.validation.work_limits``) of instants times arrival times is refused up front.
     Returns one :class:`MissionBound` per arrival time. The bound is non-increasing in the
     arrival time (a later deadline admits more controllers): the stealth-versus-arrival-time
     front of the best any controller could do.
@@ -394,6 +404,11 @@ def mission_front(
     tf = (T - back) if t_f is None else float(t_f)
     if not (math.isfinite(tf) and tf >= arr.max()):
         raise ValueError(f"t_f must be finite and >= every arrival time, got t_f={tf}")
+    n_times = math.floor(T / p.dt) + 1 if times is None else len(times)
+    what = "t_end / params.dt (instants)" if times is None else "times"
+    check_size(what, n_times)
+    # one program per instant after the earliest arrival, and per arrival time before it
+    check_work(f"{what} x arrival_times", n_times * (1 + arr.size), "solves")
     tt = np.arange(0.0, T + 1e-9, p.dt) if times is None else np.asarray(times, float)
     A_all = scenario.targets_at(tt)
     obs = scenario.observable_at(tt)

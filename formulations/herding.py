@@ -77,7 +77,7 @@ from ortools.sat.python import cp_model
 
 from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_array, check_instance, check_positive
+from droneplan.solvers.validation import check_array, check_instance, check_nonneg, check_positive
 
 __all__ = [
     "METHODS",
@@ -190,10 +190,11 @@ def check_allocation(drone_s, steer_s, perimeter, allocation: Allocation, *, tol
 
     drone_s, steer_s: drone and steering-point arc positions on the extended hull (m), in [0, perimeter).
     perimeter: extended-hull perimeter M (m).
-    tol: tolerance of the order checks (m).
+    tol: tolerance of the order checks, relative to max(1, perimeter) (finite, >= 0).
     """
     drone_s, steer_s, perimeter = validate_allocation_input(drone_s, steer_s, perimeter)
     check_instance("allocation", allocation, Allocation)
+    tol = check_nonneg("tol", tol)
     d = np.asarray(drone_s, dtype=float)
     pts = np.asarray(allocation.points, dtype=float)
     n, M = d.size, float(perimeter)

@@ -42,6 +42,8 @@ from droneplan.solvers.validation import (
     check_positive,
     check_size,
     check_time_limit,
+    check_work,
+    current_limit,
     resolve_seed,
 )
 
@@ -514,17 +516,29 @@ def max_coverage_in_region(
     maximum at one of those angles, so we evaluate the count at every such event angle.
     Circles whose neighbourhood holds no more users than the best count so far are
     skipped (they cannot improve it).
+
+    users: (n, 2) positions (m), finite; R_d: disc radius (m) > 0; region: a :class:`Region`
+    (e.g. from :func:`deployment_region`). The sweep compares candidate points with users:
+    n x n pairs beyond the array-element budget (``solvers.validation.work_limits``) are
+    refused up front, and the sweep stops with a ValueError naming ``users`` once its
+    point comparisons pass 20 times that budget (about ten seconds of work).
     """
-    return _max_coverage(np.asarray(users, float).reshape(-1, 2), R_d, region)
+    pts = check_array("users", users, shape=(None, 2))
+    R_d = check_positive("R_d", R_d)
+    check_instance("region", region, Region)
+    check_size("users (n x n user pairs)", pts.shape[0] * (pts.shape[0] + 4))
+    return _max_coverage(pts, R_d, region, budget=20 * current_limit("elements"))
 
 
 def _max_coverage(
-    users: NDArray[np.float64], R_d: float, region: Region, floor: int = -1
+    users: NDArray[np.float64], R_d: float, region: Region, floor: int = -1, budget: int | None = None
 ) -> tuple[int, NDArray[np.float64] | None]:
     """:func:`max_coverage_in_region`; with ``floor`` >= 0 it also skips the circles whose
     neighbourhood holds no more than ``floor`` users, so it returns the true maximum and
-    the same centre whenever that maximum exceeds ``floor`` (else a lower count)."""
+    the same centre whenever that maximum exceeds ``floor`` (else a lower count). With a
+    ``budget``, more point-user comparisons than that raise ValueError naming ``users``."""
     best, best_p = -1, None
+    work = 0
     circles = [(u[0], u[1], R_d) for u in users] + region.circles()
     if len(users):
         from scipy.spatial import cKDTree
@@ -579,6 +593,10 @@ def _max_coverage(
         if not feas.any():
             continue
         pts = pts[feas]
+        work += len(th) * (len(all_c) + 1) + len(pts) * len(lu)
+        if budget is not None:
+            what = f"users ({len(users)} users; the sweep's point comparisons, 20 x the element budget)"
+            check_work(what, work, limit=budget)
         cnt = (
             (pts[:, None, 0] - lu[None, :, 0]) ** 2 + (pts[:, None, 1] - lu[None, :, 1]) ** 2
             <= (R_d + TOL) ** 2

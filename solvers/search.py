@@ -59,7 +59,7 @@ def first_root_lipschitz(
         if t >= hi:
             return FirstRoot(None, None, n)
         step = v / lipschitz
-        if step < resolution:
+        if step < resolution or t + step == t:  # the second: a step below the float spacing of t
             return FirstRoot(t, None, n)
         t = min(t + step, hi)
     return FirstRoot(t, None, n)

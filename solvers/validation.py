@@ -7,6 +7,12 @@ helper. Each check raises ``TypeError`` (wrong type) or ``ValueError`` (wrong va
 whose message starts with the parameter's name and states the violated condition,
 and returns the value converted (``float``, ``int``, ``numpy.ndarray``).
 
+Work budgets: ``check_work``/``check_size`` refuse, before any work starts, a call whose
+size, resolution, step, horizon or count implies more array elements, evaluations or
+solver calls than the budget in force; the message names the parameter, the size asked
+for and the limit, and the caller raises the limit with ``work_limits``. Array entries
+are also refused beyond ``MAX_COORDINATE`` in magnitude (their squares would overflow).
+
 This module knows nothing of drones or solvers and imports nothing of droneplan, so
 every layer may import it (``tests/unit/test_layering.py`` allows exactly this one
 module below the layer order).
@@ -14,15 +20,23 @@ module below the layer order).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import numbers
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextvars import ContextVar
 from typing import Any
 
 import numpy as np
 
 __all__ = [
     "MAX_ELEMENTS",
+    "MAX_EVALUATIONS",
+    "MAX_SOLVES",
+    "MAX_COORDINATE",
+    "work_limits",
+    "current_limit",
+    "check_work",
     "check_real",
     "check_positive",
     "check_nonneg",
@@ -30,6 +44,7 @@ __all__ = [
     "check_int",
     "check_bool",
     "check_array",
+    "check_sequence",
     "check_size",
     "check_time_limit",
     "check_methods",
@@ -40,6 +55,74 @@ __all__ = [
 
 MAX_ELEMENTS = 50_000_000
 """Largest number of array elements a public entry agrees to allocate (400 MB of float64)."""
+
+MAX_EVALUATIONS = 100_000
+"""Largest number of Python-level steps a public entry agrees to take (function evaluations
+of a search, each tens of microseconds to a millisecond: seconds of work)."""
+
+MAX_SOLVES = 20_000
+"""Largest number of optimisation programs (each a solver call of milliseconds to seconds)
+a public entry agrees to solve in one call."""
+
+MAX_COORDINATE = 1e15
+"""Largest magnitude (m, s, ...) an array entry may have. Squares, products of squares and
+norms of cross products of such numbers stay far from the float64 overflow at 1.8e308, and
+1e15 m is still resolved to 0.125 m; beyond it distances silently overflow to inf or lose
+every digit (a target 1e200 m away made the bearing oracle report a wrong "proven" bound)."""
+
+_DEFAULT_LIMITS = (("elements", MAX_ELEMENTS), ("evaluations", MAX_EVALUATIONS), ("solves", MAX_SOLVES))
+_LIMITS: ContextVar[tuple[tuple[str, int], ...]] = ContextVar("droneplan_limits", default=_DEFAULT_LIMITS)
+
+_UNITS = {"elements": "array elements", "evaluations": "evaluations", "solves": "solver calls"}
+
+
+@contextlib.contextmanager
+def work_limits(
+    *, elements: int | None = None, evaluations: int | None = None, solves: int | None = None
+) -> Iterator[dict[str, int]]:
+    """Raise (or lower) the work budgets of the public entries inside a ``with`` block.
+
+    elements: array elements one call may allocate (default ``MAX_ELEMENTS``); evaluations:
+    cheap steps one call may take (default ``MAX_EVALUATIONS``); solves: optimisation programs
+    one call may solve (default ``MAX_SOLVES``). None keeps the current value. The budgets are
+    per thread/context and restored on exit. Example::
+
+        with work_limits(elements=10**9):
+            big = dp.shark.interception_time_bound(shark, op, t_max=1e5)
+    """
+    new = dict(_LIMITS.get())
+    for kind, value in (("elements", elements), ("evaluations", evaluations), ("solves", solves)):
+        if value is not None:
+            new[kind] = check_int(kind, value, min_value=1)
+    token = _LIMITS.set(tuple(new.items()))
+    try:
+        yield dict(new)
+    finally:
+        _LIMITS.reset(token)
+
+
+def current_limit(kind: str) -> int:
+    """The budget in force for ``kind`` ("elements", "evaluations" or "solves"); see ``work_limits``."""
+    if kind not in _UNITS:
+        raise ValueError(f"kind must be one of {sorted(_UNITS)}, got {kind!r}")
+    return dict(_LIMITS.get())[kind]
+
+
+def check_work(name: str, asked: float, kind: str = "elements", *, limit: float | None = None) -> None:
+    """Refuse up front a call whose parameter ``name`` implies more than the budget of ``kind``.
+
+    asked: the work the call would do (array elements, evaluations or solver calls; a float
+    so that a huge or infinite request is compared without overflow); limit: None for the
+    budget in force (``current_limit(kind)``, raised with ``work_limits``). The ValueError
+    names the parameter, the size asked for and the limit, and says how to raise it.
+    """
+    lim = current_limit(kind) if limit is None else limit
+    if not asked <= lim:  # also refuses NaN
+        shown = str(math.ceil(asked)) if math.isfinite(asked) and asked <= 1e18 else f"{asked:.3g}"
+        raise ValueError(
+            f"{name} asks for {shown} {_UNITS[kind]}, more than the limit of {int(lim)}; raise the limit "
+            f"with droneplan.solvers.validation.work_limits({kind}=...) if the work is intended"
+        )
 
 
 def _describe(value: Any) -> str:
@@ -112,10 +195,10 @@ def check_bool(name: str, value: Any) -> bool:
     return bool(value)
 
 
-def check_size(name: str, n_elements: int, limit: int = MAX_ELEMENTS) -> None:
-    """Refuse up front (before allocating) a request for more than ``limit`` array elements."""
-    if n_elements > limit:
-        raise ValueError(f"{name} asks for {n_elements} array elements, more than the limit of {limit}")
+def check_size(name: str, n_elements: float, limit: int | None = None) -> None:
+    """Refuse up front (before allocating) a request for more than ``limit`` array elements
+    (None: the budget in force, ``MAX_ELEMENTS`` unless raised with ``work_limits``)."""
+    check_work(name, n_elements, "elements", limit=limit)
 
 
 def check_array(
@@ -126,12 +209,15 @@ def check_array(
     finite: bool = True,
     min_rows: int = 0,
     ndim: int | None = None,
+    max_abs: float | None = MAX_COORDINATE,
 ) -> np.ndarray:
-    """``value`` as a float ndarray (a copy), checked for type, shape and finiteness.
+    """``value`` as a float ndarray (a copy), checked for type, shape, finiteness and magnitude.
 
     shape: expected shape, ``None`` entries match any length (e.g. ``(None, 2)`` for an
     (n, 2) array of points); ndim: expected number of dimensions when ``shape`` is not
-    given; min_rows: least length of the first axis; finite: refuse NaN/inf.
+    given; min_rows: least length of the first axis; finite: refuse NaN/inf; max_abs:
+    largest magnitude of a finite entry (default ``MAX_COORDINATE``: beyond it squares and
+    distances overflow or lose every digit; None: no limit).
     Bools, strings, objects and ragged nesting raise TypeError naming ``name``.
     """
     if isinstance(value, (str, bytes)) or value is None:
@@ -160,7 +246,25 @@ def check_array(
         raise ValueError(f"{name} must have at least {min_rows} row(s), got {arr.shape[0]}")
     if finite and not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite (no NaN or inf)")
+    if max_abs is not None and arr.size:
+        big = np.abs(arr[np.isfinite(arr)]) if not finite else np.abs(arr)
+        if big.size and float(big.max()) > max_abs:
+            raise ValueError(
+                f"{name} has an entry of magnitude {float(big.max()):.3g}, more than {max_abs:.3g} "
+                "(beyond it squared distances overflow or lose every digit)"
+            )
     return arr
+
+
+def check_sequence(name: str, value: Any, *, min_len: int = 1) -> list[Any]:
+    """``value`` as a list (any iterable but a string, bytes or mapping), with at least
+    ``min_len`` items; TypeError naming ``name`` otherwise, ValueError when too short."""
+    if isinstance(value, (str, bytes, dict)) or value is None or not hasattr(value, "__iter__"):
+        raise TypeError(f"{name} must be a list or another sequence, got {type(value).__name__}")
+    out = list(value)
+    if len(out) < min_len:
+        raise ValueError(f"{name} must hold at least {min_len} item(s), got {len(out)}")
+    return out
 
 
 def check_time_limit(time_limit: Any, name: str = "time_limit") -> float | None:

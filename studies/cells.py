@@ -596,13 +596,15 @@ def ablation_tasks(
     ``ablation_runs`` (default ``runs``) of each other GA variant; on each other instance variant
     (keys of :data:`INSTANCE_VARIANTS`, default all) ``ablation_runs`` runs of the thesis GA.
     Instance ids carry the limits, so other limits are new tasks."""
-    from droneplan.solvers.validation import check_int, check_positive
+    from droneplan.solvers.validation import check_int, check_positive, check_sequence
 
-    variants = list(GA_VARIANTS) if variants is None else list(variants)
+    seeds = check_sequence("seeds", seeds)
+    ms = check_sequence("ms", ms)
+    variants = list(GA_VARIANTS) if variants is None else check_sequence("variants", variants)
     unknown = [v for v in variants if v not in GA_VARIANTS]
     if unknown:
         raise ValueError(f"variants must be keys of GA_VARIANTS {list(GA_VARIANTS)}, got {unknown}")
-    instances = list(INSTANCE_VARIANTS) if instances is None else list(instances)
+    instances = list(INSTANCE_VARIANTS) if instances is None else check_sequence("instances", instances)
     unknown = [v for v in instances if v not in INSTANCE_VARIANTS]
     if unknown:
         raise ValueError(
@@ -836,7 +838,8 @@ def ga_ablation(
     ``executor`` (default: serial) into ``store`` (default ``out/results.sqlite``; a temporary
     directory when ``out`` is None too), so an interrupted ablation resumes.
 
-    seeds: thesis-scale instance seeds; ms: numbers of drone-cells (1-4); runs: GA runs of the
+    seeds: thesis-scale instance seeds (non-empty); ms: numbers of drone-cells (1-4, non-empty);
+    runs: GA runs of the
     thesis variant per instance; ablation_runs: runs of each other variant (default ``runs``);
     variants: keys of :data:`GA_VARIANTS` (default all); instances: keys of
     :data:`INSTANCE_VARIANTS` (default all; :func:`ablation_tasks` says what runs on each);

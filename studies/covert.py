@@ -248,22 +248,28 @@ def stealth_front(scenario, traces: dict[str, CovertTrace], *, n_arrivals: int =
     run's own arrival, for controllers that stay on the sphere (within the runs' largest sphere
     error, at least 1 m) until the earliest departure t_f among the runs and are back at D_s by the
     latest end among them, at instants every ``step`` s (a subset of the control instants: still a
-    valid bound). Returns (points, bound) DataFrames (angles in deg); each run's beta_max is
-    >= the bound at its own arrival time.
+    valid bound; instants times arrival times beyond the solves budget of
+    ``solvers.validation.work_limits`` are refused up front). Returns (points, bound)
+    DataFrames (angles in deg); each run's beta_max is >= the bound at its own arrival time.
     """
     import pandas as pd
 
     from droneplan.formulations.covert_bounds import mission_front
     from droneplan.scenarios.covert import CovertScenario
-    from droneplan.solvers.validation import check_instance, check_int, check_positive
+    from droneplan.solvers.validation import check_instance, check_int, check_positive, check_work
 
     check_instance("scenario", scenario, CovertScenario)
     n_arrivals = check_int("n_arrivals", n_arrivals, min_value=1)
     step = check_positive("step", step)
-    if not isinstance(traces, dict) or not traces:
-        raise TypeError("traces must be a non-empty {name: CovertTrace} dict")
+    if not isinstance(traces, dict):
+        raise TypeError(f"traces must be a {{name: CovertTrace}} dict, got {type(traces).__name__}")
+    if not traces:
+        raise ValueError("traces must hold at least one run, got an empty dict")
     for name, tr in traces.items():
         check_instance(f"traces[{name!r}]", tr, CovertTrace)
+    t_end = max((float(tr.t[-1]) for tr in traces.values() if len(tr.t)), default=0.0)
+    # one convex program per instant and arrival time at worst (before the grid is allocated)
+    check_work("step", (t_end / step + 1) * (1 + n_arrivals + len(traces)), "solves")
     if all(tr.t_a is None for tr in traces.values()):
         raise ValueError("traces: no run reached the sphere (no arrival time to place)")
     p = scenario.params
@@ -279,7 +285,6 @@ def stealth_front(scenario, traces: dict[str, CovertTrace], *, n_arrivals: int =
     # every arrival time >= t_a, and the bound is non-increasing in it
     arrivals = np.unique(np.r_[np.linspace(t_min + 0.5, float(pts.t_a.max()) + 5.0, n_arrivals), pts.t_a])
     t_f = float(pts.t_f.dropna().min())
-    t_end = max(float(tr.t[-1]) for tr in traces.values())
     tol = max([1.0] + [float(tr.sphere_error) for tr in traces.values() if np.isfinite(tr.sphere_error)])
     times = np.arange(0.0, t_end + 1e-9, step)
     fronts = mission_front(scenario, arrivals, t_f, times=times, t_end=t_end, sphere_tol=tol)

@@ -33,6 +33,7 @@ from droneplan.planners.herding import (
 from droneplan.scenarios.herding import (
     HerdingFrame,
     HerdingPhase,
+    HerdingTrace,
     simulate,
     table_6_2_for,
     thesis_scenario,
@@ -660,18 +661,28 @@ def bench(*, quick: bool, out: Path) -> None:
 def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
     """Write an animated GIF of a run's frames (needs ``simulate(..., frame_every=...)``); returns the path.
 
-    goal: G (2,) in m, kept in view (default: the trace's goal). fps: frames per second of the GIF.
+    trace: a HerdingTrace with frames; path: the GIF file (str or os.PathLike; its folder is
+    created). goal: G (2,) in m, kept in view (default: the trace's goal). fps: frames per
+    second of the GIF (an int, 1 to 100).
     """
     from matplotlib.animation import FuncAnimation, PillowWriter
 
+    from droneplan.solvers.validation import check_array, check_instance, check_int
+
+    check_instance("trace", trace, HerdingTrace)
+    frame_rate = check_int("fps", fps, min_value=1, max_value=100)
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a str or os.PathLike, got {type(path).__name__}")
     if not trace.frames:
         raise ValueError("trace has no frames: run simulate(..., frame_every=...)")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    goal = trace.goal if goal is None else np.asarray(goal, float)
+    goal = check_array("goal", trace.goal if goal is None else goal, shape=(2,))
     allpts = np.concatenate(
         [np.concatenate([f.animals, f.drones]) for f in trace.frames] + [goal.reshape(1, 2)]
     )
+    if not np.all(np.isfinite(allpts)):
+        raise ValueError("trace frames must hold finite positions (a frame has NaN or inf)")
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
     lo, hi = allpts.min(axis=0) - 20, allpts.max(axis=0) + 20
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.set_xlim(lo[0], hi[0])
@@ -693,16 +704,26 @@ def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
         return herd, drones, title
 
     anim = FuncAnimation(fig, update, frames=len(trace.frames), blit=False)
-    anim.save(path, writer=PillowWriter(fps=fps))
+    anim.save(path, writer=PillowWriter(fps=frame_rate))
     plt.close(fig)
     return path
 
 
 def summary_table(traces: dict):
     """Gathering and total time per run of {label: HerdingTrace}, as a DataFrame with units in the
-    column names (times in min, speeds in m/s; the traces themselves hold seconds)."""
+    column names (times in min, speeds in m/s; the traces themselves hold seconds).
+
+    traces: a non-empty dict {label: HerdingTrace}.
+    """
     import pandas as pd
 
+    if not isinstance(traces, Mapping):
+        raise TypeError(f"traces must be a dict {{label: HerdingTrace}}, got {type(traces).__name__}")
+    if not traces:
+        raise ValueError("traces must hold at least one run, got an empty dict")
+    for k, tr in traces.items():
+        if not isinstance(tr, HerdingTrace):
+            raise TypeError(f"traces[{k!r}] must be a HerdingTrace, got {type(tr).__name__}")
     return pd.DataFrame(
         [
             {

@@ -30,6 +30,7 @@ covers the offset eps_o (1 + gamma).
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Sequence
 
@@ -40,7 +41,15 @@ from numpy.typing import ArrayLike, NDArray
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.search import first_root_lipschitz
-from droneplan.solvers.validation import check_array, check_instance, check_nonneg, check_positive
+from droneplan.solvers.validation import (
+    MAX_COORDINATE,
+    check_array,
+    check_in_range,
+    check_instance,
+    check_nonneg,
+    check_size,
+    current_limit,
+)
 
 __all__ = ["frontal_point", "interception_time_bound"]
 
@@ -116,17 +125,22 @@ def interception_time_bound(
     constant-velocity prediction; operator0: (3,) m; t_max: latest T considered (s; a known
     path also ends at its last sample); slack: accepted distance (m) to the frontal point on
     each axis (None: params.gamma, so the bound also holds for the virtual-shark capture time);
-    resolution: the search stops within about this many seconds of the relaxation's optimum.
+    resolution: the search stops within about this many seconds of the relaxation's optimum
+    (>= 1e-12 s and >= the float64 spacing of t_max: T cannot be resolved more finely).
+    t0: time (s) of the shark's path at which the operator starts, 0 <= t0 <= 1e15.
+    The Lipschitz constant is estimated on a grid of t_max / 0.005 s samples, refused up front
+    beyond the array-element budget (``solvers.validation.work_limits``); the scan takes at most
+    the evaluations budget of steps.
     Returns status OPTIMAL with objective = bound = the bound (s), or INFEASIBLE with bound
     None when no T <= t_max is reachable even in the relaxation.
     """
     start = time.perf_counter()
     check_instance("params", params, SharkParams)
     O0 = check_array("operator0", operator0, shape=(3,))
-    t_max = check_positive("t_max", t_max)
-    t0 = check_nonneg("t0", t0)
+    t_max = check_in_range("t_max", t_max, 0.0, MAX_COORDINATE, lo_open=True)
+    t0 = check_in_range("t0", t0, 0.0, MAX_COORDINATE)
     sl = params.gamma if slack is None else check_nonneg("slack", slack)
-    resolution = check_positive("resolution", resolution)
+    resolution = check_in_range("resolution", resolution, max(1e-12, 4 * math.ulp(t_max + t0)))
     if not isinstance(shark, SharkTrajectory):
         if not isinstance(shark, (tuple, list)) or len(shark) != 2:
             raise TypeError("shark must be a SharkTrajectory or (position (3,), velocity (>=2,))")
@@ -138,6 +152,7 @@ def interception_time_bound(
     lo = 0.0
     # Lipschitz constant of f: VoM + |dG/dt|, the latter from G sampled finely over [lo, hi]
     dt = (shark.dt if isinstance(shark, SharkTrajectory) else 0.1) / _LIP_OVERSAMPLE
+    check_size("t_max", 6 * ((hi - lo) / dt + 2))  # G and its derivative on the grid, 3 columns each
     grid = np.arange(lo, hi + dt, dt)
     G, _ = frontal_point(shark, grid, params, t0=t0)
     dG = np.diff(G, axis=0) / dt
@@ -153,7 +168,9 @@ def interception_time_bound(
         fz = abs(float(g[0, 2] - O0[2])) - params.VoMz * T - sl
         return max(fxy, fz)
 
-    root = first_root_lipschitz(f, lo, hi, L, resolution=resolution)
+    root = first_root_lipschitz(
+        f, lo, hi, L, resolution=resolution, max_evaluations=current_limit("evaluations")
+    )
     el = time.perf_counter() - start
     what = (
         f"relaxation of the interception OCP (no path constraints: earliest T at which the operator at "

@@ -213,7 +213,10 @@ SPECS: dict[str, Spec] = {
     "exhaustive": Spec(
         lambda: ((P(),), {"time_limit": 5.0}), {"problem": "object", "time_limit": "time_limit"}
     ),
-    "max_coverage_in_region": Spec(lambda: ((np.array([[0.0, 0.0]]), 500.0, None), {}), {}),
+    "max_coverage_in_region": Spec(
+        lambda: ((np.array([[1500.0, 0.0]]), 500.0, dp.cells.deployment_region(P(), np.zeros((0, 2)))), {}),
+        {"users": "points2", "R_d": "positive", "region": "object"},
+    ),
     "thesis_ga_settings": Spec(lambda: ((2,), {}), {"m": "int>=1"}),
     "deployment_region": Spec(
         lambda: ((P(), [[1600.0, 0.0]]), {}), {"problem": "object", "placed": "points2"}
@@ -579,7 +582,7 @@ def test_bad_input_raises_a_clear_error_naming_the_parameter(name, param, kind, 
     assert param.split("@")[0] in str(info.value), f"{name}({param}={value!r}): {info.value}"
 
 
-@pytest.mark.parametrize("name", sorted(n for n in SPECS if n != "max_coverage_in_region"))
+@pytest.mark.parametrize("name", sorted(SPECS))
 def test_the_valid_call_works_and_gives_finite_numbers(name):
     args, kwargs = SPECS[name].call()
     result = CALLABLES[name](*args, **kwargs)
