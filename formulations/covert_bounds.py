@@ -47,6 +47,7 @@ from droneplan.solvers.validation import (
     check_positive,
     check_size,
     check_work,
+    require_set,
 )
 
 __all__ = [
@@ -97,7 +98,8 @@ class InstantMinmaxProgram:
         cons += [cp.norm(self.y - self.Q[j]) <= self.t[j] for j in range(n)]
         cons += [cp.norm(self.y - self.P[i]) <= self.r[i] for i in range(self.n_balls)]
         self.problem = cp.Problem(cp.Maximize(self.s), cons)
-        assert self.problem.is_dpp()
+        if not self.problem.is_dpp():  # parameters must enter the program in DPP form to be re-used
+            raise RuntimeError("internal invariant broken: the instant program is not DPP")
 
     def _s(self, c: float) -> _Eval | None:
         """(s(c), ds/dc, y) or None when the solver failed; s = -inf when the balls do not meet."""
@@ -211,8 +213,7 @@ class InstantMinmaxProgram:
         return c_cert, lo, F + L * self._point(f_lo), solves, ""
 
     def _point(self, r: _Eval | None) -> NDArray[np.float64]:
-        assert r is not None, "called once a feasible angle (s > 0) was found"
-        return r[2]
+        return require_set(r, "_point is called once a feasible angle (s > 0) was found")[2]
 
 
 _PROGRAMS: dict[tuple[int, int], InstantMinmaxProgram] = {}
@@ -450,5 +451,5 @@ def _mission_instant(
         return None
     if c_lo is None:
         return None
-    assert c_best is not None  # a certified bound comes with the best feasible angle
+    c_best = require_set(c_best, "a certified bound comes with the best feasible angle")
     return math.acos(min(c_lo, 1.0)), c_best

@@ -23,7 +23,7 @@ from dataclasses import replace
 from typing import Any
 
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_time_limit
+from droneplan.solvers.validation import check_time_limit, require_set
 
 __all__ = ["lazy_constraint_loop"]
 
@@ -129,5 +129,5 @@ def lazy_constraint_loop(
             )
         if time_limit is not None and time.perf_counter() - t0 >= time_limit:
             return finish(res, Status.NO_SOLUTION, rounds, f"time limit after {rounds} round(s)", False)
-    assert res is not None
+    res = require_set(res, "max_rounds >= 1 solves at least once")
     return finish(res, Status.NO_SOLUTION, max_rounds, f"round limit {max_rounds} reached", False)

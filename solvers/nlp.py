@@ -16,7 +16,7 @@ import numpy as np
 
 from droneplan.solvers.base import BackendAdapter, NativeReadout, NlpBackend, run_native
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_time_limit
+from droneplan.solvers.validation import check_time_limit, require_set
 
 __all__ = ["BACKEND", "STATUS_MAP", "IpoptSolver", "IpoptAdapter"]
 
@@ -159,8 +159,7 @@ class IpoptSolver:
             raise TypeError(f"warm_start must be a SolveResult, got {type(warm_start).__name__}")
         use_warm = warm_start is not None and warm_start.has_solution and "lam_x" in warm_start.info
         if use_warm:
-            assert warm_start is not None
-            x0 = warm_start.x if x0 is None else x0
+            x0 = require_set(warm_start, "use_warm implies a warm start").x if x0 is None else x0
         args: dict[str, Any] = {
             "x0": self._vec("x0", x0, self.n_x, 0.0),
             "lbx": self._vec("lbx", lbx, self.n_x, -np.inf),
@@ -176,7 +175,7 @@ class IpoptSolver:
         elif p is not None:
             raise ValueError("this NLP has no parameters, but p was given")
         if use_warm:
-            assert warm_start is not None
+            warm_start = require_set(warm_start, "use_warm implies a warm start")
             args["lam_x0"] = self._vec("lam_x0", warm_start.info["lam_x"], self.n_x, 0.0)
             if self.n_g:
                 args["lam_g0"] = self._vec("lam_g0", warm_start.info["lam_g"], self.n_g, 0.0)

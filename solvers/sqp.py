@@ -37,7 +37,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_time_limit
+from droneplan.solvers.validation import check_time_limit, require_set
 
 __all__ = ["SqpStructure", "SqpSolver"]
 
@@ -221,7 +221,7 @@ class SqpSolver:
             self._last = res
             z = proj(z + res.x)
         elapsed = time.perf_counter() - t0
-        assert res is not None  # iterations >= 1
+        res = require_set(res, "iterations >= 1 solves at least one QP")
         if not res.has_solution:
             return replace(
                 res, solve_time=elapsed, backend=self.name, message=f"SQP: QP failed ({res.backend_status})"

@@ -25,7 +25,7 @@ import math
 import numbers
 from collections.abc import Iterator, Sequence
 from contextvars import ContextVar
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -49,6 +49,7 @@ __all__ = [
     "check_time_limit",
     "check_methods",
     "check_instance",
+    "require_set",
     "resolve_seed",
     "as_generator",
 ]
@@ -297,6 +298,20 @@ def check_instance(name: str, value: Any, cls: type | tuple[type, ...], *, optio
         raise TypeError(
             f"{name} must be {wanted}{' or None' if optional else ''}, got {type(value).__name__}"
         )
+    return value
+
+
+_T = TypeVar("_T")
+
+
+def require_set(value: _T | None, what: str) -> _T:
+    """``value`` itself, known not to be None; RuntimeError naming ``what`` when it is None.
+
+    For internal invariants (a value set by an earlier step) where ``assert x is not None``
+    would be stripped by ``python -O``: the check stays, and a type checker narrows the type.
+    """
+    if value is None:
+        raise RuntimeError(f"internal invariant broken: {what} (please report this as a bug)")
     return value
 
 

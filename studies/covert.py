@@ -37,6 +37,7 @@ from droneplan.planners.covert import (
     SlidingModeObserver,
 )
 from droneplan.scenarios.covert import CovertTrace, random_case, simulate, thesis_case
+from droneplan.solvers.validation import require_set
 from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study
 from droneplan.studies.plots.covert import plot_bearing, plot_path, plot_stealth_front
 from droneplan.studies.store import Outcome, build_rows, instance_id
@@ -89,8 +90,7 @@ def _instant_optima(
         r = sphere_minmax_bearing(scenario.params, tr.targets[k][obs], c_start=c)
         if not r.has_solution:
             continue
-        assert r.objective is not None  # has_solution: the optimum is set
-        c = max(math.cos(r.objective) - 1e-3, 0.0)
+        c = max(math.cos(require_set(r.objective, "a result with a solution has an optimum")) - 1e-3, 0.0)
         ks.append(k)
         lbs.append(r.bound)
         best.append(r.objective)

@@ -135,7 +135,8 @@ def _table_5_2(out: Path, table: ComparisonTable, quick: bool) -> dict:
         off_ctl = OCPInterceptor(N=30 if quick else 40, path=tr)
         offsim = simulate(tr, off_ctl)
         # the thesis paths: the OCP solves and the virtual shark reaches its interception point
-        assert off.objective is not None and vs_ctl.capture_time is not None, name
+        if off.objective is None or vs_ctl.capture_time is None:
+            raise RuntimeError(f"path {name}: the OCP found no interception or the virtual shark no capture")
         runs[name] = (tr, vs, on, offsim)
         sp, dist = TABLE_5_2[name]
         table.add(

@@ -35,7 +35,14 @@ from numpy.typing import NDArray
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
 from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_array, check_instance, check_int, check_nonneg, check_positive
+from droneplan.solvers.validation import (
+    check_array,
+    check_instance,
+    check_int,
+    check_nonneg,
+    check_positive,
+    require_set,
+)
 
 __all__ = [
     "InterceptionPlan",
@@ -425,13 +432,13 @@ def solve_interception(
         tried.append((g.origin, g.side, r.status.name, None if r.x is None else r.objective))
         if r.status not in (Status.OPTIMAL, Status.FEASIBLE):
             continue
-        assert r.objective is not None  # a solved OCP reports its T
+        t_int = require_set(r.objective, "a solved OCP reports its T")
         if (
             best is None
-            or r.objective < best_T - 1e-9
-            or (best.status != Status.OPTIMAL and r.status == Status.OPTIMAL and r.objective <= best_T + 1e-6)
+            or t_int < best_T - 1e-9
+            or (best.status != Status.OPTIMAL and r.status == Status.OPTIMAL and t_int <= best_T + 1e-6)
         ):
-            best, best_start, best_T = r, g, r.objective
+            best, best_start, best_T = r, g, t_int
     try:
         lb = interception_time_bound(shark, O0, params, t0=t0, t_max=t_max)
         bound = lb.bound
@@ -448,8 +455,7 @@ def solve_interception(
         )
     if bound is not None and best_T < bound - 1e-6:  # cannot happen unless a constraint is violated
         bound_msg += f"; WARNING: OCP T={best_T:.6f} s is below it (constraint violation?)"
-    assert best_start is not None  # set with best
-    won = best_start.origin or "unknown"
+    won = require_set(best_start, "the start of the best OCP is set with it").origin or "unknown"
     return dataclasses.replace(
         best,
         bound=bound,

@@ -41,7 +41,7 @@ from droneplan.scenarios.covert import (
 )
 from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult
-from droneplan.solvers.validation import check_in_range, check_int, check_nonneg, check_positive
+from droneplan.solvers.validation import check_in_range, check_int, check_nonneg, check_positive, require_set
 
 if TYPE_CHECKING:  # formulations.covert is imported when a controller is built (it loads CasADi)
     from droneplan.formulations.covert import BearingMPC, MPCData, MPCPlan, MPCSettings, RecedingBearingMPC
@@ -233,8 +233,7 @@ class MPCObserver(_PhasedController):
         phase_before = self.phase
         self._update_phase_mpc(obs)
         p = self.params
-        solver = self._solver
-        assert solver is not None, "reset() builds the solver"
+        solver = require_set(self._solver, "reset() builds the solver before the first step")
         model = solver.model
         node_t = np.cumsum(model.durations)
         pred = self._predict(obs, node_t)
@@ -295,8 +294,7 @@ class MPCObserver(_PhasedController):
             self._prev = None
             return self.sliding_command(obs)  # and re-solve at the next period
         self._prev = res
-        assert res.objective is not None  # has_solution: the objective is set
-        self.predicted_beta.append(res.objective)
+        self.predicted_beta.append(require_set(res.objective, "a plan with a solution has an objective"))
         if self._prefer_sliding(obs, res, model):
             self._hold = (None, 0.0, model.settings.replan_every - 1, 0.0)
             return self.sliding_command(obs)

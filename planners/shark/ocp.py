@@ -23,7 +23,7 @@ from droneplan.scenarios.shark import (
     simulate,
 )
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_array, check_instance, check_positive
+from droneplan.solvers.validation import check_array, check_instance, check_positive, require_set
 
 __all__ = ["virtual_shark_plan", "optimal_interception", "OCPInterceptor"]
 
@@ -185,9 +185,9 @@ class OCPInterceptor:
             self.solve_times.append(r.solve_time)
             self.statuses.append(r.status.name)
             if r.status in ok:
-                assert r.objective is not None  # a solved OCP reports its T
-                if best is None or r.objective < best_T:
-                    best, best_T = r, r.objective
+                t_int = require_set(r.objective, "a solved OCP reports its T")
+                if best is None or t_int < best_T:
+                    best, best_T = r, t_int
         return best
 
     def command(self, obs: SharkObservation) -> SharkCommand:
@@ -199,8 +199,8 @@ class OCPInterceptor:
         p = self.params
         O = np.asarray(operator, float)
         if self.phase == SharkPhase.HOLD:
-            assert self._hold_since is not None  # set on entering the hold
-            if t - self._hold_since <= self.hold_timeout + 1e-9:
+            hold_since = require_set(self._hold_since, "the hold start is set on entering the hold")
+            if t - hold_since <= self.hold_timeout + 1e-9:
                 return np.zeros(3)
             self.phase, self._last, self.at_interception = SharkPhase.APPROACH, None, False
         res = self._solve(t, O, np.asarray(shark_pos, float), np.asarray(shark_vel, float))

@@ -43,7 +43,7 @@ from droneplan.scenarios.shark import (
     SharkPhase,
     clip_velocity,
 )
-from droneplan.solvers.validation import check_instance, check_positive
+from droneplan.solvers.validation import check_instance, check_positive, require_set
 
 __all__ = ["ClassicalPursuit", "VirtualSharkInterceptor"]
 
@@ -210,8 +210,8 @@ class VirtualSharkInterceptor:
             self.capture_time = t
             self._hold_since = t
         if self.phase == SharkPhase.HOLD:
-            assert self._hold_since is not None  # set on entering step 3
-            if t - self._hold_since > self.hold_timeout + 1e-9:
+            hold_since = require_set(self._hold_since, "the hold start is set on entering step 3")
+            if t - hold_since > self.hold_timeout + 1e-9:
                 self.phase = SharkPhase.APPROACH
                 self._hold_since = None
         self.at_interception = self.phase == SharkPhase.HOLD
@@ -229,8 +229,7 @@ class VirtualSharkInterceptor:
             cross = u[0] * rel[1] - u[1] * rel[0]
             if abs(cross) > 1e-9:
                 self._side2 = 1 if cross > 0 else -1  # side of the line through S2 (fix of 5.20)
-            assert self._side2 is not None  # set on entering step 2
-            pp = self._side2 * _rot_left(u)
+            pp = require_set(self._side2, "the side is set on entering step 2") * _rot_left(u)
             d_next = S2[:2] + p.Ts * vxy - O[:2]
             if np.linalg.norm(d_next) <= p.VoMxy * p.Ts:
                 v_xy = d_next / p.Ts

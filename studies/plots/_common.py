@@ -26,7 +26,8 @@ def figure_axes(ax: Any = None, *, figsize: tuple[float, float] = (6.0, 4.5), pr
     if ax.name != want:
         raise ValueError(f"ax must be a {want!r} axes, got {ax.name!r}")
     owner = ax.get_figure()
-    assert isinstance(owner, Figure)
+    if not isinstance(owner, Figure):
+        raise ValueError("ax must belong to a matplotlib Figure (a subfigure's axes are not supported)")
     return owner, ax
 
 

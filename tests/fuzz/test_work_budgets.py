@@ -240,3 +240,45 @@ def test_check_allocation_refuses_a_nan_tolerance(tol):
     alloc = dp.herding.solve_allocation(d, s, M).x
     err = _quick(dp.herding.check_allocation, d, s, M, alloc, tol=tol)
     assert "tol" in str(err)
+
+
+# ----------------------------------------------------------------------------- checks under python -O
+def test_require_set_raises_where_an_assert_would_be_stripped():
+    from droneplan.solvers.validation import require_set
+
+    assert require_set(0, "zero is set") == 0
+    with pytest.raises(RuntimeError, match="the solver"):
+        require_set(None, "the solver")
+
+
+def test_the_same_verdicts_under_python_dash_O(tmp_path):
+    import subprocess
+    import sys
+
+    code = """
+import math, droneplan as dp
+def verdict(fn, *a, **k):
+    try:
+        fn(*a, **k)
+    except (ValueError, TypeError) as e:
+        return type(e).__name__
+    return "accepted"
+d, s, M = [1.0, 5.0], [2.0], 10.0
+alloc = dp.herding.solve_allocation(d, s, M).x
+bad = type(alloc)(alloc.target, alloc.direction, alloc.travel * 2, alloc.points)
+print(verdict(dp.herding.check_allocation, d, s, M, bad),
+      verdict(dp.herding.check_allocation, d, s, M, alloc, tol=math.nan),
+      verdict(dp.covert.sphere_minmax_bearing, dp.covert.THESIS_TABLE_3_2, [[1e200, 0.0, 0.0]]),
+      verdict(dp.shark.interception_time_bound, ([0.0, 0.0, -3.0], [3.0, 0.0]), [-10.0, 5.0, 2.0], t_max=1e9))
+"""
+    out = {
+        flag: subprocess.run(
+            [sys.executable, *([flag] if flag else []), "-c", code],
+            capture_output=True,
+            text=True,
+            check=True,
+            timeout=120,
+        ).stdout.split()
+        for flag in ("", "-O")
+    }
+    assert out[""] == out["-O"] == ["ValueError"] * 4
