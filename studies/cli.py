@@ -26,12 +26,10 @@ from types import ModuleType
 
 from droneplan.studies import common
 from droneplan.studies.common import StudyError, make_executor
+from droneplan.studies.problems import PROBLEMS
 from droneplan.studies.store import STORE_NAME, ResultStore, StoreError
 
 __all__ = ["PROBLEMS", "available_problems", "run_gap", "main"]
-
-PROBLEMS = ("covert", "cells", "shark", "herding")
-"""The four problems, in thesis chapter order (ch. 3-6)."""
 
 _CHAPTER = {"covert": 3, "cells": 4, "shark": 5, "herding": 6}
 

@@ -20,6 +20,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from droneplan.studies.problems import PROBLEMS
+
 __all__ = [
     "PROBLEMS",
     "CHAPTER_TITLES",
@@ -30,9 +32,6 @@ __all__ = [
     "write_report",
     "main",
 ]
-
-PROBLEMS = ("covert", "cells", "shark", "herding")
-"""The problems in thesis order (chapters 3-6), as named by ``droneplan reproduce``."""
 
 CHAPTER_TITLES = {
     "covert": "Ch. 3: covert observation of moving animals",
