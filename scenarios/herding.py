@@ -311,6 +311,10 @@ def barking_mask(
 _GRAZE_NEIGHBOURS = 4
 """Neighbours a grazing animal's first, bounded search looks for (module docstring of animal_step)."""
 
+_SPLIT_MIN = 1000
+"""Herds of at least this many animals get the per-animal split of the work in animal_step;
+smaller herds take one cone test and one neighbour search for all (fewer numpy calls)."""
+
 
 def animal_step(
     animals: np.ndarray,
@@ -331,7 +335,8 @@ def animal_step(
     centroid: the herd centroid if already known (default: computed).
     Returns (new positions, new headings, affected mask (n,)).
 
-    Only the animals that need it get each part of the work: the barking cones are tested
+    In a herd of 1000 or more, only the animals that need it get each part of the work
+    (smaller herds take one pass over every moving animal): the barking cones are tested
     for the animals within R_b of a drone (found in the neighbour tree); the attraction to
     the neighbours' centre of mass is computed for the barked-at animals only (a grazing
     animal does not use it); a grazing animal's repulsion first searches its neighbours
@@ -361,8 +366,9 @@ def _animal_step(
     n = animals.shape[0]
     centroid = _centroid(animals) if centroid is None else centroid
     tree = cKDTree(animals, balanced_tree=False, compact_nodes=False) if n > 1 else None
+    split = n >= _SPLIT_MIN
     affected = np.zeros(n, dtype=bool)
-    if tree is None:
+    if not split or tree is None:
         cone = barking_mask(animals, drones, centroid, params.R_b, params.beta, barking)
         affected[:] = cone.any(axis=1)
     else:
@@ -388,8 +394,8 @@ def _animal_step(
     C = np.zeros((m, 2))
     if tree is not None:
         K = min(params.n_neighbours, n - 1)
-        full = aff.copy()  # rows that need the n_neighbours search
-        gz = np.flatnonzero(~aff)
+        full = aff.copy() if split else np.ones(m, dtype=bool)  # rows that need the full search
+        gz = np.flatnonzero(~aff) if split else np.zeros(0, dtype=np.intp)
         if gz.size:
             # a grazing animal only feels the neighbours closer than r_a (among its K nearest):
             # look for a few within r_a; a full answer means there may be more
@@ -399,17 +405,36 @@ def _animal_step(
             full[gz[crowded]] = True
             rows = gz[~crowded]
             if rows.size:
-                R_a[rows] = _repulsion(animals, pos[rows], dist[~crowded, 1:], idx[~crowded, 1:], params.r_a)
+                # missing neighbours (index n, distance inf) weigh 0: any row stands in for them
+                nb = animals[np.minimum(idx[~crowded, 1:], n - 1).T]
+                R_a[rows] = _repulsion(nb, pos[rows], dist[~crowded, 1:], params.r_a)
         rows = np.flatnonzero(full)
         if rows.size:
             dist, idx = tree.query(pos[rows], k=K + 1)
             dist, idx = dist[:, 1:], idx[:, 1:]  # drop self (distance 0 ranks first)
-            R_a[rows] = _repulsion(animals, pos[rows], dist, idx, params.r_a)
-            nb = animals[idx.T]
-            nb_sum = nb[0].copy()
-            for j in range(1, K):
-                nb_sum += nb[j]
-            C[rows] = _unit(nb_sum / K - pos[rows])
+            nb = animals[idx.T]  # neighbour-major (K, m, 2)
+            R_a[rows] = _repulsion(nb, pos[rows], dist, params.r_a)
+            C[rows] = _unit(nb.sum(axis=0) / K - pos[rows])
+    if not split:  # every row at once (fewer numpy calls for a small herd)
+        rel = pos[:, None, :] - drones[None, :, :]
+        wd = cone[movers] / np.maximum(np.sqrt(np.sum(rel * rel, axis=2)), 1e-12)
+        R_d = _unit(np.einsum("md,mdc->mc", wd, rel))
+        herd = params.eta_d * R_d + params.eta_L * C + params.eta_r * R_a + params.eta_i * heading[movers]
+        herd += params.eta_e * eps
+        graze = params.eta_r * R_a + params.eta_e * eps
+        direction = _unit(np.where(aff[:, None], herd, graze))
+    else:
+        direction = _split_directions(params, drones, cone, heading, movers, pos, aff, eps, R_a, C)
+    speed = np.where(aff, params.V_animal, params.graze_speed)
+    new_pos[movers] = pos + (speed * dt)[:, None] * direction
+    new_head[movers] = direction
+    return new_pos, new_head, affected, movers
+
+
+def _split_directions(params, drones, cone, heading, movers, pos, aff, eps, R_a, C) -> np.ndarray:
+    """The unit step directions (m, 2) of the moving animals, the barked-at and the grazing
+    ones computed apart (the drones' repulsion for the barked-at ones only)."""
+    m = movers.size
     direction = np.empty((m, 2))
     a_rows = np.flatnonzero(aff)
     if a_rows.size:
@@ -429,28 +454,19 @@ def _animal_step(
     g_rows = np.flatnonzero(~aff)
     if g_rows.size:
         direction[g_rows] = _unit(params.eta_r * R_a[g_rows] + params.eta_e * eps[g_rows])
-    speed = np.where(aff, params.V_animal, params.graze_speed)
-    new_pos[movers] = pos + (speed * dt)[:, None] * direction
-    new_head[movers] = direction
-    return new_pos, new_head, affected, movers
+    return direction
 
 
-def _repulsion(
-    animals: np.ndarray, pos: np.ndarray, dist: np.ndarray, idx: np.ndarray, r_a: float
-) -> np.ndarray:
+def _repulsion(nb: np.ndarray, pos: np.ndarray, dist: np.ndarray, r_a: float) -> np.ndarray:
     """R_a: the unit sum of the unit vectors away from the neighbours closer than r_a.
 
-    dist, idx: (m, k) neighbours in increasing distance (missing ones: inf, n). The sum runs
-    over the neighbours in that order, one (m, 2) slice at a time (a sequential sum's rounding;
-    far or missing neighbours add zeros, which change nothing).
+    nb: (k, m, 2) neighbour positions, neighbour-major, m; dist: (m, k) their distances in
+    increasing order, m (inf: missing). numpy sums over the leading axis one (m, 2) slice after
+    another, so the sum has a sequential sum's rounding in neighbour order; far or missing
+    neighbours add zeros, which change nothing.
     """
-    nb = animals[np.minimum(idx, animals.shape[0] - 1).T]  # neighbour-major (k, m, 2)
     w = np.where(dist < r_a, 1.0 / np.maximum(dist, 1e-12), 0.0).T
-    push = w[:, :, None] * (pos - nb)
-    R_a_sum = np.zeros_like(pos)
-    for j in range(push.shape[0]):
-        R_a_sum += push[j]
-    return _unit(R_a_sum)
+    return _unit((w[:, :, None] * (pos - nb)).sum(axis=0))
 
 
 def drone_step(

@@ -39,7 +39,7 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
     return pts[[int(np.argmin(proj)), int(np.argmax(proj))]]
 
 
-_PREFILTER_MIN = 64
+_PREFILTER_MIN = 1500
 """Herds of at least this many animals are prefiltered before qhull (below, qhull alone is faster)."""
 
 

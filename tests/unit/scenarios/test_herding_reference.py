@@ -67,6 +67,21 @@ def test_same_seeds_give_the_saved_trajectories(name):
         np.testing.assert_allclose(value, ref, rtol=0, atol=1e-9, equal_nan=True, err_msg=key)
 
 
+@pytest.mark.parametrize("name", ["p60", "cb200", "p1000"])
+def test_the_large_herd_paths_give_the_saved_trajectories_too(name, monkeypatch):
+    """The split animal step and the hull prefilter, which only large herds take, on small runs."""
+    from droneplan.planners.herding import geometry
+    from droneplan.scenarios import herding
+
+    monkeypatch.setattr(herding, "_SPLIT_MIN", 2)
+    monkeypatch.setattr(geometry, "_PREFILTER_MIN", 3)
+    saved = np.load(DATA)
+    for key, value in run(name).items():
+        np.testing.assert_allclose(
+            value, saved[f"{name}/{key}"], rtol=0, atol=1e-9, equal_nan=True, err_msg=key
+        )
+
+
 if __name__ == "__main__":
     out = {f"{name}/{key}": value for name in RUNS for key, value in run(name).items()}
     np.savez_compressed(sys.argv[1], **out)

@@ -133,10 +133,16 @@ def test_scenario_bad_input():
         thesis_scenario(10, field_size=(0.0, 10.0))
 
 
+@pytest.mark.parametrize("split", [False, True])
 @pytest.mark.parametrize("n", [2, 30, 400])
-def test_animal_step_bit_identical_to_einsum_and_mean_formulation(n):
+def test_animal_step_bit_identical_to_einsum_and_mean_formulation(n, split, monkeypatch):
     """animal_step sums over neighbours slice by slice; the step equals the (m, k, 2) einsum / mean
-    formulation of the model to the last bit, so the faster layout leaves every trajectory unchanged."""
+    formulation of the model to the last bit, so the faster layout leaves every trajectory unchanged.
+    split: the per-animal split of the work that large herds take (cone test near the drones only,
+    bounded neighbour search for grazing animals), forced on here."""
+    import droneplan.scenarios.herding as herding_module
+
+    monkeypatch.setattr(herding_module, "_SPLIT_MIN", 2 if split else 10**9)
     rng = np.random.default_rng(n)
     p = HerdingParams(graze_prob=0.5)
     side = 3 * math.sqrt(n) + 1  # dense: many neighbours closer than r_a
