@@ -1,7 +1,7 @@
 """Thesis ch. 4 heuristics: the genetic algorithm with restarts (§4.3.2, Table 4.1) and
 the exhaustive search of Algorithm 2 with a constrained single-disc maximum coverage.
 
-Decisions where the thesis is not explicit (DESIGN §4):
+Decisions where the thesis is not explicit:
 
 * **Fitness of infeasible chromosomes.** A drone-cell *contributes* when it lies in the
   area, clears every GBS cell (|D - G| >= R_g + R_d), overlaps no other drone-cell

@@ -1,3 +1,6 @@
-"""The scenarios layer of droneplan (see DESIGN.md §1); its public names live in its submodules."""
+"""The scenarios layer of droneplan; its public names live in its submodules.
+
+The layers and the direction of their imports: docs/architecture.md.
+"""
 
 __all__: list[str] = []

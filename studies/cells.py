@@ -1,5 +1,6 @@
 """Studies for thesis ch. 4 (drone-cells): Table 4.3 and Figs 4.3-4.6 analogues, the
-GA/exhaustive-vs-MILP gap study and the bench targets of DESIGN §7.
+GA/exhaustive-vs-MILP gap study and the bench targets (the m=4 and m=6 MILPs proven
+within 120 s and 300 s, the GA/MILP time ratio, the GA success rate at m=3).
 
 The MILP runs use the default CP-SAT backend (with the LP-based and core subsolvers
 that ``formulations.cells`` selects for 1-2 workers); bench also times HiGHS.
@@ -375,7 +376,7 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
     fig = plot_deployment_region(thesis_problem(2, INSTANCE_SEED), [[2500.0, 0.0]])  # GBS at (0, 0) and D_1
     fig.savefig(out / "fig_4_2_region.png", dpi=110)
     plt.close(fig)
-    # ------------------------------------------------- GA ablation (issue 13.4), the longest part
+    # ------------------------------------------------- GA ablation, the longest part
     _reproduce_ablation(quick, out, ex, st)
 
 
@@ -400,7 +401,7 @@ def _reproduce_ablation(quick: bool, out: Path, ex, st) -> pd.DataFrame:
     summ.to_csv(out / "ga_ablation_summary.csv", index=False)
     corr.to_csv(out / "ga_ablation_correlations.csv", index=False)
     tab = ComparisonTable(
-        f"GA ablation (issue 13.4) - P_Global vs exhaustive search (the thesis's criterion) / vs the MILP "
+        f"GA ablation - P_Global vs exhaustive search (the thesis's criterion) / vs the MILP "
         f"optimum, {abl['seed'].nunique()} thesis-scale seeds; per-seed rows in ga_ablation_seeds.csv"
     )
     for r in summ.itertuples():
@@ -475,7 +476,7 @@ GA_VARIANTS: dict[str, dict[str, Any]] = {
     "no-restarts": {"label": "no restarts (1 run, same generations)", "no_restarts": True},
     "restarts-x4": {"label": "4 x N_start restarts (4 x the budget)", "restarts_factor": 4},
 }
-"""GA ablation variants (issue 13.4), keyed by a short name: the faithful thesis GA and one
+"""GA ablation variants, keyed by a short name: the faithful thesis GA and one
 change each, as :class:`GASettings` fields (``settings``) or run shape (``no_restarts``: one
 run of N_start x 50 generations; ``restarts_factor``: that many times N_start restarts, to see
 whether the budget closes the gap); ``label`` says what changes. Only "thesis" is the thesis
@@ -530,7 +531,7 @@ def instance_features(problem, centres=None) -> dict:
 
 
 def ablation_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
-    """One task of the GA ablation (issue 13.4) in the results schema (objective = covered users).
+    """One task of the GA ablation in the results schema (objective = covered users).
 
     kind ``ref``: exhaustive search (Alg. 2, ``es_limit`` s) and the MILP (``milp_limit`` s) on
     ``thesis_problem(m, seed)`` (with the users of ``users``, a key of :data:`INSTANCE_VARIANTS`,
@@ -833,7 +834,7 @@ def ga_ablation(
     store=None,
     out: Path | None = None,
 ) -> pd.DataFrame:
-    """P_Global of the thesis GA and of the ablation variants (issue 13.4), through the results
+    """P_Global of the thesis GA and of the ablation variants, through the results
     store: every (seed, m) reference and every GA run is a task of :func:`ablation_task`, run by
     ``executor`` (default: serial) into ``store`` (default ``out/results.sqlite``; a temporary
     directory when ``out`` is None too), so an interrupted ablation resumes.
@@ -905,7 +906,7 @@ def _distribution_rows(t: ComparisonTable, df, m: int, limit: float) -> None:
     worst = df["time_s"].max() if proven.all() else float("inf")
     t.add(
         f"m={m} proven optimal within {limit:g} s",
-        f"{len(df)}/{len(df)} (issue 13)",
+        f"{len(df)}/{len(df)} (target)",
         f"{int(proven.sum())}/{len(df)}",
         f"seeds {df['seed'].min()}-{df['seed'].max()}, cold start",
     )
@@ -966,7 +967,7 @@ def gap(*, seeds: int, executor=None, out: Path, store=None, m: int = 3, first_s
 
 
 def bench(*, quick: bool, out: Path) -> None:
-    """DESIGN §7 / issue 13 targets: the distribution over thesis-scale seeds (median, worst)
+    """The bench targets: the distribution over thesis-scale seeds (median, worst)
     of the m=4 MILP (proven within 120 s?) and m=6 (within 300 s?; skipped under --quick, which
     also uses seeds 0-2 instead of 0-9), per-seed rows in ``bench_cells_seeds.csv``; the
     GA/MILP time ratio; GA success rate at m=3.

@@ -245,7 +245,7 @@ DEVIATIONS: dict[str, tuple[Deviation, ...]] = {
         ),
     ),
 }
-"""Deliberate deviations from the thesis per problem (DESIGN §4, the modules' docstrings)."""
+"""Deliberate deviations from the thesis per problem (each module's docstring gives the details)."""
 
 
 def deviations_markdown(problem: str) -> str:

@@ -25,7 +25,7 @@ Decisions where the thesis is silent or its literal law fails in discrete time (
 - The observation ends when the remaining period equals the straight return time plus
   ``return_margin``; within ``home_radius`` of D_s the Retreat flies straight home
   (Remark 3.4.2: D_s is outside the targets' visual field).
-- Initial heading: towards F. U_max is a turn rate (rad/s), DESIGN §4.
+- Initial heading: towards F. U_max is a turn rate (rad/s; Table 3.2 prints m/s^2).
 """
 
 from __future__ import annotations

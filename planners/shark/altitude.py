@@ -1,7 +1,7 @@
 """Proposition 5.3.1 verbatim (eqs. 5.6-5.7) — the thesis's altitude rule, kept as the baseline.
 
 With Table 5.1 case (c) puts the operator at z_s + l2 > le for -5.5 < z_s < -3.5 m,
-outside its own constraint lmin <= z_o <= le (DESIGN §4); `formulations.shark.optimal_altitude`
+outside its own constraint lmin <= z_o <= le; `formulations.shark.optimal_altitude`
 is the exact maximiser.
 """
 

@@ -3,7 +3,7 @@
 Both implement the closed-loop controller contract (``reset(scenario, *, seed)``,
 ``command(SharkObservation) -> SharkCommand``, ``phase``) of `scenarios.shark.simulate`.
 
-Discretisation and documented fixes (DESIGN §4):
+Discretisation and documented fixes (deviations from the thesis, each with its reason):
 - Speed limits: eq. 5.14/5.5 command VoM along the 3-D line of sight; the command is
   then clipped to |v_xy| <= VoMxy, |v_z| <= VoMz (the limits of §5.3.2).
 - Final step: when a pursued point is reachable within one Ts the operator moves

@@ -6,7 +6,7 @@ noise, the drone's non-holonomic kinematics (3.2)-(3.5), the bearing change
 (3.6) and a closed-loop simulator.
 
 Units: metres, seconds, radians. ``U_max`` is the bound on ``|u|`` with
-``dh/dt = u`` and ``|h| = 1`` (DESIGN §4), i.e. a heading turn rate in rad/s
+``dh/dt = u`` and ``|h| = 1``, i.e. a heading turn rate in rad/s
 (the thesis table prints m/s^2).
 
 Controllers plug into :func:`simulate` through the closed-loop contract shared by

@@ -47,7 +47,7 @@ class CovertParams:
     V_max: float = 10.0
     """Maximum drone speed |v| (m/s)."""
     U_max: float = 5.0
-    """Maximum |u|, the heading turn rate (rad/s; Table 3.2 prints m/s^2, see DESIGN §4)."""
+    """Maximum |u|, the heading turn rate (rad/s; Table 3.2 prints m/s^2, a unit slip: |h| = 1)."""
     F: tuple[float, float, float] = (200.0, 200.0, 0.0)
     """Farthest point of the habitat, centre of the observation sphere (m)."""
     R: tuple[float, float, float] = (10.0, 10.0, 40.0)

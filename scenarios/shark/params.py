@@ -10,8 +10,8 @@ horizontal plane a height h below the operator is therefore
     eps(h) = max_k sqrt(eps_o**2 - (h - l_k)**2)   (0 where no ball reaches),
 
 which satisfies eq. 5.2 (eps(l1) = eps(l2) = eps_o) and reaches down to
-l2 + eps_o = lmax = 11 m with Table 5.1.  A "touch" (DESIGN §4) is the shark's
-snout, a point, entering either ball.
+l2 + eps_o = lmax = 11 m with Table 5.1.  A "touch" is the shark's snout, a point,
+entering either ball (our reading of the thesis, which does not model the shark's body).
 """
 
 from __future__ import annotations
@@ -150,7 +150,8 @@ def inside_field(shark, operator, params: SharkParams = THESIS_TABLE_5_1) -> NDA
 
 
 def touches(shark, operator, params: SharkParams = THESIS_TABLE_5_1) -> NDArray[np.bool_]:
-    """True where the shark's snout (a point) is inside either ball of the field (DESIGN §4).
+    """True where the shark's snout (a point) is inside either ball of the field (a point, not the
+    shark's body: see the module docstring).
 
     operator: (..., 3) operator positions (m).
     params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).

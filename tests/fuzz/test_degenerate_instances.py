@@ -1,4 +1,4 @@
-"""Issue 12 deliverable 3: degenerate but valid instances give a result, not an exception or
+"""Degenerate but valid instances give a result, not an exception or
 a stall (each call below is bounded by a time limit or a short horizon)."""
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""Issue 12 item 7 and degenerate herds: collinear and coincident herds gather."""
+"""Degenerate herds: collinear and coincident herds gather (the mitred corners of a nearly
+collinear herd used to run hundreds of metres off)."""
 
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ from droneplan.planners.herding.geometry import MITRE_LIMIT, extended_hull_verti
 @settings(max_examples=40, deadline=None)
 @given(st.integers(3, 40), st.floats(0.0, 1e-3), st.floats(0, np.pi), st.integers(0, 2**32 - 1))
 def test_extended_hull_of_a_thin_herd_stays_near_the_animals(n, thickness, angle, seed):
-    """Item 7: the mitred corners of a nearly collinear herd ran hundreds of metres off."""
+    """The mitred corners of a nearly collinear herd ran hundreds of metres off."""
     rng = np.random.default_rng(seed)
     along = rng.uniform(0.0, 600.0, n)
     across = rng.uniform(-thickness, thickness, n)
@@ -29,7 +30,7 @@ def test_extended_hull_of_a_thin_herd_stays_near_the_animals(n, thickness, angle
 
 @pytest.mark.parametrize("line", ["horizontal", "vertical"])
 def test_a_collinear_herd_gathers(line):
-    """Item 7: 30 animals on a horizontal (or vertical) line never gathered in 900 s (the
+    """30 animals on a horizontal (or vertical) line never gathered in 900 s (the
     drones parked beyond the herd's ends, on the runaway mitre corners)."""
     base = dp.herding.thesis_scenario(30, seed=0)
     if line == "horizontal":

@@ -1,4 +1,4 @@
-"""Issue 12 item 8: herds are delivered whole (completion = every animal in the goal region,
+"""Herds are delivered whole (completion = every animal in the goal region,
 ``HerdingTrace.delivered``, regrouping when the herd spreads while driving)."""
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def _ring(radius: float, n: int, centre) -> np.ndarray:
 
 
 def test_a_herd_around_the_goal_but_outside_the_yard_is_not_delivered():
-    """Item 8: completion was "centroid within goal_radius", so a herd whose centroid sat on G
+    """Completion was "centroid within goal_radius", so a herd whose centroid sat on G
     counted as delivered with every animal outside the goal region."""
     base = dp.herding.thesis_scenario(30, seed=0)
     goal = base.goal
@@ -44,7 +44,7 @@ def test_a_herd_around_the_goal_but_outside_the_yard_is_not_delivered():
 
 
 def test_delivered_is_the_fraction_of_animals_in_the_goal_region():
-    """Item 8: HerdingTrace.delivered at each recorded time."""
+    """HerdingTrace.delivered at each recorded time."""
     base = dp.herding.thesis_scenario(10, seed=0)
     inside = _ring(10.0, 4, base.goal)
     outside = _ring(30.0, 6, base.goal + np.array([300.0, 0.0]))
@@ -55,7 +55,7 @@ def test_delivered_is_the_fraction_of_animals_in_the_goal_region():
 
 
 def test_a_herd_that_spreads_while_driving_is_gathered_again():
-    """Item 8: the herd split while driving and the run still finished; now the phase goes
+    """The herd split while driving and the run still finished; now the phase goes
     back to gathering when the footprint exceeds regroup_factor * R_c."""
     base = dp.herding.thesis_scenario(40, seed=0)
     params = replace(base.params, regroup_factor=1.0, graze_prob=1.0)
@@ -74,7 +74,7 @@ def test_a_herd_that_spreads_while_driving_is_gathered_again():
 
 
 def test_a_finished_run_has_every_animal_in_the_goal_region():
-    """Item 8: when total_time is set, delivered is 1 there (every animal within goal_radius of G)."""
+    """When total_time is set, delivered is 1 there (every animal within goal_radius of G)."""
     base = dp.herding.thesis_scenario(20, seed=0)
     sc = replace(base, animals=_ring(5.0, 20, base.goal))
     trace = dp.herding.simulate(sc, _Idle(), t_max=2.0, seed=0)

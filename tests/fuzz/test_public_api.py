@@ -1,4 +1,4 @@
-"""Fuzz suite over the whole public API (issue 12, deliverable 2).
+"""Fuzz suite over the whole public API.
 
 Every public callable of the front doors (``droneplan.cells/covert/shark/herding``,
 enumerated from ``__all__``) has an entry in ``SPECS``: a valid call and the kind of

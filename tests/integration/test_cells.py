@@ -35,7 +35,7 @@ def test_thesis_scale_milp_proven_optimal(m, backend, engine):
 
 @pytest.mark.slow
 def test_thesis_scale_engines_agree_on_a_hard_seed():
-    # issue 13: seed 3 at m=4 was the MILP's hardest (55 / bound 69 after 150 s); the exact
+    # seed 3 at m=4 was the MILP's hardest (55 / bound 69 after 150 s); the exact
     # branch and bound proves its optimum, and the model (warm-started from that plan, so it
     # only has to prove) must not find a better placement over the same candidates
     from droneplan.formulations.cells import evaluate, solve_milp

@@ -49,7 +49,7 @@ def test_mpc_against_sliding_on_thesis_cases(case):
 @pytest.mark.slow
 @pytest.mark.parametrize("case", [1, 2])
 def test_safeguarded_mpc_no_worse_than_sliding_on_thesis_cases(case):
-    """Issue 6: beta_max(MPC) <= beta_max(sliding) on both thesis cases, for the safeguarded MPC
+    """beta_max(MPC) <= beta_max(sliding) on both thesis cases, for the safeguarded MPC
     (per replan: MPC plan or sliding rollout, whichever is predicted lower), arriving on the
     sphere by its deadline (predicted sliding arrival + 2 s), keeping it, and returning home."""
     sc = thesis_case(case, 0)

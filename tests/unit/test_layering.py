@@ -1,8 +1,8 @@
-"""DESIGN §1: imports point one way between the layers. Checked on the source text
+"""Imports point one way between the layers (docs/architecture.md, section 1). Checked on the source text
 (AST), so it holds for every module in the tree, including ones added later.
 
 One module sits below the layer order: ``droneplan.solvers.validation`` (the shared
-argument checks and seed helper, issue 9 item 7) knows nothing of drones or solvers
+argument checks, work budgets and seed helpers) knows nothing of drones or solvers
 and imports nothing of droneplan, so every layer may import it."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 9: every public module of every layer declares ``__all__``, and every name it lists exists."""
+"""Every public module of every layer declares ``__all__``, and every name it lists exists."""
 
 from __future__ import annotations
 

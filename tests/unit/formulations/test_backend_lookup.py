@@ -52,7 +52,7 @@ def test_unknown_or_unsuitable_backends_are_refused():
 
 
 def test_formulation_solves_print_nothing(capfd):
-    """Issue 9 item 8 end to end: the cells MILP on CP-SAT (whose relaxation bound runs on HiGHS,
+    """Silent solves end to end: the cells MILP on CP-SAT (whose relaxation bound runs on HiGHS,
     which printed its banner before), the covert MPC on both NLP backends, the shark OCP and
     assignment, the herding CP-SAT model: nothing reaches stdout."""
     from droneplan.formulations.cells import CellProblem, solve_milp

@@ -117,7 +117,7 @@ def test_bound_none_when_unreachable_within_horizon():
     assert b.status == Status.INFEASIBLE and b.bound is None and "no bound" in b.message
 
 
-# ---------------------------------------------------------------- bad input (issue 12 item 2)
+# ---------------------------------------------------------------- bad input
 def test_shark_inside_the_field_is_refused():
     with pytest.raises(ValueError, match="inside the field"):
         solve_interception((np.array([0.0, 0, -3]), np.array([3.0, 0])), np.array([0.5, 0, 1.5]), N=10)

@@ -48,7 +48,7 @@ def test_extended_hull_edges_parallel_at_distance_ds(pts, ds):
         nrm = np.array([u[1], -u[0]])  # outward for a ccw polygon
         assert np.dot(e0 - p0, nrm) == pytest.approx(ds, rel=1e-6, abs=1e-6)
         assert np.dot(e1 - p0, nrm) == pytest.approx(ds, rel=1e-6, abs=1e-6)
-    # the same polygon as shapely's mitre buffer (DESIGN §4) when no mitre is clipped
+    # the same polygon as shapely's mitre buffer (the documented corner rule) when no mitre is clipped
     buf = shapely.Polygon(P).buffer(ds, join_style="mitre", mitre_limit=1e6)
     ours = shapely.Polygon(E)
     # Hausdorff distance, not the symmetric-difference area: GEOS overlay of two

@@ -152,7 +152,7 @@ def test_online_ocp_interceptor_intercepts_frontally_on_a():
 
 @pytest.mark.parametrize("budget", [{"max_iter": 2}, {"time_limit": 1e-4}])
 def test_online_ocp_counts_its_pursuit_fallbacks_in_the_trace(budget):
-    # issue 12 item 3: an OCP that cannot solve in its budget falls back to pursuit on every replan,
+    # an OCP that cannot solve in its budget falls back to pursuit on every replan,
     # and the trace says so (same name as the covert MPC's counter)
     ctl = OCPInterceptor(N=15, **budget)
     trace = simulate(thesis_trajectories()["a"], ctl, t_max=2.0)

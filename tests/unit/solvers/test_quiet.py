@@ -1,4 +1,4 @@
-"""Item 8 of issue 9: no solver writes to stdout unless verbose=True (checked at the fd level)."""
+"""No solver writes to stdout unless verbose=True (checked at the fd level)."""
 
 from __future__ import annotations
 

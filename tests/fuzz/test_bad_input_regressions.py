@@ -1,6 +1,6 @@
-"""Issue 12, list items 5 and 6: bad input is refused with a clear ValueError/TypeError
-naming the parameter (each test fails on the code before the fix; its docstring says
-which item it covers)."""
+"""Regressions of bad input: each is refused with a clear ValueError/TypeError naming the
+parameter (each test failed on the code before its fix; its docstring says what happened
+before)."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ def tiny_cells():
 
 
 def test_bools_are_not_numbers(tiny_cells):
-    """Item 5: bools were taken as numbers (R_d=True, n_animals=True, time_limit=True)."""
+    """Bools were taken as numbers (R_d=True, n_animals=True, time_limit=True)."""
     with pytest.raises(TypeError, match="R_d"):
         dp.cells.CellProblem([[0.0, 0.0]], [[0.0, 0.0]], 1, True, 1000, 3500, 3000)
     with pytest.raises(TypeError, match="n_animals"):
@@ -38,7 +38,7 @@ def test_bools_are_not_numbers(tiny_cells):
 
 
 def test_negative_limits_are_refused(tiny_cells):
-    """Item 5: exhaustive(time_limit=-1) returned FEASIBLE with 0 users."""
+    """exhaustive(time_limit=-1) returned FEASIBLE with 0 users."""
     with pytest.raises(ValueError, match="time_limit"):
         dp.cells.exhaustive(tiny_cells, time_limit=-1)
     with pytest.raises(ValueError, match="t_max"):
@@ -46,7 +46,7 @@ def test_negative_limits_are_refused(tiny_cells):
 
 
 def test_nan_is_not_passed_through():
-    """Item 5: min_enclosing_circle returned (nan, nan); touches returned False for a NaN shark."""
+    """min_enclosing_circle returned (nan, nan); touches returned False for a NaN shark."""
     with pytest.raises(ValueError, match="points"):
         dp.herding.min_enclosing_circle(np.array([[0.0, 0.0], [np.nan, 1.0]]))
     with pytest.raises(ValueError, match="shark"):
@@ -56,7 +56,7 @@ def test_nan_is_not_passed_through():
 
 
 def test_operator_start_outside_the_altitude_band_is_refused():
-    """Item 5: an operator starting at z = 50 m was recorded descending at -480 m/s."""
+    """An operator starting at z = 50 m was recorded descending at -480 m/s."""
     path = dp.shark.thesis_trajectories(duration=5.0)["a"]
     start = path.pos[0] + np.array([0.0, -13.0, 0.0])
     start[2] = 50.0
@@ -68,7 +68,7 @@ def test_operator_start_outside_the_altitude_band_is_refused():
 
 
 def test_a_target_path_shorter_than_the_mission_is_refused_unless_asked_for():
-    """Item 5: a covert target path shorter than the mission silently stopped the target."""
+    """A covert target path shorter than the mission silently stopped the target."""
     params = dp.covert.THESIS_TABLE_3_2
     short = dp.covert.TargetPath(np.array([[100.0, 100.0, 0.0], [150.0, 100.0, 0.0]]))  # 50 m < 240 m
     with pytest.raises(ValueError, match=r"paths\[0\].*shorter than the mission"):
@@ -78,7 +78,7 @@ def test_a_target_path_shorter_than_the_mission_is_refused_unless_asked_for():
 
 
 def test_generated_covert_paths_last_the_whole_mission():
-    """Item 5: the generated case-2 paths were up to 0.4 m shorter than V_T * duration."""
+    """The generated case-2 paths were up to 0.4 m shorter than V_T * duration."""
     sc = dp.covert.thesis_case(2, seed=3)
     mission = sc.params.V_T * sc.params.duration
     assert all(abs(p.length - mission) < 1e-6 for p in sc.paths)
@@ -99,13 +99,13 @@ def test_generated_covert_paths_last_the_whole_mission():
     ids=["thesis_problem", "genetic", "thesis_scenario", "thesis_case", "random_case", "random_trajectory"],
 )
 def test_seed_of_the_wrong_type_is_a_type_error_naming_seed(call):
-    """Item 5: seed='abc' failed inside numpy (or was silently accepted by thesis_case)."""
+    """seed='abc' failed inside numpy (or was silently accepted by thesis_case)."""
     with pytest.raises(TypeError, match="seed"):
         call()
 
 
 def test_seed_none_is_drawn_and_recorded():
-    """Issue 9 item 7: None draws a seed and records it, so the run can be repeated."""
+    """None draws a seed and records it, so the run can be repeated."""
     rng, seed = resolve_seed(None)
     assert isinstance(seed, int) and seed >= 0
     assert rng.random() == np.random.default_rng(seed).random()
@@ -125,19 +125,19 @@ def test_seed_none_is_drawn_and_recorded():
     ids=["herding", "covert", "shark"],
 )
 def test_controller_none_is_a_type_error(simulate, scenario):
-    """Item 6: controller None gave an AttributeError from inside the simulator."""
+    """Controller None gave an AttributeError from inside the simulator."""
     with pytest.raises(TypeError, match=r"controller|herder"):
         simulate(scenario(), None)
 
 
 def test_fitness_with_a_population_of_3_d_points_names_pop(tiny_cells):
-    """Item 6: fitness with a (5, 2, 3) population gave a numpy broadcast error."""
+    """Fitness with a (5, 2, 3) population gave a numpy broadcast error."""
     with pytest.raises(ValueError, match="pop"):
         dp.cells.fitness(tiny_cells, np.zeros((5, 2, 3)))
 
 
 def test_make_trajectory_takes_constants():
-    """Item 6: make_trajectory with floats gave "'float' object is not callable"."""
+    """make_trajectory with floats gave "'float' object is not callable"."""
     path = dp.shark.make_trajectory(0.0, 5.0, -3.0, duration=2.0)
     assert np.allclose(path.vel[:, 0], 5.0) and np.allclose(path.pos[:, 2], -3.0)
     with pytest.raises(TypeError, match="speed"):
@@ -145,7 +145,7 @@ def test_make_trajectory_takes_constants():
 
 
 def test_thesis_scenario_n_drones_bool_names_n_drones():
-    """Item 6: thesis_scenario(n_drones=True) gave a numpy TypeError."""
+    """thesis_scenario(n_drones=True) gave a numpy TypeError."""
     with pytest.raises(TypeError, match="n_drones"):
         dp.herding.thesis_scenario(10, n_drones=True)
 
@@ -162,7 +162,7 @@ def test_thesis_scenario_n_drones_bool_names_n_drones():
     ids=["herd", "clusters", "users", "make_trajectory", "constant_velocity"],
 )
 def test_absurd_sizes_are_refused_up_front(call, name):
-    """Item 6: absurd sizes gave a numpy MemoryError after trying to allocate."""
+    """Absurd sizes gave a numpy MemoryError after trying to allocate."""
     with pytest.raises(ValueError, match=name) as info:
         call()
     assert str(MAX_ELEMENTS) in str(info.value)
