@@ -224,7 +224,10 @@ def _hop_levels(lin, x: list, pts: np.ndarray, direct: np.ndarray, problem: Cell
             for c in rows.tolist():
                 lin.add_implies_any(z[c, lev], [])
             continue
-        var = (lambda d: x[d]) if lev == 2 else (lambda d, lv=lev - 1: z[d, lv])
+
+        def var(d: int, lv: int = lev - 1) -> Any:
+            return x[d] if lv == 1 else z[d, lv]
+
         keys, inv = np.unique(cell[src], axis=0, return_inverse=True)
         inv = inv.ravel()
         members = [src[inv == q] for q in range(len(keys))]
@@ -339,10 +342,10 @@ def _coverage_objective(
             groups.setdefault(tuple(sites), []).append(u)
     y: dict[int, Any] = {}
     terms = [int(site_w[i]) * x[i] for i in np.flatnonzero(site_w).tolist()]
-    for sites, users in groups.items():
+    for group, users in groups.items():
         v = lin.unit_var(f"y{users[0]}")
         y[users[0]] = v
-        lin.add_implies_any(v, [x[i] for i in sites])  # (4.9): counted only if a chosen site covers it
+        lin.add_implies_any(v, [x[i] for i in group])  # (4.9): counted only if a chosen site covers it
         terms.append(len(users) * v)
     return y, lin.sum(terms), len(cliques), len(cliques)
 
