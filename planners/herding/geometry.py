@@ -101,11 +101,20 @@ def extended_hull_vertices(
     corners correspond to the point), a segment the rectangle d_s around it with
     square caps (corners correspond to the nearer end).
     """
+    d_s, mitre_limit = _check_offset(d_s, mitre_limit)
+    return _extended_hull_vertices(check_array("hull", hull, shape=(None, 2), min_rows=1), d_s, mitre_limit)
+
+
+def _check_offset(d_s: float, mitre_limit: float) -> tuple[float, float]:
     d_s = check_positive("d_s", d_s)
     mitre_limit = check_real("mitre_limit", mitre_limit, finite=False)
     if not mitre_limit >= 1:
         raise ValueError(f"mitre_limit must be >= 1, got {mitre_limit}")
-    P = check_array("hull", hull, shape=(None, 2), min_rows=1)
+    return d_s, mitre_limit
+
+
+def _extended_hull_vertices(P: np.ndarray, d_s: float, mitre_limit: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`extended_hull_vertices` of a checked (h, 2) float hull ``P`` and checked offsets."""
     h = P.shape[0]
     if h == 1:
         corners = np.array([[1.0, -1.0], [1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0]])
@@ -118,12 +127,14 @@ def extended_hull_vertices(
             [P[0] - d_s * (u + nrm), P[1] + d_s * (u - nrm), P[1] + d_s * (u + nrm), P[0] + d_s * (nrm - u)]
         )
         return E, P[[0, 1, 1, 0]]
-    e = np.roll(P, -1, axis=0) - P
+    nxt = np.arange(1, h + 1) % h  # index of the next vertex; np.roll by index, one gather each
+    prv = np.arange(-1, h - 1) % h
+    e = P[nxt] - P
     e_hat = e / np.linalg.norm(e, axis=1)[:, None]
     n = np.column_stack([e_hat[:, 1], -e_hat[:, 0]])
-    n_prev = np.roll(n, 1, axis=0)
+    n_prev = n[prv]
     # outward bisector (incoming minus outgoing edge direction: defined at hairpins too)
-    bisector = np.roll(e_hat, 1, axis=0) - e_hat
+    bisector = e_hat[prv] - e_hat
     bisector /= np.linalg.norm(bisector, axis=1)[:, None]
     cos_half = np.sqrt(np.clip((1.0 + np.sum(n_prev * n, axis=1)) / 2.0, 0.0, 1.0))
     # mitre length d_s / cos(half the turn); capped at mitre_limit * d_s (our rule for sharp
@@ -152,7 +163,8 @@ class ExtendedHull:
 
         mitre_limit: see :func:`extended_hull_vertices`.
         """
-        E, P = extended_hull_vertices(convex_hull(animals), d_s, mitre_limit=mitre_limit)
+        d_s, mitre_limit = _check_offset(d_s, mitre_limit)
+        E, P = _extended_hull_vertices(convex_hull(animals), d_s, mitre_limit)  # convex_hull checks the herd
         return cls.from_vertices(E, P)
 
     @classmethod
@@ -169,6 +181,7 @@ class ExtendedHull:
         self._AB = np.concatenate([E[1:], E[:1]]) - E
         self._L2 = np.sum(self._AB * self._AB, axis=1)
         self._L = np.sqrt(self._L2)
+        self._last_project: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
 
     @property
     def perimeter(self) -> float:
@@ -194,6 +207,9 @@ class ExtendedHull:
         the index i of the closest edge E_i E_{i+1} (k,).
         """
         q = np.atleast_2d(np.asarray(q, dtype=float))
+        last = self._last_project
+        if last is not None and last[0].shape == q.shape and np.array_equal(last[0], q):
+            return last[1].copy(), last[2].copy(), last[3].copy()
         A, AB, L2 = self.vertices, self._AB, self._L2
         rel = q[:, None, :] - A[None, :, :]
         t = np.einsum("qek,ek->qe", rel, AB) / np.maximum(L2, 1e-300)[None, :]
@@ -204,7 +220,9 @@ class ExtendedHull:
         i = np.argmin(d2, axis=1)
         k = np.arange(q.shape[0])
         s = np.mod(self.cum[i] + t[k, i] * self._L[i], self.perimeter)
-        return s, close[k, i], i
+        out = (s, close[k, i], i)
+        self._last_project = (q.copy(), *(a.copy() for a in out))
+        return out
 
     def ray_s(self, origin: np.ndarray, angle: float) -> float:
         """Arc position where the ray from ``origin`` (inside) at ``angle`` (rad) leaves the polygon."""
