@@ -661,8 +661,8 @@ def bench(*, quick: bool, out: Path) -> None:
 def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
     """Write an animated GIF of a run's frames (needs ``simulate(..., frame_every=...)``); returns the path.
 
-    trace: a HerdingTrace with frames; path: the GIF file (str or os.PathLike; its folder is
-    created). goal: G (2,) in m, kept in view (default: the trace's goal). fps: frames per
+    trace: a HerdingTrace with frames; path: the GIF file (str or os.PathLike ending in .gif;
+    its folder is created). goal: G (2,) in m, kept in view (default: the trace's goal). fps: frames per
     second of the GIF (an int, 1 to 100).
     """
     from matplotlib.animation import FuncAnimation, PillowWriter
@@ -673,6 +673,8 @@ def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
     frame_rate = check_int("fps", fps, min_value=1, max_value=100)
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path must be a str or os.PathLike, got {type(path).__name__}")
+    if Path(path).suffix.lower() != ".gif":
+        raise ValueError(f"path must name a .gif file, got {str(path)!r}")
     if not trace.frames:
         raise ValueError("trace has no frames: run simulate(..., frame_every=...)")
     goal = check_array("goal", trace.goal if goal is None else goal, shape=(2,))

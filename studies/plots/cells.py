@@ -10,6 +10,7 @@ from matplotlib.patches import Circle
 
 from droneplan.formulations.cells import CellProblem, evaluate
 from droneplan.planners.cells import deployment_region
+from droneplan.solvers.validation import check_int, check_size
 from droneplan.studies.plots._common import figure_axes, keep_in_view
 
 __all__ = ["plot_map", "plot_deployment_region"]
@@ -92,11 +93,14 @@ def plot_deployment_region(problem: CellProblem, placed: Any = (), *, ax: Any = 
     (R_g + R_d around each GBS, 2 R_d around each placed cell,
     solid) and the backhaul circles (r1 around GBSs, r2 around placed cells, dashed). The
     region is :meth:`Region.geometry` (shapely) with ``quad_segs`` segments per quarter circle.
-    ax: a 2-D matplotlib axes, or None for a new figure.
+    ax: a 2-D matplotlib axes, or None for a new figure. quad_segs: segments per quarter circle
+    (int >= 1; the polygons' vertices count against the array-element budget).
     """
     from shapely.geometry import MultiPolygon, Polygon
 
     region = deployment_region(problem, placed)
+    quad_segs = check_int("quad_segs", quad_segs, min_value=1)
+    check_size("quad_segs", 4 * quad_segs * len(region.circles()) * 2)  # polygon vertices (x, y)
     geom = region.geometry(quad_segs=quad_segs)
     fig, ax = figure_axes(ax, figsize=(5.5, 5.5))
     polys = (

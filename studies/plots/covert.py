@@ -48,6 +48,9 @@ def plot_path(
     if not isinstance(scenario, CovertScenario):
         raise TypeError(f"scenario must be a CovertScenario, got {type(scenario).__name__}")
     runs = as_trace_dict(traces, CovertTrace)
+    for name, tr in runs.items():
+        if not (np.all(np.isfinite(tr.drone)) and np.all(np.isfinite(tr.targets))):
+            raise ValueError(f"traces[{name!r}]: the drone or target positions hold NaN or inf")
     fig, ax = figure_axes(ax, figsize=(8, 6), projection="3d")
     p = scenario.params
     pts = [p.F_arr[None], p.D_s_arr[None], p.R_arr[None]]
@@ -123,8 +126,11 @@ def plot_stealth_front(points: Any, bound: Any, *, ax: Any = None, title: str | 
     lower bound for any controller arriving by then; returns the figure.
 
     points, bound: the DataFrames of :func:`studies.covert.stealth_front`. ax: a 2-D axes or None;
-    title: the axes title (None: none).
+    title: the axes title (None: none). points needs the columns method, t_a and beta_max_deg;
+    bound the columns t_a and bound_deg (either may have no rows).
     """
+    _check_frame("points", points, ("method", "t_a", "beta_max_deg"))
+    _check_frame("bound", bound, ("t_a", "bound_deg"))
     fig, ax = figure_axes(ax, figsize=(7, 4.5))
     ax.plot(bound.t_a, bound.bound_deg, "k.-", label="lower bound: any controller on the sphere by t_a")
     for _, r in points.iterrows():
@@ -136,3 +142,13 @@ def plot_stealth_front(points: Any, bound: Any, *, ax: Any = None, title: str | 
     if title is not None:
         ax.set_title(title)
     return fig
+
+
+def _check_frame(name: str, df: Any, columns: tuple[str, ...]) -> None:
+    import pandas as pd
+
+    if not isinstance(df, pd.DataFrame):
+        raise TypeError(f"{name} must be a pandas DataFrame, got {type(df).__name__}")
+    missing = [c for c in columns if c not in df.columns]
+    if missing:
+        raise ValueError(f"{name} lacks the column(s) {missing} (needs {list(columns)})")

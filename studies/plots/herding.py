@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from droneplan.scenarios.herding import HerdingFrame, HerdingPhase, HerdingScenario, HerdingTrace
+from droneplan.solvers.validation import check_array, check_positive, check_real
 from droneplan.studies.plots._common import as_trace_dict, figure_axes, keep_in_view
 
 __all__ = ["plot_state", "plot_final", "plot_footprint"]
@@ -28,11 +29,16 @@ def plot_state(
     frame_every=..., snapshot_times=...)``; None: the final state), a :class:`HerdingFrame`,
     or a :class:`HerdingScenario` (its initial state). goal: G (2,) in m (default: the trace's or
     scenario's goal). Drones are drawn with their heading. ax: a 2-D axes or None. Axes in m.
+    A state with NaN or inf positions is refused (ValueError naming ``source``).
 
     title: axes title (None: the time and phase).
     """
+    if t is not None:
+        t = check_real("t", t)
+    if goal is not None:
+        goal = check_array("goal", goal, shape=(2,))
     if isinstance(source, HerdingTrace):
-        frame = source.final if t is None else _frame_at(source, float(t))
+        frame = source.final if t is None else _frame_at(source, t)
         goal = source.goal if goal is None else goal
     elif isinstance(source, HerdingScenario):
         frame = HerdingFrame(
@@ -49,8 +55,10 @@ def plot_state(
         raise TypeError(
             f"source must be a HerdingTrace, HerdingFrame or HerdingScenario, got {type(source).__name__}"
         )
-    fig, ax = figure_axes(ax, figsize=(7, 4.5))
     a, d = np.asarray(frame.animals, float), np.asarray(frame.drones, float)
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(d)) and np.all(np.isfinite(frame.headings))):
+        raise ValueError(f"source: the state at t = {frame.t} s has NaN or inf positions or headings")
+    fig, ax = figure_axes(ax, figsize=(7, 4.5))
     c = a.mean(axis=0)
     ax.scatter(*a.T, s=3, c="tab:brown", label=f"animals ({len(a)})")
     ax.plot(*c, "+", color="k", ms=10, mew=1.5, label="herd centroid")
@@ -95,6 +103,9 @@ def plot_final(trace: HerdingTrace, *, ax: Any = None, title: str | None = None)
     """
     if not isinstance(trace, HerdingTrace):
         raise TypeError(f"trace must be a HerdingTrace, got {type(trace).__name__}")
+    f = trace.final
+    if not all(np.all(np.isfinite(np.asarray(v, float))) for v in (f.animals, f.drones, f.headings)):
+        raise ValueError("trace: the final state has NaN or inf positions or headings")
     return plot_state(trace, None, ax=ax, title=title)
 
 
@@ -107,6 +118,8 @@ def plot_footprint(traces: Any, *, R_c: float | None = None, ax: Any = None, tit
     title: axes title (None: none).
     """
     runs = as_trace_dict(traces, HerdingTrace)
+    if R_c is not None:
+        R_c = check_positive("R_c", R_c)
     fig, ax = figure_axes(ax, figsize=(7, 4))
     for label, tr in runs.items():
         (line,) = ax.plot(tr.t / 60.0, tr.footprint_radius, label=label)

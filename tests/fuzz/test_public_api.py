@@ -18,7 +18,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
 import numpy as np
+import pandas as pd
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -47,6 +52,10 @@ BAD = {
     "matrix": [[[NAN, 1.0]], [[-1.0, 1.0]], "abc", [1.0, 2.0], [[1.0], [2.0, 3.0]]],
     "object": [None, "x", 3],
     "object?": ["x", 3],  # None is valid (the default)
+    # plot helpers: a matplotlib axes (None: a new figure), runs as a trace or {label: trace}, tables
+    "ax": ["x", 3, np.zeros(2)],
+    "traces": [None, "x", 3, {}, {"a": 3}],
+    "frame": [None, {}, "x", pd.DataFrame()],
 }
 
 
@@ -100,6 +109,50 @@ def _herd():
 
 def _hull():
     return dp.herding.ExtendedHull.from_points(np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]]), 5.0)
+
+
+_RUNS: dict[str, Any] = {}
+
+
+def _covert_short():
+    """A 2 s hover run on thesis case 1 (for the plot helpers)."""
+    if "covert" not in _RUNS:
+        _RUNS["covert"] = dp.covert.simulate(_covert_case(), dp.covert.HoverBenchmark(), max_time=2.0)
+    return _RUNS["covert"]
+
+
+def _shark_run():
+    if "shark" not in _RUNS:
+        _RUNS["shark"] = dp.shark.simulate(_path_a(), dp.shark.ClassicalPursuit())
+    return _RUNS["shark"]
+
+
+def _herding_run():
+    """A 2 s herding run with frames every 0.5 s (for the plot helpers and write_gif)."""
+    if "herding" not in _RUNS:
+        _RUNS["herding"] = dp.herding.simulate(
+            _herd(), dp.herding.ProposedHerder(), t_max=2.0, seed=0, frame_every=0.5
+        )
+    return _RUNS["herding"]
+
+
+def _front_frames():
+    points = pd.DataFrame([{"method": "hover", "t_a": 10.0, "t_f": 50.0, "beta_max_deg": 3.0}])
+    bound = pd.DataFrame([{"t_a": 10.0, "bound_deg": 1.0, "attained_at_s": 5.0, "class_t_f": 50.0}])
+    return points, bound
+
+
+def _gif_path() -> str:
+    import tempfile
+    from pathlib import Path
+
+    return str(Path(tempfile.mkdtemp(prefix="droneplan-fuzz-gif-")) / "run.gif")
+
+
+@pytest.fixture(autouse=True)
+def _close_figures():
+    yield
+    plt.close("all")
 
 
 P = _cells_problem
@@ -461,25 +514,43 @@ SPECS: dict[str, Spec] = {
         {"hull": "object", "centroid": "vec2", "n_drones": "int>=1"},
     ),
     "HerderSettings": Spec(lambda: ((), {}), {"arrive_tol": "positive", "turn_tol": "positive"}),
+    # ---- plot helpers and animation writers
+    "plot_map": Spec(
+        lambda: ((P(), [[1600.0, 0.0]]), {}), {"problem": "object", "positions": "points2", "ax": "ax"}
+    ),
+    "plot_deployment_region": Spec(
+        lambda: ((P(), [[1600.0, 0.0]]), {}),
+        {"problem": "object", "placed": "points2", "ax": "ax", "quad_segs": "size"},
+    ),
+    "plot_path": Spec(
+        lambda: ((_covert_case(), _covert_short()), {}),
+        {"scenario": "object", "traces": "traces", "ax": "ax"},
+    ),
+    "plot_bearing": Spec(lambda: ((_covert_short(),), {}), {"traces": "traces", "ax": "ax"}),
+    "plot_stealth_front": Spec(
+        lambda: (_front_frames(), {}), {"points": "frame", "bound": "frame", "ax": "ax"}
+    ),
+    "plot_top_view": Spec(lambda: ((_shark_run(),), {}), {"traces": "traces", "ax": "ax"}),
+    "plot_time_series": Spec(
+        lambda: ((_shark_run(),), {}), {"traces": "traces", "quantity": "object", "ax": "ax"}
+    ),
+    "plot_state": Spec(
+        lambda: ((_herding_run(), 1.0), {}), {"source": "object", "t": "finite", "goal": "vec2", "ax": "ax"}
+    ),
+    "plot_final": Spec(lambda: ((_herding_run(),), {}), {"trace": "object", "ax": "ax"}),
+    "plot_footprint": Spec(
+        lambda: ((_herding_run(),), {}), {"traces": "traces", "R_c": "positive", "ax": "ax"}
+    ),
+    "write_gif": Spec(
+        lambda: ((_herding_run(), _gif_path()), {"fps": 4}),
+        {"trace": "object", "path": "object", "fps": "int>=1", "goal": "vec2"},
+    ),
+    "summary_table": Spec(lambda: (({"proposed": _herding_run()},), {}), {"traces": "traces"}),
     "ProposedHerder": Spec(lambda: ((), {}), {"settings": "object?"}),
     "BenchmarkHerder": Spec(lambda: ((), {}), {"settings": "object?"}),
 }
 
-PLOTTING = {
-    # draw the library's own results on matplotlib axes; not fuzzed with bad data here
-    "plot_map",
-    "plot_path",
-    "plot_bearing",
-    "plot_top_view",
-    "plot_time_series",
-    "plot_state",
-    "plot_final",
-    "plot_footprint",
-    "write_gif",
-    "summary_table",
-    "plot_deployment_region",
-    "plot_stealth_front",
-}
+PLOTTING: set[str] = set()  # every plot helper and animation writer has a spec above
 
 RESULT_TYPES = {
     # returned to the user, not called with user data (their fields are produced by the library)
@@ -712,3 +783,74 @@ def test_deep_random_cells_instances_agree_with_the_bound(u, m):
     assert ev.feasible and ev.covered == milp.objective <= milp.bound
     ga = dp.cells.genetic(problem, pop_size=6, iter_max=3, restarts=1, seed=0)
     assert dp.cells.evaluate(problem, ga.x).feasible and ga.objective <= milp.bound
+
+
+# -------------------------------------------------------------------------- plot helpers: axes and NaN data
+PLOT_2D = ["plot_map", "plot_deployment_region", "plot_bearing", "plot_stealth_front", "plot_top_view"]
+PLOT_2D += ["plot_time_series", "plot_state", "plot_final", "plot_footprint"]
+
+
+@pytest.mark.parametrize("name", [*PLOT_2D, "plot_path"])
+def test_plot_helpers_refuse_axes_of_the_wrong_projection(name):
+    args, kwargs = SPECS[name].call()
+    wrong = plt.figure().add_subplot(projection="rectilinear" if name == "plot_path" else "3d")
+    with pytest.raises(ValueError, match="ax must be"):
+        CALLABLES[name](*args, **{**kwargs, "ax": wrong})
+
+
+@pytest.mark.parametrize("name", [*PLOT_2D, "plot_path"])
+def test_plot_helpers_draw_on_a_given_axes(name):
+    args, kwargs = SPECS[name].call()
+    ax = plt.figure().add_subplot(projection="3d" if name == "plot_path" else None)
+    fig = CALLABLES[name](*args, **{**kwargs, "ax": ax})
+    assert fig is ax.get_figure() and (ax.lines or ax.collections or ax.patches)
+
+
+def _with_nan(trace):
+    """A deep copy of ``trace`` whose float arrays (and frames' positions) are all NaN."""
+    import copy
+
+    out = copy.deepcopy(trace)
+    for value in vars(out).values():
+        if isinstance(value, np.ndarray) and value.dtype.kind == "f":
+            value[...] = np.nan
+    for frame in [*getattr(out, "frames", []), getattr(out, "final", None)]:
+        if isinstance(frame, dp.herding.HerdingFrame):
+            frame.animals[...] = np.nan
+    return out
+
+
+NAN_RUNS = {
+    "plot_path": lambda: ((_covert_case(), _with_nan(_covert_short())), {}),
+    "plot_bearing": lambda: ((_with_nan(_covert_short()),), {}),
+    "plot_top_view": lambda: ((_with_nan(_shark_run()),), {}),
+    "plot_time_series": lambda: ((_with_nan(_shark_run()),), {}),
+    "plot_state": lambda: ((_with_nan(_herding_run()),), {}),
+    "plot_final": lambda: ((_with_nan(_herding_run()),), {}),
+    "plot_footprint": lambda: ((_with_nan(_herding_run()),), {}),
+    "write_gif": lambda: ((_with_nan(_herding_run()), _gif_path()), {}),
+    "summary_table": lambda: (({"a": _with_nan(_herding_run())},), {}),
+    "plot_stealth_front": lambda: (tuple(f.assign(t_a=np.nan) for f in _front_frames()), {}),
+}
+
+
+@pytest.mark.parametrize("name", sorted(NAN_RUNS))
+def test_plot_helpers_on_nan_runs_refuse_clearly_or_draw(name):
+    # NaN in a run's data either gives a ValueError that says where, or a figure/table (matplotlib
+    # leaves NaN points out); never an error from inside matplotlib, PIL or pandas
+    args, kwargs = NAN_RUNS[name]()
+    message = None
+    try:
+        out = CALLABLES[name](*args, **kwargs)
+    except ValueError as exc:
+        message, out = str(exc), None
+    if message is not None:
+        assert any(w in message for w in ("trace", "source", "NaN")), message
+    else:
+        assert out is not None
+
+
+@pytest.mark.parametrize("name", ["plot_bearing", "plot_top_view", "plot_time_series", "plot_footprint"])
+def test_plot_helpers_refuse_empty_runs(name):
+    with pytest.raises(TypeError, match="traces"):
+        CALLABLES[name]({})
