@@ -226,14 +226,13 @@ SPECS: dict[str, Spec] = {
     "load_cells_geojson": Spec(
         lambda: ((_data_file("points.geojson"),), {"n_cells": 2}), {"n_cells": "int>=1", "origin": "vec2"}
     ),
-    # a file name that is no file is reported with the file's name; the loaders' tests check those
+    # a file name that is no file is reported with the file's name, and dt=None (keep the file's own
+    # times) is valid: the loaders' tests check those
     "load_herd_csv": Spec(lambda: ((_data_file("points.csv"),), {}), {}),
     "herding_scenario_from_csv": Spec(
         lambda: ((_data_file("points.csv"),), {"n_drones": 2}), {"n_drones": "int>=1"}
     ),
-    "load_shark_track_csv": Spec(
-        lambda: ((_data_file("track.csv"),), {}), {"dt": "positive", "depth": "finite"}
-    ),
+    "load_shark_track_csv": Spec(lambda: ((_data_file("track.csv"),), {}), {"depth": "finite"}),
     "solve_exact": Spec(
         lambda: ((P(),), {"time_limit": 5.0}), {"problem": "object", "time_limit": "time_limit"}
     ),
