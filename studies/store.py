@@ -123,6 +123,8 @@ from typing import Any, Self, TypeGuard
 import numpy as np
 import pandas as pd
 
+from droneplan.studies.problems import PROBLEMS
+
 __all__ = [
     "SCHEMA_VERSION",
     "STORE_NAME",
@@ -196,7 +198,6 @@ COLUMNS = (
 KEY = ("problem", "instance", "method", "config")
 """The columns that identify a row."""
 
-PROBLEMS = ("covert", "cells", "shark", "herding")
 ROLES = ("heuristic", "model", "bound")
 BOUND_KINDS = ("proven-global", "candidate-set", "instantaneous", "local", "none")
 """Strongest first: ``gap_to_bound`` uses the strongest kind present on an instance."""
