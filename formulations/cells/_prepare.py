@@ -240,6 +240,12 @@ class Prepared:
     """True when the warm start is the incumbent."""
     warm: np.ndarray | None
     """The warm start's feasible part ((k, 2) m), None without a warm start."""
+    warm_val: int
+    """Users the warm start's feasible part covers (0 without a warm start)."""
+    greedy: np.ndarray
+    """(k, 2) the greedy placement (m)."""
+    greedy_val: int
+    """Users it covers."""
     cont_bound: float | None
     """Continuous-problem bound (max coverage by m discs), None when not computed."""
     ub: float
@@ -354,10 +360,11 @@ def prepare(problem: CellProblem, *, warm_start=None, time_limit: float | None =
     info: dict[str, Any] = {}
     # candidates and the greedy incumbent first (fast), so a short time limit still returns a plan
     cand = candidate_sites(problem, extra=warm)
-    inc = greedy_placement(problem, cand)
-    inc_val = int(evaluate(problem, inc).covered)
+    inc = greedy = greedy_placement(problem, cand)
+    inc_val = greedy_val = int(evaluate(problem, inc).covered)
     warm_used = False
     part = None
+    wv = 0
     if warm is not None:  # the warm start (its feasible part) replaces greedy when at least as good
         part = _feasible_subset(problem, warm)
         wv = int(evaluate(problem, part).covered)
@@ -382,6 +389,9 @@ def prepare(problem: CellProblem, *, warm_start=None, time_limit: float | None =
         inc_val=inc_val,
         warm_used=warm_used,
         warm=part,
+        warm_val=wv,
+        greedy=greedy,
+        greedy_val=greedy_val,
         cont_bound=cont_bound,
         # internal bound for pruning and stopping: the relaxation's, or the trivial user count
         # when it could not be computed (never reported as the continuous bound)

@@ -778,3 +778,18 @@ def test_branch_and_bound_equals_milp_equals_brute_force(seed, n, m, backend, co
     if not agree:
         path = _save_disagreement(tmp_path_factory.mktemp("cells"), p, found)
         pytest.fail(f"the exact engines disagree ({found}); instance saved to {path}")
+
+
+@pytest.mark.parametrize("engine", ["bnb", "milp"])
+def test_a_weak_warm_start_is_polished_and_its_fate_reported(engine):
+    # a one-site start (1 user) beside a greedy start of 4: the start is always polished (to 5
+    # here, the optimum), becomes the incumbent and the result says so
+    p = random_small(3, 14, 3)
+    cand = candidate_sites(p)
+    direct = np.flatnonzero(cand.direct)
+    w = cand.points[direct[np.argmin([len(cand.cover[i]) for i in direct])]][None]
+    r = solve_exact(p, engine=engine, warm_start=w, workers=1)
+    ws, inc = r.info["warm_start"], r.info["incumbent"]
+    assert ws["value"] == 1 and ws["greedy_value"] == inc["greedy"] == 4
+    assert ws["polished_value"] == 5 == r.objective == brute_force_pruned(p) and ws["used"] and r.warm_started
+    assert inc["from"] == "warm_start" and "polished to 5, is the incumbent" in ws["reason"]
