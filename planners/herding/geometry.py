@@ -11,7 +11,14 @@ from scipy.spatial import ConvexHull, QhullError
 
 from droneplan.solvers.validation import check_array, check_positive, check_real
 
-__all__ = ["convex_hull", "MITRE_LIMIT", "extended_hull_vertices", "ExtendedHull", "min_enclosing_circle"]
+__all__ = [
+    "convex_hull",
+    "HullTracker",
+    "MITRE_LIMIT",
+    "extended_hull_vertices",
+    "ExtendedHull",
+    "min_enclosing_circle",
+]
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
@@ -73,6 +80,64 @@ def _hull_candidates(pts: np.ndarray) -> np.ndarray | None:
     keep[ext] = True
     cand = np.flatnonzero(keep)
     return None if cand.size == n else cand
+
+
+class HullTracker:
+    """:func:`convex_hull` of a herd observed again and again, moving a little each time.
+
+    Calling it with each new herd gives exactly ``convex_hull(points)`` (the same vertices in
+    the same order), most calls from qhull on a few candidate animals instead of the whole
+    herd. The candidates are the animals within ``margin`` (m) of the hull boundary when it was
+    last built on the whole herd. While no animal has moved more than ``margin / 2`` in all
+    since then (the sum of the largest move of each call, measured, not assumed), no other
+    animal can be a vertex: it was deeper than ``margin`` in the old hull, moved less than
+    margin / 2, and the hull shrank by less than margin / 2 (the hull of points that each moved
+    at most D contains the old hull shrunk by D). Then it rebuilds. Herds of fewer than 64
+    animals, herds large enough for :func:`convex_hull`'s own prefilter (1500 or more: faster
+    there) and degenerate hulls always take :func:`convex_hull` directly.
+
+    margin: depth of the candidate band, m (> 0).
+    """
+
+    def __init__(self, margin: float = 20.0) -> None:
+        self.margin = check_positive("margin", margin)
+        self._prev: np.ndarray | None = None
+        self._cand: np.ndarray | None = None
+        self._moved = 0.0
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        """Counter-clockwise convex-hull vertices of (n, 2) points, m (as :func:`convex_hull`)."""
+        pts = check_array("points", points, shape=(None, 2), min_rows=1)
+        prev, cand = self._prev, self._cand
+        if prev is not None and cand is not None and prev.shape == pts.shape:
+            d = pts - prev
+            dx, dy = d[:, 0], d[:, 1]
+            self._moved += math.sqrt(float(np.max(dx * dx + dy * dy)))
+            if self._moved < 0.45 * self.margin:  # margin / 2, less a safety for rounding
+                self._prev = pts
+                try:
+                    hull = ConvexHull(pts[cand])
+                    if hull.volume > 1e-9 * hull.area * hull.area:
+                        return pts[cand[hull.vertices]]
+                except QhullError:
+                    pass  # degenerate: the whole herd below
+        return self._rebuild(pts)
+
+    def _rebuild(self, pts: np.ndarray) -> np.ndarray:
+        V = convex_hull(pts)
+        self._prev, self._moved, self._cand = pts, 0.0, None
+        if V.shape[0] >= 3 and _TRACK_MIN <= pts.shape[0] < _PREFILTER_MIN:
+            e = V[np.arange(1, V.shape[0] + 1) % V.shape[0]] - V
+            normal = np.column_stack([e[:, 1], -e[:, 0]]) / np.linalg.norm(e, axis=1)[:, None]  # outward
+            # depth of each animal inside the hull: its least distance to an edge's line
+            depth = np.min(np.sum(normal * V, axis=1)[None, :] - pts @ normal.T, axis=1)
+            self._cand = np.flatnonzero(depth < self.margin)
+        return V
+
+
+_TRACK_MIN = 64
+"""Herds of at least this many animals (and fewer than ``_PREFILTER_MIN``) are tracked by
+:class:`HullTracker` (smaller ones: qhull on all)."""
 
 
 MITRE_LIMIT = 2.0
@@ -166,6 +231,14 @@ class ExtendedHull:
         d_s, mitre_limit = _check_offset(d_s, mitre_limit)
         E, P = _extended_hull_vertices(convex_hull(animals), d_s, mitre_limit)  # convex_hull checks the herd
         return cls.from_vertices(E, P)
+
+    @classmethod
+    def from_hull(cls, hull: np.ndarray, d_s: float, *, mitre_limit: float = MITRE_LIMIT) -> ExtendedHull:
+        """Extended hull at offset d_s (m) of the ccw hull vertices (h, 2) of a herd, m
+        (as :func:`convex_hull` or :class:`HullTracker` return them)."""
+        d_s, mitre_limit = _check_offset(d_s, mitre_limit)
+        P = check_array("hull", hull, shape=(None, 2), min_rows=1)
+        return cls.from_vertices(*_extended_hull_vertices(P, d_s, mitre_limit))
 
     @classmethod
     def from_vertices(cls, E: np.ndarray, P: np.ndarray | None = None) -> ExtendedHull:

@@ -38,7 +38,7 @@ from droneplan.formulations.herding import solve_allocation
 from droneplan.planners.herding.allocation import allocate_bruteforce, allocate_collision_blind, crosses
 from droneplan.planners.herding.geometry import (
     ExtendedHull,
-    convex_hull,
+    HullTracker,
     min_enclosing_circle,
 )
 from droneplan.planners.herding.guidance import fly_on_edge, fly_to_edge, steer
@@ -112,6 +112,7 @@ class _Herder(abc.ABC):
         n = self.p.n_drones
         self.on_hull = np.zeros(n, dtype=bool)
         self.hull: ExtendedHull | None = None
+        self.herd_hull = HullTracker()  # the herd's convex hull, step after step
         self.phase = HerdingPhase.GATHERING
         self.s_target = np.zeros(n)
         self.direction = np.ones(n, dtype=int)
@@ -139,7 +140,7 @@ class _Herder(abc.ABC):
         if phase == HerdingPhase.GATHERING:
             if self.phase == HerdingPhase.DRIVING:  # the simulator sent the herd back to gathering
                 self._regroup()
-            self.hull = ExtendedHull.from_points(animals, self.p.d_s)
+            self.hull = ExtendedHull.from_hull(self.herd_hull(animals), self.p.d_s)
             if self.on_hull.all():
                 self._plan_gathering(drones)
         else:
@@ -192,7 +193,7 @@ class _Herder(abc.ABC):
     # -- driving (§6.4.4), shared
     def _plan_driving(self, animals, drones) -> None:
         p = self.p
-        hv = convex_hull(animals)
+        hv = self.herd_hull(animals)
         centre, _ = min_enclosing_circle(hv)
         to_goal = self.goal - centre
         dist_goal = float(np.linalg.norm(to_goal))

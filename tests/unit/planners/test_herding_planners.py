@@ -311,3 +311,38 @@ def test_min_enclosing_circle_bit_identical_to_point_by_point_loops(kind):
         c, r = min_enclosing_circle(pts)
         c_ref, r_ref = _welzl_point_by_point(pts)
         assert np.array_equal(c, c_ref) and r == r_ref
+
+
+@pytest.mark.parametrize("kind", ["uniform", "clustered", "jumps", "degenerate"])
+def test_hull_tracker_gives_convex_hull_of_every_herd(kind, monkeypatch):
+    """HullTracker follows a herd that moves a little each call (and sometimes a lot) and must
+    return exactly convex_hull of each herd: the same vertices in the same order."""
+    from droneplan.planners.herding import geometry
+
+    monkeypatch.setattr(geometry, "_TRACK_MIN", 3)  # track the small herds of this test too
+    rng = np.random.default_rng(len(kind))
+    n = 300
+    if kind == "clustered":
+        pts = rng.normal(0, 40, (n, 2)) + np.where(rng.random((n, 1)) < 0.5, 0.0, 150.0)
+    elif kind == "degenerate":
+        pts = np.column_stack([np.linspace(0, 100, n), np.zeros(n)])
+    else:
+        pts = rng.uniform(0, 400, (n, 2))
+    tracker = geometry.HullTracker(margin=10.0)
+    rebuilt = 0
+    for step in range(120):
+        movers = rng.random(n) < 0.3
+        step_size = 60.0 if kind == "jumps" and step % 17 == 5 else 0.8
+        pts = pts + movers[:, None] * rng.normal(0, step_size / 2, (n, 2))
+        if kind == "degenerate" and step % 40 == 20:
+            pts = np.column_stack([pts[:, 0], np.zeros(n)])  # back to collinear
+        before = tracker._moved
+        got = tracker(pts)
+        rebuilt += tracker._moved == 0.0 and before != 0.0
+        np.testing.assert_array_equal(got, geometry.convex_hull(pts))
+    if kind != "degenerate":
+        assert rebuilt >= 2  # the candidates were renewed while the herd moved
+    with pytest.raises(ValueError, match="margin"):
+        geometry.HullTracker(margin=0.0)
+    with pytest.raises(ValueError, match="points"):
+        tracker(np.full((5, 2), np.nan))

@@ -1,7 +1,7 @@
 """Herding runs against trajectories saved from an earlier version of the code.
 
-The speed work on the simulator and the herders (the hull prefilter, the per-animal split of
-the animal step) must leave every trajectory unchanged for the same seeds. The saved file
+The speed work on the simulator and the herders (the hull prefilter and tracker, the per-animal
+split of the animal step) must leave every trajectory unchanged for the same seeds. The saved file
 ``data/herding_reference.npz`` was computed with the code of commit 271a262 (before that work),
 by running this module as a script on a checkout of that commit::
 
@@ -67,14 +67,20 @@ def test_same_seeds_give_the_saved_trajectories(name):
         np.testing.assert_allclose(value, ref, rtol=0, atol=1e-9, equal_nan=True, err_msg=key)
 
 
+@pytest.mark.parametrize("hull", ["prefilter", "tracker"])
 @pytest.mark.parametrize("name", ["p60", "cb200", "p1000"])
-def test_the_large_herd_paths_give_the_saved_trajectories_too(name, monkeypatch):
-    """The split animal step and the hull prefilter, which only large herds take, on small runs."""
+def test_the_size_dependent_paths_give_the_saved_trajectories_too(name, hull, monkeypatch):
+    """The split animal step and the hull prefilter, which only large herds take, and the hull
+    tracker, which mid-size herds take, forced on for every run."""
     from droneplan.planners.herding import geometry
     from droneplan.scenarios import herding
 
     monkeypatch.setattr(herding, "_SPLIT_MIN", 2)
-    monkeypatch.setattr(geometry, "_PREFILTER_MIN", 3)
+    if hull == "prefilter":
+        monkeypatch.setattr(geometry, "_PREFILTER_MIN", 3)
+    else:
+        monkeypatch.setattr(geometry, "_PREFILTER_MIN", 10**9)
+        monkeypatch.setattr(geometry, "_TRACK_MIN", 3)
     saved = np.load(DATA)
     for key, value in run(name).items():
         np.testing.assert_allclose(
