@@ -93,3 +93,21 @@ def test_reproduce_runs_go_through_the_store_and_come_back(tmp_path):
     df = load_results(tmp_path)
     assert set(df["method"]) == {"proposed", "benchmark"} and (df["role"] == "heuristic").all()
     assert df.set_index("method").loc["proposed", "objective"] == direct["gather_time"]
+
+
+def test_bench_speed_rows_record_cpu_wall_and_load(monkeypatch):
+    """The bench's speed rows: sim s per CPU s at three herd sizes and the import time, each with
+    its CPU time, wall time and the load average (the herds are shrunk here to keep it quick)."""
+    from droneplan.studies.common import ComparisonTable
+
+    real = study.thesis_scenario
+    monkeypatch.setattr(study, "thesis_scenario", lambda n, seed=0: real(min(n, 30), seed=seed))
+    table = ComparisonTable("speed")
+    study._bench_speed(table)
+    assert [r["quantity"].split(",")[0] for r in table.rows] == ["simulation"] * 3 + ["import droneplan"]
+    for row in table.rows:
+        value = float(row["this run"])
+        assert np.isfinite(value) and value > 0
+        assert "load average" in row["how measured"]
+    assert all("CPU-s" in r["how measured"] and "wall" in r["how measured"] for r in table.rows[:3])
+    assert [r["thesis"] for r in table.rows] == ["—", "target >= 200", "target >= 50", "target <= 0.5"]
