@@ -160,7 +160,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from droneplan.formulations.cells._core import TOL, Candidates, evaluate
+from droneplan.formulations.cells._core import TOL, Candidates, evaluate, pairwise_distances
 from droneplan.scenarios.cells import CellProblem
 
 
@@ -300,9 +300,7 @@ def search(
         pairs = pairs[d < 2 * problem.R_d - TOL]
         conflict[pairs[:, 0], pairs[:, 1]] = True
         conflict[pairs[:, 1], pairs[:, 0]] = True
-    dg = np.min(
-        np.hypot(pts[:, None, 0] - problem.gbs[None, :, 0], pts[:, None, 1] - problem.gbs[None, :, 1]), axis=1
-    )
+    dg = np.min(pairwise_distances(pts, problem.gbs), axis=1)
     cg = _relay_cost(dg, problem.r1, problem.r2)  # item 3, GBS -> site
     r2 = problem.r2
 
@@ -391,9 +389,7 @@ def search(
         C that fit the relay bound of P + q, by submodularity of coverage."""
         if P:
             pp = pts[P]
-            ej = _relay_cost(
-                np.hypot(pp[:, None, 0] - pts[C][None, :, 0], pp[:, None, 1] - pts[C][None, :, 1]), r2, r2
-            )
+            ej = _relay_cost(pairwise_distances(pp, pts[C]), r2, r2)
             gj, newd = _through(dist, gj_direct=cg[C], ej=ej, epp=pp_cost(P))
             need = np.maximum(gj, newd.max(axis=0))
             keep = need <= r - 1
@@ -404,7 +400,7 @@ def search(
             else:  # item 5: bridge candidates, within r2 + TOL of an unreached P site
                 pu = pp[~reach]
                 near = np.any(
-                    np.hypot(pu[:, None, 0] - pts[C][None, :, 0], pu[:, None, 1] - pts[C][None, :, 1]) <= r2t,
+                    pairwise_distances(pu, pts[C]) <= r2t,
                     axis=0,
                 )
                 if not near.any():
@@ -441,13 +437,13 @@ def search(
     def pp_cost(P: list[int]) -> np.ndarray:
         """(|P|, |P|) relay lower bounds between the sites of P (item 3)."""
         pp = pts[P]
-        return _relay_cost(np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1]), r2, r2)
+        return _relay_cost(pairwise_distances(pp, pp), r2, r2)
 
     def reach_of(P: list[int]) -> np.ndarray:
         """(|P|,) bool: sites of P with a link path (<= r1 + TOL to a GBS, <= r2 + TOL
         between sites, the tests of ``evaluate``) to a GBS through P."""
         pp = pts[P]
-        link = np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1]) <= r2t
+        link = pairwise_distances(pp, pp) <= r2t
         reach = dg[P] <= r1t
         for _ in range(len(P)):
             nr = reach | np.any(link & reach[None, :], axis=1)
@@ -492,7 +488,7 @@ def search(
         val = ubits.bit_count()
         pp = pts[P]
         if P:
-            dpp = np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1])
+            dpp = pairwise_distances(pp, pp)
             link = dpp <= r2t
             reach = dg[P] <= r1t
             for _ in range(len(P)):
@@ -533,7 +529,7 @@ def search(
             return None
         cgj = cg[C]
         if P:
-            dpj = np.hypot(pp[:, None, 0] - pts[C][None, :, 0], pp[:, None, 1] - pts[C][None, :, 1])
+            dpj = pairwise_distances(pp, pts[C])
             ej = _relay_cost(dpj, r2, r2)  # (|P|, |C|)
             gj, newd = _through(dist, gj_direct=cgj, ej=ej, epp=pp_cost(P))
             need = np.maximum(gj, newd.max(axis=0))
@@ -744,11 +740,11 @@ def search(
             return dg[C] <= r1t
         pr = pts[R]
         reach = reach_of(R) if reach is None else reach
-        link = np.hypot(pr[:, None, 0] - pts[C][None, :, 0], pr[:, None, 1] - pts[C][None, :, 1]) <= r2t
+        link = pairwise_distances(pr, pts[C]) <= r2t
         rq = (dg[C] <= r1t) | np.any(link & reach[:, None], axis=0)
         if reach.all():
             return rq
-        adj = np.hypot(pr[:, None, 0] - pr[None, :, 0], pr[:, None, 1] - pr[None, :, 1]) <= r2t
+        adj = pairwise_distances(pr, pr) <= r2t
         R2 = reach[:, None] | (link & rq[None, :])
         for _ in range(len(R)):
             nr = R2 | np.any(adj[:, :, None] & R2[None, :, :], axis=1)
@@ -1031,7 +1027,7 @@ def _separated_groups(
     in_l = dg[full] <= r1t  # L: linkable (direct or linked to a reached P site)
     if reach.any():
         pr = pts[[P[i] for i in np.flatnonzero(reach).tolist()]]
-        d_r = np.hypot(pr[:, None, 0] - pf[None, :, 0], pr[:, None, 1] - pf[None, :, 1])
+        d_r = pairwise_distances(pr, pf)
         in_l |= np.any(d_r <= r2t, axis=0)
 
     wf = w[full].astype(float)
@@ -1045,7 +1041,7 @@ def _separated_groups(
     d_to = []  # (k, |full|): distance of each site to each group (m)
     for g in members:
         pg = pts[[P[i] for i in g.tolist()]]
-        d_to.append(np.hypot(pg[:, None, 0] - pf[None, :, 0], pg[:, None, 1] - pf[None, :, 1]).min(axis=0))
+        d_to.append(pairwise_distances(pg, pf).min(axis=0))
     bridge_l, bridge_n, succ_to = [], [], []
     for g in range(k):
         near = d_to[g] <= r2t
@@ -1102,7 +1098,7 @@ def _link_rows(pts: np.ndarray, reach: float) -> np.ndarray:
     out = np.zeros((n, (n + 7) // 8), dtype=np.uint8)
     for lo in range(0, n, 512):
         part = pts[lo : lo + 512]
-        d = np.hypot(part[:, None, 0] - pts[None, :, 0], part[:, None, 1] - pts[None, :, 1])
+        d = pairwise_distances(part, pts)
         out[lo : lo + 512] = np.packbits(d <= reach, axis=1, bitorder="little")
     return out
 
@@ -1141,7 +1137,7 @@ def _close(pp: np.ndarray, dist: np.ndarray, r2: float) -> np.ndarray:
     k = len(pp)
     if k <= 1:
         return dist
-    e = _relay_cost(np.hypot(pp[:, None, 0] - pp[None, :, 0], pp[:, None, 1] - pp[None, :, 1]), r2, r2)
+    e = _relay_cost(pairwise_distances(pp, pp), r2, r2)
     d = dist.copy()
     for _ in range(k):
         nd = np.minimum(d, np.min(d[:, None] + e, axis=0))

@@ -44,8 +44,10 @@ def as_positions(problem: CellProblem, positions) -> np.ndarray:
     return check_array("positions", p, shape=(None, 2))
 
 
-def _dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.sqrt(((a[:, None, :] - b[None, :, :]) ** 2).sum(-1))
+def pairwise_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(len(a), len(b)) Euclidean distances (m) between the points ``a`` ((p, 2) m) and ``b``
+    ((q, 2) m): the one distance helper of the cells package."""
+    return np.hypot(a[:, None, 0] - b[None, :, 0], a[:, None, 1] - b[None, :, 1])
 
 
 def connected_mask(
@@ -64,8 +66,8 @@ def connected_mask(
     if k == 0:
         return np.zeros(0, dtype=bool)
     usable = np.ones(k, dtype=bool) if usable is None else usable
-    direct = np.any(_dist(positions, problem.gbs) <= problem.r1 + TOL, axis=1) & usable
-    adj = (_dist(positions, positions) <= problem.r2 + TOL) & usable[:, None] & usable[None, :]
+    direct = np.any(pairwise_distances(positions, problem.gbs) <= problem.r1 + TOL, axis=1) & usable
+    adj = (pairwise_distances(positions, positions) <= problem.r2 + TOL) & usable[:, None] & usable[None, :]
     reach = direct.copy()
     for _ in range(k):
         new = reach | np.any(adj & reach[None, :], axis=1)
@@ -103,17 +105,17 @@ def evaluate(problem: CellProblem, positions) -> Evaluation:
         )
         v += [f"drone-cell {i} outside bounds" for i in np.flatnonzero(out)]
     if k:
-        dg = _dist(pos, problem.gbs)
+        dg = pairwise_distances(pos, problem.gbs)
         for i, h in zip(*np.nonzero(dg < problem.R_g + problem.R_d - TOL), strict=True):
             v.append(f"drone-cell {i} overlaps GBS {h} cell: distance {dg[i, h]:.3f} < R_g + R_d (4.7)")
-        dd = _dist(pos, pos)
+        dd = pairwise_distances(pos, pos)
         for i, h in zip(*np.nonzero(np.triu(dd < 2 * problem.R_d - TOL, 1)), strict=True):
             v.append(f"drone-cells {i} and {h} overlap: distance {dd[i, h]:.3f} < 2 R_d (4.8)")
     conn = connected_mask(problem, pos)
     v += [f"drone-cell {i} has no backhaul path to a GBS" for i in np.flatnonzero(~conn)]
     mask = np.zeros(len(problem.users), dtype=bool)
     if k and len(problem.users):
-        mask = np.any(_dist(problem.users, pos) <= problem.R_d + TOL, axis=1) & problem.active
+        mask = np.any(pairwise_distances(problem.users, pos) <= problem.R_d + TOL, axis=1) & problem.active
     return Evaluation(
         covered=int(mask.sum()), feasible=not v, violations=tuple(v), connected=conn, covered_mask=mask
     )
@@ -220,7 +222,7 @@ def site_feasible(problem: CellProblem, points: np.ndarray) -> np.ndarray:
     farthest a chain of m drone-cells can reach)."""
     if len(points) == 0:
         return np.zeros(0, dtype=bool)
-    dg = _dist(points, problem.gbs)
+    dg = pairwise_distances(points, problem.gbs)
     ok = np.all(dg >= problem.R_g + problem.R_d - TOL, axis=1)
     ok &= np.any(dg <= problem.r1 + (problem.n_cells - 1) * problem.r2 + TOL, axis=1)
     if problem.bounds is not None:
@@ -244,5 +246,9 @@ def candidate_sites(problem: CellProblem, extra=None) -> Candidates:
     n_gen = len(pts)
     pts = pts[site_feasible(problem, pts)]
     cover = coverage_lists(pts, problem.targets, problem.R_d)
-    direct = np.any(_dist(pts, problem.gbs) <= problem.r1 + TOL, axis=1) if len(pts) else np.zeros(0, bool)
+    direct = (
+        np.any(pairwise_distances(pts, problem.gbs) <= problem.r1 + TOL, axis=1)
+        if len(pts)
+        else np.zeros(0, bool)
+    )
     return Candidates(points=pts, cover=cover, direct=direct, n_generated=n_gen)

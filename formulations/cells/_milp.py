@@ -82,6 +82,7 @@ search of ``_bnb``. Both start from ``_prepare.prepare`` (candidates, incumbent,
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -90,9 +91,10 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from droneplan.formulations.cells._core import TOL, Candidates, candidate_sites, evaluate
+from droneplan.formulations.cells._core import TOL, Candidates, candidate_sites, evaluate, pairwise_distances
 from droneplan.formulations.cells._prepare import Prepared, _feasible_subset, coverage_upper_bound
 from droneplan.scenarios.cells import CellProblem
+from droneplan.solvers.lazy import lazy_constraint_loop
 from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.solvers.validation import check_instance
@@ -202,10 +204,7 @@ def _hop_levels(lin, x: list, pts: np.ndarray, direct: np.ndarray, problem: Cell
     nd = np.flatnonzero(~direct)
     reach = problem.r2 + TOL
     side = problem.r2 / _SQUARE
-    dg = np.min(
-        np.hypot(pts[nd, None, 0] - problem.gbs[None, :, 0], pts[nd, None, 1] - problem.gbs[None, :, 1]),
-        axis=1,
-    )
+    dg = np.min(pairwise_distances(pts[nd], problem.gbs), axis=1)
     # level l reaches r1 + (l - 1) r2 (each link has tolerance TOL)
     lowest = np.maximum(2, np.ceil((dg - problem.r1 - m * TOL) / problem.r2).astype(np.int64) + 1)
     z: dict[tuple[int, int], Any] = {}
@@ -302,7 +301,7 @@ def _user_clique_sites(
         rim = s[d >= R_d - 3 * TOL]
         if len(rim) >= 2:
             q = points[rim]
-            dd = np.hypot(q[:, None, 0] - q[None, :, 0], q[:, None, 1] - q[None, :, 1])
+            dd = pairwise_distances(q, q)
             if np.any(dd >= 2 * R_d - TOL):
                 continue
         out[u] = sites
@@ -361,11 +360,7 @@ def reduce_candidates(
     size = np.array([len(c) for c in cand.cover])
     keep = size + bound_m_minus_1 > incumbent_value + 1e-9
     if len(incumbent_sites):
-        d = np.hypot(
-            cand.points[:, None, 0] - incumbent_sites[None, :, 0],
-            cand.points[:, None, 1] - incumbent_sites[None, :, 1],
-        )
-        keep |= np.any(d <= 1e-3, axis=1)
+        keep |= np.any(pairwise_distances(cand.points, incumbent_sites) <= 1e-3, axis=1)
     return np.flatnonzero(keep)
 
 
@@ -515,7 +510,7 @@ def _add_cuts(
 ) -> None:
     """Append to ``cuts`` the cuts violated by the chosen sites (global indices ``chosen`` at
     ``pos``): a clique around each overlapping pair and the connectivity cuts of item 3a."""
-    d = np.hypot(pos[:, None, 0] - pos[None, :, 0], pos[:, None, 1] - pos[None, :, 1])
+    d = pairwise_distances(pos, pos)
     for a, b in zip(*np.nonzero(np.triu(d < 2 * problem.R_d - TOL, 1)), strict=True):
         mid = (pos[a] + pos[b]) / 2
         # d/2 < rho and 2 rho < 2 R_d - TOL: the ball holds both sites and is a clique
@@ -537,9 +532,9 @@ def _add_cuts(
 def _components_without_gbs(problem: CellProblem, pos: np.ndarray) -> list[np.ndarray]:
     """Connected groups (by r2 links) of placed sites none of which is within r1 of a GBS."""
     k = len(pos)
-    d = np.hypot(pos[:, None, 0] - pos[None, :, 0], pos[:, None, 1] - pos[None, :, 1])
+    d = pairwise_distances(pos, pos)
     adj = d <= problem.r2 + TOL
-    dg = np.hypot(pos[:, None, 0] - problem.gbs[None, :, 0], pos[:, None, 1] - problem.gbs[None, :, 1])
+    dg = pairwise_distances(pos, problem.gbs)
     direct = np.any(dg <= problem.r1 + TOL, axis=1)
     seen = np.zeros(k, dtype=bool)
     out = []
@@ -593,6 +588,16 @@ def _hint(problem: CellProblem, mdl: CellModel, placement: np.ndarray) -> dict:
     return hint
 
 
+def _bound_m_minus_1(prep: Prepared) -> float:
+    """B_{m-1} for the pruning of item 1; B_m (>= B_{m-1}, weaker but still exact pruning)
+    when there is less time left than the first relaxation took."""
+    time_left = prep.left()
+    if time_left is not None and time_left < prep.relax_time:
+        return prep.ub
+    relax = coverage_upper_bound(prep.problem, prep.problem.n_cells - 1, time_limit=time_left)
+    return float(len(prep.problem.targets)) if relax.bound is None else float(relax.bound)
+
+
 def solve_model(
     prep: Prepared,
     *,
@@ -612,41 +617,35 @@ def solve_model(
     user_cliques: add the per-user at-most-one rows of item 5.
     """
     problem, cand, ub = prep.problem, prep.cand, prep.ub
-    # B_{m-1} for the pruning of item 1; B_m (>= B_{m-1}, weaker but still exact pruning)
-    # when there is less time left than the first relaxation took
-    time_left = prep.left()
-    if time_left is not None and time_left < prep.relax_time:
-        b_prev = ub
-    else:
-        relax_prev = coverage_upper_bound(problem, problem.n_cells - 1, time_limit=prep.left())
-        b_prev = float(len(problem.targets)) if relax_prev.bound is None else float(relax_prev.bound)
+    b_prev = _bound_m_minus_1(prep)
     state = _SearchState(inc=prep.inc, inc_val=float(prep.inc_val))
     tree = cKDTree(cand.points)
     cuts: list = []
     deadline = None if prep.time_limit is None else prep.t0 + prep.time_limit
 
     def solve_restricted(keep: np.ndarray) -> tuple[str, float]:
-        """Solve the model restricted to ``keep`` with ``sum y >= incumbent value`` exactly
-        (one solve with hop levels, or the lazy cut loop). Returns ("optimal", value) or
-        ("stopped", bound of the restricted problem)."""
-        rbound = math.inf
-        while state.rounds < max_rounds:
-            if prep.expired():
-                return "stopped", rbound
+        """Solve the model restricted to ``keep`` with ``objective >= incumbent value`` exactly:
+        ``solvers.lazy.lazy_constraint_loop`` (one round with hop levels: nothing is ever
+        violated; lazy cuts otherwise). Returns ("optimal", value) or ("stopped", bound of
+        the restricted problem)."""
+
+        def relaxation(found: list, time_left: float | None) -> SolveResult:
             state.rounds += 1
-            mdl = build_milp(
-                problem,
-                backend=backend,
-                candidates=cand,
-                keep=keep,
-                deadline=deadline,
-                objective_range=(state.inc_val, ub),
-                connectivity=connectivity,
-                cuts=cuts,
-                user_cliques=user_cliques,
-            )
+            mdl = None
+            if not prep.expired():
+                mdl = build_milp(
+                    problem,
+                    backend=backend,
+                    candidates=cand,
+                    keep=keep,
+                    deadline=deadline,
+                    objective_range=(state.inc_val, ub),
+                    connectivity=connectivity,
+                    cuts=found,
+                    user_cliques=user_cliques,
+                )
             if mdl is None or prep.expired():  # building can be long: the limit covers it
-                return "stopped", rbound
+                return SolveResult(Status.NO_SOLUTION, backend=backend, message="time limit")
             state.stats = mdl.stats
             hint = _hint(problem, mdl, state.inc)
             res = mdl.model.solve(
@@ -657,32 +656,50 @@ def solve_model(
                 options=FEW_WORKER_OPTIONS.get(backend) if workers <= 2 else None,
             )
             state.raw = res.backend_status
-            if res.status is Status.INFEASIBLE:
-                # nothing in the restricted relaxation reaches the incumbent's value (the
-                # incumbent itself is feasible for it, so this only happens at rounding
-                # edges): the restricted optimum is at most the incumbent's value
-                return "optimal", float(state.inc_val)
             if res.bound is not None:
-                rbound = min(rbound, math.floor(res.bound + 1e-6))
+                res = dataclasses.replace(res, bound=float(math.floor(res.bound + 1e-6)))
             if not res.has_solution:
-                return "stopped", rbound
+                return res
             chosen = np.flatnonzero(np.asarray(res.x) > 0.5)
             pos = mdl.points[chosen]
             ev = evaluate(problem, pos)
-            if not ev.feasible and connectivity == "hops":  # exact model: a bug, never hidden
-                raise RuntimeError(
-                    f"internal: the hop-level model returned an infeasible placement: {ev.violations}"
-                )
             feas = pos if ev.feasible else _feasible_subset(problem, pos)
             cv = evaluate(problem, feas).covered
             if cv > state.inc_val:
                 state.inc, state.inc_val = feas, cv
-            if res.status is not Status.OPTIMAL:
-                return "stopped", rbound
+            return dataclasses.replace(res, x=(keep[chosen], pos, ev), objective=float(ev.covered))
+
+        def separate(res: SolveResult) -> list:
+            idx, pos, ev = res.x
             if ev.feasible:
-                return "optimal", float(ev.covered)
-            _add_cuts(problem, cand, tree, keep[chosen], pos, cuts)
-        return "stopped", rbound
+                return []
+            if connectivity == "hops":  # exact model: a bug, never hidden
+                raise RuntimeError(
+                    f"internal: the hop-level model returned an infeasible placement: {ev.violations}"
+                )
+            new: list = []
+            _add_cuts(problem, cand, tree, idx, pos, new)
+            return new
+
+        if state.rounds >= max_rounds or prep.expired():
+            return "stopped", math.inf
+        out = lazy_constraint_loop(
+            relaxation,
+            separate,
+            sense="max",
+            max_rounds=max_rounds - state.rounds,
+            time_limit=prep.left(),
+            cuts=cuts,
+        )
+        cuts[:] = out.info["cuts"]  # valid for every restriction: kept for the next one
+        if out.status is Status.INFEASIBLE:
+            # nothing in the restricted relaxation reaches the incumbent's value (the
+            # incumbent itself is feasible for it, so this only happens at rounding
+            # edges): the restricted optimum is at most the incumbent's value
+            return "optimal", float(state.inc_val)
+        if out.status is Status.OPTIMAL and out.objective is not None:
+            return "optimal", float(out.objective)
+        return "stopped", math.inf if out.bound is None else float(out.bound)
 
     # Descending target scheme (exact): any solution worth more than g uses only sites
     # with |S(c)| + B_{m-1} > g. Solve on those; an optimum z_r > g is the optimum of the

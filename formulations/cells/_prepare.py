@@ -25,6 +25,7 @@ from droneplan.formulations.cells._core import (
     evaluate,
     merge_points,
     pair_intersections,
+    pairwise_distances,
 )
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.registry import get_backend
@@ -201,7 +202,7 @@ def _feasible_subset(problem: CellProblem, pos: np.ndarray) -> np.ndarray:
     without a backhaul path. Every pass removes at least one site, so this ends."""
     pos = np.asarray(pos, dtype=float).reshape(-1, 2)
     if len(pos):
-        dg = np.hypot(pos[:, None, 0] - problem.gbs[None, :, 0], pos[:, None, 1] - problem.gbs[None, :, 1])
+        dg = pairwise_distances(pos, problem.gbs)
         ok = np.all(dg >= problem.R_g + problem.R_d - TOL, axis=1)
         if problem.bounds is not None:
             xmin, xmax, ymin, ymax = problem.bounds
@@ -212,7 +213,7 @@ def _feasible_subset(problem: CellProblem, pos: np.ndarray) -> np.ndarray:
         ev = evaluate(problem, pos)
         if ev.feasible:
             return pos
-        d = np.hypot(pos[:, None, 0] - pos[None, :, 0], pos[:, None, 1] - pos[None, :, 1])
+        d = pairwise_distances(pos, pos)
         np.fill_diagonal(d, np.inf)
         bad = np.flatnonzero(np.any(d < 2 * problem.R_d - TOL, axis=1))
         if len(bad):
