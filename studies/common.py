@@ -40,6 +40,7 @@ __all__ = [
     "task_config",
     "DEVIATION_THRESHOLD",
     "ComparisonTable",
+    "ROW_KINDS",
     "render_frame",
     "summarize",
     "report_study",
@@ -415,34 +416,76 @@ def _map_parallel(fn, todo, executor: StudyExecutor, recorder: _Recorder, guard:
 DEVIATION_THRESHOLD = 0.25
 """Relative deviation |this run - thesis| / |thesis| above which a reproduce row is flagged."""
 
-_TABLE_COLUMNS = ["quantity", "thesis", "this run", "deviation", "flag", "how measured"]
+ROW_KINDS = ("fidelity", "speed")
+"""Kinds of comparison rows: ``fidelity`` (a value the thesis reports; beyond the threshold the
+row is flagged ``!`` and needs a reason) and ``speed`` (a computing time: reported as a speed-up,
+never flagged, since running faster than the thesis is no fidelity problem)."""
+
+_TABLE_COLUMNS = ["quantity", "thesis", "this run", "deviation", "flag", "how measured", "why"]
+
+Explainer = Callable[[str, str], str]
+"""``explain(table_title, quantity)``: the reason for a flagged row, or ``""`` when none is known."""
 
 
 @dataclass
 class ComparisonTable:
-    """A table "quantity | thesis value | this run | deviation | how measured" for one figure or table.
+    """A table "quantity | thesis | this run | deviation | flag | how measured | why" for one
+    figure or table of the thesis.
 
-    The deviation column is ``(this run - thesis) / |thesis|`` where both are numbers; rows
-    whose deviation exceeds ``threshold`` (default ``DEVIATION_THRESHOLD``) are flagged ``!``.
+    The deviation column is ``(this run - thesis) / |thesis|`` where both are numbers; fidelity
+    rows whose deviation exceeds ``threshold`` (default ``DEVIATION_THRESHOLD``) are flagged
+    ``!`` and carry a one-line reason in the ``why`` column. Speed rows (``kind="speed"``, the
+    thesis value a computing time in s) show the speed-up instead ("13x faster") and are never
+    flagged. ``explain`` (optional) supplies the reason of a flagged or speed row from a
+    registry (e.g. :func:`droneplan.studies.report.flag_reasons`); :meth:`unexplained` lists
+    the flagged rows that still have none.
     """
 
     title: str
     rows: list[dict[str, str]] = field(default_factory=list)
     threshold: float = DEVIATION_THRESHOLD
+    explain: Explainer | None = None
 
-    def add(self, quantity: str, thesis: Any, ours: Any, how: str) -> None:
+    def add(
+        self, quantity: str, thesis: Any, ours: Any, how: str, *, why: str = "", kind: str = "fidelity"
+    ) -> None:
+        """Add one row.
+
+        quantity: what is compared (with its unit). thesis: the thesis's value (a number, a
+        statement, or None when the thesis states none). ours: this run's value. how: how it
+        was measured. why: a measured detail backing the reason of a flagged or speed row
+        (appended to the registry's reason; ignored on rows that are within the threshold).
+        kind: ``"fidelity"`` or ``"speed"`` (see :data:`ROW_KINDS`).
+        """
+        if kind not in ROW_KINDS:
+            raise ValueError(f"kind must be one of {ROW_KINDS}, got {kind!r}")
+        if not isinstance(why, str):
+            raise TypeError(f"why must be a str, got {type(why).__name__}")
         dev = _deviation(thesis, ours)
-        flag = "" if dev is None else ("!" if abs(dev) > self.threshold else "ok")
+        if kind == "speed":
+            shown, flag = _speedup(thesis, ours), ""
+        else:
+            shown = "" if dev is None else f"{dev:+.0%}"
+            flag = "" if dev is None else ("!" if abs(dev) > self.threshold else "ok")
+        reason = ""
+        if flag == "!" or kind == "speed":
+            base = self.explain(self.title, quantity) if self.explain is not None else ""
+            reason = "; ".join(r for r in (base.strip(), why.strip()) if r)
         self.rows.append(
             {
                 "quantity": quantity,
                 "thesis": _fmt(thesis),
                 "this run": _fmt(ours),
-                "deviation": "" if dev is None else f"{dev:+.0%}",
+                "deviation": shown,
                 "flag": flag,
                 "how measured": how,
+                "why": reason,
             }
         )
+
+    def unexplained(self) -> list[str]:
+        """The quantities of the flagged (``!``) rows without a reason."""
+        return [r["quantity"] for r in self.rows if r["flag"] == "!" and not r["why"].strip()]
 
     def frame(self) -> pd.DataFrame:
         return pd.DataFrame(self.rows, columns=_TABLE_COLUMNS)
@@ -450,12 +493,18 @@ class ComparisonTable:
     def render(self, width: int | None = None) -> str:
         """Plain text that fits ``width`` columns (default: the terminal's), long cells wrapped."""
         df = self.frame()
-        note = f"(deviation = (this run - thesis) / |thesis|; ! beyond {self.threshold:.0%})"
+        note = f"(deviation = (this run - thesis) / |thesis|; ! beyond {self.threshold:.0%}, reason in 'why')"
         if df.empty:
             return f"== {self.title} ==\n(no rows)"
+        if not df["why"].astype(bool).any():
+            df = df.drop(columns=["why"])
         if not df["deviation"].astype(bool).any():  # nothing to compare: keep the width for the rest
             df, note = df.drop(columns=["deviation", "flag"]), ""
-        return f"== {self.title} ==\n" + render_frame(df, width=width) + ("\n" + note if note else "")
+        notes = [note] if note else []
+        missing = self.unexplained()
+        if missing:
+            notes.append("! WITHOUT A REASON: " + "; ".join(missing))
+        return "\n".join([f"== {self.title} ==", render_frame(df, width=width), *notes])
 
     def markdown(self) -> str:
         """The table as GitHub Markdown."""
@@ -477,6 +526,19 @@ class ComparisonTable:
         print(flush=True)
         self.frame().to_csv(out / f"{stem}.csv", index=False)
         (out / f"{stem}.md").write_text(self.markdown() + "\n")
+
+
+def _speedup(thesis: Any, ours: Any) -> str:
+    """``"13x faster"`` / ``"2.0x slower"`` for computing times (s), ``""`` when not both numbers."""
+    t, o = _number(thesis), _number(ours)
+    if t is None or o is None or t <= 0 or o < 0:
+        return ""
+    if o == 0:
+        return "faster (0 s)"
+    ratio = t / o
+    if ratio >= 1:
+        return f"{ratio:.2g}x faster" if ratio < 10 else f"{ratio:.0f}x faster"
+    return f"{1 / ratio:.2g}x slower" if 1 / ratio < 10 else f"{1 / ratio:.0f}x slower"
 
 
 def _number(v: Any) -> float | None:

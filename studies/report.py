@@ -3,10 +3,12 @@
 ``droneplan reproduce --quick --report`` (or ``python -m droneplan.studies.report OUT`` on an
 existing ``--out`` directory) writes ``OUT/report.html``. For each problem it shows every thesis
 table written under ``OUT/<problem>/`` (the CSV files with ``thesis`` and ``this run`` columns,
-deviation column included, rows beyond the deviation threshold highlighted), every PNG figure, the
-other CSV files as links, and a short note on each place where droneplan deliberately deviates from
-the thesis (:data:`DEVIATIONS`, also rendered on the documentation's problem pages). Images and
-data are referenced by relative paths, so the page works opened from disk.
+deviation column included, rows beyond the deviation threshold highlighted), the list of those
+rows with the reason each carries in its ``why`` column (:data:`FLAG_REASONS`; a flagged row
+without one is marked), every PNG figure, the other CSV files as links, and a short note on each
+place where droneplan deliberately deviates from the thesis (:data:`DEVIATIONS`). Both registries
+also appear on the documentation's problem pages. Images and data are referenced by relative
+paths, so the page works opened from disk.
 """
 
 from __future__ import annotations
@@ -16,7 +18,8 @@ import csv
 import datetime as _dt
 import html
 import importlib.metadata
-from collections.abc import Sequence
+import re
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,6 +32,10 @@ __all__ = [
     "Deviation",
     "DEVIATIONS",
     "deviations_markdown",
+    "FlagReason",
+    "FLAG_REASONS",
+    "flag_reasons",
+    "flag_reasons_markdown",
     "write_report",
     "main",
 ]
@@ -265,6 +272,132 @@ def deviations_markdown(problem: str) -> str:
 
 
 @dataclass(frozen=True)
+class FlagReason:
+    """Why rows of a reproduce table deviate from the thesis beyond the threshold.
+
+    The reason is one line; what backs it is a cited thesis statement (section, figure, table)
+    or a measurement (a row or file of the same reproduction).
+    """
+
+    where: str
+    """The rows concerned, for a reader (thesis figure or table, quantity)."""
+    table: str
+    """Regular expression searched in the table's title."""
+    rows: str
+    """Regular expression searched in the rows' quantity."""
+    reason: str
+    """The reason, one line."""
+    backing: str
+    """The thesis statement cited or the measurement that backs the reason."""
+
+    def text(self) -> str:
+        """The cell of the table's ``why`` column: the reason and, in brackets, its backing."""
+        return f"{self.reason} [{self.backing}]"
+
+
+_LAYOUT = (
+    "§3.5 gives no coordinates ('a simulated uneven square zone (200 m by 200 m)'); the paths are drawn "
+    "only in Figs 3.9c and 3.14a"
+)
+
+FLAG_REASONS: dict[str, tuple[FlagReason, ...]] = {
+    "covert": (
+        FlagReason(
+            "Figs 3.10, 3.14: beta_max of hover and of sliding mode",
+            r"^Case [12]: maximum recorded bearing change",
+            r"^beta_max (hover benchmark|sliding mode) \(deg\)$",
+            "our terrain and target paths are our own, so the absolute bearing changes differ",
+            _LAYOUT,
+        ),
+        FlagReason(
+            "Figs 3.10, 3.14: reduction of sliding mode vs hover",
+            r"^Case [12]: maximum recorded bearing change",
+            r"^reduction sliding vs hover",
+            "on our scene no controller on the sphere gets far below sliding mode, so the margin over "
+            "hover is capped by the scene, not by the controller",
+            "measured: the row 'lower bound, any controller on the sphere' of the same table; " + _LAYOUT,
+        ),
+    ),
+    "cells": (
+        FlagReason(
+            "Table 4.3: T_ES and T_GA",
+            r"^Table 4\.3",
+            r"T_ES|T_GA",
+            "a computing time on another machine and implementation, reported as a speed-up",
+            "§4.4: MATLAB 2019b on an HP desktop with a 7th-generation Intel Core i7 and 16 GB RAM",
+        ),
+        FlagReason(
+            "Table 4.3 P_Global, Fig. 4.3 success rates, GA ablation P_Global of the thesis GA",
+            r"^(Table 4\.3|Fig\. 4\.3|GA ablation)",
+            r"P_Global|^success",
+            "the thesis's user snapshot is not published (only its process, Table 4.2), and on ours the GA's "
+            "populations collapse onto their best plan within each restart ((4.10) scales the mutation by "
+            "(1 - f/f_best)^2, zero at the best), so few runs end on the optimum",
+            "§4.3.2, (4.10), Table 4.2; measured: 'final population ... copies of its best' in the "
+            "ga_ablation table",
+        ),
+    ),
+    "shark": (
+        FlagReason(
+            "Table 5.2: interception distance of the virtual shark",
+            r"Table 5\.2",
+            r"interception distance, virtual shark",
+            "the shark paths are our shapes (the thesis describes them only qualitatively), and the "
+            "distance depends on where along its curve the shark is met",
+            "§5.4 and Fig. 5.12 (flat or curvy, constant or varying depth and speed; no coordinates); "
+            "the mean speeds of Table 5.2 are matched (rows above)",
+        ),
+    ),
+    "herding": (
+        FlagReason(
+            "Fig. 6.7: gathering and total times, benchmark minus proposed",
+            r"^Fig\. 6\.7",
+            r"animals: (proposed (gathering|total) time|benchmark minus proposed)",
+            "the thesis's times come from one illustrative run per herd size (herd and start not given), "
+            "ours are means over random herds, and one run's time varies with its herd (range in this row)",
+            "§6.5 ('some illustrative results ... on two cases', with videos); measured: the per-seed "
+            "times in fig_6_7_runs.csv",
+        ),
+    ),
+}
+"""Reasons for the reproduce rows that deviate from the thesis beyond the threshold, per problem
+(the ``why`` column of the tables, the report and the documentation's problem pages)."""
+
+
+def flag_reasons(problem: str) -> Callable[[str, str], str]:
+    """The explainer of ``problem``'s reproduce tables (``ComparisonTable(..., explain=...)``).
+
+    problem: one of :data:`PROBLEMS`. Returns ``explain(title, quantity)``: the ``why`` text of
+    the first :data:`FLAG_REASONS` entry whose patterns match the table title and the row's
+    quantity, or ``""``.
+    """
+    if problem not in FLAG_REASONS:
+        raise ValueError(f"problem must be one of {sorted(FLAG_REASONS)}, got {problem!r}")
+    entries = FLAG_REASONS[problem]
+
+    def explain(title: str, quantity: str) -> str:
+        for e in entries:
+            if re.search(e.table, title) and re.search(e.rows, quantity):
+                return e.text()
+        return ""
+
+    return explain
+
+
+def flag_reasons_markdown(problem: str) -> str:
+    """The flag reasons of ``problem`` as a Markdown table (the documentation's problem pages)."""
+    if problem not in FLAG_REASONS:
+        raise ValueError(f"problem must be one of {sorted(FLAG_REASONS)}, got {problem!r}")
+
+    def cell(text: str) -> str:
+        return text.replace("|", "\\|")
+
+    lines = ["| rows | why | backed by |", "|---|---|---|"]
+    lines += [f"| {cell(e.where)} | {cell(e.reason)} | {cell(e.backing)} |" for e in FLAG_REASONS[problem]]
+    return "\n".join(lines)
+
+
+@dataclass(frozen=True)
 class _Table:
     stem: str
     title: str
@@ -295,13 +428,46 @@ def _table_html(table: _Table) -> str:
     for row in table.rows:
         flagged = flag_col is not None and flag_col < len(row) and row[flag_col].strip() == "!"
         cells = "".join(f"<td>{html.escape(row[i]) if i < len(row) else ''}</td>" for i in shown)
-        body.append(f'<tr class="flagged">{cells}</tr>' if flagged else f"<tr>{cells}</tr>")
+        css = ("flagged unexplained" if not _why(table, row) else "flagged") if flagged else ""
+        body.append(f'<tr class="{css}">{cells}</tr>' if css else f"<tr>{cells}</tr>")
     csv_path = html.escape(table.csv_path)
     return (
         f'<h3 id="{html.escape(table.stem)}">{html.escape(table.title)}</h3>\n'
         f"<table>\n<thead><tr>{head}</tr></thead>\n<tbody>\n" + "\n".join(body) + "\n</tbody>\n</table>\n"
         f'<p class="source">data: <a href="{csv_path}">{csv_path}</a></p>\n'
     )
+
+
+def _why(table: _Table, row: list[str]) -> str:
+    """The ``why`` cell of a table row ("" when the table has no such column)."""
+    col = table.header.index("why") if "why" in table.header else None
+    return row[col].strip() if col is not None and col < len(row) else ""
+
+
+def _flagged(tables: Sequence[_Table]) -> list[tuple[_Table, str, str]]:
+    """(table, quantity, why) of every row flagged ``!`` in ``tables``."""
+    out = []
+    for t in tables:
+        if "flag" not in t.header:
+            continue
+        k = t.header.index("flag")
+        out += [(t, r[0], _why(t, r)) for r in t.rows if k < len(r) and r[k].strip() == "!"]
+    return out
+
+
+def _flagged_html(tables: Sequence[_Table]) -> str:
+    """The flagged rows of a problem with their reasons; a row without one is marked."""
+    rows = _flagged(tables)
+    if not rows:
+        return "<p><i>No row deviates from the thesis beyond the threshold.</i></p>\n"
+    items = "\n".join(
+        f'<li><a href="#{html.escape(t.stem)}">{html.escape(t.title)}</a>: <b>{html.escape(q)}</b>: '
+        + (html.escape(why) if why else '<span class="unexplained">NO REASON GIVEN</span>')
+        + "</li>"
+        for t, q, why in rows
+    )
+    summary = f"<summary>Rows beyond the threshold ({len(rows)}) and why</summary>"
+    return f"<details open>{summary}\n<ul>\n{items}\n</ul>\n</details>\n"
 
 
 def _deviations_html(problem: str) -> str:
@@ -319,7 +485,8 @@ body { font-family: system-ui, sans-serif; max-width: 1250px; margin: 2em auto; 
 h1 { margin-bottom: 0.2em; } h2 { border-bottom: 2px solid #ccc; margin-top: 2em; }
 table { border-collapse: collapse; margin: 0.5em 0; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }
-th { background: #f0f0f0; } tr.flagged td { background: #fff0d0; }
+th { background: #f0f0f0; } tr.flagged td { background: #fff0d0; } tr.unexplained td { background: #ffd0d0; }
+.unexplained { color: #b00; font-weight: bold; }
 figure { display: inline-block; margin: 0.5em; vertical-align: top; max-width: 600px; }
 figure img { max-width: 100%; border: 1px solid #ddd; } figcaption { font-size: 0.85em; color: #555; }
 .source, .meta { font-size: 0.85em; color: #555; } details { margin: 0.5em 0 1em; }
@@ -354,8 +521,9 @@ def write_report(out: str | Path, *, problems: Sequence[str] = PROBLEMS, title: 
         f"<style>{_STYLE}</style>\n</head>\n<body>\n<h1>{html.escape(title)}</h1>\n"
         f'<p class="meta">droneplan {html.escape(_version())}, generated {generated} from '
         f"<code>{html.escape(str(out))}</code>. Each table puts the thesis value beside this run; "
-        "deviation = (this run - thesis) / |thesis|, rows beyond the threshold are highlighted and their "
-        "'how measured' column says why they differ.</p>\n<ul>\n"
+        "deviation = (this run - thesis) / |thesis|; rows beyond the threshold are highlighted and their "
+        "'why' column gives the reason and what backs it (a thesis statement or a measurement). Computing "
+        "times are shown as speed-ups, not as deviations.</p>\n<ul>\n"
     ]
     parts += [f'<li><a href="#{p}">{html.escape(CHAPTER_TITLES[p])}</a></li>\n' for p in problems]
     parts.append("</ul>\n")
@@ -375,6 +543,7 @@ def write_report(out: str | Path, *, problems: Sequence[str] = PROBLEMS, title: 
                 data.append(path.relative_to(out).as_posix())
             else:
                 tables.append(table)
+        parts.append(_flagged_html(tables))
         parts += [_table_html(t) for t in tables]
         figures = sorted(folder.glob("*.png"))
         if figures:

@@ -115,7 +115,7 @@ def test_comparison_table(tmp_path):
     assert list(df["flag"]) == ["ok", "!", ""]  # beyond DEVIATION_THRESHOLD = 25 %
     t.emit(tmp_path, "table_x")
     df = pd.read_csv(tmp_path / "table_x.csv")
-    assert list(df.columns) == ["quantity", "thesis", "this run", "deviation", "flag", "how measured"]
+    assert list(df.columns) == ["quantity", "thesis", "this run", "deviation", "flag", "how measured", "why"]
     assert "| max beta (deg) | 15.5 | 14.25 | -8% | ok |" in (tmp_path / "table_x.md").read_text()
 
 

@@ -111,7 +111,7 @@ def test_report_shows_every_table_beside_the_thesis_and_every_figure(out):
     assert "cells/gap_rows.csv" in parsed.refs  # non-table data is linked, not tabulated
     assert "gap_rows" not in parsed.ids
     text = page.read_text()
-    assert 'class="flagged"' in text  # the row beyond the deviation threshold is highlighted
+    assert 'class="flagged unexplained"' in text  # beyond the threshold without a reason: highlighted
     for problem in PROBLEMS:
         assert problem in parsed.ids
         for dev in DEVIATIONS[problem]:  # a note per deliberate deviation
