@@ -234,11 +234,23 @@ class ExtendedHull:
 
     @classmethod
     def from_hull(cls, hull: np.ndarray, d_s: float, *, mitre_limit: float = MITRE_LIMIT) -> ExtendedHull:
-        """Extended hull at offset d_s (m) of the ccw hull vertices (h, 2) of a herd, m
-        (as :func:`convex_hull` or :class:`HullTracker` return them)."""
+        """Extended hull of a herd from its hull.
+
+        hull: (h, 2) ccw hull vertices of the herd, m (as :func:`convex_hull` or
+        :class:`HullTracker` return them); d_s: offset, m (> 0); mitre_limit: see
+        :func:`extended_hull_vertices`.
+        """
+        return cls._from_checked_hull(
+            check_array("hull", hull, shape=(None, 2), min_rows=1), d_s, mitre_limit
+        )
+
+    @classmethod
+    def _from_checked_hull(
+        cls, hull: np.ndarray, d_s: float, mitre_limit: float = MITRE_LIMIT
+    ) -> ExtendedHull:
+        """:meth:`from_hull` of a hull already checked (as :class:`HullTracker` returns it)."""
         d_s, mitre_limit = _check_offset(d_s, mitre_limit)
-        P = check_array("hull", hull, shape=(None, 2), min_rows=1)
-        return cls.from_vertices(*_extended_hull_vertices(P, d_s, mitre_limit))
+        return cls.from_vertices(*_extended_hull_vertices(hull, d_s, mitre_limit))
 
     @classmethod
     def from_vertices(cls, E: np.ndarray, P: np.ndarray | None = None) -> ExtendedHull:

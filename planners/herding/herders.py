@@ -79,6 +79,11 @@ def steering_points(hull: ExtendedHull, centroid: np.ndarray, n_drones: int) -> 
         raise TypeError(f"hull must be an ExtendedHull, got {type(hull).__name__}")
     centroid = check_array("centroid", centroid, shape=(2,))
     n_drones = check_int("n_drones", n_drones, min_value=1)
+    return _steering_points(hull, centroid, n_drones)
+
+
+def _steering_points(hull: ExtendedHull, centroid: np.ndarray, n_drones: int) -> np.ndarray:
+    """:func:`steering_points` of checked arguments (the herders' own hull, centroid and drone count)."""
     dist = np.linalg.norm(hull.animals - centroid, axis=1)
     k = min(n_drones, len(dist))
     idx = np.argsort(-dist, kind="stable")[:k]
@@ -136,11 +141,11 @@ class _Herder(abc.ABC):
         return HerdingCommand(*self._control(obs.t, obs.drones, obs.headings, obs.dt))
 
     def _observe(self, animals, centroid, phase, drones) -> None:
-        self.centroid = np.asarray(centroid, dtype=float)
+        self.centroid = check_array("centroid", centroid, shape=(2,))
         if phase == HerdingPhase.GATHERING:
             if self.phase == HerdingPhase.DRIVING:  # the simulator sent the herd back to gathering
                 self._regroup()
-            self.hull = ExtendedHull.from_hull(self.herd_hull(animals), self.p.d_s)
+            self.hull = ExtendedHull._from_checked_hull(self.herd_hull(animals), self.p.d_s)
             if self.on_hull.all():
                 self._plan_gathering(drones)
         else:
@@ -244,7 +249,7 @@ class ProposedHerder(_Herder):
         assert hull is not None  # _observe builds it before planning
         M = hull.perimeter
         s_d = hull.project(drones)[0]
-        steer_s = steering_points(hull, self.centroid, self.p.n_drones)
+        steer_s = _steering_points(hull, self.centroid, self.p.n_drones)
         s_d = np.where(s_d >= M, 0.0, s_d)
         res = _allocate(self.settings.allocation, s_d, steer_s, M)
         self.statuses.append(res.status.name)
