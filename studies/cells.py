@@ -38,6 +38,7 @@ from droneplan.scenarios.cells import (
 from droneplan.solvers.result import SolveResult
 from droneplan.studies.common import ComparisonTable, make_executor, map_rows, open_store, report_study
 from droneplan.studies.plots.cells import plot_deployment_region, plot_map
+from droneplan.studies.report import flag_reasons
 from droneplan.studies.store import Outcome, build_rows, instance_id
 
 __all__ = [
@@ -212,7 +213,8 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
     # ---------------------------------------------------------------- Table 4.3
     tab = ComparisonTable(
         "Table 4.3 - computing time and GA success (thesis instance vs ours, seed "
-        f"{INSTANCE_SEED}; MILP backend {MILP_BACKEND})"
+        f"{INSTANCE_SEED}; MILP backend {MILP_BACKEND})",
+        explain=flag_reasons("cells"),
     )
     opt, milp_sol, rows = {}, {}, []
     for m, task in zip(ms, exact, strict=True):
@@ -234,23 +236,31 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
             t_es,
             es_time,
             "Algorithm 2, wall time on this machine (bound-pruned enumeration: the plain one's result)",
+            kind="speed",
         )
         tab.add(
             f"m={m} T_GA (s)",
             t_ga_th,
             float(ga["time_s"].mean()),
             f"mean over {len(ga)} GA runs, P={P}, N_start={N}, iter_max=50",
+            kind="speed",
         )
         succ_es = float((ga["objective"] >= es["objective"]).mean())
+        ga_best = f"the best of the {len(ga)} runs covers {ga['objective'].max():g} users"
         tab.add(
             f"m={m} P_Global vs ES (thesis criterion)",
             pg,
             succ_es,
             f"fraction of {len(ga)} GA runs reaching the exhaustive-search value {es['objective']:g}"
             + ("" if es["cells_es_complete"] else " (ES stopped at its limit: best found)"),
+            why=f"{ga_best}, ES {es['objective']:g}",
         )
         tab.add(
-            f"m={m} P_Global vs MILP", pg, succ, f"fraction of {len(ga)} GA runs reaching the MILP optimum"
+            f"m={m} P_Global vs MILP",
+            pg,
+            succ,
+            f"fraction of {len(ga)} GA runs reaching the MILP optimum",
+            why=f"{ga_best}, the MILP optimum {milp['objective']:g}",
         )
         tab.add(
             f"m={m} P_Global GA+polish (ours)",
@@ -307,18 +317,22 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:
     obj = df.set_index("instance")["objective"]
     no_restart = obj[[t["instance"] for t in fig43 if t["restarts"] == 1]]
     restart = obj[[t["instance"] for t in fig43 if t["restarts"] == 40]]
-    t43 = ComparisonTable("Fig. 4.3 - GA success without / with restarts (m=2, P=100)")
+    t43 = ComparisonTable(
+        "Fig. 4.3 - GA success without / with restarts (m=2, P=100)", explain=flag_reasons("cells")
+    )
     t43.add(
         "success 1 x 2000 iterations",
         0.12,
         float((no_restart == opt2).mean()),
         f"{n43} runs; optimum = MILP {opt2:g}",
+        why=f"best run {no_restart.max():g} users; {n43} runs, the fraction moves in steps of {1 / n43:.2g}",
     )
     t43.add(
         "success 40 restarts x 50 iterations",
         0.92,
         float((restart == opt2).mean()),
         f"{n43} runs; optimum = MILP {opt2:g}",
+        why=f"best run {restart.max():g} users; {n43} runs, the fraction moves in steps of {1 / n43:.2g}",
     )
     t43.emit(out, "fig_4_3")
     fig, ax = plt.subplots(figsize=(5, 3))
@@ -402,7 +416,8 @@ def _reproduce_ablation(quick: bool, out: Path, ex, st) -> pd.DataFrame:
     corr.to_csv(out / "ga_ablation_correlations.csv", index=False)
     tab = ComparisonTable(
         f"GA ablation - P_Global vs exhaustive search (the thesis's criterion) / vs the MILP "
-        f"optimum, {abl['seed'].nunique()} thesis-scale seeds; per-seed rows in ga_ablation_seeds.csv"
+        f"optimum, {abl['seed'].nunique()} thesis-scale seeds; per-seed rows in ga_ablation_seeds.csv",
+        explain=flag_reasons("cells"),
     )
     for r in summ.itertuples():
         pm = "n/a" if r.p_global_milp is None or pd.isna(r.p_global_milp) else f"{r.p_global_milp:.2f}"
@@ -412,6 +427,7 @@ def _reproduce_ablation(quick: bool, out: Path, ex, st) -> pd.DataFrame:
             float(r.p_global_es),
             f"{r.seeds} seeds x {r.runs_per_seed} runs; vs MILP optimum {pm}; mean covered {r.mean_obj:.1f} "
             f"(gap to MILP {r.mean_gap_to_milp:.1%}); final population {r.best_share:.0%} copies of its best",
+            why=f"final populations here are {r.best_share:.0%} copies of their best",
         )
     for r in corr.itertuples():
         if r.spearman is not None and not pd.isna(r.spearman):
