@@ -39,6 +39,7 @@ from droneplan.scenarios.shark import (
 )
 from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study
 from droneplan.studies.plots.shark import plot_time_series, plot_top_view
+from droneplan.studies.report import flag_reasons
 from droneplan.studies.store import Outcome, build_rows, instance_id
 
 __all__ = ["P", "TABLE_5_2", "reproduce", "gap_task", "gap", "bench"]
@@ -151,6 +152,10 @@ def _table_5_2(out: Path, table: ComparisonTable, quick: bool) -> dict:
             vs.interception_distance,
             f"|S(contact) - S(0)|, start {P.Di} m at -105 deg; frontal={vs.frontal}, "
             f"early={vs.touched_early}",
+            why=""
+            if vs.intercept_time is None
+            else f"contact after {vs.intercept_time:.2f} s and "
+            f"{tr.average_speed(vs.intercept_time) * vs.intercept_time:.1f} m along our path",
         )
         table.add(
             f"Table 5.2 ({name}): interception distance, online OCP (m)",
@@ -223,15 +228,17 @@ def reproduce(*, quick: bool, out: Path) -> None:
     """Fig. 5.10, 5.11, Table 5.2, Fig. 5.12 and repelling episodes; tables on stdout, CSV/PNG in out."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    t1 = ComparisonTable("Shark ch. 5: Fig. 5.10 / 5.11")
+    t1 = ComparisonTable("Shark ch. 5: Fig. 5.10 / 5.11", explain=flag_reasons("shark"))
     _fig_5_10(out, t1)
     _fig_5_11(out, t1)
     t1.emit(out, "fig_5_10_5_11")
-    t2 = ComparisonTable("Shark ch. 5: Table 5.2 (interception distance)")
+    t2 = ComparisonTable("Shark ch. 5: Table 5.2 (interception distance)", explain=flag_reasons("shark"))
     runs = _table_5_2(out, t2, quick)
     t2.emit(out, "table_5_2")
     _fig_5_12(out, runs)
-    t3 = ComparisonTable("Shark ch. 5: repelling episodes (procedure 1-5 of §5.3.1)")
+    t3 = ComparisonTable(
+        "Shark ch. 5: repelling episodes (procedure 1-5 of §5.3.1)", explain=flag_reasons("shark")
+    )
     _repelling(out, t3, quick)
     t3.emit(out, "repelling")
 
