@@ -343,9 +343,10 @@ FLAG_REASONS: dict[str, tuple[FlagReason, ...]] = {
             r"Table 5\.2",
             r"interception distance, virtual shark",
             "the shark paths are our shapes (the thesis describes them only qualitatively), and the "
-            "distance depends on where along its curve the shark is met",
-            "§5.4 and Fig. 5.12 (flat or curvy, constant or varying depth and speed; no coordinates); "
-            "the mean speeds of Table 5.2 are matched (rows above)",
+            "distance shrinks with how much the path curves before contact, which ours may do less",
+            "§5.4 ('a shark with curvier trajectory is likely to be intercepted in a shorter distance') "
+            "and Fig. 5.12 (no coordinates); the mean speeds of Table 5.2 are matched (rows above); "
+            "measured: path length vs displacement at contact, in this row",
         ),
     ),
     "herding": (

@@ -155,7 +155,8 @@ def _table_5_2(out: Path, table: ComparisonTable, quick: bool) -> dict:
             why=""
             if vs.intercept_time is None
             else f"contact after {vs.intercept_time:.2f} s and "
-            f"{tr.average_speed(vs.intercept_time) * vs.intercept_time:.1f} m along our path",
+            f"{tr.average_speed(vs.intercept_time) * vs.intercept_time:.1f} m along our path "
+            f"for {vs.interception_distance:.2f} m of displacement",
         )
         table.add(
             f"Table 5.2 ({name}): interception distance, online OCP (m)",
