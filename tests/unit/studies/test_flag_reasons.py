@@ -49,6 +49,9 @@ QUICK_FLAGGED = [
     ("cells", ABLATION, "m=1 thesis GA (Tables 4.1, 4.3): P_Global vs ES", 1.0, 0.1667),
     ("cells", ABLATION, "m=2 thesis GA (Tables 4.1, 4.3): P_Global vs ES", 1.0, 0.5),
     ("shark", T52, "Table 5.2 (d): interception distance, virtual shark (m)", 21.26, 26.95),
+    ("herding", F67, "200 animals: benchmark minus proposed, total (min)", 3.3, 5.983),
+    ("herding", F67, "1000 animals: proposed gathering time (min)", 10.1, 13.39),
+    ("herding", F67, "1000 animals: benchmark minus proposed, total (min)", 4.1, 1.823),
 ]
 
 
