@@ -111,3 +111,22 @@ def test_a_sample_of_cells_entries_is_re_proven():
         inst = family_instances("table4.2", m=m, seeds=[seed])[0]
         again = certify_instance(inst, time_limit=120)
         assert again["value"] == entry.value and again["bound"] == entry.bound, entry.id
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family", [f for f in ("table5.1", "random-path") if f in SHIPPED])
+def test_shark_entries_replay_to_their_contact_time(family):
+    from droneplan.studies.harness import execute, score
+    from droneplan.studies.methods import BUILTIN
+
+    entries = load_library(family)
+    for inst in library_instances(family):
+        entry = entries.get(inst.id)
+        if entry is None:
+            continue
+        assert entry.bound is None and entry.status == "feasible"  # no bound is proven for the closed loop
+        method = BUILTIN[entry.plan["controller"]]
+        verdict = score(inst, method, execute(inst, method, 0, None))
+        assert verdict.status == "feasible" and verdict.objective == pytest.approx(entry.value, abs=1e-9), (
+            inst.id
+        )
