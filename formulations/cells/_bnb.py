@@ -153,6 +153,7 @@ import contextlib
 import itertools
 import math
 import multiprocessing
+import os
 import queue
 import time
 from dataclasses import dataclass
@@ -258,6 +259,7 @@ def search(
     best_val = int(incumbent_value)
     if n == 0 or m == 0 or best_val >= upper:
         return BnbResult(best_pos, best_val, float(min(upper, best_val) if n == 0 else upper), True, 0)
+    _check_memory(n)
     w_all = np.array([len(c) for c in cand.cover], dtype=np.int64)
     order = np.lexsort((np.arange(n), -w_all))
     pts = cand.points[order]
@@ -914,6 +916,22 @@ def search(
         elimination_time=elimination_time,
         separated=int(state.separated),
     )
+
+
+def _check_memory(n: int) -> None:
+    """Refuse up front a search whose dense (n, n) conflict and link matrices (1 byte per
+    entry each) would not fit in this machine's memory, naming the size asked for."""
+    need = 2.0 * n * n
+    try:
+        avail = float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, ValueError, OSError):  # not knowable here: let the search try
+        return
+    if need > avail:
+        raise ValueError(
+            f"problem: the branch and bound would hold two dense {n} x {n} site matrices "
+            f"({need / 2**30:.1f} GiB), more than this machine's memory ({avail / 2**30:.1f} GiB); "
+            "use engine='milp' or fewer candidate sites"
+        )
 
 
 _CHECK_EVERY = 256

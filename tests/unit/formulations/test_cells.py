@@ -793,3 +793,18 @@ def test_a_weak_warm_start_is_polished_and_its_fate_reported(engine):
     assert ws["value"] == 1 and ws["greedy_value"] == inc["greedy"] == 4
     assert ws["polished_value"] == 5 == r.objective == brute_force_pruned(p) and ws["used"] and r.warm_started
     assert inc["from"] == "warm_start" and "polished to 5, is the incumbent" in ws["reason"]
+
+
+def test_branch_and_bound_refuses_matrices_beyond_memory(monkeypatch):
+    import os
+
+    from droneplan.formulations.cells._bnb import search
+
+    p = random_small(1, 12, 2)
+    cand = candidate_sites(p)
+    n = len(cand.points)
+    monkeypatch.setattr(os, "sysconf", lambda name: 1 if name == "SC_PAGE_SIZE" else 2 * n * n - 1)
+    with pytest.raises(ValueError, match=rf"problem: .*{n} x {n}.*GiB"):
+        search(p, cand, np.zeros((0, 2)), 0)
+    monkeypatch.undo()
+    assert search(p, cand, np.zeros((0, 2)), 0).value == brute_force_pruned(p)
