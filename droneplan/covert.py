@@ -54,6 +54,7 @@ from droneplan.scenarios.covert import (
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.covert import stealth_front
 from droneplan.studies.plots import plot_bearing, plot_path, plot_stealth_front
+from droneplan.studies.plots.covert import animate
 
 __all__ = [
     # world, presets, simulator
@@ -104,4 +105,5 @@ __all__ = [
     "plot_bearing",
     "stealth_front",
     "plot_stealth_front",
+    "animate",
 ]

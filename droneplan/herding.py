@@ -44,6 +44,7 @@ from droneplan.scenarios.loaders import herding_scenario_from_csv, load_herd_csv
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.herding import summary_table, write_gif
 from droneplan.studies.plots import plot_final, plot_footprint, plot_state
+from droneplan.studies.plots.herding import animate
 
 __all__ = [
     # world, presets, simulator
@@ -83,6 +84,7 @@ __all__ = [
     "plot_state",
     "plot_final",
     "plot_footprint",
+    "animate",
     "write_gif",
     "summary_table",
 ]

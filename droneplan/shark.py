@@ -62,6 +62,7 @@ from droneplan.scenarios.shark import (
 )
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.plots import plot_time_series, plot_top_view
+from droneplan.studies.plots.shark import animate
 
 __all__ = [
     # world, presets, simulator
@@ -117,4 +118,5 @@ __all__ = [
     "Status",
     "plot_top_view",
     "plot_time_series",
+    "animate",
 ]

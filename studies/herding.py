@@ -42,7 +42,7 @@ from droneplan.scenarios.herding import (
 )
 from droneplan.studies.common import ComparisonTable, make_executor, map_rows, report_study, timed
 from droneplan.studies.common import open_store as _store
-from droneplan.studies.plots.herding import plot_state
+from droneplan.studies.plots.herding import animate, plot_state
 from droneplan.studies.report import flag_reasons
 from droneplan.studies.store import Outcome, ResultStore, build_rows, instance_id
 
@@ -59,6 +59,7 @@ __all__ = [
     "gap",
     "bench",
     "write_gif",
+    "animate",
     "summary_table",
 ]
 
@@ -732,52 +733,9 @@ def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
 
     trace: a HerdingTrace with frames; path: the GIF file (str or os.PathLike ending in .gif;
     its folder is created). goal: G (2,) in m, kept in view (default: the trace's goal). fps: frames per
-    second of the GIF (an int, 1 to 100).
+    second of the GIF (an int, 1 to 100). The same as ``animate(trace, path, fps=fps, goal=goal)``.
     """
-    from matplotlib.animation import FuncAnimation, PillowWriter
-
-    from droneplan.solvers.validation import check_array, check_instance, check_int
-
-    check_instance("trace", trace, HerdingTrace)
-    frame_rate = check_int("fps", fps, min_value=1, max_value=100)
-    if not isinstance(path, (str, os.PathLike)):
-        raise TypeError(f"path must be a str or os.PathLike, got {type(path).__name__}")
-    if Path(path).suffix.lower() != ".gif":
-        raise ValueError(f"path must name a .gif file, got {str(path)!r}")
-    if not trace.frames:
-        raise ValueError("trace has no frames: run simulate(..., frame_every=...)")
-    goal = check_array("goal", trace.goal if goal is None else goal, shape=(2,))
-    allpts = np.concatenate(
-        [np.concatenate([f.animals, f.drones]) for f in trace.frames] + [goal.reshape(1, 2)]
-    )
-    if not np.all(np.isfinite(allpts)):
-        raise ValueError("trace frames must hold finite positions (a frame has NaN or inf)")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    lo, hi = allpts.min(axis=0) - 20, allpts.max(axis=0) + 20
-    fig, ax = plt.subplots(figsize=(7, 4))
-    ax.set_xlim(lo[0], hi[0])
-    ax.set_ylim(lo[1], hi[1])
-    ax.set_aspect("equal")
-    herd = ax.scatter([], [], s=3, c="tab:brown", label="animals")
-    drones = ax.scatter([], [], marker="s", c="tab:red", s=25, label="drones")
-    ax.plot(*goal, "*", color="tab:green", ms=12, label="goal G")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.legend(fontsize=7, loc="upper right")
-    title = ax.set_title("")
-
-    def update(k):
-        f = trace.frames[k]
-        herd.set_offsets(f.animals)
-        drones.set_offsets(f.drones)
-        title.set_text(f"t = {f.t / 60:.1f} min")
-        return herd, drones, title
-
-    anim = FuncAnimation(fig, update, frames=len(trace.frames), blit=False)
-    anim.save(path, writer=PillowWriter(fps=frame_rate))
-    plt.close(fig)
-    return path
+    return animate(trace, path, fps=fps, goal=goal)
 
 
 def summary_table(traces: dict):

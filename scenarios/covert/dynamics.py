@@ -281,6 +281,10 @@ class CovertTrace(LoopTrace):
 
     F: tuple[float, float, float] = (200.0, 200.0, 0.0)
     """Centre of the observation sphere of the run (m)."""
+    L_u: float = 200.0
+    """Radius of the observation sphere of the run (m)."""
+    R: tuple[float, float, float] = (10.0, 10.0, 40.0)
+    """Reference point of the run's camouflage constraint lines (m)."""
 
 
 def simulate(
@@ -399,4 +403,6 @@ def simulate(
         v=np.asarray(vs),
         finished=finished,
         F=p.F,
+        L_u=p.L_u,
+        R=p.R,
     )

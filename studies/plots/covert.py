@@ -9,16 +9,21 @@ import numpy as np
 from numpy.typing import NDArray
 
 from droneplan.scenarios.covert import CovertScenario, CovertTrace
+from droneplan.studies.plots._animation import check_options, frame_indices, save_gif
 from droneplan.studies.plots._common import as_trace_dict, figure_axes
 
-__all__ = ["plot_path", "plot_bearing", "plot_stealth_front"]
+__all__ = ["plot_path", "plot_bearing", "plot_stealth_front", "animate"]
 
 
 def _sphere_patch(scenario: CovertScenario, drone_paths: list[NDArray[np.float64]], n: int = 20):
     """Wireframe (x, y, z in m) of the part of the observation sphere |D - F| = L_u the drones fly near:
     their azimuth range about F widened by 0.3 rad, elevations from 0 up to theirs plus 0.3 rad."""
     p = scenario.params
-    F = p.F_arr
+    return _sphere_wire(p.F_arr, p.L_u, drone_paths, n)
+
+
+def _sphere_wire(F: NDArray[np.float64], L_u: float, drone_paths: list[NDArray[np.float64]], n: int = 20):
+    """The wireframe of :func:`_sphere_patch` for a sphere of centre F (3,) and radius L_u (m)."""
     rel = np.concatenate(drone_paths) - F
     mean_az = math.atan2(rel[:, 1].mean(), rel[:, 0].mean())
     az = mean_az + np.angle(np.exp(1j * (np.arctan2(rel[:, 1], rel[:, 0]) - mean_az)))
@@ -26,9 +31,9 @@ def _sphere_patch(scenario: CovertScenario, drone_paths: list[NDArray[np.float64
     u = np.linspace(az.min() - 0.3, az.max() + 0.3, n)
     v = np.linspace(0.0, min(float(el.max()) + 0.3, 0.5 * math.pi), max(n // 2, 2))
     return (
-        F[0] + p.L_u * np.outer(np.cos(u), np.cos(v)),
-        F[1] + p.L_u * np.outer(np.sin(u), np.cos(v)),
-        F[2] + p.L_u * np.outer(np.ones_like(u), np.sin(v)),
+        F[0] + L_u * np.outer(np.cos(u), np.cos(v)),
+        F[1] + L_u * np.outer(np.sin(u), np.cos(v)),
+        F[2] + L_u * np.outer(np.ones_like(u), np.sin(v)),
     )
 
 
@@ -152,3 +157,113 @@ def _check_frame(name: str, df: Any, columns: tuple[str, ...]) -> None:
     missing = [c for c in columns if c not in df.columns]
     if missing:
         raise ValueError(f"{name} lacks the column(s) {missing} (needs {list(columns)})")
+
+
+def animate(trace: Any, path: Any, *, fps: int = 8, stride: int = 1, view: str = "top"):
+    """Write an animated GIF of a covert-observation run; returns the path (a Path).
+
+    trace: a :class:`CovertTrace` (every recorded instant, spaced by the control period dt, is a
+    candidate frame). path: the GIF file (str or os.PathLike ending in .gif; its folder is
+    created). fps: frames per second of the GIF (an int, 1 to 100). stride: animate every
+    ``stride``-th recorded instant (an int >= 1; the last instant is always shown, at most
+    2000 frames). view: "top" (x, y in m: the observation sphere's horizon circle of radius
+    L_u and its cross-section at the drone's altitude, the targets and their tracks, the drone
+    and its track, R and F) or "3d" (x, y, z in m: the part of the sphere the drone flies near,
+    targets, drone). The title gives the time (s), the phase and beta_m (deg). A run whose drone
+    or target positions hold NaN or inf is refused (ValueError naming ``trace``).
+    """
+    import matplotlib.pyplot as plt
+
+    if not isinstance(trace, CovertTrace):
+        raise TypeError(f"trace must be a CovertTrace, got {type(trace).__name__}")
+    path, frame_rate, step = check_options(path, fps, stride)
+    if view not in ("top", "3d"):
+        raise ValueError(f"view must be 'top' or '3d', got {view!r}")
+    if not (np.all(np.isfinite(trace.drone)) and np.all(np.isfinite(trace.targets))):
+        raise ValueError("trace: the drone or target positions hold NaN or inf")
+    frames = frame_indices(len(trace.t), step)
+    F, R, L_u = np.asarray(trace.F, float), np.asarray(trace.R, float), float(trace.L_u)
+    D, A = trace.drone, trace.targets
+    n = A.shape[1]
+    beta_m = np.degrees(trace.beta_m)
+    pts = np.concatenate([D, A.reshape(-1, 3), F[None], R[None]])
+    if view == "3d":
+        fig = plt.figure(figsize=(7, 5.5))
+        ax = fig.add_subplot(projection="3d")
+        sx, sy, sz = _sphere_wire(F, L_u, [D])
+        ax.plot_wireframe(
+            sx, sy, sz, color="0.6", lw=0.3, alpha=0.5, label=f"observation sphere (L_u = {L_u:g} m)"
+        )
+        for j in range(n):
+            ax.plot(
+                *A[:, j].T, color="tab:brown", lw=0.6, alpha=0.4, label="target tracks" if j == 0 else None
+            )
+        ax.scatter(*F, color="k", marker="+", s=40, label="sphere centre F")
+        ax.scatter(*R, color="k", marker="^", s=30, label="reference point R")
+        (track,) = ax.plot([], [], [], color="tab:blue", lw=1.5, label="drone")
+        (now,) = ax.plot([], [], [], "o", color="tab:blue", ms=5)
+        (herd,) = ax.plot([], [], [], "o", color="tab:brown", ms=4, ls="", label="targets")
+        allp = np.concatenate([pts, np.c_[sx.ravel(), sy.ravel(), sz.ravel()]])
+        lo, hi = allp.min(axis=0), allp.max(axis=0)
+        pad = 0.03 * np.maximum(hi - lo, 1.0)
+        ax.set_xlim(lo[0] - pad[0], hi[0] + pad[0])
+        ax.set_ylim(lo[1] - pad[1], hi[1] + pad[1])
+        ax.set_zlim(lo[2] - pad[2], hi[2] + pad[2])
+        ax.set_zlabel("z (m)")
+        circle = None
+    else:
+        fig, ax = plt.subplots(figsize=(6.5, 6))
+        th = np.linspace(0.0, 2.0 * math.pi, 120)
+        ax.plot(
+            F[0] + L_u * np.cos(th),
+            F[1] + L_u * np.sin(th),
+            color="0.6",
+            lw=0.8,
+            ls="--",
+            label=f"observation sphere at z = {F[2]:g} m (L_u = {L_u:g} m)",
+        )
+        (circle,) = ax.plot([], [], color="tab:purple", lw=0.9, label="sphere at the drone's altitude")
+        for j in range(n):
+            ax.plot(
+                *A[:, j, :2].T,
+                color="tab:brown",
+                lw=0.6,
+                alpha=0.4,
+                label="target tracks" if j == 0 else None,
+            )
+        ax.plot(*F[:2], "k+", ms=8, label="sphere centre F")
+        ax.plot(*R[:2], "k^", ms=6, label="reference point R")
+        (track,) = ax.plot([], [], color="tab:blue", lw=1.5, label="drone")
+        (now,) = ax.plot([], [], "o", color="tab:blue", ms=5)
+        (herd,) = ax.plot([], [], "o", color="tab:brown", ms=4, ls="", label="targets")
+        lo = np.minimum(pts[:, :2].min(axis=0), F[:2] - L_u)
+        hi = np.maximum(pts[:, :2].max(axis=0), F[:2])
+        pad = 0.04 * np.maximum(hi - lo, 1.0)
+        ax.set_xlim(lo[0] - pad[0], hi[0] + pad[0])
+        ax.set_ylim(lo[1] - pad[1], hi[1] + pad[1])
+        ax.set_aspect("equal")
+        ax.grid(alpha=0.3)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend(fontsize=6, loc="upper left")
+    title = ax.set_title("")
+
+    def update(k: int):
+        i = frames[k]
+        if view == "3d":
+            track.set_data_3d(*D[: i + 1].T)
+            now.set_data_3d(*D[i : i + 1].T)
+            herd.set_data_3d(*A[i].T)
+        else:
+            track.set_data(*D[: i + 1, :2].T)
+            now.set_data(*D[i : i + 1, :2].T)
+            herd.set_data(*A[i, :, :2].T)
+            dz = D[i, 2] - F[2]
+            r = math.sqrt(L_u * L_u - dz * dz) if abs(dz) < L_u else 0.0
+            if circle is not None:
+                circle.set_data(F[0] + r * np.cos(th), F[1] + r * np.sin(th))
+        bm = f"{beta_m[i]:.1f} deg" if np.isfinite(beta_m[i]) else "no target seen"
+        title.set_text(f"t = {trace.t[i]:.1f} s, {trace.phase[i]}, beta_m = {bm}")
+        return track, now, herd, title
+
+    return save_gif(fig, update, list(range(len(frames))), path, frame_rate)

@@ -8,9 +8,10 @@ import numpy as np
 
 from droneplan.scenarios.herding import HerdingFrame, HerdingPhase, HerdingScenario, HerdingTrace
 from droneplan.solvers.validation import check_array, check_positive, check_real
+from droneplan.studies.plots._animation import check_options, frame_indices, save_gif
 from droneplan.studies.plots._common import as_trace_dict, figure_axes, keep_in_view
 
-__all__ = ["plot_state", "plot_final", "plot_footprint"]
+__all__ = ["plot_state", "plot_final", "plot_footprint", "animate"]
 
 
 def _frame_at(trace: HerdingTrace, t: float) -> HerdingFrame:
@@ -135,3 +136,47 @@ def plot_footprint(traces: Any, *, R_c: float | None = None, ax: Any = None, tit
     if title is not None:
         ax.set_title(title)
     return fig
+
+
+def animate(trace: Any, path: Any, *, fps: int = 8, stride: int = 1, goal: Any = None):
+    """Write an animated GIF (top view, m) of a herding run's frames; returns the path (a Path).
+
+    trace: a :class:`HerdingTrace` recorded with ``simulate(..., frame_every=...)`` (its
+    ``frames`` are animated). path: the GIF file (str or os.PathLike ending in .gif; its folder
+    is created). fps: frames per second of the GIF (an int, 1 to 100). stride: animate every
+    ``stride``-th recorded frame (an int >= 1; the last frame is always shown). goal: G (2,) in
+    m, kept in view (default: the trace's goal). Frames with NaN or inf positions are refused.
+    """
+    import matplotlib.pyplot as plt
+
+    if not isinstance(trace, HerdingTrace):
+        raise TypeError(f"trace must be a HerdingTrace, got {type(trace).__name__}")
+    path, frame_rate, step = check_options(path, fps, stride)
+    if not trace.frames:
+        raise ValueError("trace has no frames: run simulate(..., frame_every=...)")
+    goal = check_array("goal", trace.goal if goal is None else goal, shape=(2,))
+    frames = [trace.frames[k] for k in frame_indices(len(trace.frames), step)]
+    allpts = np.concatenate([np.concatenate([f.animals, f.drones]) for f in frames] + [goal.reshape(1, 2)])
+    if not np.all(np.isfinite(allpts)):
+        raise ValueError("trace frames must hold finite positions (a frame has NaN or inf)")
+    lo, hi = allpts.min(axis=0) - 20, allpts.max(axis=0) + 20
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_aspect("equal")
+    herd = ax.scatter([], [], s=3, c="tab:brown", label="animals")
+    drones = ax.scatter([], [], marker="s", c="tab:red", s=25, label="drones")
+    ax.plot(*goal, "*", color="tab:green", ms=12, label="goal G")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend(fontsize=7, loc="upper right")
+    title = ax.set_title("")
+
+    def update(k: int):
+        f = frames[k]
+        herd.set_offsets(f.animals)
+        drones.set_offsets(f.drones)
+        title.set_text(f"t = {f.t / 60:.1f} min, {f.phase.value}")
+        return herd, drones, title
+
+    return save_gif(fig, update, list(range(len(frames))), path, frame_rate)

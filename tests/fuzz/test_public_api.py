@@ -545,6 +545,18 @@ SPECS: dict[str, Spec] = {
         {"trace": "object", "path": "object", "fps": "int>=1", "goal": "vec2"},
     ),
     "summary_table": Spec(lambda: (({"proposed": _herding_run()},), {}), {"traces": "traces"}),
+    "animate@covert": Spec(
+        lambda: ((_covert_short(), _gif_path()), {"stride": 5}),
+        {"trace": "object", "path": "object", "fps": "int>=1", "stride": "int>=1"},
+    ),
+    "animate@shark": Spec(
+        lambda: ((_shark_run(), _gif_path()), {"stride": 10}),
+        {"trace": "object", "path": "object", "fps": "int>=1", "stride": "int>=1"},
+    ),
+    "animate@herding": Spec(
+        lambda: ((_herding_run(), _gif_path()), {}),
+        {"trace": "object", "path": "object", "fps": "int>=1", "stride": "int>=1", "goal": "vec2"},
+    ),
     "ProposedHerder": Spec(lambda: ((), {}), {"settings": "object?"}),
     "BenchmarkHerder": Spec(lambda: ((), {}), {"settings": "object?"}),
 }
@@ -828,6 +840,9 @@ NAN_RUNS = {
     "plot_final": lambda: ((_with_nan(_herding_run()),), {}),
     "plot_footprint": lambda: ((_with_nan(_herding_run()),), {}),
     "write_gif": lambda: ((_with_nan(_herding_run()), _gif_path()), {}),
+    "animate@covert": lambda: ((_with_nan(_covert_short()), _gif_path()), {}),
+    "animate@shark": lambda: ((_with_nan(_shark_run()), _gif_path()), {}),
+    "animate@herding": lambda: ((_with_nan(_herding_run()), _gif_path()), {}),
     "summary_table": lambda: (({"a": _with_nan(_herding_run())},), {}),
     "plot_stealth_front": lambda: (tuple(f.assign(t_a=np.nan) for f in _front_frames()), {}),
 }
