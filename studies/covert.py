@@ -39,7 +39,7 @@ from droneplan.planners.covert import (
 from droneplan.scenarios.covert import CovertTrace, random_case, simulate, thesis_case
 from droneplan.solvers.validation import require_set
 from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study
-from droneplan.studies.plots.covert import plot_bearing, plot_path, plot_stealth_front
+from droneplan.studies.plots.covert import animate, plot_bearing, plot_path, plot_stealth_front
 from droneplan.studies.report import flag_reasons
 from droneplan.studies.store import Outcome, build_rows, instance_id
 
@@ -421,6 +421,9 @@ def reproduce(*, quick: bool, out: Path) -> None:
             f"Case {case}: drone paths (Fig. 3.{9 if case == 1 else 14}a)",
         )
         _plot_beta(main, out / f"case{case}_beta.png", f"Case {case}: beta_m", per_target="sliding")
+        if case == 1:  # the sliding-mode run as a GIF: a few dozen frames in quick mode
+            sl = traces["sliding"]
+            animate(sl, out / "case1_sliding.gif", fps=8, stride=max(1, len(sl.t) // (40 if quick else 150)))
         if case == 1 or not quick:
             _front_section(case, sc, traces, out, quick)
 

@@ -518,6 +518,16 @@ def reproduce(*, quick: bool, out: Path, executor=None, store: ResultStore | Non
         st = stack.enter_context(_store(store, out))
         _fig_6_7(out, quick, ex, st)
         _sweeps(out, quick, ex, st)
+    _animation(out, quick)
+
+
+def _animation(out: Path, quick: bool) -> None:
+    """One proposed-herder run (seed 0; 100 animals quick, 200 full) as a GIF, a frame every 30 s / 10 s."""
+    n, every = (100, 30.0) if quick else (200, 10.0)
+    trace = simulate(
+        thesis_scenario(n_animals=n, seed=0), ProposedHerder(), t_max=1800, seed=0, frame_every=every
+    )
+    animate(trace, out / f"proposed_{n}_animals.gif", fps=8)
 
 
 # --------------------------------------------------------------------------- gap

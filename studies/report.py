@@ -5,9 +5,9 @@ existing ``--out`` directory) writes ``OUT/report.html``. For each problem it sh
 table written under ``OUT/<problem>/`` (the CSV files with ``thesis`` and ``this run`` columns,
 deviation column included, rows beyond the deviation threshold highlighted), the list of those
 rows with the reason each carries in its ``why`` column (:data:`FLAG_REASONS`; a flagged row
-without one is marked), every PNG figure, the other CSV files as links, and a short note on each
-place where droneplan deliberately deviates from the thesis (:data:`DEVIATIONS`). Both registries
-also appear on the documentation's problem pages. Images and data are referenced by relative
+without one is marked), every PNG figure and GIF animation, the other CSV files as links, and a
+short note on each place where droneplan deliberately deviates from the thesis (:data:`DEVIATIONS`).
+Both registries also appear on the documentation's problem pages. Images and data are referenced by relative
 paths, so the page works opened from disk.
 """
 
@@ -512,7 +512,8 @@ def _version() -> str:
 
 
 def write_report(out: str | Path, *, problems: Sequence[str] = PROBLEMS, title: str | None = None) -> Path:
-    """Write ``out/report.html`` from the tables (CSV) and figures (PNG) under ``out/<problem>/``.
+    """Write ``out/report.html`` from the tables (CSV), figures (PNG) and animations (GIF) under
+    ``out/<problem>/``.
 
     out: the ``--out`` directory of ``droneplan reproduce``. problems: which problems to include
     (those without a directory are listed as not reproduced). title: the page title (default:
@@ -556,7 +557,7 @@ def write_report(out: str | Path, *, problems: Sequence[str] = PROBLEMS, title: 
                 tables.append(table)
         parts.append(_flagged_html(tables))
         parts += [_table_html(t) for t in tables]
-        figures = sorted(folder.glob("*.png"))
+        figures = sorted([*folder.glob("*.png"), *folder.glob("*.gif")])  # GIFs: the runs animated
         if figures:
             parts.append("<h3>Figures</h3>\n")
         for fig in figures:

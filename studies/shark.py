@@ -38,7 +38,7 @@ from droneplan.scenarios.shark import (
     thesis_trajectories,
 )
 from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study
-from droneplan.studies.plots.shark import plot_time_series, plot_top_view
+from droneplan.studies.plots.shark import animate, plot_time_series, plot_top_view
 from droneplan.studies.report import flag_reasons
 from droneplan.studies.store import Outcome, build_rows, instance_id
 
@@ -237,6 +237,14 @@ def reproduce(*, quick: bool, out: Path) -> None:
     runs = _table_5_2(out, t2, quick)
     t2.emit(out, "table_5_2")
     _fig_5_12(out, runs)
+    name = "d" if "d" in runs else next(iter(runs))  # path (d): the virtual shark's run as a GIF
+    vs_run = runs[name][1]
+    animate(
+        vs_run,
+        out / f"path_{name}_virtual_shark.gif",
+        fps=8,
+        stride=max(1, len(vs_run.t) // (40 if quick else 120)),
+    )
     t3 = ComparisonTable(
         "Shark ch. 5: repelling episodes (procedure 1-5 of §5.3.1)", explain=flag_reasons("shark")
     )

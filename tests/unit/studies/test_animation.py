@@ -140,3 +140,11 @@ def test_nan_positions_are_refused_naming_the_trace(covert_run, shark_run, tmp_p
     with pytest.raises(ValueError, match="trace"):
         dp.shark.animate(s, tmp_path / "s.gif")
     assert not list(tmp_path.iterdir())
+
+
+def test_the_report_shows_a_problem_s_gif_beside_its_figures(shark_run, tmp_path):
+    from droneplan.studies.report import write_report
+
+    dp.shark.animate(shark_run, tmp_path / "shark" / "run.gif", stride=10)
+    text = write_report(tmp_path).read_text()
+    assert '<img src="shark/run.gif"' in text
