@@ -14,6 +14,7 @@ from droneplan.scenarios.covert.world import CovertParams, CovertScenario
 from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
 from droneplan.solvers.validation import (
     check_array,
+    check_bool,
     check_methods,
     check_nonneg,
     check_positive,
@@ -37,16 +38,24 @@ __all__ = [
 
 
 class CovertPhase(enum.StrEnum):
-    """Phases of a covert-observation mission (thesis §3.4), in order."""
+    """Phases of a covert-observation mission (thesis §3.4 and Algorithm 1), in order.
 
+    TAKE_OFF and LANDING appear only in a run simulated with ``simulate(..., vtol=True)``; the
+    thesis's simulations leave the vertical take-off and landing out (§3.5) and so does the default.
+    """
+
+    TAKE_OFF = "take-off"
+    """Vertical take-off from the VTOL position D_v on the ground straight up to D_s (§3.4)."""
     TO_SPHERE = "to-sphere"
     """Flying from D_s to the observation sphere (To-sphere law)."""
     ON_SPHERE = "on-sphere"
     """On the sphere |D - F| = L_u, observing (On-sphere law)."""
     RETREAT = "retreat"
-    """Flying back to D_s (Retreat law)."""
+    """Flying back to D_s (Retreat law, Algorithm 1 step 1)."""
+    LANDING = "landing"
+    """Vertical landing from D_s straight down to the ground (Algorithm 1 step 2)."""
     DONE = "done"
-    """Back at D_s; the mission is over."""
+    """Back at D_s (on the ground at D_v with ``vtol=True``); the mission is over."""
 
 
 # --------------------------------------------------------------------------- geometry
@@ -240,7 +249,8 @@ class CovertTrace(LoopTrace):
     u: NDArray[np.float64]
     """(T, 3) commanded u as returned by the controller (NaN on the last row)."""
     v: NDArray[np.float64]
-    """(T,) commanded v (m/s) (NaN on the last row)."""
+    """(T,) commanded v (m/s) (NaN on the last row); during take-off and landing, which the simulator
+    flies itself (u = 0, heading held), the vertical speed (m/s, up positive)."""
     finished: bool
     """The controller reported that it was back at D_s."""
     solve_times: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
@@ -295,6 +305,7 @@ def simulate(
     seed: int | np.random.Generator | None = None,
     max_time: float | None = None,
     initial_heading: Any = None,
+    vtol: bool = False,
 ) -> CovertTrace:
     """Run ``controller`` on ``scenario`` in closed loop from D_s until it reports it is back.
 
@@ -302,23 +313,44 @@ def simulate(
         -> CovertCommand``, ``phase``, ``finished``; optional ``fallbacks``, ``statuses``, ``solve_times``).
     noise: measurement noise amplitude as a fraction of each measured component (>= 0).
     seed: seed for the noise (int, Generator or None: a seed is drawn; recorded in the trace).
-    max_time: hard stop (s); default duration + 60 s.
-    initial_heading: initial h (default: towards F).
+    max_time: hard stop (s); default duration + 60 s (plus the take-off and landing with ``vtol``).
+    initial_heading: initial h (default: from D_s towards F).
+    vtol: fly the whole mission of the thesis (§3.4, Algorithm 1): a vertical take-off from the VTOL
+        position D_v on the ground below D_s (terrain height at D_s's x, y) up to D_s, the controller's
+        mission from D_s back to D_s, then a vertical landing straight down to the ground. The
+        simulator flies both vertical legs at V_max (the thesis gives no speed) without calling the
+        controller and records them as the phases TAKE_OFF and LANDING; the controller is reset
+        before the take-off and first called on arrival at D_s. False (default): the drone starts
+        and ends at D_s, as in the thesis's simulations (§3.5).
     Returns a :class:`CovertTrace` (beta is computed from the true positions).
     """
     if not isinstance(scenario, CovertScenario):
         raise TypeError(f"scenario must be a CovertScenario, got {type(scenario).__name__}")
     check_methods("controller", controller, ("reset", "command"))
     noise = check_nonneg("noise", noise)
+    vtol = check_bool("vtol", vtol)
     p = scenario.params
+    climb = 0.0  # height of D_s above the ground below it (m)
+    if vtol:
+        climb = float(p.D_s[2] - scenario.terrain.height(p.D_s[0], p.D_s[1]))
+        if climb <= 0:
+            raise ValueError(
+                f"vtol=True needs D_s above the ground, but D_s is {-climb:.3f} m below the terrain there"
+            )
     rng, drawn = resolve_seed(seed)
     seed = seed if drawn is None else drawn  # record the seed drawn for seed=None
-    t_stop = p.duration + 60.0 if max_time is None else check_positive("max_time", max_time)
+    t_stop = (
+        p.duration + 60.0 + 2.0 * climb / p.V_max
+        if max_time is None
+        else check_positive("max_time", max_time)
+    )
     if t_stop / p.dt > 1e7:
         raise ValueError(f"max_time asks for {t_stop / p.dt:.3g} steps of dt = {p.dt} s, more than 1e7")
     D = p.D_s_arr.copy()
+    if vtol:
+        D[2] -= climb  # D_v, on the ground below D_s
     h = (
-        p.F_arr - D
+        p.F_arr - p.D_s_arr
         if initial_heading is None
         else check_array("initial_heading", initial_heading, shape=(3,))
     )
@@ -330,6 +362,8 @@ def simulate(
     steps = math.ceil(t_stop / p.dt - 1e-9)
     ts, Ds, hs, us, vs, phases = [], [], [], [], [], []
     finished = False
+    leg = CovertPhase.TAKE_OFF if vtol else None  # the vertical leg being flown (None: the controller)
+    ground = 0.0  # ground height below the drone when it lands (m)
     for k in range(steps + 1):
         t = k * p.dt
         A = scenario.targets_at(t)
@@ -342,9 +376,37 @@ def simulate(
         if k == steps:
             us.append(np.full(3, np.nan))
             vs.append(np.nan)
-            phases.append(controller.phase)
+            phases.append(controller.phase if leg is None else leg)
             break
+        if leg is not None:  # a vertical leg: straight up to D_s or down to the ground at V_max
+            room = p.D_s[2] - D[2] if leg == CovertPhase.TAKE_OFF else D[2] - ground
+            dz = min(p.V_max * p.dt, max(room, 0.0))
+            dz = dz if leg == CovertPhase.TAKE_OFF else -dz
+            us.append(np.zeros(3))
+            vs.append(dz / p.dt)
+            phases.append(leg)
+            D = D + np.array([0.0, 0.0, dz])
+            if leg == CovertPhase.TAKE_OFF and D[2] >= p.D_s[2] - 1e-9:
+                D, leg = p.D_s_arr.copy(), None
+            elif leg == CovertPhase.LANDING and D[2] <= ground + 1e-9:
+                D[2] = ground
+                finished = True
+                ts.append((k + 1) * p.dt)
+                Ds.append(D.copy())
+                hs.append(h.copy())
+                us.append(np.full(3, np.nan))
+                vs.append(np.nan)
+                phases.append(CovertPhase.DONE)
+                break
+            continue
         u, v = controller.command(CovertObservation(t, D.copy(), h.copy(), rel, obsmask))
+        if vtol and controller.finished:  # home at D_s: land straight down (Algorithm 1 step 2)
+            us.append(np.zeros(3))
+            vs.append(0.0)
+            phases.append(CovertPhase.LANDING)
+            leg = CovertPhase.LANDING
+            ground = float(scenario.terrain.height(D[0], D[1]))
+            continue
         u = np.asarray(u, dtype=float)
         us.append(u.copy())
         vs.append(float(v))
