@@ -8,11 +8,15 @@ from droneplan.scenarios.shark.params import (
     touches,
 )
 from droneplan.scenarios.shark.repel import (
+    AlarmLevel,
+    ObserverDrone,
     RepellingMode,
     RepellingObservation,
     RepellingScenario,
     RepellingTrace,
     SharkBehaviour,
+    alarm_level,
+    sharks_to_repel,
     simulate_repelling,
 )
 from droneplan.scenarios.shark.simulate import (
@@ -65,6 +69,10 @@ __all__ = [
     "RepellingTrace",
     "SharkBehaviour",
     "simulate_repelling",
+    "ObserverDrone",
+    "AlarmLevel",
+    "alarm_level",
+    "sharks_to_repel",
     "RepellingMode",
     "RepellingScenario",
     "RepellingObservation",

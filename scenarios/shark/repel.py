@@ -8,6 +8,13 @@ Touches within ``desensitise_time`` of the previous reaction are ignored (the lo
 sensitivity under continuous stimulation that motivates the thesis's waiting time T_w).
 A shark that comes within ``bite_radius`` of a swimmer attacks (episode failed); it has left
 once it is ``safety_distance`` from every swimmer (thesis: e.g. 3 km).
+
+The observer drone of §5.3.1 (:class:`ObserverDrone`): when the sharks are spotted (t = 0) one
+observer leaves the surveillance formation and flies at a fixed altitude over the sharks that
+have not left, monitoring them. It raises the alarm at once (:class:`AlarmLevel`): its speakers
+tell the swimmers near a shark to leave the water; with no swimmer near a shark it gives early
+warning through the lifeguards; with more sharks than operators (s > n) it sends the highest
+alert (close the beach) and the n sharks closest to swimmers are the ones to repel.
 """
 
 from __future__ import annotations
@@ -22,10 +29,22 @@ from numpy.typing import NDArray
 
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, inside_field
 from droneplan.scenarios.shark.simulate import SharkCommand, clip_velocity
-from droneplan.solvers.validation import as_generator, check_methods, check_positive, check_real
+from droneplan.solvers.validation import (
+    as_generator,
+    check_array,
+    check_instance,
+    check_int,
+    check_methods,
+    check_positive,
+    check_real,
+)
 
 __all__ = [
     "SharkBehaviour",
+    "ObserverDrone",
+    "AlarmLevel",
+    "alarm_level",
+    "sharks_to_repel",
     "RepellingMode",
     "RepellingScenario",
     "RepellingObservation",
@@ -69,6 +88,78 @@ class SharkBehaviour:
             raise ValueError("depth must be < 0")
         if self.desensitise_time < 0 or self.flee_spread < 0:
             raise ValueError("desensitise_time and flee_spread must be >= 0")
+
+
+@dataclass(frozen=True)
+class ObserverDrone:
+    """The observer of a repelling episode (thesis §5.3.1; altitude, speed and radii are our choices)."""
+
+    altitude: float = 30.0
+    """Altitude it flies and monitors at (m above the sea surface, > 0)."""
+    speed: float = 10.0
+    """Maximum horizontal speed (m/s, > 0)."""
+    near_radius: float = 50.0
+    """A swimmer within this horizontal distance of a shark is near it (m, > 0): the speakers alarm
+    them; with no swimmer near any shark the warning goes through the lifeguards."""
+    start: tuple[float, float] | None = None
+    """Where it leaves the surveillance formation (x, y in m); None: above the operators' centroid."""
+
+    def __post_init__(self) -> None:
+        for name in ("altitude", "speed", "near_radius"):
+            check_positive(name, getattr(self, name))
+        if self.start is not None:
+            xy = check_array("start", self.start, shape=(2,))
+            object.__setattr__(self, "start", (float(xy[0]), float(xy[1])))
+
+
+class AlarmLevel(enum.IntEnum):
+    """The observer's alarm (thesis §5.3.1), by increasing severity."""
+
+    LIFEGUARD = 1
+    """No swimmer near a shark: early warning to swimmers and surfers through the lifeguards."""
+    SPEAKER = 2
+    """A swimmer near a shark: the observer's speakers tell them to leave the water at once."""
+    CLOSE_BEACH = 3
+    """More sharks than operators (s > n): highest alert to the lifeguards to close the beach."""
+
+
+def _near(sharks: NDArray[np.float64], swimmers: NDArray[np.float64], radius: float) -> NDArray[np.bool_]:
+    """(m,) bool: swimmer within ``radius`` (m, horizontal) of one of ``sharks`` (k, >=2)."""
+    if not len(sharks) or not len(swimmers):
+        return np.zeros(len(swimmers), bool)
+    d = np.linalg.norm(swimmers[:, None, :2] - sharks[None, :, :2], axis=2)
+    return np.asarray(d.min(axis=1) <= radius)
+
+
+def alarm_level(sharks: Any, swimmers: Any, n_operators: int, near_radius: float) -> AlarmLevel:
+    """The observer's alarm for spotted sharks (s, 2|3) and swimmers (m, 2|3) in m, with
+    ``n_operators`` operators (count) and the near radius (m): CLOSE_BEACH when s > n, else
+    SPEAKER when a swimmer is within ``near_radius`` of a shark, else LIFEGUARD."""
+    S = check_array("sharks", sharks)
+    H = check_array("swimmers", swimmers)
+    n = check_int("n_operators", n_operators, min_value=0)
+    r = check_positive("near_radius", near_radius)
+    if S.ndim != 2 or S.shape[1] not in (2, 3) or H.ndim != 2 or H.shape[1] not in (2, 3):
+        raise ValueError(f"sharks and swimmers must be (k, 2|3) arrays, got {S.shape} and {H.shape}")
+    if len(S) > n:
+        return AlarmLevel.CLOSE_BEACH
+    return AlarmLevel.SPEAKER if _near(S, H, r).any() else AlarmLevel.LIFEGUARD
+
+
+def sharks_to_repel(sharks: Any, swimmers: Any, n_operators: int) -> NDArray[np.intp]:
+    """Indices of the sharks the operators are sent to: all of them when s <= n, else the n closest
+    (horizontal distance to the nearest swimmer, ties by index) as the thesis's highest alert asks.
+
+    sharks: (s, 2|3) shark positions (m); swimmers: (m, 2|3) swimmer positions (m), m >= 1;
+    n_operators: number of operators n (count). Returned sorted by index.
+    """
+    S = check_array("sharks", sharks)
+    H = check_array("swimmers", swimmers)
+    n = check_int("n_operators", n_operators, min_value=0)
+    if S.ndim != 2 or S.shape[1] not in (2, 3) or H.ndim != 2 or H.shape[1] not in (2, 3) or not len(H):
+        raise ValueError(f"sharks (s, 2|3) and swimmers (m >= 1, 2|3) expected, got {S.shape} and {H.shape}")
+    d = np.linalg.norm(S[:, None, :2] - H[None, :, :2], axis=2).min(axis=1)
+    return np.sort(np.argsort(d, kind="stable")[: min(n, len(S))])
 
 
 class RepellingMode(enum.StrEnum):
@@ -142,6 +233,15 @@ class RepellingTrace:
     seed: int | None = None
     info: dict = field(default_factory=dict)
     """Extra per-episode data (e.g. per-operator counters)."""
+    observer: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
+    """(K, 3) observer drone positions (m)."""
+    alarm: NDArray[np.integer[Any]] = field(default_factory=lambda: np.zeros(0, int))
+    """(K,) the observer's :class:`AlarmLevel` at each instant (from t = 0, when the sharks are spotted)."""
+    alerted_at: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    """(m,) first time each swimmer was near a shark and told by the speakers to leave the water
+    (s; NaN: never)."""
+    to_repel: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, np.intp))
+    """Indices of the sharks the operators are sent to (:func:`sharks_to_repel` at t = 0)."""
 
 
 def simulate_repelling(
@@ -154,6 +254,7 @@ def simulate_repelling(
     *,
     t_max: float = 300.0,
     seed=0,
+    observer: ObserverDrone | None = None,
 ) -> RepellingTrace:
     """Simulate sharks hunting swimmers while operators repel them, at Ts.
 
@@ -165,8 +266,12 @@ def simulate_repelling(
     params: problem parameters, SharkParams (default: THESIS_TABLE_5_1).
     behaviour: SharkBehaviour, the reacting-shark model (our choices).
     seed: int, numpy Generator or None for the sharks' random reactions (recorded when an int).
+    observer: the :class:`ObserverDrone` (None: the default one). It does not act on the sharks or
+        the operators; the trace records its path, its alarm at each instant and the swimmers its
+        speakers warned.
     """
     t_max = check_positive("t_max", t_max)
+    obs_drone = ObserverDrone() if observer is None else check_instance("observer", observer, ObserverDrone)
     if not isinstance(params, SharkParams) or not isinstance(behaviour, SharkBehaviour):
         raise TypeError("params must be SharkParams and behaviour SharkBehaviour")
     g = as_generator(seed)
@@ -196,7 +301,20 @@ def simulate_repelling(
     reactions = np.zeros(s, int)
     ignored = np.zeros(s, int)
     contact_prev = np.zeros((len(O), s), bool)
+    start = np.mean(O[:, :2], axis=0) if obs_drone.start is None else np.asarray(obs_drone.start)
+    W = np.r_[start, obs_drone.altitude]  # the observer leaves the formation at its altitude
+    close_beach = s > len(O)
+    alerted_at = np.full(len(H), np.nan)
+
+    def _alarm(t: float, S: NDArray[np.float64], mode: NDArray[np.integer[Any]]) -> int:
+        near = _near(S[mode != 2], H, obs_drone.near_radius)
+        alerted_at[near & np.isnan(alerted_at)] = t
+        if close_beach:
+            return int(AlarmLevel.CLOSE_BEACH)
+        return int(AlarmLevel.SPEAKER if near.any() else AlarmLevel.LIFEGUARD)
+
     ts, Ss, Os, Ms = [0.0], [S.copy()], [O.copy()], [mode.copy()]
+    Ws, alarms = [W.copy()], [_alarm(0.0, S, mode)]
     attacked = False
     n_steps = round(t_max / Ts)
     for k in range(n_steps):
@@ -239,12 +357,19 @@ def simulate_repelling(
                 flee_until[j] = t + behaviour.flee_time
                 last_react[j] = t
                 reactions[j] += 1
+        watched = S[mode != 2] if (mode != 2).any() else S  # fly over the sharks still around
+        to = np.mean(watched[:, :2], axis=0) - W[:2]
+        dist_to = float(np.linalg.norm(to))
+        if dist_to > 0:
+            W[:2] += to * min(1.0, obs_drone.speed * Ts / dist_to)
         S, O = Sn, On
         contact_prev = contact
         ts.append(t + Ts)
         Ss.append(S.copy())
         Os.append(O.copy())
         Ms.append(mode.copy())
+        Ws.append(W.copy())
+        alarms.append(_alarm(t + Ts, S, mode))
         dist = np.linalg.norm(H[None] - S[:, None, :2], axis=2)
         if (dist.min(axis=1) < behaviour.bite_radius).any():
             attacked = True
@@ -263,4 +388,8 @@ def simulate_repelling(
         dist > behaviour.safety_distance,
         ts[-1],
         seed if isinstance(seed, int) else None,
+        observer=np.array(Ws),
+        alarm=np.array(alarms),
+        alerted_at=alerted_at,
+        to_repel=sharks_to_repel(scenario.sharks0, H, len(O)),
     )

@@ -416,7 +416,25 @@ SPECS: dict[str, Spec] = {
             ([[20.0, 0.0]], [[0.0, 5.0, 2.0]], [[0.0, 0.0]], [dp.shark.RepellingOperator(0)]),
             {"t_max": 1.0},
         ),
-        {"params": "object", "behaviour": "object", "seed": "seed", "t_max": "positive"},
+        {
+            "params": "object",
+            "behaviour": "object",
+            "seed": "seed",
+            "t_max": "positive",
+            "observer": "object?",
+        },
+    ),
+    "ObserverDrone": Spec(
+        lambda: ((), {}),
+        {"altitude": "positive", "speed": "positive", "near_radius": "positive", "start": "vec2"},
+    ),
+    "alarm_level": Spec(
+        lambda: (([[20.0, 0.0]], [[0.0, 0.0]], 1, 50.0), {}),
+        {"sharks": "object", "swimmers": "object", "n_operators": "int>=0", "near_radius": "positive"},
+    ),
+    "sharks_to_repel": Spec(
+        lambda: (([[20.0, 0.0], [5.0, 5.0]], [[0.0, 0.0]], 1), {}),
+        {"sharks": "object", "swimmers": "object", "n_operators": "int>=0"},
     ),
     "optimal_altitude": Spec(lambda: ((-3.0,), {}), {"z_s": "finite", "params": "object"}),
     "InterceptionOCP": Spec(lambda: ((), {}), {"params": "object"}),
@@ -604,6 +622,7 @@ RESULT_TYPES = {
     "SharkObservation",
     "SharkPhase",
     "RepellingMode",
+    "AlarmLevel",
     "RepellingObservation",
     "RepellingScenario",
     "Region",  # a deployment region as built by deployment_region
