@@ -30,6 +30,7 @@ from droneplan.planners.shark import (
 )
 from droneplan.scenarios.shark import (
     THESIS_TABLE_5_1,
+    AlarmLevel,
     SharkBehaviour,
     operator_start,
     random_trajectory,
@@ -279,6 +280,9 @@ def _repel_episode(n_sharks: int, seed: int, interceptor: str, T_w: float) -> di
         interceptions=float(tr.reactions.mean()),
         ignored=int(tr.ignored.sum()),
         end_time=tr.end_time,
+        observer_alarm=AlarmLevel(int(tr.alarm[0])).name.lower(),  # raised when the sharks are spotted
+        alarm_peak=AlarmLevel(int(tr.alarm.max())).name.lower(),
+        speaker_alerted=int(np.sum(~np.isnan(tr.alerted_at))),  # swimmers the observer's speakers warned
     )
 
 
