@@ -304,41 +304,24 @@ def gap(
         lib_rows = [r for r in (_library_row(i) for i in plan.instances) if r is not None]
         set_aside = store.write([r for r in lib_rows if _key(r) not in done]) if lib_rows else 0
         todo = [t for t in plan.tasks if (problem, t.instance.id, t.method.name, t.config) not in done]
-        claimed, busy = [], 0
-        for t in todo:
-            if store.try_claim((problem, t.instance.id, t.method.name, t.config)):
-                claimed.append(t)
-            else:
-                busy += 1
-        by_key = {(t.instance.id, t.method.name): t for t in claimed}
-        jobs = [
-            Job(
-                (t.instance.id, t.method.name),
-                execute,
-                (t.instance, t.method, t.instance.seed or 0, t.time_limit),
-                time_limit=t.time_limit,
-            )
-            for t in claimed
-        ]
+        jobs = _ClaimedJobs(store, problem, todo)
         desc = f"{problem} gap" if progress else None
         try:
             with (
-                _dask_outcomes(dask, jobs, GRACE_S, dask_executor)
+                _dask_outcomes(dask, list(jobs), GRACE_S, dask_executor)
                 if dask or dask_executor is not None
                 else contextlib.nullcontext(run_jobs(jobs, workers=n_workers, grace=GRACE_S, progress=desc))
             ) as outcomes:
                 for oc in outcomes:
-                    task = by_key[oc.key]  # type: ignore[index]
+                    task = jobs.by_key[oc.key]  # type: ignore[index]
                     row = _row(
                         task, _verdict(task, oc), time_s=oc.wall_s, cpu_s=oc.cpu_s, time_limit=task.time_limit
                     )
-                    set_aside += store.write([row])
-                    store.release((problem, task.instance.id, task.method.name, task.config))
+                    set_aside += store.write([row])  # writing a row ends its claim
+                    jobs.in_flight.discard(oc.key)
         finally:
-            for t in claimed:
-                with contextlib.suppress(Exception):
-                    store.release((problem, t.instance.id, t.method.name, t.config))
-        _report_counts(len(plan.tasks), len(claimed), busy, set_aside)
+            jobs.release_unfinished()
+        _report_counts(len(plan.tasks), jobs.ran, jobs.busy, set_aside)
         df = store.frame(problem=problem)
         out.mkdir(parents=True, exist_ok=True)
         for suffix in ("csv", "parquet"):
@@ -347,6 +330,46 @@ def gap(
     wanted_methods = {m.name for m in plan.methods} | {LIBRARY_METHOD}
     mask = df["instance"].isin(wanted_ids) & df["method"].isin(wanted_methods)
     return df[mask].reset_index(drop=True)
+
+
+class _ClaimedJobs:
+    """The study's jobs, each claimed in the store just before it starts (lazily, as the runner
+    asks for the next one), so a job another study on the same store has claimed or finished is
+    skipped, and an interrupt has only the few jobs in flight to release."""
+
+    def __init__(self, store: ResultStore, problem: str, todo: list[_Task]) -> None:
+        self.store, self.problem, self.todo = store, problem, todo
+        self.by_key = {(t.instance.id, t.method.name): t for t in todo}
+        self.in_flight: set[tuple[str, str]] = set()
+        self.ran = self.busy = 0
+
+    def __len__(self) -> int:
+        return len(self.todo)
+
+    def _store_key(self, t: _Task) -> tuple:
+        return (self.problem, t.instance.id, t.method.name, t.config)
+
+    def __iter__(self) -> Iterator[Job]:
+        for t in self.todo:
+            if not self.store.try_claim(self._store_key(t)):
+                self.busy += 1
+                continue
+            self.ran += 1
+            key = (t.instance.id, t.method.name)
+            self.in_flight.add(key)
+            yield Job(
+                key,
+                execute,
+                (t.instance, t.method, t.instance.seed or 0, t.time_limit),
+                time_limit=t.time_limit,
+            )
+
+    def release_unfinished(self) -> None:
+        """Give back the claims of jobs that started but wrote no row (an interrupt, an error)."""
+        for key in list(self.in_flight):
+            with contextlib.suppress(Exception):
+                self.store.release(self._store_key(self.by_key[key]))
+        self.in_flight.clear()
 
 
 def _key(row: dict) -> tuple:
