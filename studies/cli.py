@@ -20,7 +20,9 @@ import importlib
 import importlib.util
 import inspect
 import os
+import signal
 import sys
+import threading
 from pathlib import Path
 from types import ModuleType
 
@@ -417,6 +419,11 @@ def main(argv: list[str] | None = None) -> int:
 
     matplotlib.use("Agg")  # the CLI only writes figures to files; notebooks keep their own backend
     common.INTERRUPT_GRACE_S = 3.0  # a solve stuck in C code after Ctrl-C: exit 130 anyway
+    # Ctrl-C always stops a run with exit code 130, also when the process was started with SIGINT
+    # ignored (a shell without job control starts background commands that way)
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         return _run(args)
     except (StudyError, StoreError) as exc:
@@ -431,6 +438,8 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     finally:
         common.INTERRUPT_GRACE_S = None
+        if threading.current_thread() is threading.main_thread() and previous is not None:
+            signal.signal(signal.SIGINT, previous)
 
 
 if __name__ == "__main__":
