@@ -355,6 +355,15 @@ def summary_markdown(df: pd.DataFrame, *, time_shift: float = 1.0) -> str:
 
 
 # --------------------------------------------------------------------------- files
+def _arrow_accepts(pa: Any, column: pd.Series) -> bool:
+    """True when pyarrow stores ``column`` as one typed column (else it goes as JSON text)."""
+    try:
+        pa.array(column, from_pandas=True)
+    except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
+        return False
+    return True
+
+
 def _missing(v: Any) -> bool:
     return v is None or v is pd.NA or (isinstance(v, float) and math.isnan(v))
 
@@ -380,12 +389,8 @@ def _parquet_ready(df: pd.DataFrame) -> pd.DataFrame:
             continue
         present = [v for v in df[c] if not _missing(v)]
         nested = any(isinstance(v, (list, tuple, dict, set, np.ndarray)) for v in present)
-        if not nested:
-            try:
-                pa.array(df[c], from_pandas=True)
-                continue
-            except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
-                pass
+        if not nested and _arrow_accepts(pa, df[c]):
+            continue
         if out is df:
             out = df.copy()
         out[c] = pd.Series([_json_text(v) for v in df[c]], index=df.index, dtype=object)

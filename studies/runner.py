@@ -515,7 +515,7 @@ def _child_main(job: Job, w: int, close_fds: list[int], memory_limit: int | None
             data = data[os.write(w, data) :]
         code = 0
     except BaseException:  # noqa: BLE001 - nothing may escape into the parent's code
-        pass
+        code = 1  # the parent reports a child that ends without a result as crashed
     finally:
         os._exit(code)
 

@@ -30,7 +30,7 @@ from droneplan.formulations.cells._core import (
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_instance, check_time_limit
+from droneplan.solvers.validation import check_instance, check_time_limit, require_set
 
 
 def _maximal_sets(cover: list[np.ndarray]) -> list[np.ndarray]:
@@ -113,7 +113,7 @@ def coverage_upper_bound(
         tried.append(f"{be}: {res.status.name}" + (f" ({res.backend_status})" if res.backend_status else ""))
         if res.status in (Status.OPTIMAL, Status.FEASIBLE, Status.NO_SOLUTION) and res.bound is not None:
             break
-    assert res is not None
+    res = require_set(res, "the relaxation's result (the loop runs at least once)")
     desc = (
         f"continuous relaxation bound: max coverage by {m} discs over {len(sets)} maximal candidate sets, "
         f"no overlap/backhaul constraints"

@@ -43,7 +43,7 @@ from droneplan.planners.herding.geometry import (
 )
 from droneplan.planners.herding.guidance import fly_on_edge, fly_to_edge, steer
 from droneplan.scenarios.herding import HerdingCommand, HerdingObservation, HerdingPhase
-from droneplan.solvers.validation import check_array, check_instance, check_int, check_positive
+from droneplan.solvers.validation import check_array, check_instance, check_int, check_positive, require_set
 
 __all__ = ["ALLOCATORS", "HerderSettings", "steering_points", "ProposedHerder", "BenchmarkHerder"]
 
@@ -167,8 +167,7 @@ class _Herder(abc.ABC):
         if self.phase == HerdingPhase.DRIVING:
             b = self.Q_target - drones
             return steer(headings, b, p.V_max, p.U_max, dt)
-        hull = self.hull
-        assert hull is not None  # gathering: _observe built it on this step's first sub-step
+        hull = require_set(self.hull, "the hull (_observe builds it on a step's first sub-step)")
         v = np.zeros(len(drones))
         omega = np.zeros(len(drones))
         off = ~self.on_hull
@@ -245,8 +244,7 @@ class ProposedHerder(_Herder):
     name = "proposed"
 
     def _plan_gathering(self, drones) -> None:
-        hull = self.hull
-        assert hull is not None  # _observe builds it before planning
+        hull = require_set(self.hull, "the hull (_observe builds it before planning)")
         M = hull.perimeter
         s_d = hull.project(drones)[0]
         steer_s = _steering_points(hull, self.centroid, self.p.n_drones)
@@ -278,8 +276,7 @@ class BenchmarkHerder(_Herder):
         self.heading_to_end = np.ones(self.p.n_drones, dtype=int)
 
     def _bounds(self):
-        hull = self.hull
-        assert hull is not None  # _observe builds it before planning
+        hull = require_set(self.hull, "the hull (_observe builds it before planning)")
         M = hull.perimeter
         n = self.p.n_drones
         s0 = hull.ray_s(self.centroid, 0.0)
@@ -288,8 +285,7 @@ class BenchmarkHerder(_Herder):
 
     def _plan_gathering(self, drones) -> None:
         starts, length, M = self._bounds()
-        assert self.hull is not None  # _observe builds it before planning
-        s_d = self.hull.project(drones)[0]
+        s_d = require_set(self.hull, "the hull (_observe builds it before planning)").project(drones)[0]
         s_d = np.where(s_d >= M, 0.0, s_d)
         if self.segment is None:
             mids = np.mod(starts + length / 2, M)
