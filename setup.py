@@ -8,7 +8,7 @@ Nothing else goes on the import path. Everything else is in pyproject.toml.
 
 from setuptools import find_packages, setup
 
-LAYERS = ("solvers", "scenarios", "formulations", "planners", "studies")
+LAYERS = ("core", "solvers", "scenarios", "formulations", "planners", "studies")
 
 packages = ["droneplan", *(f"droneplan.{sub}" for sub in find_packages("droneplan"))]
 package_dir = {"droneplan": "droneplan"}

@@ -62,7 +62,7 @@ _STUDY_NAMES = (
 
 
 _FRONT_DOORS = ("cells", "covert", "herding", "shark")
-_LAYERS = ("solvers", "scenarios", "formulations", "planners", "studies")
+_LAYERS = ("core", "solvers", "scenarios", "formulations", "planners", "studies")
 
 
 def __getattr__(name: str) -> Any:

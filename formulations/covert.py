@@ -42,12 +42,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
-from droneplan.scenarios.covert import CovertParams
-from droneplan.solvers.base import NlpSolver
-from droneplan.solvers.registry import get_backend
-from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.sqp import SqpStructure
-from droneplan.solvers.validation import (
+from droneplan.core.validation import (
     check_array,
     check_in_range,
     check_instance,
@@ -56,6 +51,11 @@ from droneplan.solvers.validation import (
     check_positive,
     check_work,
 )
+from droneplan.scenarios.covert import CovertParams
+from droneplan.solvers.base import NlpSolver
+from droneplan.solvers.registry import get_backend
+from droneplan.solvers.result import SolveResult, Status
+from droneplan.solvers.sqp import SqpStructure
 
 __all__ = [
     "MPCSettings",
@@ -625,7 +625,7 @@ def sphere_minmax_bearing_bnb(
     params: problem parameters, CovertParams (F, R, L_u in metres).
     tol: optimality gap (rad) > 0 at which a cell is no longer split.
     max_cells: cells evaluated at most (count >= 1; 8 array elements per cell, within the
-    element budget of ``solvers.validation.work_limits``).
+    element budget of ``core.validation.work_limits``).
     """
     check_instance("params", params, CovertParams)
     A = check_array("targets", targets, shape=(None, 3), min_rows=1)

@@ -38,8 +38,7 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import NDArray
 
-from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import (
+from droneplan.core.validation import (
     check_array,
     check_bool,
     check_instance,
@@ -49,6 +48,7 @@ from droneplan.solvers.validation import (
     check_work,
     require_set,
 )
+from droneplan.solvers.result import SolveResult, Status
 
 __all__ = [
     "InstantMinmaxProgram",
@@ -369,7 +369,7 @@ def mission_front(
     scenario: the targets' paths and the parameters (no obstacles); arrival_times: the t_a (s) of
     each class; t_f, times, retreat, t_end, sphere_tol: as in :func:`mission_lower_bound`.
     Every instant is one convex program per arrival time at worst: more than the solves budget
-    (``solvers.validation.work_limits``) of instants times arrival times is refused up front.
+    (``core.validation.work_limits``) of instants times arrival times is refused up front.
     Returns one :class:`MissionBound` per arrival time. The bound is non-increasing in the
     arrival time (a later deadline admits more controllers): the stealth-versus-arrival-time
     front of the best any controller could do.

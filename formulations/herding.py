@@ -75,9 +75,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 from ortools.sat.python import cp_model
 
+from droneplan.core.validation import check_array, check_instance, check_nonneg, check_positive
 from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_array, check_instance, check_nonneg, check_positive
 
 __all__ = [
     "METHODS",

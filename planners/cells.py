@@ -31,10 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from droneplan.formulations.cells import TOL, CellProblem, evaluate
-from droneplan.scenarios.cells import THESIS_GA_TABLE_4_1, THESIS_TABLE_4_3
-from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import (
+from droneplan.core.validation import (
     check_array,
     check_in_range,
     check_instance,
@@ -46,6 +43,9 @@ from droneplan.solvers.validation import (
     current_limit,
     resolve_seed,
 )
+from droneplan.formulations.cells import TOL, CellProblem, evaluate
+from droneplan.scenarios.cells import THESIS_GA_TABLE_4_1, THESIS_TABLE_4_3
+from droneplan.solvers.result import SolveResult, Status
 
 __all__ = [
     "GASettings",
@@ -519,7 +519,7 @@ def max_coverage_in_region(
 
     users: (n, 2) positions (m), finite; R_d: disc radius (m) > 0; region: a :class:`Region`
     (e.g. from :func:`deployment_region`). The sweep compares candidate points with users:
-    n x n pairs beyond the array-element budget (``solvers.validation.work_limits``) are
+    n x n pairs beyond the array-element budget (``core.validation.work_limits``) are
     refused up front, and the sweep stops with a ValueError naming ``users`` once its
     point comparisons pass 20 times that budget (about ten seconds of work).
     """

@@ -22,7 +22,7 @@ from typing import Literal, overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from droneplan.solvers.validation import (
+from droneplan.core.validation import (
     as_generator,
     check_array,
     check_int,

@@ -50,8 +50,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
-from droneplan.solvers.validation import (
+from droneplan.core.validation import (
     as_generator,
     check_array,
     check_in_range,
@@ -62,6 +61,7 @@ from droneplan.solvers.validation import (
     check_size,
     resolve_seed,
 )
+from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
 
 __all__ = [
     "HerdingParams",

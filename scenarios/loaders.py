@@ -44,11 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from droneplan.scenarios.cells import THESIS_TABLE_4_2, CellParams, CellProblem
-from droneplan.scenarios.herding import HerdingParams, HerdingScenario, thesis_scenario
-from droneplan.scenarios.shark.params import THESIS_TABLE_5_1
-from droneplan.scenarios.shark.trajectories import SharkTrajectory
-from droneplan.solvers.validation import (
+from droneplan.core.validation import (
     check_array,
     check_instance,
     check_int,
@@ -56,6 +52,10 @@ from droneplan.solvers.validation import (
     check_real,
     check_size,
 )
+from droneplan.scenarios.cells import THESIS_TABLE_4_2, CellParams, CellProblem
+from droneplan.scenarios.herding import HerdingParams, HerdingScenario, thesis_scenario
+from droneplan.scenarios.shark.params import THESIS_TABLE_5_1
+from droneplan.scenarios.shark.trajectories import SharkTrajectory
 
 __all__ = [
     "EARTH_RADIUS",

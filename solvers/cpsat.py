@@ -8,10 +8,10 @@ from typing import Any
 import numpy as np
 from ortools.sat.python import cp_model
 
+from droneplan.core.validation import check_time_limit
 from droneplan.solvers.base import BackendAdapter, CpBackend, LinearBackend, NativeReadout, run_native
 from droneplan.solvers.linear import LinearModel
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_time_limit
 
 __all__ = ["BACKEND", "STATUS_MAP", "CpSatAdapter", "CpSatLinearModel", "solve_cpsat"]
 

@@ -22,8 +22,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import Any
 
+from droneplan.core.validation import check_time_limit, require_set
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_time_limit, require_set
 
 __all__ = ["lazy_constraint_loop"]
 

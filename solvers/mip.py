@@ -17,10 +17,10 @@ from typing import Any, ClassVar
 import numpy as np
 from ortools.linear_solver import pywraplp
 
+from droneplan.core.validation import check_time_limit
 from droneplan.solvers.base import BackendAdapter, LinearBackend, NativeReadout, run_native
 from droneplan.solvers.linear import LinearModel
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_time_limit
 
 __all__ = [
     "STATUS_MAP",

@@ -14,9 +14,9 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from droneplan.core.validation import check_time_limit, require_set
 from droneplan.solvers.base import BackendAdapter, NativeReadout, NlpBackend, run_native
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_time_limit, require_set
 
 __all__ = ["BACKEND", "STATUS_MAP", "IpoptSolver", "IpoptAdapter"]
 

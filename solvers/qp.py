@@ -15,9 +15,9 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
+from droneplan.core.validation import check_time_limit
 from droneplan.solvers.base import BackendAdapter, NativeReadout, NlpBackend, QpBackend, run_native
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_time_limit
 
 __all__ = ["BACKEND", "STATUS_MAP", "OsqpSolver", "OsqpAdapter", "osqp_inf"]
 

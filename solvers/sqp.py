@@ -36,8 +36,8 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sp
 
+from droneplan.core.validation import check_time_limit, require_set
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_time_limit, require_set
 
 __all__ = ["SqpStructure", "SqpSolver"]
 

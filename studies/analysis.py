@@ -55,7 +55,7 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-from droneplan.solvers.validation import check_array, check_instance, check_nonneg, check_positive
+from droneplan.core.validation import check_array, check_instance, check_nonneg, check_positive
 
 __all__ = [
     "SOLVED_STATUSES",

@@ -517,8 +517,8 @@ def instance_features(problem, centres=None) -> dict:
     r1 + (m - 1) r2 + R_d (coverable at all), and, given the cluster ``centres`` ((c, 2) m,
     from :func:`~droneplan.scenarios.cells.thesis_instance`), the clusters whose centre lies
     within that reach and within direct reach."""
+    from droneplan.core.validation import check_instance
     from droneplan.formulations.cells import CellProblem
-    from droneplan.solvers.validation import check_instance
 
     check_instance("problem", problem, CellProblem)
 
@@ -613,7 +613,7 @@ def ablation_tasks(
     ``ablation_runs`` (default ``runs``) of each other GA variant; on each other instance variant
     (keys of :data:`INSTANCE_VARIANTS`, default all) ``ablation_runs`` runs of the thesis GA.
     Instance ids carry the limits, so other limits are new tasks."""
-    from droneplan.solvers.validation import check_int, check_positive, check_sequence
+    from droneplan.core.validation import check_int, check_positive, check_sequence
 
     seeds = check_sequence("seeds", seeds)
     ms = check_sequence("ms", ms)

@@ -28,6 +28,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from numpy.typing import NDArray
 
+from droneplan.core.validation import require_set
 from droneplan.formulations.covert import MPCSettings, sphere_minmax_bearing
 from droneplan.planners.covert import (
     HoverBenchmark,
@@ -37,7 +38,6 @@ from droneplan.planners.covert import (
     SlidingModeObserver,
 )
 from droneplan.scenarios.covert import CovertTrace, random_case, simulate, thesis_case
-from droneplan.solvers.validation import require_set
 from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study
 from droneplan.studies.plots.covert import animate, plot_bearing, plot_path, plot_stealth_front
 from droneplan.studies.report import flag_reasons
@@ -255,14 +255,14 @@ def stealth_front(scenario, traces: dict[str, CovertTrace], *, n_arrivals: int =
     error, at least 1 m) until the earliest departure t_f among the runs and are back at D_s by the
     latest end among them, at instants every ``step`` s (a subset of the control instants: still a
     valid bound; instants times arrival times beyond the solves budget of
-    ``solvers.validation.work_limits`` are refused up front). Returns (points, bound)
+    ``core.validation.work_limits`` are refused up front). Returns (points, bound)
     DataFrames (angles in deg); each run's beta_max is >= the bound at its own arrival time.
     """
     import pandas as pd
 
+    from droneplan.core.validation import check_instance, check_int, check_positive, check_work
     from droneplan.formulations.covert_bounds import mission_front
     from droneplan.scenarios.covert import CovertScenario
-    from droneplan.solvers.validation import check_instance, check_int, check_positive, check_work
 
     check_instance("scenario", scenario, CovertScenario)
     n_arrivals = check_int("n_arrivals", n_arrivals, min_value=1)

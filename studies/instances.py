@@ -37,12 +37,12 @@ from typing import Any
 
 import numpy as np
 
+from droneplan.core.validation import check_array, check_int, check_positive
 from droneplan.scenarios.cells import THESIS_TABLE_4_2, CellProblem, thesis_problem
 from droneplan.scenarios.herding import HerdingParams, HerdingScenario, thesis_scenario
 from droneplan.scenarios.shark.params import SharkParams
 from droneplan.scenarios.shark.simulate import InterceptionScenario
 from droneplan.scenarios.shark.trajectories import SharkTrajectory, random_trajectory, thesis_trajectories
-from droneplan.solvers.validation import check_array, check_int, check_positive
 from droneplan.studies.provenance import config_hash
 
 __all__ = [

@@ -30,7 +30,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from droneplan.solvers.validation import check_time_limit
+from droneplan.core.validation import check_time_limit
 
 __all__ = ["Method", "BUILTIN", "builtin_methods", "resolve_methods", "CLOSED_LOOP_KINDS"]
 

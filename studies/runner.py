@@ -74,7 +74,7 @@ from tqdm.auto import tqdm
 if sys.platform != "win32":  # imported here, not in the child: an import after a fork can deadlock
     import resource
 
-from droneplan.solvers.validation import check_instance, check_int, check_nonneg, check_time_limit
+from droneplan.core.validation import check_instance, check_int, check_nonneg, check_time_limit
 
 __all__ = ["OUTCOME_STATUSES", "Job", "JobOutcome", "run_isolated", "run_jobs"]
 

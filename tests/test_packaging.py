@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-LAYERS = ("solvers", "scenarios", "formulations", "planners", "studies")
+LAYERS = ("core", "solvers", "scenarios", "formulations", "planners", "studies")
 
 
 def _run(cmd: list[str], **kwargs) -> subprocess.CompletedProcess:

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from droneplan.core.validation import check_array, check_instance
 from droneplan.scenarios.cells import CellProblem
-from droneplan.solvers.validation import check_array, check_instance
 
 TOL = 1e-6
 """Absolute geometric tolerance (m): a user at distance <= R_d + TOL is covered, a

@@ -16,6 +16,7 @@ from __future__ import annotations
 import warnings
 from typing import Any
 
+from droneplan.core.validation import check_int
 from droneplan.formulations.cells._bnb import search
 from droneplan.formulations.cells._core import evaluate
 from droneplan.formulations.cells._milp import CONNECTIVITY, solve_model
@@ -23,7 +24,6 @@ from droneplan.formulations.cells._prepare import Prepared, prepare
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_int
 
 ENGINES = ("bnb", "milp")
 """Exact engines of :func:`solve_exact`: the combinatorial branch and bound or the model."""

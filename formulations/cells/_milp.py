@@ -91,13 +91,13 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
+from droneplan.core.validation import check_instance
 from droneplan.formulations.cells._core import TOL, Candidates, candidate_sites, evaluate, pairwise_distances
 from droneplan.formulations.cells._prepare import Prepared, _feasible_subset, coverage_upper_bound
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.lazy import lazy_constraint_loop
 from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_instance
 
 BACKENDS = tuple(available_backends("linear"))
 """Backends (registry names of kind "linear") that can solve the cells models here."""

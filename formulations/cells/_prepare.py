@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from droneplan.core.validation import check_instance, check_time_limit, require_set
 from droneplan.formulations.cells._core import (
     TOL,
     Candidates,
@@ -30,7 +31,6 @@ from droneplan.formulations.cells._core import (
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_instance, check_time_limit, require_set
 
 
 def _maximal_sets(cover: list[np.ndarray]) -> list[np.ndarray]:

@@ -22,9 +22,9 @@ import numpy as np
 from numpy.typing import NDArray
 from ortools.sat.python import cp_model
 
+from droneplan.core.validation import check_array
 from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_array
 
 __all__ = [
     "Assignment",

@@ -38,10 +38,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
-from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.search import first_root_lipschitz
-from droneplan.solvers.validation import (
+from droneplan.core.validation import (
     MAX_COORDINATE,
     check_array,
     check_in_range,
@@ -50,6 +47,9 @@ from droneplan.solvers.validation import (
     check_size,
     current_limit,
 )
+from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
+from droneplan.solvers.result import SolveResult, Status
+from droneplan.solvers.search import first_root_lipschitz
 
 __all__ = ["frontal_point", "interception_time_bound"]
 
@@ -129,7 +129,7 @@ def interception_time_bound(
     (>= 1e-12 s and >= the float64 spacing of t_max: T cannot be resolved more finely).
     t0: time (s) of the shark's path at which the operator starts, 0 <= t0 <= 1e15.
     The Lipschitz constant is estimated on a grid of t_max / 0.005 s samples, refused up front
-    beyond the array-element budget (``solvers.validation.work_limits``); the scan takes at most
+    beyond the array-element budget (``core.validation.work_limits``); the scan takes at most
     the evaluations budget of steps.
     Returns status OPTIMAL with objective = bound = the bound (s), or INFEASIBLE with bound
     None when no T <= t_max is reachable even in the relaxation.

@@ -32,10 +32,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
-from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
-from droneplan.solvers.registry import available_backends, get_backend
-from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import (
+from droneplan.core.validation import (
     check_array,
     check_instance,
     check_int,
@@ -43,6 +40,9 @@ from droneplan.solvers.validation import (
     check_positive,
     require_set,
 )
+from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
+from droneplan.solvers.registry import available_backends, get_backend
+from droneplan.solvers.result import SolveResult, Status
 
 __all__ = [
     "InterceptionPlan",

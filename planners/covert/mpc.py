@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from droneplan.core.validation import check_in_range, check_int, check_nonneg, check_positive, require_set
 from droneplan.planners.covert.sliding import (
     DONE,
     ON_SPHERE,
@@ -41,7 +42,6 @@ from droneplan.scenarios.covert import (
 )
 from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult
-from droneplan.solvers.validation import check_in_range, check_int, check_nonneg, check_positive, require_set
 
 if TYPE_CHECKING:  # formulations.covert is imported when a controller is built (it loads CasADi)
     from droneplan.formulations.covert import BearingMPC, MPCData, MPCPlan, MPCSettings, RecedingBearingMPC

@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from droneplan.core.validation import check_in_range, check_nonneg, check_positive
 from droneplan.scenarios.covert import (
     CovertCommand,
     CovertObservation,
@@ -47,7 +48,6 @@ from droneplan.scenarios.covert import (
     nearest_on_line,
     step_drone,
 )
-from droneplan.solvers.validation import check_in_range, check_nonneg, check_positive
 
 __all__ = [
     "W",

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from droneplan.solvers.validation import check_array, check_positive, check_real
+from droneplan.core.validation import check_array, check_positive, check_real
 
 __all__ = [
     "convex_hull",

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from droneplan.core.validation import check_array, check_instance, check_int, check_positive, require_set
 from droneplan.formulations.herding import solve_allocation
 from droneplan.planners.herding.allocation import allocate_bruteforce, allocate_collision_blind, crosses
 from droneplan.planners.herding.geometry import (
@@ -43,7 +44,6 @@ from droneplan.planners.herding.geometry import (
 )
 from droneplan.planners.herding.guidance import fly_on_edge, fly_to_edge, steer
 from droneplan.scenarios.herding import HerdingCommand, HerdingObservation, HerdingPhase
-from droneplan.solvers.validation import check_array, check_instance, check_int, check_positive, require_set
 
 __all__ = ["ALLOCATORS", "HerderSettings", "steering_points", "ProposedHerder", "BenchmarkHerder"]
 

@@ -12,8 +12,8 @@ from typing import overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from droneplan.core.validation import check_array, check_instance
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, field_radius
-from droneplan.solvers.validation import check_array, check_instance
 
 __all__ = ["thesis_altitude"]
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from droneplan.core.validation import check_array, check_instance, check_positive
 from droneplan.formulations.shark import greedy_assignment, solve_assignment, solve_interception
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
 from droneplan.scenarios.shark import (
@@ -15,7 +16,6 @@ from droneplan.scenarios.shark import (
     simulate,
 )
 from droneplan.solvers.result import SolveResult
-from droneplan.solvers.validation import check_array, check_instance, check_positive
 
 __all__ = ["interception_time_matrix", "allocate_operators"]
 

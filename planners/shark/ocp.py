@@ -9,6 +9,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from droneplan.core.validation import check_array, check_instance, check_positive, require_set
 from droneplan.formulations.shark import InterceptionOCP, InterceptionPlan, solve_interception
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
 from droneplan.scenarios.shark import (
@@ -23,7 +24,6 @@ from droneplan.scenarios.shark import (
     simulate,
 )
 from droneplan.solvers.result import SolveResult, Status
-from droneplan.solvers.validation import check_array, check_instance, check_positive, require_set
 
 __all__ = ["virtual_shark_plan", "optimal_interception", "OCPInterceptor"]
 

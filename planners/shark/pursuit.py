@@ -32,6 +32,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from droneplan.core.validation import check_instance, check_positive, require_set
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark.altitude import thesis_altitude
 from droneplan.scenarios.shark import (
@@ -43,7 +44,6 @@ from droneplan.scenarios.shark import (
     SharkPhase,
     clip_velocity,
 )
-from droneplan.solvers.validation import check_instance, check_positive, require_set
 
 __all__ = ["ClassicalPursuit", "VirtualSharkInterceptor"]
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from droneplan.core.validation import check_array, check_instance, check_int, check_nonneg
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark.ocp import OCPInterceptor
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
@@ -31,7 +32,6 @@ from droneplan.scenarios.shark import (
     clip_velocity,
     constant_velocity_trajectory,
 )
-from droneplan.solvers.validation import check_array, check_instance, check_int, check_nonneg
 
 __all__ = ["RepellingOperator"]
 

@@ -10,9 +10,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from droneplan.scenarios.covert.world import CovertParams, CovertScenario
-from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
-from droneplan.solvers.validation import (
+from droneplan.core.validation import (
     check_array,
     check_bool,
     check_methods,
@@ -20,6 +18,8 @@ from droneplan.solvers.validation import (
     check_positive,
     resolve_seed,
 )
+from droneplan.scenarios.covert.world import CovertParams, CovertScenario
+from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
 
 __all__ = [
     "CovertPhase",

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from droneplan.solvers.validation import (
+from droneplan.core.validation import (
     check_array,
     check_int,
     check_positive,

@@ -22,7 +22,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numpy.typing import NDArray
 
-from droneplan.solvers.validation import check_array, check_positive, check_real
+from droneplan.core.validation import check_array, check_positive, check_real
 
 __all__ = ["SharkParams", "THESIS_TABLE_5_1", "field_radius", "touches", "inside_field"]
 

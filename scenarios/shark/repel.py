@@ -27,9 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, inside_field
-from droneplan.scenarios.shark.simulate import SharkCommand, clip_velocity
-from droneplan.solvers.validation import (
+from droneplan.core.validation import (
     as_generator,
     check_array,
     check_instance,
@@ -38,6 +36,8 @@ from droneplan.solvers.validation import (
     check_positive,
     check_real,
 )
+from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, inside_field
+from droneplan.scenarios.shark.simulate import SharkCommand, clip_velocity
 
 __all__ = [
     "SharkBehaviour",

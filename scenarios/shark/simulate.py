@@ -10,10 +10,10 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from droneplan.core.validation import check_array, check_in_range, check_int, check_methods, check_real
 from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, field_radius, inside_field
 from droneplan.scenarios.shark.trajectories import SharkTrajectory
-from droneplan.solvers.validation import check_array, check_in_range, check_int, check_methods, check_real
 
 __all__ = [
     "SharkPhase",

@@ -15,14 +15,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams
-from droneplan.solvers.validation import (
+from droneplan.core.validation import (
     check_array,
     check_bool,
     check_positive,
     check_size,
     resolve_seed,
 )
+from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams
 
 __all__ = [
     "SharkTrajectory",

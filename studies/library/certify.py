@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from droneplan.solvers.validation import check_int, check_time_limit
+from droneplan.core.validation import check_int, check_time_limit
 from droneplan.studies.library import (
     LIBRARY_FAMILIES,
     certify_instance,

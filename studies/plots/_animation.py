@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from droneplan.solvers.validation import check_int
+from droneplan.core.validation import check_int
 
 __all__ = ["MAX_FRAMES", "check_options", "frame_indices", "save_gif", "finite_or_raise"]
 

@@ -8,9 +8,9 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
+from droneplan.core.validation import check_int, check_size
 from droneplan.formulations.cells import CellProblem, evaluate
 from droneplan.planners.cells import deployment_region
-from droneplan.solvers.validation import check_int, check_size
 from droneplan.studies.plots._common import figure_axes, keep_in_view
 
 __all__ = ["plot_map", "plot_deployment_region"]

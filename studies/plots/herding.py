@@ -6,8 +6,8 @@ from typing import Any
 
 import numpy as np
 
+from droneplan.core.validation import check_array, check_positive, check_real
 from droneplan.scenarios.herding import HerdingFrame, HerdingPhase, HerdingScenario, HerdingTrace
-from droneplan.solvers.validation import check_array, check_positive, check_real
 from droneplan.studies.plots._animation import check_options, frame_indices, save_gif
 from droneplan.studies.plots._common import as_trace_dict, figure_axes, keep_in_view
 

@@ -14,7 +14,7 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-from droneplan.solvers.validation import check_instance
+from droneplan.core.validation import check_instance
 from droneplan.studies.analysis import _labelled, _solved, performance_profile
 
 __all__ = ["plot_performance_profile", "plot_gap_distribution"]

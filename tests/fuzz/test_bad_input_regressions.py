@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import droneplan as dp
-from droneplan.solvers.validation import MAX_ELEMENTS, resolve_seed
+from droneplan.core.validation import MAX_ELEMENTS, resolve_seed
 
 
 @pytest.fixture(scope="module")

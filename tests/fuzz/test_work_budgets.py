@@ -13,8 +13,7 @@ import numpy as np
 import pytest
 
 import droneplan as dp
-from droneplan.solvers.search import first_root_lipschitz
-from droneplan.solvers.validation import (
+from droneplan.core.validation import (
     MAX_COORDINATE,
     MAX_ELEMENTS,
     check_array,
@@ -24,6 +23,7 @@ from droneplan.solvers.validation import (
     current_limit,
     work_limits,
 )
+from droneplan.solvers.search import first_root_lipschitz
 
 NAN = float("nan")
 
@@ -244,7 +244,7 @@ def test_check_allocation_refuses_a_nan_tolerance(tol):
 
 # ----------------------------------------------------------------------------- checks under python -O
 def test_require_set_raises_where_an_assert_would_be_stripped():
-    from droneplan.solvers.validation import require_set
+    from droneplan.core.validation import require_set
 
     assert require_set(0, "zero is set") == 0
     with pytest.raises(RuntimeError, match="the solver"):

@@ -7,7 +7,7 @@ import pkgutil
 
 import pytest
 
-LAYERS = ("solvers", "scenarios", "formulations", "planners", "studies")
+LAYERS = ("core", "solvers", "scenarios", "formulations", "planners", "studies")
 
 
 def _public_modules() -> list[str]:

@@ -122,7 +122,7 @@ def check_work(name: str, asked: float, kind: str = "elements", *, limit: float 
         shown = str(math.ceil(asked)) if math.isfinite(asked) and asked <= 1e18 else f"{asked:.3g}"
         raise ValueError(
             f"{name} asks for {shown} {_UNITS[kind]}, more than the limit of {int(lim)}; raise the limit "
-            f"with droneplan.solvers.validation.work_limits({kind}=...) if the work is intended"
+            f"with droneplan.core.validation.work_limits({kind}=...) if the work is intended"
         )
 
 
