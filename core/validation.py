@@ -202,7 +202,7 @@ def check_size(name: str, n_elements: float, limit: int | None = None) -> None:
     check_work(name, n_elements, "elements", limit=limit)
 
 
-def check_array(
+def check_array(  # noqa: C901
     name: str,
     value: Any,
     *,

@@ -280,7 +280,7 @@ class BearingMPC:
         return x
 
 
-def build_bearing_mpc(
+def build_bearing_mpc(  # noqa: PLR0915
     params: CovertParams, n_targets: int, settings: MPCSettings | None = None
 ) -> BearingMPC:
     """Build the symbolic min-max bearing MPC for ``n_targets`` targets (no solving).

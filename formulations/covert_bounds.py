@@ -118,7 +118,7 @@ class InstantMinmaxProgram:
         lam = np.asarray(self.slack_rows.dual_value, float).ravel()
         return float(self.s.value), -float(lam @ self.t.value), np.asarray(self.y.value, float)
 
-    def solve(
+    def solve(  # noqa: C901, PLR0915
         self,
         params: Any,
         targets: Any,
@@ -354,7 +354,7 @@ def mission_lower_bound(
     )[0]
 
 
-def mission_front(
+def mission_front(  # noqa: C901, PLR0915
     scenario: Any,
     arrival_times: Any,
     t_f: float | None = None,

@@ -285,7 +285,7 @@ class AllocationModel:
     """Arc positions of the steering points (after padding), m."""
 
 
-def build_allocation_model(drone_s, steer_s, perimeter) -> AllocationModel:
+def build_allocation_model(drone_s, steer_s, perimeter) -> AllocationModel:  # noqa: C901
     """Build the explicit assignment model of (6.21)-(6.23) (does not solve).
 
     Variables: Boolean ``x[j,i,sigma]`` = drone j flies to steering point i in

@@ -252,7 +252,7 @@ def _fitness(
     return out.reshape(lead)
 
 
-def _run_batch(
+def _run_batch(  # noqa: PLR0915
     problem: CellProblem, N: int, P: int, iter_max: int, s: GASettings, rng: np.random.Generator
 ) -> tuple[NDArray[np.float64], NDArray[np.int_], NDArray[np.float64]]:
     """N independent GA runs (the restarts) advanced together: arrays are (N, P, m, 2).
@@ -530,7 +530,7 @@ def max_coverage_in_region(
     return _max_coverage(pts, R_d, region, budget=20 * current_limit("elements"))
 
 
-def _max_coverage(
+def _max_coverage(  # noqa: C901, PLR0915
     users: NDArray[np.float64], R_d: float, region: Region, floor: int = -1, budget: int | None = None
 ) -> tuple[int, NDArray[np.float64] | None]:
     """:func:`max_coverage_in_region`; with ``floor`` >= 0 it also skips the circles whose
@@ -655,7 +655,7 @@ class _DiscBound:
         return ok
 
 
-def exhaustive(problem: CellProblem, *, time_limit: float | None = None, prune: bool = True) -> SolveResult:
+def exhaustive(problem: CellProblem, *, time_limit: float | None = None, prune: bool = True) -> SolveResult:  # noqa: C901
     """Algorithm 2 (thesis §4.3.1): drone-cells 1..m-1 visit every user location inside
     their deployment region (which depends on the GBSs and the cells placed before);
     the m-th is placed by :func:`max_coverage_in_region` in its region; the best
@@ -689,7 +689,7 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None, prune: 
     best = _SearchState(val=0, pos=np.zeros((0, 2)))
     bound = _DiscBound(problem) if prune and len(users) else None
 
-    def rec(placed: NDArray[np.float64], covered: NDArray[np.bool_]) -> None:
+    def rec(placed: NDArray[np.float64], covered: NDArray[np.bool_]) -> None:  # noqa: C901
         if time_limit is not None and time.perf_counter() - t0 > time_limit:
             best.complete = False
             return

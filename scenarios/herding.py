@@ -350,7 +350,7 @@ def animal_step(
     return new_pos, new_head, affected
 
 
-def _animal_step(
+def _animal_step(  # noqa: PLR0915
     animals: np.ndarray,
     heading: np.ndarray,
     drones: np.ndarray,
@@ -590,7 +590,7 @@ def footprint_radius(animals: np.ndarray) -> float:
     return float(np.sqrt(np.max(np.sum((animals - c) ** 2, axis=1))))
 
 
-def simulate(
+def simulate(  # noqa: C901, PLR0915
     scenario: HerdingScenario,
     controller,
     *,

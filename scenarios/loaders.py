@@ -121,7 +121,7 @@ def _read_text(path: Path, what: str) -> str:
     return text
 
 
-def _read_table(
+def _read_table(  # noqa: C901
     path: PathLike, columns: Sequence[str], optional: Sequence[str] = ()
 ) -> tuple[NDArray[np.float64], list[int], tuple[str, ...]]:
     """The requested columns (then those of ``optional`` the header has) of a CSV file, the line
@@ -278,7 +278,7 @@ def _json_kind(value: Any) -> str:
     return "null" if value is None else type(value).__name__
 
 
-def read_geojson_points(path: PathLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def read_geojson_points(path: PathLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # noqa: C901
     """Longitudes and latitudes (degrees) of the points of a GeoJSON file.
 
     path: the GeoJSON file (str or path-like, UTF-8). Accepted: a ``FeatureCollection`` whose
@@ -578,7 +578,7 @@ def herding_scenario_from_csv(
 # --------------------------------------------------------------------------- shark
 
 
-def load_shark_track_csv(
+def load_shark_track_csv(  # noqa: C901
     path: PathLike,
     *,
     dt: float | None = THESIS_TABLE_5_1.Ts,

@@ -48,7 +48,7 @@ class CpSatAdapter(BackendAdapter, CpBackend, LinearBackend):
     def new_model(self) -> CpSatLinearModel:
         return CpSatLinearModel()
 
-    def solve_cp(
+    def solve_cp(  # noqa: C901
         self,
         model: cp_model.CpModel,
         *,

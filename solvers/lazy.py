@@ -28,7 +28,7 @@ from droneplan.solvers.result import SolveResult, Status
 __all__ = ["lazy_constraint_loop"]
 
 
-def lazy_constraint_loop(
+def lazy_constraint_loop(  # noqa: C901
     solve_relaxation: Callable[[list[Any], float | None], SolveResult],
     separate: Callable[[SolveResult], Sequence[Any]],
     *,

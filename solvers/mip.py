@@ -89,7 +89,7 @@ class PywraplpAdapter(BackendAdapter, LinearBackend):
     def new_model(self) -> PywraplpLinearModel:
         return PywraplpLinearModel(self)
 
-    def solve_native(
+    def solve_native(  # noqa: C901
         self,
         solver: pywraplp.Solver,
         *,

@@ -131,7 +131,7 @@ class IpoptSolver:
             raise ValueError(f"{name} contains NaN")
         return arr
 
-    def solve(
+    def solve(  # noqa: C901
         self,
         *,
         x0: Any = None,

@@ -152,7 +152,7 @@ def reproduce(*, quick: bool, out: Path, executor=None, store=None) -> None:
         _reproduce(quick, out, ex, st)
 
 
-def _reproduce(quick: bool, out: Path, ex, st) -> None:
+def _reproduce(quick: bool, out: Path, ex, st) -> None:  # noqa: PLR0915
     ms = (1, 2, 3) if quick else (1, 2, 3, 4)
     runs = 3 if quick else 20
     es_limit = 20.0 if quick else 600.0

@@ -349,7 +349,7 @@ def _default_methods(problem: str, instances) -> list[str]:
     raise SystemExit("droneplan: name the methods with --method (droneplan list shows the registered ones)")
 
 
-def _run(args) -> int:
+def _run(args) -> int:  # noqa: C901
     if args.command == "list":
         return _run_list()
     if args.command == "certify":

@@ -168,7 +168,7 @@ def _unwrap(returned: Any, method: Method, scored: Scored) -> tuple[Any, bool]:
     return returned, True
 
 
-def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scored:
+def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scored:  # noqa: C901
     from droneplan.formulations.cells import evaluate
 
     scored = Scored("feasible")
@@ -213,7 +213,7 @@ def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scor
     return scored
 
 
-def _score_allocation(instance: StudyInstance, returned: Any, method: Method) -> Scored:
+def _score_allocation(instance: StudyInstance, returned: Any, method: Method) -> Scored:  # noqa: C901
     from droneplan.formulations.herding import Allocation, check_allocation, pad_steering_points
 
     scored = Scored("feasible")

@@ -250,7 +250,7 @@ def _seed_range(seconds, thesis: float) -> str:
     return f"per seed {lo:.1f} to {hi:.1f} min over {len(vals)} seeds, the thesis's {thesis:g} {where}"
 
 
-def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
+def _fig_6_7(out: Path, quick: bool, executor, store) -> None:  # noqa: PLR0915
     plan = (
         {200: list(range(2)), 1000: list(range(1))}
         if quick
@@ -400,7 +400,7 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
     plt.close(fig)
 
 
-def _sweeps(out: Path, quick: bool, executor, store) -> None:
+def _sweeps(out: Path, quick: bool, executor, store) -> None:  # noqa: C901
     n_animals = 100 if quick else 200
     seeds = range(1) if quick else range(5)
     tasks = []

@@ -210,7 +210,7 @@ def _require_fork() -> None:
 
 
 # --------------------------------------------------------------------------- the parent
-def _run(
+def _run(  # noqa: C901
     jobs: Iterable[Job], workers: int, grace: float, memory_limit: int | None, progress: str | None
 ) -> Generator[JobOutcome, None, None]:
     total = len(jobs) if isinstance(jobs, Sized) else None

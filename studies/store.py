@@ -337,7 +337,7 @@ def _beats(objective: float | None, limit: float | None, sense: str) -> bool:
     return objective is not None and limit is not None and _rel_gap(objective, limit, sense) < -_EPS
 
 
-def _gap_columns(
+def _gap_columns(  # noqa: C901
     cols: Mapping[str, Sequence[Any]], reference: Sequence[bool] | None = None
 ) -> dict[str, list[Any]]:
     """``gap_to_bound``, ``gap_bound_kind``, ``gap_to_best`` and ``flag`` of every row.
@@ -796,7 +796,7 @@ class ResultStore:
             self._con = None
 
     # ------------------------------------------------------------------ writing
-    def write(self, rows: Iterable[Mapping[str, Any]]) -> int:
+    def write(self, rows: Iterable[Mapping[str, Any]]) -> int:  # noqa: C901, PLR0915
         """Write rows in one transaction, each replacing the row of the same key; returns how many
         older rows were set aside.
 

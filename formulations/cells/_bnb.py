@@ -219,7 +219,7 @@ def _relay_cost(d: np.ndarray, reach: float, r2: float) -> np.ndarray:
     return np.maximum(np.ceil(x), 0.0)
 
 
-def search(
+def search(  # noqa: C901, PLR0915
     problem: CellProblem,
     cand: Candidates,
     incumbent: np.ndarray,
@@ -470,7 +470,7 @@ def search(
                 if ev.feasible and ev.covered > state.best_val:
                     state.best_val, state.best = int(ev.covered), [*P, q]
 
-    def dfs(
+    def dfs(  # noqa: C901, PLR0915
         P: list[int],
         ubits: int,
         cmask: np.ndarray,
@@ -990,7 +990,7 @@ def _split_root(search_share, workers: int, incumbent: int, shared: list) -> lis
     return [out[i] for i in range(workers)]
 
 
-def _separated_groups(
+def _separated_groups(  # noqa: C901, PLR0915
     pts: np.ndarray,
     w: np.ndarray,
     dg: np.ndarray,

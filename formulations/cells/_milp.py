@@ -186,7 +186,7 @@ _SQUARE = 6
 """The hop rows' squares have side r2 / ``_SQUARE``."""
 
 
-def _hop_levels(lin, x: list, pts: np.ndarray, direct: np.ndarray, problem: CellProblem, late):
+def _hop_levels(lin, x: list, pts: np.ndarray, direct: np.ndarray, problem: CellProblem, late):  # noqa: C901
     """The hop-level rows of item 3b, with the sources of a row grouped by squares.
 
     A square Q (side r2 / _SQUARE) holding several level-(l-1) sources gets one variable
@@ -369,7 +369,7 @@ def _new_model(backend: str):
     return get_backend(backend, kind="linear").new_model()
 
 
-def build_milp(
+def build_milp(  # noqa: C901, PLR0915
     problem: CellProblem,
     *,
     backend: str = "cp-sat",
@@ -598,7 +598,7 @@ def _bound_m_minus_1(prep: Prepared) -> float:
     return float(len(prep.problem.targets)) if relax.bound is None else float(relax.bound)
 
 
-def solve_model(
+def solve_model(  # noqa: C901, PLR0915
     prep: Prepared,
     *,
     backend: str,
@@ -623,7 +623,7 @@ def solve_model(
     cuts: list = []
     deadline = None if prep.time_limit is None else prep.t0 + prep.time_limit
 
-    def solve_restricted(keep: np.ndarray) -> tuple[str, float]:
+    def solve_restricted(keep: np.ndarray) -> tuple[str, float]:  # noqa: C901
         """Solve the model restricted to ``keep`` with ``objective >= incumbent value`` exactly:
         ``solvers.lazy.lazy_constraint_loop`` (one round with hop levels: nothing is ever
         violated; lazy cuts otherwise). Returns ("optimal", value) or ("stopped", bound of

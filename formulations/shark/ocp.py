@@ -363,7 +363,7 @@ class InterceptionOCP:
         )
 
 
-def solve_interception(
+def solve_interception(  # noqa: C901
     shark,
     operator0,
     params: SharkParams = THESIS_TABLE_5_1,

@@ -226,7 +226,7 @@ class MPCObserver(_PhasedController):
             D, h = D + v * integral, h_new
         return np.array(us), np.array(vs)
 
-    def command(self, obs: CovertObservation) -> CovertCommand:
+    def command(self, obs: CovertObservation) -> CovertCommand:  # noqa: C901, PLR0915
         """u (3,) (rad/s) and v (m/s) for this control period."""
         from droneplan.formulations.covert import MPCData
 

@@ -329,7 +329,7 @@ class ExtendedHull:
         )
 
 
-def min_enclosing_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
+def min_enclosing_circle(points: np.ndarray) -> tuple[np.ndarray, float]:  # noqa: C901
     """Smallest circle containing the points (n, 2): (centre, radius), m.
 
     Welzl's randomised incremental algorithm (expected O(n)); apply it to the hull

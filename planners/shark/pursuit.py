@@ -191,7 +191,7 @@ class VirtualSharkInterceptor:
         v = self._velocity(obs.t, obs.operator, obs.shark_pos, obs.shark_vel)
         return SharkCommand(v, self.at_interception)
 
-    def _velocity(self, t: float, operator, shark_pos, shark_vel) -> NDArray[np.float64]:
+    def _velocity(self, t: float, operator, shark_pos, shark_vel) -> NDArray[np.float64]:  # noqa: C901
         p = self.params
         O = np.asarray(operator, float)
         Vs = np.asarray(shark_vel, float)

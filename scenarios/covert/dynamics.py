@@ -297,7 +297,7 @@ class CovertTrace(LoopTrace):
     """Reference point of the run's camouflage constraint lines (m)."""
 
 
-def simulate(
+def simulate(  # noqa: C901, PLR0915
     scenario: CovertScenario,
     controller: Controller,
     *,

@@ -313,7 +313,7 @@ class CovertScenario:
     obstacles: tuple[Obstacle, ...] = ()
     """Prisms that block the line of sight between the drone and a target."""
 
-    def __post_init__(self) -> None:
+    def __post_init__(self) -> None:  # noqa: C901
         obstacles = tuple(self.obstacles)
         for j, ob in enumerate(obstacles):
             if not isinstance(ob, Obstacle):

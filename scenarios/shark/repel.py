@@ -244,7 +244,7 @@ class RepellingTrace:
     """Indices of the sharks the operators are sent to (:func:`sharks_to_repel` at t = 0)."""
 
 
-def simulate_repelling(
+def simulate_repelling(  # noqa: C901, PLR0915
     sharks0,
     operators0,
     swimmers,

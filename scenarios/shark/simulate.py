@@ -249,7 +249,7 @@ def operator_start(
     return np.array([s0[0] + params.Di * math.cos(psi), s0[1] + params.Di * math.sin(psi), z])
 
 
-def simulate(
+def simulate(  # noqa: PLR0915
     scenario: InterceptionScenario | SharkTrajectory,
     controller: InterceptionController,
     params: SharkParams | None = None,

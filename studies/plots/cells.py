@@ -16,7 +16,7 @@ from droneplan.studies.plots._common import figure_axes, keep_in_view
 __all__ = ["plot_map", "plot_deployment_region"]
 
 
-def plot_map(
+def plot_map(  # noqa: C901
     problem: CellProblem, positions: Any, *, ax: Any = None, title: str | None = None, ranges: bool = False
 ):
     """Map of a drone-cell placement; returns the figure.

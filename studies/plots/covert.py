@@ -159,7 +159,7 @@ def _check_frame(name: str, df: Any, columns: tuple[str, ...]) -> None:
         raise ValueError(f"{name} lacks the column(s) {missing} (needs {list(columns)})")
 
 
-def animate(trace: Any, path: Any, *, fps: int = 8, stride: int = 1, view: str = "top"):
+def animate(trace: Any, path: Any, *, fps: int = 8, stride: int = 1, view: str = "top"):  # noqa: PLR0915
     """Write an animated GIF of a covert-observation run; returns the path (a Path).
 
     trace: a :class:`CovertTrace` (every recorded instant, spaced by the control period dt, is a

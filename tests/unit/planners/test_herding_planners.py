@@ -253,7 +253,7 @@ def test_fly_to_edge_vector_matches_6_11_and_remark_6_4_2(pts, drone):
     assert abs(v[0]) <= 25.0 and abs(w[0]) <= 5.0
 
 
-def _welzl_point_by_point(points):
+def _welzl_point_by_point(points):  # noqa: C901
     """The deterministic Welzl loops, one point at a time (the form before the scans were vectorised)."""
     P = list(np.asarray(points, dtype=float))
 
