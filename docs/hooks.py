@@ -35,30 +35,48 @@ def front_door_all(module: str) -> list[str]:
     raise ValueError(f"{path} defines no __all__")
 
 
+def _bound_nodes(tree: ast.Module) -> list[ast.stmt]:
+    """The module-level statements of a source, with those under ``if TYPE_CHECKING:``."""
+    body = list(tree.body)
+    for node in tree.body:
+        if isinstance(node, ast.If) and getattr(node.test, "id", None) == "TYPE_CHECKING":
+            body += node.body
+    return body
+
+
+def _getattr_imports(tree: ast.Module) -> dict[str, str]:
+    """name -> source module of each name a module-level ``__getattr__`` imports."""
+    found: dict[str, str] = {}
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef) and node.name == "__getattr__":
+            for sub in ast.walk(node):
+                if isinstance(sub, ast.ImportFrom) and sub.module:
+                    for a in sub.names:
+                        found.setdefault(a.asname or a.name, sub.module)
+    return found
+
+
 def _static_targets(module: str) -> dict[str, str]:
     """name -> the identifier mkdocstrings should render for each name bound in a front door.
 
-    Names bound at module level (imports, defs, assignments) render under the front door;
-    names a module ``__getattr__`` imports lazily render under the module they come from
-    (griffe reads sources statically and cannot follow ``__getattr__``).
+    Names bound at module level (imports, also those under ``if TYPE_CHECKING:``, which is how a
+    front door declares the names its ``__getattr__`` imports on first use; defs, assignments)
+    render under the front door; names only a module ``__getattr__`` imports render under the
+    module they come from (griffe reads sources statically and cannot follow ``__getattr__``).
     """
     parts = module.split(".")
     path = ROOT / "droneplan" / ("__init__.py" if len(parts) == 1 else f"{parts[1]}.py")
     tree = ast.parse(path.read_text(encoding="utf-8"))
     targets: dict[str, str] = {}
-    for node in tree.body:
+    for node in _bound_nodes(tree):
         if isinstance(node, ast.ImportFrom | ast.Import):
             targets.update({(a.asname or a.name).split(".")[0]: module for a in node.names})
         elif isinstance(node, ast.FunctionDef | ast.ClassDef):
             targets[node.name] = module
         elif isinstance(node, ast.Assign):
             targets.update({t.id: module for t in node.targets if isinstance(t, ast.Name)})
-    for node in tree.body:
-        if isinstance(node, ast.FunctionDef) and node.name == "__getattr__":
-            for sub in ast.walk(node):
-                if isinstance(sub, ast.ImportFrom) and sub.module:
-                    for a in sub.names:
-                        targets.setdefault(a.asname or a.name, sub.module)
+    for name, where in _getattr_imports(tree).items():
+        targets.setdefault(name, where)
     return {name: f"{where}.{name}" for name, where in targets.items()}
 
 

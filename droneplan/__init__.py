@@ -21,6 +21,7 @@ every study row of an ``--out`` directory as one long-format DataFrame.
 """
 
 import importlib
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # the names for type checkers; at run time __getattr__ imports them
@@ -101,3 +102,29 @@ def __getattr__(name: str) -> Any:
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
+
+
+def _lazy_names(
+    namespace: dict[str, Any], sources: dict[str, tuple[str, ...]]
+) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
+    """A module ``__getattr__`` and ``__dir__`` for a front door whose public names load on first use.
+
+    namespace: the front door's ``globals()`` (it holds ``__name__`` and ``__all__``; each name,
+    once imported, is stored there so later lookups skip ``__getattr__``).
+    sources: module -> the names the front door takes from it.
+    """
+    module = namespace["__name__"]
+    where = {name: source for source, names in sources.items() for name in names}
+
+    def __getattr__(name: str) -> Any:
+        source = where.get(name)
+        if source is None:
+            raise AttributeError(f"module {module!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(source), name)
+        namespace[name] = value
+        return value
+
+    def __dir__() -> list[str]:
+        return sorted(set(namespace) | set(namespace.get("__all__", ())))
+
+    return __getattr__, __dir__

@@ -9,51 +9,56 @@ the thesis GA and exhaustive search, plotting. Positions in metres.
     opt = dp.cells.solve_exact(problem, engine="bnb", warm_start=ga.x, time_limit=60)
 """
 
-from droneplan.formulations.cells import (
-    BACKENDS,
-    ENGINES,
-    Candidates,
-    CellModel,
-    Evaluation,
-    branch_and_bound,
-    build_milp,
-    candidate_sites,
-    connected_mask,
-    coverage_upper_bound,
-    evaluate,
-    greedy_placement,
-    solve_exact,
-    solve_milp,
-)
-from droneplan.planners.cells import (
-    GASettings,
-    Region,
-    deployment_region,
-    exhaustive,
-    fitness,
-    genetic,
-    genetic_polished,
-    max_coverage_in_region,
-    polish,
-    thesis_ga_settings,
-)
-from droneplan.scenarios.cells import (
-    THESIS_GA_TABLE_4_1,
-    THESIS_TABLE_4_2,
-    THESIS_TABLE_4_3,
-    CellParams,
-    CellProblem,
-    Instance,
-    matern_users,
-    problem_from_instance,
-    thesis_instance,
-    thesis_problem,
-    uniform_users,
-)
-from droneplan.scenarios.loaders import ProjectedCells, load_cells_csv, load_cells_geojson
-from droneplan.solvers.result import SolveResult, Status
-from droneplan.studies.cells import GA_VARIANTS, ga_ablation, instance_features
-from droneplan.studies.plots import plot_deployment_region, plot_map
+from typing import TYPE_CHECKING
+
+from droneplan import _lazy_names
+
+if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __getattr__ imports them
+    from droneplan.formulations.cells import (
+        BACKENDS,
+        ENGINES,
+        Candidates,
+        CellModel,
+        Evaluation,
+        branch_and_bound,
+        build_milp,
+        candidate_sites,
+        connected_mask,
+        coverage_upper_bound,
+        evaluate,
+        greedy_placement,
+        solve_exact,
+        solve_milp,
+    )
+    from droneplan.planners.cells import (
+        GASettings,
+        Region,
+        deployment_region,
+        exhaustive,
+        fitness,
+        genetic,
+        genetic_polished,
+        max_coverage_in_region,
+        polish,
+        thesis_ga_settings,
+    )
+    from droneplan.scenarios.cells import (
+        THESIS_GA_TABLE_4_1,
+        THESIS_TABLE_4_2,
+        THESIS_TABLE_4_3,
+        CellParams,
+        CellProblem,
+        Instance,
+        matern_users,
+        problem_from_instance,
+        thesis_instance,
+        thesis_problem,
+        uniform_users,
+    )
+    from droneplan.scenarios.loaders import ProjectedCells, load_cells_csv, load_cells_geojson
+    from droneplan.solvers.result import SolveResult, Status
+    from droneplan.studies.cells import GA_VARIANTS, ga_ablation, instance_features
+    from droneplan.studies.plots import plot_deployment_region, plot_map
 
 __all__ = [
     # scenarios and presets
@@ -107,3 +112,71 @@ __all__ = [
     "GA_VARIANTS",
     "instance_features",
 ]
+
+_SOURCES: dict[str, tuple[str, ...]] = {
+    "droneplan.formulations.cells": (
+        "BACKENDS",
+        "ENGINES",
+        "Candidates",
+        "CellModel",
+        "Evaluation",
+        "branch_and_bound",
+        "build_milp",
+        "candidate_sites",
+        "connected_mask",
+        "coverage_upper_bound",
+        "evaluate",
+        "greedy_placement",
+        "solve_exact",
+        "solve_milp",
+    ),
+    "droneplan.planners.cells": (
+        "GASettings",
+        "Region",
+        "deployment_region",
+        "exhaustive",
+        "fitness",
+        "genetic",
+        "genetic_polished",
+        "max_coverage_in_region",
+        "polish",
+        "thesis_ga_settings",
+    ),
+    "droneplan.scenarios.cells": (
+        "THESIS_GA_TABLE_4_1",
+        "THESIS_TABLE_4_2",
+        "THESIS_TABLE_4_3",
+        "CellParams",
+        "CellProblem",
+        "Instance",
+        "matern_users",
+        "problem_from_instance",
+        "thesis_instance",
+        "thesis_problem",
+        "uniform_users",
+    ),
+    "droneplan.scenarios.loaders": (
+        "ProjectedCells",
+        "load_cells_csv",
+        "load_cells_geojson",
+    ),
+    "droneplan.solvers.result": (
+        "SolveResult",
+        "Status",
+    ),
+    "droneplan.studies.cells": (
+        "GA_VARIANTS",
+        "ga_ablation",
+        "instance_features",
+    ),
+    "droneplan.studies.plots": (
+        "plot_deployment_region",
+        "plot_map",
+    ),
+}
+
+"""The module each public name comes from; a name is imported on first use, so importing this
+front door loads no solver library, cvxpy, matplotlib or pandas."""
+
+if not TYPE_CHECKING:  # type checkers see the imports above (and flag a misspelt name)
+    __getattr__, __dir__ = _lazy_names(globals(), _SOURCES)

@@ -9,52 +9,57 @@ laws and the hover benchmark. Metres, seconds, radians.
     print(trace.beta_max)
 """
 
-from droneplan.formulations.covert import (
-    BearingMPC,
-    MPCData,
-    MPCPlan,
-    MPCSettings,
-    RecedingBearingMPC,
-    build_bearing_mpc,
-    solve_bearing_mpc,
-    sphere_minmax_bearing,
-    sphere_minmax_bearing_bnb,
-)
-from droneplan.formulations.covert_bounds import MissionBound, mission_front, mission_lower_bound
-from droneplan.planners.covert import (
-    HoverBenchmark,
-    MPCObserver,
-    MPCObserverSettings,
-    SafeguardedMPCObserver,
-    SafeguardSettings,
-    SlidingModeObserver,
-    SlidingSettings,
-    rollout_sliding,
-)
-from droneplan.scenarios.covert import (
-    FIG_3_13_OBSTACLE,
-    THESIS_TABLE_3_2,
-    Controller,
-    CovertCommand,
-    CovertFrame,
-    CovertObservation,
-    CovertParams,
-    CovertPhase,
-    CovertScenario,
-    CovertTrace,
-    Obstacle,
-    Occlusion,
-    TargetPath,
-    Terrain,
-    bearing_changes,
-    random_case,
-    simulate,
-    thesis_case,
-)
-from droneplan.solvers.result import SolveResult, Status
-from droneplan.studies.covert import stealth_front
-from droneplan.studies.plots import plot_bearing, plot_path, plot_stealth_front
-from droneplan.studies.plots.covert import animate
+from typing import TYPE_CHECKING
+
+from droneplan import _lazy_names
+
+if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __getattr__ imports them
+    from droneplan.formulations.covert import (
+        BearingMPC,
+        MPCData,
+        MPCPlan,
+        MPCSettings,
+        RecedingBearingMPC,
+        build_bearing_mpc,
+        solve_bearing_mpc,
+        sphere_minmax_bearing,
+        sphere_minmax_bearing_bnb,
+    )
+    from droneplan.formulations.covert_bounds import MissionBound, mission_front, mission_lower_bound
+    from droneplan.planners.covert import (
+        HoverBenchmark,
+        MPCObserver,
+        MPCObserverSettings,
+        SafeguardedMPCObserver,
+        SafeguardSettings,
+        SlidingModeObserver,
+        SlidingSettings,
+        rollout_sliding,
+    )
+    from droneplan.scenarios.covert import (
+        FIG_3_13_OBSTACLE,
+        THESIS_TABLE_3_2,
+        Controller,
+        CovertCommand,
+        CovertFrame,
+        CovertObservation,
+        CovertParams,
+        CovertPhase,
+        CovertScenario,
+        CovertTrace,
+        Obstacle,
+        Occlusion,
+        TargetPath,
+        Terrain,
+        bearing_changes,
+        random_case,
+        simulate,
+        thesis_case,
+    )
+    from droneplan.solvers.result import SolveResult, Status
+    from droneplan.studies.covert import stealth_front
+    from droneplan.studies.plots import plot_bearing, plot_path, plot_stealth_front
+    from droneplan.studies.plots.covert import animate
 
 __all__ = [
     # world, presets, simulator
@@ -107,3 +112,69 @@ __all__ = [
     "plot_stealth_front",
     "animate",
 ]
+
+_SOURCES: dict[str, tuple[str, ...]] = {
+    "droneplan.formulations.covert": (
+        "BearingMPC",
+        "MPCData",
+        "MPCPlan",
+        "MPCSettings",
+        "RecedingBearingMPC",
+        "build_bearing_mpc",
+        "solve_bearing_mpc",
+        "sphere_minmax_bearing",
+        "sphere_minmax_bearing_bnb",
+    ),
+    "droneplan.formulations.covert_bounds": (
+        "MissionBound",
+        "mission_front",
+        "mission_lower_bound",
+    ),
+    "droneplan.planners.covert": (
+        "HoverBenchmark",
+        "MPCObserver",
+        "MPCObserverSettings",
+        "SafeguardedMPCObserver",
+        "SafeguardSettings",
+        "SlidingModeObserver",
+        "SlidingSettings",
+        "rollout_sliding",
+    ),
+    "droneplan.scenarios.covert": (
+        "FIG_3_13_OBSTACLE",
+        "THESIS_TABLE_3_2",
+        "Controller",
+        "CovertCommand",
+        "CovertFrame",
+        "CovertObservation",
+        "CovertParams",
+        "CovertPhase",
+        "CovertScenario",
+        "CovertTrace",
+        "Obstacle",
+        "Occlusion",
+        "TargetPath",
+        "Terrain",
+        "bearing_changes",
+        "random_case",
+        "simulate",
+        "thesis_case",
+    ),
+    "droneplan.solvers.result": (
+        "SolveResult",
+        "Status",
+    ),
+    "droneplan.studies.covert": ("stealth_front",),
+    "droneplan.studies.plots": (
+        "plot_bearing",
+        "plot_path",
+        "plot_stealth_front",
+    ),
+    "droneplan.studies.plots.covert": ("animate",),
+}
+
+"""The module each public name comes from; a name is imported on first use, so importing this
+front door loads no solver library, cvxpy, matplotlib or pandas."""
+
+if not TYPE_CHECKING:  # type checkers see the imports above (and flag a misspelt name)
+    __getattr__, __dir__ = _lazy_names(globals(), _SOURCES)

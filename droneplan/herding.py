@@ -8,43 +8,48 @@ guidance laws and the proposed and benchmark herders. Metres, seconds.
     print(trace.gather_time, trace.total_time)
 """
 
-from droneplan.formulations.herding import (
-    Allocation,
-    AllocationModel,
-    build_allocation_model,
-    check_allocation,
-    solve_allocation,
-)
-from droneplan.planners.herding import (
-    BenchmarkHerder,
-    ExtendedHull,
-    HerderSettings,
-    ProposedHerder,
-    allocate_bruteforce,
-    allocate_collision_blind,
-    convex_hull,
-    min_enclosing_circle,
-    steering_points,
-)
-from droneplan.scenarios.herding import (
-    THESIS_TABLE_6_2,
-    HerdingCommand,
-    HerdingFrame,
-    HerdingObservation,
-    HerdingParams,
-    HerdingPhase,
-    HerdingScenario,
-    HerdingTrace,
-    footprint_radius,
-    simulate,
-    thesis_scenario,
-    with_params,
-)
-from droneplan.scenarios.loaders import herding_scenario_from_csv, load_herd_csv
-from droneplan.solvers.result import SolveResult, Status
-from droneplan.studies.herding import summary_table, write_gif
-from droneplan.studies.plots import plot_final, plot_footprint, plot_state
-from droneplan.studies.plots.herding import animate
+from typing import TYPE_CHECKING
+
+from droneplan import _lazy_names
+
+if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __getattr__ imports them
+    from droneplan.formulations.herding import (
+        Allocation,
+        AllocationModel,
+        build_allocation_model,
+        check_allocation,
+        solve_allocation,
+    )
+    from droneplan.planners.herding import (
+        BenchmarkHerder,
+        ExtendedHull,
+        HerderSettings,
+        ProposedHerder,
+        allocate_bruteforce,
+        allocate_collision_blind,
+        convex_hull,
+        min_enclosing_circle,
+        steering_points,
+    )
+    from droneplan.scenarios.herding import (
+        THESIS_TABLE_6_2,
+        HerdingCommand,
+        HerdingFrame,
+        HerdingObservation,
+        HerdingParams,
+        HerdingPhase,
+        HerdingScenario,
+        HerdingTrace,
+        footprint_radius,
+        simulate,
+        thesis_scenario,
+        with_params,
+    )
+    from droneplan.scenarios.loaders import herding_scenario_from_csv, load_herd_csv
+    from droneplan.solvers.result import SolveResult, Status
+    from droneplan.studies.herding import summary_table, write_gif
+    from droneplan.studies.plots import plot_final, plot_footprint, plot_state
+    from droneplan.studies.plots.herding import animate
 
 __all__ = [
     # world, presets, simulator
@@ -88,3 +93,62 @@ __all__ = [
     "write_gif",
     "summary_table",
 ]
+
+_SOURCES: dict[str, tuple[str, ...]] = {
+    "droneplan.formulations.herding": (
+        "Allocation",
+        "AllocationModel",
+        "build_allocation_model",
+        "check_allocation",
+        "solve_allocation",
+    ),
+    "droneplan.planners.herding": (
+        "BenchmarkHerder",
+        "ExtendedHull",
+        "HerderSettings",
+        "ProposedHerder",
+        "allocate_bruteforce",
+        "allocate_collision_blind",
+        "convex_hull",
+        "min_enclosing_circle",
+        "steering_points",
+    ),
+    "droneplan.scenarios.herding": (
+        "THESIS_TABLE_6_2",
+        "HerdingCommand",
+        "HerdingFrame",
+        "HerdingObservation",
+        "HerdingParams",
+        "HerdingPhase",
+        "HerdingScenario",
+        "HerdingTrace",
+        "footprint_radius",
+        "simulate",
+        "thesis_scenario",
+        "with_params",
+    ),
+    "droneplan.scenarios.loaders": (
+        "herding_scenario_from_csv",
+        "load_herd_csv",
+    ),
+    "droneplan.solvers.result": (
+        "SolveResult",
+        "Status",
+    ),
+    "droneplan.studies.herding": (
+        "summary_table",
+        "write_gif",
+    ),
+    "droneplan.studies.plots": (
+        "plot_final",
+        "plot_footprint",
+        "plot_state",
+    ),
+    "droneplan.studies.plots.herding": ("animate",),
+}
+
+"""The module each public name comes from; a name is imported on first use, so importing this
+front door loads no solver library, cvxpy, matplotlib or pandas."""
+
+if not TYPE_CHECKING:  # type checkers see the imports above (and flag a misspelt name)
+    __getattr__, __dir__ = _lazy_names(globals(), _SOURCES)
