@@ -224,8 +224,68 @@ def check_allocation(drone_s, steer_s, perimeter, allocation: Allocation, *, tol
 
 
 # --------------------------------------------------------------------------- exact O(n^2)
+_SCALAR_MAX = 12
+"""Allocations of up to this many drones run the O(n^2) algorithm in plain Python floats (the
+same operations in the same order as the numpy version, so the same result to the last bit;
+for a handful of drones the numpy calls cost more than the arithmetic)."""
+
+
 def _exact(d: np.ndarray, s: np.ndarray, M: float):
     """The O(n^2) algorithm of the module docstring; returns (Allocation, max travel) or None."""
+    if d.size <= _SCALAR_MAX:
+        return _exact_scalar(d, s, M)
+    return _exact_numpy(d, s, M)
+
+
+def _exact_scalar(d: np.ndarray, s: np.ndarray, M: float):
+    """:func:`_exact` for a few drones, one shift and wrap at a time in Python floats."""
+    n = d.size
+    ds, ss = d.tolist(), s.tolist()
+    order = sorted(range(n), key=ds.__getitem__)  # stable, as argsort(kind="stable")
+    origin = ds[order[0]]
+    z = [ds[i] - origin for i in order]
+    zp = [(v - origin) % M for v in ss]  # Python's float % rounds as np.mod
+    zp = [0.0 if v >= M else v for v in zp]
+    sidx = sorted(range(n), key=zp.__getitem__)
+    t = [zp[i] for i in sidx]
+    if any(t[i + 1] - t[i] <= 0 for i in range(n - 1)):
+        return None  # coincident steering points: (6.22)-(6.23) cannot both hold
+    best = None
+    for k1 in (-1, 0):
+        for r in range(n):
+            row = _shift_row(z, t, M, n, r, k1)
+            if row is not None and (best is None or row[0] < best[0]):
+                best = (row[0], r, row[1], row[2])
+    if best is None:
+        return None
+    worst, r, zstar, travel = best
+    target = np.empty(n, dtype=int)
+    direction = np.empty(n, dtype=int)
+    tr = np.empty(n)
+    target[order] = [sidx[(j + r) % n] for j in range(n)]
+    direction[order] = [1 if zs >= zj else -1 for zs, zj in zip(zstar, z, strict=True)]
+    tr[order] = travel
+    return Allocation(target, direction, tr, s.copy()), worst
+
+
+def _shift_row(z: list[float], t: list[float], M: float, n: int, r: int, k1: int):
+    """Drone j (ccw from the first) to sorted steering point (j + r) mod n with wrap k1 (+1 past
+    the end): (max travel, z*, travel), or None when (6.19), (6.22) or (6.23) fails."""
+    zstar = []
+    for j in range(n):
+        k = k1 + (1 if j + r >= n else 0)
+        tz = t[(j + r) % n]
+        if not (k == (-1 if tz > z[j] else 0) or k == (1 if tz < z[j] else 0)):
+            return None
+        zstar.append(tz + k * M)
+    if n > 1 and not (all(zstar[j + 1] - zstar[j] > 0 for j in range(n - 1)) and zstar[-1] < zstar[0] + M):
+        return None
+    travel = [abs(zs - zj) for zs, zj in zip(zstar, z, strict=True)]
+    return max(travel), zstar, travel
+
+
+def _exact_numpy(d: np.ndarray, s: np.ndarray, M: float):
+    """:func:`_exact` vectorised over the shifts (many drones)."""
     n = d.size
     order, z, zp = z_coordinates(d, s, M)
     sidx = np.argsort(zp, kind="stable")
