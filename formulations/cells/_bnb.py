@@ -150,6 +150,7 @@ lost as the time-out unwound the path, and a stopped search reported ``upper``.
 from __future__ import annotations
 
 import contextlib
+import functools
 import itertools
 import math
 import multiprocessing
@@ -193,13 +194,66 @@ class _Timeout(Exception):
 
 
 @dataclass
-class _State:
-    best_val: int
-    nodes: int = 0
-    separated: int = 0
-    frontier: float | None = None
-    """At a time-out in the main search: the bound on every placement not yet searched."""
-    best: list[int] | None = None
+class Node:
+    """A search node: the placed sites P (indices in the search's weight order) and what
+    the bound rules read from it."""
+
+    P: list[int]
+    """Placed sites."""
+    ubits: int
+    """S(P) as a bit set over the users."""
+    cmask: np.ndarray
+    """(n,) bool: the sites that may complete P."""
+    dist: np.ndarray
+    """(|P|,) relay lower bound from a GBS to each site of P (item 3, closed over P)."""
+    reach: np.ndarray
+    """(|P|,) bool: sites of P with a link path to a GBS through P."""
+    dpp: np.ndarray
+    """(|P|, |P|) distances between the sites of P (m)."""
+    must: np.ndarray | None = None
+    """(n,) bool: completions must hold one of these sites (item 11), or None."""
+    cmask_must: np.ndarray | None = None
+    """``cmask & must`` (None without ``must``)."""
+
+    @property
+    def val(self) -> int:
+        """|S(P)|, users covered by P."""
+        return self.ubits.bit_count()
+
+    @property
+    def depth(self) -> int:
+        """Placed sites so far (|P|)."""
+        return len(self.P)
+
+
+@dataclass
+class Children:
+    """A node's candidate children that pass items 3-4, and the node's bound."""
+
+    C: np.ndarray
+    """Candidates heavy enough for item 4 (indices, heaviest first)."""
+    ok: np.ndarray
+    """Positions in ``C`` of those that also pass the relay bound (item 3)."""
+    gj: np.ndarray
+    """(|C|,) relay lower bound from a GBS to each candidate j through P + j."""
+    newd: np.ndarray
+    """(|P|, |C|) relay lower bounds to the P sites with j added."""
+    dpj: np.ndarray
+    """(|P|, |C|) distances from the P sites to the candidates (m)."""
+    bound: float = math.inf
+    """The node bound (every rule combined)."""
+
+
+@dataclass
+class _Share:
+    """What one worker of the split search hands back (``_split_root``)."""
+
+    done: bool
+    bound: float
+    placement: list[int] | None
+    value: int
+    nodes: int
+    separated: int
 
 
 _POP8 = np.array([bin(i).count("1") for i in range(256)], dtype=np.int64)
@@ -219,7 +273,874 @@ def _relay_cost(d: np.ndarray, reach: float, r2: float) -> np.ndarray:
     return np.maximum(np.ceil(x), 0.0)
 
 
-def search(  # noqa: C901, PLR0915
+class BranchAndBoundSearch:
+    """The search of the module docstring with its state on the object.
+
+    The sites are held in the search's order (weight |S(c)| descending, ties by index):
+    ``pts`` (n, 2) m, ``w`` (n,) weights, ``bits`` their user sets as Python ints,
+    ``packed`` the same as packed uint64 rows (item 7), ``clique`` the clique of each
+    site (item 2), ``conflict`` (n, n) bool overlaps (4.8), ``dg`` the distance to the
+    nearest GBS (m) and ``cg`` its relay lower bound (item 3). The search state is
+    ``best_val``/``best`` (the incumbent, as site indices), ``nodes``, ``separated``
+    (item 12 counts), ``stack_bounds`` (the level bounds of the current path),
+    ``frontier`` (the bound on the unsearched placements after a time-out) and
+    ``conf_bound`` (item 9's B_k).
+
+    Each bound rule is a method that reads a :class:`Node` and returns its bound, so a
+    test can call one alone: :meth:`greedy_dual` (item 7), :meth:`clique_values`
+    (items 2 and 4), :meth:`relay_filter` (item 3), :meth:`linkable_weight` (item 6),
+    :meth:`unreached_bounds` (items 5, 8 and 12), :meth:`replaced_by_sibling` (item 11),
+    :meth:`site_can_improve` (item 10); :meth:`node_bound` combines them with item 9.
+    :meth:`node` builds the node of any placement P for such tests.
+
+    problem: the CellProblem; cand: its candidate sites; incumbent_value: users the
+    incumbent covers; upper: a known upper bound; time_limit: seconds from ``t0``
+    (None: none); node_limit: stop after about this many nodes; free_bounds: item 9's
+    B_0, ..., B_{m-1} when known; t0: ``time.perf_counter()`` at the start of the
+    solve (default: now).
+    """
+
+    def __init__(
+        self,
+        problem: CellProblem,
+        cand: Candidates,
+        incumbent_value: int,
+        *,
+        upper: float = math.inf,
+        time_limit: float | None = None,
+        node_limit: int | None = None,
+        free_bounds: list[float] | None = None,
+        t0: float | None = None,
+    ) -> None:
+        self.t0 = time.perf_counter() if t0 is None else t0
+        self.problem = problem
+        self.cand = cand
+        self.m = problem.n_cells
+        self.n = len(cand.points)
+        self.upper = upper
+        self.time_limit = time_limit
+        self.node_limit = node_limit
+        w_all = np.array([len(c) for c in cand.cover], dtype=np.int64)
+        self.order = np.lexsort((np.arange(self.n), -w_all))
+        self.pts = cand.points[self.order]
+        self.w = w_all[self.order]
+        self.bits = self._user_bits()
+        self.packed = self._packed_users()
+        self.tree = cKDTree(self.pts)
+        self.clique = self._clique_partition()
+        self.conflict = self._conflicts()
+        self.dg = np.min(pairwise_distances(self.pts, problem.gbs), axis=1)
+        self.r2 = problem.r2
+        self.r1t, self.r2t = problem.r1 + TOL, problem.r2 + TOL
+        self.cg = _relay_cost(self.dg, problem.r1, problem.r2)  # item 3, GBS -> site
+        # the search state
+        self.best_val = int(incumbent_value)
+        self.best: list[int] | None = None
+        self.nodes = 0
+        self.separated = 0
+        self.frontier: float | None = None
+        self.stack_bounds: list[float] = []
+        # item 9: conf_bound[k] bounds the users any k pairwise non-overlapping candidates cover
+        self.conf_bound: list[float] = list(free_bounds or [])
+        self.in_main = False
+        # the split: (this worker's index, workers, depth whose children are dealt out) and
+        # the incumbent value the workers share (filled by ``_split_root``)
+        self.split: tuple[int, int, int] = (0, 1, 0)
+        self.shared: list = []
+        self._links: np.ndarray | None = None
+        self._link_matrix: np.ndarray | None = None
+        self._lens: dict[int, np.ndarray] = {}
+
+    # ------------------------------------------------------------------ set-up
+    def _user_bits(self) -> list[int]:
+        """S(c) of each site (in the search order) as a Python int bit set."""
+        bits = [0] * self.n
+        for k, i in enumerate(self.order.tolist()):
+            b = 0
+            for u in self.cand.cover[i].tolist():
+                b |= 1 << int(u)
+            bits[k] = b
+        return bits
+
+    def _packed_users(self) -> np.ndarray:
+        """Item 7: the coverage sets as packed uint64 bit rows (users of cover)."""
+        n_words = max((len(self.problem.targets) + 63) // 64, 1)
+        member = np.zeros((self.n, n_words * 64), dtype=bool)
+        for k, i in enumerate(self.order.tolist()):
+            member[k, self.cand.cover[i]] = True
+        return np.packbits(member, axis=1, bitorder="little").view(np.uint64)
+
+    def _clique_partition(self) -> np.ndarray:
+        """Item 2: the clique of each site, heaviest unassigned site first."""
+        problem, pts = self.problem, self.pts
+        clique = np.full(self.n, -1, dtype=np.int64)
+        n_cl = 0
+        for i in range(self.n):
+            if clique[i] >= 0:
+                continue
+            # centred on the centroid of the users the site covers (a cluster's heaviest sites
+            # ring its centre, so one disc there holds all of them), else on the site itself
+            ctr = problem.targets[self.cand.cover[self.order[i]]].mean(axis=0) if self.w[i] else pts[i]
+            if math.dist(ctr, pts[i]) >= problem.R_d - 2 * TOL:
+                ctr = pts[i]
+            nb = np.asarray(self.tree.query_ball_point(ctr, problem.R_d - 2 * TOL), dtype=np.int64)
+            nb = nb[clique[nb] < 0]
+            clique[nb] = n_cl
+            clique[i] = n_cl
+            n_cl += 1
+        return clique
+
+    def _conflicts(self) -> np.ndarray:
+        """Conflicts (4.8): distance < 2 R_d - TOL, as rows of a dense (n, n) boolean matrix."""
+        conflict = np.zeros((self.n, self.n), dtype=bool)
+        R_d = self.problem.R_d
+        pairs = self.tree.query_pairs(2 * R_d, output_type="ndarray")
+        if len(pairs):
+            d = np.hypot(*(self.pts[pairs[:, 0]] - self.pts[pairs[:, 1]]).T)
+            pairs = pairs[d < 2 * R_d - TOL]
+            conflict[pairs[:, 0], pairs[:, 1]] = True
+            conflict[pairs[:, 1], pairs[:, 0]] = True
+        return conflict
+
+    def link_rows(self) -> np.ndarray:
+        """``_link_rows(pts, r2t)``, built on first use (item 12's exact link test)."""
+        if self._links is None:
+            self._links = _link_rows(self.pts, self.r2t)
+        return self._links
+
+    def link_matrix(self) -> np.ndarray:
+        """(n, n) bool: sites within r2 + TOL of each other (``link_rows`` unpacked, for
+        item 11), built on first use."""
+        if self._link_matrix is None:
+            self._link_matrix = np.unpackbits(self.link_rows(), axis=1, count=self.n, bitorder="little").view(
+                bool
+            )
+        return self._link_matrix
+
+    def lens_sites(self, a: int) -> np.ndarray:
+        """Item 11: the sites within 2 R_d (+ 2 m) of site a that do not overlap it, the
+        only ones that can cover users of a when a is placed."""
+        if a not in self._lens:
+            near = np.asarray(
+                self.tree.query_ball_point(self.pts[a], 2 * self.problem.R_d + 2.0), dtype=np.int64
+            )
+            self._lens[a] = np.sort(near[~self.conflict[a, near]])
+        return self._lens[a]
+
+    # ------------------------------------------------------------------ limits
+    def expired(self) -> bool:
+        """True once the node budget or the time limit is used up."""
+        if self.node_limit is not None and self.nodes >= self.node_limit:
+            return True
+        return self.time_limit is not None and time.perf_counter() - self.t0 >= self.time_limit
+
+    def timed_out(self) -> _Timeout:
+        """The time-out, raised from the main search after recording the bound of what it
+        has not searched (``frontier``): every such placement lies below the current or a
+        later child of a node on the path, whose level bound ``stack_bounds`` holds."""
+        if self.in_main:
+            self.frontier = max(self.stack_bounds, default=float(self.upper))  # empty: at the root
+        return _Timeout()
+
+    def checkpoint(self) -> bool:
+        """Every ``_CHECK_EVERY`` nodes: share the incumbent value with the other workers (a
+        value only: each worker keeps the placements it found), then test the time limit."""
+        if self.shared:
+            with self.shared[0].get_lock():
+                if self.best_val > self.shared[0].value:
+                    self.shared[0].value = self.best_val
+                elif self.shared[0].value > self.best_val:
+                    self.best_val = int(self.shared[0].value)
+        return self.expired()
+
+    def _tick(self) -> None:
+        """Count a search node; every ``_CHECK_EVERY`` nodes check the limits."""
+        self.nodes += 1
+        if self.nodes % _CHECK_EVERY == 0 and self.checkpoint():
+            raise self.timed_out()
+
+    def open_bound(self) -> float:
+        """After a time-out: the bound on the placements not searched (``upper`` when the
+        main search had not started)."""
+        return float(self.upper) if self.frontier is None else float(min(self.frontier, self.upper))
+
+    # ------------------------------------------------------------------ placements
+    def offer(self, P: list[int]) -> None:
+        """Make the placement P the incumbent when ``evaluate`` finds it feasible and better."""
+        ev = evaluate(self.problem, self.pts[P])
+        if ev.feasible and ev.covered > self.best_val:
+            self.best_val, self.best = int(ev.covered), list(P)
+
+    def placed(self, P: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        """(dpp, reach) of a non-empty P: the (|P|, |P|) distances of its sites (m) and which
+        of them have a link path (<= r1 + TOL to a GBS, <= r2 + TOL between sites, the
+        tests of ``evaluate``) to a GBS through P."""
+        pp = self.pts[P]
+        dpp = pairwise_distances(pp, pp)
+        link = dpp <= self.r2t
+        reach = self.dg[P] <= self.r1t
+        for _ in range(len(P)):
+            nr = reach | np.any(link & reach[None, :], axis=1)
+            if np.array_equal(nr, reach):
+                break
+            reach = nr
+        return dpp, reach
+
+    def reach_of(self, P: list[int]) -> np.ndarray:
+        """(|P|,) bool: sites of P with a link path to a GBS through P (:meth:`placed`)."""
+        return self.placed(P)[1]
+
+    def pp_cost(self, P: list[int]) -> np.ndarray:
+        """(|P|, |P|) relay lower bounds between the sites of P (item 3)."""
+        pp = self.pts[P]
+        return _relay_cost(pairwise_distances(pp, pp), self.r2, self.r2)
+
+    def compatible(self, R: list[int]) -> np.ndarray:
+        """(n,) bool: the sites outside R that overlap no site of R."""
+        mask = ~np.any(self.conflict[R], axis=0) if R else np.ones(self.n, dtype=bool)
+        mask[R] = False
+        return mask
+
+    def node(self, P: list[int], cmask: np.ndarray | None = None, must: np.ndarray | None = None) -> Node:
+        """The search node of the sites P (any order; for tests and the heuristics): its
+        completions are ``cmask`` (default: every site after the last of P that overlaps
+        none of P), ``dist`` closed over P (item 3)."""
+        P = sorted(P)
+        if cmask is None:
+            cmask = self.compatible(P)
+            cmask[: (P[-1] + 1 if P else 0)] = False
+        dist = _close(self.pts[P], self.cg[P], self.r2) if P else np.zeros(0)
+        return self._node(P, self._bits_of(P), cmask, dist, must)
+
+    def _node(
+        self, P: list[int], ubits: int, cmask: np.ndarray, dist: np.ndarray, must: np.ndarray | None
+    ) -> Node:
+        if P:
+            dpp, reach = self.placed(P)
+        else:
+            dpp, reach = np.zeros((0, 0)), np.zeros(0, dtype=bool)
+        node = Node(P, ubits, cmask, dist, reach, dpp, must)
+        if must is not None:
+            node.cmask_must = cmask & must
+        return node
+
+    def _bits_of(self, R: list[int]) -> int:
+        ub = 0
+        for i in R:
+            ub |= self.bits[i]
+        return ub
+
+    def connecting(self, R: list[int], C: np.ndarray, reach: np.ndarray | None = None) -> np.ndarray:
+        """(|C|,) bool: R + q is connected (the link tests of ``evaluate``) for q in C;
+        ``reach`` is ``reach_of(R)`` when the caller has it already."""
+        if not R:
+            return self.dg[C] <= self.r1t
+        pr = self.pts[R]
+        reach = self.reach_of(R) if reach is None else reach
+        link = pairwise_distances(pr, self.pts[C]) <= self.r2t
+        rq = (self.dg[C] <= self.r1t) | np.any(link & reach[:, None], axis=0)
+        if reach.all():
+            return rq
+        adj = pairwise_distances(pr, pr) <= self.r2t
+        R2 = reach[:, None] | (link & rq[None, :])
+        for _ in range(len(R)):
+            nr = R2 | np.any(adj[:, :, None] & R2[None, :, :], axis=1)
+            if np.array_equal(nr, R2):
+                break
+            R2 = nr
+        return rq & R2.all(axis=0)
+
+    # ------------------------------------------------------------------ bound rules
+    def top_cliques(self, idx: np.ndarray, k: int) -> list[int]:
+        """The k largest per-clique maxima over the sites ``idx`` (sorted heaviest first)."""
+        out: list[int] = []
+        if k <= 0:
+            return out
+        seen: set[int] = set()
+        for lo in range(0, len(idx), 64):
+            part = idx[lo : lo + 64]
+            for t, c in zip(part.tolist(), self.clique[part].tolist(), strict=True):
+                if c not in seen:
+                    seen.add(c)
+                    out.append(int(self.w[t]))
+                    if len(out) == k:
+                        return out
+        return out
+
+    def clique_values(self, Cok: np.ndarray, r: int, w_th: int) -> list[int]:
+        """Items 1, 2 and 4: r values, the i-th bounding the weight of the i-th heaviest site
+        of any completion from ``Cok`` plus sites lighter than ``w_th`` (cut by item 4): the
+        r largest per-clique maxima over ``Cok``, padded with ``w_th``."""
+        tops = self.top_cliques(Cok, r)
+        return tops + [w_th] * (r - len(tops))
+
+    def greedy_dual(self, P: list[int], C: np.ndarray, dist: np.ndarray, reach: np.ndarray, r: int) -> float:
+        """Item 7: an upper bound on |S(Q) - S(P)| over completions Q of at most r sites of
+        C that fit the relay bound of P + q, by submodularity of coverage (-inf when P
+        cannot be completed)."""
+        if P:
+            kept = self._dual_candidates(P, C, dist, reach, r)
+            if kept is None:
+                return -math.inf  # P cannot be completed: no feasible placement below
+            C, g0, covered, near = kept
+        else:
+            C = C[self.cg[C] <= r - 1]
+            g0 = self.cg[C] <= 0
+            covered = np.zeros(self.packed.shape[1], dtype=self.packed.dtype)
+            near = None
+        if len(C) == 0 or not g0.any():
+            return 0.0  # item 6: a non-empty completion holds a site with gj = 0
+        two = near is not None and r >= 2 and float(dist[~reach].max()) >= 2
+        return self._greedy_gains(self.packed[C], covered, g0, near, two, r)
+
+    def _dual_candidates(self, P: list[int], C: np.ndarray, dist: np.ndarray, reach: np.ndarray, r: int):
+        """Item 7's candidates below a non-empty P: (C, g0, covered, near) with the sites
+        of C that pass item 3, which of them have gj = 0 (item 6), S(P) as packed rows, and
+        the bridge candidates of item 5 (None when P is reached); None when none exists."""
+        pp = self.pts[P]
+        ej = _relay_cost(pairwise_distances(pp, self.pts[C]), self.r2, self.r2)
+        gj, newd = _through(dist, gj_direct=self.cg[C], ej=ej, epp=self.pp_cost(P))
+        need = np.maximum(gj, newd.max(axis=0))
+        keep = need <= r - 1
+        C, g0 = C[keep], gj[keep] <= 0
+        covered = np.bitwise_or.reduce(self.packed[P], axis=0)
+        near = None
+        if not reach.all():  # item 5: bridge candidates, within r2 + TOL of an unreached P site
+            near = np.any(pairwise_distances(pp[~reach], self.pts[C]) <= self.r2t, axis=0)
+            if not near.any():
+                return None
+        return C, g0, covered, near
+
+    @staticmethod
+    def _greedy_gains(
+        rows: np.ndarray, covered: np.ndarray, g0: np.ndarray, near: np.ndarray | None, two: bool, r: int
+    ) -> float:
+        """Item 7's loop over the greedy sets G_0, ..., G_r (with items 5, 6 and 8)."""
+        f_g = 0
+        best = math.inf
+        for k in range(r + 1):
+            gain = _popcount_rows(rows & ~covered)
+            top = np.sort(gain if len(gain) <= r else np.partition(gain, len(gain) - r)[-r:])
+            # item 6 again: one of the r gains is that of a site with gj = 0
+            best = min(best, f_g + int(top.sum()), f_g + int(gain[g0].max()) + int(top[1:].sum()))
+            if near is not None:  # item 5: one gain from a bridge, two distinct ones (item 8)
+                best = min(best, f_g + int(gain[near].max()) + int(top[1:].sum()))
+                if two:
+                    best = min(best, f_g + int(gain[near].max()) + int(gain[g0].max()) + int(top[2:].sum()))
+            g = int(np.argmax(gain))
+            if k == r or gain[g] == 0:
+                break
+            f_g += int(gain[g])
+            covered = covered | rows[g]
+        return float(best)
+
+    def relay_filter(self, node: Node, C: np.ndarray) -> Children | None:
+        """Item 3: the candidates j of C for which P + j keeps its relay lower bound within
+        the free slots (``need <= r - 1``), with what the children need; None when none."""
+        r = self.m - node.depth
+        cgj = self.cg[C]
+        if node.P:
+            dpj = pairwise_distances(self.pts[node.P], self.pts[C])
+            ej = _relay_cost(dpj, self.r2, self.r2)  # (|P|, |C|)
+            gj, newd = _through(node.dist, gj_direct=cgj, ej=ej, epp=self.pp_cost(node.P))
+            need = np.maximum(gj, newd.max(axis=0))
+        else:
+            gj = need = cgj
+            newd = np.zeros((0, len(C)))
+            dpj = np.zeros((0, len(C)))
+        ok = np.flatnonzero(need <= r - 1)
+        if len(ok) == 0:
+            return None
+        return Children(C, ok, gj, newd, dpj)
+
+    def linkable_weight(self, kids: Children, w_th: int) -> int:
+        """Item 6: the first completion site on a path from a GBS links to a GBS or to a
+        reached P site, so its relay lower bound gj is 0: one slot holds at most the
+        heaviest candidate with gj = 0 (or a site cut by item 4, of weight <= ``w_th``)."""
+        Cok = kids.C[kids.ok]
+        g0 = kids.gj[kids.ok] <= 0
+        return max(int(self.w[Cok[g0][0]]) if g0.any() else 0, w_th)
+
+    def unreached_bounds(
+        self, node: Node, kids: Children, tops: list[int], w_th: int, wg: int, b: float
+    ) -> tuple[float, float]:
+        """Items 5, 8 and 12 at a node whose P has unreached sites (and r >= 2 free
+        slots): returns (b lowered by items 5 and 8, item 12's bound or inf)."""
+        val, r = node.val, self.m - node.depth
+        Cok = kids.C[kids.ok]
+        # item 5: the P sites without a link path to a GBS need a chosen site of the
+        # completion within r2 + TOL of one of them (the first site off that group on a
+        # path to a GBS); that slot holds at most the heaviest such site
+        near = np.any(kids.dpj[:, kids.ok][~node.reach] <= self.r2t, axis=0)
+        wb = max(int(self.w[Cok[near][0]]) if near.any() else 0, w_th)
+        b = min(b, val + wb + sum(tops[: r - 1]))
+        if float(node.dist[~node.reach].max()) >= 2:  # item 8
+            b = min(b, val + wb + wg + sum(tops[: r - 2]))
+        sep = self.separated_bound(node, r, tops)  # item 12
+        if val + sep < b:
+            self.separated += 1
+            return b, val + sep
+        return b, math.inf
+
+    def separated_bound(self, node: Node, r: int, tops: list[int]) -> float:
+        """Item 12 (``_separated_groups``) at the node: a bound on the completion's weight."""
+        return _separated_groups(
+            self.pts,
+            self.w,
+            self.dg,
+            node.P,
+            node.dpp,
+            node.reach,
+            node.cmask,
+            r,
+            tops,
+            self.r1t,
+            self.r2t,
+            self.link_rows(),
+        )
+
+    def node_bound(self, node: Node, nb: float) -> Children | None:
+        """Every rule at a node with r >= 2 free slots: None when no completion can beat the
+        incumbent, else its children with the node bound (``Children.bound``); ``nb``: the
+        parent's bound."""
+        z, val, r = self.best_val, node.val, self.m - node.depth
+        C = np.flatnonzero(node.cmask)
+        cover_bound = math.inf
+        if r >= 3:  # item 7 over every candidate that fits the relay bound
+            cover_bound = self.greedy_dual(node.P, C, node.dist, node.reach, r)
+            if val + cover_bound <= z:
+                return None
+        C = C[val + r * self.w[C] > z]  # item 4
+        if len(C) == 0:
+            return None
+        kids = self.relay_filter(node, C)
+        if kids is None:
+            return None
+        # node bound: items 1-2 over the sites that can still join (need <= r - 1). Sites
+        # cut by item 4 weigh at most w_th; they may still be the lighter members of a
+        # completion, so missing clique values are padded with w_th.
+        w_th = max((z - val) // r, 0)
+        tops = self.clique_values(kids.C[kids.ok], r, w_th)
+        b: float = val + sum(tops)
+        wg = self.linkable_weight(kids, w_th)
+        b = min(b, val + wg + sum(tops[: r - 1]))
+        b_sep = math.inf
+        if not node.reach.all():
+            b, b_sep = self.unreached_bounds(node, kids, tops, w_th, wg, b)
+        if node.cmask_must is not None:  # item 11: one slot holds a site of ``must``
+            w_must = int(self.w[np.flatnonzero(node.cmask_must)[0]])
+            b = min(b, val + w_must + sum(tops[: r - 1]))
+        bf = min(float(b), val + cover_bound, nb, b_sep)
+        if r < len(self.conf_bound):  # item 9
+            bf = min(bf, val + self.conf_bound[r])
+        if bf <= z:
+            return None
+        kids.bound = bf
+        return kids
+
+    def replaced_by_sibling(
+        self, P: list[int], ubits: int, b: int, cm: np.ndarray, explored: list[int]
+    ) -> bool | np.ndarray | None:
+        """Item 11 for the child P + b, given siblings ``explored`` before it: True when a
+        sibling can replace b in every completion (skip b), a bool mask E over the sites
+        when it can in every completion avoiding E (search only completions meeting E),
+        None when no sibling qualifies."""
+        new_b = self.bits[b] & ~ubits
+        best: np.ndarray | None = None
+        best_count = 0
+        linked = self.link_matrix()
+        for a in reversed(explored[-_SIBLINGS:]):
+            if not self._may_replace(P, ubits, a, b, new_b, cm):
+                continue
+            e = cm & (self.conflict[a] | (linked[b] & ~linked[a]))
+            count = int(np.count_nonzero(e))
+            if count == 0:
+                return True
+            if best is None or count < best_count:
+                best, best_count = e, count
+        return best
+
+    def _may_replace(self, P: list[int], ubits: int, a: int, b: int, new_b: int, cm: np.ndarray) -> bool:
+        """Item 11's tests of sibling a against b: close, direct when b is, linked to every
+        P site b links to, and covering b's new users or keeping at least as many."""
+        if math.dist(self.pts[a], self.pts[b]) > _SIBLING_RADIUS or self.dg[b] <= self.r1t < self.dg[a]:
+            return False
+        linked = self.link_matrix()
+        if P and np.any(linked[b, P] & ~linked[a, P]):
+            return False
+        if not new_b & ~self.bits[a]:
+            return True
+        # not a cover of b's new users: compare counts instead. A completion site that does
+        # not overlap a covers users of a only in a lens at the edge of a's disc (sites
+        # within 2 R_d of a); a keeps every other user of its own
+        lens = 0
+        for s in self.lens_sites(a).tolist():
+            if cm[s]:
+                lens |= self.bits[s]
+        return (self.bits[a] & ~ubits & ~lens).bit_count() >= new_b.bit_count()
+
+    def site_can_improve(self, c: int, alive: np.ndarray) -> bool:
+        """Item 10: False when no placement holding site c and otherwise sites of ``alive``
+        can beat the incumbent (the bound of the node {c}, items 1-9)."""
+        cm = alive & ~self.conflict[c]
+        cm[c] = False
+        return self.dfs([c], self.bits[c], cm, self.cg[[c]], math.inf, probe=True) is not None
+
+    # ------------------------------------------------------------------ the search
+    def dfs(
+        self,
+        P: list[int],
+        ubits: int,
+        cmask: np.ndarray,
+        dist: np.ndarray,
+        nb: float,
+        probe: bool = False,
+        must: np.ndarray | None = None,
+    ) -> float | None:
+        """Search below the node P (``cmask``: the sites that may complete it; ``dist``:
+        relay lower bounds from a GBS to P's sites, item 3; ``nb``: the parent's bound).
+        With ``probe``, only bound it: the node bound, or None when no placement P + Q with
+        Q from ``cmask`` covers more than the incumbent (item 10); nothing is searched.
+        ``must`` (bool over the sites): only completions holding one of them (item 11)."""
+        self._tick()
+        node = self._node(P, ubits, cmask, dist, must)
+        if node.val > self.best_val and node.reach.all():
+            self.offer(P)
+        r = self.m - len(P)
+        if probe and r <= 1:
+            return math.inf  # probes are only made with >= 2 free slots; never prune here
+        if r == 0 or (node.cmask_must is not None and not node.cmask_must.any()):
+            return None
+        if r == 1:
+            last = cmask if node.cmask_must is None else node.cmask_must
+            self.last_site(P, ubits, np.flatnonzero(last), node.reach, node.val)
+            return None
+        kids = self.node_bound(node, nb)
+        if kids is None:
+            return None
+        if probe:
+            return kids.bound
+        self.stack_bounds.append(kids.bound)
+        try:
+            if node.cmask_must is not None and r >= 3 and int(node.cmask_must.sum()) <= _MUST_BRANCH:
+                # item 11 by branching: every completion holds a site e of ``must``; search
+                # P + e for each e in turn, its completions holding no earlier one
+                self.must_branch(node, node.cmask_must, kids.bound)
+            else:
+                self.branch(node, kids)
+        finally:
+            self.stack_bounds.pop()
+        return None
+
+    def branch(self, node: Node, kids: Children) -> None:
+        """Search the children of the node in order, heaviest first, while item 4 lets them
+        beat the incumbent; the node's level bound is the last entry of ``stack_bounds``."""
+        r, val = self.m - node.depth, node.val
+        last_two = None
+        if r == 2:  # the last two slots without a search node per first site (same test)
+            full = np.flatnonzero(node.cmask)
+            last_two = (full, -self.w[full])  # the second is non-decreasing
+        explored: list[int] = []
+        dealt = self.split[1] > 1 and node.depth == self.split[2]
+        for pos, k in enumerate(kids.ok.tolist()):
+            j = int(kids.C[k])
+            if val + r * int(self.w[j]) <= self.best_val:
+                break
+            # the level bound: this child and the later ones add r sites of weight <= w[j]
+            self.stack_bounds[-1] = min(kids.bound, val + r * int(self.w[j]))
+            # the split: at depth split[2], worker i searches the children at positions
+            # i, i + workers, ... (the same in every worker: see _split_root)
+            mine = not dealt or pos % self.split[1] == self.split[0]
+            if last_two is not None:
+                if mine:
+                    self.last_pair(node, j, last_two, explored)
+            else:
+                self.child(node, kids, k, mine, explored)
+            explored.append(j)
+
+    def last_pair(
+        self, node: Node, j: int, last_two: tuple[np.ndarray, np.ndarray], explored: list[int]
+    ) -> None:
+        """The child P + j of a node with two free slots, and its last sites (the tests of
+        a search node, vectorised over the candidates)."""
+        self._tick()
+        full, neg_w = last_two
+        z, must = self.best_val, node.must
+        ubj = node.ubits | self.bits[j]
+        valj = ubj.bit_count()
+        lo = int(np.searchsorted(full, j, side="right"))
+        hi = int(np.searchsorted(neg_w, valj - z, side="left"))  # w > z - valj
+        pj = [*node.P, j]
+        if valj > z and self.reach_of(pj).all():  # P + j alone
+            self.offer(pj)
+        if hi <= lo:
+            return
+        cq = full[lo:hi]
+        cq = cq[~self.conflict[j, cq]]
+        # item 11 (the lighter last sites are bounded); under ``must`` only for j outside
+        # it, whose last site is then in ``must`` in any case
+        if must is None or not must[j]:
+            if must is not None:
+                cq = cq[must[cq]]
+            if len(cq):
+                cq = self._siblings_cut(node, j, cq, explored)
+        self.last_site(pj, ubj, cq, self.reach_of(pj), valj)
+
+    def _siblings_cut(self, node: Node, j: int, cq: np.ndarray, explored: list[int]) -> np.ndarray:
+        """Item 11 on the last sites ``cq`` of P + j: the ones a sibling cannot stand in for."""
+        in_cq = np.zeros(self.n, dtype=bool)
+        in_cq[cq] = True
+        replace = self.replaced_by_sibling(node.P, node.ubits, j, in_cq, explored)
+        if replace is True:
+            return cq[:0]
+        if isinstance(replace, np.ndarray):
+            return cq[replace[cq]]
+        return cq
+
+    def child(self, node: Node, kids: Children, k: int, mine: bool, explored: list[int]) -> None:
+        """The child P + j (j = ``kids.C[k]``) of a node with three or more free slots:
+        item 11 against its siblings, then the search below it when this worker owns it."""
+        j = int(kids.C[k])
+        cm = node.cmask & ~self.conflict[j]
+        cm[: j + 1] = False
+        must = node.must
+        child_must = None if must is None or must[j] else must
+        if must is None or child_must is not None:  # item 11
+            # under ``must`` only for j outside it: the child keeps the smaller of the two
+            # sets (each drops only completions held by an earlier child)
+            replace = self.replaced_by_sibling(node.P, node.ubits, j, cm, explored)
+            if replace is True:
+                return
+            if isinstance(replace, np.ndarray) and (
+                child_must is None or np.count_nonzero(replace & cm) < np.count_nonzero(child_must & cm)
+            ):
+                child_must = replace
+        if not mine:
+            return
+        P = node.P
+        nd = np.append(kids.newd[:, k], kids.gj[k]) if P else np.array([kids.gj[k]])
+        # shortest paths can only shorten further inside P + j: recompute exactly
+        pj = [*P, j]
+        self.dfs(
+            pj, node.ubits | self.bits[j], cm, _close(self.pts[pj], nd, self.r2), kids.bound, must=child_must
+        )
+
+    def must_branch(self, node: Node, cmask_must: np.ndarray, nb: float) -> None:
+        """Item 11 by branching: search the nodes P + e for the sites e of ``cmask_must``
+        (the sites of ``must`` left), each completed from ``cmask`` without the earlier
+        ones, so every completion holding a site of ``must`` is searched once. At the split
+        depth the e are dealt out like children (``_split_root``)."""
+        P, r = node.P, self.m - node.depth
+        rest = node.cmask.copy()
+        epp = self.pp_cost(P) if P else np.zeros((0, 0))
+        dealt = self.split[1] > 1 and len(P) == self.split[2]
+        for pos, e in enumerate(np.flatnonzero(cmask_must).tolist()):
+            rest[e] = False
+            if dealt and pos % self.split[1] != self.split[0]:
+                continue
+            nd = self._relays_with(P, node.dist, e, epp)
+            if float(nd.max()) > r - 1:  # item 3: P + e needs too many relays
+                continue
+            pe = [*P, e]
+            self.dfs(
+                pe, node.ubits | self.bits[e], rest & ~self.conflict[e], _close(self.pts[pe], nd, self.r2), nb
+            )
+
+    def _relays_with(self, P: list[int], dist: np.ndarray, e: int, epp: np.ndarray) -> np.ndarray:
+        """Item 3 for P + e: the relay lower bounds to P's sites and (last) to e."""
+        if not P:
+            return np.array([self.cg[e]])
+        ee = _relay_cost(np.hypot(*(self.pts[P] - self.pts[e]).T)[:, None], self.r2, self.r2)
+        ge, nde = _through(dist, gj_direct=self.cg[[e]], ej=ee, epp=epp)
+        return np.append(nde[:, 0], ge[0])
+
+    def last_site(self, P: list[int], ubits: int, C: np.ndarray, reach: np.ndarray, val: int) -> None:
+        """The last free slot: every candidate q of C (sorted heaviest first, each keeping
+        P + q non-overlapping) that makes P + q connected (the exact link test of
+        ``evaluate``), while |S(P)| + |S(q)| can beat the incumbent."""
+        C = C[val + self.w[C] > self.best_val]
+        if len(C) == 0:
+            return
+        ok = self.connecting(P, C, reach)
+        for q in C[ok].tolist():
+            if val + int(self.w[q]) <= self.best_val:
+                break
+            if (ubits | self.bits[q]).bit_count() > self.best_val:
+                self.offer([*P, q])
+
+    # ------------------------------------------------------------------ heuristics, elimination
+    def local_search(self, X: list[int]) -> None:
+        """Primal heuristic (no effect on exactness): replace one site of X by the candidate
+        that covers most, keeping X feasible, while that improves; the result becomes the
+        incumbent only after ``evaluate`` confirms it."""
+        cur = int(_popcount_rows(np.bitwise_or.reduce(self.packed[X], axis=0)[None, :])[0]) if X else 0
+        for _ in range(50):
+            if self.expired():
+                break
+            moved = self._swap(X, cur)
+            if moved is None:
+                break
+            X, cur = moved
+        self.offer(X)
+
+    def _swap(self, X: list[int], cur: int) -> tuple[list[int], int] | None:
+        """One improving move of :meth:`local_search` (None when there is none)."""
+        for i in range(len(X) + (len(X) < self.m)):
+            R = X[:i] + X[i + 1 :]
+            C = np.flatnonzero(self.compatible(R))
+            if len(C) == 0:
+                continue
+            covR = (
+                np.bitwise_or.reduce(self.packed[R], axis=0)
+                if R
+                else np.zeros(self.packed.shape[1], self.packed.dtype)
+            )
+            valR = int(_popcount_rows(covR[None, :])[0])
+            gain = _popcount_rows(self.packed[C] & ~covR)
+            good = np.flatnonzero(valR + gain > cur)
+            if len(good):
+                good = good[self.connecting(R, C[good])]
+            if len(good):
+                q = int(C[good[np.argmax(gain[good])]])
+                return [*R, q], valR + int(gain[good].max())
+        return None
+
+    def exchange(self, X: list[int]) -> None:
+        """Primal heuristic (no effect on exactness): for every set D of 1 or 2 sites of
+        the incumbent X, search all completions of X - D exactly (the search below, rooted
+        at X - D) for one better than the incumbent; repeat from each improvement."""
+        better: list[int] | None = X
+        while better is not None and not self.expired():
+            better = self._exchange_pass(better)
+
+    def _exchange_pass(self, X: list[int]) -> list[int] | None:
+        """One pass of :meth:`exchange`: the improved incumbent's sites, or None."""
+        for k in (1, 2):
+            for D in itertools.combinations(range(len(X)), k):
+                R = sorted(X[i] for i in range(len(X)) if i not in D)
+                mask = self.compatible(R)
+                before = self.best_val
+                self.dfs(R, self._bits_of(R), mask, _close(self.pts[R], self.cg[R], self.r2), math.inf)
+                if self.best_val > before and self.best is not None:
+                    return sorted(self.best)
+        return None
+
+    def backhaul_free_bounds(self) -> None:
+        """Item 9: fill ``conf_bound`` (B_0, ..., B_{m-1}) from exact backhaul-free searches.
+        They get at most a quarter of the time left (a search cut short still returns a
+        valid bound); each one eliminates sites with the bounds of the smaller ones."""
+        unlinked = _without_backhaul(self.problem, self.pts)
+        self.conf_bound[:] = [0.0]
+        t_b = time.perf_counter()
+        budget = None if self.time_limit is None else 0.25 * (self.time_limit - (t_b - self.t0))
+        for k in range(1, self.m):
+            if self.expired():
+                raise _Timeout
+            left = None if budget is None else max(budget - (time.perf_counter() - t_b), 0.01)
+            sub = search(
+                unlinked(k), self.cand, np.zeros((0, 2)), 0, time_limit=left, free_bounds=self.conf_bound
+            )
+            self.conf_bound.append(sub.bound)
+
+    def eliminate_sites(self, alive: np.ndarray) -> None:
+        """Items 9-10: fill ``conf_bound`` when not given, then clear in ``alive`` every site
+        that no placement better than the incumbent can contain."""
+        if len(self.conf_bound) < self.m:
+            self.backhaul_free_bounds()
+        alive &= self.w + self.conf_bound[self.m - 1] > self.best_val  # item 10, first test
+        for _ in range(4):  # item 10, probes, until no site is cleared
+            cleared = 0
+            for c in np.flatnonzero(alive).tolist():
+                if not self.site_can_improve(c, alive):
+                    alive[c] = False
+                    cleared += 1
+            if cleared == 0:
+                break
+
+    def improve_start(self, incumbent: np.ndarray) -> None:
+        """The primal heuristics from the incumbent's sites (when all are candidates)."""
+        start = []
+        for p0 in incumbent:
+            hit = np.flatnonzero(np.hypot(*(self.pts - p0).T) <= 1e-3)
+            if len(hit):
+                start.append(int(hit[0]))
+        if len(start) != len(incumbent):
+            return
+        self.local_search(sorted(set(start)))
+        if self.best is None:
+            self.best = sorted(set(start))
+        with contextlib.suppress(_Timeout):
+            self.exchange(self.best)
+
+    def _search_share(self, index: int, *, workers: int, root: np.ndarray) -> _Share:
+        """One worker's share of the split search (``_split_root``)."""
+        self.split = (index, workers, 1 if self.m >= 4 else 0)
+        done = True
+        self.in_main = True
+        try:
+            self.dfs([], 0, root, np.zeros(0), float(self.upper))
+        except _Timeout:
+            done = False
+        bound = float(self.best_val) if done else max(self.best_val, self.open_bound())
+        own = None if self.best is None else int(evaluate(self.problem, self.pts[self.best]).covered)
+        return _Share(done, bound, self.best, -1 if own is None else own, self.nodes, self.separated)
+
+    def split_search(self, root: np.ndarray, workers: int) -> None:
+        """The main search over ``workers`` forked processes; raises ``_Timeout`` (with
+        ``frontier`` set) when one of them stopped at the limit."""
+        nodes_before, separated_before = self.nodes, self.separated
+        share = functools.partial(self._search_share, workers=workers, root=root)
+        shares: list[_Share] = _split_root(share, workers, self.best_val, self.shared)
+        for sh in shares:
+            if sh.placement is not None and sh.value > self.best_val:
+                self.best_val, self.best = sh.value, sh.placement
+        self.nodes = nodes_before + sum(sh.nodes - nodes_before for sh in shares)
+        self.separated = separated_before + sum(sh.separated - separated_before for sh in shares)
+        if not all(sh.done for sh in shares):
+            self.frontier = max(sh.bound for sh in shares)
+            raise _Timeout
+
+    def run(
+        self, incumbent: np.ndarray, *, eliminate: bool, heuristics: bool, workers: int, main: bool
+    ) -> BnbResult:
+        """The whole search (:func:`search`'s parameters) from the placement ``incumbent``."""
+        if heuristics:
+            self.improve_start(incumbent)
+        if not main:
+            found = self.pts[self.best] if self.best is not None else incumbent
+            return BnbResult(found, int(self.best_val), float(self.upper), False, int(self.nodes))
+        root = np.ones(self.n, dtype=bool)
+        proven = True
+        elimination_time = 0.0
+        try:
+            if eliminate and self.m >= 3:
+                t_el = time.perf_counter()
+                try:
+                    self.eliminate_sites(root)
+                finally:
+                    elimination_time = time.perf_counter() - t_el
+            if workers > 1 and self.m >= 3 and self.n >= _SPLIT_MIN_SITES and _can_fork():
+                self.split_search(root, workers)
+            else:
+                self.in_main = True
+                self.dfs([], 0, root, np.zeros(0), float(self.upper))
+        except _Timeout:
+            proven = False
+        bound = float(self.best_val) if proven else max(float(self.best_val), self.open_bound())
+        bound = min(bound, float(self.upper)) if self.upper < math.inf else bound
+        return BnbResult(
+            self.pts[self.best] if self.best is not None else incumbent,
+            int(self.best_val),
+            bound,
+            proven,
+            int(self.nodes),
+            eliminated=int(self.n - root.sum()),
+            elimination_time=elimination_time,
+            separated=int(self.separated),
+        )
+
+
+def search(
     problem: CellProblem,
     cand: Candidates,
     incumbent: np.ndarray,
@@ -234,7 +1155,8 @@ def search(  # noqa: C901, PLR0915
     node_limit: int | None = None,
     main: bool = True,
 ) -> BnbResult:
-    """Exact search of the candidate problem (module docstring).
+    """Exact search of the candidate problem (module docstring; the state lives on a
+    :class:`BranchAndBoundSearch`).
 
     problem: the CellProblem; cand: its candidate sites (``candidate_sites``);
     incumbent: a feasible placement ((k, 2) m) worth ``incumbent_value`` users;
@@ -253,669 +1175,23 @@ def search(  # noqa: C901, PLR0915
     engine a start.
     """
     t0 = time.perf_counter()
-    m = problem.n_cells
     n = len(cand.points)
     best_pos = np.asarray(incumbent, dtype=float).reshape(-1, 2)
     best_val = int(incumbent_value)
-    if n == 0 or m == 0 or best_val >= upper:
+    if n == 0 or problem.n_cells == 0 or best_val >= upper:
         return BnbResult(best_pos, best_val, float(min(upper, best_val) if n == 0 else upper), True, 0)
     _check_memory(n)
-    w_all = np.array([len(c) for c in cand.cover], dtype=np.int64)
-    order = np.lexsort((np.arange(n), -w_all))
-    pts = cand.points[order]
-    w = w_all[order]
-    bits = [0] * n
-    for k, i in enumerate(order.tolist()):
-        b = 0
-        for u in cand.cover[i].tolist():
-            b |= 1 << int(u)
-        bits[k] = b
-    # item 7: coverage sets as packed bit rows (users of cover, in the sorted order)
-    n_words = max((len(problem.targets) + 63) // 64, 1)
-    member = np.zeros((n, n_words * 64), dtype=bool)
-    for k, i in enumerate(order.tolist()):
-        member[k, cand.cover[i]] = True
-    packed = np.packbits(member, axis=1, bitorder="little").view(np.uint64)
-    del member
-    # item 2: clique partition, heaviest unassigned site first
-    tree = cKDTree(pts)
-    clique = np.full(n, -1, dtype=np.int64)
-    n_cl = 0
-    for i in range(n):
-        if clique[i] >= 0:
-            continue
-        # centred on the centroid of the users the site covers (a cluster's heaviest sites
-        # ring its centre, so one disc there holds all of them), else on the site itself
-        ctr = problem.targets[cand.cover[order[i]]].mean(axis=0) if w[i] else pts[i]
-        if math.dist(ctr, pts[i]) >= problem.R_d - 2 * TOL:
-            ctr = pts[i]
-        nb = np.asarray(tree.query_ball_point(ctr, problem.R_d - 2 * TOL), dtype=np.int64)
-        nb = nb[clique[nb] < 0]
-        clique[nb] = n_cl
-        clique[i] = n_cl
-        n_cl += 1
-    # conflicts (4.8): distance < 2 R_d - TOL, as rows of a dense boolean matrix
-    conflict = np.zeros((n, n), dtype=bool)
-    pairs = tree.query_pairs(2 * problem.R_d, output_type="ndarray")
-    if len(pairs):
-        d = np.hypot(*(pts[pairs[:, 0]] - pts[pairs[:, 1]]).T)
-        pairs = pairs[d < 2 * problem.R_d - TOL]
-        conflict[pairs[:, 0], pairs[:, 1]] = True
-        conflict[pairs[:, 1], pairs[:, 0]] = True
-    dg = np.min(pairwise_distances(pts, problem.gbs), axis=1)
-    cg = _relay_cost(dg, problem.r1, problem.r2)  # item 3, GBS -> site
-    r2 = problem.r2
-
-    def top_cliques(idx: np.ndarray, k: int) -> list[int]:
-        """The k largest per-clique maxima over the sites ``idx`` (sorted heaviest first)."""
-        out: list[int] = []
-        if k <= 0:
-            return out
-        seen: set[int] = set()
-        lo = 0
-        while lo < len(idx):
-            hi = min(len(idx), lo + 64)
-            for t, c in zip(idx[lo:hi].tolist(), clique[idx[lo:hi]].tolist(), strict=True):
-                if c not in seen:
-                    seen.add(c)
-                    out.append(int(w[t]))
-                    if len(out) == k:
-                        return out
-            lo = hi
-        return out
-
-    state = _State(best_val)
-    stack_bounds: list[float] = []
-    # item 9: conf_bound[k] bounds the users any k pairwise non-overlapping candidates cover
-    conf_bound: list[float] = list(free_bounds or [])
-    r1t, r2t = problem.r1 + TOL, problem.r2 + TOL
-
-    link_cache: dict[str, np.ndarray] = {}
-
-    def link_rows() -> np.ndarray:
-        """``_link_rows(pts, r2t)``, built on first use (item 12's exact link test)."""
-        if "rows" not in link_cache:
-            link_cache["rows"] = _link_rows(pts, r2t)
-        return link_cache["rows"]
-
-    def link_matrix() -> np.ndarray:
-        """(n, n) bool: sites within r2 + TOL of each other (``link_rows`` unpacked, for
-        item 11), built on first use."""
-        if "matrix" not in link_cache:
-            link_cache["matrix"] = np.unpackbits(link_rows(), axis=1, count=n, bitorder="little").view(bool)
-        return link_cache["matrix"]
-
-    lens_of: dict[int, np.ndarray] = {}
-
-    def lens_sites(a: int) -> np.ndarray:
-        """Item 11: the sites within 2 R_d (+ 2 m) of site a that do not overlap it, the
-        only ones that can cover users of a when a is placed."""
-        if a not in lens_of:
-            near = np.asarray(tree.query_ball_point(pts[a], 2 * problem.R_d + 2.0), dtype=np.int64)
-            lens_of[a] = np.sort(near[~conflict[a, near]])
-        return lens_of[a]
-
-    def expired() -> bool:
-        if node_limit is not None and state.nodes >= node_limit:
-            return True
-        return time_limit is not None and time.perf_counter() - t0 >= time_limit
-
-    in_main = [False]
-
-    def timed_out() -> _Timeout:
-        """The time-out, raised from the main search after recording the bound of what it
-        has not searched (``state.frontier``): every such placement lies below the current
-        or a later child of a node on the path, whose level bound ``stack_bounds`` holds."""
-        if in_main[0]:
-            state.frontier = max(stack_bounds, default=float(upper))  # empty: at the root
-        return _Timeout()
-
-    # the split: (this worker's index, workers, depth whose children are dealt out) and the
-    # incumbent value the workers share
-    split = [0, 1, 0]
-    shared: list = []
-
-    def checkpoint() -> bool:
-        """Every ``_CHECK_EVERY`` nodes: share the incumbent value with the other workers (a value only:
-        each worker keeps the placements it found), then test the time limit."""
-        if shared:
-            with shared[0].get_lock():
-                if state.best_val > shared[0].value:
-                    shared[0].value = state.best_val
-                elif shared[0].value > state.best_val:
-                    state.best_val = int(shared[0].value)
-        return expired()
-
-    def greedy_dual(P: list[int], C: np.ndarray, dist: np.ndarray, reach: np.ndarray, r: int) -> float:
-        """Item 7: an upper bound on |S(Q) - S(P)| over completions Q of at most r sites of
-        C that fit the relay bound of P + q, by submodularity of coverage."""
-        if P:
-            pp = pts[P]
-            ej = _relay_cost(pairwise_distances(pp, pts[C]), r2, r2)
-            gj, newd = _through(dist, gj_direct=cg[C], ej=ej, epp=pp_cost(P))
-            need = np.maximum(gj, newd.max(axis=0))
-            keep = need <= r - 1
-            C, g0 = C[keep], gj[keep] <= 0
-            covered = np.bitwise_or.reduce(packed[P], axis=0)
-            if reach.all():
-                near = None
-            else:  # item 5: bridge candidates, within r2 + TOL of an unreached P site
-                pu = pp[~reach]
-                near = np.any(
-                    pairwise_distances(pu, pts[C]) <= r2t,
-                    axis=0,
-                )
-                if not near.any():
-                    return -math.inf  # P cannot be completed: no feasible placement below
-        else:
-            C = C[cg[C] <= r - 1]
-            g0 = cg[C] <= 0
-            covered = np.zeros(packed.shape[1], dtype=packed.dtype)
-            near = None
-        if len(C) == 0 or not g0.any():
-            return 0.0  # item 6: a non-empty completion holds a site with gj = 0
-        two = near is not None and r >= 2 and float(dist[~reach].max()) >= 2
-        rows = packed[C]
-        f_g = 0
-        best = math.inf
-        for k in range(r + 1):
-            gain = _popcount_rows(rows & ~covered)
-            top = np.sort(gain if len(gain) <= r else np.partition(gain, len(gain) - r)[-r:])
-            # item 6 again: one of the r gains is that of a site with gj = 0
-            best = min(best, f_g + int(top.sum()), f_g + int(gain[g0].max()) + int(top[1:].sum()))
-            if near is not None:  # item 5: one gain from a bridge, two distinct ones (item 8)
-                best = min(best, f_g + int(gain[near].max()) + int(top[1:].sum()))
-                if two:
-                    best = min(best, f_g + int(gain[near].max()) + int(gain[g0].max()) + int(top[2:].sum()))
-            if k == r:
-                break
-            g = int(np.argmax(gain))
-            if gain[g] == 0:
-                break
-            f_g += int(gain[g])
-            covered = covered | rows[g]
-        return float(best)
-
-    def pp_cost(P: list[int]) -> np.ndarray:
-        """(|P|, |P|) relay lower bounds between the sites of P (item 3)."""
-        pp = pts[P]
-        return _relay_cost(pairwise_distances(pp, pp), r2, r2)
-
-    def reach_of(P: list[int]) -> np.ndarray:
-        """(|P|,) bool: sites of P with a link path (<= r1 + TOL to a GBS, <= r2 + TOL
-        between sites, the tests of ``evaluate``) to a GBS through P."""
-        pp = pts[P]
-        link = pairwise_distances(pp, pp) <= r2t
-        reach = dg[P] <= r1t
-        for _ in range(len(P)):
-            nr = reach | np.any(link & reach[None, :], axis=1)
-            if np.array_equal(nr, reach):
-                break
-            reach = nr
-        return reach
-
-    def last_site(P: list[int], ubits: int, C: np.ndarray, reach: np.ndarray, val: int) -> None:
-        """The last free slot: every candidate q of C (sorted heaviest first, each keeping
-        P + q non-overlapping) that makes P + q connected (the exact link test of
-        ``evaluate``), while |S(P)| + |S(q)| can beat the incumbent."""
-        C = C[val + w[C] > state.best_val]
-        if len(C) == 0:
-            return
-        ok = connecting(P, C, reach)
-        for q in C[ok].tolist():
-            if val + int(w[q]) <= state.best_val:
-                break
-            if (ubits | bits[q]).bit_count() > state.best_val:
-                ev = evaluate(problem, pts[[*P, q]])
-                if ev.feasible and ev.covered > state.best_val:
-                    state.best_val, state.best = int(ev.covered), [*P, q]
-
-    def dfs(  # noqa: C901, PLR0915
-        P: list[int],
-        ubits: int,
-        cmask: np.ndarray,
-        dist: np.ndarray,
-        nb: float,
-        probe: bool = False,
-        must: np.ndarray | None = None,
-    ) -> float | None:
-        """Search below the node P (``cmask``: the sites that may complete it). With
-        ``probe``, only bound it: the node bound, or None when no placement P + Q with Q
-        from ``cmask`` covers more than the incumbent (item 10); nothing is searched.
-        ``must`` (bool over the sites): only completions holding one of them (item 11)."""
-        # dist[k]: relay lower bound from a GBS to P[k] (item 3)
-        state.nodes += 1
-        if state.nodes % _CHECK_EVERY == 0 and checkpoint():
-            raise timed_out()
-        val = ubits.bit_count()
-        pp = pts[P]
-        if P:
-            dpp = pairwise_distances(pp, pp)
-            link = dpp <= r2t
-            reach = dg[P] <= r1t
-            for _ in range(len(P)):
-                nr = reach | np.any(link & reach[None, :], axis=1)
-                if np.array_equal(nr, reach):
-                    break
-                reach = nr
-        else:
-            reach = np.zeros(0, dtype=bool)
-        if val > state.best_val and reach.all():
-            ev = evaluate(problem, pp)
-            if ev.feasible and ev.covered > state.best_val:
-                state.best_val, state.best = int(ev.covered), list(P)
-        r = m - len(P)
-        if probe and r <= 1:
-            return math.inf  # probes are only made with >= 2 free slots; never prune here
-        if r == 0:
-            return None
-        if must is not None:  # item 11: completions must hold a site of ``must``
-            cmask_must = cmask & must
-            if not cmask_must.any():
-                return None
-            w_must = int(w[np.flatnonzero(cmask_must)[0]])
-        z = state.best_val
-        if r == 1:
-            last_site(P, ubits, np.flatnonzero(cmask if must is None else cmask_must), reach, val)
-            return None
-        # item 4: candidates heavy enough, then the relay lower bound of P + j (item 3)
-        C = np.flatnonzero(cmask)
-        if r >= 3:  # item 7 over every candidate that fits the relay bound
-            cover_bound = greedy_dual(P, C, dist, reach, r)
-            if val + cover_bound <= z:
-                return None
-        else:
-            cover_bound = math.inf
-        C = C[val + r * w[C] > z]
-        if len(C) == 0:
-            return None
-        cgj = cg[C]
-        if P:
-            dpj = pairwise_distances(pp, pts[C])
-            ej = _relay_cost(dpj, r2, r2)  # (|P|, |C|)
-            gj, newd = _through(dist, gj_direct=cgj, ej=ej, epp=pp_cost(P))
-            need = np.maximum(gj, newd.max(axis=0))
-        else:
-            gj = cgj
-            need = cgj
-            newd = np.zeros((0, len(C)))
-            dpj = np.zeros((0, len(C)))
-        ok = np.flatnonzero(need <= r - 1)
-        if len(ok) == 0:
-            return None
-        Cok = C[ok]
-        # node bound: items 1-2 over the sites that can still join (need <= r - 1). Sites
-        # cut by item 4 weigh at most w_th; they may still be the lighter members of a
-        # completion, so missing clique values are padded with w_th.
-        w_th = max((z - val) // r, 0)
-        tops = top_cliques(Cok, r)
-        tops += [w_th] * (r - len(tops))
-        b = val + sum(tops)
-        # item 6: the first completion site on a path from a GBS links to a GBS or to a
-        # reached P site, so its relay lower bound gj is 0: one slot holds at most the
-        # heaviest candidate with gj = 0
-        g0 = gj[ok] <= 0
-        wg = max(int(w[Cok[g0][0]]) if g0.any() else 0, w_th)
-        b = min(b, val + wg + sum(tops[: r - 1]))
-        b_sep = math.inf  # item 12
-        if not reach.all():
-            # item 5: the P sites without a link path to a GBS need a chosen site of the
-            # completion within r2 + TOL of one of them (the first site off that group on
-            # a path to a GBS); that slot holds at most the heaviest such site
-            near = np.any(dpj[:, ok][~reach] <= r2t, axis=0)
-            wb = max(int(w[Cok[near][0]]) if near.any() else 0, w_th)
-            b = min(b, val + wb + sum(tops[: r - 1]))
-            if r >= 2 and float(dist[~reach].max()) >= 2:  # item 8
-                b = min(b, val + wb + wg + sum(tops[: r - 2]))
-            if r >= 2:  # item 12: far-apart unreached groups need their own bridges
-                sep = _separated_groups(pts, w, dg, P, dpp, reach, cmask, r, tops, r1t, r2t, link_rows())
-                if val + sep < b:
-                    b_sep = val + sep
-                    state.separated += 1
-        if must is not None:  # item 11: one slot holds a site of ``must``
-            b = min(b, val + w_must + sum(tops[: r - 1]))
-        bf = min(float(b), val + cover_bound, nb, b_sep)
-        if r < len(conf_bound):  # item 9
-            bf = min(bf, val + conf_bound[r])
-        if bf <= z:
-            return None
-        if probe:
-            return bf
-        if must is not None and r >= 3 and int(cmask_must.sum()) <= _MUST_BRANCH:
-            # item 11 by branching: every completion holds a site e of ``must``; search
-            # P + e for each e in turn, its completions holding no earlier one
-            stack_bounds.append(bf)
-            try:
-                must_branch(P, ubits, cmask, cmask_must, dist, r, bf)
-            finally:
-                stack_bounds.pop()
-            return None
-        stack_bounds.append(bf)
-        if r == 2:  # the last two slots without a search node per first site (same test)
-            full = np.flatnonzero(cmask)
-            neg_w = -w[full]  # non-decreasing
-        explored: list[int] = []
-        try:
-            dealt = split[1] > 1 and len(P) == split[2] and not probe
-            for pos, k in enumerate(ok.tolist()):
-                j = int(C[k])
-                z = state.best_val
-                if val + r * int(w[j]) <= z:
-                    break
-                # the level bound: this child and the later ones add r sites of weight <= w[j]
-                stack_bounds[-1] = min(bf, val + r * int(w[j]))
-                # the split: at depth split[2], worker i searches the children at positions
-                # i, i + workers, ... (the same in every worker: see _split_root)
-                mine = not dealt or pos % split[1] == split[0]
-                if r == 2:
-                    if not mine:
-                        explored.append(j)
-                        continue
-                    state.nodes += 1
-                    if state.nodes % _CHECK_EVERY == 0 and checkpoint():
-                        raise timed_out()
-                    ubj = ubits | bits[j]
-                    valj = ubj.bit_count()
-                    lo = int(np.searchsorted(full, j, side="right"))
-                    hi = int(np.searchsorted(neg_w, valj - z, side="left"))  # w > z - valj
-                    pj = [*P, j]
-                    if valj > z:  # P + j alone
-                        rj = reach_of(pj)
-                        if rj.all():
-                            ev = evaluate(problem, pts[pj])
-                            if ev.feasible and ev.covered > state.best_val:
-                                state.best_val, state.best = int(ev.covered), pj
-                    if hi > lo:
-                        cq = full[lo:hi]
-                        cq = cq[~conflict[j, cq]]
-                        if must is not None and not must[j]:
-                            cq = cq[must[cq]]
-                        # item 11 (the lighter last sites are bounded); under ``must`` only
-                        # for j outside it, whose last site is then in ``must`` in any case
-                        if len(cq) and (must is None or not must[j]):
-                            in_cq = np.zeros(n, dtype=bool)
-                            in_cq[cq] = True
-                            replace = replaced_by_sibling(P, ubits, j, in_cq, explored)
-                            if replace is True:
-                                cq = cq[:0]
-                            elif isinstance(replace, np.ndarray):
-                                cq = cq[replace[cq]]
-                        last_site(pj, ubj, cq, reach_of(pj), valj)
-                    explored.append(j)
-                    continue
-                cm = cmask & ~conflict[j]
-                cm[: j + 1] = False
-                child_must = None if must is None or must[j] else must
-                if must is None or child_must is not None:  # item 11
-                    # under ``must`` only for j outside it: the child keeps the smaller of
-                    # the two sets (each drops only completions held by an earlier child)
-                    replace = replaced_by_sibling(P, ubits, j, cm, explored)
-                    if replace is True:
-                        explored.append(j)
-                        continue
-                    if isinstance(replace, np.ndarray) and (
-                        child_must is None
-                        or np.count_nonzero(replace & cm) < np.count_nonzero(child_must & cm)
-                    ):
-                        child_must = replace
-                explored.append(j)
-                if not mine:
-                    continue
-                nd = np.append(newd[:, k], gj[k]) if P else np.array([gj[k]])
-                # shortest paths can only shorten further inside P + j: recompute exactly
-                pj = [*P, j]
-                dfs(pj, ubits | bits[j], cm, _close(pts[pj], nd, r2), bf, must=child_must)
-        finally:
-            stack_bounds.pop()
-        return None
-
-    def must_branch(
-        P: list[int],
-        ubits: int,
-        cmask: np.ndarray,
-        cmask_must: np.ndarray,
-        dist: np.ndarray,
-        r: int,
-        nb: float,
-    ) -> None:
-        """Item 11 by branching: search the nodes P + e for the sites e of ``cmask_must``
-        (the sites of ``must`` left), each completed from ``cmask`` without the earlier
-        ones, so every completion holding a site of ``must`` is searched once. At the split
-        depth the e are dealt out like children (``_split_root``)."""
-        rest = cmask.copy()
-        epp = pp_cost(P) if P else np.zeros((0, 0))
-        for pos, e in enumerate(np.flatnonzero(cmask_must).tolist()):
-            rest[e] = False
-            if split[1] > 1 and len(P) == split[2] and pos % split[1] != split[0]:
-                continue
-            if P:
-                ee = _relay_cost(np.hypot(*(pts[P] - pts[e]).T)[:, None], r2, r2)
-                ge, nde = _through(dist, gj_direct=cg[[e]], ej=ee, epp=epp)
-                if max(float(ge[0]), float(nde.max())) > r - 1:  # item 3: P + e needs too many relays
-                    continue
-                nd = np.append(nde[:, 0], ge[0])
-            else:
-                if cg[e] > r - 1:
-                    continue
-                nd = np.array([cg[e]])
-            pe = [*P, e]
-            dfs(pe, ubits | bits[e], rest & ~conflict[e], _close(pts[pe], nd, r2), nb)
-
-    def replaced_by_sibling(
-        P: list[int], ubits: int, b: int, cm: np.ndarray, explored: list[int]
-    ) -> bool | np.ndarray | None:
-        """Item 11 for the child P + b, given siblings ``explored`` before it: True when a
-        sibling can replace b in every completion (skip b), a bool mask E over the sites
-        when it can in every completion avoiding E (search only completions meeting E),
-        None when no sibling qualifies."""
-        new_b = bits[b] & ~ubits
-        best: np.ndarray | None = None
-        best_count = 0
-        linked = link_matrix()
-        for a in reversed(explored[-_SIBLINGS:]):
-            if math.dist(pts[a], pts[b]) > _SIBLING_RADIUS or dg[b] <= r1t < dg[a]:
-                continue
-            if P and np.any(linked[b, P] & ~linked[a, P]):
-                continue
-            if new_b & ~bits[a]:
-                # not a cover of b's new users: compare counts instead. A completion site
-                # that does not overlap a covers users of a only in a lens at the edge of
-                # a's disc (sites within 2 R_d of a); a keeps every other user of its own
-                lens = 0
-                for s in lens_sites(a).tolist():
-                    if cm[s]:
-                        lens |= bits[s]
-                if (bits[a] & ~ubits & ~lens).bit_count() < new_b.bit_count():
-                    continue
-            e = cm & (conflict[a] | (linked[b] & ~linked[a]))
-            count = int(np.count_nonzero(e))
-            if count == 0:
-                return True
-            if best is None or count < best_count:
-                best, best_count = e, count
-        return best
-
-    def connecting(R: list[int], C: np.ndarray, reach: np.ndarray | None = None) -> np.ndarray:
-        """(|C|,) bool: R + q is connected (the link tests of ``evaluate``) for q in C;
-        ``reach`` is ``reach_of(R)`` when the caller has it already."""
-        if not R:
-            return dg[C] <= r1t
-        pr = pts[R]
-        reach = reach_of(R) if reach is None else reach
-        link = pairwise_distances(pr, pts[C]) <= r2t
-        rq = (dg[C] <= r1t) | np.any(link & reach[:, None], axis=0)
-        if reach.all():
-            return rq
-        adj = pairwise_distances(pr, pr) <= r2t
-        R2 = reach[:, None] | (link & rq[None, :])
-        for _ in range(len(R)):
-            nr = R2 | np.any(adj[:, :, None] & R2[None, :, :], axis=1)
-            if np.array_equal(nr, R2):
-                break
-            R2 = nr
-        return rq & R2.all(axis=0)
-
-    def local_search(X: list[int]) -> None:
-        """Primal heuristic (no effect on exactness): replace one site of X by the candidate
-        that covers most, keeping X feasible, while that improves; the result becomes the
-        incumbent only after ``evaluate`` confirms it."""
-        cur = int(_popcount_rows(np.bitwise_or.reduce(packed[X], axis=0)[None, :])[0]) if X else 0
-        for _ in range(50):
-            if expired():
-                break
-            moved = False
-            for i in range(len(X) + (len(X) < m)):
-                R = X[:i] + X[i + 1 :]
-                mask = ~np.any(conflict[R], axis=0) if R else np.ones(n, dtype=bool)
-                mask[R] = False
-                C = np.flatnonzero(mask)
-                if len(C) == 0:
-                    continue
-                covR = (
-                    np.bitwise_or.reduce(packed[R], axis=0) if R else np.zeros(packed.shape[1], packed.dtype)
-                )
-                valR = int(_popcount_rows(covR[None, :])[0])
-                gain = _popcount_rows(packed[C] & ~covR)
-                good = np.flatnonzero(valR + gain > cur)
-                if len(good) == 0:
-                    continue
-                good = good[connecting(R, C[good])]
-                if len(good) == 0:
-                    continue
-                q = int(C[good[np.argmax(gain[good])]])
-                X, cur, moved = [*R, q], valR + int(gain[good].max()), True
-                break
-            if not moved:
-                break
-        ev = evaluate(problem, pts[X])
-        if ev.feasible and ev.covered > state.best_val:
-            state.best_val, state.best = int(ev.covered), list(X)
-
-    def exchange(X: list[int]) -> None:
-        """Primal heuristic (no effect on exactness): for every set D of 1 or 2 sites of
-        the incumbent X, search all completions of X - D exactly (the search below, rooted
-        at X - D) for one better than the incumbent; repeat from each improvement."""
-        improved = True
-        while improved and not expired():
-            improved = False
-            for k in (1, 2):
-                for D in itertools.combinations(range(len(X)), k):
-                    R = sorted(X[i] for i in range(len(X)) if i not in D)
-                    mask = ~np.any(conflict[R], axis=0) if R else np.ones(n, dtype=bool)
-                    mask[R] = False
-                    ub = 0
-                    for i in R:
-                        ub |= bits[i]
-                    before = state.best_val
-                    dfs(R, ub, mask, _close(pts[R], cg[R], r2), math.inf)
-                    if state.best_val > before and state.best is not None:
-                        X, improved = sorted(state.best), True
-                        break
-                if improved:
-                    break
-
-    def eliminate_sites(alive: np.ndarray) -> None:
-        """Items 9-10: fill ``conf_bound`` from exact backhaul-free searches, then clear in
-        ``alive`` every site that no placement better than the incumbent can contain."""
-        if len(conf_bound) < m:  # B_1 .. B_{m-1} not given: compute them
-            unlinked = _without_backhaul(problem, pts)
-            conf_bound[:] = [0.0]
-            # the backhaul-free searches get at most a quarter of the time left (a search cut
-            # short still returns a valid bound); each one eliminates sites with the bounds
-            # of the smaller ones
-            t_b = time.perf_counter()
-            budget = None if time_limit is None else 0.25 * (time_limit - (t_b - t0))
-            for k in range(1, m):
-                if expired():
-                    raise _Timeout
-                left = None if budget is None else max(budget - (time.perf_counter() - t_b), 0.01)
-                sub = search(unlinked(k), cand, np.zeros((0, 2)), 0, time_limit=left, free_bounds=conf_bound)
-                conf_bound.append(sub.bound)
-        alive &= w + conf_bound[m - 1] > state.best_val  # item 10, first test
-        for _ in range(4):  # item 10, probes, until no site is cleared
-            cleared = 0
-            for c in np.flatnonzero(alive).tolist():
-                cm = alive & ~conflict[c]
-                cm[c] = False
-                if dfs([c], bits[c], cm, cg[[c]], math.inf, probe=True) is None:
-                    alive[c] = False
-                    cleared += 1
-            if cleared == 0:
-                break
-
-    start = []
-    for p0 in best_pos:
-        hit = np.flatnonzero(np.hypot(*(pts - p0).T) <= 1e-3)
-        if len(hit):
-            start.append(int(hit[0]))
-    if heuristics and len(start) == len(best_pos):
-        local_search(sorted(set(start)))
-        if state.best is None:
-            state.best = sorted(set(start))
-        with contextlib.suppress(_Timeout):
-            exchange(state.best)
-
-    def open_bound() -> float:
-        """After a time-out: the bound on the placements not searched (``upper`` when the
-        main search had not started)."""
-        return float(upper) if state.frontier is None else float(min(state.frontier, upper))
-
-    root_mask = np.ones(n, dtype=bool)
-    proven = True
-    elimination_time = 0.0
-    if not main:
-        found = pts[state.best] if state.best is not None else best_pos
-        return BnbResult(found, int(state.best_val), float(upper), False, int(state.nodes))
-    try:
-        if eliminate and m >= 3:
-            t_el = time.perf_counter()
-            try:
-                eliminate_sites(root_mask)
-            finally:
-                elimination_time = time.perf_counter() - t_el
-        if workers > 1 and m >= 3 and n >= _SPLIT_MIN_SITES and _can_fork():
-
-            def search_share(index: int) -> tuple[bool, float, list[int] | None, int, int, int]:
-                split[:] = [index, workers, 1 if m >= 4 else 0]
-                done = True
-                in_main[0] = True
-                try:
-                    dfs([], 0, root_mask, np.zeros(0), float(upper))
-                except _Timeout:
-                    done = False
-                bound_i = float(state.best_val) if done else max(state.best_val, open_bound())
-                own = None if state.best is None else int(evaluate(problem, pts[state.best]).covered)
-                return done, bound_i, state.best, -1 if own is None else own, state.nodes, state.separated
-
-            nodes_before, separated_before = state.nodes, state.separated
-            shares = _split_root(search_share, workers, state.best_val, shared)
-            for _, _, placement, value, _, _ in shares:
-                if placement is not None and value > state.best_val:
-                    state.best_val, state.best = value, placement
-            state.nodes = nodes_before + sum(sh[4] - nodes_before for sh in shares)
-            state.separated = separated_before + sum(sh[5] - separated_before for sh in shares)
-            if not all(sh[0] for sh in shares):
-                state.frontier = max(sh[1] for sh in shares)
-                raise _Timeout
-        else:
-            in_main[0] = True
-            dfs([], 0, root_mask, np.zeros(0), float(upper))
-    except _Timeout:
-        proven = False
-    bound = float(state.best_val) if proven else max(float(state.best_val), open_bound())
-    bound = min(bound, float(upper)) if upper < math.inf else bound
-    if state.best is not None:
-        best_pos = pts[state.best]
-    return BnbResult(
-        best_pos,
-        int(state.best_val),
-        bound,
-        proven,
-        int(state.nodes),
-        eliminated=int(n - root_mask.sum()),
-        elimination_time=elimination_time,
-        separated=int(state.separated),
+    bb = BranchAndBoundSearch(
+        problem,
+        cand,
+        best_val,
+        upper=upper,
+        time_limit=time_limit,
+        node_limit=node_limit,
+        free_bounds=free_bounds,
+        t0=t0,
     )
+    return bb.run(best_pos, eliminate=eliminate, heuristics=heuristics, workers=workers, main=main)
 
 
 def _check_memory(n: int) -> None:

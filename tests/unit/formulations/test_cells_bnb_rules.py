@@ -1,0 +1,188 @@
+"""The branch and bound's bound and pruning rules one at a time, on small hand-built states,
+against brute force over the same candidate sites (``_bnb.BranchAndBoundSearch``)."""
+
+import math
+
+import numpy as np
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from droneplan.formulations.cells import CellProblem, candidate_sites, evaluate
+from droneplan.formulations.cells._bnb import BranchAndBoundSearch
+from droneplan.formulations.cells._core import TOL
+
+
+def _problem(users, m):
+    return CellProblem(
+        users=np.asarray(users, float),
+        gbs=np.array([[0.0, 0.0]]),
+        n_cells=m,
+        R_d=1.0,
+        R_g=1.0,
+        r1=3.0,
+        r2=2.5,
+    )
+
+
+def _scattered(seed, n, m):
+    rng = np.random.default_rng(seed)
+    return _problem(rng.uniform(-6, 6, size=(n, 2)), m)
+
+
+def _clustered(seed, n_clusters, m):
+    rng = np.random.default_rng(seed)
+    centres = rng.uniform(-5, 5, size=(n_clusters, 2))
+    return _problem(np.concatenate([rng.normal(c, 0.35, size=(3, 2)) for c in centres]), m)
+
+
+class _Oracle:
+    """Every pairwise non-overlapping set of at most m sites (indices in the search's order,
+    sorted), with the users it covers when ``evaluate`` finds it feasible. Overlap is tested
+    on the coordinates, independently of the search's conflict matrix."""
+
+    def __init__(self, problem, s):
+        self.s = s
+        q = s.pts
+        apart = np.hypot(*(q[:, None, :] - q[None, :, :]).transpose(2, 0, 1)) >= 2 * problem.R_d - TOL
+        self.sets: list[tuple[int, ...]] = []
+        self.feasible: dict[tuple[int, ...], int] = {}
+
+        def grow(chosen, start):
+            if chosen:
+                key = tuple(chosen)
+                self.sets.append(key)
+                ev = evaluate(problem, q[list(chosen)])
+                if ev.feasible:
+                    self.feasible[key] = int(ev.covered)
+            if len(chosen) == problem.n_cells:
+                return
+            for i in range(start, len(q)):
+                if all(apart[i, j] for j in chosen):
+                    grow([*chosen, i], i + 1)
+
+        grow([], 0)
+
+    def completions(self, P, cmask, *, feasible=True):
+        """(Q, covered by P + Q) for the non-empty Q from ``cmask`` (after P's sites: the
+        search's children) with P + Q in the list; covered is None when not feasible."""
+        P = tuple(sorted(P))
+        out = []
+        for key in self.sets:
+            if key[: len(P)] != P or len(key) == len(P):
+                continue
+            Q = key[len(P) :]
+            if not all(cmask[q] for q in Q):
+                continue
+            if feasible and key not in self.feasible:
+                continue
+            out.append((Q, self.feasible.get(key)))
+        return out
+
+
+def _partial_placements(oracle, m):
+    """The root and every non-overlapping P with at least 2 free slots (at most 40)."""
+    return [(), *[k for k in oracle.sets if len(k) <= m - 2]][:40]
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 10_000), st.integers(5, 8), st.integers(3, 4))
+def test_each_bound_rule_holds_for_every_completion(seed, n, m):
+    p = _scattered(seed, n, m)
+    s = BranchAndBoundSearch(p, candidate_sites(p), -1)  # incumbent -1: nothing is cut by value
+    oracle = _Oracle(p, s)
+    checked = 0
+    for P in _partial_placements(oracle, m):
+        node = s.node(list(P))
+        r = m - len(P)
+        C = np.flatnonzero(node.cmask)
+        feas = oracle.completions(P, node.cmask)
+        weights = [int(s.w[list(Q)].sum()) for Q, _ in feas]
+        # items 1, 2 (cliques) on every non-overlapping completion, feasible or not
+        tops_all = s.clique_values(C, r, 0)
+        for Q, _ in oracle.completions(P, node.cmask, feasible=False):
+            assert s.w[list(Q)].sum() <= sum(tops_all)
+        kids = s.relay_filter(node, C)
+        if not feas:
+            continue
+        checked += 1
+        best = max(v for _, v in feas)
+        # item 3: every site of a feasible completion passes the relay filter
+        assert kids is not None
+        passed = set(kids.C[kids.ok].tolist())
+        assert all(set(Q) <= passed for Q, _ in feas)
+        # item 7: greedy dual of coverage
+        assert node.val + s.greedy_dual(list(P), C, node.dist, node.reach, r) >= best
+        # item 6: one slot holds a linkable site
+        tops = s.clique_values(kids.C[kids.ok], r, 0)
+        wg = s.linkable_weight(kids, 0)
+        assert max(weights) <= wg + sum(tops[: r - 1])
+        # items 5, 8, 12 when P has unreached sites
+        if not node.reach.all():
+            b, b_sep = s.unreached_bounds(node, kids, tops, 0, wg, math.inf)
+            assert node.val + max(weights) <= min(b, b_sep)
+        # every rule combined
+        combined = s.node_bound(node, math.inf)
+        assert combined is not None and combined.bound >= best
+    assert checked or not oracle.feasible
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 10_000), st.integers(5, 8), st.integers(3, 4))
+def test_site_elimination_keeps_every_site_of_a_better_placement(seed, n, m):
+    p = _scattered(seed, n, m)
+    s = BranchAndBoundSearch(p, candidate_sites(p), 0)
+    oracle = _Oracle(p, s)
+    assume(oracle.feasible)
+    z = max(oracle.feasible.values()) - 1
+    alive = np.ones(s.n, dtype=bool)
+    cleared = 0
+    for c in range(s.n):
+        s.best_val = z  # a probe may raise the incumbent (to {c} itself): compare with it after
+        if not s.site_can_improve(c, alive):
+            cleared += 1
+            assert all(v <= s.best_val for key, v in oracle.feasible.items() if c in key)
+    assert cleared < s.n  # the sites of an optimal placement stay
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 10_000), st.integers(2, 3))
+def test_sibling_replacement_drops_nothing_better_than_the_earlier_siblings(seed, n_clusters):
+    # item 11 at the root: a child b that an earlier sibling replaces (True), or replaces
+    # outside E (a mask), holds no placement avoiding E that beats the earlier siblings' subtrees
+    p = _clustered(seed, n_clusters, 3)
+    s = BranchAndBoundSearch(p, candidate_sites(p), 0)
+    oracle = _Oracle(p, s)
+    explored: list[int] = []
+    used = 0
+    for j in range(s.n):
+        cm = s.compatible([j])
+        cm[: j + 1] = False
+        replace = s.replaced_by_sibling([], 0, j, cm, explored)
+        if replace is not None:
+            used += 1
+            avoid = np.zeros(s.n, dtype=bool) if replace is True else replace
+            mine = [v for key, v in oracle.feasible.items() if key[0] == j and not avoid[list(key)].any()]
+            earlier = [v for key, v in oracle.feasible.items() if key[0] in explored]
+            assert max(mine, default=0) <= max(earlier, default=0)
+        explored.append(j)
+    assert used > 0 or s.n < 2
+
+
+def test_the_node_of_a_hand_built_relay_chain():
+    # users at 2.5 and 5 m from the GBS at the origin (r1 = 3, r2 = 2.5): the site on the far
+    # pair alone needs a relay, so it is unreached and the rules must leave a bridge slot
+    p = _problem([[2.5, 0.0], [5.0, 0.0], [5.2, 0.0]], 3)
+    s = BranchAndBoundSearch(p, candidate_sites(p), -1)
+    far = int(np.argmin(np.hypot(*(s.pts - [5.0, 0.0]).T)))
+    node = s.node([far])
+    assert not node.reach.all() and node.dist[0] >= 1
+    kids = s.relay_filter(node, np.flatnonzero(node.cmask))
+    assert kids is not None
+    oracle = _Oracle(p, s)
+    feas = oracle.completions((far,), node.cmask)
+    assert feas  # a relay between the GBS and the far site exists
+    combined = s.node_bound(node, math.inf)
+    assert combined is not None and combined.bound >= max(v for _, v in feas)
+    assert max(v for _, v in feas) == 3  # the relay over the near user completes it
+    # item 5: the bridge slot holds a site within r2 of the far site
+    assert all(any(math.dist(s.pts[q], s.pts[far]) <= p.r2 + TOL for q in Q) for Q, _ in feas)
