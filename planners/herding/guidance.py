@@ -44,20 +44,28 @@ def steer(headings: np.ndarray, b: np.ndarray, V_max: float, U_max: float, dt: f
 
     headings: (n,) heading angles, rad; b: (n, 2) vectors to the target, m.
     Returns (v (n,), omega (n,)).
+
+    Written per coordinate (the same values as :func:`g` and :func:`F` of the rows, to the last
+    bit, without numpy's reductions over the short last axis).
     """
-    a = np.column_stack([np.cos(headings), np.sin(headings)])
-    gg = g(a, b)
-    u_dir = F(a, b)  # unit, orthogonal to a, towards b
+    ax, ay = np.cos(headings), np.sin(headings)
+    b = np.asarray(b, dtype=float)
+    bx, by = b[:, 0], b[:, 1]
+    ab = ax * bx + ay * by  # (a, b)
+    gg = np.where(ab > 0, 1.0, -1.0)  # g(a, b)
+    fx, fy = bx - ab * ax, by - ab * ay  # F(a, b) before normalising
+    fn = np.sqrt(fx * fx + fy * fy)
+    ok = fn > 1e-12
+    ux = np.divide(fx, fn, out=np.zeros_like(fx), where=ok)  # unit, orthogonal to a, towards b
+    uy = np.divide(fy, fn, out=np.zeros_like(fy), where=ok)
     # sign of rotation of u = U_max g F:  +1 if u points to a rotated by +90 deg
-    a_perp = np.column_stack([-a[:, 1], a[:, 0]])
-    turn_sign = gg * np.sign(np.sum(u_dir * a_perp, axis=1))
+    turn_sign = gg * np.sign(ux * -ay + uy * ax)
     # angle between the flying direction g*a and b: the turn needed
-    ga = gg[:, None] * a
-    nb = np.linalg.norm(b, axis=1)
-    cosang = np.divide(np.sum(ga * b, axis=1), nb, out=np.ones_like(nb), where=nb > 1e-12)
+    nb = np.sqrt(bx * bx + by * by)
+    cosang = np.divide((gg * ax) * bx + (gg * ay) * by, nb, out=np.ones_like(nb), where=nb > 1e-12)
     ang = np.arccos(np.clip(cosang, -1.0, 1.0))
     omega = turn_sign * np.minimum(U_max, ang / dt)
-    along = np.abs(np.sum(a * b, axis=1))  # progress available along the heading
+    along = np.abs(ab)  # progress available along the heading
     v = gg * np.minimum(V_max, along / dt)
     return v, omega
 
