@@ -110,12 +110,38 @@ def crosses(drone_s, perimeter: float, allocation: Allocation) -> bool:
     n, M = d.size, float(perimeter)
     if n == 1:
         return False
+    if n <= _SCALAR_MAX:
+        return _crosses_scalar(d.tolist(), M, allocation)
     order, z, zp = z_coordinates(d, np.asarray(allocation.points, dtype=float), M)
     tz = zp[np.asarray(allocation.target)[order]]
     dirs = np.asarray(allocation.direction)[order]
     k_left, k_right = allowed_wraps(z, tz)
     zstar = tz + np.where(dirs > 0, k_right, k_left) * M
     return not (np.all(np.diff(zstar) > 0) and zstar[-1] < zstar[0] + M)
+
+
+_SCALAR_MAX = 12
+"""Up to this many drones, :func:`crosses` runs in plain Python floats (the same operations as
+the numpy version, the same answer; for a handful of drones numpy's calls cost more)."""
+
+
+def _crosses_scalar(d: list[float], M: float, allocation: Allocation) -> bool:
+    """:func:`crosses` of a few drones (n >= 2), one drone at a time."""
+    n = len(d)
+    pts = np.asarray(allocation.points, dtype=float).tolist()
+    target = np.asarray(allocation.target).tolist()
+    direction = np.asarray(allocation.direction).tolist()
+    order = sorted(range(n), key=d.__getitem__)  # stable, as z_coordinates' argsort
+    origin = d[order[0]]
+    zstar = []
+    for j in order:
+        z = d[j] - origin
+        tz = (pts[target[j]] - origin) % M  # Python's float % rounds as np.mod
+        tz = 0.0 if tz >= M else tz
+        k = (1 if tz < z else 0) if direction[j] > 0 else (-1 if tz > z else 0)
+        zstar.append(tz + k * M)
+    ordered = all(zstar[i + 1] - zstar[i] > 0 for i in range(n - 1))
+    return not (ordered and zstar[-1] < zstar[0] + M)
 
 
 def allocate_collision_blind(drone_s, steer_s, perimeter: float) -> SolveResult:

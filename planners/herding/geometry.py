@@ -194,19 +194,33 @@ def _extended_hull_vertices(P: np.ndarray, d_s: float, mitre_limit: float) -> tu
         return E, P[[0, 1, 1, 0]]
     nxt = np.arange(1, h + 1) % h  # index of the next vertex; np.roll by index, one gather each
     prv = np.arange(-1, h - 1) % h
+    # per coordinate: the same values as the row norms and dot products, without numpy's
+    # reductions over the short last axis
     e = P[nxt] - P
-    e_hat = e / np.linalg.norm(e, axis=1)[:, None]
-    n = np.column_stack([e_hat[:, 1], -e_hat[:, 0]])
-    n_prev = n[prv]
+    ex, ey = e[:, 0], e[:, 1]
+    length = np.sqrt(ex * ex + ey * ey)
+    hx, hy = ex / length, ey / length  # unit edge directions
+    # outward unit normals n_i = (hy, -hx); n_{i-1} . n_i = hx_prev hx + hy_prev hy
+    dot = hy[prv] * hy + hx[prv] * hx
     # outward bisector (incoming minus outgoing edge direction: defined at hairpins too)
-    bisector = e_hat[prv] - e_hat
-    bisector /= np.linalg.norm(bisector, axis=1)[:, None]
-    cos_half = np.sqrt(np.clip((1.0 + np.sum(n_prev * n, axis=1)) / 2.0, 0.0, 1.0))
+    bx, by = hx[prv] - hx, hy[prv] - hy
+    blen = np.sqrt(bx * bx + by * by)
+    cos_half = np.sqrt(np.clip((1.0 + dot) / 2.0, 0.0, 1.0))
     # mitre length d_s / cos(half the turn); capped at mitre_limit * d_s (our rule for sharp
     # corners of thin herds, where the mitre runs off beyond any barking range)
     reach = d_s * np.minimum(1.0 / np.maximum(cos_half, 1e-12), mitre_limit)
-    E = P + reach[:, None] * bisector
+    E = np.empty_like(P)
+    E[:, 0] = P[:, 0] + reach * (bx / blen)
+    E[:, 1] = P[:, 1] + reach * (by / blen)
     return E, P.copy()
+
+
+def _edges(E: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Edge vectors E_{i+1} - E_i (n_e, 2), their squared lengths and lengths of a closed polygon."""
+    AB = E[np.arange(1, E.shape[0] + 1) % E.shape[0]] - E
+    x, y = AB[:, 0], AB[:, 1]
+    L2 = x * x + y * y
+    return AB, L2, np.sqrt(L2)
 
 
 @dataclass
@@ -254,18 +268,16 @@ class ExtendedHull:
 
     @classmethod
     def from_vertices(cls, E: np.ndarray, P: np.ndarray | None = None) -> ExtendedHull:
+        """The polygon through vertices ``E`` (n_e, 2), m, in ccw order; ``P`` (n_e, 2) the animal
+        each one corresponds to, m (default: the vertices themselves)."""
         E = np.asarray(E, dtype=float)
-        AB = np.concatenate([E[1:], E[:1]]) - E
-        seg = np.sqrt(np.sum(AB * AB, axis=1))
-        return cls(
-            E, E.copy() if P is None else np.asarray(P, dtype=float), np.concatenate([[0.0], np.cumsum(seg)])
-        )
+        _, _, seg = _edges(E)
+        cum = np.zeros(E.shape[0] + 1)
+        np.cumsum(seg, out=cum[1:])
+        return cls(E, E.copy() if P is None else np.asarray(P, dtype=float), cum)
 
     def __post_init__(self) -> None:
-        E = self.vertices
-        self._AB = np.concatenate([E[1:], E[:1]]) - E
-        self._L2 = np.sum(self._AB * self._AB, axis=1)
-        self._L = np.sqrt(self._L2)
+        self._AB, self._L2, self._L = _edges(self.vertices)
         self._last_project: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
 
     @property

@@ -355,3 +355,31 @@ def test_the_scalar_allocation_equals_the_vectorised_one():
             assert np.array_equal(getattr(x, field), getattr(y, field)), field
         checked += 1
     assert checked > 2000 and infeasible > 0
+
+
+def test_the_scalar_crossing_test_equals_the_vectorised_one():
+    """``crosses`` of a few drones runs in plain Python; on random allocations (crossing or not,
+    ties included) it gives the numpy version's answer."""
+    from droneplan.formulations.herding import Allocation
+    from droneplan.planners.herding import allocation as mod
+
+    rng = np.random.default_rng(12)
+    answers = set()
+    for trial in range(3000):
+        n = int(rng.integers(2, 9))
+        M = float(rng.uniform(1.0, 1000.0))
+        d = rng.uniform(0.0, M, n)
+        if trial % 3 == 0:
+            d = np.mod(np.round(d / M * 8) * M / 8, M)
+        pts = rng.uniform(0.0, M, n)
+        alloc = Allocation(rng.permutation(n), rng.choice([-1, 1], n), np.zeros(n), pts)
+        scalar = mod.crosses(d, M, alloc)
+        limit = mod._SCALAR_MAX
+        try:
+            mod._SCALAR_MAX = 0
+            vectorised = mod.crosses(d, M, alloc)
+        finally:
+            mod._SCALAR_MAX = limit
+        assert scalar == vectorised
+        answers.add(scalar)
+    assert answers == {True, False}
