@@ -383,3 +383,22 @@ def test_the_scalar_crossing_test_equals_the_vectorised_one():
         assert scalar == vectorised
         answers.add(scalar)
     assert answers == {True, False}
+
+
+def test_the_delivered_share_skips_only_herds_clear_of_the_goal():
+    """The simulator's delivered share equals the per-animal test, whether the herd's footprint
+    disc is clear of the goal region (answered without the test), touches it or covers it."""
+    from droneplan.scenarios.herding import _delivered
+
+    rng = np.random.default_rng(13)
+    shares = set()
+    for _ in range(2000):
+        animals = rng.normal(size=(int(rng.integers(1, 60)), 2)) * rng.uniform(1.0, 80.0)
+        c = animals.mean(axis=0)
+        r = float(np.sqrt(np.max(np.sum((animals - c) ** 2, axis=1))))
+        goal = c + rng.normal(size=2) * rng.uniform(0.0, 200.0)
+        radius = float(rng.uniform(1.0, 100.0))
+        brute = float(np.mean(np.sum((animals - goal) ** 2, axis=1) <= radius**2))
+        assert _delivered(animals, c, r, goal, radius) == brute
+        shares.add(0.0 if brute == 0 else 1.0 if brute == 1 else 0.5)
+    assert shares == {0.0, 0.5, 1.0}
