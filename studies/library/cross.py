@@ -1,0 +1,252 @@
+"""Cross-certification of the two exact cells engines on library instances.
+
+:func:`cross_certify` runs the combinatorial branch and bound (``engine="bnb"``) and the
+candidate MILP (``engine="milp"``) on each instance of a cells family and checks, for
+every instance:
+
+- the independent checker ``evaluate`` re-scores each engine's plan: feasible, and
+  covering exactly the users the engine claims;
+- each engine's bound is at least its own objective and at least the other engine's
+  checked objective (a plan of one is feasible for the other's problem: both solve the
+  same candidate problem);
+- when both prove optimality, their optima are equal;
+- a proven optimum lies between the library entry's value and bound (when the entry was
+  certified on the same data), and equals its value when the entry is proven.
+
+Any failed check is a *disagreement*: the instance is written (``save_instance``) to
+``<directory>/<id>.json`` beside ``<id>.results.json`` with both engines' outcomes, a line
+goes to stderr at once, and :class:`CrossCertificationError` is raised at the end (after
+the other instances, so one run shows them all), unless ``strict=False``.
+
+An instance where an engine stopped at its time limit is compared on bounds only; the
+summary counts the instances where both proved.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import sys
+import time
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from droneplan.core.validation import check_int, check_time_limit
+from droneplan.studies.instances import FAMILIES, StudyInstance, family_instances, save_instance
+from droneplan.studies.library import lookup
+
+__all__ = ["CrossCertificationError", "cross_certify", "cross_check_instance"]
+
+ENGINE_NAMES = ("bnb", "milp")
+"""The two exact engines compared (``solve_exact(engine=...)``)."""
+
+
+class CrossCertificationError(AssertionError):
+    """The exact cells engines, the checker or the library disagree on some instance; the
+    message names each instance and the file its data was saved to."""
+
+
+def _run_engine(problem, engine: str, time_limit: float | None, backend: str, workers: int) -> dict[str, Any]:
+    """One engine on one problem: its claims and the checker's verdict on its plan."""
+    from droneplan.formulations import cells
+
+    t_cpu, t_wall = time.process_time(), time.perf_counter()
+    res = cells.solve_exact(problem, engine=engine, backend=backend, time_limit=time_limit, workers=workers)
+    cpu, wall = time.process_time() - t_cpu, time.perf_counter() - t_wall
+    x = np.zeros((0, 2)) if res.x is None else np.asarray(res.x, dtype=float).reshape(-1, 2)
+    ev = cells.evaluate(problem, x)
+    return {
+        "status": res.status.value,
+        "proven": res.status.value == "optimal",
+        "objective": None if res.objective is None else float(res.objective),
+        "bound": None if res.bound is None else float(res.bound),
+        "checked": int(ev.covered) if ev.feasible else None,
+        "violations": list(ev.violations),
+        "plan": x.tolist(),
+        "cpu_s": cpu,
+        "wall_s": wall,
+        "message": res.message,
+    }
+
+
+def _disagreements(out: dict[str, dict[str, Any]], entry) -> list[str]:
+    """Every failed check of the module docstring for one instance's engine outcomes."""
+    bad = []
+    for name, r in out.items():
+        if r["checked"] is None:
+            bad.append(f"{name}: its plan is infeasible ({'; '.join(r['violations'])})")
+        elif r["objective"] is None or abs(r["checked"] - r["objective"]) > 1e-6:
+            bad.append(f"{name}: claims {r['objective']} users, the checker counts {r['checked']}")
+        for other, o in out.items():
+            if r["bound"] is not None and o["checked"] is not None and o["checked"] > r["bound"] + 1e-6:
+                bad.append(f"{name}'s bound {r['bound']} is below {other}'s checked plan ({o['checked']})")
+    proven = {name: r["checked"] for name, r in out.items() if r["proven"] and r["checked"] is not None}
+    if len(set(proven.values())) > 1:
+        bad.append(f"proven optima differ: {proven}")
+    if entry is not None:
+        for name, value in proven.items():
+            if value < entry.value - 1e-6 or (entry.bound is not None and value > entry.bound + 1e-6):
+                bad.append(f"{name}'s proven {value} is outside the library's [{entry.value}, {entry.bound}]")
+    return bad
+
+
+def _safe_name(instance_id: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.=-]+", "_", instance_id)
+
+
+def _save_disagreement(
+    instance: StudyInstance, out: dict, entry, problems: list[str], directory: Path
+) -> Path:
+    """Write the instance and the engines' outcomes; returns the instance file."""
+    directory.mkdir(parents=True, exist_ok=True)
+    path = save_instance(instance, directory / f"{_safe_name(instance.id)}.json")
+    record = {
+        "id": instance.id,
+        "disagreements": problems,
+        "engines": out,
+        "library": None
+        if entry is None
+        else {"value": entry.value, "bound": entry.bound, "status": entry.status},
+    }
+    (directory / f"{_safe_name(instance.id)}.results.json").write_text(json.dumps(record, indent=1))
+    return path
+
+
+def cross_check_instance(
+    instance: StudyInstance,
+    *,
+    time_limit: float | None = 60.0,
+    milp_time_limit: float | None = None,
+    backend: str = "cp-sat",
+    workers: int = 1,
+    library_dir: str | os.PathLike | None = None,
+) -> dict[str, Any]:
+    """Both engines on one cells instance, checked (module docstring); no file is written.
+
+    instance: a cells StudyInstance. time_limit: the branch and bound's limit (s; None:
+    none). milp_time_limit: the MILP's (s; default ``time_limit``). backend: the MILP's
+    linear backend. workers: processes / solver threads of each engine. library_dir: where
+    the library files are (default: the package's).
+    Returns {"id", "engines": {"bnb": ..., "milp": ...}, "library": entry or None,
+    "both_proven", "disagreements": [messages]}; each engine's outcome holds ``status``,
+    ``proven``, ``objective``, ``bound``, ``checked`` (users the checker counts, None when
+    infeasible), ``plan``, ``cpu_s`` and ``wall_s`` (s).
+    """
+    if instance.kind != "cells":
+        raise ValueError(f"instance must be a cells instance, got kind {instance.kind!r} ({instance.id})")
+    limits = {"bnb": time_limit, "milp": time_limit if milp_time_limit is None else milp_time_limit}
+    out = {name: _run_engine(instance.data, name, limits[name], backend, workers) for name in ENGINE_NAMES}
+    entry = lookup(instance, library_dir)
+    return {
+        "id": instance.id,
+        "engines": out,
+        "library": entry,
+        "both_proven": all(r["proven"] for r in out.values()),
+        "disagreements": _disagreements(out, entry),
+    }
+
+
+def cross_certify(
+    family: str = "table4.2",
+    *,
+    m: int | Iterable[int] = (1, 2, 3, 4),
+    seeds: int | Iterable[int] = 100,
+    first_seed: int = 0,
+    time_limit: float | None = 60.0,
+    milp_time_limit: float | None = None,
+    backend: str = "cp-sat",
+    workers: int = 1,
+    directory: str | os.PathLike = "cross-certify",
+    library_dir: str | os.PathLike | None = None,
+    strict: bool = True,
+    log: str | os.PathLike | None = None,
+    progress: Callable[[dict[str, Any]], None] | None = None,
+) -> dict[str, Any]:
+    """Cross-certify the exact cells engines on ``family``'s instances (module docstring).
+
+    family: a cells instance family (``"table4.2"`` has a library). m: number(s) of
+    drone-cells. seeds: how many seeds (from ``first_seed``) or the seeds. time_limit,
+    milp_time_limit, backend, workers: as :func:`cross_check_instance` (s). directory: where
+    disagreeing instances are saved. library_dir: the library files (default: the
+    package's). strict: raise :class:`CrossCertificationError` after the run when any
+    instance disagrees. log: a JSON-lines file that gets one line per instance as it ends
+    (None: none). progress: called with each instance's record.
+
+    Returns {"family", "instances", "both_proven", "bnb_proven", "milp_proven",
+    "library_matched" (proven optima equal to a proven library value), "disagreements"
+    ({id: [messages]}), "saved" ([instance files]), "cpu_s" ({engine: total CPU s})}.
+    """
+    if family not in FAMILIES or FAMILIES[family].kind != "cells":
+        cells_families = sorted(k for k, f in FAMILIES.items() if f.kind == "cells")
+        raise ValueError(f"family must be a cells family ({', '.join(cells_families)}), got {family!r}")
+    check_time_limit(time_limit)
+    check_time_limit(milp_time_limit)
+    check_int("workers", workers, min_value=1)
+    instances = family_instances(
+        family, m=list(m) if isinstance(m, Iterable) else m, seeds=seeds, first_seed=first_seed
+    )
+    summary: dict[str, Any] = {
+        "family": family,
+        "instances": 0,
+        "both_proven": 0,
+        "bnb_proven": 0,
+        "milp_proven": 0,
+        "library_matched": 0,
+        "disagreements": {},
+        "saved": [],
+        "cpu_s": dict.fromkeys(ENGINE_NAMES, 0.0),
+    }
+    for inst in instances:
+        rec = cross_check_instance(
+            inst,
+            time_limit=time_limit,
+            milp_time_limit=milp_time_limit,
+            backend=backend,
+            workers=workers,
+            library_dir=library_dir,
+        )
+        _tally(summary, rec)
+        if rec["disagreements"]:
+            path = _save_disagreement(
+                inst, rec["engines"], rec["library"], rec["disagreements"], Path(directory)
+            )
+            summary["disagreements"][inst.id] = rec["disagreements"]
+            summary["saved"].append(str(path))
+            print(
+                f"cross-certify DISAGREEMENT {inst.id}: {rec['disagreements']} (saved {path})",
+                file=sys.stderr,
+            )
+        if log is not None:
+            with open(log, "a") as fh:
+                fh.write(json.dumps({**rec, "library": _entry_dict(rec["library"])}) + "\n")
+        if progress is not None:
+            progress(rec)
+    if strict and summary["disagreements"]:
+        lines = [f"{k}: {'; '.join(v)}" for k, v in summary["disagreements"].items()]
+        raise CrossCertificationError(
+            f"{len(lines)} of {summary['instances']} instances disagree (saved in {directory}):\n"
+            + "\n".join(lines)
+        )
+    return summary
+
+
+def _entry_dict(entry) -> dict | None:
+    return None if entry is None else {"value": entry.value, "bound": entry.bound, "status": entry.status}
+
+
+def _tally(summary: dict[str, Any], rec: dict[str, Any]) -> None:
+    """Add one instance's record to the run's counts."""
+    eng = rec["engines"]
+    summary["instances"] += 1
+    summary["both_proven"] += rec["both_proven"]
+    for name in ENGINE_NAMES:
+        summary[f"{name}_proven"] += eng[name]["proven"]
+        summary["cpu_s"][name] += eng[name]["cpu_s"]
+    entry = rec["library"]
+    if rec["both_proven"] and entry is not None and entry.status == "optimal":
+        summary["library_matched"] += all(math.isclose(r["checked"] or -1, entry.value) for r in eng.values())
