@@ -308,16 +308,18 @@ class ExtendedHull:
         if last is not None and last[0].shape == q.shape and np.array_equal(last[0], q):
             return last[1].copy(), last[2].copy(), last[3].copy()
         A, AB, L2 = self.vertices, self._AB, self._L2
-        rel = q[:, None, :] - A[None, :, :]
-        t = np.einsum("qek,ek->qe", rel, AB) / np.maximum(L2, 1e-300)[None, :]
+        # per coordinate (query x edge): the same values as the row dot products, without
+        # numpy's reductions over the short last axis
+        qx, qy = q[:, 0, None], q[:, 1, None]
+        ax, ay, ex, ey = A[:, 0], A[:, 1], AB[:, 0], AB[:, 1]
+        t = ((qx - ax) * ex + (qy - ay) * ey) / np.maximum(L2, 1e-300)
         t = np.clip(t, 0.0, 1.0)
-        close = A[None] + t[..., None] * AB[None]
-        diff = q[:, None, :] - close
-        d2 = np.einsum("qek,qek->qe", diff, diff)
-        i = np.argmin(d2, axis=1)
+        cx, cy = ax + t * ex, ay + t * ey  # the closest point of each edge
+        dx, dy = qx - cx, qy - cy
+        i = np.argmin(dx * dx + dy * dy, axis=1)
         k = np.arange(q.shape[0])
         s = np.mod(self.cum[i] + t[k, i] * self._L[i], self.perimeter)
-        out = (s, close[k, i], i)
+        out = (s, np.column_stack([cx[k, i], cy[k, i]]), i)
         self._last_project = (q.copy(), *(a.copy() for a in out))
         return out
 
