@@ -49,6 +49,7 @@ from droneplan.core.validation import (
     check_int,
     check_nonneg,
     check_positive,
+    check_size,
     check_work,
 )
 from droneplan.scenarios.covert import CovertParams
@@ -291,9 +292,10 @@ def build_bearing_mpc(  # noqa: PLR0915
     check_instance("params", params, CovertParams)
     check_instance("settings", settings, MPCSettings, optional=True)
     st = settings if settings is not None else MPCSettings()
-    if isinstance(n_targets, bool) or not isinstance(n_targets, (int, np.integer)) or n_targets < 0:
-        raise ValueError(f"n_targets must be an int >= 0, got {n_targets!r}")
-    N, n = st.horizon, int(n_targets)
+    n = check_int("n_targets", n_targets, min_value=0)
+    N = st.horizon
+    # the symbolic graph holds some tens of nodes per target and horizon step
+    check_size("n_targets x horizon", 64.0 * (N + 1) * (n + 1))
     durations = np.array([params.dt * st.replan_every] + [st.step] * (N - 1))
     if params.U_max * durations.max() > 6.0:
         raise ValueError(

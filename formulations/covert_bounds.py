@@ -39,8 +39,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from droneplan.core.validation import (
+    MAX_COORDINATE,
     check_array,
     check_bool,
+    check_in_range,
     check_instance,
     check_nonneg,
     check_positive,
@@ -348,7 +350,7 @@ def mission_lower_bound(
     where the program does not apply (optimum >= 90 deg, or an empty set: the class cannot
     reach the sphere by t_a) are NaN and left out.
     """
-    t_a = check_nonneg("t_a", t_a)
+    t_a = check_in_range("t_a", t_a, 0.0, MAX_COORDINATE)
     return mission_front(
         scenario, [t_a], t_f, times=times, retreat=retreat, t_end=t_end, sphere_tol=sphere_tol
     )[0]
@@ -404,7 +406,11 @@ def mission_front(  # noqa: C901, PLR0915
     back = (np.linalg.norm(p.D_s_arr - p.F_arr) - p.L_u) / p.V_max  # shortest way home from the sphere
     tf = (T - back) if t_f is None else float(t_f)
     if not (math.isfinite(tf) and tf >= arr.max()):
-        raise ValueError(f"t_f must be finite and >= every arrival time, got t_f={tf}")
+        src = "t_f" if t_f is not None else f"t_f (t_end minus {back:.3g} s, the shortest way home)"
+        raise ValueError(
+            f"{src} must be finite and >= every arrival time (t_a / arrival_times, latest "
+            f"{arr.max():.6g} s), got t_f={tf:.6g}"
+        )
     n_times = math.floor(T / p.dt) + 1 if times is None else len(times)
     what = "t_end / params.dt (instants)" if times is None else "times"
     check_size(what, n_times)

@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from droneplan.core.validation import check_array, check_int, check_positive
+from droneplan.core.validation import check_array, check_int, check_positive, check_work
 from droneplan.scenarios.cells import THESIS_TABLE_4_2, CellProblem, thesis_problem
 from droneplan.scenarios.herding import HerdingParams, HerdingScenario, thesis_scenario
 from droneplan.scenarios.shark.params import SharkParams
@@ -570,11 +570,13 @@ def family_instances(
         seed_list = [check_int("seeds[]", s, min_value=0) for s in seeds]
     else:
         count = check_int("seeds", seeds, min_value=1)
+        check_work("seeds (instances to build)", count, "evaluations")
         seed_list = list(range(first_seed, first_seed + count))
     grids = [_values(k, size.get(k, fam.defaults.get(k))) for k in fam.grid]
     combos: list[dict[str, Any]] = [{}]
     for k, values in zip(fam.grid, grids, strict=True):
         combos = [{**c, k: v} for c in combos for v in values]
+    check_work("seeds x size grid (instances to build)", len(combos) * len(seed_list), "evaluations")
     out = []
     for c in combos:
         for s in seed_list if fam.seeded else [None]:

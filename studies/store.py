@@ -123,6 +123,7 @@ from typing import Any, Self, TypeGuard
 import numpy as np
 import pandas as pd
 
+from droneplan.core.validation import check_bool
 from droneplan.studies.problems import PROBLEMS
 
 __all__ = [
@@ -1122,6 +1123,10 @@ def load_results(
     ``COLUMNS`` first, then prefixed extras. Raises FileNotFoundError when there is no
     store, :class:`StoreError` when one cannot be read.
     """
+    include_superseded = check_bool("include_superseded", include_superseded)
+    for name, value in (("problem", problem), ("study", study)):
+        if value is not None and not isinstance(value, str):
+            raise TypeError(f"{name} must be a str or None, got {type(value).__name__}")
     out = Path(out)
     if not out.exists():
         raise FileNotFoundError(f"out: {out} does not exist")

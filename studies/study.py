@@ -26,6 +26,7 @@ from typing import Any
 
 import pandas as pd
 
+from droneplan.core.validation import check_bool, check_instance, check_int
 from droneplan.studies.harness import SENSE_OF_KIND, Scored, execute, score
 from droneplan.studies.instances import StudyInstance, resolve_instances
 from droneplan.studies.library import lookup
@@ -244,6 +245,23 @@ def _dask_outcomes(
         yield gen()
 
 
+def _run_options(workers: Any, dask: Any, progress: Any, store: Any, executor: Any) -> tuple[int, Any]:
+    """(jobs at once, the Dask executor or None) from :func:`gap`'s run options, each checked by name."""
+    from droneplan.studies.common import StudyExecutor
+
+    check_bool("progress", progress)
+    check_instance("store", store, ResultStore, optional=True)
+    check_instance("executor", executor, StudyExecutor, optional=True)
+    if dask is not None and not isinstance(dask, str):
+        raise TypeError(f"dask must be a scheduler address (str) or None, got {type(dask).__name__}")
+    n_workers = (os.cpu_count() or 1) if workers is None else check_int("workers", workers, min_value=1)
+    if executor is None:
+        return n_workers, None
+    if executor.kind == "dask":
+        return n_workers, executor
+    return executor.slots, None
+
+
 def gap(
     problem: str,
     *,
@@ -286,16 +304,8 @@ def gap(
     Returns the current rows of these instances for these methods and the library reference, with
     gaps filled in; rows already in the store under the same configuration are reused, not rerun.
     """
+    n_workers, dask_executor = _run_options(workers, dask, progress, store, executor)
     plan = plan_study(problem, methods=methods, instances=instances, time_limit=time_limit, **size)
-    n_workers = (os.cpu_count() or 1) if workers is None else workers
-    if isinstance(n_workers, bool) or not isinstance(n_workers, int) or n_workers < 1:
-        raise ValueError(f"workers must be an int >= 1, got {workers!r}")
-    dask_executor = None
-    if executor is not None:
-        if executor.kind == "dask":
-            dask_executor = executor
-        else:
-            n_workers = executor.slots
     out = Path(out)
     with contextlib.ExitStack() as stack:
         if store is None:

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 from ortools.sat.python import cp_model
 
-from droneplan.core.validation import check_array
+from droneplan.core.validation import check_array, check_int, check_time_limit
 from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult, Status
 
@@ -36,6 +36,9 @@ __all__ = [
 ]
 
 _SCALE = 1000  # ms
+
+MAX_WORKERS = 256
+"""Most CP-SAT search workers a call may ask for (one thread each)."""
 
 
 @dataclass(frozen=True)
@@ -57,14 +60,31 @@ def _check_cost(cost) -> NDArray[np.float64]:
     return c
 
 
+def _check_distances(shark_to_human: Any, s: int | None = None) -> NDArray[np.float64]:
+    """``shark_to_human`` as an (s,) array of finite distances >= 0 (m)."""
+    d = check_array("shark_to_human", shark_to_human, shape=(s,))
+    if (d < 0).any():
+        raise ValueError("shark_to_human must hold distances >= 0 (m)")
+    return d
+
+
+def _check_indices(sharks: Any, n_columns: int) -> NDArray[np.int64]:
+    """``sharks`` as distinct integer column indices in [0, n_columns)."""
+    raw = check_array("sharks", sharks, ndim=1)
+    idx = raw.astype(np.int64)
+    if not np.array_equal(idx, raw) or (idx < 0).any() or (idx >= n_columns).any():
+        raise ValueError(f"sharks must hold integer column indices of cost in [0, {n_columns}), got {raw}")
+    if len(np.unique(idx)) != len(idx):
+        raise ValueError("sharks must not repeat a shark")
+    return idx
+
+
 def select_sharks(shark_to_human, n_operators: int) -> NDArray[np.integer[Any]]:
     """Indices of the sharks to serve: all if s <= n, else the n closest to humans (thesis §5.3.1).
 
     shark_to_human: (s,) distance (m) from each shark to its nearest human.
     """
-    d = np.asarray(shark_to_human, dtype=float)
-    if d.ndim != 1 or np.isnan(d).any():
-        raise ValueError("shark_to_human must be a 1-D array of distances")
+    d = _check_distances(shark_to_human)
     if not isinstance(n_operators, (int, np.integer)) or n_operators < 1:
         raise ValueError("n_operators must be a positive int")
     order = np.argsort(d, kind="stable")
@@ -86,7 +106,7 @@ def build_assignment_model(cost, sharks):
     """
     c = _check_cost(cost)
     n = c.shape[0]
-    sharks = np.asarray(sharks, int)
+    sharks = _check_indices(sharks, c.shape[1])
     if len(sharks) > n:
         raise ValueError(f"{len(sharks)} sharks selected for {n} operators: select at most n (select_sharks)")
     finite = np.isfinite(c[:, sharks])
@@ -129,6 +149,8 @@ def solve_assignment(
     """
     c = _check_cost(cost)
     n, s = c.shape
+    time_limit = check_time_limit(time_limit)
+    workers = check_int("workers", workers, min_value=1, max_value=MAX_WORKERS)
     if s > n:
         if shark_to_human is None:
             raise ValueError(f"s={s} > n={n}: pass shark_to_human to select the n sharks closest to humans")
@@ -168,11 +190,14 @@ def greedy_assignment(operators, sharks_pos, shark_to_human, cost) -> SolveResul
     shark_to_human: (s,) distance of each shark to its nearest human (m); closer sharks choose first.
     """
     c = _check_cost(cost)
-    O = check_array("operators", operators, shape=(None, 3))
-    Sp = check_array("sharks_pos", sharks_pos, shape=(None, 3))
+    O = check_array("operators", operators, shape=(None, 3), min_rows=1)
+    Sp = check_array("sharks_pos", sharks_pos, shape=(None, 3), min_rows=1)
     n = len(O)
-    sel = select_sharks(shark_to_human, n) if len(Sp) > n else np.arange(len(Sp))
-    order = sel[np.argsort(np.asarray(shark_to_human, float)[sel], kind="stable")]
+    if c.shape != (n, len(Sp)):
+        raise ValueError(f"cost must have shape (n_operators, n_sharks) = {(n, len(Sp))}, got {c.shape}")
+    dist = _check_distances(shark_to_human, len(Sp))
+    sel = select_sharks(dist, n) if len(Sp) > n else np.arange(len(Sp))
+    order = sel[np.argsort(dist[sel], kind="stable")]
     free = list(range(n))
     op = {}
     for j in order:

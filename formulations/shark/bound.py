@@ -44,6 +44,7 @@ from droneplan.core.validation import (
     check_in_range,
     check_instance,
     check_nonneg,
+    check_real,
     check_size,
     current_limit,
 )
@@ -140,7 +141,13 @@ def interception_time_bound(
     t_max = check_in_range("t_max", t_max, 0.0, MAX_COORDINATE, lo_open=True)
     t0 = check_in_range("t0", t0, 0.0, MAX_COORDINATE)
     sl = params.gamma if slack is None else check_nonneg("slack", slack)
-    resolution = check_in_range("resolution", resolution, max(1e-12, 4 * math.ulp(t_max + t0)))
+    finest = max(1e-12, 4 * math.ulp(t_max + t0))
+    resolution = check_real("resolution", resolution)
+    if not resolution >= finest:
+        raise ValueError(
+            f"resolution must be >= {finest:.3g} s (1e-12 s, or the float64 spacing at t0 + t_max = "
+            f"{t_max + t0:.3g} s: lower t0 or t_max for a finer resolution), got {resolution}"
+        )
     if not isinstance(shark, SharkTrajectory):
         if not isinstance(shark, (tuple, list)) or len(shark) != 2:
             raise TypeError("shark must be a SharkTrajectory or (position (3,), velocity (>=2,))")

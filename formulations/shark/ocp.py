@@ -33,11 +33,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from droneplan.core.validation import (
+    MAX_COORDINATE,
     check_array,
+    check_in_range,
     check_instance,
     check_int,
-    check_nonneg,
     check_positive,
+    check_size,
     require_set,
 )
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
@@ -158,7 +160,7 @@ def build_interception_nlp(
     check_instance("params", params, SharkParams)
     check_instance("path", path, SharkTrajectory, optional=True)
     check_int("N", N, min_value=2, max_value=100_000)
-    check_nonneg("margin", margin)
+    check_in_range("margin", margin, 0.0, MAX_COORDINATE)
     S, V, n_p, Sym = _path_functions(path)
     T = Sym.sym("T")
     O = Sym.sym("O", 3, N + 1)
@@ -223,6 +225,9 @@ class InterceptionOCP:
     ):
         check_instance("params", params, SharkParams)
         check_positive("t_max", t_max)
+        # default_guesses scans the horizon every 0.25 s
+        check_size("t_max", t_max / 0.25)
+        check_int("max_iter", max_iter, min_value=1)
         self.params, self.N, self.path, self.t_max = params, N, path, t_max
         built = build_interception_nlp(params, N=N, path=path, margin=margin)
         self.layout = built
@@ -402,8 +407,9 @@ def solve_interception(  # noqa: C901
 
     check_instance("params", params, SharkParams)
     O0 = operator0 = check_array("operator0", operator0, shape=(3,))
+    t0 = check_in_range("t0", t0, 0.0, MAX_COORDINATE)
     if isinstance(shark, SharkTrajectory):
-        if not (math.isfinite(t0) and 0 <= t0 < shark.duration):
+        if not t0 < shark.duration:
             raise ValueError(f"t0 must be in [0, {shark.duration}) s (the path's horizon), got {t0}")
         S_now = shark.at(t0)[0]
         ocp = InterceptionOCP(params, N=N, path=shark, margin=margin, t_max=t_max, time_limit=time_limit)

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from droneplan.core.validation import check_in_range, check_nonneg, check_positive
+from droneplan.core.validation import check_bool, check_in_range, check_nonneg, check_positive
 from droneplan.scenarios.covert import (
     CovertCommand,
     CovertObservation,
@@ -133,6 +133,8 @@ class SlidingSettings:
             check_positive(name, getattr(self, name))
         check_in_range("cos_sat", self.cos_sat, hi=1.0)
         check_nonneg("return_margin", self.return_margin)
+        check_bool("saturation", self.saturation)
+        check_bool("unit_p", self.unit_p)
 
 
 # --------------------------------------------------------------------------- the laws

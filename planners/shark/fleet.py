@@ -2,10 +2,19 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
-from droneplan.core.validation import check_array, check_instance, check_positive
+from droneplan.core.validation import (
+    check_array,
+    check_bool,
+    check_instance,
+    check_positive,
+    check_size,
+    check_work,
+)
 from droneplan.formulations.shark import greedy_assignment, solve_assignment, solve_interception
 from droneplan.planners.shark.pursuit import VirtualSharkInterceptor
 from droneplan.scenarios.shark import (
@@ -18,6 +27,20 @@ from droneplan.scenarios.shark import (
 from droneplan.solvers.result import SolveResult
 
 __all__ = ["interception_time_matrix", "allocate_operators"]
+
+
+def _check_horizon(t_max: Any, params: SharkParams, n_ops: int, n_sharks: int, method: str) -> float:
+    """``t_max`` (s) checked against the sampling time and the work of ``n_ops x n_sharks`` predictions
+    (a simulated path of t_max / Ts control periods each, or one OCP each for ``method="ocp"``)."""
+    t_max = check_positive("t_max", t_max)
+    if t_max < params.Ts:
+        raise ValueError(f"t_max must be >= the sampling time Ts = {params.Ts} s, got {t_max}")
+    pairs = n_ops * n_sharks
+    check_size("t_max", 9 * t_max / params.Ts)  # one predicted path per shark
+    check_work("t_max (control periods over operator-shark pairs)", pairs * t_max / params.Ts, "evaluations")
+    if method == "ocp":
+        check_work("operators x sharks_pos (one OCP per pair)", pairs, "solves")
+    return t_max
 
 
 def interception_time_matrix(
@@ -46,7 +69,7 @@ def interception_time_matrix(
     O = check_array("operators", operators, shape=(None, 3))
     Sp = check_array("sharks_pos", sharks_pos, shape=(None, 3))
     Sv = check_array("sharks_vel", sharks_vel, shape=(None, 3))
-    t_max = check_positive("t_max", t_max)
+    t_max = _check_horizon(t_max, params, len(O), len(Sp), method)
     if len(Sp) != len(Sv):
         raise ValueError("sharks_pos and sharks_vel must have the same length")
     C = np.full((len(O), len(Sp)), np.inf)
@@ -90,6 +113,7 @@ def allocate_operators(
     method: how interception times are predicted ("virtual-shark" or "ocp").
     """
     check_instance("params", params, SharkParams)
+    check_bool("greedy", greedy)
     check_array("operators", operators, shape=(None, 3))
     check_array("sharks_vel", sharks_vel, shape=(None, 3))
     H = check_array("humans", humans)

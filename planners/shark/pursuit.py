@@ -32,7 +32,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from droneplan.core.validation import check_instance, check_positive, require_set
+from droneplan.core.validation import check_bool, check_instance, check_positive, require_set
 from droneplan.formulations.shark import optimal_altitude
 from droneplan.planners.shark.altitude import thesis_altitude
 from droneplan.scenarios.shark import (
@@ -131,7 +131,7 @@ class VirtualSharkInterceptor:
         self.side = side
         self.speed_eps = speed_eps
         self.hold_timeout = hold_timeout
-        self.restart_step1 = bool(restart_step1)
+        self.restart_step1 = check_bool("restart_step1", restart_step1)
         self._start(params)
 
     def reset(self, scenario: InterceptionScenario, *, seed=None) -> None:

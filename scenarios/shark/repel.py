@@ -35,6 +35,8 @@ from droneplan.core.validation import (
     check_methods,
     check_positive,
     check_real,
+    check_sequence,
+    check_work,
 )
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, inside_field
 from droneplan.scenarios.shark.simulate import SharkCommand, clip_velocity
@@ -244,6 +246,34 @@ class RepellingTrace:
     """Indices of the sharks the operators are sent to (:func:`sharks_to_repel` at t = 0)."""
 
 
+def _rows(name: str, value: Any) -> NDArray[np.float64]:
+    """``value`` as a 2-D array with at least one row (one point (k,) becomes (1, k))."""
+    arr = check_array(name, value)
+    arr = arr.reshape(1, -1) if arr.ndim == 1 else arr
+    if arr.ndim != 2 or len(arr) == 0:
+        raise ValueError(f"{name} must be a (k, 2|3) array with at least one row, got shape {arr.shape}")
+    return arr
+
+
+def _repelling_positions(
+    sharks0: Any, operators0: Any, swimmers: Any, depth: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Sharks (s, 3) (a (s, 2) input swims at ``depth``), operators (n, 3) and swimmers (m, 2), in m,
+    each checked under its parameter's name (at least one of each, finite, within MAX_COORDINATE)."""
+    S = _rows("sharks0", sharks0)
+    if S.shape[1] not in (2, 3):
+        raise ValueError(f"sharks0 must have shape (s, 2) or (s, 3), got {S.shape}")
+    if S.shape[1] == 2:
+        S = np.c_[S, np.full(len(S), depth)]
+    O = _rows("operators0", operators0)
+    if O.shape[1] != 3:
+        raise ValueError(f"operators0 must have shape (n, 3), got {O.shape}")
+    H = _rows("swimmers", swimmers)
+    if H.shape[1] not in (2, 3):
+        raise ValueError(f"swimmers must have shape (m, 2) or (m, 3), got {H.shape}")
+    return S, O, H[:, :2].copy()
+
+
 def simulate_repelling(  # noqa: C901, PLR0915
     sharks0,
     operators0,
@@ -277,15 +307,13 @@ def simulate_repelling(  # noqa: C901, PLR0915
     g = as_generator(seed)
     if behaviour.speed > params.VsMxy:
         raise ValueError(f"behaviour.speed must be <= VsMxy={params.VsMxy}")
-    S = np.array(sharks0, float).reshape(-1, np.shape(sharks0)[-1])
-    if S.shape[1] == 2:
-        S = np.c_[S, np.full(len(S), behaviour.depth)]
-    O = np.array(operators0, float).reshape(-1, 3)
-    H = np.array(swimmers, float)[:, :2]
+    check_work("t_max", t_max / params.Ts, "evaluations")
+    S, O, H = _repelling_positions(sharks0, operators0, swimmers, behaviour.depth)
+    controllers = check_sequence("controllers", controllers, min_len=0)
     if len(controllers) != len(O):
-        raise ValueError("one controller per operator")
-    if not (np.all(np.isfinite(S)) and np.all(np.isfinite(O)) and np.all(np.isfinite(H))):
-        raise ValueError("positions must be finite")
+        raise ValueError(
+            f"controllers must hold one controller per operator ({len(O)}), got {len(controllers)}"
+        )
     for i, c in enumerate(controllers):
         check_methods(f"controllers[{i}]", c, ("reset", "command"))
     scenario = RepellingScenario(S.copy(), O.copy(), H.copy(), params, behaviour)

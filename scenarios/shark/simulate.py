@@ -10,7 +10,13 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from droneplan.core.validation import check_array, check_in_range, check_int, check_methods, check_real
+from droneplan.core.validation import (
+    MAX_COORDINATE,
+    check_array,
+    check_in_range,
+    check_int,
+    check_methods,
+)
 from droneplan.scenarios.loop import Frame, LoopTrace, controller_counters
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1, SharkParams, field_radius, inside_field
 from droneplan.scenarios.shark.trajectories import SharkTrajectory
@@ -83,7 +89,7 @@ class InterceptionScenario:
             # as a jump at an impossible speed
             check_in_range("operator0[2] (altitude)", O[2], self.params.lmin, self.params.le)
             object.__setattr__(self, "operator0", O)
-        check_real("bearing_deg", self.bearing_deg)
+        check_in_range("bearing_deg", self.bearing_deg, -MAX_COORDINATE, MAX_COORDINATE)
 
     @property
     def operator(self) -> NDArray[np.float64]:
@@ -242,7 +248,7 @@ def operator_start(
         raise TypeError(f"trajectory must be a SharkTrajectory, got {type(trajectory).__name__}")
     if not isinstance(params, SharkParams):
         raise TypeError(f"params must be SharkParams, got {type(params).__name__}")
-    bearing_deg = check_real("bearing_deg", bearing_deg)
+    bearing_deg = check_in_range("bearing_deg", bearing_deg, -MAX_COORDINATE, MAX_COORDINATE)
     s0, v0 = trajectory.pos[0], trajectory.vel[0]
     psi = math.atan2(v0[1], v0[0]) + math.radians(bearing_deg)
     z = params.le if altitude is None else check_in_range("altitude", altitude, params.lmin, params.le)

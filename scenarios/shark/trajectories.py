@@ -11,6 +11,7 @@ choice within that description.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -79,6 +80,22 @@ class SharkTrajectory:
         return float(np.linalg.norm(self.vel[m], axis=1).mean())
 
 
+def _samples(duration: Any, dt: Any, *, per_sample: int) -> tuple[float, float, int]:
+    """``duration`` and ``dt`` (s) checked, and the number of samples ``round(duration / dt) + 1``.
+
+    A path needs two samples at least, so ``dt`` may not exceed ``duration``; the arrays the
+    path needs (``per_sample`` floats per sample) must fit the work budget.
+    """
+    duration = check_positive("duration", duration)
+    dt = check_positive("dt", dt)
+    if dt > duration:
+        raise ValueError(
+            f"dt must be <= duration (a path needs two samples), got dt={dt}, duration={duration}"
+        )
+    check_size("duration / dt", min(duration / dt, 1e300) * per_sample)
+    return duration, dt, round(duration / dt) + 1
+
+
 def make_trajectory(
     heading,
     speed,
@@ -99,9 +116,7 @@ def make_trajectory(
     name: a label for plots and tables.
     seed: the seed the path was drawn with, recorded on the trajectory (None: not random).
     """
-    duration = check_positive("duration", duration)
-    dt = check_positive("dt", dt)
-    check_size("duration / dt", int(min(duration / dt, 1e15)) * 10 * 9)
+    duration, dt, n = _samples(duration, dt, per_sample=10 * 9)
     start = check_array("start", start, shape=(2,))
     profiles = []
     for name, f in (("heading", heading), ("speed", speed), ("depth", depth)):
@@ -111,7 +126,6 @@ def make_trajectory(
             value = check_array(name, f, shape=())  # a number: held constant
             profiles.append(lambda t, value=float(value): np.full(np.shape(t), value))
     heading, speed, depth = profiles
-    n = round(duration / dt) + 1
     t = np.arange(n, dtype=np.float64) * dt
     # integrate on a 10x finer grid (midpoint rule) then subsample
     sub = 10
@@ -249,9 +263,6 @@ def constant_velocity_trajectory(
     """
     pos = check_array("pos", pos, shape=(3,))
     vel = check_array("vel", vel, shape=(3,))
-    duration = check_positive("duration", duration)
-    dt = check_positive("dt", dt)
-    check_size("duration / dt", int(min(duration / dt, 1e15)) * 9)
-    n = round(duration / dt) + 1
+    duration, dt, n = _samples(duration, dt, per_sample=9)
     t = np.arange(n, dtype=np.float64) * dt
     return SharkTrajectory(t, pos + t[:, None] * vel, np.tile(vel, (n, 1)), name=name)

@@ -12,11 +12,21 @@ from matplotlib.figure import Figure
 __all__ = ["figure_axes", "keep_in_view", "as_trace_dict"]
 
 
-def figure_axes(ax: Any = None, *, figsize: tuple[float, float] = (6.0, 4.5), projection: str | None = None):
+def figure_axes(
+    ax: Any = None,
+    *,
+    figsize: tuple[float, float] = (6.0, 4.5),
+    projection: str | None = None,
+    title: Any = None,
+):
     """(figure, axes): ``ax`` and its figure, or a new figure with one axes of ``projection``.
 
-    Raises TypeError when ``ax`` is not a matplotlib Axes, ValueError when it has the wrong projection.
+    title: the caller's ``title`` argument, checked here (a str or None) before any figure exists.
+    Raises TypeError when ``ax`` is not a matplotlib Axes or ``title`` is not a str, ValueError when
+    ``ax`` has the wrong projection.
     """
+    if title is not None and not isinstance(title, str):
+        raise TypeError(f"title must be a str or None, got {type(title).__name__}")
     if ax is None:
         fig = plt.figure(figsize=figsize)
         return fig, fig.add_subplot(projection=projection)

@@ -8,7 +8,7 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
-from droneplan.core.validation import check_int, check_size
+from droneplan.core.validation import check_bool, check_int, check_size
 from droneplan.formulations.cells import CellProblem, evaluate
 from droneplan.planners.cells import deployment_region
 from droneplan.studies.plots._common import figure_axes, keep_in_view
@@ -34,9 +34,10 @@ def plot_map(  # noqa: C901
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    check_bool("ranges", ranges)
     ev = evaluate(problem, positions)
     pos = np.asarray(positions, dtype=float).reshape(-1, 2)
-    fig, ax = figure_axes(ax, figsize=(5.5, 5.5))
+    fig, ax = figure_axes(ax, title=title, figsize=(5.5, 5.5))
     users = problem.users
     served = ~problem.active
     covered = ev.covered_mask

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from droneplan.core.validation import check_bool
 from droneplan.scenarios.covert import CovertScenario, CovertTrace
 from droneplan.studies.plots._animation import check_options, frame_indices, save_gif
 from droneplan.studies.plots._common import as_trace_dict, figure_axes
@@ -52,11 +53,12 @@ def plot_path(
     """
     if not isinstance(scenario, CovertScenario):
         raise TypeError(f"scenario must be a CovertScenario, got {type(scenario).__name__}")
+    check_bool("terrain", terrain)
     runs = as_trace_dict(traces, CovertTrace)
     for name, tr in runs.items():
         if not (np.all(np.isfinite(tr.drone)) and np.all(np.isfinite(tr.targets))):
             raise ValueError(f"traces[{name!r}]: the drone or target positions hold NaN or inf")
-    fig, ax = figure_axes(ax, figsize=(8, 6), projection="3d")
+    fig, ax = figure_axes(ax, title=title, figsize=(8, 6), projection="3d")
     p = scenario.params
     pts = [p.F_arr[None], p.D_s_arr[None], p.R_arr[None]]
     first = next(iter(runs.values()))
@@ -109,7 +111,7 @@ def plot_bearing(traces: Any, *, ax: Any = None, title: str | None = None):
     title: axes title (None: none).
     """
     runs = as_trace_dict(traces, CovertTrace)
-    fig, ax = figure_axes(ax, figsize=(7, 4))
+    fig, ax = figure_axes(ax, title=title, figsize=(7, 4))
     for name, tr in runs.items():
         (line,) = ax.plot(
             tr.t, np.degrees(tr.beta_m), label=f"{name} (max {math.degrees(tr.beta_max):.2f} deg)"
@@ -136,7 +138,7 @@ def plot_stealth_front(points: Any, bound: Any, *, ax: Any = None, title: str | 
     """
     _check_frame("points", points, ("method", "t_a", "beta_max_deg"))
     _check_frame("bound", bound, ("t_a", "bound_deg"))
-    fig, ax = figure_axes(ax, figsize=(7, 4.5))
+    fig, ax = figure_axes(ax, title=title, figsize=(7, 4.5))
     ax.plot(bound.t_a, bound.bound_deg, "k.-", label="lower bound: any controller on the sphere by t_a")
     for _, r in points.iterrows():
         ax.plot(r.t_a, r.beta_max_deg, "o", label=f"{r.method} ({r.beta_max_deg:.2f} deg)")

@@ -59,7 +59,7 @@ def plot_state(
     a, d = np.asarray(frame.animals, float), np.asarray(frame.drones, float)
     if not (np.all(np.isfinite(a)) and np.all(np.isfinite(d)) and np.all(np.isfinite(frame.headings))):
         raise ValueError(f"source: the state at t = {frame.t} s has NaN or inf positions or headings")
-    fig, ax = figure_axes(ax, figsize=(7, 4.5))
+    fig, ax = figure_axes(ax, title=title, figsize=(7, 4.5))
     c = a.mean(axis=0)
     ax.scatter(*a.T, s=3, c="tab:brown", label=f"animals ({len(a)})")
     ax.plot(*c, "+", color="k", ms=10, mew=1.5, label="herd centroid")
@@ -121,7 +121,7 @@ def plot_footprint(traces: Any, *, R_c: float | None = None, ax: Any = None, tit
     runs = as_trace_dict(traces, HerdingTrace)
     if R_c is not None:
         R_c = check_positive("R_c", R_c)
-    fig, ax = figure_axes(ax, figsize=(7, 4))
+    fig, ax = figure_axes(ax, title=title, figsize=(7, 4))
     for label, tr in runs.items():
         (line,) = ax.plot(tr.t / 60.0, tr.footprint_radius, label=label)
         if tr.gather_time is not None:

@@ -30,7 +30,7 @@ def plot_top_view(traces: Any, *, ax: Any = None, title: str | None = None):
     title: axes title (None: none).
     """
     runs = as_trace_dict(traces, InterceptionTrace)
-    fig, ax = figure_axes(ax, figsize=(6.5, 5))
+    fig, ax = figure_axes(ax, title=title, figsize=(6.5, 5))
     longest = max(runs.values(), key=lambda tr: len(tr.t))
     ax.plot(*longest.shark[:, :2].T, "k", lw=2, label="shark")
     ax.plot(*longest.shark[0, :2], "ko", ms=5, label="shark start")
@@ -81,7 +81,7 @@ def plot_time_series(traces: Any, quantity: str = "clearance", *, ax: Any = None
     if quantity not in _QUANTITIES:
         raise ValueError(f"quantity must be one of {sorted(_QUANTITIES)}, got {quantity!r}")
     runs = as_trace_dict(traces, InterceptionTrace)
-    fig, ax = figure_axes(ax, figsize=(7, 4))
+    fig, ax = figure_axes(ax, title=title, figsize=(7, 4))
     longest = max(runs.values(), key=lambda tr: len(tr.t))
     if quantity == "altitude":
         ax.plot(longest.t, longest.shark[:, 2], "k", lw=2, label="shark z_s")

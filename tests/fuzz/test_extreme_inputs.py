@@ -1,0 +1,446 @@
+"""Extreme inputs on every public entry: one table, generated from the signatures.
+
+Every public callable of the front doors (the ``SPECS`` of ``test_public_api.py``, which
+``test_every_public_callable_has_a_strategy`` keeps complete) and of ``droneplan.__all__``
+(``TOP_SPECS`` below) is called from its valid call with one parameter swapped for an extreme
+value of the parameter's kind:
+
+- a number: NaN, a huge magnitude (1e200), a vanishing one (1e-300, a resolution or a step)
+  and a huge horizon (1e12);
+- an int: a huge count (10**12) and NaN;
+- a bool flag: the string "yes";
+- an array: entries of magnitude 1e200, NaN entries, an empty array of the same width;
+- an optional parameter (None by default): 1e12, 1e-300 and 10**12.
+
+Each call must return or refuse with a ValueError/TypeError whose message names the parameter,
+within a CPU-time guard (and a wall-clock backstop), without asking for more memory than the
+guard allows. NaN, a flag given as a string and arrays of NaN or 1e200 must be refused; the
+other values may also be accepted, provided the result is finite (a huge time limit, a coarse
+tolerance or a one-frame animation are legitimate requests).
+
+Cases that fail in modules this file's owner does not maintain are marked ``xfail(strict=True)``
+with the missing check as the reason, so each flips to a failure (and its mark must go) once
+the check exists.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import inspect
+import math
+import resource
+import signal
+import sys
+import tempfile
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+
+import droneplan as dp
+
+
+def _load_public_api():
+    """The sibling module ``test_public_api`` (its SPECS, CALLABLES and _assert_finite)."""
+    name = "droneplan_fuzz_public_api"
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, Path(__file__).with_name("test_public_api.py"))
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # dataclasses look their module up while the module executes
+    spec.loader.exec_module(module)
+    return module
+
+
+API = _load_public_api()
+NAN = float("nan")
+
+# ---------------------------------------------------------------------------- the top level
+_TMP: dict[str, Any] = {}
+
+
+def _study() -> dict[str, Any]:
+    """A one-job gap study (greedy on one Table 4.2 instance) in a temporary directory, run once."""
+    if not _TMP:
+        out = Path(tempfile.mkdtemp(prefix="droneplan-fuzz-study-"))
+        dp.gap("cells", methods=["greedy"], instances="table4.2", out=out, progress=False, m=1, seeds=1)
+        inst = dp.family_instances("table4.2", seeds=1, m=1)[0]
+        _TMP.update(out=out, df=dp.load_results(out), inst=inst, file=dp.save_instance(inst, out / "i.json"))
+    return _TMP
+
+
+def _fresh_dir() -> str:
+    return tempfile.mkdtemp(prefix="droneplan-fuzz-gap-")
+
+
+TOP_SPECS: dict[str, Any] = {
+    "load_results": lambda: ((_study()["out"],), {}),
+    "gap": lambda: (
+        ("cells",),
+        {
+            "methods": ["greedy"],
+            "instances": "table4.2",
+            "out": _fresh_dir(),
+            "progress": False,
+            "m": 1,
+            "seeds": 1,
+        },
+    ),
+    "summary_table@top": lambda: ((_study()["df"],), {}),
+    "performance_profile": lambda: ((_study()["df"],), {}),
+    "plot_performance_profile": lambda: ((_study()["df"],), {}),
+    "family_instances": lambda: (("table4.2",), {"seeds": 1, "m": 1}),
+    "save_instance": lambda: ((_study()["inst"], Path(_fresh_dir()) / "i.json"), {}),
+    "load_instance": lambda: ((_study()["file"],), {}),
+    "run_gap": lambda: (("cells",), {"seeds": 1, "out": _fresh_dir()}),
+}
+TOP_EXTRA = {"gap": {"seeds": 1, "m": 1}, "family_instances": {"seeds": 1, "m": 1}, "run_gap": {"seeds": 1}}
+"""Valid values of the top-level entries' parameters that have no default (``**size`` keywords too)."""
+
+SLOW = {"gap", "run_gap", "ga_ablation", "optimal_interception"}
+"""Entries whose valid call takes seconds: only the values that must be refused are tried."""
+
+
+def _top_callable(name: str):
+    return getattr(dp, name.split("@")[0])
+
+
+def test_every_top_level_callable_has_a_spec():
+    names = {
+        n
+        for n in dp.__all__
+        if callable(getattr(dp, n))
+        and not inspect.ismodule(getattr(dp, n))
+        and n not in ("SolveResult", "Status")
+    }
+    assert names == {k.split("@")[0] for k in TOP_SPECS}
+
+
+# ---------------------------------------------------------------------------- the cases
+MUST_REFUSE = {"nan", "str-flag", "arr-1e200", "arr-nan", "top-nan"}
+
+
+def _values(valid: Any) -> list[tuple[str, Any]]:
+    """(label, extreme value) pairs for a parameter whose valid value is ``valid``."""
+    if isinstance(valid, bool):
+        return [("str-flag", "yes")]
+    if isinstance(valid, int):
+        return [("10**12", 10**12), ("nan", NAN)]
+    if isinstance(valid, float):
+        return [("nan", NAN), ("1e200", 1e200), ("1e-300", 1e-300), ("1e12", 1e12)]
+    if valid is None:
+        return [("1e12", 1e12), ("1e-300", 1e-300), ("10**12", 10**12)]
+    if isinstance(valid, (str, bytes, Path, dict)):
+        return []
+    try:
+        arr = np.asarray(valid)
+    except (ValueError, TypeError):
+        return []
+    if arr.dtype.kind not in "if" or arr.size == 0:
+        return []
+    return [
+        ("arr-1e200", np.full(arr.shape, 1e200)),
+        ("arr-nan", np.full(arr.shape, NAN)),
+        ("arr-empty", np.zeros((0, *arr.shape[1:]))),
+    ]
+
+
+def _entry(name: str) -> tuple[Any, Any]:
+    """(callable, valid-call factory) of a front-door or top-level entry."""
+    if name in TOP_SPECS:
+        return _top_callable(name), TOP_SPECS[name]
+    return API.CALLABLES[name], API.SPECS[name].call
+
+
+def _parameters(name: str) -> list[tuple[str, Any]]:
+    """(parameter, valid value) of every parameter of ``name`` that has a valid value.
+
+    Front-door entries take them from their valid call; top-level entries from their defaults
+    and ``TOP_EXTRA`` (so collecting the cases runs no study)."""
+    fn, call = _entry(name)
+    sig = inspect.signature(fn)
+    if name in TOP_SPECS:
+        given = dict(TOP_EXTRA.get(name, {}))
+    else:
+        args, kwargs = call()
+        given = dict(sig.bind_partial(*args, **kwargs).arguments)
+    out = []
+    for pname, p in sig.parameters.items():
+        if p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        valid = given.get(pname, p.default)
+        if valid is not inspect.Parameter.empty:
+            out.append((pname, valid))
+    out += [(k, v) for k, v in given.items() if k not in sig.parameters]
+    return out
+
+
+def _cases() -> list[tuple[str, str, str, Any]]:
+    names = sorted(API.SPECS) + sorted(TOP_SPECS)
+    cases = []
+    for name in names:
+        for pname, valid in _parameters(name):
+            for label, value in _values(valid):
+                quick = label in MUST_REFUSE or label == "10**12" or (name, pname, label) in KNOWN
+                if name in SLOW and not quick:
+                    continue
+                cases.append((name, pname, label, value))
+    return cases
+
+
+# ---------------------------------------------------------------------------- known gaps
+_CELLS_CORE = "formulations/cells (owner CELLS)"
+_CELLS_SCEN = "scenarios/cells.py (no owner this round)"
+_LOADERS = "scenarios/loaders.py (no owner this round)"
+_STUDY_CELLS = "studies/cells.py (owner SPEED-REPRODUCE)"
+KNOWN: dict[tuple[str, str, str], str] = {}
+
+
+def _known(where: str, what: str, name: str, param: str, *labels: str) -> None:
+    for label in labels:
+        KNOWN[(name, param, label)] = f"{where}: {what}"
+
+
+_known(_CELLS_SCEN, "half_width/R_c magnitudes overflow (OverflowError)", "CellParams", "half_width", "1e200")
+_known(_CELLS_SCEN, "half_width/R_c magnitudes overflow (OverflowError)", "CellParams", "R_c", "1e200")
+_known(_CELLS_SCEN, "user-count budget names lambda_c, not half_width", "CellParams", "half_width", "1e12")
+_known(_CELLS_SCEN, "user-count budget names lambda_c, not R_c", "CellParams", "R_c", "1e12")
+for _n, _p in (("matern_users", "poisson_clusters"), ("matern_users", "return_centres")):
+    _known(_CELLS_SCEN, f"{_p} is not checked as a bool", _n, _p, "str-flag")
+for _n in ("thesis_instance", "thesis_problem"):
+    _known(_CELLS_SCEN, "clustered is not checked as a bool", _n, "clustered", "str-flag")
+_known(
+    _CELLS_CORE,
+    "usable is not checked (a bool mask of the users)",
+    "connected_mask",
+    "usable",
+    "1e12",
+    "1e-300",
+)
+_known(_CELLS_CORE, "usable is not checked (a bool mask of the users)", "connected_mask", "usable", "10**12")
+_known(
+    _CELLS_CORE, "extra is checked under the name 'positions'", "candidate_sites", "extra", "1e12", "1e-300"
+)
+_known(_CELLS_CORE, "extra is checked under the name 'positions'", "candidate_sites", "extra", "10**12")
+for _p in ("candidates", "keep", "objective_range"):
+    _known(_CELLS_CORE, f"build_milp does not check {_p}", "build_milp", _p, "1e12", "1e-300", "10**12")
+_known(_CELLS_CORE, "pair_limit NaN accepted (no check_int)", "build_milp", "pair_limit", "nan")
+for _n in ("build_milp", "solve_exact", "solve_milp"):
+    _known(_CELLS_CORE, "user_cliques is not checked as a bool", _n, "user_cliques", "str-flag")
+for _n in ("solve_exact", "solve_milp"):
+    _known(_CELLS_CORE, "max_rounds NaN accepted (no check_int)", _n, "max_rounds", "nan")
+for _n in ("solve_exact", "solve_milp", "branch_and_bound"):
+    _known(
+        _CELLS_CORE, "warm_start is checked under the name 'positions'", _n, "warm_start", "1e12", "1e-300"
+    )
+    _known(_CELLS_CORE, "warm_start is checked under the name 'positions'", _n, "warm_start", "10**12")
+_known(
+    "planners/cells.py (owner CELLS)",
+    "iter_max has no work budget (10**12 generations run until stopped)",
+    "genetic",
+    "iter_max",
+    "10**12",
+)
+for _n in ("load_cells_csv", "load_cells_geojson"):
+    _known(_LOADERS, "gbs is checked under the name 'path'", _n, "gbs", "1e12", "1e-300", "10**12")
+_known(_LOADERS, "the resampling budget names the file, not dt", "load_shark_track_csv", "dt", "1e-300")
+_known(
+    "scenarios/covert/world.py (owner FIDELITY)",
+    "V_T so fast that the path is shorter than dt is refused naming dt/duration, not V_T",
+    "thesis_case",
+    "V_T",
+    "1e12",
+    "10**12",
+)
+_known(
+    "studies/covert.py (owner SPEED-REPRODUCE)",
+    "the solves budget names step, not n_arrivals",
+    "stealth_front",
+    "n_arrivals",
+    "10**12",
+)
+_known(_STUDY_CELLS, "centres is not checked", "instance_features", "centres", "1e12", "1e-300", "10**12")
+_known(_STUDY_CELLS, "runs has no work budget (hangs)", "ga_ablation", "runs", "10**12")
+_known(_STUDY_CELLS, "ablation_runs has no work budget (hangs)", "ga_ablation", "ablation_runs", "10**12")
+_known(
+    _STUDY_CELLS, "milp_limit=1e200 ends in KeyError 'm' inside pandas", "ga_ablation", "milp_limit", "1e200"
+)
+for _p in ("executor", "store", "out"):
+    _known(_STUDY_CELLS, f"{_p} is not checked", "ga_ablation", _p, "1e12", "1e-300", "10**12")
+_known(
+    "scenarios/herding.py (owner SPEED-IMPORT-HERD)",
+    "field is not checked (NaN and 1e200 accepted)",
+    "HerdingScenario",
+    "field",
+    "arr-1e200",
+    "arr-nan",
+)
+_known(
+    "scenarios/herding.py (owner SPEED-IMPORT-HERD)",
+    "stop_after_gathering is not checked as a bool",
+    "simulate@herding",
+    "stop_after_gathering",
+    "str-flag",
+)
+_known(
+    "formulations/herding.py (owner SPEED-IMPORT-HERD)",
+    "workers NaN accepted",
+    "solve_allocation",
+    "workers",
+    "nan",
+)
+_known(
+    "planners/herding/allocation.py (owner SPEED-IMPORT-HERD)",
+    "max_drones NaN accepted",
+    "allocate_bruteforce",
+    "max_drones",
+    "nan",
+)
+_known(
+    "studies/cli.py (owner SPEED-REPRODUCE)",
+    "workers has no upper bound (OverflowError inside the process pool)",
+    "run_gap",
+    "workers",
+    "10**12",
+)
+_known(
+    "studies/cli.py (owner SPEED-REPRODUCE)",
+    "dask_address is not checked (Dask's TypeError does not name it)",
+    "run_gap",
+    "dask_address",
+    "10**12",
+)
+
+CASES = _cases()
+
+
+def _param(case: tuple[str, str, str, Any]):
+    name, pname, label, value = case
+    reason = KNOWN.get((name, pname, label))
+    marks = [pytest.mark.xfail(strict=True, reason=reason)] if reason else []
+    return pytest.param(name, pname, label, value, marks=marks, id=f"{name}-{pname}-{label}")
+
+
+def test_every_known_gap_is_a_case():
+    keys = {(n, p, lbl) for n, p, lbl, _ in CASES}
+    stale = sorted(set(KNOWN) - keys)
+    assert not stale, f"KNOWN entries that are no longer cases: {stale}"
+
+
+# ---------------------------------------------------------------------------- the guard
+class _OverBudget(BaseException):
+    """Raised by the guard's timers (a BaseException, so no ``except Exception`` swallows it)."""
+
+
+def _raise_over_budget(signum, frame):
+    raise _OverBudget(signal.Signals(signum).name)
+
+
+CPU_SECONDS = 8.0
+"""CPU time (s, every thread of the process) a call may take before it counts as a hang."""
+
+WALL_SECONDS = 60.0
+"""Wall-clock backstop (s) for a call blocked without using CPU."""
+
+MEMORY_BYTES = 6 * 2**30
+"""Address space (bytes) a call may add: an allocation beyond it is a MemoryError, a failure."""
+
+
+@contextlib.contextmanager
+def guard(cpu: float = CPU_SECONDS) -> Iterator[None]:
+    """Run the block under a CPU-time alarm, a wall-clock alarm and an address-space limit."""
+    old_prof = signal.signal(signal.SIGPROF, _raise_over_budget)
+    old_alrm = signal.signal(signal.SIGALRM, _raise_over_budget)
+    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+    used = _address_space()
+    limit = used + MEMORY_BYTES if used else resource.RLIM_INFINITY
+    if hard != resource.RLIM_INFINITY:
+        limit = min(limit, hard)
+    resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
+    signal.setitimer(signal.ITIMER_PROF, cpu)
+    signal.setitimer(signal.ITIMER_REAL, WALL_SECONDS)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_PROF, 0)
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+        signal.signal(signal.SIGPROF, old_prof)
+        signal.signal(signal.SIGALRM, old_alrm)
+
+
+def _address_space() -> int:
+    """This process's virtual memory size (bytes), 0 if unknown."""
+    try:
+        fields = Path("/proc/self/statm").read_text().split()
+        return int(fields[0]) * resource.getpagesize()
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
+def _call_with(name: str, pname: str, value: Any) -> tuple[Any, tuple, dict]:
+    fn, call = _entry(name)
+    args, kwargs = call()
+    sig = inspect.signature(fn)
+    bound = sig.bind_partial(*args, **kwargs)
+    if pname in sig.parameters:
+        bound.arguments[pname] = value
+        return fn, bound.args, bound.kwargs
+    return fn, bound.args, {**bound.kwargs, pname: value}  # a **size keyword
+
+
+def verdict(name: str, pname: str, value: Any, *, cpu: float = CPU_SECONDS) -> tuple[str, str]:
+    """("refused", exception type) / ("returned", "finite"|"not finite") / ("failed", what)."""
+    fn, args, kwargs = _call_with(name, pname, value)
+    start = time.process_time()
+    try:
+        with guard(cpu):
+            result = fn(*args, **kwargs)
+    except _OverBudget as exc:
+        return "failed", f"over budget ({exc}) after {time.process_time() - start:.1f} s CPU"
+    except (ValueError, TypeError) as exc:
+        if pname not in str(exc):
+            return "failed", f"{type(exc).__name__} not naming {pname}: {exc}"
+        return "refused", type(exc).__name__
+    except BaseException as exc:  # noqa: BLE001 - any other exception is the finding
+        return "failed", f"{type(exc).__name__}: {exc}"
+    finally:
+        plt.close("all")
+    try:
+        API._assert_finite(result)
+    except AssertionError:
+        return "returned", "not finite"
+    return "returned", "finite"
+
+
+@pytest.mark.parametrize(("name", "pname", "label", "value"), [_param(c) for c in CASES])
+def test_extreme_input_returns_or_refuses_naming_the_parameter(name, pname, label, value):
+    known = (name, pname, label) in KNOWN
+    kind, detail = verdict(name, pname, value, cpu=3.0 if known else CPU_SECONDS)
+    assert kind != "failed", f"{name}({pname}={label}): {detail}"
+    if kind == "returned":
+        assert label not in MUST_REFUSE, f"{name}({pname}={label}) was accepted"
+        assert detail == "finite", f"{name}({pname}={label}) returned non-finite numbers"
+
+
+def test_the_guard_stops_a_hang_and_a_huge_allocation():
+    def spin():
+        while True:
+            pass
+
+    start = time.process_time()
+    with pytest.raises(_OverBudget), guard(cpu=0.5):
+        spin()
+    assert time.process_time() - start < 5.0
+    with pytest.raises(MemoryError), guard():
+        np.ones(2 * MEMORY_BYTES // 8)
+    assert math.isfinite(float(np.ones(3).sum()))  # the limits are lifted again
