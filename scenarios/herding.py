@@ -477,8 +477,14 @@ def _repulsion(nb: np.ndarray, pos: np.ndarray, dist: np.ndarray, r_a: float) ->
     another, so the sum has a sequential sum's rounding in neighbour order; far or missing
     neighbours add zeros, which change nothing.
     """
-    w = np.where(dist < r_a, 1.0 / np.maximum(dist, 1e-12), 0.0).T
-    return _unit((w[:, :, None] * (pos - nb)).sum(axis=0))
+    close = dist < r_a
+    # only the leading neighbours can be closer than r_a (the distances increase along a row):
+    # the trailing ones would add zeros
+    k = int(np.max(np.count_nonzero(close, axis=1), initial=0))
+    if k == 0:
+        return np.zeros((pos.shape[0], 2))
+    w = np.where(close[:, :k], 1.0 / np.maximum(dist[:, :k], 1e-12), 0.0).T
+    return _unit((w[:, :, None] * (pos - nb[:k])).sum(axis=0))
 
 
 def drone_step(
