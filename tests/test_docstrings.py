@@ -219,11 +219,16 @@ def test_dataclass_documents_every_field(door, name, cls):
 
 @cache
 def _front_door_sources(door: str) -> dict[str, str]:
-    """name -> defining module, from the ``from X import a, b`` statements of a front door."""
+    """name -> defining module, from the ``from X import a, b`` statements of a front door (also
+    those under ``if TYPE_CHECKING:``, where a front door declares the names it loads on first use)."""
     tree = ast.parse(Path(importlib.import_module(door).__file__).read_text())
+    body = list(tree.body)
+    for node in tree.body:
+        if isinstance(node, ast.If) and getattr(node.test, "id", None) == "TYPE_CHECKING":
+            body += node.body
     return {
         alias.asname or alias.name: node.module
-        for node in tree.body
+        for node in body
         if isinstance(node, ast.ImportFrom) and node.module
         for alias in node.names
     }
