@@ -35,9 +35,10 @@ def check_options(path: Any, fps: Any, stride: Any) -> tuple[Path, int, int]:
 def frame_indices(n: int, stride: int) -> list[int]:
     """Every ``stride``-th of ``n`` recorded instants, always ending on the last one.
 
-    ValueError naming ``stride`` when that makes more than MAX_FRAMES frames."""
+    ValueError naming ``trace`` when there is no recorded instant, naming ``stride`` when that makes
+    more than MAX_FRAMES frames."""
     if n <= 0:
-        return []
+        raise ValueError("trace has no recorded instants: there is nothing to animate")
     idx = list(range(0, n, stride))
     if idx[-1] != n - 1:
         idx.append(n - 1)

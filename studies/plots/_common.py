@@ -59,11 +59,18 @@ def keep_in_view(ax: Any, points: Any, *, margin: float = 0.05) -> None:
 
 
 def as_trace_dict(traces: Any, trace_type: type, name: str = "traces") -> dict[str, Any]:
-    """{label: trace} from one trace (labelled by its ``name`` or "run") or a dict of them."""
+    """{label: trace} from one trace (labelled by its ``name`` or "run") or a dict of them.
+
+    TypeError naming ``name`` for anything else; ValueError when a trace has no recorded instant."""
     if isinstance(traces, trace_type):
-        return {getattr(traces, "name", "") or "run": traces}
-    if isinstance(traces, dict) and traces and all(isinstance(v, trace_type) for v in traces.values()):
-        return {str(k): v for k, v in traces.items()}
-    raise TypeError(
-        f"{name} must be a {trace_type.__name__} or a non-empty dict of them, got {type(traces).__name__}"
-    )
+        runs = {getattr(traces, "name", "") or "run": traces}
+    elif isinstance(traces, dict) and traces and all(isinstance(v, trace_type) for v in traces.values()):
+        runs = {str(k): v for k, v in traces.items()}
+    else:
+        raise TypeError(
+            f"{name} must be a {trace_type.__name__} or a non-empty dict of them, got {type(traces).__name__}"
+        )
+    for label, trace in runs.items():
+        if len(np.atleast_1d(getattr(trace, "t", ()))) == 0:
+            raise ValueError(f"{name}[{label!r}] has no recorded instants: there is nothing to plot")
+    return runs
