@@ -318,10 +318,10 @@ class ExtendedHull:
         dx, dy = qx - cx, qy - cy
         i = np.argmin(dx * dx + dy * dy, axis=1)
         k = np.arange(q.shape[0])
-        s = np.mod(self.cum[i] + t[k, i] * self._L[i], self.perimeter)
-        out = (s, np.column_stack([cx[k, i], cy[k, i]]), i)
-        self._last_project = (q.copy(), *(a.copy() for a in out))
-        return out
+        s: np.ndarray = np.mod(self.cum[i] + t[k, i] * self._L[i], self.perimeter)
+        close = np.column_stack([cx[k, i], cy[k, i]])
+        self._last_project = (q.copy(), s.copy(), close.copy(), i.copy())
+        return s, close, i
 
     def ray_s(self, origin: np.ndarray, angle: float) -> float:
         """Arc position where the ray from ``origin`` (inside) at ``angle`` (rad) leaves the polygon."""
