@@ -11,6 +11,8 @@ in its own file, plus one line in ``registry._BUILTIN``.
 
 from __future__ import annotations
 
+import math
+import time
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -58,6 +60,109 @@ _STATUS_NAME = {
 _AVAILABLE: dict[str, bool] = {}  # pywraplp solver id -> can be created here
 
 
+_HIGHS_STATUS: dict[Any, Status] = {
+    "kOptimal": Status.OPTIMAL,
+    "kModelEmpty": Status.OPTIMAL,
+    "kInfeasible": Status.INFEASIBLE,
+    "kUnbounded": Status.UNBOUNDED,
+    "kUnboundedOrInfeasible": Status.UNBOUNDED,
+    **dict.fromkeys(
+        (
+            "kTimeLimit",
+            "kIterationLimit",
+            "kSolutionLimit",
+            "kInterrupt",
+            "kHighsInterrupt",
+            "kObjectiveBound",
+            "kObjectiveTarget",
+            "kMemoryLimit",
+        ),
+        Status.NO_SOLUTION,  # FEASIBLE when HiGHS holds a feasible point (``_highs_readout``)
+    ),
+}
+"""HiGHS model statuses (``HighsModelStatus`` names); others are ERROR."""
+
+
+def _check_settings(time_limit: float | None, threads: int | None, relative_gap: float | None) -> None:
+    """The argument checks of ``solve_native`` (each error names its parameter)."""
+    check_time_limit(time_limit)
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
+        raise ValueError(f"threads must be a positive int, got {threads!r}")
+    if relative_gap is not None and not (0 <= relative_gap < 1):
+        raise ValueError(f"relative_gap must be in [0, 1), got {relative_gap}")
+
+
+def _highs_model(solver: pywraplp.Solver) -> Any:
+    """A highspy.Highs holding the linear model of the pywraplp ``solver`` (its MPModelProto:
+    same variable order, bounds, integrality, rows and objective)."""
+    import highspy  # type: ignore[import-untyped]
+    from ortools.linear_solver import linear_solver_pb2
+
+    proto = linear_solver_pb2.MPModelProto()
+    solver.ExportModelToProto(proto)
+    if len(proto.general_constraint) or proto.HasField("quadratic_objective"):
+        raise ValueError("the HiGHS adapter takes linear models only (no general or quadratic terms)")
+    lp = highspy.HighsLp()
+    lp.num_col_ = len(proto.variable)
+    lp.num_row_ = len(proto.constraint)
+    lp.col_cost_ = np.array([v.objective_coefficient for v in proto.variable], dtype=float)
+    lp.col_lower_ = np.array([v.lower_bound for v in proto.variable], dtype=float)
+    lp.col_upper_ = np.array([v.upper_bound for v in proto.variable], dtype=float)
+    lp.row_lower_ = np.array([c.lower_bound for c in proto.constraint], dtype=float)
+    lp.row_upper_ = np.array([c.upper_bound for c in proto.constraint], dtype=float)
+    lp.sense_ = highspy.ObjSense.kMaximize if proto.maximize else highspy.ObjSense.kMinimize
+    lp.offset_ = float(proto.objective_offset)
+    if any(v.is_integer for v in proto.variable):
+        kinds = (highspy.HighsVarType.kContinuous, highspy.HighsVarType.kInteger)
+        lp.integrality_ = [kinds[bool(v.is_integer)] for v in proto.variable]
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
+    lp.a_matrix_.num_col_ = lp.num_col_
+    lp.a_matrix_.num_row_ = lp.num_row_
+    lp.a_matrix_.start_ = np.cumsum([0] + [len(c.var_index) for c in proto.constraint]).astype(np.int32)
+    lp.a_matrix_.index_ = np.array([i for c in proto.constraint for i in c.var_index], dtype=np.int32)
+    lp.a_matrix_.value_ = np.array([a for c in proto.constraint for a in c.coefficient], dtype=float)
+    highs = highspy.Highs()
+    highs.setOptionValue("output_flag", False)
+    highs.passModel(lp)
+    return highs
+
+
+def _highs_readout(
+    highs: Any, code: str, status: Status, variables: Sequence[Any], warm_start: bool, name: str
+) -> NativeReadout:
+    """The solution of a HiGHS run: at a limit, its incumbent (FEASIBLE) when it has one."""
+    info = highs.getInfo()
+    is_mip = highs.getLp().integrality_ is not None and len(highs.getLp().integrality_) > 0
+    has_point = info.primal_solution_status == 2  # kSolutionStatusFeasible
+    if status is Status.NO_SOLUTION and has_point:
+        status = Status.FEASIBLE
+    objective = x = None
+    if status.has_solution:
+        col = np.asarray(highs.getSolution().col_value, dtype=float)
+        x = np.array([col[v.index()] for v in variables], dtype=float)
+        objective = float(info.objective_function_value)
+    bound = float(info.mip_dual_bound) if is_mip else (objective if status is Status.OPTIMAL else None)
+    if bound is not None and not math.isfinite(bound):
+        bound = None
+    notes = []
+    if warm_start:
+        notes.append(f"warm start not passed: the {name} backend does not take a start solution")
+    if status is Status.NO_SOLUTION:
+        notes.append(f"stopped at the limit ({code}) without a feasible solution")
+    elif status is Status.FEASIBLE:
+        notes.append(f"stopped at the limit ({code}); the incumbent is not proven optimal")
+    elif status is Status.ERROR:
+        notes.append(f"{name} returned status {code}")
+    return NativeReadout(
+        objective=objective,
+        bound=bound,
+        x=x,
+        message="; ".join(notes),
+        status=status,
+        iterations=int(info.mip_node_count) if is_mip and status.has_solution else None,
+    )
+
+
 class PywraplpAdapter(BackendAdapter, LinearBackend):
     """A MIP solver reached through pywraplp; subclasses set the three class attributes."""
 
@@ -101,11 +206,7 @@ class PywraplpAdapter(BackendAdapter, LinearBackend):
         verbose: bool = False,
     ) -> SolveResult:
         """Solve a pywraplp model of this solver (see :func:`solve_mip`)."""
-        check_time_limit(time_limit)
-        if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
-            raise ValueError(f"threads must be a positive int, got {threads!r}")
-        if relative_gap is not None and not (0 <= relative_gap < 1):
-            raise ValueError(f"relative_gap must be in [0, 1), got {relative_gap}")
+        _check_settings(time_limit, threads, relative_gap)
         if time_limit is not None:
             solver.SetTimeLimit(max(1, round(time_limit * 1000)))
         if threads is not None:
@@ -168,14 +269,56 @@ class PywraplpAdapter(BackendAdapter, LinearBackend):
 
 
 class HighsAdapter(PywraplpAdapter):
-    """HiGHS (branch and cut, dual simplex) through pywraplp. Takes no start solution:
-    with ortools 9.15, SetHint followed by Solve crashes the process under HiGHS."""
+    """HiGHS (branch and cut, dual simplex). Models are built with pywraplp and solved by
+    highspy, handed over as their MPModelProto: pywraplp's HiGHS interface reports
+    MPSOLVER_UNKNOWN_STATUS at the time limit and drops HiGHS's incumbent, while highspy
+    returns it (FEASIBLE, with HiGHS's bound). Takes no start solution (with ortools 9.15,
+    SetHint followed by Solve crashes the process under HiGHS)."""
 
     name = "highs"
     solver_id = "HIGHS"
     takes_hint = False
     quiet_parameters = "output_flag=false"
-    description = "HiGHS MILP/LP through OR-Tools pywraplp"
+    description = "HiGHS MILP/LP (models built with OR-Tools pywraplp, solved by highspy)"
+    status_map = _HIGHS_STATUS
+
+    def status_name(self, code: Any) -> str:
+        return str(code)
+
+    def solve_native(
+        self,
+        solver: pywraplp.Solver,
+        *,
+        variables: Sequence[Any] = (),
+        time_limit: float | None = None,
+        warm_start: Mapping[Any, float] | None = None,
+        threads: int | None = None,
+        relative_gap: float | None = None,
+        verbose: bool = False,
+    ) -> SolveResult:
+        """Solve a pywraplp model with HiGHS (see :func:`solve_mip`); ``time_limit`` (s) covers
+        the hand-over of the model too. At a limit the incumbent, if HiGHS has one, comes back
+        with status FEASIBLE, else NO_SOLUTION; ``bound`` is HiGHS's dual bound in both cases.
+        ``threads`` is checked and otherwise unused (HiGHS's branch and cut runs on one thread)."""
+        t0 = time.perf_counter()
+        _check_settings(time_limit, threads, relative_gap)
+        options: dict[str, Any] = {"output_flag": bool(verbose)}
+        if relative_gap is not None:
+            options["mip_rel_gap"] = float(relative_gap)
+
+        def call() -> tuple[str, Any]:
+            highs = _highs_model(solver)
+            if time_limit is not None:
+                options["time_limit"] = max(time_limit - (time.perf_counter() - t0), 1e-3)
+            for key, value in options.items():
+                highs.setOptionValue(key, value)
+            highs.run()
+            return highs.getModelStatus().name, highs
+
+        def read(code: Any, highs: Any, status: Status, _elapsed: float) -> NativeReadout:
+            return _highs_readout(highs, code, status, variables, bool(warm_start), self.name)
+
+        return run_native(self, call, read, warm_started=False)
 
 
 class ScipAdapter(PywraplpAdapter):

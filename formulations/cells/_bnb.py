@@ -162,6 +162,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from droneplan.core.validation import check_work
 from droneplan.formulations.cells._core import TOL, Candidates, evaluate, pairwise_distances
 from droneplan.scenarios.cells import CellProblem
 
@@ -315,8 +316,9 @@ class BranchAndBoundSearch:
         self.t0 = time.perf_counter() if t0 is None else t0
         self.problem = problem
         self.cand = cand
-        self.m = problem.n_cells
         self.n = len(cand.points)
+        # a placement holds distinct candidate sites, so no more than n of them (exact)
+        self.m = min(problem.n_cells, self.n)
         self.upper = upper
         self.time_limit = time_limit
         self.node_limit = node_limit
@@ -454,9 +456,14 @@ class BranchAndBoundSearch:
         return self.expired()
 
     def _tick(self) -> None:
-        """Count a search node; every ``_CHECK_EVERY`` nodes check the limits."""
+        """Count a search node; every ``_CHECK_EVERY`` nodes check the limits (and share the
+        incumbent), and the clock at every node: a node's cost grows with m and the depth, so
+        on a large m a few hundred nodes can take minutes."""
         self.nodes += 1
-        if self.nodes % _CHECK_EVERY == 0 and self.checkpoint():
+        if self.nodes % _CHECK_EVERY == 0:
+            if self.checkpoint():
+                raise self.timed_out()
+        elif self.time_limit is not None and time.perf_counter() - self.t0 >= self.time_limit:
             raise self.timed_out()
 
     def open_bound(self) -> float:
@@ -1181,6 +1188,8 @@ def search(
     if n == 0 or problem.n_cells == 0 or best_val >= upper:
         return BnbResult(best_pos, best_val, float(min(upper, best_val) if n == 0 else upper), True, 0)
     _check_memory(n)
+    # a node's bounds (item 7's greedy sets over every candidate) handle about m n elements
+    check_work("n_cells", float(min(problem.n_cells, n)) * n, "elements")
     bb = BranchAndBoundSearch(
         problem,
         cand,

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from droneplan.core.validation import check_instance, check_time_limit, require_set
+from droneplan.core.validation import check_instance, check_int, check_time_limit, require_set
 from droneplan.formulations.cells._core import (
     TOL,
     Candidates,
@@ -75,12 +75,13 @@ def coverage_upper_bound(
     Returns a SolveResult (objective = bound when proven optimal; ``bound`` is valid
     for the continuous problem in any case).
 
+    n_discs: number of discs (count >= 0; default the problem's m).
     backend: linear backend name ("highs", "cp-sat", "scip").
     time_limit: wall-clock limit of the bound's solve (s), None: none.
     """
     check_instance("problem", problem, CellProblem)
     time_limit = check_time_limit(time_limit)
-    m = problem.n_cells if n_discs is None else int(n_discs)
+    m = problem.n_cells if n_discs is None else check_int("n_discs", n_discs, min_value=0)
     t0 = time.perf_counter()
     t = problem.targets
     if m <= 0 or len(t) == 0:
