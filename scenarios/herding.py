@@ -498,8 +498,13 @@ def drone_step(
     """Integrate (6.3)-(6.6) over ``dt`` with |v| <= V_max, |omega| <= U_max (clipped)."""
     v = np.clip(np.asarray(v, dtype=float), -params.V_max, params.V_max)
     omega = np.clip(np.asarray(omega, dtype=float), -params.U_max, params.U_max)
-    a = np.column_stack([np.cos(headings), np.sin(headings)])
-    return drones + (v * dt)[:, None] * a, headings + omega * dt
+    drones = np.asarray(drones, dtype=float)
+    headings = np.asarray(headings, dtype=float)
+    step = v * dt
+    out = np.empty_like(drones)
+    out[:, 0] = drones[:, 0] + step * np.cos(headings)
+    out[:, 1] = drones[:, 1] + step * np.sin(headings)
+    return out, headings + omega * dt
 
 
 # --------------------------------------------------------------------------- simulation

@@ -94,6 +94,8 @@ def next_waypoint(
     """
     M = hull.perimeter
     n_e = len(hull.vertices)
+    if s_drone.size <= _SCALAR_MAX:
+        return hull.point_at(_waypoint_s(hull.cum.tolist(), M, n_e, s_drone, edge, s_target, direction))
     rem = np.mod((s_target - s_drone) * direction, M)
     # a target just behind (rounding, or a one-step overshoot) is reached, not a lap ahead
     rem = np.where(rem > M - OVERSHOOT_TOL, 0.0, rem)
@@ -106,6 +108,29 @@ def next_waypoint(
     to_v = np.where(at_v, np.mod((nxt - s_drone) * direction, M), to_v)
     s_star = np.where(rem <= to_v, s_target, nxt)
     return hull.point_at(s_star)
+
+
+_SCALAR_MAX = 12
+"""Up to this many drones, :func:`next_waypoint` picks the arc positions in plain Python floats
+(the same operations as the numpy version, the same values to the last bit)."""
+
+
+def _waypoint_s(cum: list[float], M: float, n_e: int, s_drone, edge, s_target, direction) -> np.ndarray:
+    """Arc positions of O* for a few drones (:func:`next_waypoint`'s rule, one drone at a time)."""
+    out = []
+    for s, e, st, d in zip(
+        s_drone.tolist(), edge.tolist(), s_target.tolist(), direction.tolist(), strict=True
+    ):
+        rem = ((st - s) * d) % M  # Python's float % rounds as np.mod
+        if rem > M - OVERSHOOT_TOL:  # a target just behind is reached, not a lap ahead
+            rem = 0.0
+        nxt = cum[e + 1] if d > 0 else cum[e]
+        to_v = ((nxt - s) * d) % M
+        if to_v < 1e-9:  # standing on the vertex already: the next one along the direction
+            nxt = cum[(e + 2) % n_e] if d > 0 else cum[(e - 1) % n_e]
+            to_v = ((nxt - s) * d) % M
+        out.append(st if rem <= to_v else nxt)
+    return np.array(out, dtype=float)
 
 
 def fly_on_edge(

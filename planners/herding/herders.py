@@ -168,6 +168,11 @@ class _Herder(abc.ABC):
             b = self.Q_target - drones
             return steer(headings, b, p.V_max, p.U_max, dt)
         hull = require_set(self.hull, "the hull (_observe builds it on a step's first sub-step)")
+        if self.allocated and self.on_hull.all():  # the common case: every drone flies on the hull
+            v_n, w_n, _ = fly_on_edge(
+                drones, headings, hull, self.s_target, self.direction, p.V_max, p.U_max, dt
+            )
+            return v_n, w_n
         v = np.zeros(len(drones))
         omega = np.zeros(len(drones))
         off = ~self.on_hull

@@ -402,3 +402,30 @@ def test_the_delivered_share_skips_only_herds_clear_of_the_goal():
         assert _delivered(animals, c, r, goal, radius) == brute
         shares.add(0.0 if brute == 0 else 1.0 if brute == 1 else 0.5)
     assert shares == {0.0, 0.5, 1.0}
+
+
+def test_the_scalar_waypoint_equals_the_vectorised_one(monkeypatch):
+    """O* of a few drones is picked in plain Python; on random hulls, positions and targets (drones
+    on vertices and targets just behind included) it is the numpy version's point to the bit."""
+    from droneplan.planners.herding import guidance
+
+    rng = np.random.default_rng(14)
+    checked = 0
+    for _ in range(400):
+        hull = dp.herding.ExtendedHull.from_points(
+            rng.uniform(0.0, 300.0, (int(rng.integers(3, 40)), 2)), 30.0
+        )
+        M, n_e = hull.perimeter, len(hull.vertices)
+        n = int(rng.integers(1, 9))
+        s = rng.uniform(0.0, M, n)
+        s[: n // 3] = hull.vertex_s[rng.integers(0, n_e, n // 3)]  # on a vertex
+        target = np.mod(s + rng.choice([-0.5, 1.0, 50.0, -80.0], n) * rng.uniform(0.0, 1.0, n), M)
+        edge = hull.project(hull.point_at(s))[2]
+        direction = rng.choice([-1, 1], n)
+        scalar = guidance.next_waypoint(hull, s, edge, target, direction)
+        monkeypatch.setattr(guidance, "_SCALAR_MAX", 0)
+        vectorised = guidance.next_waypoint(hull, s, edge, target, direction)
+        monkeypatch.setattr(guidance, "_SCALAR_MAX", 12)
+        assert np.array_equal(scalar, vectorised)
+        checked += n
+    assert checked > 1000
