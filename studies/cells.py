@@ -37,6 +37,7 @@ from droneplan.scenarios.cells import (
 )
 from droneplan.solvers.result import SolveResult
 from droneplan.studies.common import ComparisonTable, make_executor, map_rows, open_store, report_study
+from droneplan.studies.jobs import Job, row_jobs, run_reproduction
 from droneplan.studies.plots.cells import plot_deployment_region, plot_map
 from droneplan.studies.report import flag_reasons
 from droneplan.studies.store import Outcome, build_rows, instance_id
@@ -46,6 +47,7 @@ __all__ = [
     "MILP_BACKEND",
     "reproduce_task",
     "reproduce",
+    "reproduce_jobs",
     "GA_VARIANTS",
     "INSTANCE_VARIANTS",
     "instance_features",
@@ -143,22 +145,31 @@ def reproduce(*, quick: bool, out: Path, executor=None, store=None) -> None:
 
     Every solve and GA run is a task of the results store (default ``out/results.sqlite``),
     run through ``executor`` (default: serial), so an interrupted reproduction resumes.
+    quick: see :func:`reproduce_jobs`.
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     with contextlib.ExitStack() as stack:
-        ex = executor or stack.enter_context(make_executor(1))
         st = stack.enter_context(open_store(store, out))
-        _reproduce(quick, out, ex, st)
+        jobs = reproduce_jobs(quick=quick, out=out, store_path=st.path)
+        run_reproduction(jobs, executor=executor, store=st)
 
 
-def _reproduce(quick: bool, out: Path, ex, st) -> None:  # noqa: PLR0915
+def _plan(quick: bool) -> dict[str, Any]:
+    """The sizes, limits and store tasks of the cells reproduction (quick or full)."""
     ms = (1, 2, 3) if quick else (1, 2, 3, 4)
     runs = 3 if quick else 20
-    es_limit = 20.0 if quick else 600.0
-    milp_limit = 120.0 if quick else 600.0
     seed = INSTANCE_SEED
     tag = "quick" if quick else "full"
+    plan: dict[str, Any] = {
+        "ms": ms,
+        "es_limit": 20.0 if quick else 600.0,
+        "milp_limit": 120.0 if quick else 600.0,
+        "n43": 3 if quick else 50,
+        "Ps": (50, 100) if quick else (50, 100, 150, 200),
+        "Ns": (10, 30) if quick else (20, 40, 60, 80),
+        "n45": 2 if quick else 20,
+    }
 
     def ga_task(study, run_seed, m, **kw):
         return {
@@ -171,169 +182,191 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:  # noqa: PLR0915
             **kw,
         }
 
-    exact = [
-        {
+    def exact_task(study: str, kind: str, m: int, **limits: float) -> dict[str, Any]:
+        return {
             "problem": "cells",
-            "instance": instance_id("table4.3", m=m, seed=seed, limits=tag),
-            "kind": "exact",
+            "instance": instance_id(study, m=m, seed=seed, limits=tag),
+            "kind": kind,
             "m": m,
             "seed": seed,
-            "milp_limit": milp_limit,
-            "es_limit": es_limit,
+            **limits,
         }
+
+    plan["exact"] = [
+        exact_task("table4.3", "exact", m, milp_limit=plan["milp_limit"], es_limit=plan["es_limit"])
         for m in ms
     ]
-    ga43 = [ga_task("table4.3-ga", 100 * m + r, m) for m in ms for r in range(runs)]
-    n43 = 3 if quick else 50
-    fig43 = [ga_task("fig4.3", 5000 + r, 2, pop_size=100, restarts=1, iter_max=2000) for r in range(n43)] + [
-        ga_task("fig4.3", 6000 + r, 2, pop_size=100, restarts=40, iter_max=50) for r in range(n43)
-    ]
-    Ps = (50, 100) if quick else (50, 100, 150, 200)
-    Ns = (10, 30) if quick else (20, 40, 60, 80)
-    n45 = 2 if quick else 20
-    fig45 = [
+    plan["ga43"] = [ga_task("table4.3-ga", 100 * m + r, m) for m in ms for r in range(runs)]
+    n43 = plan["n43"]
+    plan["fig43"] = [
+        ga_task("fig4.3", 5000 + r, 2, pop_size=100, restarts=1, iter_max=2000) for r in range(n43)
+    ] + [ga_task("fig4.3", 6000 + r, 2, pop_size=100, restarts=40, iter_max=50) for r in range(n43)]
+    plan["fig45"] = [
         ga_task("fig4.5", 7000 + 100 * i + j * 1000 + r, 3, pop_size=P, restarts=N)
-        for i, P in enumerate(Ps)
-        for j, N in enumerate(Ns)
-        for r in range(n45)
+        for i, P in enumerate(plan["Ps"])
+        for j, N in enumerate(plan["Ns"])
+        for r in range(plan["n45"])
     ]
-    nc = [
-        {
-            "problem": "cells",
-            "instance": instance_id("fig4.6", m=m, seed=seed, limits=tag),
-            "kind": "milp-nc",
-            "m": m,
-            "seed": seed,
-            "milp_limit": 30.0 if quick else 300.0,
-        }
-        for m in ms
-    ]
-    # Table 4.3 first: the rest of the figures need its MILP optima
-    df = map_rows(reproduce_task, exact + ga43, executor=ex, store=st, desc="Table 4.3")
-    # ---------------------------------------------------------------- Table 4.3
+    plan["nc"] = [exact_task("fig4.6", "milp-nc", m, milp_limit=30.0 if quick else 300.0) for m in ms]
+    return plan
+
+
+def _rows(store_path: Path, tasks: list[dict[str, Any]]) -> pd.DataFrame:
+    """The store rows of ``tasks`` (running, in this process, any task the store lacks)."""
+    from droneplan.studies.store import ResultStore
+
+    with make_executor(1) as ex, ResultStore(store_path) as st:
+        return map_rows(reproduce_task, tasks, executor=ex, store=st)
+
+
+def _table_4_3_row(tab: ComparisonTable, m: int, df: pd.DataFrame, task, ga43, es_limit: float) -> dict:
+    """Add the rows of ``m`` to Table 4.3; returns its raw CSV row."""
+    t_es, t_ga_th, _, P, N, pg = THESIS_TABLE_4_3[m]
+    milp, es = _objective(df, task["instance"], "milp"), _objective(df, task["instance"], "exhaustive")
+    cont = _find_row(df, task["instance"], "continuous-bound")
+    ga = df[df["instance"].isin([t["instance"] for t in ga43 if t["m"] == m]) & (df["method"] == "ga")]
+    opt = milp["objective"] if milp["status"] == "optimal" else None
+    succ = None if opt is None else float((ga["objective"] == opt).mean())
+    succ_pol = None if opt is None else float((ga["cells_polished"] == opt).mean())
+    es_time = (
+        float(es["time_s"]) if es["cells_es_complete"] else f"{es['time_s']:.3g} (stopped at {es_limit:g} s)"
+    )
+    tab.add(
+        f"m={m} T_ES (s)",
+        t_es,
+        es_time,
+        "Algorithm 2, wall time on this machine (bound-pruned enumeration: the plain one's result)",
+        kind="speed",
+    )
+    tab.add(
+        f"m={m} T_GA (s)",
+        t_ga_th,
+        float(ga["time_s"].mean()),
+        f"mean over {len(ga)} GA runs, P={P}, N_start={N}, iter_max=50",
+        kind="speed",
+    )
+    succ_es = float((ga["objective"] >= es["objective"]).mean())
+    ga_best = f"the best of the {len(ga)} runs covers {ga['objective'].max():g} users"
+    tab.add(
+        f"m={m} P_Global vs ES (thesis criterion)",
+        pg,
+        succ_es,
+        f"fraction of {len(ga)} GA runs reaching the exhaustive-search value {es['objective']:g}"
+        + ("" if es["cells_es_complete"] else " (ES stopped at its limit: best found)"),
+        why=f"{ga_best}, ES {es['objective']:g}",
+    )
+    tab.add(
+        f"m={m} P_Global vs MILP",
+        pg,
+        succ,
+        f"fraction of {len(ga)} GA runs reaching the MILP optimum",
+        why=f"{ga_best}, the MILP optimum {milp['objective']:g}",
+    )
+    tab.add(
+        f"m={m} P_Global GA+polish (ours)",
+        None,
+        succ_pol,
+        "same GA runs, then coordinate ascent with the sweep (not in the thesis)",
+    )
+    tab.add(f"m={m} MILP time (s)", None, float(milp["time_s"]), f"solve_exact (bnb) status {milp['status']}")
+    tab.add(
+        f"m={m} objectives ES / GA best / MILP",
+        None,
+        f"{es['objective']:g} / {ga['objective'].max():g} / {milp['objective']:g}",
+        "covered users (evaluate)",
+    )
+    tab.add(
+        f"m={m} MILP bound (candidate) / continuous bound",
+        None,
+        f"{milp['bound']:g} / {cont['bound'] if cont is not None else float('nan'):g}",
+        "proven upper bounds",
+    )
+    return {
+        "m": m,
+        "es_obj": es["objective"],
+        "es_time": es["time_s"],
+        "es_complete": es["cells_es_complete"],
+        "ga_best": ga["objective"].max(),
+        "ga_mean_time": ga["time_s"].mean(),
+        "ga_success": succ,
+        "ga_success_vs_es": succ_es,
+        "ga_polish_success": succ_pol,
+        "milp_obj": milp["objective"],
+        "milp_bound": milp["bound"],
+        "milp_status": milp["status"],
+        "milp_time": milp["time_s"],
+        "continuous_bound": None if cont is None else cont["bound"],
+    }
+
+
+def _table_4_3(out: Path, quick: bool, store_path: Path) -> dict[int, float]:
+    """Table 4.3 from the store; returns the MILP objective (covered users) per m."""
+    plan = _plan(quick)
+    df = _rows(store_path, plan["exact"] + plan["ga43"])
     tab = ComparisonTable(
         "Table 4.3 - computing time and GA success (thesis instance vs ours, seed "
         f"{INSTANCE_SEED}; MILP backend {MILP_BACKEND})",
         explain=flag_reasons("cells"),
     )
-    opt, milp_sol, rows = {}, {}, []
-    for m, task in zip(ms, exact, strict=True):
-        t_es, t_ga_th, _, P, N, pg = THESIS_TABLE_4_3[m]
-        milp, es = _objective(df, task["instance"], "milp"), _objective(df, task["instance"], "exhaustive")
-        cont = _find_row(df, task["instance"], "continuous-bound")
-        ga = df[df["instance"].isin([t["instance"] for t in ga43 if t["m"] == m]) & (df["method"] == "ga")]
-        opt[m] = milp["objective"] if milp["status"] == "optimal" else None
-        milp_sol[m] = milp
-        succ = None if opt[m] is None else float((ga["objective"] == opt[m]).mean())
-        succ_pol = None if opt[m] is None else float((ga["cells_polished"] == opt[m]).mean())
-        es_time = (
-            float(es["time_s"])
-            if es["cells_es_complete"]
-            else f"{es['time_s']:.3g} (stopped at {es_limit:g} s)"
-        )
-        tab.add(
-            f"m={m} T_ES (s)",
-            t_es,
-            es_time,
-            "Algorithm 2, wall time on this machine (bound-pruned enumeration: the plain one's result)",
-            kind="speed",
-        )
-        tab.add(
-            f"m={m} T_GA (s)",
-            t_ga_th,
-            float(ga["time_s"].mean()),
-            f"mean over {len(ga)} GA runs, P={P}, N_start={N}, iter_max=50",
-            kind="speed",
-        )
-        succ_es = float((ga["objective"] >= es["objective"]).mean())
-        ga_best = f"the best of the {len(ga)} runs covers {ga['objective'].max():g} users"
-        tab.add(
-            f"m={m} P_Global vs ES (thesis criterion)",
-            pg,
-            succ_es,
-            f"fraction of {len(ga)} GA runs reaching the exhaustive-search value {es['objective']:g}"
-            + ("" if es["cells_es_complete"] else " (ES stopped at its limit: best found)"),
-            why=f"{ga_best}, ES {es['objective']:g}",
-        )
-        tab.add(
-            f"m={m} P_Global vs MILP",
-            pg,
-            succ,
-            f"fraction of {len(ga)} GA runs reaching the MILP optimum",
-            why=f"{ga_best}, the MILP optimum {milp['objective']:g}",
-        )
-        tab.add(
-            f"m={m} P_Global GA+polish (ours)",
-            None,
-            succ_pol,
-            "same GA runs, then coordinate ascent with the sweep (not in the thesis)",
-        )
-        tab.add(
-            f"m={m} MILP time (s)", None, float(milp["time_s"]), f"solve_exact (bnb) status {milp['status']}"
-        )
-        tab.add(
-            f"m={m} objectives ES / GA best / MILP",
-            None,
-            f"{es['objective']:g} / {ga['objective'].max():g} / {milp['objective']:g}",
-            "covered users (evaluate)",
-        )
-        tab.add(
-            f"m={m} MILP bound (candidate) / continuous bound",
-            None,
-            f"{milp['bound']:g} / {cont['bound'] if cont is not None else float('nan'):g}",
-            "proven upper bounds",
-        )
-        rows.append(
-            {
-                "m": m,
-                "es_obj": es["objective"],
-                "es_time": es["time_s"],
-                "es_complete": es["cells_es_complete"],
-                "ga_best": ga["objective"].max(),
-                "ga_mean_time": ga["time_s"].mean(),
-                "ga_success": succ,
-                "ga_success_vs_es": succ_es,
-                "ga_polish_success": succ_pol,
-                "milp_obj": milp["objective"],
-                "milp_bound": milp["bound"],
-                "milp_status": milp["status"],
-                "milp_time": milp["time_s"],
-                "continuous_bound": None if cont is None else cont["bound"],
-            }
-        )
+    rows = [
+        _table_4_3_row(tab, m, df, task, plan["ga43"], plan["es_limit"])
+        for m, task in zip(plan["ms"], plan["exact"], strict=True)
+    ]
     tab.emit(out, "table_4_3")
     pd.DataFrame(rows).to_csv(out / "table_4_3_raw.csv", index=False)
-    # ------------------------------------------------ Fig 4.4 maps (re-solve: positions are not stored)
+    return {r["m"]: float(r["milp_obj"]) for r in rows}
+
+
+def _reference_plan(m: int, milp_limit: float):
+    """(problem, positions, covered users, how) of the thesis instance with ``m`` drone-cells: the
+    certified library's plan when it holds one for this instance (checked with ``evaluate``),
+    else a fresh solve."""
+    from droneplan.studies.instances import family_instances
+    from droneplan.studies.library import lookup
+
+    p = thesis_problem(m, INSTANCE_SEED)
+    entry = lookup(family_instances("table4.2", m=m, seeds=[INSTANCE_SEED])[0])
+    if entry is not None:
+        x = np.asarray(entry.plan, float).reshape(-1, 2)
+        ev = evaluate(p, x)
+        if ev.feasible and ev.covered == round(entry.value):
+            return p, x, float(ev.covered), f"{entry.status.upper()}, certified library"
+    r = solve_exact(p, engine="bnb", backend=MILP_BACKEND, time_limit=milp_limit)
+    return p, r.x, float(_covered(r)), r.status.name
+
+
+def _fig_4_4(out: Path, quick: bool) -> None:
+    """Fig. 4.4: the optimal deployments on the thesis instance (positions are not in the store)."""
+    plan = _plan(quick)
+    ms = plan["ms"]
     fig, axes = plt.subplots(1, len(ms), figsize=(5.5 * len(ms), 5.5))
     for ax, m in zip(np.atleast_1d(axes), ms, strict=True):
-        p = thesis_problem(m, INSTANCE_SEED)
-        r = solve_exact(p, engine="bnb", backend=MILP_BACKEND, time_limit=milp_limit)
-        plot_map(p, r.x, ax=ax, title=f"m={m}: {r.objective:g} users ({r.status.name})")
+        p, x, covered, how = _reference_plan(m, plan["milp_limit"])
+        plot_map(p, x, ax=ax, title=f"m={m}: {covered:g} users ({how})")
     fig.savefig(out / "fig_4_4_maps.png", dpi=110)
     plt.close(fig)
-    # ---------------------------------------------------------------- Fig 4.3 restart strategy, m = 2
-    df = map_rows(reproduce_task, fig43, executor=ex, store=st, desc="Fig. 4.3")
-    opt2 = milp_sol[2]["objective"]
+
+
+def _fig_4_3(out: Path, quick: bool, store_path: Path, optima: dict[int, float]) -> None:
+    """Fig. 4.3: GA success without / with restarts at m = 2 against the MILP optimum."""
+    plan = _plan(quick)
+    fig43, n43 = plan["fig43"], plan["n43"]
+    df = _rows(store_path, fig43)
+    opt2 = optima[2]
     obj = df.set_index("instance")["objective"]
     no_restart = obj[[t["instance"] for t in fig43 if t["restarts"] == 1]]
     restart = obj[[t["instance"] for t in fig43 if t["restarts"] == 40]]
     t43 = ComparisonTable(
         "Fig. 4.3 - GA success without / with restarts (m=2, P=100)", explain=flag_reasons("cells")
     )
-    t43.add(
-        "success 1 x 2000 iterations",
-        0.12,
-        float((no_restart == opt2).mean()),
-        f"{n43} runs; optimum = MILP {opt2:g}",
-        why=f"best run {no_restart.max():g} users; {n43} runs, the fraction moves in steps of {1 / n43:.2g}",
-    )
-    t43.add(
-        "success 40 restarts x 50 iterations",
-        0.92,
-        float((restart == opt2).mean()),
-        f"{n43} runs; optimum = MILP {opt2:g}",
-        why=f"best run {restart.max():g} users; {n43} runs, the fraction moves in steps of {1 / n43:.2g}",
-    )
+    for label, thesis, runs in (("1 x 2000", 0.12, no_restart), ("40 restarts x 50", 0.92, restart)):
+        t43.add(
+            f"success {label} iterations",
+            thesis,
+            float((runs == opt2).mean()),
+            f"{n43} runs; optimum = MILP {opt2:g}",
+            why=f"best run {runs.max():g} users; {n43} runs, the fraction moves in steps of {1 / n43:.2g}",
+        )
     t43.emit(out, "fig_4_3")
     fig, ax = plt.subplots(figsize=(5, 3))
     ax.hist([no_restart.to_numpy(), restart.to_numpy()], label=["1x2000", "40x50"])
@@ -343,10 +376,14 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:  # noqa: PLR0915
     ax.legend()
     fig.savefig(out / "fig_4_3.png", dpi=110)
     plt.close(fig)
-    # ---------------------------------------------------------------- Fig 4.5 success vs P and N, m = 3
-    df = map_rows(reproduce_task, fig45, executor=ex, store=st, desc="Fig. 4.5")
-    obj = df.set_index("instance")["objective"]
-    opt3 = milp_sol[3]["objective"]
+
+
+def _fig_4_5(out: Path, quick: bool, store_path: Path, optima: dict[int, float]) -> None:
+    """Fig. 4.5: GA success against population and restarts at m = 3."""
+    plan = _plan(quick)
+    fig45, Ps, Ns = plan["fig45"], plan["Ps"], plan["Ns"]
+    obj = _rows(store_path, fig45).set_index("instance")["objective"]
+    opt3 = optima[3]
     t45 = ComparisonTable("Fig. 4.5 - GA success vs population and restarts (m=3)")
     grid = np.zeros((len(Ps), len(Ns)))
     for i, P in enumerate(Ps):
@@ -363,13 +400,18 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:  # noqa: PLR0915
     ax.legend()
     fig.savefig(out / "fig_4_5.png", dpi=110)
     plt.close(fig)
-    # ---------------------------------------------------------------- Fig 4.6 clustered vs non-clustered
-    df = map_rows(reproduce_task, nc, executor=ex, store=st, desc="Fig. 4.6")
+
+
+def _fig_4_6(out: Path, quick: bool, store_path: Path, optima: dict[int, float]) -> None:
+    """Fig. 4.6: users covered against m, clustered (Table 4.3's MILP) vs non-clustered."""
+    plan = _plan(quick)
+    ms, nc = plan["ms"], plan["nc"]
+    df = _rows(store_path, nc)
     t46 = ComparisonTable("Fig. 4.6 - users covered vs m, clustered vs non-clustered (same expected count)")
     cl, ncl = [], []
     for m, task in zip(ms, nc, strict=True):
         ru = _objective(df, task["instance"], "milp")
-        cl.append(milp_sol[m]["objective"])
+        cl.append(optima[m])
         ncl.append(ru["objective"])
         t46.add(
             f"m={m} clustered / non-clustered",
@@ -386,12 +428,78 @@ def _reproduce(quick: bool, out: Path, ex, st) -> None:  # noqa: PLR0915
     ax.legend()
     fig.savefig(out / "fig_4_6.png", dpi=110)
     plt.close(fig)
-    # ---------------------------------------------------------------- Fig 4.2 deployment region
-    fig = plot_deployment_region(thesis_problem(2, INSTANCE_SEED), [[2500.0, 0.0]])  # GBS at (0, 0) and D_1
+
+
+def _fig_4_2(out: Path) -> None:
+    """Fig. 4.2: the deployment region of a drone-cell (GBS at (0, 0) and D_1)."""
+    fig = plot_deployment_region(thesis_problem(2, INSTANCE_SEED), [[2500.0, 0.0]])
     fig.savefig(out / "fig_4_2_region.png", dpi=110)
     plt.close(fig)
-    # ------------------------------------------------- GA ablation, the longest part
-    _reproduce_ablation(quick, out, ex, st)
+
+
+def _ablation_job(out: Path, quick: bool, store_path: Path) -> None:
+    """The GA ablation table and figure from the store."""
+    from droneplan.studies.store import ResultStore
+
+    with make_executor(1) as ex, ResultStore(store_path) as st:
+        _reproduce_ablation(quick, out, ex, st)
+
+
+def _ablation_settings(quick: bool) -> dict[str, Any]:
+    size = ABLATION_QUICK if quick else ABLATION_FULL
+    return {**size, "es_limit": 60.0 if quick else 1800.0, "milp_limit": 60.0 if quick else 600.0}
+
+
+def _task_cost(task: Mapping[str, Any]) -> float:
+    """Estimated CPU seconds of a reproduce or ablation task (the scheduler starts long ones first)."""
+    kind = task["kind"]
+    if kind in ("exact", "ref"):
+        return 2.0 + 3.0 * int(task["m"]) ** 2
+    if kind == "milp-nc":
+        return 1.0 + int(task["m"]) ** 2
+    return 0.5 + 0.4 * int(task["m"])
+
+
+def reproduce_jobs(*, quick: bool, out: Path, store_path: Path) -> list[Job]:
+    """The cells reproduction as jobs (:mod:`droneplan.studies.jobs`): every solve and GA run a
+    store task, then one job per table or figure reading its rows from the store at
+    ``store_path``; Fig. 4.4 draws the certified library's plans (solving only instances the
+    library lacks).
+
+    quick: m = 1-3 (full 1-4), 3 GA runs per m (20), 3 runs per Fig. 4.3 strategy (50), 2 runs per
+    Fig. 4.5 point on a 2 x 2 grid (20 on 4 x 4), limits ES 20 s and MILP 120 s (600 s each), and a
+    2-seed ablation at m = 1-2; out: directory for the CSV and PNG files.
+    """
+    out, plan = Path(out), _plan(quick)
+    kw = {"out": out, "quick": quick}
+    kws = {**kw, "store_path": Path(store_path)}
+    tasks = {
+        "table": plan["exact"] + plan["ga43"],
+        "fig4.3": plan["fig43"],
+        "fig4.5": plan["fig45"],
+        "fig4.6": plan["nc"],
+    }
+    jobs: list[Job] = []
+    keys: dict[str, tuple[str, ...]] = {}
+    for name, ts in tasks.items():
+        section = "cells table 4.3" if name == "table" else f"cells fig {name[3:]}"
+        made = row_jobs(reproduce_task, ts, section=section, cost=_task_cost)
+        jobs += made
+        keys[name] = tuple(j.key for j in made)
+    optima = "cells/table4.3"
+    jobs.append(Job(optima, "cells table 4.3", _table_4_3, kws, after=keys["table"], cost=1.0))
+    for name, fn in (("fig4.3", _fig_4_3), ("fig4.5", _fig_4_5), ("fig4.6", _fig_4_6)):
+        section = f"cells fig {name[3:]}"
+        jobs.append(Job(f"cells/{name}", section, fn, kws, {"optima": optima}, after=keys[name], cost=1.0))
+    jobs.append(Job("cells/fig4.4", "cells fig 4.4", _fig_4_4, kw, cost=2.0))
+    jobs.append(Job("cells/fig4.2", "cells fig 4.2", _fig_4_2, {"out": out}, cost=1.0))
+    abl = row_jobs(
+        ablation_task, ablation_tasks(**_ablation_settings(quick)), section="cells ablation", cost=_task_cost
+    )
+    jobs += abl
+    after = tuple(j.key for j in abl)
+    jobs.append(Job("cells/ablation", "cells ablation", _ablation_job, kws, after=after, cost=2.0))
+    return jobs
 
 
 ABLATION_FULL: dict[str, Any] = {"seeds": range(10), "ms": (1, 2, 3), "runs": 20, "ablation_runs": 10}
@@ -402,14 +510,7 @@ ABLATION_QUICK: dict[str, Any] = {"seeds": range(2), "ms": (1, 2), "runs": 3, "a
 
 
 def _reproduce_ablation(quick: bool, out: Path, ex, st) -> pd.DataFrame:
-    size = ABLATION_QUICK if quick else ABLATION_FULL
-    abl = ga_ablation(
-        **size,
-        es_limit=60.0 if quick else 1800.0,
-        milp_limit=60.0 if quick else 600.0,
-        executor=ex,
-        store=st,
-    )
+    abl = ga_ablation(**_ablation_settings(quick), executor=ex, store=st)
     summ, corr = ablation_summary(abl), ablation_correlations(abl)
     abl.to_csv(out / "ga_ablation_seeds.csv", index=False)  # ga_ablation.csv is the table below
     summ.to_csv(out / "ga_ablation_summary.csv", index=False)

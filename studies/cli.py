@@ -2,6 +2,8 @@
 
 A problem is available when its study module ``droneplan.studies.<problem>`` exists; such
 a module defines ``reproduce(*, quick, out)`` (optionally taking ``executor`` and ``store``),
+``reproduce_jobs(*, quick, out)`` (optionally taking ``store_path``; ``droneplan reproduce``
+runs the jobs of every problem asked for together, see :func:`run_reproduce`),
 ``gap(*, seeds, executor, out, store)`` and ``bench(*, quick, out)``. Problems whose
 module has not landed are listed as unavailable rather than answered with placeholder output.
 
@@ -23,15 +25,20 @@ import os
 import signal
 import sys
 import threading
+import time
 from pathlib import Path
 from types import ModuleType
+from typing import TYPE_CHECKING
 
 from droneplan.studies import common
-from droneplan.studies.common import StudyError, make_executor
+from droneplan.studies.common import StudyError, make_executor, render_frame
 from droneplan.studies.problems import PROBLEMS
 from droneplan.studies.store import STORE_NAME, ResultStore, StoreError
 
-__all__ = ["PROBLEMS", "available_problems", "run_gap", "main"]
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = ["PROBLEMS", "available_problems", "run_gap", "run_reproduce", "main"]
 
 _CHAPTER = {"covert": 3, "cells": 4, "shark": 5, "herding": 6}
 
@@ -349,6 +356,98 @@ def _default_methods(problem: str, instances) -> list[str]:
     raise SystemExit("droneplan: name the methods with --method (droneplan list shows the registered ones)")
 
 
+def _report_times(jobs, timings, wall: float, own: float, executor, out: Path) -> pd.DataFrame:
+    """Print and write (``reproduce_times.csv``, ``reproduce_job_times.csv``) where the time went."""
+    import dataclasses
+
+    import pandas as pd
+
+    from droneplan.studies.jobs import idle_estimate, time_table
+
+    table = time_table(timings)
+    if not timings:
+        return table
+    slots = max(2, executor.slots)
+    path, idle = idle_estimate(jobs, timings, slots)
+    print("\n== time per section (CPU s where the jobs ran; span = first start to last end, s) ==")
+    print(render_frame(table.round(1)))
+    print(
+        f"wall {wall:.1f} s; jobs' CPU {table['cpu_s'].iloc[-1]:.1f} s + this process {own:.1f} s; "
+        f"longest chain {path:.1f} CPU s; estimated wall on {slots} idle cores {idle:.1f} s",
+        flush=True,
+    )
+    table.to_csv(out / "reproduce_times.csv", index=False)
+    per_job = pd.DataFrame([dataclasses.asdict(t) for t in timings])
+    per_job.to_csv(out / "reproduce_job_times.csv", index=False)
+    return table
+
+
+def run_reproduce(
+    problems: list[str], *, quick: bool, out: Path, executor, store: ResultStore
+) -> pd.DataFrame:
+    """Reproduce ``problems`` together: every problem's jobs (``reproduce_jobs``) on one
+    executor, the longest chains first, so the cores stay busy across problems; then print the
+    per-section time table (CPU and wall seconds). quick: reduced sizes; out: the directory
+    (one subdirectory per problem); executor: from ``make_executor``; store: the open results
+    store. Returns the time table (:func:`droneplan.studies.jobs.time_table`)."""
+    from droneplan.studies.jobs import JobsFailed, run_jobs
+
+    jobs, legacy = [], []
+    for problem in problems:
+        module = _load(problem)
+        sub = out / problem
+        sub.mkdir(parents=True, exist_ok=True)
+        if not hasattr(module, "reproduce_jobs"):  # a module with reproduce only runs on its own, after
+            legacy.append((problem, module))
+            continue
+        kwargs: dict = {"quick": quick, "out": sub}
+        if "store_path" in inspect.signature(module.reproduce_jobs).parameters:
+            kwargs["store_path"] = store.path
+        jobs += module.reproduce_jobs(**kwargs)
+    print(
+        f"### reproduce {', '.join(problems)}: {len(jobs)} jobs on {executor.slots} {executor.kind} slot(s) "
+        f"-> {out}",
+        flush=True,
+    )
+    w0, c0 = time.perf_counter(), time.process_time()
+    failure = None
+    try:
+        timings = run_jobs(jobs, executor=executor, store=store)
+    except JobsFailed as exc:  # the table of what ran, then the error
+        timings, failure = exc.timings, exc
+    table = _report_times(jobs, timings, time.perf_counter() - w0, time.process_time() - c0, executor, out)
+    if failure is not None:
+        raise failure
+    for problem, module in legacy:
+        print(f"### reproduce {problem} (thesis ch. {_CHAPTER[problem]}) -> {out / problem}", flush=True)
+        accepted = inspect.signature(module.reproduce).parameters
+        extra = {k: v for k, v in (("executor", executor), ("store", store)) if k in accepted}
+        module.reproduce(quick=quick, out=out / problem, **extra)
+    return table
+
+
+def _run_studies(args, problems: list[str], executor, store: ResultStore) -> None:
+    """``reproduce`` (every problem's jobs together) or ``gap`` (problem by problem) into ``store``."""
+    if args.command == "reproduce":
+        try:
+            run_reproduce(problems, quick=args.quick, out=args.out, executor=executor, store=store)
+        finally:
+            store.export(args.out / "results.csv")
+            store.export(args.out / "results.parquet")
+        return
+    for problem in problems:
+        out = args.out / problem
+        out.mkdir(parents=True, exist_ok=True)
+        print(f"### {args.command} {problem} (thesis ch. {_CHAPTER[problem]}) -> {out}", flush=True)
+        try:
+            _load(problem).gap(
+                seeds=args.seeds, executor=executor, out=out, store=store, first_seed=args.first_seed
+            )
+        finally:
+            store.export(args.out / "results.csv")
+            store.export(args.out / "results.parquet")
+
+
 def _run(args) -> int:  # noqa: C901
     if args.command == "list":
         return _run_list()
@@ -376,23 +475,7 @@ def _run(args) -> int:  # noqa: C901
     with contextlib.ExitStack() as stack:
         store = stack.enter_context(ResultStore(args.out / STORE_NAME))
         executor = stack.enter_context(make_executor(workers, args.dask))
-        for problem in problems:
-            module = _load(problem)
-            out = args.out / problem
-            out.mkdir(parents=True, exist_ok=True)
-            print(f"### {args.command} {problem} (thesis ch. {_CHAPTER[problem]}) -> {out}", flush=True)
-            try:
-                if args.command == "reproduce":
-                    accepted = inspect.signature(module.reproduce).parameters
-                    extra = {k: v for k, v in (("executor", executor), ("store", store)) if k in accepted}
-                    module.reproduce(quick=args.quick, out=out, **extra)
-                else:
-                    module.gap(
-                        seeds=args.seeds, executor=executor, out=out, store=store, first_seed=args.first_seed
-                    )
-            finally:
-                store.export(args.out / "results.csv")
-                store.export(args.out / "results.parquet")
+        _run_studies(args, problems, executor, store)
         errors = store.frame()
         errors = errors[errors["status"] == "error"]
     if args.command == "reproduce" and args.report:

@@ -17,10 +17,9 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -39,11 +38,12 @@ from droneplan.planners.covert import (
 )
 from droneplan.scenarios.covert import CovertTrace, random_case, simulate, thesis_case
 from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study
+from droneplan.studies.jobs import Job, run_jobs, run_reproduction
 from droneplan.studies.plots.covert import animate, plot_bearing, plot_path, plot_stealth_front
 from droneplan.studies.report import flag_reasons
 from droneplan.studies.store import Outcome, build_rows, instance_id
 
-__all__ = ["DEG", "stealth_front", "reproduce", "GAP_THESIS", "gap_task", "gap", "bench"]
+__all__ = ["DEG", "stealth_front", "reproduce", "reproduce_jobs", "GAP_THESIS", "gap_task", "gap", "bench"]
 
 DEG = 180.0 / math.pi
 
@@ -54,15 +54,6 @@ def _controllers(backend: str = "ipopt") -> dict:
         "sliding": SlidingModeObserver(),
         "mpc": MPCObserver(observer=MPCObserverSettings(backend=backend)),
     }
-
-
-def _run_all(scenario, *, backend: str = "ipopt") -> tuple[dict[str, CovertTrace], SafeguardedMPCObserver]:
-    traces = {name: simulate(scenario, ctl) for name, ctl in _controllers(backend).items()}
-    traces["mpc-osqp"] = simulate(scenario, MPCObserver(observer=MPCObserverSettings(backend="osqp")))
-    traces["mpc-slow"] = simulate(scenario, MPCObserver(observer=MPCObserverSettings(progress=0.3)))
-    safe = SafeguardedMPCObserver()
-    traces["mpc-safe"] = simulate(scenario, safe)
-    return traces, safe
 
 
 def _pct(a: float, b: float) -> float:
@@ -78,13 +69,15 @@ def _on_sphere(tr: CovertTrace) -> NDArray[np.bool_]:
 
 
 def _instant_optima(
-    tr: CovertTrace, scenario
+    tr: CovertTrace, scenario, part: int = 0, parts: int = 1
 ) -> tuple[NDArray[np.int_], NDArray[np.float64], NDArray[np.float64]]:
     """(k, bound, best): at every control instant k of tr's time on the sphere, the certified lower
-    bound and the value of min over the sphere of max_j beta_j over the observable targets (rad)."""
+    bound and the value of min over the sphere of max_j beta_j over the observable targets (rad).
+    part, parts: only the ``part``-th of ``parts`` consecutive slices of those instants (each slice
+    can run on its own core)."""
     ks, lbs, best = [], [], []
     c = None
-    for k in np.nonzero(_on_sphere(tr))[0]:
+    for k in np.array_split(np.nonzero(_on_sphere(tr))[0], parts)[part]:
         obs = scenario.observable_at(tr.t[k], tr.drone[k])  # the targets tr's drone could see
         if not obs.any():
             continue
@@ -138,9 +131,9 @@ def _plot_beta(traces: dict[str, CovertTrace], path: Path, title: str, per_targe
 
 
 # --------------------------------------------------------------------------- reproduce
-def _case_table(case: int, traces, scenario, thesis: dict, out: Path, safe: SafeguardedMPCObserver) -> dict:
+def _case_table(case: int, traces, oracle: tuple[float, float, float], thesis: dict, out: Path, safe) -> dict:
     h, s, m = traces["hover"], traces["sliding"], traces["mpc"]
-    lb, _, excess = _oracle_on_sphere(s, scenario)
+    lb, _, excess = oracle
     tab = ComparisonTable(
         f"Case {case}: maximum recorded bearing change (Fig. 3.{10 if case == 1 else 14})",
         explain=flag_reasons("covert"),
@@ -342,19 +335,35 @@ def _front_section(case: int, scenario, traces: dict[str, CovertTrace], out: Pat
     tab.emit(out, f"case{case}_stealth_front")
 
 
-def _noise_study(quick: bool, out: Path) -> None:
-    levels = [0.02, 0.10] if quick else [0.02, 0.04, 0.06, 0.08, 0.10]
-    runs = 3 if quick else 20
+def _noise_errors(case: int, level: float, runs: int, base: CovertTrace) -> list[float]:
+    """|beta_max(noisy) - beta_max(exact)| (rad) of ``runs`` sliding-mode runs of case ``case``
+    at noise ``level`` (seeds 1000 case + r), against the noiseless run ``base``."""
+    sc = thesis_case(case, 0)
+    return [
+        abs(simulate(sc, SlidingModeObserver(), noise=level, seed=1000 * case + r).beta_max - base.beta_max)
+        for r in range(runs)
+    ]
+
+
+def _mpc_noise_error(case: int, base: CovertTrace) -> float:
+    """Largest |beta_max(noisy) - beta_max(exact)| (rad) of 3 MPC runs of case ``case`` at 10 % noise."""
+    sc = thesis_case(case, 0)
+    errs = [
+        abs(simulate(sc, MPCObserver(), noise=0.10, seed=77 + r).beta_max - base.beta_max) for r in range(3)
+    ]
+    return max(errs)
+
+
+def _noise_table(out: Path, levels: list[float], runs: int, **errors: Any) -> None:
+    """Fig. 3.15 from the noise runs: ``errors`` maps ``e<case>_<i>`` (level index i) to the
+    errors of :func:`_noise_errors`, and ``mpc<case>`` to :func:`_mpc_noise_error`'s (full runs)."""
+    import pandas as pd
+
     rows = []
     tab = ComparisonTable(f"Fig. 3.15: impact of measurement noise ({runs} runs per level, sliding mode)")
     for case in (1, 2):
-        sc = thesis_case(case, 0)
-        base = simulate(sc, SlidingModeObserver()).beta_max
-        for lvl in levels:
-            errs = [
-                abs(simulate(sc, SlidingModeObserver(), noise=lvl, seed=1000 * case + r).beta_max - base)
-                for r in range(runs)
-            ]
+        for i, lvl in enumerate(levels):
+            errs = errors[f"e{case}_{i}"]
             rows.append(
                 {
                     "case": case,
@@ -374,17 +383,15 @@ def _noise_study(quick: bool, out: Path) -> None:
         tab.add(
             f"case {case}: max error of beta_max at 10% (deg)", "< 2", e10, "each component x (1 + a U(-1,1))"
         )
-    if not quick:
-        for case in (1, 2):
-            sc = thesis_case(case, 0)
-            base = simulate(sc, MPCObserver()).beta_max
-            errs = [
-                abs(simulate(sc, MPCObserver(), noise=0.10, seed=77 + r).beta_max - base) for r in range(3)
-            ]
-            tab.add(f"case {case}: MPC max error of beta_max at 10% (deg)", None, max(errs) * DEG, "3 runs")
+    for case in (1, 2):
+        if f"mpc{case}" in errors:
+            tab.add(
+                f"case {case}: MPC max error of beta_max at 10% (deg)",
+                None,
+                errors[f"mpc{case}"] * DEG,
+                "3 runs",
+            )
     tab.emit(out, "fig3_15_noise")
-    import pandas as pd
-
     df = pd.DataFrame(rows)
     df.to_csv(out / "fig3_15_noise_rows.csv", index=False)
     fig, ax = plt.subplots(figsize=(6, 4))
@@ -400,36 +407,100 @@ def _noise_study(quick: bool, out: Path) -> None:
     plt.close(fig)
 
 
-def reproduce(*, quick: bool, out: Path) -> None:
-    """Figs. 3.9-3.15 with the thesis value beside ours (and an MPC column)."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    results = {}
-    for case, thesis in (
-        (1, {"hover": 21.8, "sliding": 15.5, "red": -28.9, "t_a": 7.4, "t_f": 113.2}),
-        (2, {"hover": 32.2, "sliding": 22.2, "red": -33.1}),
-    ):
-        sc = thesis_case(case, 0)
-        traces, safe = _run_all(sc)
-        results[case] = _case_table(case, traces, sc, thesis, out, safe)
-        main = {k: traces[k] for k in ("hover", "sliding", "mpc")}
-        _plot_3d(
-            sc,
-            main,
-            out / f"case{case}_3d.png",
-            f"Case {case}: drone paths (Fig. 3.{9 if case == 1 else 14}a)",
-        )
-        _plot_beta(main, out / f"case{case}_beta.png", f"Case {case}: beta_m", per_target="sliding")
-        if case == 1:  # the sliding-mode run as a GIF: a few dozen frames in quick mode
-            sl = traces["sliding"]
-            animate(sl, out / "case1_sliding.gif", fps=8, stride=max(1, len(sl.t) // (40 if quick else 150)))
-        if case == 1 or not quick:
-            _front_section(case, sc, traces, out, quick)
+_CASE_THESIS = {
+    1: {"hover": 21.8, "sliding": 15.5, "red": -28.9, "t_a": 7.4, "t_f": 113.2},
+    2: {"hover": 32.2, "sliding": 22.2, "red": -33.1},
+}
+_VARIANTS: dict[str, dict[str, Any]] = {
+    "base": {},
+    "speed": {"V_T": 5.0},
+    "occlusion": {"occlusion": "obstacle"},
+}
 
-    # Fig. 3.12: target speed 5 m/s on the same paths
-    sc5 = thesis_case(1, V_T=5.0)
-    tr5 = {"sliding": simulate(sc5, SlidingModeObserver()), "mpc": simulate(sc5, MPCObserver())}
+
+def _controller(name: str):
+    """A fresh controller of reproduce's run ``name`` (``mpc-p<f>``: MPC approaching at f V_max)."""
+    if name.startswith("mpc-p"):
+        return MPCObserver(observer=MPCObserverSettings(progress=float(name[5:])))
+    ctls: dict[str, Callable[[], Any]] = {
+        "hover": HoverBenchmark,
+        "sliding": SlidingModeObserver,
+        "mpc": lambda: MPCObserver(observer=MPCObserverSettings(backend="ipopt")),
+        "mpc-osqp": lambda: MPCObserver(observer=MPCObserverSettings(backend="osqp")),
+        "mpc-slow": lambda: MPCObserver(observer=MPCObserverSettings(progress=0.3)),
+        "mpc-safe": SafeguardedMPCObserver,
+    }
+    return ctls[name]()
+
+
+def _run_job(case: int, controller: str, variant: str = "base"):
+    """One closed-loop run of a thesis case (``variant``: a key of ``_VARIANTS``); the safeguarded
+    MPC's run comes with a picklable summary of its choices, as ``(trace, summary)``."""
+    ctl = _controller(controller)
+    tr = simulate(thesis_case(case, 0, **_VARIANTS[variant]), ctl)
+    if not isinstance(ctl, SafeguardedMPCObserver):
+        return tr
+    from types import SimpleNamespace
+
+    guard = SimpleNamespace(margin=ctl.safeguard.margin, arrival_tolerance=ctl.safeguard.arrival_tolerance)
+    summary = SimpleNamespace(
+        safeguard=guard,
+        choices=list(ctl.choices),
+        arrival_deadline=ctl.arrival_deadline,
+        late_sliding=ctl.late_sliding,
+    )
+    return tr, summary
+
+
+def _oracle_part(case: int, part: int, parts: int, sliding: CovertTrace):
+    """:func:`_instant_optima` of the sliding-mode run of ``case`` on one slice of its instants."""
+    return _instant_optima(sliding, thesis_case(case, 0), part, parts)
+
+
+def _oracle_join(sliding: CovertTrace, **slices: tuple) -> tuple[float, float, float]:
+    """:func:`_oracle_on_sphere`'s values from the slices of :func:`_oracle_part`."""
+    ks = np.concatenate([v[0] for v in slices.values()]).astype(int)
+    if not ks.size:
+        return math.nan, math.nan, math.nan
+    lbs = np.concatenate([v[1] for v in slices.values()])
+    best = np.concatenate([v[2] for v in slices.values()])
+    return float(lbs.max()), float(best.max()), float(np.nanmax(sliding.beta_m[ks] - best))
+
+
+def _traces(named: dict[str, Any]) -> dict[str, CovertTrace]:
+    """Job inputs (``mpc_slow``, ``mpc_p0_5``, ``safe``) back under their run names."""
+    runs = {}
+    for k, v in named.items():
+        name = "mpc-safe" if k == "safe" else k.replace("_", "-")
+        if name.startswith("mpc-p"):
+            name = "mpc-p" + name[5:].replace("-", ".")
+        runs[name] = v[0] if name == "mpc-safe" else v
+    return runs
+
+
+def _case_job(case: int, out: Path, quick: bool, oracle: tuple[float, float, float], **named: Any) -> dict:
+    """The case table, the 3-D and bearing figures (and case 1's GIF) from the runs."""
+    sc = thesis_case(case, 0)
+    traces = _traces(named)
+    result = _case_table(case, traces, oracle, _CASE_THESIS[case], out, named["safe"][1])
+    main = {k: traces[k] for k in ("hover", "sliding", "mpc")}
+    fig_no = 9 if case == 1 else 14
+    _plot_3d(sc, main, out / f"case{case}_3d.png", f"Case {case}: drone paths (Fig. 3.{fig_no}a)")
+    _plot_beta(main, out / f"case{case}_beta.png", f"Case {case}: beta_m", per_target="sliding")
+    if case == 1:  # the sliding-mode run as a GIF: a few dozen frames in quick mode
+        sl = traces["sliding"]
+        animate(sl, out / "case1_sliding.gif", fps=8, stride=max(1, len(sl.t) // (40 if quick else 150)))
+    return result
+
+
+def _front_job(case: int, out: Path, quick: bool, **named: Any) -> None:
+    """The stealth-versus-arrival-time front of ``case`` from its runs."""
+    _front_section(case, thesis_case(case, 0), _traces(named), out, quick)
+
+
+def _speed_job(out: Path, sliding: CovertTrace, mpc: CovertTrace) -> None:
+    """Fig. 3.12: target speed 5 m/s on case 1's paths."""
+    tr5 = {"sliding": sliding, "mpc": mpc}
     tab = ComparisonTable("Fig. 3.12: case 1 with V_T = 5 m/s (period 48 s)")
     for name, tr in tr5.items():
         on = _on_sphere(tr)
@@ -444,9 +515,10 @@ def reproduce(*, quick: bool, out: Path) -> None:
     tab.emit(out, "fig3_12_speed")
     _plot_beta(tr5, out / "fig3_12_beta.png", "Case 1, V_T = 5 m/s", per_target="sliding")
 
-    # Fig. 3.13: target 2 hidden by an obstacle (line of sight) from t = 90 s
-    sco = thesis_case(1, occlusion="obstacle")
-    tro = {"sliding": simulate(sco, SlidingModeObserver()), "mpc": simulate(sco, MPCObserver())}
+
+def _occlusion_job(out: Path, sliding: CovertTrace, mpc: CovertTrace) -> None:
+    """Fig. 3.13: target 2 hidden by an obstacle (line of sight) from t = 90 s."""
+    tro = {"sliding": sliding, "mpc": mpc}
     tab = ComparisonTable("Fig. 3.13: case 1, target 2 behind an obstacle from t = 90 s (line of sight)")
     for name, tr in tro.items():
         hidden = np.isnan(tr.beta[:, 1]) & (tr.t >= 60.0)
@@ -466,9 +538,11 @@ def reproduce(*, quick: bool, out: Path) -> None:
     tab.emit(out, "fig3_13_occlusion")
     _plot_beta(tro, out / "fig3_13_beta.png", "Case 1 with occlusion", per_target="sliding")
 
-    _noise_study(quick, out)
+
+def _summary_job(out: Path, case1: dict, case2: dict) -> None:
+    """The covert summary table from the two case tables' results."""
     summary = ComparisonTable("Covert summary")
-    for case, r in results.items():
+    for case, r in ((1, case1), (2, case2)):
         summary.add(
             f"case {case}: MPC margin over sliding (%)",
             None,
@@ -481,81 +555,260 @@ def reproduce(*, quick: bool, out: Path) -> None:
             -_pct(r["safe"], r["sliding"]),
             f"positive = lower max recorded beta; arrives {r['t_a_safe']:.1f} s vs {r['t_a_sliding']:.1f} s",
         )
-    summary.add("wall time of reproduce (s)", None, time.perf_counter() - t0, "this run")
     summary.emit(out, "summary")
+
+
+RUN_COST = {"hover": 1.0, "sliding": 1.5, "mpc": 8.0, "mpc-osqp": 4.0, "mpc-slow": 8.0, "mpc-safe": 10.0}
+"""Estimated CPU seconds of one reproduce run per controller (the scheduler starts long chains first)."""
+
+
+ORACLE_PARTS = 3
+"""Slices of the on-sphere instants the per-instant oracle of a case is cut into (one job each)."""
+ORACLE_COST = 25.0
+"""Estimated CPU seconds of the per-instant oracle of one case."""
+
+
+def _case_jobs(case: int, out: Path, quick: bool, jobs: list[Job]) -> str:
+    """Append the runs, oracle, table and front of ``case`` to ``jobs``; returns the table's key."""
+    section = f"covert case {case}"
+
+    def run(name: str, sec: str = section) -> str:
+        key = f"covert/base/case{case}/{name}"
+        kwargs = {"case": case, "controller": name}
+        jobs.append(Job(key, sec, _run_job, kwargs, cost=RUN_COST.get(name, RUN_COST["mpc"])))
+        return key
+
+    keys = {name: run(name) for name in RUN_COST}
+    if not quick:  # the front's two extra approach speeds
+        keys.update({f"mpc-p{p:g}": run(f"mpc-p{p:g}", "covert stealth front") for p in (0.5, 1.0)})
+    arg = {k: k.replace("-", "_").replace(".", "_") for k in keys}
+    arg["mpc-safe"] = "safe"
+    oracle = f"covert/base/case{case}/oracle"
+    sliding = {"sliding": keys["sliding"]}
+    slices = {}
+    for part in range(ORACLE_PARTS):
+        slices[f"p{part}"] = key = f"{oracle}/{part}"
+        piece = {"case": case, "part": part, "parts": ORACLE_PARTS}
+        jobs.append(Job(key, section, _oracle_part, piece, sliding, cost=ORACLE_COST / ORACLE_PARTS))
+    jobs.append(Job(oracle, section, _oracle_join, {}, {**sliding, **slices}, cost=0.01))
+    table = f"covert/base/case{case}/table"
+    needs = {arg[k]: keys[k] for k in RUN_COST}
+    kwargs = {"case": case, "out": out, "quick": quick}
+    jobs.append(Job(table, section, _case_job, kwargs, {**needs, "oracle": oracle}, cost=3.0))
+    if case == 1 or not quick:
+        front = {
+            arg[k]: v for k, v in keys.items() if k in ("sliding", "mpc", "mpc-slow", "mpc-safe") or "-p" in k
+        }
+        jobs.append(
+            Job(f"covert/base/case{case}/front", "covert stealth front", _front_job, kwargs, front, cost=15.0)
+        )
+    return table
+
+
+def reproduce_jobs(*, quick: bool, out: Path) -> list[Job]:
+    """The covert reproduction as jobs (:mod:`droneplan.studies.jobs`): every closed-loop run,
+    the per-instant oracle and each table or figure, so they share one executor with the
+    other problems; each run is made once and handed to every table that shows it.
+
+    quick: 3 noise runs at 2 levels (full: 20 at 5), the stealth front of case 1 only, at 1 s
+    instants (full: both cases at 0.2 s, two more MPC approach speeds); out: directory for the
+    CSV, PNG and GIF files.
+    """
+    out = Path(out)
+    jobs: list[Job] = []
+    tables = {case: _case_jobs(case, out, quick, jobs) for case in (1, 2)}
+    for variant, fn, section in (
+        ("speed", _speed_job, "covert fig 3.12"),
+        ("occlusion", _occlusion_job, "covert fig 3.13"),
+    ):
+        needs = {}
+        for name in ("sliding", "mpc"):
+            needs[name] = key = f"covert/{variant}/case1/{name}"
+            run = {"case": 1, "controller": name, "variant": variant}
+            jobs.append(Job(key, section, _run_job, run, cost=RUN_COST[name]))
+        jobs.append(Job(f"covert/{variant}/table", section, fn, {"out": out}, needs, cost=1.0))
+    levels = [0.02, 0.10] if quick else [0.02, 0.04, 0.06, 0.08, 0.10]
+    runs = 3 if quick else 20
+    noise: dict[str, str] = {}
+    for case in (1, 2):
+        base = {"base": f"covert/base/case{case}/sliding"}
+        for i, lvl in enumerate(levels):
+            noise[f"e{case}_{i}"] = key = f"covert/noise/case{case}/{lvl:g}"
+            kwargs = {"case": case, "level": lvl, "runs": runs}
+            jobs.append(
+                Job(key, "covert fig 3.15", _noise_errors, kwargs, base, cost=RUN_COST["sliding"] * runs)
+            )
+        if not quick:
+            noise[f"mpc{case}"] = key = f"covert/noise/case{case}/mpc"
+            mpc = {"base": f"covert/base/case{case}/mpc"}
+            jobs.append(
+                Job(key, "covert fig 3.15", _mpc_noise_error, {"case": case}, mpc, cost=3 * RUN_COST["mpc"])
+            )
+    jobs.append(
+        Job(
+            "covert/noise/table",
+            "covert fig 3.15",
+            _noise_table,
+            {"out": out, "levels": levels, "runs": runs},
+            noise,
+            cost=1.0,
+        )
+    )
+    summary = {"case1": tables[1], "case2": tables[2]}
+    jobs.append(Job("covert/summary", "covert case 1", _summary_job, {"out": out}, summary, cost=0.1))
+    return jobs
+
+
+def reproduce(*, quick: bool, out: Path, executor=None) -> None:
+    """Figs. 3.9-3.15 with the thesis value beside ours (and an MPC column); CSV, PNG and GIF in
+    ``out``. quick: see :func:`reproduce_jobs`; executor: from ``make_executor`` (default:
+    serial in this process), where the runs and solves go."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    run_reproduction(reproduce_jobs(quick=quick, out=out), executor=executor)
 
 
 # --------------------------------------------------------------------------- gap
 GAP_THESIS = {("covert", "sliding"): "-28.9 % / -33.1 % vs hover (cases 1, 2; Figs. 3.10, 3.14)"}
 
 
-def gap_task(task: Mapping[str, Any]) -> list[dict]:
-    """One random target group in the results schema: hover, sliding mode, MPC and safeguarded
-    MPC (objective = max recorded bearing change beta_max, deg, minimised) and the proven
-    on-sphere instantaneous optimum as a bound."""
-    seed, n = int(task["seed"]), int(task["n_targets"])
-    sc = random_case(n, seed)
-    traces, times = {}, {}
-    ctls = {**_controllers(), "mpc-safeguarded": SafeguardedMPCObserver()}
-    for name, ctl in ctls.items():
-        t0 = time.perf_counter()
-        traces[name] = simulate(sc, ctl)
-        times[name] = time.perf_counter() - t0
-    roles = {"hover": "heuristic", "sliding": "heuristic", "mpc": "model", "mpc-safeguarded": "model"}
+_GAP_ROLES = {"hover": "heuristic", "sliding": "heuristic", "mpc": "model", "mpc-safeguarded": "model"}
+
+
+def _gap_controller(name: str):
+    return SafeguardedMPCObserver() if name == "mpc-safeguarded" else _controllers()[name]
+
+
+def _gap_run(task: Mapping[str, Any], method: str) -> dict[str, Any]:
+    """One method's closed-loop run on a gap instance: its trace, wall time (s) and the extras of
+    its row."""
+    sc = random_case(int(task["n_targets"]), int(task["seed"]))
+    ctl = _gap_controller(method)
+    t0 = time.perf_counter()
+    tr = simulate(sc, ctl)
+    elapsed = time.perf_counter() - t0
+    extras: dict[str, Any] = {"t_a_s": tr.t_a, "fallbacks": int(getattr(tr, "fallbacks", 0) or 0)}
+    if method == "mpc":
+        extras["predicted_max_deg"] = max(ctl.predicted_beta) * DEG if ctl.predicted_beta else None
+        extras["solve_median_s"] = float(np.median(tr.solve_times)) if tr.solve_times.size else None
+    if method == "sliding":
+        on = _on_sphere(tr)
+        extras["onsphere_max_deg"] = float(np.nanmax(tr.beta_m[on])) * DEG if on.any() else None
+    # the MPCs take the sliding-mode rollout as the start of their first solve (and after a failure)
+    starts = list(getattr(ctl, "starts", []))
+    if method.startswith("mpc"):
+        extras["starts_sliding_rollout"] = starts.count("sliding-rollout")
+    return {"trace": tr, "time_s": elapsed, "extras": extras, "warm": "sliding-rollout" in starts}
+
+
+def _gap_oracle_part(task: Mapping[str, Any], part: int, parts: int, sliding: dict) -> tuple:
+    """One slice of the per-instant on-sphere oracle of the sliding run, with its wall time (s)."""
+    t0 = time.perf_counter()
+    sc = random_case(int(task["n_targets"]), int(task["seed"]))
+    found = _instant_optima(sliding["trace"], sc, part, parts)
+    return (*found, time.perf_counter() - t0)
+
+
+def _gap_mission(task: Mapping[str, Any], sliding: dict) -> float | None:
+    """The whole-mission lower bound (deg) of the sliding mode's class, or None."""
+    sl = sliding["trace"]
+    if sl.t_a is None or sl.t_f is None:
+        return None
+    from droneplan.formulations.covert_bounds import mission_lower_bound
+
+    sc = random_case(int(task["n_targets"]), int(task["seed"]))
+    times = np.arange(0.0, sl.t[-1] + 1e-9, 0.5)
+    mb = mission_lower_bound(sc, sl.t_a, sl.t_f, t_end=float(sl.t[-1]), times=times)
+    return mb.value * DEG if np.isfinite(mb.value) else None
+
+
+def _gap_rows(task: Mapping[str, Any], runs: Mapping[str, dict], slices: list[tuple], mission) -> list[dict]:
+    """The rows of one gap instance from its runs, oracle slices and mission bound."""
     outcomes = []
-    for name, tr in traces.items():
-        extras = {"t_a_s": tr.t_a, "fallbacks": int(getattr(tr, "fallbacks", 0) or 0)}
-        if name == "mpc":
-            mpc = ctls["mpc"]
-            extras["predicted_max_deg"] = max(mpc.predicted_beta) * DEG if mpc.predicted_beta else None
-            extras["solve_median_s"] = float(np.median(tr.solve_times)) if tr.solve_times.size else None
-        if name == "sliding":
-            on = _on_sphere(tr)
-            extras["onsphere_max_deg"] = float(np.nanmax(tr.beta_m[on])) * DEG if on.any() else None
-        # the MPCs take the sliding-mode rollout as the start of their first solve (and after a failure)
-        warm = name.startswith("mpc") and "sliding-rollout" in getattr(ctls[name], "starts", [])
-        if name.startswith("mpc"):
-            extras["starts_sliding_rollout"] = getattr(ctls[name], "starts", []).count("sliding-rollout")
+    for name, r in runs.items():
+        extras = dict(r["extras"])
+        if name == "sliding" and mission is not False:
+            # a bound for the sliding mode's class only (on the sphere from its t_a to its t_f, home by
+            # its end): kept as an extra of its row, not as a bound row for every method of the instance
+            extras["mission_bound_deg"] = mission
         outcomes.append(
             Outcome(
                 name,
-                roles[name],
+                _GAP_ROLES[name],
                 "feasible",
-                objective=tr.beta_max * DEG,
-                time_s=times[name],
-                warm_started=warm,
+                objective=r["trace"].beta_max * DEG,
+                time_s=r["time_s"],
+                warm_started=name.startswith("mpc") and r["warm"],
                 message="closed-loop simulate(); beta_max over the whole run",
                 extras=extras,
             )
         )
-    t0 = time.perf_counter()
-    lb, _, _ = _oracle_on_sphere(traces["sliding"], sc)
+    lbs = np.concatenate([v[1] for v in slices])
     outcomes.append(
         Outcome(
             "onsphere-optimum",
             "bound",
             "optimal",
-            bound=lb * DEG,
+            bound=float(lbs.max()) * DEG if lbs.size else math.nan,
             bound_kind="instantaneous",
-            time_s=time.perf_counter() - t0,
+            time_s=float(sum(v[3] for v in slices)),
             message="max over every control instant of sliding's on-sphere phase of the exact min "
             "over the sphere of max_j beta_j (convex program): a bound for controllers "
             "on the sphere at those instants",
         )
     )
-    sl = traces["sliding"]
-    if sl.t_a is not None and sl.t_f is not None:
-        # a bound for the sliding mode's class only (on the sphere from its t_a to its t_f, home by its
-        # end): kept as an extra of its row, not as a bound row for every method of the instance
-        from droneplan.formulations.covert_bounds import mission_lower_bound
+    return build_rows(
+        "covert",
+        task["instance"],
+        seed=int(task["seed"]),
+        size=int(task["n_targets"]),
+        sense="min",
+        outcomes=outcomes,
+    )
 
-        mb = mission_lower_bound(
-            sc, sl.t_a, sl.t_f, t_end=float(sl.t[-1]), times=np.arange(0.0, sl.t[-1] + 1e-9, 0.5)
-        )
-        i = next(i for i, o in enumerate(outcomes) if o.method == "sliding")
-        mission = {"mission_bound_deg": mb.value * DEG if np.isfinite(mb.value) else None}
-        outcomes[i] = dataclasses.replace(outcomes[i], extras={**outcomes[i].extras, **mission})
-    return build_rows("covert", task["instance"], seed=seed, size=n, sense="min", outcomes=outcomes)
+
+def gap_task(task: Mapping[str, Any]) -> list[dict]:
+    """One random target group in the results schema: hover, sliding mode, MPC and safeguarded
+    MPC (objective = max recorded bearing change beta_max, deg, minimised) and the proven
+    on-sphere instantaneous optimum as a bound (:func:`gap` runs the same steps as separate jobs)."""
+    runs = {name: _gap_run(task, name) for name in _GAP_ROLES}
+    slices = [_gap_oracle_part(task, part, ORACLE_PARTS, runs["sliding"]) for part in range(ORACLE_PARTS)]
+    mission = _gap_mission(task, runs["sliding"])
+    return _gap_rows(task, runs, slices, False if mission is None else mission)
+
+
+def _gap_join(task: Mapping[str, Any], mission: float | None, **parts: Any) -> list[dict]:
+    runs = {name: parts[name.replace("-", "_")] for name in _GAP_ROLES}
+    slices = [v for k, v in sorted(parts.items()) if k.startswith("oracle")]
+    return _gap_rows(task, runs, slices, False if mission is None else mission)
+
+
+GAP_COST = {"hover": 0.5, "sliding": 1.0, "mpc": 20.0, "mpc-safeguarded": 25.0}
+"""Estimated CPU seconds of one gap run per method (the scheduler starts long chains first)."""
+
+
+def gap_jobs(tasks: list[dict[str, Any]]) -> list[Job]:
+    """The covert gap as jobs: per instance one job per method's run, the per-instant oracle in
+    ``ORACLE_PARTS`` slices and the mission bound on the sliding run, and a store task joining them
+    into :func:`gap_task`'s rows."""
+    jobs: list[Job] = []
+    for t in tasks:
+        key = f"covert/{t['instance']}"
+        needs = {}
+        for name in _GAP_ROLES:
+            needs[name.replace("-", "_")] = k = f"{key}/{name}"
+            jobs.append(Job(k, "covert gap", _gap_run, {"task": t, "method": name}, cost=GAP_COST[name]))
+        sliding = {"sliding": f"{key}/sliding"}
+        for part in range(ORACLE_PARTS):
+            needs[f"oracle{part}"] = k = f"{key}/oracle/{part}"
+            kwargs = {"task": t, "part": part, "parts": ORACLE_PARTS}
+            jobs.append(
+                Job(k, "covert gap", _gap_oracle_part, kwargs, sliding, cost=ORACLE_COST / ORACLE_PARTS)
+            )
+        needs["mission"] = k = f"{key}/mission"
+        jobs.append(Job(k, "covert gap", _gap_mission, {"task": t}, sliding, cost=5.0))
+        jobs.append(Job(key, "covert gap", _gap_join, {"task": t}, needs, cost=0.01, task=t))
+    return jobs
 
 
 def gap(*, seeds: int, executor, out: Path, store=None, first_seed: int = 0):
@@ -577,7 +830,8 @@ def gap(*, seeds: int, executor, out: Path, store=None, first_seed: int = 0):
         for s in range(first_seed, first_seed + seeds)
     ]
     with open_store(store, out) as st:
-        df = map_rows(gap_task, tasks, executor=executor, store=st, desc="covert gap")
+        run_jobs(gap_jobs(tasks), executor=executor, store=st, progress=False)
+        df = map_rows(gap_task, tasks, executor=executor, store=st, desc="covert gap")  # reads the rows
     report_study(df, out, "covert", thesis=GAP_THESIS, title="covert: max recorded bearing change (deg)")
     obj = df.pivot(index="instance", columns="method", values="objective")
     tab = ComparisonTable(f"Covert gap over {len(obj)} random target groups (2-6 targets)")

@@ -42,6 +42,7 @@ from droneplan.scenarios.herding import (
 )
 from droneplan.studies.common import ComparisonTable, make_executor, map_rows, report_study, timed
 from droneplan.studies.common import open_store as _store
+from droneplan.studies.jobs import Job, run_reproduction
 from droneplan.studies.plots.herding import animate, plot_state
 from droneplan.studies.report import flag_reasons
 from droneplan.studies.store import Outcome, ResultStore, build_rows, instance_id
@@ -52,6 +53,7 @@ __all__ = [
     "run_once",
     "run_pair",
     "reproduce",
+    "reproduce_jobs",
     "random_allocation_instance",
     "GAP_SIZES",
     "GAP_THESIS",
@@ -171,11 +173,23 @@ def run_pair(task: Mapping[str, Any]) -> list[dict]:
     as two rows of the results schema (objective = total time for Fig. 6.7, gathering time
     for the sweeps, s; status ``no_solution`` when the run did not finish within t_max).
     Every field of :func:`run_once` is kept as a ``herding_<name>`` extra."""
+    return _pair_rows(task, {m: _method_run(task, m) for m in ("proposed", "benchmark")})
+
+
+def _method_run(task: Mapping[str, Any], method: str) -> dict:
+    """:func:`run_once` of one herder on a reproduce task's scenario."""
+    return run_once({**{k: v for k, v in task.items() if k not in ("problem", "instance")}, "method": method})
+
+
+def _pair_job(task: Mapping[str, Any], proposed: dict, benchmark: dict) -> list[dict]:
+    """:func:`run_pair`'s rows from the two runs made as separate jobs."""
+    return _pair_rows(task, {"proposed": proposed, "benchmark": benchmark})
+
+
+def _pair_rows(task: Mapping[str, Any], runs: Mapping[str, dict]) -> list[dict]:
+    """The two result-schema rows of a reproduce task from its runs by method."""
     rows = []
-    for method in ("proposed", "benchmark"):
-        r = run_once(
-            {**{k: v for k, v in task.items() if k not in ("problem", "instance")}, "method": method}
-        )
+    for method, r in runs.items():
         objective = r["gather_time"] if task.get("gather_only") else r["total_time"]
         extras = {k: v for k, v in r.items() if k not in ("method",)}
         extras["snapshots"] = {
@@ -250,12 +264,17 @@ def _seed_range(seconds, thesis: float) -> str:
     return f"per seed {lo:.1f} to {hi:.1f} min over {len(vals)} seeds, the thesis's {thesis:g} {where}"
 
 
-def _fig_6_7(out: Path, quick: bool, executor, store) -> None:  # noqa: PLR0915
-    plan = (
+def _fig_6_7_plan(quick: bool) -> dict[int, list[int]]:
+    """Seeds per herd size of Fig. 6.7."""
+    return (
         {200: list(range(2)), 1000: list(range(1))}
         if quick
         else {200: list(range(20)), 1000: list(range(20))}
     )
+
+
+def _fig_6_7_tasks(quick: bool) -> list[dict[str, Any]]:
+    """The store tasks of Fig. 6.7 (seed-major: a partial run has both herd sizes)."""
     snaps = [0.0, 300.0, 480.0]
     tasks = [
         {
@@ -266,105 +285,100 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:  # noqa: PLR0915
             "t_max": 2700.0,
             "snapshots": snaps if (n == 1000 and s == 0) else [],
         }
-        for n, seeds in plan.items()
+        for n, seeds in _fig_6_7_plan(quick).items()
         for s in seeds
     ]
-    tasks.sort(key=lambda t: (t["seed"], t["n"]))  # seed-major: a partial run has both herd sizes
-    rows = _run_all(tasks, executor, store, "Fig. 6.7 runs")
-    table = ComparisonTable(
-        "Fig. 6.7: gathering and total herding time (4 drones, 1200 m x 600 m field)",
-        explain=flag_reasons("herding"),
+    tasks.sort(key=lambda t: (t["seed"], t["n"]))
+    return tasks
+
+
+def _fig_6_7_proposed(table: ComparisonTable, n: int, rs: list[dict]) -> None:
+    """The proposed herder's Fig. 6.7 rows for ``n`` animals."""
+    g = [r["gather_time"] for r in rs]
+    tot = [r["total_time"] for r in rs]
+    how = (
+        f"mean over {len(rs)} seeds of simulate(); gathering ends when every animal is within "
+        f"R_c = {rs[0]['R_c']:.0f} m of the centroid; "
+        f"{sum(v is None for v in g)} runs did not gather within 45 min"
     )
+    table.add(
+        f"{n} animals: proposed gathering time (min)",
+        FIG_6_7[n]["gather"],
+        _minutes(_mean(g)),
+        how,
+        why=_seed_range(g, FIG_6_7[n]["gather"]),
+    )
+    table.add(
+        f"{n} animals: proposed total time (min)",
+        FIG_6_7[n]["total"],
+        _minutes(_mean(tot)),
+        "gathering + driving until every animal is within goal_radius = 50 m of G (900 m away), "
+        "regathering first if the herd spreads beyond 1.5 R_c; the thesis does not state its end "
+        "criterion (a centroid-at-G rule would count a split herd as delivered)",
+        why=_seed_range(tot, FIG_6_7[n]["total"]),
+    )
+
+
+def _fig_6_7_benchmark(table: ComparisonTable, n: int, rs: list[dict], rows: list[dict]) -> None:
+    """The benchmark-minus-proposed rows of Fig. 6.7 for ``n`` animals (paired by seed)."""
+    prop = {r["seed"]: r for r in rows if r["n"] == n and r["method"] == "proposed"}
+    both = [(b, prop[b["seed"]]) for b in rs if b["seed"] in prop]
+    pairs = [
+        (b["total_time"], p["total_time"])
+        for b, p in both
+        if b["total_time"] is not None and p["total_time"] is not None
+    ]
+    extra = _minutes(_mean([b - p for b, p in pairs])) if pairs else None
+    table.add(
+        f"{n} animals: benchmark minus proposed, total (min)",
+        FIG_6_7[n]["bench_extra"],
+        extra,
+        f"paired by seed over {len(pairs)} seeds where both finished",
+        why=_seed_range([b - p for b, p in pairs], FIG_6_7[n]["bench_extra"]),
+    )
+    gpairs = [
+        (b["gather_time"], p["gather_time"])
+        for b, p in both
+        if b["gather_time"] is not None and p["gather_time"] is not None
+    ]
+    table.add(
+        f"{n} animals: benchmark minus proposed, gathering (min)",
+        "—",
+        _minutes(_mean([b - p for b, p in gpairs])) if gpairs else None,
+        f"paired by seed over {len(gpairs)} seeds",
+    )
+
+
+_RUN_COLUMNS = (
+    "n",
+    "seed",
+    "method",
+    "gather_time",
+    "total_time",
+    "on_hull_time",
+    "wall_time",
+    "max_animal_speed",
+)
+
+
+def _fig_6_7_footprint(out: Path, table: ComparisonTable, rows: list[dict], sizes) -> list[dict]:
+    """Fig. 6.7a (mean footprint radius against time) and the table rows per size and method;
+    returns the per-run CSV rows."""
     fig, ax = plt.subplots(figsize=(7, 4.5))
     csv_rows: list[dict[str, Any]] = []
-    for n in plan:
+    for n in sizes:
         for m, style in (("proposed", "-"), ("benchmark", "--")):
             rs = [r for r in rows if r["n"] == n and r["method"] == m]
-            g = [r["gather_time"] for r in rs]
-            tot = [r["total_time"] for r in rs]
-            how = (
-                f"mean over {len(rs)} seeds of simulate(); gathering ends when every animal is within "
-                f"R_c = {rs[0]['R_c']:.0f} m of the centroid; "
-                f"{sum(v is None for v in g)} runs did not gather within 45 min"
-            )
             if m == "proposed":
-                table.add(
-                    f"{n} animals: proposed gathering time (min)",
-                    FIG_6_7[n]["gather"],
-                    _minutes(_mean(g)),
-                    how,
-                    why=_seed_range(g, FIG_6_7[n]["gather"]),
-                )
-                table.add(
-                    f"{n} animals: proposed total time (min)",
-                    FIG_6_7[n]["total"],
-                    _minutes(_mean(tot)),
-                    "gathering + driving until every animal is within goal_radius = 50 m of G (900 m away), "
-                    "regathering first if the herd spreads beyond 1.5 R_c; the thesis does not state its end "
-                    "criterion (a centroid-at-G rule would count a split herd as delivered)",
-                    why=_seed_range(tot, FIG_6_7[n]["total"]),
-                )
+                _fig_6_7_proposed(table, n, rs)
             else:
-                prop = {r["seed"]: r for r in rows if r["n"] == n and r["method"] == "proposed"}
-                both = [(b, prop[b["seed"]]) for b in rs if b["seed"] in prop]  # paired by seed
-                pairs = [
-                    (b["total_time"], p["total_time"])
-                    for b, p in both
-                    if b["total_time"] is not None and p["total_time"] is not None
-                ]
-                extra = _minutes(_mean([b - p for b, p in pairs])) if pairs else None
-                table.add(
-                    f"{n} animals: benchmark minus proposed, total (min)",
-                    FIG_6_7[n]["bench_extra"],
-                    extra,
-                    f"paired by seed over {len(pairs)} seeds where both finished",
-                    why=_seed_range([b - p for b, p in pairs], FIG_6_7[n]["bench_extra"]),
-                )
-                gpairs = [
-                    (b["gather_time"], p["gather_time"])
-                    for b, p in both
-                    if b["gather_time"] is not None and p["gather_time"] is not None
-                ]
-                table.add(
-                    f"{n} animals: benchmark minus proposed, gathering (min)",
-                    "—",
-                    _minutes(_mean([b - p for b, p in gpairs])) if gpairs else None,
-                    f"paired by seed over {len(gpairs)} seeds",
-                )
+                _fig_6_7_benchmark(table, n, rs, rows)
             # mean footprint curve (runs end at different times: hold the last value)
             T = max(len(r["curve_r"]) for r in rs)
             curves = np.array([np.pad(r["curve_r"], (0, T - len(r["curve_r"])), mode="edge") for r in rs])
             t = max((r["curve_t"] for r in rs), key=len)
             ax.plot(t / 60.0, curves.mean(axis=0), style, label=f"{n} animals, {m}")
-            csv_rows.extend(
-                {
-                    k: r[k]
-                    for k in (
-                        "n",
-                        "seed",
-                        "method",
-                        "gather_time",
-                        "total_time",
-                        "on_hull_time",
-                        "wall_time",
-                        "max_animal_speed",
-                    )
-                }
-                for r in rs
-            )
-    prop_rows = [r for r in rows if r["method"] == "proposed"]
-    table.add(
-        "proposed runs: allocations that let drones pass each other",
-        "0 (Theorem 6.4.1)",
-        sum(r["n_crossing_allocations"] for r in prop_rows),
-        f"every Delta-allocation of {len(prop_rows)} runs checked against (6.22)-(6.23)",
-    )
-    table.add(
-        "max animal speed over all runs (m/s)",
-        "V_animal = 4",
-        max(r["max_animal_speed"] for r in rows),
-        "largest per-step displacement / Delta",
-    )
+            csv_rows.extend({k: r[k] for k in _RUN_COLUMNS} for r in rs)
     ax.set_xlabel("t (min)")
     ax.set_ylabel("footprint radius (m)")
     ax.grid(alpha=0.3)
@@ -373,11 +387,11 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:  # noqa: PLR0915
     fig.tight_layout()
     fig.savefig(out / "fig_6_7a_footprint.png", dpi=120)
     plt.close(fig)
-    import pandas as pd
+    return csv_rows
 
-    pd.DataFrame(csv_rows).to_csv(out / "fig_6_7_runs.csv", index=False)
-    table.emit(out, "fig_6_7")
-    # snapshots (Fig. 6.7 b-f)
+
+def _fig_6_7_snapshots(out: Path, rows: list[dict]) -> None:
+    """Fig. 6.7 b-f: the 1000-animal herd of seed 0 at 0, 5 and 8 min under both herders."""
     snap = {r["method"]: r["snapshots"] for r in rows if r["n"] == 1000 and r["seed"] == 0}
     fig, axes = plt.subplots(1, 5, figsize=(22, 4.5))
     panels = [
@@ -400,40 +414,77 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:  # noqa: PLR0915
     plt.close(fig)
 
 
-def _sweeps(out: Path, quick: bool, executor, store) -> None:  # noqa: C901
+def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
+    """Fig. 6.7: times beside the thesis, the footprint curves and the snapshots (CSV + PNG)."""
+    rows = _run_all(_fig_6_7_tasks(quick), executor, store, "Fig. 6.7 runs")
+    table = ComparisonTable(
+        "Fig. 6.7: gathering and total herding time (4 drones, 1200 m x 600 m field)",
+        explain=flag_reasons("herding"),
+    )
+    csv_rows = _fig_6_7_footprint(out, table, rows, _fig_6_7_plan(quick))
+    prop_rows = [r for r in rows if r["method"] == "proposed"]
+    table.add(
+        "proposed runs: allocations that let drones pass each other",
+        "0 (Theorem 6.4.1)",
+        sum(r["n_crossing_allocations"] for r in prop_rows),
+        f"every Delta-allocation of {len(prop_rows)} runs checked against (6.22)-(6.23)",
+    )
+    table.add(
+        "max animal speed over all runs (m/s)",
+        "V_animal = 4",
+        max(r["max_animal_speed"] for r in rows),
+        "largest per-step displacement / Delta",
+    )
+    pd.DataFrame(csv_rows).to_csv(out / "fig_6_7_runs.csv", index=False)
+    table.emit(out, "fig_6_7")
+    _fig_6_7_snapshots(out, rows)
+
+
+def _sweep_task(name: str, key: str, value: Any, n: int, seed: int, n_animals: int) -> dict[str, Any]:
+    """The store task of one sweep point (``key``: the scenario keyword the sweep varies)."""
+    t: dict[str, Any] = {
+        "problem": "herding",
+        "instance": instance_id("fig6.8-6.10", sweep=name, value=value, n=n, seed=seed),
+        "sweep": name,
+        "value": value,
+        "n": n,
+        "seed": seed,
+        "t_max": 2400.0,
+        "gather_only": True,
+        "curve_every": 30.0,
+    }
+    if key == "field":
+        t["field"] = value
+    elif key == "n_drones":
+        t["n_drones"] = value
+    elif key == "V_animal":  # keep V_driving <= V_animal and grazing <= V_animal valid
+        t["params"] = {
+            "V_animal": float(value),
+            "V_driving": min(table_6_2_for(n_animals)[1], value),
+            "graze_speed": min(1.0, float(value)),
+        }
+    else:
+        t["params"] = {key: float(value)}
+    return t
+
+
+def _sweep_tasks(quick: bool) -> list[dict[str, Any]]:
+    """The store tasks of Figs. 6.8-6.10 (quick: 100 animals, 1 seed, 2 values per sweep)."""
     n_animals = 100 if quick else 200
     seeds = range(1) if quick else range(5)
-    tasks = []
-    for name, (_label, full, qv, _, key) in SWEEPS.items():
-        for value in qv if quick else full:
-            for s in seeds:
-                for n in (
-                    [n_animals, 1000] if (name == "R_b" and not quick) else [n_animals]
-                ):  # Fig. 6.10a: 1000 too
-                    t = {
-                        "problem": "herding",
-                        "instance": instance_id("fig6.8-6.10", sweep=name, value=value, n=n, seed=s),
-                        "sweep": name,
-                        "value": value,
-                        "n": n,
-                        "seed": s,
-                        "t_max": 2400.0,
-                        "gather_only": True,
-                        "curve_every": 30.0,
-                    }
-                    if key == "field":
-                        t["field"] = value
-                    elif key == "n_drones":
-                        t["n_drones"] = value
-                    elif key == "V_animal":  # keep V_driving <= V_animal and grazing <= V_animal valid
-                        t["params"] = {
-                            "V_animal": float(value),
-                            "V_driving": min(table_6_2_for(n_animals)[1], value),
-                            "graze_speed": min(1.0, float(value)),
-                        }
-                    else:
-                        t["params"] = {key: float(value)}
-                    tasks.append(t)
+    return [
+        _sweep_task(name, key, value, n, s, n_animals)
+        for name, (_label, full, qv, _, key) in SWEEPS.items()
+        for value in (qv if quick else full)
+        for s in seeds
+        for n in ([n_animals, 1000] if (name == "R_b" and not quick) else [n_animals])  # Fig. 6.10a: 1000 too
+    ]
+
+
+def _sweeps(out: Path, quick: bool, executor, store) -> None:
+    n_animals = 100 if quick else 200
+    seeds = range(1) if quick else range(5)
+    tasks = _sweep_tasks(quick)
     rows = _run_all(tasks, executor, store, "Figs. 6.8-6.10 runs")
     table = ComparisonTable(
         f"Figs. 6.8-6.10 ({n_animals} animals{'' if quick else ', R_b also 1000'}, "
@@ -516,9 +567,61 @@ def reproduce(*, quick: bool, out: Path, executor=None, store: ResultStore | Non
     with contextlib.ExitStack() as stack:
         ex = executor or stack.enter_context(make_executor(_workers()))
         st = stack.enter_context(_store(store, out))
-        _fig_6_7(out, quick, ex, st)
-        _sweeps(out, quick, ex, st)
-    _animation(out, quick)
+        run_reproduction(reproduce_jobs(quick=quick, out=out, store_path=st.path), executor=ex, store=st)
+
+
+def _from_store(step, out: Path, quick: bool, store_path: Path) -> None:
+    """Run a figure step (``_fig_6_7`` or ``_sweeps``) on the rows already in the store."""
+    with make_executor(1) as ex, ResultStore(store_path) as st:
+        step(out, quick, ex, st)
+
+
+def _run_cost(task: Mapping[str, Any], method: str = "proposed") -> float:
+    """Estimated CPU seconds of one herder's run of a task (the scheduler starts long ones first)."""
+    n = max(1, int(task["n"]))  # a bad size fails in its run, with a clear message
+    per_sim_s = 0.004 * (n / 100.0) ** 0.8  # CPU s per simulated s, roughly
+    horizon = 900.0 if task.get("gather_only") else float(task["t_max"]) / 2.0
+    return per_sim_s * horizon * (1.3 if method == "benchmark" else 1.0)
+
+
+def _pair_jobs(tasks: list[dict[str, Any]], section: str) -> list[Job]:
+    """Per task: one job per herder and a store task joining them into :func:`run_pair`'s rows."""
+    jobs = []
+    for t in tasks:
+        key = f"herding/{t['instance']}"
+        runs = {}
+        for m in ("proposed", "benchmark"):
+            runs[m] = f"{key}/{m}"
+            jobs.append(Job(runs[m], section, _method_run, {"task": t, "method": m}, cost=_run_cost(t, m)))
+        jobs.append(Job(key, section, _pair_job, {"task": t}, runs, cost=0.05, task=t))
+    return jobs
+
+
+def reproduce_jobs(*, quick: bool, out: Path, store_path: Path) -> list[Job]:
+    """The herding reproduction as jobs (:mod:`droneplan.studies.jobs`): each herder's run of
+    each Fig. 6.7 and sweep scenario its own job (the two of a scenario join into one store
+    task), the figures from the store at ``store_path``, and the GIF.
+
+    quick: see :func:`reproduce`; out: directory for the CSV, PNG and GIF files.
+    """
+    out = Path(out)
+    kws = {"out": out, "quick": quick, "store_path": Path(store_path)}
+    jobs: list[Job] = []
+    for name, tasks, step in (
+        ("fig 6.7", _fig_6_7_tasks(quick), _fig_6_7),
+        ("figs 6.8-6.10", _sweep_tasks(quick), _sweeps),
+    ):
+        section = f"herding {name}"
+        made = _pair_jobs(tasks, section)
+        jobs += made
+        after = tuple(j.key for j in made if j.task is not None)
+        jobs.append(
+            Job(f"herding/{name}", section, _from_store, {"step": step, **kws}, after=after, cost=2.0)
+        )
+    jobs.append(
+        Job("herding/animation", "herding animation", _animation, {"out": out, "quick": quick}, cost=8.0)
+    )
+    return jobs
 
 
 def _animation(out: Path, quick: bool) -> None:

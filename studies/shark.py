@@ -39,11 +39,12 @@ from droneplan.scenarios.shark import (
     thesis_trajectories,
 )
 from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study
+from droneplan.studies.jobs import Job, run_reproduction
 from droneplan.studies.plots.shark import animate, plot_time_series, plot_top_view
 from droneplan.studies.report import flag_reasons
 from droneplan.studies.store import Outcome, build_rows, instance_id
 
-__all__ = ["P", "TABLE_5_2", "reproduce", "gap_task", "gap", "bench"]
+__all__ = ["P", "TABLE_5_2", "reproduce", "reproduce_jobs", "gap_task", "gap", "bench"]
 
 
 P = THESIS_TABLE_5_1
@@ -124,88 +125,102 @@ def _fig_5_11(out: Path, table: ComparisonTable) -> None:
     )
 
 
-def _table_5_2(out: Path, table: ComparisonTable, quick: bool) -> dict:
-    runs = {}
-    rows = []
-    for name, tr in thesis_trajectories().items():
-        O0 = operator_start(tr)
-        vs_ctl = VirtualSharkInterceptor()
-        vs = simulate(tr, vs_ctl)
-        on_ctl = OCPInterceptor(N=20)
-        on = simulate(tr, on_ctl)
-        off = optimal_interception(tr, O0, N=40 if quick else 60)
-        off_ctl = OCPInterceptor(N=30 if quick else 40, path=tr)
-        offsim = simulate(tr, off_ctl)
-        # the thesis paths: the OCP solves and the virtual shark reaches its interception point
-        if off.objective is None or vs_ctl.capture_time is None:
-            raise RuntimeError(f"path {name}: the OCP found no interception or the virtual shark no capture")
-        runs[name] = (tr, vs, on, offsim)
-        sp, dist = TABLE_5_2[name]
-        table.add(
-            f"Table 5.2 ({name}): average shark speed (m/s)",
-            sp,
-            tr.average_speed(vs.intercept_time),
-            "our path, mean |v_s| until the virtual-shark contact",
-        )
-        table.add(
-            f"Table 5.2 ({name}): interception distance, virtual shark (m)",
-            dist,
-            vs.interception_distance,
-            f"|S(contact) - S(0)|, start {P.Di} m at -105 deg; frontal={vs.frontal}, "
-            f"early={vs.touched_early}",
-            why=""
-            if vs.intercept_time is None
-            else f"contact after {vs.intercept_time:.2f} s and "
-            f"{tr.average_speed(vs.intercept_time) * vs.intercept_time:.1f} m along our path "
-            f"for {vs.interception_distance:.2f} m of displacement",
-        )
-        table.add(
-            f"Table 5.2 ({name}): interception distance, online OCP (m)",
-            "—",
-            on.interception_distance,
-            f"receding horizon, constant-velocity prediction; frontal={on.frontal}, early={on.touched_early}",
-        )
-        table.add(
-            f"Table 5.2 ({name}): interception distance, offline OCP (m)",
-            "—",
-            offsim.interception_distance,
-            f"receding horizon on the known path; frontal={offsim.frontal}, early={offsim.touched_early}",
-        )
-        table.add(
-            f"Table 5.2 ({name}): time to the interception point OCP / virtual shark",
-            "—",
-            off.objective / vs_ctl.capture_time,
-            f"OCP T={off.objective:.2f} s (IPOPT {off.status.name}) vs {vs_ctl.capture_time:.2f} s",
-        )
-        table.add(
-            f"Table 5.2 ({name}): proven lower bound on T / OCP T / virtual-shark T (s)",
-            "—",
-            f"{off.bound:.2f} / {off.objective:.2f} / {vs_ctl.capture_time:.2f}"
-            if off.bound is not None
-            else f"none / {off.objective:.2f} / {vs_ctl.capture_time:.2f}",
-            "bound: earliest T reachable at the speed limits (OCP relaxation); "
-            f"OCP best start: {off.info.get('start_won')}",
-        )
-        rows.append(
-            dict(
-                path=name,
-                thesis_speed=sp,
-                speed=tr.average_speed(vs.intercept_time),
-                thesis_distance=dist,
-                vs_distance=vs.interception_distance,
-                vs_time=vs.intercept_time,
-                online_ocp_distance=on.interception_distance,
-                online_ocp_time=on.intercept_time,
-                offline_ocp_distance=offsim.interception_distance,
-                offline_ocp_time=offsim.intercept_time,
-                ocp_T=off.objective,
-                vs_capture=vs_ctl.capture_time,
-            )
-        )
+def _path_job(name: str, quick: bool) -> tuple[tuple, list[dict], dict]:
+    """Table 5.2 on thesis path ``name``: the virtual shark, the online and the offline OCP runs
+    and the offline OCP's optimum. Returns ((virtual-shark, online, offline) traces, the table
+    rows, the CSV row)."""
+    table = ComparisonTable("Shark ch. 5: Table 5.2 (interception distance)", explain=flag_reasons("shark"))
+    tr = thesis_trajectories()[name]
+    O0 = operator_start(tr)
+    vs_ctl = VirtualSharkInterceptor()
+    vs = simulate(tr, vs_ctl)
+    on_ctl = OCPInterceptor(N=20)
+    on = simulate(tr, on_ctl)
+    off = optimal_interception(tr, O0, N=40 if quick else 60)
+    off_ctl = OCPInterceptor(N=30 if quick else 40, path=tr)
+    offsim = simulate(tr, off_ctl)
+    # the thesis paths: the OCP solves and the virtual shark reaches its interception point
+    if off.objective is None or vs_ctl.capture_time is None:
+        raise RuntimeError(f"path {name}: the OCP found no interception or the virtual shark no capture")
+    sp, dist = TABLE_5_2[name]
+    table.add(
+        f"Table 5.2 ({name}): average shark speed (m/s)",
+        sp,
+        tr.average_speed(vs.intercept_time),
+        "our path, mean |v_s| until the virtual-shark contact",
+    )
+    table.add(
+        f"Table 5.2 ({name}): interception distance, virtual shark (m)",
+        dist,
+        vs.interception_distance,
+        f"|S(contact) - S(0)|, start {P.Di} m at -105 deg; frontal={vs.frontal}, early={vs.touched_early}",
+        why=""
+        if vs.intercept_time is None
+        else f"contact after {vs.intercept_time:.2f} s and "
+        f"{tr.average_speed(vs.intercept_time) * vs.intercept_time:.1f} m along our path "
+        f"for {vs.interception_distance:.2f} m of displacement",
+    )
+    table.add(
+        f"Table 5.2 ({name}): interception distance, online OCP (m)",
+        "—",
+        on.interception_distance,
+        f"receding horizon, constant-velocity prediction; frontal={on.frontal}, early={on.touched_early}",
+    )
+    table.add(
+        f"Table 5.2 ({name}): interception distance, offline OCP (m)",
+        "—",
+        offsim.interception_distance,
+        f"receding horizon on the known path; frontal={offsim.frontal}, early={offsim.touched_early}",
+    )
+    table.add(
+        f"Table 5.2 ({name}): time to the interception point OCP / virtual shark",
+        "—",
+        off.objective / vs_ctl.capture_time,
+        f"OCP T={off.objective:.2f} s (IPOPT {off.status.name}) vs {vs_ctl.capture_time:.2f} s",
+    )
+    table.add(
+        f"Table 5.2 ({name}): proven lower bound on T / OCP T / virtual-shark T (s)",
+        "—",
+        f"{off.bound:.2f} / {off.objective:.2f} / {vs_ctl.capture_time:.2f}"
+        if off.bound is not None
+        else f"none / {off.objective:.2f} / {vs_ctl.capture_time:.2f}",
+        "bound: earliest T reachable at the speed limits (OCP relaxation); "
+        f"OCP best start: {off.info.get('start_won')}",
+    )
+    row = dict(
+        path=name,
+        thesis_speed=sp,
+        speed=tr.average_speed(vs.intercept_time),
+        thesis_distance=dist,
+        vs_distance=vs.interception_distance,
+        vs_time=vs.intercept_time,
+        online_ocp_distance=on.interception_distance,
+        online_ocp_time=on.intercept_time,
+        offline_ocp_distance=offsim.interception_distance,
+        offline_ocp_time=offsim.intercept_time,
+        ocp_T=off.objective,
+        vs_capture=vs_ctl.capture_time,
+    )
+    return (vs, on, offsim), table.rows, row
+
+
+def _table_5_2_job(out: Path, quick: bool, **paths: tuple) -> None:
+    """Table 5.2, Fig. 5.12 and path (d)'s GIF from the :func:`_path_job` results (by path name)."""
     import pandas as pd
 
-    pd.DataFrame(rows).to_csv(out / "table_5_2_runs.csv", index=False)
-    return runs
+    table = ComparisonTable("Shark ch. 5: Table 5.2 (interception distance)", explain=flag_reasons("shark"))
+    trajectories = thesis_trajectories()
+    runs = {}
+    for name, (traces, rows, _) in paths.items():
+        table.rows.extend(rows)
+        runs[name] = (trajectories[name], *traces)
+    table.emit(out, "table_5_2")
+    pd.DataFrame([row for _, _, row in paths.values()]).to_csv(out / "table_5_2_runs.csv", index=False)
+    _fig_5_12(out, runs)
+    name = "d" if "d" in runs else next(iter(runs))  # path (d): the virtual shark's run as a GIF
+    vs_run = runs[name][1]
+    stride = max(1, len(vs_run.t) // (40 if quick else 120))
+    animate(vs_run, out / f"path_{name}_virtual_shark.gif", fps=8, stride=stride)
 
 
 def _fig_5_12(out: Path, runs: dict) -> None:
@@ -226,31 +241,75 @@ def _fig_5_12(out: Path, runs: dict) -> None:
     plt.close(fig)
 
 
-def reproduce(*, quick: bool, out: Path) -> None:
-    """Fig. 5.10, 5.11, Table 5.2, Fig. 5.12 and repelling episodes; tables on stdout, CSV/PNG in out."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+def _fig_5_10_5_11_job(out: Path) -> None:
+    """Figs. 5.10 and 5.11 and their table."""
     t1 = ComparisonTable("Shark ch. 5: Fig. 5.10 / 5.11", explain=flag_reasons("shark"))
     _fig_5_10(out, t1)
     _fig_5_11(out, t1)
     t1.emit(out, "fig_5_10_5_11")
-    t2 = ComparisonTable("Shark ch. 5: Table 5.2 (interception distance)", explain=flag_reasons("shark"))
-    runs = _table_5_2(out, t2, quick)
-    t2.emit(out, "table_5_2")
-    _fig_5_12(out, runs)
-    name = "d" if "d" in runs else next(iter(runs))  # path (d): the virtual shark's run as a GIF
-    vs_run = runs[name][1]
-    animate(
-        vs_run,
-        out / f"path_{name}_virtual_shark.gif",
-        fps=8,
-        stride=max(1, len(vs_run.t) // (40 if quick else 120)),
-    )
-    t3 = ComparisonTable(
+
+
+def _repelling_plan(quick: bool) -> list[tuple[int, str]]:
+    """(sharks, interceptor) groups of the repelling episodes."""
+    return [
+        (k, kind)
+        for k in (1, 2)
+        for kind in (("virtual-shark",) if quick and k == 2 else ("virtual-shark", "ocp"))
+    ]
+
+
+def _repel_group(n_sharks: int, interceptor: str, n: int) -> list[dict]:
+    """Episodes with ``n_sharks`` sharks and ``interceptor``, seeds 0 .. n - 1."""
+    return [_repel_episode(n_sharks, s, interceptor, 4.0) for s in range(n)]
+
+
+def _repelling_job(out: Path, **groups: list[dict]) -> None:
+    """The repelling table and CSV from the :func:`_repel_group` results."""
+    table = ComparisonTable(
         "Shark ch. 5: repelling episodes (procedure 1-5 of §5.3.1)", explain=flag_reasons("shark")
     )
-    _repelling(out, t3, quick)
-    t3.emit(out, "repelling")
+    _repelling(out, table, [row for rows in groups.values() for row in rows])
+    table.emit(out, "repelling")
+
+
+PATH_COST = 6.0
+"""Estimated CPU seconds of one Table 5.2 path (the scheduler starts long chains first)."""
+
+
+def reproduce_jobs(*, quick: bool, out: Path) -> list[Job]:
+    """The shark reproduction as jobs (:mod:`droneplan.studies.jobs`): Figs. 5.10-5.11, one job
+    per Table 5.2 path, groups of repelling episodes, and the tables and figures they feed.
+
+    quick: coarser offline OCP (N = 40 / 30 instead of 60 / 40), 6 repelling episodes per group
+    (full: 30) and no OCP group with 2 sharks; out: directory for the CSV, PNG and GIF files.
+    """
+    out = Path(out)
+    jobs = [Job("shark/fig5.10-5.11", "shark figs 5.10-5.11", _fig_5_10_5_11_job, {"out": out}, cost=2.0)]
+    paths = {}
+    for name in thesis_trajectories():
+        paths[name] = key = f"shark/table5.2/{name}"
+        jobs.append(Job(key, "shark table 5.2", _path_job, {"name": name, "quick": quick}, cost=PATH_COST))
+    kwargs = {"out": out, "quick": quick}
+    jobs.append(Job("shark/table5.2", "shark table 5.2", _table_5_2_job, kwargs, paths, cost=4.0))
+    n = 6 if quick else 30
+    groups = {}
+    for k, kind in _repelling_plan(quick):
+        groups[f"g{k}_{kind.replace('-', '_')}"] = key = f"shark/repelling/{k}/{kind}"
+        cost = n * (0.3 if kind == "virtual-shark" else 1.0) * k
+        jobs.append(
+            Job(key, "shark repelling", _repel_group, {"n_sharks": k, "interceptor": kind, "n": n}, cost=cost)
+        )
+    jobs.append(Job("shark/repelling", "shark repelling", _repelling_job, {"out": out}, groups, cost=0.2))
+    return jobs
+
+
+def reproduce(*, quick: bool, out: Path, executor=None) -> None:
+    """Fig. 5.10, 5.11, Table 5.2, Fig. 5.12 and repelling episodes; tables on stdout, CSV/PNG in
+    ``out``. quick: see :func:`reproduce_jobs`; executor: from ``make_executor`` (default: serial
+    in this process), where the runs and solves go."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    run_reproduction(reproduce_jobs(quick=quick, out=out), executor=executor)
 
 
 def _repel_episode(n_sharks: int, seed: int, interceptor: str, T_w: float) -> dict:
@@ -286,17 +345,10 @@ def _repel_episode(n_sharks: int, seed: int, interceptor: str, T_w: float) -> di
     )
 
 
-def _repelling(out: Path, table: ComparisonTable, quick: bool) -> None:
+def _repelling(out: Path, table: ComparisonTable, rows: list[dict]) -> None:
     import pandas as pd
 
-    n = 6 if quick else 30
-    rows = [
-        _repel_episode(k, s, kind, 4.0)
-        for k in (1, 2)
-        for s in range(n)
-        for kind in (("virtual-shark",) if quick and k == 2 else ("virtual-shark", "ocp"))
-    ]
-    df = pd.DataFrame(rows)
+    df = pd.DataFrame(rows).sort_values(["n_sharks", "seed", "interceptor"], kind="stable")
     df.to_csv(out / "repelling_episodes.csv", index=False)
     for (k, kind), grp in df.groupby(["n_sharks", "interceptor"]):
         table.add(

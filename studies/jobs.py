@@ -1,0 +1,462 @@
+"""Reproductions as a graph of jobs, scheduled together on one executor.
+
+A reproduction (``droneplan reproduce``) is a list of :class:`Job`: simulations, solves and
+study tasks that produce results, and the steps that turn those results into the thesis's
+tables and figures. Each job names the jobs it needs; :func:`run_jobs` runs every job whose
+inputs are ready, the ones heading the longest chains of estimated work first, so the jobs
+of all problems share one pool and its cores stay busy. Jobs that write rows of the results
+store (:func:`row_jobs`) are skipped when the store already holds their rows, so an
+interrupted reproduction resumes. Every job's wall and CPU time is measured where it runs,
+and :func:`time_table` sums them per section.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import os
+import time
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import pandas as pd
+
+from droneplan.studies.common import (
+    StudyError,
+    StudyExecutor,
+    TaskFn,
+    _call_task,
+    _InterruptGuard,
+    _Recorder,
+    task_config,
+)
+from droneplan.studies.store import ResultStore, error_row
+
+__all__ = [
+    "Job",
+    "JobTiming",
+    "JobsFailed",
+    "row_jobs",
+    "run_jobs",
+    "time_table",
+    "idle_estimate",
+    "run_reproduction",
+]
+
+
+@dataclass(frozen=True)
+class Job:
+    """One unit of a reproduction.
+
+    key: unique name (``"covert/case1/sliding"``); section: the row of the time table it counts
+    in (``"covert case 1"``); fn: a module-level function (picklable), called as
+    ``fn(**kwargs, **{name: result of job key for name, key in needs.items()})``; needs: the
+    jobs whose results it takes, by parameter name; after: jobs that must finish first whose
+    results it does not take (e.g. the store rows a table reads); cost: estimated CPU seconds,
+    used to run the longest chains first; task: for a store task (:func:`row_jobs`), the task
+    mapping whose rows the job writes.
+    """
+
+    key: str
+    section: str
+    fn: Callable[..., Any]
+    kwargs: Mapping[str, Any] = field(default_factory=dict)
+    needs: Mapping[str, str] = field(default_factory=dict)
+    after: tuple[str, ...] = ()
+    cost: float = 1.0
+    task: Mapping[str, Any] | None = None
+
+
+@dataclass(frozen=True)
+class JobTiming:
+    """Where one job's time went: ``wall`` and ``cpu`` in s measured in the process that ran
+    it, ``start``/``end`` in s since the run began (as seen by the scheduler)."""
+
+    key: str
+    section: str
+    wall: float
+    cpu: float
+    start: float
+    end: float
+    skipped: bool = False
+
+
+class JobsFailed(StudyError):
+    """Some jobs raised; the message names them (jobs that needed them did not run) and
+    ``timings`` holds the timing of every job that ran."""
+
+    timings: list[JobTiming]
+
+
+def row_jobs(
+    fn: TaskFn, tasks: Iterable[Mapping[str, Any]], *, section: str, cost: float | Callable[[Mapping], float]
+) -> list[Job]:
+    """One :class:`Job` per store task: runs ``fn(task)`` (as :func:`common.map_rows` does,
+    an exception becomes an error row) and the scheduler writes the rows to the store.
+
+    fn: the task function (module-level); tasks: mappings with ``problem`` and ``instance``;
+    section: the time-table row; cost: estimated CPU seconds per task, a number or a function
+    of the task. The job keys are ``problem/instance``.
+    """
+    jobs = []
+    for t in tasks:
+        c = cost(t) if callable(cost) else cost
+        jobs.append(
+            Job(
+                f"{t['problem']}/{t['instance']}",
+                section,
+                _call_task,
+                {"fn": fn, "task": t},
+                cost=float(c),
+                task=dict(t),
+            )
+        )
+    return jobs
+
+
+def _timed(fn: Callable[..., Any], kwargs: Mapping[str, Any]) -> tuple[Any, float, float]:
+    """Run ``fn(**kwargs)`` and return (result, wall s, CPU s of this process)."""
+    w0, c0 = time.perf_counter(), time.process_time()
+    result = fn(**kwargs)
+    return result, time.perf_counter() - w0, time.process_time() - c0
+
+
+def _priorities(jobs: Mapping[str, Job]) -> dict[str, float]:
+    """Each job's cost plus the costliest chain of jobs waiting on it (the longest-first key)."""
+    users: dict[str, list[str]] = {k: [] for k in jobs}
+    for j in jobs.values():
+        for dep in (*j.needs.values(), *j.after):
+            users[dep].append(j.key)
+    level: dict[str, float] = {}
+
+    def visit(k: str) -> float:
+        if k not in level:
+            level[k] = jobs[k].cost + max((visit(u) for u in users[k]), default=0.0)
+        return level[k]
+
+    for k in jobs:
+        visit(k)
+    return level
+
+
+def _check(jobs: list[Job]) -> dict[str, Job]:
+    by_key: dict[str, Job] = {}
+    for j in jobs:
+        if j.key in by_key:
+            raise ValueError(f"jobs repeat the key {j.key!r}")
+        by_key[j.key] = j
+    for j in jobs:
+        missing = [d for d in (*j.needs.values(), *j.after) if d not in by_key]
+        if missing:
+            raise ValueError(f"job {j.key!r} needs unknown jobs {missing}")
+    seen: dict[str, int] = {}
+
+    def acyclic(k: str) -> None:
+        state = seen.get(k)
+        if state == 2:
+            return
+        if state == 1:
+            raise ValueError(f"jobs form a cycle through {k!r}")
+        seen[k] = 1
+        for d in (*by_key[k].needs.values(), *by_key[k].after):
+            acyclic(d)
+        seen[k] = 2
+
+    for k in by_key:
+        acyclic(k)
+    return by_key
+
+
+class _Run:
+    """The state of one :func:`run_jobs` call."""
+
+    def __init__(self, jobs: list[Job], store: ResultStore | None):
+        self.jobs = _check(jobs)
+        if store is None and any(j.task is not None for j in jobs):
+            raise ValueError("store tasks among the jobs need a store")
+        self.store = store
+        self.prio = _priorities(self.jobs)
+        self.waiting = {k: set(j.needs.values()) | set(j.after) for k, j in self.jobs.items()}
+        self.users: dict[str, list[str]] = {k: [] for k in self.jobs}
+        for k, deps in self.waiting.items():
+            for d in deps:
+                self.users[d].append(k)
+        self.results: dict[str, Any] = {}
+        self.timings: list[JobTiming] = []
+        self.failed: dict[str, str] = {}
+        self.t0 = time.perf_counter()
+        self.configs: dict[tuple[str, str], str] = {}
+        done = store.done_configs() if store is not None else set()
+        self.done_rows: set[str] = set()
+        for j in self.jobs.values():
+            if j.task is not None:
+                pi = (str(j.task["problem"]), str(j.task["instance"]))
+                self.configs[pi] = task_config(j.task)
+                if (*pi, self.configs[pi]) in done:
+                    self.done_rows.add(j.key)
+        self.done_rows |= self._only_feeding(self.done_rows)
+
+    def _only_feeding(self, done: set[str]) -> set[str]:
+        """Jobs whose every user is in ``done`` or among them (work only resumed tasks needed)."""
+        skip: set[str] = set()
+        changed = True
+        while changed:
+            changed = False
+            for k, us in self.users.items():
+                if (
+                    self.jobs[k].task is None
+                    and k not in done
+                    and k not in skip
+                    and us
+                    and all(u in done or u in skip for u in us)
+                ):
+                    skip.add(k)
+                    changed = True
+        return skip
+
+    def ready(self) -> list[str]:
+        keys = [k for k, deps in self.waiting.items() if not deps]
+        return sorted(keys, key=lambda k: (-self.prio[k], k))
+
+    def start(self, key: str) -> tuple[Callable[..., Any], dict[str, Any]] | None:
+        """Take ``key`` off the waiting list; its call, or None when there is nothing to run."""
+        del self.waiting[key]
+        job = self.jobs[key]
+        if key in self.done_rows:
+            self.finish(key, None, 0.0, 0.0, time.perf_counter() - self.t0, skipped=True)
+            return None
+        bad = [d for d in (*job.needs.values(), *job.after) if d in self.failed]
+        if bad and job.task is not None:  # as in map_rows: an error row, retried on the next run
+            self.finish(key, self._error_rows(job, f"{bad[0]} failed: {self.failed[bad[0]]}"), 0.0, 0.0, 0.0)
+            return None
+        if bad:
+            self.failed[key] = f"not run: {bad[0]} failed"
+            self.release(key)
+            return None
+        kwargs = dict(job.kwargs)
+        kwargs.update({name: self.results[dep] for name, dep in job.needs.items()})
+        return job.fn, kwargs
+
+    @staticmethod
+    def _error_rows(job: Job, message: str) -> list[dict]:
+        t = job.task or {}
+        return [error_row(t["problem"], t["instance"], message, seed=t.get("seed"), size=t.get("size"))]
+
+    def fail(self, key: str, exc: BaseException) -> None:
+        """Record that ``key`` raised: a store task gets an error row, any other job fails."""
+        job = self.jobs[key]
+        message = f"{type(exc).__name__}: {exc}"
+        if job.task is not None:
+            self.finish(key, self._error_rows(job, message), 0.0, 0.0, 0.0)
+            return
+        self.failed[key] = message
+        self.release(key)
+
+    def finish(
+        self, key: str, result: Any, wall: float, cpu: float, start: float, *, skipped: bool = False
+    ) -> None:
+        job = self.jobs[key]
+        now = time.perf_counter() - self.t0
+        self.timings.append(JobTiming(key, job.section, wall, cpu, start, now, skipped))
+        if job.task is not None:
+            if result is not None and self.store is not None:
+                _Recorder(self.store, self.configs, _NoBar()).write(job.task, result)
+            result = None
+        self.results[key] = result
+        self.release(key)
+
+    def release(self, key: str) -> None:
+        for u in self.users[key]:
+            if u in self.waiting:
+                self.waiting[u].discard(key)
+        # forget results nobody still waits for
+        for d in (*self.jobs[key].needs.values(),):
+            if all(u not in self.waiting for u in self.users[d]):
+                self.results.pop(d, None)
+
+
+class _NoBar:
+    def update(self, n: int = 1) -> None:
+        pass
+
+    def set_postfix_str(self, s: str, refresh: bool = True) -> None:
+        pass
+
+
+def run_jobs(
+    jobs: list[Job], *, executor: StudyExecutor, store: ResultStore | None = None, progress: bool = True
+) -> list[JobTiming]:
+    """Run every job once its inputs are ready, longest chains first, on ``executor``.
+
+    jobs: the jobs (keys unique, no cycles); executor: from :func:`common.make_executor` (a
+    serial one runs the jobs in this process in the same order rules); store: the results
+    store the store tasks write to (needed when there are any; tasks it already holds are
+    skipped); progress: print a line per finished section. Returns the timing of every job.
+    Raises :class:`JobsFailed` naming the jobs that raised, after every job that did not
+    depend on them has run; Ctrl-C stops the run (KeyboardInterrupt) keeping the rows written.
+    """
+    run = _Run(list(jobs), store)
+    left = dict.fromkeys({j.section for j in run.jobs.values()}, 0)
+    for j in run.jobs.values():
+        left[j.section] += 1
+
+    def done(key: str) -> None:
+        sec = run.jobs[key].section
+        left[sec] -= 1
+        if progress and left[sec] == 0:
+            print(f"[{time.perf_counter() - run.t0:6.1f} s] {sec}: done", flush=True)
+
+    with _InterruptGuard(executor) as guard:
+        if executor.kind == "serial":
+            _serial(run, guard, done)
+        else:
+            _parallel(run, executor, guard, done)
+    # a failure that only fed store tasks is already in their error rows (retried on a rerun)
+    failed = {
+        k: m
+        for k, m in run.failed.items()
+        if not (run.users[k] and all(run.jobs[u].task is not None for u in run.users[k]))
+    }
+    if failed:
+        first = [f"{k}: {m}" for k, m in failed.items() if not m.startswith("not run")]
+        error = JobsFailed(f"{len(failed)} job(s) failed or could not run; " + "; ".join(first[:5]))
+        error.timings = run.timings
+        raise error
+    return run.timings
+
+
+def _serial(run: _Run, guard: _InterruptGuard, done: Callable[[str], None]) -> None:
+    while run.waiting:
+        key = run.ready()[0]
+        guard.check()
+        call = run.start(key)
+        if call is not None:
+            start = time.perf_counter() - run.t0
+            try:
+                result, wall, cpu = _timed(call[0], call[1])
+            except Exception as exc:  # noqa: BLE001 - recorded; the jobs that need it do not run
+                run.fail(key, exc)
+            else:
+                guard.rearm()
+                guard.check()
+                run.finish(key, result, wall, cpu, start)
+        done(key)
+
+
+def _submit_ready(
+    run: _Run,
+    executor: StudyExecutor,
+    pending: dict[cf.Future, tuple[str, float]],
+    done: Callable[[str], None],
+) -> None:
+    """Start ready jobs, highest priority first, until every slot is busy."""
+    for key in run.ready():
+        if len(pending) >= executor.slots:
+            return
+        call = run.start(key)
+        if call is None:
+            done(key)
+            continue
+        pending[executor.submit(_timed, call[0], call[1])] = (key, time.perf_counter() - run.t0)
+
+
+def _collect(run: _Run, fut: cf.Future, key: str, start: float) -> None:
+    try:
+        result, wall, cpu = fut.result()
+    except Exception as exc:  # noqa: BLE001 - recorded; the jobs that need it do not run
+        run.fail(key, exc)
+    else:
+        run.finish(key, result, wall, cpu, start)
+
+
+def _parallel(
+    run: _Run, executor: StudyExecutor, guard: _InterruptGuard, done: Callable[[str], None]
+) -> None:
+    pending: dict[cf.Future, tuple[str, float]] = {}
+    try:
+        while run.waiting or pending:
+            _submit_ready(run, executor, pending, done)
+            if not pending:
+                continue
+            finished, _ = cf.wait(list(pending), timeout=0.25, return_when=cf.FIRST_COMPLETED)
+            guard.check()
+            for fut in finished:
+                key, start = pending.pop(fut)
+                _collect(run, fut, key, start)
+                done(key)
+    except BaseException:
+        for fut in pending:
+            fut.cancel()
+        executor.kill()
+        raise
+
+
+def time_table(timings: list[JobTiming]) -> pd.DataFrame:
+    """Per section: jobs run (``jobs``; resumed ones not counted), ``cpu_s`` (CPU seconds summed
+    over its jobs), ``job_wall_s`` (their wall seconds summed) and ``span_s`` (first start to
+    last end, s), sorted by CPU; a last row ``total``."""
+    rows = []
+    for sec in sorted({t.section for t in timings}):
+        ts = [t for t in timings if t.section == sec]
+        ran = [t for t in ts if not t.skipped]
+        rows.append(
+            {
+                "section": sec,
+                "jobs": len(ran),
+                "cpu_s": sum(t.cpu for t in ran),
+                "job_wall_s": sum(t.wall for t in ran),
+                "span_s": max(t.end for t in ts) - min(t.start for t in ts),
+            }
+        )
+    df = pd.DataFrame(rows, columns=["section", "jobs", "cpu_s", "job_wall_s", "span_s"])
+    df = df.sort_values("cpu_s", ascending=False, ignore_index=True)
+    if len(timings):
+        total = {
+            "section": "total",
+            "jobs": int(df["jobs"].sum()),
+            "cpu_s": float(df["cpu_s"].sum()),
+            "job_wall_s": float(df["job_wall_s"].sum()),
+            "span_s": max(t.end for t in timings) - min(t.start for t in timings),
+        }
+        df = pd.concat([df, pd.DataFrame([total])], ignore_index=True)
+    return df
+
+
+def idle_estimate(jobs: list[Job], timings: list[JobTiming], slots: int) -> tuple[float, float]:
+    """(critical path, estimated wall on ``slots`` idle cores) in s from the measured CPU times:
+    the costliest chain of dependent jobs, and the larger of it and total CPU / slots."""
+    cpu = {t.key: t.cpu for t in timings}
+    by_key = {j.key: j for j in jobs}
+    memo: dict[str, float] = {}
+
+    def chain(k: str) -> float:
+        if k not in memo:
+            j = by_key[k]
+            memo[k] = cpu.get(k, 0.0) + max((chain(d) for d in (*j.needs.values(), *j.after)), default=0.0)
+        return memo[k]
+
+    path = max((chain(k) for k in by_key), default=0.0)
+    return path, max(path, sum(cpu.values()) / max(1, slots))
+
+
+def run_reproduction(
+    jobs: list[Job],
+    *,
+    executor: StudyExecutor | None = None,
+    store: ResultStore | None = None,
+    out: str | os.PathLike | None = None,
+) -> list[JobTiming]:
+    """:func:`run_jobs` for one problem's ``reproduce``: ``executor`` defaults to a serial one,
+    and ``store`` to ``out/results.sqlite`` when some jobs are store tasks (``out`` is then
+    needed). Returns the job timings."""
+    from droneplan.studies.common import make_executor, open_store
+
+    with contextlib.ExitStack() as stack:
+        ex = executor or stack.enter_context(make_executor(1))
+        st = store
+        if st is None and any(j.task is not None for j in jobs):
+            if out is None:
+                raise ValueError("out is needed to open the default store of store tasks")
+            st = stack.enter_context(open_store(None, out))
+        return run_jobs(jobs, executor=ex, store=st)

@@ -1,0 +1,175 @@
+"""The job scheduler of ``droneplan reproduce``: order, failures, resuming, the time table, and
+the same rows from a serial and a parallel run."""
+
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+
+from droneplan.studies import cells, herding
+from droneplan.studies.common import make_executor
+from droneplan.studies.jobs import Job, JobsFailed, idle_estimate, row_jobs, run_jobs, time_table
+from droneplan.studies.store import ResultStore, instance_id
+
+
+def _add(a: int, b: int = 0) -> int:
+    return a + b
+
+
+def _boom() -> int:
+    raise RuntimeError("boom")
+
+
+def _task_rows(task) -> list[dict]:
+    return cells.reproduce_task(task)
+
+
+def _graph() -> list[Job]:
+    return [
+        Job("x", "s1", _add, {"a": 1}, cost=1.0),
+        Job("y", "s1", _add, {"a": 2}, cost=5.0),
+        Job("z", "s2", _add, {}, {"a": "x", "b": "y"}, cost=1.0),
+        Job("w", "s2", _add, {"b": 10}, {"a": "z"}, cost=1.0),
+    ]
+
+
+def test_results_flow_to_the_jobs_that_need_them():
+    seen = []
+
+    def record(a: int, b: int = 0) -> int:
+        seen.append((a, b))
+        return a + b
+
+    jobs = [Job(j.key, j.section, record, j.kwargs, j.needs, cost=j.cost) for j in _graph()]
+    with make_executor(1) as ex:
+        timings = run_jobs(jobs, executor=ex, progress=False)
+    # y (the costliest chain) first, then x, then z = x + y, then w = z + 10
+    assert seen == [(2, 0), (1, 0), (1, 2), (3, 10)]
+    assert [t.key for t in timings] == ["y", "x", "z", "w"]
+
+
+def test_a_failure_stops_only_the_jobs_that_need_it():
+    jobs = [*_graph(), Job("bad", "s3", _boom), Job("after-bad", "s3", _add, {"b": 1}, {"a": "bad"})]
+    with make_executor(1) as ex, pytest.raises(JobsFailed, match="bad: RuntimeError: boom"):
+        run_jobs(jobs, executor=ex, progress=False)
+
+
+@pytest.mark.parametrize(
+    ("jobs", "message"),
+    [
+        ([Job("a", "s", _add, {"a": 1}), Job("a", "s", _add, {"a": 2})], "repeat the key 'a'"),
+        ([Job("a", "s", _add, {}, {"a": "nope"})], "unknown jobs"),
+        ([Job("a", "s", _add, {}, {"a": "b"}), Job("b", "s", _add, {}, {"a": "a"})], "cycle"),
+    ],
+)
+def test_bad_graphs_are_refused(jobs, message):
+    with make_executor(1) as ex, pytest.raises(ValueError, match=message):
+        run_jobs(jobs, executor=ex, progress=False)
+
+
+def test_store_tasks_need_a_store():
+    task = {"problem": "cells", "instance": "t", "kind": "ga", "m": 1, "seed": 0, "run_seed": 1}
+    with make_executor(1) as ex, pytest.raises(ValueError, match="need a store"):
+        run_jobs(row_jobs(_task_rows, [task], section="s", cost=1.0), executor=ex, progress=False)
+
+
+def test_time_table_sums_the_jobs():
+    with make_executor(1) as ex:
+        timings = run_jobs(_graph(), executor=ex, progress=False)
+    table = time_table(timings)
+    assert list(table["section"])[-1] == "total"
+    assert table["jobs"].iloc[-1] == 4
+    assert table["cpu_s"].iloc[-1] == pytest.approx(sum(t.cpu for t in timings))
+    path, idle = idle_estimate(_graph(), timings, 2)
+    cpu = {t.key: t.cpu for t in timings}
+    assert path == pytest.approx(max(cpu["x"], cpu["y"]) + cpu["z"] + cpu["w"])
+    assert idle == pytest.approx(max(path, sum(cpu.values()) / 2))
+
+
+def _tiny_jobs(store_path) -> list[Job]:
+    """A tiny reproduction: cells GA runs and an exact solve at m = 1, herding pairs on 30 animals."""
+    ga = [
+        {
+            "problem": "cells",
+            "instance": instance_id("tiny-ga", m=1, run=r),
+            "kind": "ga",
+            "m": 1,
+            "seed": 0,
+            "run_seed": r,
+            "pop_size": 10,
+            "restarts": 2,
+            "iter_max": 5,
+        }
+        for r in range(3)
+    ]
+    exact = [
+        {
+            "problem": "cells",
+            "instance": instance_id("tiny-exact", m=1),
+            "kind": "exact",
+            "m": 1,
+            "seed": 0,
+            "milp_limit": 30.0,
+            "es_limit": 5.0,
+        }
+    ]
+    herd = [
+        {
+            "problem": "herding",
+            "instance": instance_id("tiny-herd", n=30, seed=s),
+            "n": 30,
+            "seed": s,
+            "t_max": 120.0,
+            "gather_only": True,
+        }
+        for s in range(2)
+    ]
+    return [
+        *row_jobs(cells.reproduce_task, ga + exact, section="cells", cost=cells._task_cost),
+        *herding._pair_jobs(herd, "herding"),
+    ]
+
+
+_COMPARED = ["problem", "instance", "method", "seed", "size", "status", "objective", "bound"]
+
+
+def _rows(path) -> pd.DataFrame:
+    with ResultStore(path) as st:
+        df = st.frame()
+    return df[_COMPARED].sort_values(["problem", "instance", "method"], ignore_index=True)
+
+
+def test_serial_and_parallel_runs_write_the_same_rows(tmp_path):
+    frames = []
+    for workers in (1, 2):
+        path = tmp_path / f"w{workers}" / "results.sqlite"
+        path.parent.mkdir()
+        with make_executor(workers) as ex, ResultStore(path) as st:
+            run_jobs(_tiny_jobs(path), executor=ex, store=st, progress=False)
+        frames.append(_rows(path))
+    serial, parallel = frames
+    assert len(serial) == 3 + 3 + 2 * 2  # GA runs, milp/bound/exhaustive, two herders per herd
+    assert (serial["status"] != "error").all()
+    pd.testing.assert_frame_equal(serial, parallel)
+
+
+def test_a_rerun_resumes_from_the_store(tmp_path):
+    path = tmp_path / "results.sqlite"
+    jobs = _tiny_jobs(path)[:3]  # the GA runs
+    with make_executor(1) as ex, ResultStore(path) as st:
+        first = run_jobs(jobs, executor=ex, store=st, progress=False)
+        again = run_jobs(jobs, executor=ex, store=st, progress=False)
+    assert not any(t.skipped for t in first)
+    assert all(t.skipped for t in again)
+    assert time_table(again)["jobs"].iloc[-1] == 0
+
+
+def test_a_failing_run_becomes_an_error_row(tmp_path):
+    path = tmp_path / "results.sqlite"
+    bad = {"problem": "herding", "instance": "bad", "n": -5, "seed": 0, "t_max": 10.0}
+    jobs = herding._pair_jobs([bad], "herding")
+    with make_executor(1) as ex, ResultStore(path) as st:
+        run_jobs(jobs, executor=ex, store=st, progress=False)
+        df = st.frame()
+    assert list(df["status"]) == ["error"]
+    assert "failed" in df["message"].iloc[0]
