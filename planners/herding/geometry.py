@@ -92,9 +92,11 @@ class HullTracker:
     since then (the sum of the largest move of each call, measured, not assumed), no other
     animal can be a vertex: it was deeper than ``margin`` in the old hull, moved less than
     margin / 2, and the hull shrank by less than margin / 2 (the hull of points that each moved
-    at most D contains the old hull shrunk by D). Then it rebuilds. Herds of fewer than 64
-    animals, herds large enough for :func:`convex_hull`'s own prefilter (1500 or more: faster
-    there) and degenerate hulls always take :func:`convex_hull` directly.
+    at most D contains the old hull shrunk by D). Then it rebuilds. For a herd large enough
+    for :func:`convex_hull`'s own prefilter (1500 or more) the rebuild measures the depth only
+    of the animals near the prefilter's octagon (which lies inside the hull, so an animal deep
+    inside the octagon is deeper still inside the hull). Herds of fewer than 64 animals and
+    degenerate hulls always take :func:`convex_hull` directly.
 
     margin: depth of the candidate band, m (> 0).
     """
@@ -126,18 +128,44 @@ class HullTracker:
     def _rebuild(self, pts: np.ndarray) -> np.ndarray:
         V = convex_hull(pts)
         self._prev, self._moved, self._cand = pts, 0.0, None
-        if V.shape[0] >= 3 and _TRACK_MIN <= pts.shape[0] < _PREFILTER_MIN:
+        if V.shape[0] >= 3 and pts.shape[0] >= _TRACK_MIN:
+            # a large herd: first the animals within margin of the prefilter's octagon (inside
+            # the hull, so the depth there is no larger), then the exact depth of those only
+            near = _octagon_band(pts, self.margin) if pts.shape[0] >= _PREFILTER_MIN else None
+            sub = pts if near is None else pts[near]
             e = V[np.arange(1, V.shape[0] + 1) % V.shape[0]] - V
             normal = np.column_stack([e[:, 1], -e[:, 0]]) / np.linalg.norm(e, axis=1)[:, None]  # outward
             # depth of each animal inside the hull: its least distance to an edge's line
-            depth = np.min(np.sum(normal * V, axis=1)[None, :] - pts @ normal.T, axis=1)
-            self._cand = np.flatnonzero(depth < self.margin)
+            depth = np.min(np.sum(normal * V, axis=1)[None, :] - sub @ normal.T, axis=1)
+            band = np.flatnonzero(depth < self.margin)
+            self._cand = band if near is None else near[band]
         return V
 
 
+def _octagon_band(pts: np.ndarray, margin: float) -> np.ndarray:
+    """Indices (ascending) of the points less than ``margin`` (m) inside the octagon of the
+    extreme points along x, y, x + y and x - y, or outside it (a superset of the points within
+    ``margin`` of the hull boundary: the octagon lies inside the hull)."""
+    x, y = pts[:, 0], pts[:, 1]
+    s, d = x + y, x - y
+    ext = np.array(
+        [x.argmin(), s.argmin(), y.argmin(), d.argmax(), x.argmax(), s.argmax(), y.argmax(), d.argmin()]
+    )
+    corner = pts[ext]
+    edge = np.roll(corner, -1, axis=0) - corner
+    keep = np.zeros(pts.shape[0], dtype=bool)
+    for (ax, ay), (ex, ey) in zip(corner.tolist(), edge.tolist(), strict=True):
+        length = math.hypot(ex, ey)
+        if length == 0.0:  # two extremes coincide: no edge
+            continue
+        # distance inside the ccw edge's line (cross product / length), with a rounding allowance
+        keep |= ex * (y - ay) - ey * (x - ax) < (margin * (1 + 1e-9) + 1e-9) * length
+    return np.flatnonzero(keep)
+
+
 _TRACK_MIN = 64
-"""Herds of at least this many animals (and fewer than ``_PREFILTER_MIN``) are tracked by
-:class:`HullTracker` (smaller ones: qhull on all)."""
+"""Herds of at least this many animals are tracked by :class:`HullTracker` (smaller ones: qhull
+on all)."""
 
 
 MITRE_LIMIT = 2.0

@@ -313,13 +313,18 @@ def test_min_enclosing_circle_bit_identical_to_point_by_point_loops(kind):
         assert np.array_equal(c, c_ref) and r == r_ref
 
 
+@pytest.mark.parametrize("large", [False, True])
 @pytest.mark.parametrize("kind", ["uniform", "clustered", "jumps", "degenerate"])
-def test_hull_tracker_gives_convex_hull_of_every_herd(kind, monkeypatch):
+def test_hull_tracker_gives_convex_hull_of_every_herd(kind, large, monkeypatch):
     """HullTracker follows a herd that moves a little each call (and sometimes a lot) and must
-    return exactly convex_hull of each herd: the same vertices in the same order."""
+    return exactly convex_hull of each herd: the same vertices in the same order (``large``: the
+    herd counts as large, so convex_hull prefilters it and the tracker's rebuild measures depths
+    only near the prefilter's octagon)."""
     from droneplan.planners.herding import geometry
 
     monkeypatch.setattr(geometry, "_TRACK_MIN", 3)  # track the small herds of this test too
+    if large:
+        monkeypatch.setattr(geometry, "_PREFILTER_MIN", 50)
     rng = np.random.default_rng(len(kind))
     n = 300
     if kind == "clustered":
@@ -346,3 +351,22 @@ def test_hull_tracker_gives_convex_hull_of_every_herd(kind, monkeypatch):
         geometry.HullTracker(margin=0.0)
     with pytest.raises(ValueError, match="points"):
         tracker(np.full((5, 2), np.nan))
+
+
+def test_the_octagon_band_holds_every_animal_near_the_hull_boundary():
+    """The large-herd rebuild keeps the animals within margin of the octagon of extremes; since the
+    octagon lies inside the hull, that must include every animal within margin of the hull's
+    boundary (exact depths, brute force over the hull edges), and leave deep animals out."""
+    from droneplan.planners.herding import geometry
+
+    rng = np.random.default_rng(21)
+    for trial in range(40):
+        pts = rng.normal(0, 100, (2000, 2)) if trial % 2 else rng.uniform(0, 500, (2000, 2))
+        margin = float(rng.uniform(1.0, 40.0))
+        V = convex_hull(pts)
+        e = np.roll(V, -1, axis=0) - V
+        normal = np.column_stack([e[:, 1], -e[:, 0]]) / np.linalg.norm(e, axis=1)[:, None]
+        depth = np.min(np.sum(normal * V, axis=1)[None, :] - pts @ normal.T, axis=1)
+        band = set(geometry._octagon_band(pts, margin).tolist())
+        assert set(np.flatnonzero(depth < margin).tolist()) <= band
+        assert len(band) < len(pts)  # deep animals are left out
