@@ -238,6 +238,16 @@ def _to_sphere(params: Any, D: NDArray[np.float64]) -> NDArray[np.float64]:
     return F + L * (P - F) / np.linalg.norm(P - F)
 
 
+def _check_targets_work(n_targets: int) -> None:
+    """Refuse up front a convex program over more targets than the evaluations budget allows.
+
+    Building and solving the program of :func:`instant_minmax_bearing` grows about as the square
+    of the number of targets n (some tens of milliseconds at n = 50, seconds at n = 200), so the
+    work counted is the n (n + 1) / 2 target pairs (at most about 450 targets under the default
+    budget; raise it with ``core.validation.work_limits(evaluations=...)``)."""
+    check_work("targets (target pairs of the convex program)", n_targets * (n_targets + 1) / 2, "evaluations")
+
+
 def instant_minmax_bearing(params: Any, targets: Any, *, c_start: float | None = None) -> SolveResult:
     """Exact min over the observation sphere of max_j beta_j (rad) for fixed targets, by the convex program.
 
@@ -252,9 +262,8 @@ def instant_minmax_bearing(params: Any, targets: Any, *, c_start: float | None =
     from droneplan.scenarios.covert import bearing_changes
 
     t0 = time.perf_counter()
-    A = np.asarray(targets, dtype=float).reshape(-1, 3)
-    if A.shape[0] == 0 or not np.isfinite(A).all():
-        raise ValueError("targets must be a non-empty finite (n, 3) array")
+    A = check_array("targets", np.asarray(targets, dtype=float).reshape(-1, 3), min_rows=1)
+    _check_targets_work(A.shape[0])
     if np.linalg.norm(params.R_arr - params.F_arr) <= params.L_u:
         return SolveResult(
             Status.ERROR,
@@ -416,6 +425,7 @@ def mission_front(  # noqa: C901, PLR0915
     check_size(what, n_times)
     # one program per instant after the earliest arrival, and per arrival time before it
     check_work(f"{what} x arrival_times", n_times * (1 + arr.size), "solves")
+    _check_targets_work(len(scenario.paths))
     tt = np.arange(0.0, T + 1e-9, p.dt) if times is None else np.asarray(times, float)
     A_all = scenario.targets_at(tt)
     obs = scenario.observable_at(tt)

@@ -194,7 +194,9 @@ def greedy_assignment(operators, sharks_pos, shark_to_human, cost) -> SolveResul
     Sp = check_array("sharks_pos", sharks_pos, shape=(None, 3), min_rows=1)
     n = len(O)
     if c.shape != (n, len(Sp)):
-        raise ValueError(f"cost must have shape (n_operators, n_sharks) = {(n, len(Sp))}, got {c.shape}")
+        raise ValueError(
+            f"cost must have shape (len(operators), len(sharks_pos)) = {(n, len(Sp))}, got {c.shape}"
+        )
     dist = _check_distances(shark_to_human, len(Sp))
     sel = select_sharks(dist, n) if len(Sp) > n else np.arange(len(Sp))
     order = sel[np.argsort(dist[sel], kind="stable")]

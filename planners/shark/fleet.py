@@ -37,7 +37,9 @@ def _check_horizon(t_max: Any, params: SharkParams, n_ops: int, n_sharks: int, m
         raise ValueError(f"t_max must be >= the sampling time Ts = {params.Ts} s, got {t_max}")
     pairs = n_ops * n_sharks
     check_size("t_max", 9 * t_max / params.Ts)  # one predicted path per shark
-    check_work("t_max (control periods over operator-shark pairs)", pairs * t_max / params.Ts, "evaluations")
+    check_work(
+        "operators x sharks_pos x t_max / Ts (control periods)", pairs * t_max / params.Ts, "evaluations"
+    )
     if method == "ocp":
         check_work("operators x sharks_pos (one OCP per pair)", pairs, "solves")
     return t_max

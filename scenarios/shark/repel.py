@@ -312,7 +312,8 @@ def simulate_repelling(  # noqa: C901, PLR0915
     controllers = check_sequence("controllers", controllers, min_len=0)
     if len(controllers) != len(O):
         raise ValueError(
-            f"controllers must hold one controller per operator ({len(O)}), got {len(controllers)}"
+            f"controllers must hold one controller per operator of operators0 ({len(O)}), "
+            f"got {len(controllers)}"
         )
     for i, c in enumerate(controllers):
         check_methods(f"controllers[{i}]", c, ("reset", "command"))

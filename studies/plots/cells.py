@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from matplotlib.collections import LineCollection
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
@@ -14,6 +15,24 @@ from droneplan.planners.cells import deployment_region
 from droneplan.studies.plots._common import figure_axes, keep_in_view
 
 __all__ = ["plot_map", "plot_deployment_region"]
+
+
+def _links(problem: CellProblem, pos: np.ndarray, connected: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The backhaul links within range, as (k, 2, 2) segments (m): those of drone-cells that reach a
+    GBS, and those of drone-cells that do not. Drone-GBS within r1, drone-drone within r2."""
+    check_size("positions (drone-cell pairs)", float(len(pos)) ** 2 + len(pos) * len(problem.gbs))
+    segments, owner = [], []
+    d_g = np.linalg.norm(pos[:, None, :] - problem.gbs[None, :, :], axis=2)
+    for i, g in zip(*np.nonzero(d_g <= problem.r1), strict=True):
+        segments.append((pos[i], problem.gbs[g]))
+        owner.append(i)
+    d_d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)
+    for i, j in zip(*np.nonzero(np.triu(d_d <= problem.r2, k=1)), strict=True):
+        segments.append((pos[i], pos[j]))
+        owner.append(i)
+    seg = np.array(segments, dtype=float).reshape(-1, 2, 2)
+    good = np.asarray(connected, bool)[np.array(owner, dtype=int)] if owner else np.zeros(0, bool)
+    return seg[good], seg[~good]
 
 
 def plot_map(  # noqa: C901
@@ -52,15 +71,11 @@ def plot_map(  # noqa: C901
     ax.scatter(*problem.gbs.T, marker="^", s=60, c="tab:blue", zorder=3, label="GBS (cell radius R_g)")
     # backhaul links in use
     link_ok: dict[str, Any] = dict(color="tab:green", lw=1.2)  # matplotlib line style keywords
-    link_bad: dict[str, Any] = dict(color="tab:red", lw=1.2, ls="--")
-    for i, d in enumerate(pos):
-        style = link_ok if ev.connected[i] else link_bad
-        for g in problem.gbs:
-            if np.hypot(*(d - g)) <= problem.r1:
-                ax.plot(*np.c_[d, g], **style)
-        for j in range(i + 1, len(pos)):
-            if np.hypot(*(d - pos[j])) <= problem.r2:
-                ax.plot(*np.c_[d, pos[j]], **style)
+    link_bad: dict[str, Any] = dict(color="tab:red", lw=1.2, linestyle="--")
+    ok, bad = _links(problem, pos, ev.connected)
+    for segments, style in ((ok, link_ok), (bad, link_bad)):
+        if len(segments):
+            ax.add_collection(LineCollection(segments, **style))
     for dx, dy in pos:
         ax.add_patch(Circle((dx, dy), problem.R_d, fill=False, color="k", lw=1.0))
     if len(pos):
