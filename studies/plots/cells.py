@@ -75,7 +75,7 @@ def plot_map(  # noqa: C901
     ok, bad = _links(problem, pos, ev.connected)
     for segments, style in ((ok, link_ok), (bad, link_bad)):
         if len(segments):
-            ax.add_collection(LineCollection(segments, **style))
+            ax.add_collection(LineCollection(list(segments), **style))
     for dx, dy in pos:
         ax.add_patch(Circle((dx, dy), problem.R_d, fill=False, color="k", lw=1.0))
     if len(pos):
