@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from droneplan.core.validation import (
+    MAX_COORDINATE,
     check_array,
     check_bool,
     check_positive,
@@ -155,6 +156,12 @@ def _profile(name: str, f, tf: NDArray[np.float64]) -> NDArray[np.float64]:
         raise ValueError(f"{name}(t) must have the shape of t {tf.shape}, got {out.shape}")
     if not np.all(np.isfinite(out)):
         raise ValueError(f"{name}(t) must be finite")
+    if np.abs(out).max(initial=0.0) > MAX_COORDINATE:
+        raise ValueError(
+            f"{name}(t) must stay within {MAX_COORDINATE:g} in magnitude (its squares would overflow)"
+        )
+    if name == "depth" and out.max(initial=0.0) > 0.0:
+        raise ValueError(f"depth(t) must be <= 0 m (below the surface), got up to {out.max():g} m")
     return out
 
 

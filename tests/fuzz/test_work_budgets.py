@@ -282,3 +282,98 @@ print(verdict(dp.herding.check_allocation, d, s, M, bad),
         for flag in ("", "-O")
     }
     assert out[""] == out["-O"] == ["ValueError"] * 4
+
+
+# ----------------------------------------------------------------------------- round two (every public entry)
+def test_a_shark_path_whose_step_exceeds_its_horizon_names_dt():
+    # used to fail inside numpy (IndexError) or with "t must have at least 2 row(s)"
+    for fn, args in (
+        (dp.shark.make_trajectory, (0.0, 5.0, -3.0)),
+        (dp.shark.constant_velocity_trajectory, ([0.0, 0.0, -3.0], [5.0, 0.0, 0.0])),
+        (dp.shark.random_trajectory, (0,)),
+    ):
+        err = _quick(fn, *args, duration=1.0, dt=5.0)
+        assert "dt" in str(err) and "duration" in str(err)
+    assert (
+        len(dp.shark.make_trajectory(0.0, 5.0, -3.0, duration=1.0, dt=1.0).t) == 2
+    )  # dt == duration: 2 samples
+
+
+def test_a_shark_above_the_surface_or_beyond_the_magnitude_limit_is_refused():
+    with pytest.raises(ValueError, match="depth"):
+        dp.shark.make_trajectory(0.0, 5.0, lambda t: 0.5 + 0 * t, duration=2.0)
+    with pytest.raises(ValueError, match="heading"):
+        dp.shark.make_trajectory(lambda t: 1e200 + 0 * t, 5.0, -3.0, duration=2.0)
+
+
+def test_interception_ocp_checks_its_horizon_margin_and_start_time():
+    err = _quick(dp.shark.InterceptionOCP, t_max=1e12, seconds=5.0)  # was a 29 TiB allocation
+    assert "t_max" in str(err) and "work_limits" in str(err)
+    assert "margin" in str(_quick(dp.shark.InterceptionOCP, margin=1e200))  # was OverflowError
+    assert "max_iter" in str(_quick(dp.shark.InterceptionOCP, max_iter=NAN))
+    err = _quick(dp.shark.solve_interception, SHARK, OPERATOR, N=10, t0=NAN)  # was accepted
+    assert "t0" in str(err)
+
+
+def test_the_bound_names_t_max_when_its_float_spacing_exceeds_the_resolution():
+    err = _quick(dp.shark.interception_time_bound, SHARK, OPERATOR, t_max=1e12)
+    assert "t_max" in str(err) and "resolution" in str(err)
+
+
+def test_fleet_budgets_name_the_horizon_and_the_fleet():
+    op, sp, sv = [[0.0, -30.0, 2.0]], [[10.0, 0.0, -3.0]], [[3.0, 0.0, 0.0]]
+    assert "t_max" in str(_quick(dp.shark.interception_time_matrix, op, sp, sv, t_max=1e-6))
+    assert "t_max" in str(_quick(dp.shark.interception_time_matrix, op, sp, sv, t_max=1e200))
+    many = np.tile(op, (1000, 1))
+    err = _quick(dp.shark.interception_time_matrix, many, np.tile(sp, (1000, 1)), np.tile(sv, (1000, 1)))
+    assert "operators" in str(err) and "sharks_pos" in str(err)
+    assert "greedy" in str(_quick(dp.shark.allocate_operators, op, sp, sv, [[0.0, 0.0]], greedy="yes"))
+
+
+def test_assignment_checks_indices_distances_and_workers():
+    cost = np.ones((2, 2))
+    assert "sharks" in str(_quick(dp.shark.build_assignment_model, cost, [NAN, 0.0]))  # was IndexError
+    assert "sharks" in str(_quick(dp.shark.build_assignment_model, cost, [0, 0]))
+    assert "workers" in str(_quick(dp.shark.solve_assignment, cost, workers=10**12))
+    ops, sharks = [[0.0, 0.0, 2.0]], [[10.0, 0.0, -3.0]]
+    for bad in ([NAN], [1e200], [-1.0], [1.0, 2.0]):
+        assert "shark_to_human" in str(_quick(dp.shark.greedy_assignment, ops, sharks, bad, np.ones((1, 1))))
+
+
+def test_repelling_names_each_position_table_and_budgets_its_horizon():
+    ok = ([[20.0, 0.0]], [[0.0, 5.0, 2.0]], [[0.0, 0.0]])
+    for i, name in enumerate(("sharks0", "operators0", "swimmers")):
+        for bad in (np.zeros((0, 2 if i != 1 else 3)), [[NAN] * (2 if i != 1 else 3)]):
+            args = list(ok)
+            args[i] = bad
+            err = _quick(dp.shark.simulate_repelling, *args, [dp.shark.RepellingOperator(0)], t_max=1.0)
+            assert name in str(err)
+    err = _quick(dp.shark.simulate_repelling, *ok, [dp.shark.RepellingOperator(0)], t_max=1e9)
+    assert "t_max" in str(err) and "work_limits" in str(err)
+
+
+def test_the_mpc_model_refuses_a_target_count_beyond_memory():
+    err = _quick(dp.covert.build_bearing_mpc, dp.covert.THESIS_TABLE_3_2, 10**12)  # was std::bad_alloc
+    assert "n_targets" in str(err)
+
+
+def test_the_sphere_program_refuses_more_targets_than_its_budget():
+    targets = np.tile([[150.0, 150.0, 0.0]], (1000, 1))  # used to run for minutes
+    err = _quick(dp.covert.sphere_minmax_bearing, dp.covert.THESIS_TABLE_3_2, targets, seconds=5.0)
+    assert "targets" in str(err) and "work_limits" in str(err)
+
+
+def test_mission_bounds_name_the_arrival_time_and_the_horizon():
+    case = dp.covert.thesis_case(1)
+    assert "t_a" in str(_quick(dp.covert.mission_lower_bound, case, 1e200))  # named arrival_times
+    err = _quick(dp.covert.mission_lower_bound, case, 1e12, times=[0.0, 8.0])  # named t_f only
+    assert "t_a" in str(err) and "t_end" in str(err)
+
+
+def test_study_entries_check_counts_and_options(tmp_path):
+    assert "seeds" in str(_quick(dp.family_instances, "table4.2", seeds=10**12, m=1))  # was MemoryError
+    common = {"methods": ["greedy"], "instances": "table4.2", "out": tmp_path, "m": 1, "seeds": 1}
+    for param, value in (("progress", "yes"), ("store", 3), ("executor", 3), ("dask", 3), ("workers", 0)):
+        assert param in str(_quick(dp.gap, "cells", **{**common, param: value}))
+    assert not (tmp_path / "results.sqlite").exists()  # refused before the store was opened
+    assert "include_superseded" in str(_quick(dp.load_results, tmp_path, include_superseded="yes"))
