@@ -274,13 +274,45 @@ def _relay_cost(d: np.ndarray, reach: float, r2: float) -> np.ndarray:
     return np.maximum(np.ceil(x), 0.0)
 
 
+class BitRows:
+    """A symmetric (n, n) boolean relation between sites, held as packed bit rows
+    (little-endian, ceil(n / 8) bytes a row: n^2 / 8 bytes in all, against n^2 for a dense
+    boolean matrix).
+
+    packed: (n, ceil(n / 8)) uint8 rows; n: number of sites."""
+
+    def __init__(self, packed: np.ndarray, n: int) -> None:
+        self.packed = packed
+        self.n = n
+
+    def set(self, i: np.ndarray, j: np.ndarray) -> None:
+        """Relate the sites i[k] and j[k] (index arrays), in that direction only."""
+        np.bitwise_or.at(self.packed, (i, j >> 3), (1 << (j & 7)).astype(np.uint8))
+
+    def row(self, i: int) -> np.ndarray:
+        """(n,) bool: the sites related to site i."""
+        return np.unpackbits(self.packed[i], count=self.n, bitorder="little").view(bool)
+
+    def any_of(self, rows: list[int]) -> np.ndarray:
+        """(n,) bool: the sites related to some site of ``rows`` (none when it is empty)."""
+        if not rows:
+            return np.zeros(self.n, dtype=bool)
+        merged = np.bitwise_or.reduce(self.packed[rows], axis=0)
+        return np.unpackbits(merged, count=self.n, bitorder="little").view(bool)
+
+    def at(self, i: int, cols) -> np.ndarray:
+        """Bool array: whether site i is related to each of the sites ``cols`` (indices)."""
+        cols = np.asarray(cols, dtype=np.int64)
+        return ((self.packed[i, cols >> 3] >> (cols & 7).astype(np.uint8)) & 1).astype(bool)
+
+
 class BranchAndBoundSearch:
     """The search of the module docstring with its state on the object.
 
     The sites are held in the search's order (weight |S(c)| descending, ties by index):
     ``pts`` (n, 2) m, ``w`` (n,) weights, ``bits`` their user sets as Python ints,
     ``packed`` the same as packed uint64 rows (item 7), ``clique`` the clique of each
-    site (item 2), ``conflict`` (n, n) bool overlaps (4.8), ``dg`` the distance to the
+    site (item 2), ``conflict`` the overlaps (4.8) as :class:`BitRows`, ``dg`` the distance to the
     nearest GBS (m) and ``cg`` its relay lower bound (item 3). The search state is
     ``best_val``/``best`` (the incumbent, as site indices), ``nodes``, ``separated``
     (item 12 counts), ``stack_bounds`` (the level bounds of the current path),
@@ -350,7 +382,7 @@ class BranchAndBoundSearch:
         self.split: tuple[int, int, int] = (0, 1, 0)
         self.shared: list = []
         self._links: np.ndarray | None = None
-        self._link_matrix: np.ndarray | None = None
+        self._link_matrix: BitRows | None = None
         self._lens: dict[int, np.ndarray] = {}
 
     # ------------------------------------------------------------------ set-up
@@ -392,17 +424,19 @@ class BranchAndBoundSearch:
             n_cl += 1
         return clique
 
-    def _conflicts(self) -> np.ndarray:
-        """Conflicts (4.8): distance < 2 R_d - TOL, as rows of a dense (n, n) boolean matrix."""
-        conflict = np.zeros((self.n, self.n), dtype=bool)
+    def _conflicts(self) -> BitRows:
+        """Conflicts (4.8): distance < 2 R_d - TOL, as packed bit rows, found a block of
+        sites at a time (all pairs at once took 300 MB at Table 4.2 density x 2)."""
         R_d = self.problem.R_d
-        pairs = self.tree.query_pairs(2 * R_d, output_type="ndarray")
-        if len(pairs):
-            d = np.hypot(*(self.pts[pairs[:, 0]] - self.pts[pairs[:, 1]]).T)
-            pairs = pairs[d < 2 * R_d - TOL]
-            conflict[pairs[:, 0], pairs[:, 1]] = True
-            conflict[pairs[:, 1], pairs[:, 0]] = True
-        return conflict
+        rows = BitRows(np.zeros((self.n, (self.n + 7) // 8), dtype=np.uint8), self.n)
+        for lo in range(0, self.n, 1024):
+            hits = self.tree.query_ball_point(self.pts[lo : lo + 1024], 2 * R_d)
+            i = np.repeat(np.arange(lo, lo + len(hits)), [len(h) for h in hits])
+            j = np.fromiter(itertools.chain.from_iterable(hits), dtype=np.int64, count=len(i))
+            d = np.hypot(*(self.pts[i] - self.pts[j]).T)
+            keep = (d < 2 * R_d - TOL) & (i != j)
+            rows.set(i[keep], j[keep])
+        return rows
 
     def link_rows(self) -> np.ndarray:
         """``_link_rows(pts, r2t)``, built on first use (item 12's exact link test)."""
@@ -410,13 +444,11 @@ class BranchAndBoundSearch:
             self._links = _link_rows(self.pts, self.r2t)
         return self._links
 
-    def link_matrix(self) -> np.ndarray:
-        """(n, n) bool: sites within r2 + TOL of each other (``link_rows`` unpacked, for
-        item 11), built on first use."""
+    def link_matrix(self) -> BitRows:
+        """Sites within r2 + TOL of each other (``link_rows`` as :class:`BitRows`, for item
+        11), built on first use."""
         if self._link_matrix is None:
-            self._link_matrix = np.unpackbits(self.link_rows(), axis=1, count=self.n, bitorder="little").view(
-                bool
-            )
+            self._link_matrix = BitRows(self.link_rows(), self.n)
         return self._link_matrix
 
     def lens_sites(self, a: int) -> np.ndarray:
@@ -426,7 +458,7 @@ class BranchAndBoundSearch:
             near = np.asarray(
                 self.tree.query_ball_point(self.pts[a], 2 * self.problem.R_d + 2.0), dtype=np.int64
             )
-            self._lens[a] = np.sort(near[~self.conflict[a, near]])
+            self._lens[a] = np.sort(near[~self.conflict.at(a, near)])
         return self._lens[a]
 
     # ------------------------------------------------------------------ limits
@@ -504,7 +536,7 @@ class BranchAndBoundSearch:
 
     def compatible(self, R: list[int]) -> np.ndarray:
         """(n,) bool: the sites outside R that overlap no site of R."""
-        mask = ~np.any(self.conflict[R], axis=0) if R else np.ones(self.n, dtype=bool)
+        mask = ~self.conflict.any_of(R)
         mask[R] = False
         return mask
 
@@ -759,7 +791,7 @@ class BranchAndBoundSearch:
         for a in reversed(explored[-_SIBLINGS:]):
             if not self._may_replace(P, ubits, a, b, new_b, cm):
                 continue
-            e = cm & (self.conflict[a] | (linked[b] & ~linked[a]))
+            e = cm & (self.conflict.row(a) | (linked.row(b) & ~linked.row(a)))
             count = int(np.count_nonzero(e))
             if count == 0:
                 return True
@@ -773,7 +805,7 @@ class BranchAndBoundSearch:
         if math.dist(self.pts[a], self.pts[b]) > _SIBLING_RADIUS or self.dg[b] <= self.r1t < self.dg[a]:
             return False
         linked = self.link_matrix()
-        if P and np.any(linked[b, P] & ~linked[a, P]):
+        if P and np.any(linked.at(b, P) & ~linked.at(a, P)):
             return False
         if not new_b & ~self.bits[a]:
             return True
@@ -789,7 +821,7 @@ class BranchAndBoundSearch:
     def site_can_improve(self, c: int, alive: np.ndarray) -> bool:
         """Item 10: False when no placement holding site c and otherwise sites of ``alive``
         can beat the incumbent (the bound of the node {c}, items 1-9)."""
-        cm = alive & ~self.conflict[c]
+        cm = alive & ~self.conflict.row(c)
         cm[c] = False
         return self.dfs([c], self.bits[c], cm, self.cg[[c]], math.inf, probe=True) is not None
 
@@ -883,7 +915,7 @@ class BranchAndBoundSearch:
         if hi <= lo:
             return
         cq = full[lo:hi]
-        cq = cq[~self.conflict[j, cq]]
+        cq = cq[~self.conflict.at(j, cq)]
         # item 11 (the lighter last sites are bounded); under ``must`` only for j outside
         # it, whose last site is then in ``must`` in any case
         if must is None or not must[j]:
@@ -908,7 +940,7 @@ class BranchAndBoundSearch:
         """The child P + j (j = ``kids.C[k]``) of a node with three or more free slots:
         item 11 against its siblings, then the search below it when this worker owns it."""
         j = int(kids.C[k])
-        cm = node.cmask & ~self.conflict[j]
+        cm = node.cmask & ~self.conflict.row(j)
         cm[: j + 1] = False
         must = node.must
         child_must = None if must is None or must[j] else must
@@ -950,7 +982,11 @@ class BranchAndBoundSearch:
                 continue
             pe = [*P, e]
             self.dfs(
-                pe, node.ubits | self.bits[e], rest & ~self.conflict[e], _close(self.pts[pe], nd, self.r2), nb
+                pe,
+                node.ubits | self.bits[e],
+                rest & ~self.conflict.row(e),
+                _close(self.pts[pe], nd, self.r2),
+                nb,
             )
 
     def _relays_with(self, P: list[int], dist: np.ndarray, e: int, epp: np.ndarray) -> np.ndarray:
@@ -1204,16 +1240,17 @@ def search(
 
 
 def _check_memory(n: int) -> None:
-    """Refuse up front a search whose dense (n, n) conflict and link matrices (1 byte per
-    entry each) would not fit in this machine's memory, naming the size asked for."""
-    need = 2.0 * n * n
+    """Refuse up front a search whose conflict and link relations (packed bit rows,
+    ceil(n / 8) bytes a row each) would not fit in this machine's memory, naming the size
+    asked for."""
+    need = 2.0 * n * ((n + 7) // 8)
     try:
         avail = float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
     except (AttributeError, ValueError, OSError):  # not knowable here: let the search try
         return
     if need > avail:
         raise ValueError(
-            f"problem: the branch and bound would hold two dense {n} x {n} site matrices "
+            f"problem: the branch and bound would hold two {n} x {n} site relations as bit rows "
             f"({need / 2**30:.1f} GiB), more than this machine's memory ({avail / 2**30:.1f} GiB); "
             "use engine='milp' or fewer candidate sites"
         )
@@ -1275,7 +1312,7 @@ def _split_root(search_share, workers: int, incumbent: int, shared: list) -> lis
     return [out[i] for i in range(workers)]
 
 
-def _separated_groups(  # noqa: C901, PLR0915
+def _separated_groups(
     pts: np.ndarray,
     w: np.ndarray,
     dg: np.ndarray,
@@ -1299,6 +1336,48 @@ def _separated_groups(  # noqa: C901, PLR0915
     (|P|,) which of them reach a GBS through P; tops: r values, the i-th bounding the
     i-th heaviest completion site outside the bridge and successor slots; r1t, r2t: the
     link ranges with tolerance (m); links: ``_link_rows(pts, r2t)`` (built here if None)."""
+    members = _unreached_groups(dpp, reach, r2t)
+    k = len(members)
+    if k > 3:
+        return math.inf
+    apart = min(
+        (dpp[np.ix_(members[g1], members[g2])].min() for g1, g2 in itertools.combinations(range(k), 2)),
+        default=math.inf,
+    )
+    if apart <= 2 * r2t:
+        return math.inf
+    full = np.flatnonzero(cmask)
+    if len(full) == 0:
+        return -math.inf
+    pf = pts[full]
+    in_l = dg[full] <= r1t  # L: linkable (direct or linked to a reached P site)
+    if reach.any():
+        pr = pts[[P[i] for i in np.flatnonzero(reach).tolist()]]
+        in_l |= np.any(pairwise_distances(pr, pf) <= r2t, axis=0)
+    wf = w[full].astype(float)
+    w_l = _heaviest(wf, in_l)
+    if w_l == -math.inf:
+        return -math.inf  # item 6: no completion site can link to a GBS
+    # (k, |full|): distance of each site to each group (m)
+    d_to = [pairwise_distances(pts[[P[i] for i in g.tolist()]], pf).min(axis=0) for g in members]
+    if not all((d <= r2t).any() for d in d_to):
+        return -math.inf  # item 5: a group cannot be reached
+    bridge_l = [_heaviest(wf, (d <= r2t) & in_l) for d in d_to]
+    bridge_n = [_heaviest(wf, (d <= r2t) & ~in_l) for d in d_to]
+    if apart <= 3 * r2t:  # a successor may be another group's bridge: count the bridges only
+        if k > r:
+            return -math.inf
+        return sum(max(bridge_l[g], bridge_n[g]) for g in range(k)) + sum(tops[: r - k])
+    # the successor is linked to a bridge outside L, so within 2 r2t of the group
+    rows = _link_rows(pts, r2t) if links is None else links
+    succ_to = [(d <= 2 * r2t) & _linked_to(rows, full, full[(d <= r2t) & ~in_l]) for d in d_to]
+    sides = _GroupSides(bridge_l, bridge_n, succ_to, d_to, in_l, wf, w_l, r2t)
+    return float(max(sides.bound(outside, r, tops) for outside in itertools.product((False, True), repeat=k)))
+
+
+def _unreached_groups(dpp: np.ndarray, reach: np.ndarray, r2t: float) -> list[np.ndarray]:
+    """Item 12: the unreached sites of P (indices into P) split into the components of
+    their link graph (links <= r2t, m)."""
     un = np.flatnonzero(~reach)
     link = dpp[np.ix_(un, un)] <= r2t
     group = np.full(len(un), -1)
@@ -1314,84 +1393,61 @@ def _separated_groups(  # noqa: C901, PLR0915
                 group[c] = k
                 todo.append(c)
         k += 1
-    if k > 3:
-        return math.inf
-    members = [un[group == g] for g in range(k)]
-    apart = min(
-        (dpp[np.ix_(members[g1], members[g2])].min() for g1, g2 in itertools.combinations(range(k), 2)),
-        default=math.inf,
-    )
-    if apart <= 2 * r2t:
-        return math.inf
-    full = np.flatnonzero(cmask)
-    if len(full) == 0:
-        return -math.inf
-    pf = pts[full]
-    in_l = dg[full] <= r1t  # L: linkable (direct or linked to a reached P site)
-    if reach.any():
-        pr = pts[[P[i] for i in np.flatnonzero(reach).tolist()]]
-        d_r = pairwise_distances(pr, pf)
-        in_l |= np.any(d_r <= r2t, axis=0)
+    return [un[group == g] for g in range(k)]
 
-    wf = w[full].astype(float)
 
-    def heaviest(mask: np.ndarray) -> float:
-        return float(wf[mask].max()) if mask.any() else -math.inf
+def _heaviest(wf: np.ndarray, mask: np.ndarray) -> float:
+    """The largest weight of ``wf`` under ``mask`` (-inf when none)."""
+    return float(wf[mask].max()) if mask.any() else -math.inf
 
-    w_l = heaviest(in_l)
-    if w_l == -math.inf:
-        return -math.inf  # item 6: no completion site can link to a GBS
-    d_to = []  # (k, |full|): distance of each site to each group (m)
-    for g in members:
-        pg = pts[[P[i] for i in g.tolist()]]
-        d_to.append(pairwise_distances(pg, pf).min(axis=0))
-    bridge_l, bridge_n, succ_to = [], [], []
-    for g in range(k):
-        near = d_to[g] <= r2t
-        if not near.any():
-            return -math.inf  # item 5: the group cannot be reached
-        bridge_l.append(heaviest(near & in_l))
-        bridge_n.append(heaviest(near & ~in_l))
-        # the successor is linked to a bridge outside L, so within 2 r2t of the group
-        two = d_to[g] <= 2 * r2t
-        if apart > 3 * r2t:
-            if links is None:
-                links = _link_rows(pts, r2t)
-            two &= _linked_to(links, full, full[near & ~in_l])
-        succ_to.append(two)
-    if apart <= 3 * r2t:  # a successor may be another group's bridge: count the bridges only
-        if k > r:
-            return -math.inf
-        return sum(max(bridge_l[g], bridge_n[g]) for g in range(k)) + sum(tops[: r - k])
-    best = -math.inf
-    for outside in itertools.product((False, True), repeat=k):
+
+@dataclass
+class _GroupSides:
+    """Item 12 when the groups are more than 3 r2t apart: per group g, the heaviest bridge
+    in L (``bridge_l[g]``) and outside it (``bridge_n[g]``), the successor candidates
+    (``succ_to[g]``, bool over the completion sites), the distances to the group (``d_to[g]``,
+    m); ``in_l`` and ``wf`` over the completion sites; ``w_l`` the heaviest site in L."""
+
+    bridge_l: list[float]
+    bridge_n: list[float]
+    succ_to: list[np.ndarray]
+    d_to: list[np.ndarray]
+    in_l: np.ndarray
+    wf: np.ndarray
+    w_l: float
+    r2t: float
+
+    def bound(self, outside: tuple[bool, ...], r: int, tops: list[int]) -> float:
+        """The bound when the groups' bridges lie outside L exactly where ``outside`` says
+        (-inf when that choice is impossible)."""
+        k = len(outside)
         slots = k + any(outside)
         if slots > r:
-            continue
+            return -math.inf
         # -inf where a group has no bridge of the kind ``outside`` asks for
-        base = sum(bridge_n[g] if outside[g] else bridge_l[g] for g in range(k))
+        base = sum(self.bridge_n[g] if outside[g] else self.bridge_l[g] for g in range(k))
         far = [g for g in range(k) if outside[g]]
         if not far:
-            best = max(best, base + sum(tops[: r - k]))
-            continue
+            return base + sum(tops[: r - k])
         if slots == r:
-            # Q is the bridges and one site v: the successor of every group in ``far``, so
-            # linked to a bridge of each; it ends their paths, so it is in L or linked to a
-            # bridge in L (within 2 r2t of a group not in ``far``)
-            v = np.logical_and.reduce([succ_to[g] for g in far]) & in_l
-            for h in range(k):
-                if not outside[h]:
-                    v |= np.logical_and.reduce([succ_to[g] for g in far]) & (d_to[h] <= 2 * r2t)
-            best = max(best, base + heaviest(v))
-            continue
-        w_s = max(heaviest(succ_to[g]) for g in far)
+            return base + self._last_successor(outside, far)
+        w_s = max(_heaviest(self.wf, self.succ_to[g]) for g in far)
         if len(far) < k:  # some bridge is in L; the successor may lie anywhere
-            best = max(best, base + w_s + sum(tops[: r - slots]))
-        else:  # no bridge in L: the successor or another completion site is in L (item 6)
-            w_sl = max(heaviest(succ_to[g] & in_l) for g in far)
-            opts = [w_sl + sum(tops[: r - slots]), w_s + w_l + sum(tops[: r - slots - 1])]
-            best = max(best, base + max(opts))
-    return float(best)
+            return base + w_s + sum(tops[: r - slots])
+        # no bridge in L: the successor or another completion site is in L (item 6)
+        w_sl = max(_heaviest(self.wf, self.succ_to[g] & self.in_l) for g in far)
+        return base + max(w_sl + sum(tops[: r - slots]), w_s + self.w_l + sum(tops[: r - slots - 1]))
+
+    def _last_successor(self, outside: tuple[bool, ...], far: list[int]) -> float:
+        """Q is the bridges and one site v: the successor of every group in ``far``, so
+        linked to a bridge of each; it ends their paths, so it is in L or linked to a
+        bridge in L (within 2 r2t of a group not in ``far``)."""
+        common = np.logical_and.reduce([self.succ_to[g] for g in far])
+        v = common & self.in_l
+        for h in range(len(outside)):
+            if not outside[h]:
+                v |= common & (self.d_to[h] <= 2 * self.r2t)
+        return _heaviest(self.wf, v)
 
 
 def _link_rows(pts: np.ndarray, reach: float) -> np.ndarray:

@@ -803,7 +803,8 @@ def test_branch_and_bound_refuses_matrices_beyond_memory(monkeypatch):
     p = random_small(1, 12, 2)
     cand = candidate_sites(p)
     n = len(cand.points)
-    monkeypatch.setattr(os, "sysconf", lambda name: 1 if name == "SC_PAGE_SIZE" else 2 * n * n - 1)
+    need = 2 * n * ((n + 7) // 8)  # two relations as packed bit rows
+    monkeypatch.setattr(os, "sysconf", lambda name: 1 if name == "SC_PAGE_SIZE" else need - 1)
     with pytest.raises(ValueError, match=rf"problem: .*{n} x {n}.*GiB"):
         search(p, cand, np.zeros((0, 2)), 0)
     monkeypatch.undo()
