@@ -200,8 +200,8 @@ def performance_profile(
             raise ValueError(f"taus must be > 0, got {grid.min()}")
     out = []
     for method, g in ratios.groupby("method", sort=False):
-        r = g["ratio"].to_numpy()
-        frac = (r[None, :] <= grid[:, None] * (1 + _RATIO_RTOL)).mean(axis=1)
+        r = np.sort(g["ratio"].to_numpy(dtype=float))  # NaN sorts last and, like inf, is never counted
+        frac = np.searchsorted(r, grid * (1 + _RATIO_RTOL), side="right") / len(r)
         out.append(pd.DataFrame({"method": method, "tau": grid, "fraction": frac}))
     if not out:
         return pd.DataFrame(

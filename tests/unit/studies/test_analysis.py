@@ -446,3 +446,26 @@ def test_without_pyarrow_nothing_is_written(tmp_path, mixed, monkeypatch):
     with pytest.raises(ImportError, match="pip install pyarrow"):
         write_study_outputs(mixed, tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+def test_profile_fractions_agree_with_counting_on_many_runs():
+    """The profile counts with a sorted search (n log n), not an n_taus x n_runs matrix: 4000
+    instances of two methods (a default grid of thousands of ratios) stay small, and every
+    fraction equals the brute-force count of the method's ratios within the tolerance."""
+    rng = np.random.default_rng(0)
+    rows = []
+    for k in range(4000):
+        status = "infeasible" if k % 97 == 0 else "feasible"
+        rows.append(_row(f"i{k}", "A", status, float(rng.uniform(1, 10)), float(rng.uniform(0.1, 2))))
+        rows.append(_row(f"i{k}", "B", "feasible", float(rng.uniform(1, 10)), float(rng.uniform(0.1, 2))))
+    df = pd.DataFrame(rows)
+    prof = performance_profile(df)
+    ratios = performance_ratios(df)
+    for method in ("A", "B"):
+        r = ratios.loc[ratios["method"] == method, "ratio"].to_numpy(dtype=float)
+        g = prof[prof["method"] == method]
+        taus, got = g["tau"].to_numpy(), g["fraction"].to_numpy()
+        sample = rng.choice(len(taus), 200, replace=False)
+        brute = [(r <= t * (1 + 1e-12)).mean() for t in taus[sample]]
+        assert np.allclose(got[sample], brute, rtol=0, atol=1e-12)
+        assert np.all(np.diff(got) >= 0) and got[-1] == pytest.approx(np.isfinite(r).mean())
