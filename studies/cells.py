@@ -487,18 +487,22 @@ def reproduce_jobs(*, quick: bool, out: Path, store_path: Path) -> list[Job]:
         jobs += made
         keys[name] = tuple(j.key for j in made)
     optima = "cells/table4.3"
-    jobs.append(Job(optima, "cells table 4.3", _table_4_3, kws, after=keys["table"], cost=1.0))
+    jobs.append(Job(optima, "cells table 4.3", _table_4_3, kws, after=keys["table"], cost=1.0, local=True))
     for name, fn in (("fig4.3", _fig_4_3), ("fig4.5", _fig_4_5), ("fig4.6", _fig_4_6)):
         section = f"cells fig {name[3:]}"
-        jobs.append(Job(f"cells/{name}", section, fn, kws, {"optima": optima}, after=keys[name], cost=1.0))
-    jobs.append(Job("cells/fig4.4", "cells fig 4.4", _fig_4_4, kw, cost=2.0))
-    jobs.append(Job("cells/fig4.2", "cells fig 4.2", _fig_4_2, {"out": out}, cost=1.0))
+        jobs.append(
+            Job(f"cells/{name}", section, fn, kws, {"optima": optima}, after=keys[name], cost=1.0, local=True)
+        )
+    jobs.append(Job("cells/fig4.4", "cells fig 4.4", _fig_4_4, kw, cost=2.0, local=True))
+    jobs.append(Job("cells/fig4.2", "cells fig 4.2", _fig_4_2, {"out": out}, cost=1.0, local=True))
     abl = row_jobs(
         ablation_task, ablation_tasks(**_ablation_settings(quick)), section="cells ablation", cost=_task_cost
     )
     jobs += abl
     after = tuple(j.key for j in abl)
-    jobs.append(Job("cells/ablation", "cells ablation", _ablation_job, kws, after=after, cost=2.0))
+    jobs.append(
+        Job("cells/ablation", "cells ablation", _ablation_job, kws, after=after, cost=2.0, local=True)
+    )
     return jobs
 
 

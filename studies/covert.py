@@ -594,13 +594,21 @@ def _case_jobs(case: int, out: Path, quick: bool, jobs: list[Job]) -> str:
     table = f"covert/base/case{case}/table"
     needs = {arg[k]: keys[k] for k in RUN_COST}
     kwargs = {"case": case, "out": out, "quick": quick}
-    jobs.append(Job(table, section, _case_job, kwargs, {**needs, "oracle": oracle}, cost=3.0))
+    jobs.append(Job(table, section, _case_job, kwargs, {**needs, "oracle": oracle}, cost=3.0, local=True))
     if case == 1 or not quick:
         front = {
             arg[k]: v for k, v in keys.items() if k in ("sliding", "mpc", "mpc-slow", "mpc-safe") or "-p" in k
         }
         jobs.append(
-            Job(f"covert/base/case{case}/front", "covert stealth front", _front_job, kwargs, front, cost=15.0)
+            Job(
+                f"covert/base/case{case}/front",
+                "covert stealth front",
+                _front_job,
+                kwargs,
+                front,
+                cost=15.0,
+                local=True,
+            )
         )
     return table
 
@@ -626,7 +634,7 @@ def reproduce_jobs(*, quick: bool, out: Path) -> list[Job]:
             needs[name] = key = f"covert/{variant}/case1/{name}"
             run = {"case": 1, "controller": name, "variant": variant}
             jobs.append(Job(key, section, _run_job, run, cost=RUN_COST[name]))
-        jobs.append(Job(f"covert/{variant}/table", section, fn, {"out": out}, needs, cost=1.0))
+        jobs.append(Job(f"covert/{variant}/table", section, fn, {"out": out}, needs, cost=1.0, local=True))
     levels = [0.02, 0.10] if quick else [0.02, 0.04, 0.06, 0.08, 0.10]
     runs = 3 if quick else 20
     noise: dict[str, str] = {}
@@ -652,10 +660,13 @@ def reproduce_jobs(*, quick: bool, out: Path) -> list[Job]:
             {"out": out, "levels": levels, "runs": runs},
             noise,
             cost=1.0,
+            local=True,
         )
     )
     summary = {"case1": tables[1], "case2": tables[2]}
-    jobs.append(Job("covert/summary", "covert case 1", _summary_job, {"out": out}, summary, cost=0.1))
+    jobs.append(
+        Job("covert/summary", "covert case 1", _summary_job, {"out": out}, summary, cost=0.1, local=True)
+    )
     return jobs
 
 

@@ -118,6 +118,12 @@ def run_once(task: dict) -> dict:
     field (square side, m), params (dict of HerdingParams overrides), n_drones,
     gather_only (bool), snapshots (list of s), curve_every (s).
     """
+    return _run_traced(task)[0]
+
+
+def _run_traced(task: Mapping[str, Any], frame_every: float | None = None) -> tuple[dict, HerdingTrace]:
+    """:func:`run_once`'s record and the run's trace (with a frame every ``frame_every`` s, if
+    given: recording frames does not change the run)."""
     kw = dict(task.get("params", {}))
     n_drones = int(task.get("n_drones", 4))
     field = task.get("field")
@@ -132,11 +138,12 @@ def run_once(task: dict) -> dict:
         seed=int(task["seed"]) + 10_000,
         snapshot_times=task.get("snapshots", ()),
         stop_after_gathering=bool(task.get("gather_only")),
+        frame_every=frame_every,
     )
     cpu = time.process_time() - c0
     every = max(1, round(float(task.get("curve_every", 5.0)) / sc.params.delta))
     hull_t = herder.all_on_hull_time
-    return {
+    record = {
         **{k: task[k] for k in task if k not in ("params", "snapshots")},
         "params": json.dumps(kw, sort_keys=True),
         "gather_time": tr.gather_time,
@@ -156,6 +163,7 @@ def run_once(task: dict) -> dict:
         "goal": tuple(float(g) for g in sc.goal),
         "n_crossing_allocations": herder.n_crossing_allocations,
     }
+    return record, tr
 
 
 def _mean(values) -> float | None:
@@ -176,14 +184,20 @@ def run_pair(task: Mapping[str, Any]) -> list[dict]:
     return _pair_rows(task, {m: _method_run(task, m) for m in ("proposed", "benchmark")})
 
 
-def _method_run(task: Mapping[str, Any], method: str) -> dict:
-    """:func:`run_once` of one herder on a reproduce task's scenario."""
-    return run_once({**{k: v for k, v in task.items() if k not in ("problem", "instance")}, "method": method})
+def _method_run(task: Mapping[str, Any], method: str, frame_every: float | None = None):
+    """:func:`run_once` of one herder on a reproduce task's scenario; with ``frame_every`` (s),
+    ``(record, trace with frames)`` so an animation can reuse the run."""
+    record, trace = _run_traced(
+        {**{k: v for k, v in task.items() if k not in ("problem", "instance")}, "method": method}, frame_every
+    )
+    return record if frame_every is None else (record, trace)
 
 
-def _pair_job(task: Mapping[str, Any], proposed: dict, benchmark: dict) -> list[dict]:
-    """:func:`run_pair`'s rows from the two runs made as separate jobs."""
-    return _pair_rows(task, {"proposed": proposed, "benchmark": benchmark})
+def _pair_job(task: Mapping[str, Any], proposed, benchmark) -> list[dict]:
+    """:func:`run_pair`'s rows from the two runs made as separate jobs (a run given as
+    ``(record, trace)`` counts by its record)."""
+    runs = {"proposed": proposed, "benchmark": benchmark}
+    return _pair_rows(task, {m: r[0] if isinstance(r, tuple) else r for m, r in runs.items()})
 
 
 def _pair_rows(task: Mapping[str, Any], runs: Mapping[str, dict]) -> list[dict]:
@@ -584,15 +598,22 @@ def _run_cost(task: Mapping[str, Any], method: str = "proposed") -> float:
     return per_sim_s * horizon * (1.3 if method == "benchmark" else 1.0)
 
 
-def _pair_jobs(tasks: list[dict[str, Any]], section: str) -> list[Job]:
-    """Per task: one job per herder and a store task joining them into :func:`run_pair`'s rows."""
+def _pair_jobs(
+    tasks: list[dict[str, Any]], section: str, frames: Mapping[str, float] | None = None
+) -> list[Job]:
+    """Per task: one job per herder and a store task joining them into :func:`run_pair`'s rows.
+    frames: {instance: s}: the proposed run of that instance also keeps a frame every s seconds
+    (its job returns ``(record, trace)``, for an animation)."""
     jobs = []
     for t in tasks:
         key = f"herding/{t['instance']}"
         runs = {}
         for m in ("proposed", "benchmark"):
             runs[m] = f"{key}/{m}"
-            jobs.append(Job(runs[m], section, _method_run, {"task": t, "method": m}, cost=_run_cost(t, m)))
+            kwargs: dict[str, Any] = {"task": t, "method": m}
+            if m == "proposed" and frames and t["instance"] in frames:
+                kwargs["frame_every"] = frames[t["instance"]]
+            jobs.append(Job(runs[m], section, _method_run, kwargs, cost=_run_cost(t, m)))
         jobs.append(Job(key, section, _pair_job, {"task": t}, runs, cost=0.05, task=t))
     return jobs
 
@@ -600,37 +621,46 @@ def _pair_jobs(tasks: list[dict[str, Any]], section: str) -> list[Job]:
 def reproduce_jobs(*, quick: bool, out: Path, store_path: Path) -> list[Job]:
     """The herding reproduction as jobs (:mod:`droneplan.studies.jobs`): each herder's run of
     each Fig. 6.7 and sweep scenario its own job (the two of a scenario join into one store
-    task), the figures from the store at ``store_path``, and the GIF.
+    task), the figures from the store at ``store_path``, and the GIF, drawn from the proposed
+    herder's Fig. 6.7 run at 200 animals, seed 0 (a frame every 30 s quick, 10 s full).
 
     quick: see :func:`reproduce`; out: directory for the CSV, PNG and GIF files.
     """
     out = Path(out)
     kws = {"out": out, "quick": quick, "store_path": Path(store_path)}
     jobs: list[Job] = []
+    gif = instance_id("fig6.7", n=200, seed=0)  # its proposed run is also the GIF
+    frames = {gif: 30.0 if quick else 10.0}
     for name, tasks, step in (
         ("fig 6.7", _fig_6_7_tasks(quick), _fig_6_7),
         ("figs 6.8-6.10", _sweep_tasks(quick), _sweeps),
     ):
         section = f"herding {name}"
-        made = _pair_jobs(tasks, section)
+        made = _pair_jobs(tasks, section, frames)
         jobs += made
         after = tuple(j.key for j in made if j.task is not None)
         jobs.append(
-            Job(f"herding/{name}", section, _from_store, {"step": step, **kws}, after=after, cost=2.0)
+            Job(
+                f"herding/{name}",
+                section,
+                _from_store,
+                {"step": step, **kws},
+                after=after,
+                cost=2.0,
+                local=True,
+            )
         )
+    run = {"run": f"herding/{gif}/proposed"}
     jobs.append(
-        Job("herding/animation", "herding animation", _animation, {"out": out, "quick": quick}, cost=8.0)
+        Job("herding/animation", "herding animation", _animation_job, {"out": out}, run, cost=3.0, local=True)
     )
     return jobs
 
 
-def _animation(out: Path, quick: bool) -> None:
-    """One proposed-herder run (seed 0; 100 animals quick, 200 full) as a GIF, a frame every 30 s / 10 s."""
-    n, every = (100, 30.0) if quick else (200, 10.0)
-    trace = simulate(
-        thesis_scenario(n_animals=n, seed=0), ProposedHerder(), t_max=1800, seed=0, frame_every=every
-    )
-    animate(trace, out / f"proposed_{n}_animals.gif", fps=8)
+def _animation_job(out: Path, run: tuple[dict, HerdingTrace]) -> None:
+    """The GIF of a Fig. 6.7 run of the proposed herder (made with frames by its job)."""
+    record, trace = run
+    animate(trace, out / f"proposed_{record['n']}_animals.gif", fps=8)
 
 
 # --------------------------------------------------------------------------- gap

@@ -55,7 +55,9 @@ class Job:
     jobs whose results it takes, by parameter name; after: jobs that must finish first whose
     results it does not take (e.g. the store rows a table reads); cost: estimated CPU seconds,
     used to run the longest chains first; task: for a store task (:func:`row_jobs`), the task
-    mapping whose rows the job writes.
+    mapping whose rows the job writes; local: the job writes files under ``--out`` or reads the
+    store by its path, so on a Dask cluster (whose workers may be other machines) it runs in the
+    scheduling process (local process pools share the machine and run it like any other).
     """
 
     key: str
@@ -66,6 +68,7 @@ class Job:
     after: tuple[str, ...] = ()
     cost: float = 1.0
     task: Mapping[str, Any] | None = None
+    local: bool = False
 
 
 @dataclass(frozen=True)
@@ -358,7 +361,17 @@ def _submit_ready(
         if call is None:
             done(key)
             continue
-        pending[executor.submit(_timed, call[0], call[1])] = (key, time.perf_counter() - run.t0)
+        start = time.perf_counter() - run.t0
+        if executor.kind == "dask" and run.jobs[key].local:
+            fut: cf.Future = cf.Future()
+            try:
+                fut.set_result(_timed(call[0], call[1]))
+            except Exception as exc:  # noqa: BLE001 - recorded by _collect
+                fut.set_exception(exc)
+            _collect(run, fut, key, start)
+            done(key)
+            continue
+        pending[executor.submit(_timed, call[0], call[1])] = (key, start)
 
 
 def _collect(run: _Run, fut: cf.Future, key: str, start: float) -> None:

@@ -284,13 +284,22 @@ def reproduce_jobs(*, quick: bool, out: Path) -> list[Job]:
     (full: 30) and no OCP group with 2 sharks; out: directory for the CSV, PNG and GIF files.
     """
     out = Path(out)
-    jobs = [Job("shark/fig5.10-5.11", "shark figs 5.10-5.11", _fig_5_10_5_11_job, {"out": out}, cost=2.0)]
+    jobs = [
+        Job(
+            "shark/fig5.10-5.11",
+            "shark figs 5.10-5.11",
+            _fig_5_10_5_11_job,
+            {"out": out},
+            cost=2.0,
+            local=True,
+        )
+    ]
     paths = {}
     for name in thesis_trajectories():
         paths[name] = key = f"shark/table5.2/{name}"
         jobs.append(Job(key, "shark table 5.2", _path_job, {"name": name, "quick": quick}, cost=PATH_COST))
     kwargs = {"out": out, "quick": quick}
-    jobs.append(Job("shark/table5.2", "shark table 5.2", _table_5_2_job, kwargs, paths, cost=4.0))
+    jobs.append(Job("shark/table5.2", "shark table 5.2", _table_5_2_job, kwargs, paths, cost=4.0, local=True))
     n = 6 if quick else 30
     groups = {}
     for k, kind in _repelling_plan(quick):
@@ -299,7 +308,9 @@ def reproduce_jobs(*, quick: bool, out: Path) -> list[Job]:
         jobs.append(
             Job(key, "shark repelling", _repel_group, {"n_sharks": k, "interceptor": kind, "n": n}, cost=cost)
         )
-    jobs.append(Job("shark/repelling", "shark repelling", _repelling_job, {"out": out}, groups, cost=0.2))
+    jobs.append(
+        Job("shark/repelling", "shark repelling", _repelling_job, {"out": out}, groups, cost=0.2, local=True)
+    )
     return jobs
 
 

@@ -24,7 +24,15 @@ def test_plot_map_draws_every_range_and_the_backhaul_links():
     # GBS cell + r1 range, and the coverage disk of each drone-cell
     assert len(ax.patches) == 2 + 2
     # links: drone 0 - GBS (2.5 <= r1), drone 0 - drone 1 (2 <= r2); drone 1 - GBS is 4.5 > r1
-    links = [ln for ln in ax.lines if ln.get_color() == "tab:green" and len(ln.get_xdata()) == 2]
+    from matplotlib.colors import to_rgba
+
+    green = to_rgba("tab:green")
+    links = [
+        seg
+        for c in ax.collections
+        if hasattr(c, "get_segments") and tuple(c.get_edgecolor()[0]) == green
+        for seg in c.get_segments()
+    ]
     assert len(links) == 2
     plt.close(fig)
 

@@ -173,3 +173,16 @@ def test_a_failing_run_becomes_an_error_row(tmp_path):
         df = st.frame()
     assert list(df["status"]) == ["error"]
     assert "failed" in df["message"].iloc[0]
+
+
+def test_the_animated_herding_run_is_the_run_of_the_table():
+    """Recording frames for the GIF does not change the Fig. 6.7 run whose record the table uses."""
+    task = {"problem": "herding", "instance": "t", "n": 20, "seed": 3, "t_max": 200.0, "field": 150.0}
+    record, trace = herding._method_run(task, "proposed", frame_every=20.0)
+    plain = herding._method_run(task, "proposed")
+    assert len(trace.frames) >= 2
+    for key in ("gather_time", "total_time", "sim_time", "max_animal_speed"):
+        assert record[key] == plain[key]
+    assert (record["curve_r"] == plain["curve_r"]).all()
+    rows = herding._pair_job(task, (record, trace), plain)
+    assert [r["objective"] for r in rows] == [plain["total_time"]] * 2
