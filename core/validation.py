@@ -131,14 +131,23 @@ def _describe(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def check_real(name: str, value: Any, *, finite: bool = True) -> float:
+def check_real(
+    name: str, value: Any, *, finite: bool = True, max_abs: float | None = MAX_COORDINATE
+) -> float:
     """``value`` as a float; TypeError unless it is a real number (bools are refused),
-    ValueError if ``finite`` and it is NaN or infinite."""
+    ValueError if ``finite`` and it is NaN or infinite, or if it is finite and larger than
+    ``max_abs`` in magnitude (default ``MAX_COORDINATE``, 1e15: beyond it squares and products of
+    lengths, times or speeds overflow or lose every digit; None: no limit)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be a real number, got {type(value).__name__} {_describe(value)}")
     out = float(value)
     if math.isnan(out) or (finite and not math.isfinite(out)):
         raise ValueError(f"{name} must be finite, got {out}")
+    if max_abs is not None and math.isfinite(out) and abs(out) > max_abs:
+        raise ValueError(
+            f"{name} has magnitude {abs(out):.3g}, more than {max_abs:.3g} (beyond it squares and products "
+            "overflow or lose every digit)"
+        )
     return out
 
 

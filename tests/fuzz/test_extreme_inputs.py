@@ -215,8 +215,6 @@ def _known(where: str, what: str, name: str, param: str, *labels: str) -> None:
         KNOWN[(name, param, label)] = f"{where}: {what}"
 
 
-_known(_CELLS_SCEN, "half_width/R_c magnitudes overflow (OverflowError)", "CellParams", "half_width", "1e200")
-_known(_CELLS_SCEN, "half_width/R_c magnitudes overflow (OverflowError)", "CellParams", "R_c", "1e200")
 _known(_CELLS_SCEN, "user-count budget names lambda_c, not half_width", "CellParams", "half_width", "1e12")
 _known(_CELLS_SCEN, "user-count budget names lambda_c, not R_c", "CellParams", "R_c", "1e12")
 for _n, _p in (("matern_users", "poisson_clusters"), ("matern_users", "return_centres")):
@@ -273,6 +271,13 @@ _known(
     "V_T",
     "1e12",
     "10**12",
+)
+_known(
+    "scenarios/covert/world.py (owner FIDELITY)",
+    "V_T so slow that the derived duration exceeds MAX_COORDINATE is refused naming duration, not V_T",
+    "thesis_case",
+    "V_T",
+    "1e-300",
 )
 _known(
     "studies/covert.py (owner SPEED-REPRODUCE)",

@@ -377,3 +377,18 @@ def test_study_entries_check_counts_and_options(tmp_path):
         assert param in str(_quick(dp.gap, "cells", **{**common, param: value}))
     assert not (tmp_path / "results.sqlite").exists()  # refused before the store was opened
     assert "include_superseded" in str(_quick(dp.load_results, tmp_path, include_superseded="yes"))
+
+
+def test_scalar_magnitudes_beyond_the_coordinate_limit_are_refused():
+    from droneplan.core.validation import check_in_range, check_nonneg, check_positive, check_real
+
+    for check in (check_real, check_positive, check_nonneg):
+        with pytest.raises(ValueError, match="R_d has magnitude"):
+            check("R_d", 1e200)
+        assert check("R_d", MAX_COORDINATE) == MAX_COORDINATE
+    with pytest.raises(ValueError, match="t_max"):
+        check_in_range("t_max", 2e15, 0.0)
+    assert check_real("end", math.inf, finite=False) == math.inf  # inf stays allowed where asked for
+    assert check_real("big", 1e200, max_abs=None) == 1e200  # the limit can be lifted
+    # a cell half-width of 1e200 m used to overflow inside the user generator (OverflowError)
+    assert "half_width" in str(_quick(dp.cells.CellParams, half_width=1e200))
