@@ -11,11 +11,11 @@ Work budgets: ``check_work``/``check_size`` refuse, before any work starts, a ca
 size, resolution, step, horizon or count implies more array elements, evaluations or
 solver calls than the budget in force; the message names the parameter, the size asked
 for and the limit, and the caller raises the limit with ``work_limits``. Array entries
-are also refused beyond ``MAX_COORDINATE`` in magnitude (their squares would overflow).
+and scalars are also refused beyond ``MAX_COORDINATE`` in magnitude (their squares would
+overflow); ``max_abs=None`` lifts that limit where a caller needs it.
 
-This module knows nothing of drones or solvers and imports nothing of droneplan, so
-every layer may import it (``tests/unit/test_layering.py`` allows exactly this one
-module below the layer order).
+This module knows nothing of drones or solvers and imports nothing else of droneplan: it is
+the base layer (``droneplan.core``) that every other layer may import.
 """
 
 from __future__ import annotations
