@@ -392,3 +392,11 @@ def test_scalar_magnitudes_beyond_the_coordinate_limit_are_refused():
     assert check_real("big", 1e200, max_abs=None) == 1e200  # the limit can be lifted
     # a cell half-width of 1e200 m used to overflow inside the user generator (OverflowError)
     assert "half_width" in str(_quick(dp.cells.CellParams, half_width=1e200))
+
+
+def test_the_interception_ocp_budgets_its_intervals():
+    # N = 10^4 took 7 s to build and N = 3000 25 s to solve; N up to 10^5 was admitted
+    for fn, args in ((dp.shark.build_interception_nlp, ()), (dp.shark.solve_interception, (SHARK, OPERATOR))):
+        err = _quick(fn, *args, N=10_000, seconds=5.0)
+        assert "N" in str(err) and "work_limits" in str(err)
+    assert dp.shark.build_interception_nlp(N=50)["N"] == 50
