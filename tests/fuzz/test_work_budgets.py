@@ -400,3 +400,12 @@ def test_the_interception_ocp_budgets_its_intervals():
         err = _quick(fn, *args, N=10_000, seconds=5.0)
         assert "N" in str(err) and "work_limits" in str(err)
     assert dp.shark.build_interception_nlp(N=50)["N"] == 50
+
+
+def test_the_bearing_mpc_budgets_its_horizon_times_its_targets():
+    # horizon 1000 with 2 targets took 5 s to build; horizon 10^5 was admitted
+    long = dp.covert.MPCSettings(horizon=100_000)
+    err = _quick(dp.covert.build_bearing_mpc, dp.covert.THESIS_TABLE_3_2, 2, long, seconds=5.0)
+    assert "horizon" in str(err) and "work_limits" in str(err)
+    model = dp.covert.build_bearing_mpc(dp.covert.THESIS_TABLE_3_2, 3)
+    assert model.n_targets == 3 and model.settings.horizon == dp.covert.MPCSettings().horizon
