@@ -993,7 +993,7 @@ class BranchAndBoundSearch:
         """Item 3 for P + e: the relay lower bounds to P's sites and (last) to e."""
         if not P:
             return np.array([self.cg[e]])
-        ee = _relay_cost(np.hypot(*(self.pts[P] - self.pts[e]).T)[:, None], self.r2, self.r2)
+        ee = _relay_cost(pairwise_distances(self.pts[P], self.pts[[e]]), self.r2, self.r2)
         ge, nde = _through(dist, gj_direct=self.cg[[e]], ej=ee, epp=epp)
         return np.append(nde[:, 0], ge[0])
 
@@ -1519,7 +1519,7 @@ def _without_backhaul(problem: CellProblem, pts: np.ndarray):
     """k -> the problem with k drone-cells whose backhaul ranges reach every candidate
     site from every GBS and from each other (the relaxation of items 9-10; users, radii,
     GBS cells and bounds unchanged)."""
-    span = float(np.linalg.norm(pts[:, None, :] - problem.gbs[None, :, :], axis=2).max())
+    span = float(pairwise_distances(pts, problem.gbs).max())
     reach = 3.0 * span + problem.r1 + problem.r2
 
     def with_cells(k: int) -> CellProblem:
