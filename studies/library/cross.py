@@ -24,6 +24,7 @@ summary counts the instances where both proved.
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
@@ -250,3 +251,85 @@ def _tally(summary: dict[str, Any], rec: dict[str, Any]) -> None:
     entry = rec["library"]
     if rec["both_proven"] and entry is not None and entry.status == "optimal":
         summary["library_matched"] += all(math.isclose(r["checked"] or -1, entry.value) for r in eng.values())
+
+
+# --------------------------------------------------------------------------- command line
+HELP = (
+    "run both exact cells engines (branch and bound, MILP) on a family's instances and check them "
+    "against each other, the independent checker and the library; disagreements are saved and fail the run"
+)
+"""One-line help of the ``cross-certify`` command."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """Add the ``cross-certify`` options to ``parser`` (an argparse parser or sub-parser); returns it."""
+    parser.add_argument("family", nargs="?", default="table4.2", help="a cells family (default table4.2)")
+    parser.add_argument("--m", default="1,2,3,4", help="drone-cells, comma-separated (default 1,2,3,4)")
+    parser.add_argument("--seeds", type=int, default=100, help="number of seeds (default 100)")
+    parser.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
+    parser.add_argument(
+        "--time-limit",
+        type=float,
+        default=60.0,
+        metavar="S",
+        help="branch and bound, per instance (default 60 s)",
+    )
+    parser.add_argument(
+        "--milp-time-limit",
+        type=float,
+        default=None,
+        metavar="S",
+        help="MILP, per instance (default --time-limit)",
+    )
+    parser.add_argument("--backend", default="cp-sat", help="the MILP's linear backend (default cp-sat)")
+    parser.add_argument(
+        "--workers", type=int, default=1, help="processes / solver threads per engine (default 1)"
+    )
+    parser.add_argument(
+        "--out", type=Path, default=Path("cross-certify"), help="where disagreeing instances are saved"
+    )
+    parser.add_argument("--log", type=Path, default=None, help="a JSON-lines file, one line per instance")
+    parser.add_argument(
+        "--library-dir", type=Path, default=None, help="where the library files are (default: the package's)"
+    )
+    return parser
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run :func:`cross_certify` with the options of :func:`add_arguments`; print the summary and
+    every disagreement (stderr). Returns the exit code: 0, or 1 when an instance disagrees.
+
+    args: the parsed options."""
+    try:
+        m = [int(v) for v in str(args.m).split(",") if v.strip()]
+    except ValueError:
+        raise ValueError(f"--m must be comma-separated integers, got {args.m!r}") from None
+    summary = cross_certify(
+        args.family,
+        m=m,
+        seeds=args.seeds,
+        first_seed=args.first_seed,
+        time_limit=args.time_limit,
+        milp_time_limit=args.milp_time_limit,
+        backend=args.backend,
+        workers=args.workers,
+        directory=args.out,
+        library_dir=args.library_dir,
+        log=args.log,
+        strict=False,
+    )
+    print(
+        f"cross-certify {summary['family']}: {summary['instances']} instances; both engines proved "
+        f"{summary['both_proven']} (bnb {summary['bnb_proven']}, milp {summary['milp_proven']}), "
+        f"{summary['library_matched']} equal to the library's proven optimum; "
+        f"{len(summary['disagreements'])} disagreements; CPU s: "
+        + ", ".join(f"{k} {v:.0f}" for k, v in summary["cpu_s"].items()),
+        flush=True,
+    )
+    for key, lines in summary["disagreements"].items():
+        print(f"  DISAGREEMENT {key}: {'; '.join(lines)}", file=sys.stderr)
+    return 1 if summary["disagreements"] else 0
+
+
+if __name__ == "__main__":
+    sys.exit(run(add_arguments(argparse.ArgumentParser(prog="cross-certify", description=HELP)).parse_args()))

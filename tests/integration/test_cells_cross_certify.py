@@ -78,3 +78,18 @@ def test_bad_arguments_name_the_parameter():
         cross_certify("table4.2", m=1, seeds=1, workers=0)
     with pytest.raises(ValueError, match="time_limit"):
         cross_certify("table4.2", m=1, seeds=1, time_limit=-1)
+
+
+def test_the_command_line_entry(tmp_path, capsys, monkeypatch):
+    import argparse
+
+    parser = cross.add_arguments(argparse.ArgumentParser())
+    args = parser.parse_args(["--m", "1,2", "--seeds", "1", "--time-limit", "30", "--out", str(tmp_path)])
+    assert cross.run(args) == 0
+    out = capsys.readouterr().out
+    assert "2 instances; both engines proved 2" in out and "0 disagreements" in out
+    _lying_milp(monkeypatch, lambda o: o.update(objective=o["objective"] + 1))
+    assert cross.run(parser.parse_args(["--m", "1", "--seeds", "1", "--out", str(tmp_path)])) == 1
+    assert "DISAGREEMENT table4.2@1:m=1,seed=0" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="--m"):
+        cross.run(parser.parse_args(["--m", "a,b"]))
