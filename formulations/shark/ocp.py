@@ -373,7 +373,36 @@ class InterceptionOCP:
         )
 
 
-def solve_interception(  # noqa: C901
+def _shark_state(shark: Any) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The (position (3,) m, velocity (>= 2,) m/s) pair of a constant-velocity shark, checked."""
+    if not isinstance(shark, (tuple, list)):
+        raise TypeError(
+            f"shark must be a SharkTrajectory or (position (3,), velocity (>=2,)), got {shark!r:.60}"
+        )
+    if len(shark) != 2:
+        raise ValueError(
+            f"shark must be a SharkTrajectory or (position (3,), velocity (>=2,)), got {len(shark)} items"
+        )
+    position = check_array("shark position", shark[0], shape=(3,))
+    velocity = check_array("shark velocity", shark[1], ndim=1)
+    if len(velocity) < 2:
+        raise ValueError(f"shark velocity must hold at least (vx, vy), got {len(velocity)} entries")
+    return position, velocity
+
+
+def _check_plans(warm_starts: Any) -> list[InterceptionPlan]:
+    """``warm_starts`` as a list of InterceptionPlan (TypeError naming it otherwise)."""
+    if isinstance(warm_starts, (str, bytes)) or not hasattr(warm_starts, "__iter__"):
+        raise TypeError(
+            f"warm_starts must be a sequence of InterceptionPlan, got {type(warm_starts).__name__}"
+        )
+    plans = list(warm_starts)
+    for i, plan in enumerate(plans):
+        check_instance(f"warm_starts[{i}]", plan, InterceptionPlan)
+    return plans
+
+
+def solve_interception(
     shark,
     operator0,
     params: SharkParams = THESIS_TABLE_5_1,
@@ -420,20 +449,16 @@ def solve_interception(  # noqa: C901
         ocp = InterceptionOCP(params, N=N, path=shark, margin=margin, t_max=t_max, time_limit=time_limit)
         state = None
     else:
-        if len(shark) != 2:
-            raise ValueError("shark must be a SharkTrajectory or (position, velocity)")
-        S_now = np.asarray(shark[0], float)
-        if S_now.shape != (3,) or not np.all(np.isfinite(S_now)):
-            raise ValueError("shark position must be a finite (3,) position")
+        S_now, velocity = _shark_state(shark)
         ocp = InterceptionOCP(params, N=N, path=None, margin=margin, t_max=t_max, time_limit=time_limit)
-        state = shark
+        state = (S_now, velocity)
     clearance = float(inside_field(S_now, O0, params))
     if clearance <= 0:
         raise ValueError(
             f"shark is already inside the field at t0 (clearance {clearance:.3f} m <= 0): "
             "operator0 must start with the shark outside both balls"
         )
-    starts = list(warm_starts) or ocp.default_guesses(O0, t0=t0, shark_state=state)
+    starts = _check_plans(warm_starts) or ocp.default_guesses(O0, t0=t0, shark_state=state)
     best: SolveResult | None = None
     best_start: InterceptionPlan | None = None
     best_T = math.inf  # best.objective

@@ -409,3 +409,19 @@ def test_the_bearing_mpc_budgets_its_horizon_times_its_targets():
     assert "horizon" in str(err) and "work_limits" in str(err)
     model = dp.covert.build_bearing_mpc(dp.covert.THESIS_TABLE_3_2, 3)
     assert model.n_targets == 3 and model.settings.horizon == dp.covert.MPCSettings().horizon
+
+
+_Z = [0.0, 0.0, -3.0]
+BAD_SHARKS = [5, None, "abc", (_Z,), (_Z, [1e200, 0.0]), (_Z, [3.0])]
+
+
+@pytest.mark.parametrize("shark", BAD_SHARKS)
+def test_solve_interception_checks_the_predicted_shark(shark):
+    # an int or None ended in "object of type 'int' has no len()"; a velocity of 1e200 was accepted
+    assert "shark" in str(_quick(dp.shark.solve_interception, shark, OPERATOR, N=10))
+
+
+def test_solve_interception_checks_its_warm_starts():
+    for bad in (3, "plan", ["x"]):  # ["x"] ended in AttributeError: 'str' object has no attribute 'resample'
+        err = _quick(dp.shark.solve_interception, SHARK, OPERATOR, N=10, warm_starts=bad)
+        assert "warm_starts" in str(err)
