@@ -38,6 +38,7 @@ from droneplan.scenarios.covert.world import (
     CASE1_TERRAIN,
     FIG_3_13_OBSTACLE,
     HABITAT,
+    LAYOUTS,
     THESIS_TABLE_3_2,
     ZONE,
     CovertParams,
@@ -48,6 +49,7 @@ from droneplan.scenarios.covert.world import (
     Terrain,
     random_case,
     thesis_case,
+    two_target_layout,
 )
 
 __all__ = [
@@ -67,6 +69,8 @@ __all__ = [
     "CovertTrace",
     "thesis_case",
     "random_case",
+    "two_target_layout",
+    "LAYOUTS",
     "bearing_changes",
     "nearest_on_line",
     "rotate_heading",
