@@ -632,14 +632,19 @@ def sphere_minmax_bearing_bnb(
 
     params: problem parameters, CovertParams (F, R, L_u in metres).
     tol: optimality gap (rad) > 0 at which a cell is no longer split.
-    max_cells: cells evaluated at most (count >= 1; 8 array elements per cell, within the
-    element budget of ``core.validation.work_limits``).
+    max_cells: cells evaluated at most (count >= 1; 8 array elements per cell and 2 per cell and
+    target, within the element budget of ``core.validation.work_limits``: at the default max_cells,
+    up to 62 targets).
     """
     check_instance("params", params, CovertParams)
     A = check_array("targets", targets, shape=(None, 3), min_rows=1)
     tol = check_positive("tol", tol)
     max_cells = check_int("max_cells", max_cells, min_value=1)
     check_work("max_cells", 8 * max_cells, "elements")  # 4 bounds and 3 coordinates per cell
+    # every evaluated cell computes a bearing change per target (300 targets x 3e5 cells: 26 s)
+    check_work(
+        "max_cells x targets (bearing evaluations, 2 elements each)", 2.0 * max_cells * len(A), "elements"
+    )
     from droneplan.scenarios.covert import bearing_changes
 
     t0 = time.perf_counter()

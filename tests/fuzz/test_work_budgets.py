@@ -425,3 +425,12 @@ def test_solve_interception_checks_its_warm_starts():
     for bad in (3, "plan", ["x"]):  # ["x"] ended in AttributeError: 'str' object has no attribute 'resample'
         err = _quick(dp.shark.solve_interception, SHARK, OPERATOR, N=10, warm_starts=bad)
         assert "warm_starts" in str(err)
+
+
+def test_the_sphere_branch_and_bound_budgets_cells_times_targets():
+    # 300 targets at the default max_cells and a tiny tol ran for 26 s of CPU
+    targets = np.c_[np.random.default_rng(1).uniform(100.0, 180.0, (300, 2)), np.zeros(300)]
+    err = _quick(dp.covert.sphere_minmax_bearing_bnb, dp.covert.THESIS_TABLE_3_2, targets, tol=1e-12)
+    assert "max_cells" in str(err) and "targets" in str(err) and "work_limits" in str(err)
+    fewer = dp.covert.sphere_minmax_bearing_bnb(dp.covert.THESIS_TABLE_3_2, targets, max_cells=2000)
+    assert fewer.bound is not None and fewer.bound <= fewer.objective
