@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from droneplan.core.validation import check_positive
+from droneplan.core.validation import check_int, check_positive
 from droneplan.formulations.covert_bounds import mission_lower_bound
 from droneplan.planners.covert import HoverBenchmark, SlidingModeObserver
 from droneplan.scenarios.covert import (
@@ -45,6 +45,8 @@ __all__ = [
     "FIGURE_FACTS",
     "two_target_scene",
     "figure_checks",
+    "SEARCH_RANGES",
+    "consistent_layouts",
     "margin_row",
     "feature_sweep",
     "run_fidelity_covert",
@@ -225,6 +227,40 @@ def feature_sweep(features: dict | None = None, *, base: dict | None = None) -> 
     return rows
 
 
+SEARCH_RANGES = {
+    "centre_dist_m": (40.0, 110.0),
+    "centre_angle_deg": (-30.0, 30.0),
+    "heading_deg": (40.0, 90.0),
+    "crossing_deg": (5.0, 120.0),
+    "closest_m": (0.0, 30.0),
+    "s_amplitude_m": (5.0, 30.0),
+    "hill_m": (10.0, 40.0),
+}
+"""Uniform ranges (m, deg) of the random layouts of :func:`consistent_layouts` (two_target_layout
+keywords; each value rounded to 0.1)."""
+
+
+def consistent_layouts(n_samples: int = 160, seed: int = 7, *, ignore: tuple = ("in_zone",)) -> list[dict]:
+    """Random case 1 layouts that meet the statements of Figs 3.9 and 3.11, with their margins.
+
+    Draws ``n_samples`` layouts from :data:`SEARCH_RANGES` (numpy generator ``seed``), keeps those
+    whose sliding-mode run passes every :func:`figure_checks` check except those in ``ignore``, and
+    returns {**layout, **margin_row} for each (deg, %, s). n_samples: count (>= 1); seed: int >= 0.
+    """
+    n_samples = check_int("n_samples", n_samples, min_value=1)
+    rng = np.random.default_rng(check_int("seed", seed, min_value=0))
+    rows = []
+    for _ in range(n_samples):
+        kw: dict[str, float] = {
+            k: round(float(rng.uniform(lo, hi)), 1) for k, (lo, hi) in SEARCH_RANGES.items()
+        }
+        sc = two_target_scene(**kw)
+        checks = figure_checks(sc, simulate(sc, SlidingModeObserver()))
+        if all(ok for k, ok in checks.items() if k not in ignore):
+            rows.append({**kw, **margin_row(sc)})
+    return rows
+
+
 def _fmt(rows: list[dict], key: str) -> str:
     head = (
         f"| {key} | hover | sliding | bound | margin | max margin | t_a | t_f | CPU |\n"
@@ -240,23 +276,32 @@ def _fmt(rows: list[dict], key: str) -> str:
 
 
 def run_fidelity_covert(out, *, features: dict | None = None) -> dict:
-    """The layout study: the feature sweep and both presets of case 1 and case 2.
+    """The layout study: the feature sweep, case 1's two layouts and case 2 (seeds 0-2).
 
     out: folder for ``covert_layout_study.md`` (created); features: as in :func:`feature_sweep`.
-    Returns {"sweep": rows, "presets": rows (keyed by "scene"), "path": the table's path}.
+    Also runs :func:`consistent_layouts` with its defaults.
+    Returns {"sweep": rows, "presets": rows (keyed by "scene"), "consistent": rows, "path": the
+    table's path}.
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rows = feature_sweep(features)
     presets = []
-    for case in (1, 2):
-        for layout in ("ours", "figures"):
-            sc = thesis_case(case, layout=layout)
-            presets.append({"scene": f"case {case}, layout {layout!r}", **margin_row(sc)})
+    for name, sc in (
+        ("case 1, layout 'ours'", thesis_case(1)),
+        ("case 1, layout 'figures'", thesis_case(1, layout="figures")),
+        *((f"case 2, seed {k}", thesis_case(2, k)) for k in range(3)),
+    ):
+        presets.append({"scene": name, **margin_row(sc)})
+    found = consistent_layouts()
+    for r in found:
+        r["layout"] = ", ".join(f"{k} {r[k]:g}" for k in SEARCH_RANGES)
     text = "# Covert layout study\n\nFeature sweep (one at a time around BASE; angles in deg):\n\n"
     for r in rows:
         r["feature = value"] = f"{r['feature']} = {r['value']:g}"
     text += _fmt(rows, "feature = value") + "\nPresets:\n\n" + _fmt(presets, "scene")
+    text += "\nRandom layouts meeting the statements of Figs 3.9 and 3.11 (but the zone):\n\n"
+    text += _fmt(found, "layout")
     path = out / "covert_layout_study.md"
     path.write_text(text)
-    return {"sweep": rows, "presets": presets, "path": path}
+    return {"sweep": rows, "presets": presets, "consistent": found, "path": path}
