@@ -278,7 +278,7 @@ def _fmt(rows: list[dict], key: str) -> str:
 def run_fidelity_covert(out, *, features: dict | None = None) -> dict:
     """The layout study: the feature sweep, case 1's two layouts and case 2 (seeds 0-2).
 
-    out: folder for ``covert_layout_study.md`` (created); features: as in :func:`feature_sweep`.
+    out: folder for ``covert_layout_study.txt`` (created); features: as in :func:`feature_sweep`.
     Also runs :func:`consistent_layouts` with its defaults.
     Returns {"sweep": rows, "presets": rows (keyed by "scene"), "consistent": rows, "path": the
     table's path}.
@@ -302,6 +302,6 @@ def run_fidelity_covert(out, *, features: dict | None = None) -> dict:
     text += _fmt(rows, "feature = value") + "\nPresets:\n\n" + _fmt(presets, "scene")
     text += "\nRandom layouts meeting the statements of Figs 3.9 and 3.11 (but the zone):\n\n"
     text += _fmt(found, "layout")
-    path = out / "covert_layout_study.md"
+    path = out / "covert_layout_study.txt"
     path.write_text(text)
     return {"sweep": rows, "presets": presets, "consistent": found, "path": path}
