@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from droneplan.core.validation import (
     as_generator,
     check_array,
+    check_bool,
     check_int,
     check_nonneg,
     check_positive,
@@ -80,9 +81,15 @@ class CellParams:
         check_int("n_clusters", self.n_clusters, min_value=0)
         check_size("n_clusters", 2 * self.n_clusters)
         check_array("gbs", self.gbs, shape=(None, 2), min_rows=1)
-        # refuse up front a density that asks for more users than fit in memory
-        expected = self.n_clusters * self.lambda_c * math.pi * self.R_c**2 / 3 + self.lambda_nc * self.area
-        check_size("lambda_c, lambda_nc (expected users)", int(2 * expected))
+        # refuse up front a density that asks for more users than fit in memory, naming the
+        # parameters of the part (clustered or background) that asks for them
+        clustered = self.n_clusters * self.lambda_c * math.pi * self.R_c**2 / 3
+        background = self.lambda_nc * self.area
+        check_size("n_clusters, lambda_c, R_c (expected clustered users)", 2 * clustered)
+        check_size("lambda_nc, half_width (expected background users)", 2 * background)
+        check_size(
+            "n_clusters, lambda_c, R_c, lambda_nc, half_width (expected users)", 2 * (clustered + background)
+        )
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:
@@ -183,6 +190,8 @@ def matern_users(
     """
     if not isinstance(params, CellParams):
         raise TypeError(f"params must be CellParams, got {type(params).__name__}")
+    poisson_clusters = check_bool("poisson_clusters", poisson_clusters)
+    return_centres = check_bool("return_centres", return_centres)
     rng = as_generator(seed)
     nc = int(rng.poisson(params.n_clusters)) if poisson_clusters else params.n_clusters
     centres = _uniform_in_square(rng, nc, params)
@@ -245,6 +254,7 @@ def thesis_instance(
     """
     if not isinstance(params, CellParams):
         raise TypeError(f"params must be CellParams, got {type(params).__name__}")
+    clustered = check_bool("clustered", clustered)
     rng = as_generator(seed)
     if clustered:
         users, centres = matern_users(rng, params, return_centres=True)

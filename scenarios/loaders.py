@@ -250,6 +250,8 @@ def load_cells_csv(
     """
     check_instance("params", params, CellParams)
     n_cells = check_int("n_cells", n_cells, min_value=1)
+    users = _as_path(users, "users")
+    gbs = None if gbs is None else _as_path(gbs, "gbs")
     pts = read_points_csv(users)
     stations = np.asarray(params.gbs, dtype=float) if gbs is None else read_points_csv(gbs)
     return _cell_problem(pts, stations, n_cells, params)
@@ -494,6 +496,8 @@ def load_cells_geojson(
     """
     check_instance("params", params, CellParams)
     n_cells = check_int("n_cells", n_cells, min_value=1)
+    users = _as_path(users, "users")
+    gbs = None if gbs is None else _as_path(gbs, "gbs")
     u_lon, u_lat = read_geojson_points(users)
     g_lonlat = None if gbs is None else read_geojson_points(gbs)
     if origin is not None:
@@ -636,10 +640,11 @@ def load_shark_track_csv(  # noqa: C901
     if dt is None:
         ts, ps = rel, pos
     else:
-        n = math.floor(rel[-1] / dt * (1 + 1e-12) + 1e-9) + 1
+        steps = rel[-1] / dt * (1 + 1e-12) + 1e-9  # a float: a tiny dt may ask for inf steps
+        check_size(f"dt = {dt} s (the resampled track of {file})", 6 * (steps + 1))
+        n = math.floor(steps) + 1
         if n < 2:
             raise ValueError(f"{file}: the track lasts {rel[-1]!r} s, shorter than dt = {dt} s")
-        check_size(f"{file} (resampled samples)", 6 * n)
         ts = np.arange(n, dtype=np.float64) * dt
         ps = np.column_stack([np.interp(ts, rel, pos[:, i]) for i in range(3)])
         on_grid = np.isclose(rel, np.round(rel / dt) * dt, rtol=0, atol=1e-9 * max(dt, 1.0))

@@ -204,8 +204,6 @@ def _cases() -> list[tuple[str, str, str, Any]]:
 
 # ---------------------------------------------------------------------------- known gaps
 _CELLS_CORE = "formulations/cells (owner CELLS)"
-_CELLS_SCEN = "scenarios/cells.py (no owner this round)"
-_LOADERS = "scenarios/loaders.py (no owner this round)"
 _STUDY_CELLS = "studies/cells.py (owner SPEED-REPRODUCE)"
 KNOWN: dict[tuple[str, str, str], str] = {}
 
@@ -215,12 +213,6 @@ def _known(where: str, what: str, name: str, param: str, *labels: str) -> None:
         KNOWN[(name, param, label)] = f"{where}: {what}"
 
 
-_known(_CELLS_SCEN, "user-count budget names lambda_c, not half_width", "CellParams", "half_width", "1e12")
-_known(_CELLS_SCEN, "user-count budget names lambda_c, not R_c", "CellParams", "R_c", "1e12")
-for _n, _p in (("matern_users", "poisson_clusters"), ("matern_users", "return_centres")):
-    _known(_CELLS_SCEN, f"{_p} is not checked as a bool", _n, _p, "str-flag")
-for _n in ("thesis_instance", "thesis_problem"):
-    _known(_CELLS_SCEN, "clustered is not checked as a bool", _n, "clustered", "str-flag")
 _known(
     _CELLS_CORE,
     "usable is not checked (a bool mask of the users)",
@@ -261,9 +253,6 @@ _known(
     "restarts",
     "10**6",
 )
-for _n in ("load_cells_csv", "load_cells_geojson"):
-    _known(_LOADERS, "gbs is checked under the name 'path'", _n, "gbs", "1e12", "1e-300", "10**12")
-_known(_LOADERS, "the resampling budget names the file, not dt", "load_shark_track_csv", "dt", "1e-300")
 _known(
     "scenarios/covert/world.py (owner FIDELITY)",
     "V_T so fast that the path is shorter than dt is refused naming dt/duration, not V_T",

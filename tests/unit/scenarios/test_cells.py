@@ -7,6 +7,7 @@ from droneplan.scenarios.cells import (
     CellProblem,
     expected_user_count,
     matern_users,
+    thesis_instance,
     thesis_problem,
     uniform_users,
 )
@@ -92,3 +93,28 @@ def test_cell_problem_pickles_through_its_constructor():
     assert repr(q) == repr(p)
     np.testing.assert_array_equal(q.users, p.users)
     np.testing.assert_array_equal(q.active, p.active)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "named"),
+    [
+        ("half_width", 1e12, "lambda_nc, half_width (expected background users)"),
+        ("R_c", 1e12, "n_clusters, lambda_c, R_c (expected clustered users)"),
+        ("lambda_nc", 1e3, "lambda_nc, half_width (expected background users)"),
+        ("lambda_c", 1e6, "n_clusters, lambda_c, R_c (expected clustered users)"),
+    ],
+)
+def test_user_budget_names_the_part_that_asks_for_the_users(field, value, named):
+    with pytest.raises(ValueError, match="more than the limit") as info:
+        CellParams(**{field: value})
+    assert named in str(info.value)
+
+
+def test_flags_must_be_bools():
+    for flag in ("poisson_clusters", "return_centres"):
+        with pytest.raises(TypeError, match=f"{flag} must be a bool"):
+            matern_users(0, **{flag: "yes"})
+    with pytest.raises(TypeError, match="clustered must be a bool"):
+        thesis_instance(0, clustered="yes")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="clustered must be a bool"):
+        thesis_problem(2, 0, clustered=1)  # type: ignore[arg-type]

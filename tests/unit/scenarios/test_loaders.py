@@ -180,6 +180,11 @@ def test_csv_cell_problem_checks_its_arguments(tmp_path):
         load_cells_csv(path, n_cells=1, params={"R_d": 1})
     with pytest.raises(ValueError, match=r"g\.csv: no such CSV file"):
         load_cells_csv(path, tmp_path / "g.csv", n_cells=1)
+    for load in (load_cells_csv, load_cells_geojson):
+        with pytest.raises(TypeError, match=r"gbs must be a str or os\.PathLike"):
+            load(path, 1e12, n_cells=1)  # type: ignore[operator]
+        with pytest.raises(TypeError, match=r"users must be a str or os\.PathLike"):
+            load(3, n_cells=1)  # type: ignore[operator]
 
 
 # --------------------------------------------------------------------------- projection
@@ -504,6 +509,10 @@ def test_shark_track_argument_checks(tmp_path):
     path = write(tmp_path, "track.csv", "t,x,y\n0,0,0\n1,1,0\n")
     with pytest.raises(ValueError, match="dt must be > 0"):
         load_shark_track_csv(path, dt=0.0)
+    # a positive dt so small that the resampled track would not fit: the budget names dt
+    for tiny in (1e-300, 1e-12):
+        with pytest.raises(ValueError, match=r"dt = .* asks for .* more than the limit"):
+            load_shark_track_csv(path, dt=tiny)
     with pytest.raises(ValueError, match="depth must be <= 0"):
         load_shark_track_csv(path, depth=1.0)
     with pytest.raises(TypeError, match="name"):
