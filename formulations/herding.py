@@ -75,7 +75,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from ortools.sat.python import cp_model
 
-from droneplan.core.validation import check_array, check_instance, check_nonneg, check_positive
+from droneplan.core.validation import check_array, check_instance, check_int, check_nonneg, check_positive
 from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
 
@@ -457,6 +457,7 @@ def solve_allocation(
     """
     if method != "exact" and (not isinstance(method, str) or method not in available_backends("cp")):
         raise ValueError(f"method must be 'exact' or a cp backend {available_backends('cp')}, got {method!r}")
+    workers = check_int("workers", workers, min_value=1)
     d, s, M = validate_allocation_input(drone_s, steer_s, perimeter)
     n = d.size
     padded = s.size < n

@@ -53,6 +53,7 @@ from scipy.spatial import cKDTree
 from droneplan.core.validation import (
     as_generator,
     check_array,
+    check_bool,
     check_in_range,
     check_int,
     check_methods,
@@ -211,6 +212,12 @@ class HerdingScenario:
                 f"mismatched lengths: {d.shape[0]} drones but params.n_drones = {self.params.n_drones}"
             )
         g = check_array("goal", self.goal, shape=(2,))
+        f = check_array("field", self.field, shape=(4,))
+        if not (f[0] < f[2] and f[1] < f[3]):
+            raise ValueError(
+                f"field must be (xmin, ymin, xmax, ymax) with xmin < xmax and ymin < ymax, got {f.tolist()}"
+            )
+        object.__setattr__(self, "field", tuple(float(v) for v in f))
         object.__setattr__(self, "animals", a)
         object.__setattr__(self, "drones", d)
         object.__setattr__(self, "headings", h)
@@ -654,6 +661,7 @@ def simulate(  # noqa: C901, PLR0915
     if not isinstance(scenario, HerdingScenario):
         raise TypeError(f"scenario must be a HerdingScenario, got {type(scenario).__name__}")
     check_methods("controller", controller, ("reset", "command"))
+    stop_after_gathering = check_bool("stop_after_gathering", stop_after_gathering)
     t_max = check_positive("t_max", t_max)
     check_size("t_max", math.ceil(t_max / scenario.params.delta) * scenario.animals.shape[0])
     if frame_every is not None:

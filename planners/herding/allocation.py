@@ -14,6 +14,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import maximum_bipartite_matching
 
+from droneplan.core.validation import check_int
 from droneplan.formulations.herding import (
     Allocation,
     allowed_wraps,
@@ -40,6 +41,7 @@ def allocate_bruteforce(drone_s, steer_s, perimeter: float, *, max_drones: int =
     least maximum travel (6.21). Vectorised over direction vectors and blocks of
     permutations. ``objective`` = max travel (m), ``bound`` = objective (exhaustive).
     """
+    max_drones = check_int("max_drones", max_drones, min_value=1)
     d, s, M = validate_allocation_input(drone_s, steer_s, perimeter)
     n = d.size
     if n > max_drones:

@@ -282,35 +282,6 @@ _known(_STUDY_CELLS, "ablation_runs has no work budget (hangs)", "ga_ablation", 
 for _p in ("executor", "store", "out"):
     _known(_STUDY_CELLS, f"{_p} is not checked", "ga_ablation", _p, "1e12", "1e-300", "10**12")
 _known(
-    "scenarios/herding.py (owner SPEED-IMPORT-HERD)",
-    "field is not checked (NaN and 1e200 accepted)",
-    "HerdingScenario",
-    "field",
-    "arr-1e200",
-    "arr-nan",
-)
-_known(
-    "scenarios/herding.py (owner SPEED-IMPORT-HERD)",
-    "stop_after_gathering is not checked as a bool",
-    "simulate@herding",
-    "stop_after_gathering",
-    "str-flag",
-)
-_known(
-    "formulations/herding.py (owner SPEED-IMPORT-HERD)",
-    "workers NaN accepted",
-    "solve_allocation",
-    "workers",
-    "nan",
-)
-_known(
-    "planners/herding/allocation.py (owner SPEED-IMPORT-HERD)",
-    "max_drones NaN accepted",
-    "allocate_bruteforce",
-    "max_drones",
-    "nan",
-)
-_known(
     "studies/cli.py (owner SPEED-REPRODUCE)",
     "workers has no upper bound (OverflowError inside the process pool)",
     "run_gap",

@@ -140,3 +140,19 @@ def test_bad_input(args, match):
 def test_bruteforce_refuses_large_n():
     with pytest.raises(ValueError, match="max_drones"):
         allocate_bruteforce(np.arange(10.0), np.arange(10.0) + 0.5, 20.0)
+
+
+@pytest.mark.parametrize(
+    ("value", "error", "match"),
+    [
+        (float("nan"), TypeError, "must be an int"),
+        (3.0, TypeError, "must be an int"),
+        (True, TypeError, "must be an int"),
+        (0, ValueError, "must be >= 1"),
+    ],
+)
+def test_counts_are_checked_as_ints(value, error, match):
+    with pytest.raises(error, match=f"max_drones {match}"):
+        allocate_bruteforce([1.0, 4.0], [2.0, 6.0], 10.0, max_drones=value)
+    with pytest.raises(error, match=f"workers {match}"):
+        solve_allocation([1.0, 4.0], [2.0, 6.0], 10.0, workers=value)

@@ -15,6 +15,7 @@ from droneplan.scenarios.herding import (
     barking_mask,
     drone_step,
     footprint_radius,
+    simulate,
     table_6_2_for,
     thesis_scenario,
 )
@@ -131,6 +132,42 @@ def test_scenario_bad_input():
         HerdingScenario(sc.params, sc.animals + np.nan, sc.drones, sc.headings, sc.goal)
     with pytest.raises(ValueError, match="field width"):
         thesis_scenario(10, field_size=(0.0, 10.0))
+
+
+@pytest.mark.parametrize(
+    ("field", "error", "match"),
+    [
+        ((0.0, 0.0, np.nan, 600.0), ValueError, "field must be finite"),
+        ((0.0, 0.0, 1e200, 600.0), ValueError, "field has an entry of magnitude"),
+        ((), ValueError, r"field must have shape \(4\)"),
+        ((0.0, 0.0, 1200.0), ValueError, r"field must have shape \(4\)"),
+        ((0.0, 0.0, 0.0, 600.0), ValueError, "xmin < xmax"),
+        ((0.0, 600.0, 1200.0, 0.0), ValueError, "ymin < ymax"),
+        ("field", TypeError, "field must be an array"),
+    ],
+)
+def test_scenario_field_is_checked(field, error, match):
+    sc = thesis_scenario(10, seed=0)
+    with pytest.raises(error, match=match):
+        HerdingScenario(sc.params, sc.animals, sc.drones, sc.headings, sc.goal, field)
+    ok = HerdingScenario(sc.params, sc.animals, sc.drones, sc.headings, sc.goal, [-1, -2, 3, 4])
+    assert ok.field == (-1.0, -2.0, 3.0, 4.0) and all(type(v) is float for v in ok.field)
+
+
+class _Idle:
+    """A herder that never moves (the flag check refuses before it is used)."""
+
+    def reset(self, scenario, seed=None):
+        pass
+
+    def command(self, *args, **kwargs):
+        raise AssertionError("simulate ran with an unchecked flag")
+
+
+@pytest.mark.parametrize("flag", ["yes", 1, None])
+def test_simulate_stop_after_gathering_must_be_a_bool(flag):
+    with pytest.raises(TypeError, match="stop_after_gathering must be a bool"):
+        simulate(thesis_scenario(10, seed=0), _Idle(), t_max=1.0, stop_after_gathering=flag)
 
 
 @pytest.mark.parametrize("split", [False, True])
