@@ -304,11 +304,12 @@ def _front_section(case: int, scenario, traces: dict[str, CovertTrace], out: Pat
         "mpc-safe": "safeguarded MPC",
     }
     runs = {label: traces[k] for k, label in names.items() if k in traces}
-    if not quick:
+    if not quick:  # two more approach speeds (reproduce_jobs runs them as jobs named mpc-p<f>)
         for prog in (0.5, 1.0):
-            runs[f"MPC (approach {prog:g} V_max)"] = simulate(
-                scenario, MPCObserver(observer=MPCObserverSettings(progress=prog))
-            )
+            tr = traces.get(f"mpc-p{prog:g}")
+            if tr is None:
+                tr = simulate(scenario, MPCObserver(observer=MPCObserverSettings(progress=prog)))
+            runs[f"MPC (approach {prog:g} V_max)"] = tr
     pts, bound = stealth_front(scenario, runs, n_arrivals=5 if quick else 10, step=1.0 if quick else 0.2)
     pts.to_csv(out / f"case{case}_stealth_front_points.csv", index=False)
     bound.to_csv(out / f"case{case}_stealth_front_bound.csv", index=False)
