@@ -134,7 +134,7 @@ def optimised_front(
     points, from the earliest possible arrival to the latest limit. backend: the MPC's "nlp"
     backend ("ipopt" or "osqp").
 
-    Returns (points, curve) DataFrames. points: one row per limit: arrival_limit_s, method (None
+    Returns (points, curve) DataFrames. points: one row per limit: arrival_limit_s, method (missing
     when no run arrived in time), t_a, t_f, t_end (s), beta_max_deg, bound_deg (the bound for
     controllers arriving by the limit and keeping the run's t_f, t_end and sphere error),
     gap_pct, certified_within_deg (beta_max - bound, deg), certified, tried (runs searched).
