@@ -26,7 +26,13 @@ import numpy as np
 
 from droneplan.core.validation import check_array, check_instance, check_int, check_nonneg, check_positive
 
-__all__ = ["optimised_front", "plot_optimised_front"]
+__all__ = [
+    "QUICK_LIMITS",
+    "FULL_LIMITS",
+    "optimised_front",
+    "plot_optimised_front",
+    "optimised_front_section",
+]
 
 DEG = 180.0 / math.pi
 _TURN_S = 1.0  # the MPC's approach schedule starts after one second to turn
@@ -223,3 +229,64 @@ def plot_optimised_front(points: Any, curve: Any, *, title: str = "", margin_deg
     ax.set_title(title or "Stealth vs arrival time: optimised front and lower bound")
     ax.legend(fontsize=8)
     return fig
+
+
+QUICK_LIMITS = (8.0, 9.0, 12.0, 16.0, 20.0)
+"""Arrival-time limits (s) of the quick setting: from just after the earliest a closed loop arrives
+on thesis case 1 (about 7 s: 57 m at V_max after a turn) to 20 s."""
+FULL_LIMITS = tuple(float(t) for t in np.arange(8.0, 30.5, 2.0))
+"""Arrival-time limits (s) of the full setting: every 2 s from 8 s to 30 s."""
+
+
+def optimised_front_section(case: int, out: Any, *, quick: bool) -> Any:
+    """The optimised front of thesis case ``case`` (1 or 2, seed 0) written under ``out``.
+
+    quick: limits QUICK_LIMITS, one MPC approach per limit, bound at instants every 1 s, 5-point
+    curve (about 40 CPU s on case 1); full: FULL_LIMITS, up to 3 approaches per limit, instants
+    every 0.2 s, 12-point curve. out: directory (str or Path) for ``case{case}_optimised_front``
+    .csv (the points), ``_bound.csv`` (the curve), ``.png`` and the comparison table
+    (.csv, .md). Returns the points DataFrame.
+    """
+    from pathlib import Path
+
+    import matplotlib.pyplot as plt
+
+    from droneplan.core.validation import check_bool
+    from droneplan.scenarios.covert import thesis_case
+    from droneplan.studies.common import ComparisonTable
+
+    case = check_int("case", case, min_value=1, max_value=2)
+    quick = check_bool("quick", quick)
+    out = Path(check_instance("out", out, (str, Path)))
+    step = 1.0 if quick else 0.2
+    points, curve = optimised_front(
+        thesis_case(case, 0),
+        QUICK_LIMITS if quick else FULL_LIMITS,
+        tries=1 if quick else 3,
+        step=step,
+        n_curve=5 if quick else 12,
+    )
+    out.mkdir(parents=True, exist_ok=True)
+    stem = f"case{case}_optimised_front"
+    points.to_csv(out / f"{stem}.csv", index=False)
+    curve.to_csv(out / f"{stem}_bound.csv", index=False)
+    fig = plot_optimised_front(points, curve, title=f"Case {case}: optimised stealth vs arrival front")
+    fig.tight_layout()
+    fig.savefig(out / f"{stem}.png", dpi=110)
+    plt.close(fig)
+    tab = ComparisonTable(f"Case {case}: optimised front (best closed loop per arrival limit vs bound)")
+    for _, r in points.iterrows():
+        if math.isnan(float(r.beta_max_deg)):
+            tab.add(
+                f"arrive by {r.arrival_limit_s:g} s: beta_max / bound (deg)", None, "none", "no run arrived"
+            )
+            continue
+        tab.add(
+            f"arrive by {r.arrival_limit_s:g} s: beta_max / bound (deg)",
+            None,
+            f"{r.beta_max_deg:.2f} / {r.bound_deg:.2f}",
+            f"{r.method}, t_a = {r.t_a:.1f} s; certified within {r.certified_within_deg:.2f} deg "
+            f"(instants every {step:g} s)",
+        )
+    tab.emit(out, stem)
+    return points

@@ -114,3 +114,14 @@ def test_bad_settings_refused(case1, kw, exc):
 def test_scenario_type_checked():
     with pytest.raises(TypeError, match="scenario"):
         optimised_front("case 1", [12.0])
+
+
+def test_section_refuses_bad_flags(tmp_path):
+    from droneplan.studies.covert_front import optimised_front_section
+
+    with pytest.raises(TypeError, match="quick"):
+        optimised_front_section(1, tmp_path, quick="yes")
+    with pytest.raises(TypeError, match="out"):
+        optimised_front_section(1, None, quick=True)
+    with pytest.raises(ValueError, match="case"):
+        optimised_front_section(3, tmp_path, quick=True)
