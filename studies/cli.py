@@ -471,6 +471,12 @@ def _run(args) -> int:  # noqa: C901
             out.mkdir(parents=True, exist_ok=True)
             print(f"### bench {problem} (thesis ch. {_CHAPTER[problem]}) -> {out}", flush=True)
             _load(problem).bench(quick=args.quick, out=out)
+        if args.problem == "all":
+            from droneplan.studies.bench_summary import bench_summary, summary_markdown, write_summary
+
+            rows = bench_summary(quick=args.quick)
+            print(summary_markdown(rows), flush=True)
+            print(f"summary: {write_summary(rows, args.out)}", flush=True)
         return 0
     with contextlib.ExitStack() as stack:
         store = stack.enter_context(ResultStore(args.out / STORE_NAME))
