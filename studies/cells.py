@@ -9,6 +9,7 @@ that ``formulations.cells`` selects for 1-2 workers); bench also times HiGHS.
 from __future__ import annotations
 
 import contextlib
+import os
 import tempfile
 from collections.abc import Mapping
 from dataclasses import replace
@@ -622,10 +623,13 @@ def instance_features(problem, centres=None) -> dict:
     r1 + (m - 1) r2 + R_d (coverable at all), and, given the cluster ``centres`` ((c, 2) m,
     from :func:`~droneplan.scenarios.cells.thesis_instance`), the clusters whose centre lies
     within that reach and within direct reach."""
-    from droneplan.core.validation import check_instance
+    from droneplan.core.validation import check_array, check_instance, check_size
     from droneplan.formulations.cells import CellProblem
 
     check_instance("problem", problem, CellProblem)
+    if centres is not None:
+        centres = check_array("centres", centres, shape=(None, 2))
+        check_size("centres", float(len(centres)) * len(problem.gbs))
 
     def gbs_dist(pts):
         pts = np.asarray(pts, float).reshape(-1, 2)
@@ -702,6 +706,33 @@ def ablation_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
     return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
 
 
+def _ga_run_cost(variant: str) -> int:
+    """Solver calls one GA run of ``variant`` counts as in the ablation's work budget."""
+    return int(GA_VARIANTS[variant].get("restarts_factor", 1))
+
+
+def _check_ablation_work(
+    n_instances: int,
+    runs: int,
+    ablation_runs: int,
+    variants: list[str],
+    instances: list[str],
+    ablation_name: str = "ablation_runs",
+) -> None:
+    """Refuse, before any task is built, an ablation whose runs exceed the solves budget: the
+    thesis runs (``runs``), then the other variants' and instance variants' runs
+    (``ablation_runs``), then everything with the references."""
+    from droneplan.core.validation import check_work
+
+    thesis = float(n_instances) * runs * _ga_run_cost("thesis") if "thesis" in variants else 0.0
+    check_work("runs", thesis, "solves")
+    per_instance = sum(_ga_run_cost(v) for v in variants if v != "thesis") + (len(instances) - 1)
+    other = float(n_instances) * ablation_runs * per_instance
+    check_work(ablation_name, other, "solves")
+    refs = 2.0 * n_instances * len(instances)
+    check_work("runs and ablation_runs", thesis + other + refs, "solves")
+
+
 def ablation_tasks(
     *,
     seeds,
@@ -717,7 +748,12 @@ def ablation_tasks(
     Table 4.2 users one ``run`` task per (GA variant, run), ``runs`` runs of the thesis GA and
     ``ablation_runs`` (default ``runs``) of each other GA variant; on each other instance variant
     (keys of :data:`INSTANCE_VARIANTS`, default all) ``ablation_runs`` runs of the thesis GA.
-    Instance ids carry the limits, so other limits are new tasks."""
+    Instance ids carry the limits, so other limits are new tasks.
+
+    Work budget: every GA run counts as one solver call (the "restarts-x4" variant as four) and
+    every reference as two (exhaustive search and MILP); ``runs`` and ``ablation_runs`` are
+    refused up front (``check_work``, kind "solves") when the runs they ask for exceed the budget
+    in force (``work_limits(solves=...)`` raises it)."""
     from droneplan.core.validation import check_int, check_positive, check_sequence
 
     seeds = check_sequence("seeds", seeds)
@@ -733,10 +769,19 @@ def ablation_tasks(
             f"instances must be keys of INSTANCE_VARIANTS {list(INSTANCE_VARIANTS)}, got {unknown}"
         )
     runs = check_int("runs", runs, min_value=1)
+    given_ablation = ablation_runs is not None
     ablation_runs = runs if ablation_runs is None else check_int("ablation_runs", ablation_runs, min_value=1)
     seeds = [check_int("seeds", s, min_value=0) for s in seeds]
     ms = [check_int("ms", m, min_value=1, max_value=4) for m in ms]
     es_limit, milp_limit = check_positive("es_limit", es_limit), check_positive("milp_limit", milp_limit)
+    _check_ablation_work(
+        len(seeds) * len(ms),
+        runs,
+        ablation_runs,
+        variants,
+        instances,
+        "ablation_runs" if given_ablation else "runs (the default ablation_runs)",
+    )
     tasks: list[dict[str, Any]] = []
     for seed in seeds:
         for m in ms:
@@ -973,6 +1018,13 @@ def ga_ablation(
     ``attrs["finding"]`` holds :func:`ablation_finding`'s text and ``attrs["summary"]``
     :func:`ablation_summary`'s table (per m and variant).
     """
+    from droneplan.core.validation import check_instance
+    from droneplan.studies.common import StudyExecutor
+    from droneplan.studies.store import ResultStore
+
+    check_instance("executor", executor, StudyExecutor, optional=True)
+    check_instance("store", store, ResultStore, optional=True)
+    check_instance("out", out, (str, os.PathLike), optional=True)
     tasks = ablation_tasks(
         seeds=seeds,
         ms=ms,

@@ -192,14 +192,16 @@ def run_gap(
 
     seeds: number of instances per problem (per size for herding); out: the ``--out``
     directory (store ``out/results.sqlite``, per-problem summaries and figures); workers:
-    local processes (1: serial in this process; None: one per core); dask_address: a Dask
-    scheduler instead; first_seed: seed of the first instance. Resumes like the CLI.
+    local processes (1: serial in this process; None: one per core; at most
+    ``common.WORKERS_PER_CORE`` per core); dask_address: a Dask scheduler address (a string such
+    as ``"tcp://host:8786"``) instead; first_seed: seed of the first instance. Resumes like the CLI.
     Returns the rows of the problems run (:func:`droneplan.load_results` of ``out``).
     """
     if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
         raise ValueError(f"seeds must be an int >= 1, got {seeds!r}")
     if isinstance(first_seed, bool) or not isinstance(first_seed, int) or first_seed < 0:
         raise ValueError(f"first_seed must be an int >= 0, got {first_seed!r}")
+    common.check_executor_options(workers, dask_address)
     out = Path(out)
     problems = _resolve(problem)
     _writable_out(out)

@@ -34,6 +34,8 @@ __all__ = [
     "StudyExecutor",
     "StudyError",
     "make_executor",
+    "WORKERS_PER_CORE",
+    "check_executor_options",
     "INTERRUPT_GRACE_S",
     "open_store",
     "map_rows",
@@ -110,6 +112,23 @@ class StudyError(RuntimeError):
     """A study cannot run as asked (unreachable Dask scheduler, unusable --out ...)."""
 
 
+WORKERS_PER_CORE = 4
+"""Most local worker processes per core :func:`make_executor` starts (``workers`` beyond
+``WORKERS_PER_CORE * os.cpu_count()`` is refused: each process holds a copy of the solvers, and
+far more processes than cores only add memory and switching)."""
+
+
+def check_executor_options(workers: object, dask_address: object) -> None:
+    """Refuse, naming the parameter, a ``workers`` that is not an int in
+    [1, ``WORKERS_PER_CORE`` x cores] (None: one per core) or a ``dask_address`` that is not a
+    string (None: no Dask)."""
+    from droneplan.core.validation import check_instance, check_int
+
+    if workers is not None:
+        check_int("workers", workers, min_value=1, max_value=WORKERS_PER_CORE * (os.cpu_count() or 1))
+    check_instance("dask_address", dask_address, str, optional=True)
+
+
 @contextlib.contextmanager
 def make_executor(
     workers: int | None = None, dask_address: str | None = None, *, connect_timeout: float = 5.0
@@ -117,13 +136,13 @@ def make_executor(
     """A :class:`StudyExecutor` for mapping over instances.
 
     workers: local worker processes (None: number of cores; 1: run serially in this
-        process, each task when it is consumed). Ignored when ``dask_address`` is given.
+        process, each task when it is consumed; at most ``WORKERS_PER_CORE`` per core).
+        Ignored when ``dask_address`` is given.
     dask_address: address of a running Dask scheduler (``tcp://host:8786``); needs
         ``distributed``. connect_timeout: seconds to wait for it before
         :class:`StudyError`.
     """
-    if workers is not None and (not isinstance(workers, int) or workers < 1):
-        raise ValueError(f"workers must be an int >= 1, got {workers!r}")
+    check_executor_options(workers, dask_address)
     if dask_address:
         try:
             from distributed import Client

@@ -268,7 +268,9 @@ def stealth_front(scenario, traces: dict[str, CovertTrace], *, n_arrivals: int =
         check_instance(f"traces[{name!r}]", tr, CovertTrace)
     t_end = max((float(tr.t[-1]) for tr in traces.values() if len(tr.t)), default=0.0)
     # one convex program per instant and arrival time at worst (before the grid is allocated)
-    check_work("step", (t_end / step + 1) * (1 + n_arrivals + len(traces)), "solves")
+    # the refusal names the factor that made the count large: instants (step) or arrival times
+    n_instants, n_times = t_end / step + 1, 1.0 + n_arrivals + len(traces)
+    check_work("n_arrivals" if n_times > n_instants else "step", n_instants * n_times, "solves")
     if all(tr.t_a is None for tr in traces.values()):
         raise ValueError("traces: no run reached the sphere (no arrival time to place)")
     p = scenario.params

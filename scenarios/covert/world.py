@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 
 from droneplan.core.validation import (
     check_array,
+    check_in_range,
     check_int,
     check_positive,
     check_real,
@@ -20,6 +21,7 @@ from droneplan.core.validation import (
 __all__ = [
     "ZONE",
     "HABITAT",
+    "V_T_MIN",
     "CovertParams",
     "THESIS_TABLE_3_2",
     "Terrain",
@@ -39,6 +41,11 @@ ZONE = 200.0
 """Side of the square zone the targets move in (m), thesis §3.5."""
 HABITAT = (80.0, 195.0)
 """Random targets stay in [HABITAT[0], HABITAT[1]]^2 (m): the habitat part of the zone near F."""
+
+
+V_T_MIN = 0.01
+"""Slowest target speed (m/s) :func:`thesis_case` accepts: the 240 m paths then take 24,000 s
+(6.7 hours, 240,000 control steps of 0.1 s); slower targets make periods no study simulates."""
 
 
 # --------------------------------------------------------------------------- parameters
@@ -589,7 +596,9 @@ def thesis_case(
         the price of another (see there). Case 2 has one layout (``"ours"``).
     case 2: ten targets on random curvy paths over random smooth hills drawn from ``seed``.
     V_T: target speed (m/s); the paths stay the same, so the period shrinks to
-        120 s * 2 / V_T (Fig. 3.12 uses V_T = 5 m/s).
+        120 s * 2 / V_T (Fig. 3.12 uses V_T = 5 m/s). It must lie in [:data:`V_T_MIN`,
+        ``params.V_max``]: targets faster than the drone cannot be kept in view, and targets
+        slower than 1 cm/s would stretch the period beyond 6.7 hours.
     occlusion: case 1 only (Fig. 3.13): "obstacle" (or True) puts FIG_3_13_OBSTACLE in the scene,
         so target 2 is hidden whenever the line of sight crosses it (from t = 90 s * 2 / V_T on,
         where the target walks into it); "scripted" hides target 2 by a time window from then on.
@@ -600,7 +609,7 @@ def thesis_case(
         raise TypeError(f"params must be CovertParams or None, got {type(params).__name__}")
     if seed is not None and not isinstance(seed, np.random.Generator):
         check_int("seed", seed, min_value=0)  # checked for case 1 too, where it is unused
-    speed = base.V_T if V_T is None else check_positive("V_T", V_T)
+    speed = base.V_T if V_T is None else check_in_range("V_T", V_T, V_T_MIN, base.V_max)
     occlusion = _check_case_options(case, occlusion, layout)
     path_len = THESIS_TABLE_3_2.V_T * THESIS_TABLE_3_2.duration  # 240 m walked in the thesis period
     duration = path_len / speed

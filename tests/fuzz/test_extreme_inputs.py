@@ -253,48 +253,6 @@ _known(
     "restarts",
     "10**6",
 )
-_known(
-    "scenarios/covert/world.py (owner FIDELITY)",
-    "V_T so fast that the path is shorter than dt is refused naming dt/duration, not V_T",
-    "thesis_case",
-    "V_T",
-    "1e12",
-    "10**12",
-)
-_known(
-    "scenarios/covert/world.py (owner FIDELITY)",
-    "V_T so slow that the derived duration exceeds MAX_COORDINATE is refused naming duration, not V_T",
-    "thesis_case",
-    "V_T",
-    "1e-300",
-)
-_known(
-    "studies/covert.py (owner SPEED-REPRODUCE)",
-    "the solves budget names step, not n_arrivals",
-    "stealth_front",
-    "n_arrivals",
-    "10**12",
-    "10**6",
-)
-_known(_STUDY_CELLS, "centres is not checked", "instance_features", "centres", "1e12", "1e-300", "10**12")
-_known(_STUDY_CELLS, "runs has no work budget (hangs)", "ga_ablation", "runs", "10**12", "10**6")
-_known(_STUDY_CELLS, "ablation_runs has no work budget (hangs)", "ga_ablation", "ablation_runs", "10**12")
-for _p in ("executor", "store", "out"):
-    _known(_STUDY_CELLS, f"{_p} is not checked", "ga_ablation", _p, "1e12", "1e-300", "10**12")
-_known(
-    "studies/cli.py (owner SPEED-REPRODUCE)",
-    "workers has no upper bound (OverflowError inside the process pool)",
-    "run_gap",
-    "workers",
-    "10**12",
-)
-_known(
-    "studies/cli.py (owner SPEED-REPRODUCE)",
-    "dask_address is not checked (Dask's TypeError does not name it)",
-    "run_gap",
-    "dask_address",
-    "10**12",
-)
 
 CASES = _cases()
 

@@ -272,3 +272,15 @@ def test_line_of_sight_simple_cases_and_validation():
         Obstacle(((0, 0), (10, 0), (5, 1), (10, 10), (0, 10)), 5.0)
     with pytest.raises(ValueError, match="footprint"):
         Obstacle(((0, 0), (1, 1)), 5.0)
+
+
+@pytest.mark.parametrize("speed", [1e12, 10**12, 1e-300, 1e-3])
+def test_thesis_case_refuses_a_target_speed_outside_its_range_naming_V_T(speed):
+    from droneplan.scenarios.covert.world import V_T_MIN
+
+    with pytest.raises(ValueError, match=r"^V_T"):
+        thesis_case(1, V_T=speed)
+    # both ends of the documented range are accepted: the period follows 240 m / V_T
+    assert thesis_case(1, V_T=V_T_MIN).params.duration == pytest.approx(240.0 / V_T_MIN)
+    fastest = thesis_case(1, V_T=THESIS_TABLE_3_2.V_max)
+    assert fastest.params.duration == pytest.approx(240.0 / THESIS_TABLE_3_2.V_max)

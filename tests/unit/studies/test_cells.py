@@ -125,3 +125,56 @@ def test_ablation_tasks_pair_the_variants_runs_with_the_thesis_runs():
         study.ablation_tasks(seeds=[0], ms=(1,), runs=1, instances=["nope"], es_limit=5, milp_limit=5)
     with pytest.raises(ValueError, match="variants"):
         study.ablation_tasks(seeds=[0], ms=(1,), runs=1, variants=["nope"], es_limit=5, milp_limit=5)
+
+
+def test_instance_features_checks_the_centres_and_counts_them_against_the_reach():
+    from droneplan.scenarios.cells import thesis_problem
+
+    p = thesis_problem(1, 0)
+    for bad in (1e12, 1e-300, 10**12):
+        with pytest.raises((ValueError, TypeError), match=r"^centres"):
+            study.instance_features(p, bad)
+    with pytest.raises(ValueError, match=r"^centres"):
+        study.instance_features(p, [[np.nan, 0.0]])
+    # a centre on the first GBS is within direct reach; one a million metres away is in neither
+    far = p.gbs[0] + 1e6
+    feats = study.instance_features(p, np.array([p.gbs[0], far]))
+    assert feats["clusters_direct_reach"] == 1 and feats["clusters_in_reach"] == 1
+
+
+@pytest.mark.parametrize(
+    ("kw", "name"),
+    [
+        ({"runs": 10**12}, "runs"),
+        ({"runs": 10**6}, "runs"),
+        ({"runs": 1, "ablation_runs": 10**12}, "ablation_runs"),
+        ({"runs": 10**6, "variants": ["noSA"]}, r"runs \(the default ablation_runs\)"),
+    ],
+)
+def test_ga_ablation_refuses_runs_beyond_the_solves_budget_up_front(kw, name, tmp_path):
+    from droneplan.core.validation import MAX_SOLVES
+
+    kw = {"seeds": [0], "ms": (1,), "variants": ["thesis"], "es_limit": 5.0, "milp_limit": 5.0, **kw}
+    refusal = rf"^{name} asks for \d+ solver calls, more than the limit of {MAX_SOLVES}"
+    with pytest.raises(ValueError, match=refusal):
+        study.ga_ablation(**kw, out=tmp_path)
+    assert not list(tmp_path.iterdir())  # refused before any store was opened
+
+
+def test_ablation_budget_counts_every_run_and_reference_as_tasks_do():
+    from droneplan.core.validation import work_limits
+
+    kw = {"seeds": [0, 1], "ms": (1, 2), "runs": 3, "ablation_runs": 2, "es_limit": 5, "milp_limit": 5}
+    tasks = study.ablation_tasks(**kw)
+    cost = sum(2 if t["kind"] == "ref" else study._ga_run_cost(t["variant"]) for t in tasks)
+    with work_limits(solves=cost):
+        assert len(study.ablation_tasks(**kw)) == len(tasks)
+    with work_limits(solves=cost - 1), pytest.raises(ValueError, match="solver calls"):
+        study.ablation_tasks(**kw)
+
+
+@pytest.mark.parametrize("param", ["executor", "store", "out"])
+def test_ga_ablation_checks_executor_store_and_out(param):
+    kw = {"seeds": [0], "ms": (1,), "runs": 1, "variants": ["thesis"], "es_limit": 5.0, "milp_limit": 5.0}
+    with pytest.raises(TypeError, match=f"^{param} must be"):
+        study.ga_ablation(**kw, **{param: 10**12})

@@ -195,3 +195,20 @@ def test_reproduce_report_is_written_when_a_task_errors(tmp_path, monkeypatch):
     assert (tmp_path / "report.html").is_file()
     rows = pd.read_csv(tmp_path / "results.csv")
     assert sorted(rows["status"].unique()) == ["error", "feasible"]
+
+
+def test_run_gap_bounds_workers_and_checks_dask_address(tmp_path):
+    import os
+
+    from droneplan.studies.common import WORKERS_PER_CORE
+
+    most = WORKERS_PER_CORE * (os.cpu_count() or 1)
+    with pytest.raises(ValueError, match=rf"^workers .*{most}"):
+        cli.run_gap("cells", seeds=1, out=tmp_path / "a", workers=most + 1)
+    with pytest.raises(ValueError, match=r"^workers"):
+        cli.run_gap("cells", seeds=1, out=tmp_path / "b", workers=10**12)
+    with pytest.raises(TypeError, match=r"^dask_address must be str"):
+        cli.run_gap("cells", seeds=1, out=tmp_path / "c", dask_address=10**12)
+    assert not list(tmp_path.iterdir())  # refused before --out was created
+    with pytest.raises(ValueError, match=r"^workers"):
+        make_executor(workers=most + 1).__enter__()
