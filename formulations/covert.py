@@ -590,7 +590,7 @@ def sphere_minmax_bearing(params: CovertParams, targets: Any, *, c_start: float 
     """Exact min over the observation sphere of max_j beta_j (rad) for fixed targets, with a certified bound.
 
     The convex program of :func:`formulations.covert_bounds.instant_minmax_bearing` (an SOCP
-    per angle, cvxpy; no grid, no tolerance to choose): objective = max_j beta_j at the
+    per angle, Clarabel; no grid, no tolerance to choose): objective = max_j beta_j at the
     returned point x (3,) of the sphere (m), bound = a certified lower bound (rad), equal to
     about 1e-5 rad (1e-4 rad near 0). Where that program does not apply (R inside the
     observation ball, or an optimum of 90 deg or more), the branch and bound

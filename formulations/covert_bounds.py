@@ -1,4 +1,4 @@
-"""Proven references for covert observation (thesis ch. 3) as convex programs (cvxpy).
+"""Proven references for covert observation (thesis ch. 3) as convex programs (Clarabel SOCPs).
 
 Per instant. With u_j the unit vector from target A_j to the reference point R, the
 bearing change (3.6) at A_j satisfies beta_j(D) <= theta  <=>  u_j . (D - A_j) >=
@@ -11,7 +11,7 @@ a quasiconvex program. With c = cos(theta) we solve the slack form
 
     s(c) = max_{|D - F| <= L_u}  min_j  u_j . (D - A_j) - c |D - A_j|
 
-(an SOCP, compiled once with cvxpy parameters), which is convex and decreasing in c; the
+(an SOCP, laid out once per shape for Clarabel), which is convex and decreasing in c; the
 optimum is the root c* of s, beta* = arccos(c*). Newton's method on s from the feasible side
 (s > 0) increases c monotonically to c* (s is convex, so each tangent root stays below c*),
 with ds/dc = -sum_j lambda_j |D - A_j| from the duals lambda of the slack rows. A final solve
@@ -30,13 +30,12 @@ from __future__ import annotations
 
 import math
 import time
-import warnings
 from dataclasses import dataclass
 from typing import Any
 
-import cvxpy as cp
 import numpy as np
 from numpy.typing import NDArray
+from scipy import sparse
 
 from droneplan.core.validation import (
     MAX_COORDINATE,
@@ -72,55 +71,86 @@ _Eval = tuple[float, float, NDArray[np.float64]]
 class InstantMinmaxProgram:
     """The slack SOCP  max s  s.t.  u_j.(y - q_j) - c t_j >= s,  |y - q_j| <= t_j,  |y| <= 1,
     |y - p_i| <= r_i  (extra balls),  in units scaled by L_u around F (y = (D - F) / L_u),
-    built once for ``n_targets`` targets and ``n_balls`` extra balls and re-solved with new
-    parameters (targets, c, balls) in milliseconds.
+    laid out once for ``n_targets`` targets and ``n_balls`` extra balls in Clarabel's conic
+    form (min q.x  s.t.  A x + z = b, z in the cones; x = (y, t, s)) and re-solved with new
+    data (targets, c, balls) by filling the few entries of A and b that change.
     """
 
     last_accurate: bool = False
-    """Whether the last solve ended OPTIMAL (not OPTIMAL_INACCURATE)."""
+    """Whether the last solve ended Solved (not AlmostSolved)."""
 
     def __init__(self, n_targets: int, n_balls: int = 0):
         if isinstance(n_targets, bool) or not isinstance(n_targets, (int, np.integer)) or n_targets < 1:
             raise ValueError(f"n_targets must be an int >= 1, got {n_targets!r}")
         if isinstance(n_balls, bool) or not isinstance(n_balls, (int, np.integer)) or n_balls < 0:
             raise ValueError(f"n_balls must be an int >= 0, got {n_balls!r}")
-        n = int(n_targets)
-        self.n_targets, self.n_balls = n, int(n_balls)
-        self.y = cp.Variable(3)
-        self.t = cp.Variable(n)
-        self.s = cp.Variable()
-        self.U = cp.Parameter((n, 3))
-        self.Q = cp.Parameter((n, 3))
-        self.b = cp.Parameter(n)
-        self.c = cp.Parameter(nonneg=True)
-        self.P = cp.Parameter((max(self.n_balls, 1), 3))
-        self.r = cp.Parameter(max(self.n_balls, 1), nonneg=True)
-        self.slack_rows = self.U @ self.y - self.b - self.c * self.t >= self.s
-        cons = [self.slack_rows, cp.norm(self.y) <= 1.0]
-        cons += [cp.norm(self.y - self.Q[j]) <= self.t[j] for j in range(n)]
-        cons += [cp.norm(self.y - self.P[i]) <= self.r[i] for i in range(self.n_balls)]
-        self.problem = cp.Problem(cp.Maximize(self.s), cons)
-        if not self.problem.is_dpp():  # parameters must enter the program in DPP form to be re-used
-            raise RuntimeError("internal invariant broken: the instant program is not DPP")
+        import clarabel  # type: ignore[import-untyped]
+
+        n, nb = int(n_targets), int(n_balls)
+        self.n_targets, self.n_balls = n, nb
+        self._clarabel = clarabel
+        self._settings = clarabel.DefaultSettings()
+        self._settings.verbose = False
+        nx = n + 4  # y (3), t (n), s
+        rows = n + 4 * (1 + n + nb)  # slack rows, then one 4-row cone per ball (unit, targets, extras)
+        self._A = np.zeros((rows, nx))
+        self._b = np.zeros(rows)
+        self._A[:n, nx - 1] = 1.0  # slack rows:  -u_j.y + c t_j + s + z_j = -u_j.q_j,  z_j >= 0
+        for k in range(1 + n + nb):  # cone k:  (rhs - A x) = (radius, y - centre)
+            r0 = n + 4 * k
+            self._A[r0 + 1 : r0 + 4, :3] = -np.eye(3)
+            if 1 <= k <= n:
+                self._A[r0, 3 + k - 1] = -1.0  # the radius of target j's cone is t_j
+        self._b[n] = 1.0  # |y| <= 1
+        self._q = np.zeros(nx)
+        self._q[nx - 1] = -1.0  # maximise s
+        self._P = sparse.csc_matrix((nx, nx))
+        self._diag = (np.arange(n), 3 + np.arange(n))
+        mask = self._A != 0.0
+        mask[:n, : 3 + n] = True  # -u_j and c: filled in per instance and per solve
+        self._csc = sparse.csc_matrix(mask.astype(float))  # the fixed pattern; its data is refilled
+        self._nz = (self._csc.indices, np.repeat(np.arange(nx), np.diff(self._csc.indptr)))
+        self._cones = [clarabel.NonnegativeConeT(n)] + [clarabel.SecondOrderConeT(4)] * (1 + n + nb)
+
+    def set_instance(self, params: Any, targets: Any, balls: Any = None, radius: float | None = None) -> None:
+        """Fill in the data: targets (n, 3) m, balls (n_balls, 4) rows (centre (3) m, radius m),
+        radius (m) of the ball around F (default params.L_u); params gives F, R and L_u."""
+        F, R = params.F_arr, params.R_arr
+        L = params.L_u if radius is None else float(radius)
+        n = self.n_targets
+        A = np.asarray(targets, float).reshape(-1, 3)
+        u = R - A
+        nu = np.linalg.norm(u, axis=1, keepdims=True)
+        if np.any(nu < 1e-9):
+            raise ValueError("a target coincides with the reference point R")
+        u = u / nu
+        q = (A - F) / L
+        self._A[:n, :3] = -u
+        self._b[:n] = -np.sum(u * q, axis=1)
+        cones = self._b[n:].reshape(-1, 4)  # a view: writes go to self._b
+        cones[1 : 1 + n, 1:] = -q
+        if self.n_balls:
+            B = np.asarray(balls, float).reshape(self.n_balls, 4)
+            cones[1 + n :, 0] = np.maximum(B[:, 3], 0.0) / L
+            cones[1 + n :, 1:] = -(B[:, :3] - F) / L
 
     def _s(self, c: float) -> _Eval | None:
         """(s(c), ds/dc, y) or None when the solver failed; s = -inf when the balls do not meet."""
-        self.c.value = c
-        try:
-            with warnings.catch_warnings():  # an inaccurate solve is never used as a certificate
-                warnings.simplefilter("ignore", UserWarning)
-                self.problem.solve(solver=cp.CLARABEL)
-        except cp.error.SolverError:
-            return None
-        self.last_accurate = self.problem.status == cp.OPTIMAL
-        if self.problem.status == cp.INFEASIBLE:
+        self._A[self._diag] = c
+        self._csc.data[:] = self._A[self._nz]
+        cl = self._clarabel
+        sol = cl.DefaultSolver(self._P, self._q, self._csc, self._b, self._cones, self._settings).solve()
+        status = str(sol.status)
+        self.last_accurate = status == "Solved"
+        if status == "PrimalInfeasible":
             return -math.inf, 0.0, np.full(3, np.nan)
-        if self.problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or self.s.value is None:
+        if status not in ("Solved", "AlmostSolved"):
             return None
-        lam = np.asarray(self.slack_rows.dual_value, float).ravel()
-        return float(self.s.value), -float(lam @ self.t.value), np.asarray(self.y.value, float)
+        x, lam = np.asarray(sol.x, float), np.asarray(sol.z, float)[: self.n_targets]
+        # d(-s*)/dc = sum_j lam_j t_j: the derivative of the optimum in the entries c of A
+        return float(x[-1]), -float(lam @ x[3:-1]), x[:3].copy()
 
-    def solve(  # noqa: C901, PLR0915
+    def solve(  # noqa: C901
         self,
         params: Any,
         targets: Any,
@@ -136,21 +166,9 @@ class InstantMinmaxProgram:
         radius (m) of the ball around F (default params.L_u, the observation ball).
         The first two are None when theta* >= 90 deg (the cones are no longer convex).
         """
-        F, R = params.F_arr, params.R_arr
+        F = params.F_arr
         L = params.L_u if radius is None else float(radius)
-        A = np.asarray(targets, float).reshape(-1, 3)
-        u = R - A
-        nu = np.linalg.norm(u, axis=1, keepdims=True)
-        if np.any(nu < 1e-9):
-            raise ValueError("a target coincides with the reference point R")
-        u = u / nu
-        q = (A - F) / L
-        self.U.value, self.Q.value, self.b.value = u, q, np.sum(u * q, axis=1)
-        if self.n_balls:
-            B = np.asarray(balls, float).reshape(self.n_balls, 4)
-            self.P.value, self.r.value = (B[:, :3] - F) / L, np.maximum(B[:, 3], 0.0) / L
-        else:
-            self.P.value, self.r.value = np.zeros((1, 3)), np.ones(1)
+        self.set_instance(params, targets, balls, radius)
         solves = 0
 
         def ev(c: float) -> _Eval | None:
@@ -267,7 +285,7 @@ def instant_minmax_bearing(params: Any, targets: Any, *, c_start: float | None =
     if np.linalg.norm(params.R_arr - params.F_arr) <= params.L_u:
         return SolveResult(
             Status.ERROR,
-            backend="cvxpy-clarabel",
+            backend="clarabel",
             solve_time=time.perf_counter() - t0,
             message="R lies inside the observation ball: the convex reformulation does not apply",
         )
@@ -276,7 +294,7 @@ def instant_minmax_bearing(params: Any, targets: Any, *, c_start: float | None =
     if c_lo is None or D is None:
         return SolveResult(
             Status.ERROR,
-            backend="cvxpy-clarabel",
+            backend="clarabel",
             solve_time=el,
             iterations=solves,
             message=f"convex per-instant program not applicable: {note}",
@@ -289,7 +307,7 @@ def instant_minmax_bearing(params: Any, targets: Any, *, c_start: float | None =
         objective=val,
         bound=bound,
         x=P,
-        backend="cvxpy-clarabel",
+        backend="clarabel",
         solve_time=el,
         iterations=solves,
         message=f"exact convex per-instant optimum (SOCP slack form, Newton on cos theta, "
