@@ -38,6 +38,7 @@ from droneplan.scenarios.shark import (
     simulate_repelling,
     thesis_trajectories,
 )
+from droneplan.solvers.result import SolveResult
 from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study
 from droneplan.studies.jobs import Job, run_reproduction
 from droneplan.studies.plots.shark import animate, plot_time_series, plot_top_view
@@ -387,50 +388,67 @@ def gap_task(task: Mapping[str, Any]) -> list[dict]:
     """
     seed = int(task["seed"])
     if task["kind"] == "path":
-        tr = random_trajectory(seed)
-        bearing = float(np.random.default_rng(seed).uniform(-180, 180))
-        O0 = operator_start(tr, bearing_deg=bearing)
-        vs_ctl = VirtualSharkInterceptor()
-        t0 = time.perf_counter()
-        vs = simulate(tr, vs_ctl, bearing_deg=bearing)
-        vs_time = time.perf_counter() - t0
-        res = optimal_interception(tr, O0, N=50)
-        T_vs = vs_ctl.capture_time
-        lb = res.bound  # proven lower bound on T (relaxation), valid for the OCP and the virtual shark
-        outcomes = [
-            Outcome(
-                "virtual-shark",
-                "heuristic",
-                "feasible" if T_vs else "no_solution",
-                objective=T_vs,
-                time_s=vs_time,
-                message="time to the interception point (capture), closed loop",
-                extras={
-                    "bearing_deg": bearing,
-                    "contact_s": vs.intercept_time,
-                    "frontal": bool(vs.frontal),
-                    "touched_early": bool(vs.touched_early),
-                },
-            ),
-            Outcome.of(
-                "ocp",
-                "model",
-                res,
-                bound_kind="proven-global",
-                extras={"bearing_deg": bearing, "start_won": res.info.get("start_won")},
-            ),
-            Outcome(
-                "interception-time-bound",
-                "bound",
-                "optimal" if lb is not None else "no_solution",
-                objective=lb,
-                bound=lb,
-                bound_kind="proven-global" if lb is not None else "none",
-                message=str(res.info.get("bound_message", "")),
-                extras={"bearing_deg": bearing},
-            ),
-        ]
-        return build_rows("shark", task["instance"], seed=seed, size=1, sense="min", outcomes=outcomes)
+        return _path_rows(task["instance"], seed)
+    return _assign_rows(task["instance"], seed)
+
+
+def _path_rows(instance: str, seed: int) -> list[dict]:
+    """Rows of a ``path`` gap instance: the virtual shark, the interception OCP and its bound."""
+    tr = random_trajectory(seed)
+    bearing = float(np.random.default_rng(seed).uniform(-180, 180))
+    O0 = operator_start(tr, bearing_deg=bearing)
+    vs_ctl = VirtualSharkInterceptor()
+    t0 = time.perf_counter()
+    vs = simulate(tr, vs_ctl, bearing_deg=bearing)
+    vs_time = time.perf_counter() - t0
+    res = optimal_interception(tr, O0, N=50)
+    T_vs = vs_ctl.capture_time
+    outcomes = [
+        Outcome(
+            "virtual-shark",
+            "heuristic",
+            "feasible" if T_vs else "no_solution",
+            objective=T_vs,
+            time_s=vs_time,
+            message="time to the interception point (capture), closed loop",
+            extras={
+                "bearing_deg": bearing,
+                "contact_s": vs.intercept_time,
+                "frontal": bool(vs.frontal),
+                "touched_early": bool(vs.touched_early),
+            },
+        ),
+        *_ocp_outcomes(res, bearing),
+    ]
+    return build_rows("shark", instance, seed=seed, size=1, sense="min", outcomes=outcomes)
+
+
+def _ocp_outcomes(res: SolveResult, bearing: float) -> list[Outcome]:
+    """The interception OCP's outcome and that of its proven lower bound on the interception time."""
+    lb = res.bound  # proven lower bound on T (relaxation), valid for the OCP and the virtual shark
+    return [
+        Outcome.of(
+            "ocp",
+            "model",
+            res,
+            bound_kind="proven-global",
+            extras={"bearing_deg": bearing, "start_won": res.info.get("start_won")},
+        ),
+        Outcome(
+            "interception-time-bound",
+            "bound",
+            "optimal" if lb is not None else "no_solution",
+            objective=lb,
+            bound=lb,
+            bound_kind="proven-global" if lb is not None else "none",
+            message=str(res.info.get("bound_message", "")),
+            extras={"bearing_deg": bearing},
+        ),
+    ]
+
+
+def _assign_rows(instance: str, seed: int) -> list[dict]:
+    """Rows of an ``assign`` gap instance: optimal bottleneck vs greedy assignment of a random fleet."""
     g = np.random.default_rng(seed)
     n, s = int(g.integers(2, 5)), int(g.integers(2, 6))
     O = np.c_[g.uniform(-60, 60, (n, 2)), np.full(n, 2.0)]
@@ -465,7 +483,7 @@ def gap_task(task: Mapping[str, Any]) -> list[dict]:
             extras=extras,
         ),
     ]
-    return build_rows("shark", task["instance"], seed=seed, size=n, sense="min", outcomes=outcomes)
+    return build_rows("shark", instance, seed=seed, size=n, sense="min", outcomes=outcomes)
 
 
 def _finite_or_none(v):
