@@ -132,12 +132,31 @@ def _plot_beta(traces: dict[str, CovertTrace], path: Path, title: str, per_targe
 
 # --------------------------------------------------------------------------- reproduce
 def _case_table(case: int, traces, oracle: tuple[float, float, float], thesis: dict, out: Path, safe) -> dict:
-    h, s, m = traces["hover"], traces["sliding"], traces["mpc"]
+    h, s, m, g = traces["hover"], traces["sliding"], traces["mpc"], traces["mpc-safe"]
     lb, _, excess = oracle
     tab = ComparisonTable(
         f"Case {case}: maximum recorded bearing change (Fig. 3.{10 if case == 1 else 14})",
         explain=flag_reasons("covert"),
     )
+    _thesis_rows(tab, traces, thesis, lb)
+    _mpc_rows(tab, traces, safe)
+    _arrival_rows(tab, traces, thesis, safe)
+    _oracle_rows(tab, traces, lb, excess)
+    tab.emit(out, f"case{case}")
+    return {
+        "hover": h.beta_max,
+        "sliding": s.beta_max,
+        "mpc": m.beta_max,
+        "oracle_lb": lb,
+        "safe": g.beta_max,
+        "t_a_safe": g.t_a,
+        "t_a_sliding": s.t_a,
+    }
+
+
+def _thesis_rows(tab: ComparisonTable, traces, thesis: dict, lb: float) -> None:
+    """The rows the thesis reports: hover and sliding-mode beta_max and the reduction."""
+    h, s = traces["hover"], traces["sliding"]
     tab.add(
         "beta_max hover benchmark (deg)",
         thesis["hover"],
@@ -158,6 +177,11 @@ def _case_table(case: int, traces, oracle: tuple[float, float, float], thesis: d
         "(sliding - hover) / hover",
         why=f"on the sphere over [t_a, t_f] no controller reduces by more than {-_pct(lb, h.beta_max):.1f} %",
     )
+
+
+def _mpc_rows(tab: ComparisonTable, traces, safe) -> None:
+    """The MPC observers' rows (IPOPT, OSQP, slow approach, safeguarded) against the sliding mode."""
+    s, m = traces["sliding"], traces["mpc"]
     tab.add(
         "beta_max MPC, IPOPT (deg)",
         None,
@@ -194,6 +218,11 @@ def _case_table(case: int, traces, oracle: tuple[float, float, float], thesis: d
         _pct(g.beta_max, s.beta_max),
         "(safeguarded - sliding) / sliding",
     )
+
+
+def _arrival_rows(tab: ComparisonTable, traces, thesis: dict, safe) -> None:
+    """Arrival and retreat times, and how well the runs keep to the sphere."""
+    s, m, g = traces["sliding"], traces["mpc"], traces["mpc-safe"]
     tab.add(
         "t_a safeguarded MPC / its arrival deadline (s)",
         thesis.get("t_a"),
@@ -211,6 +240,11 @@ def _case_table(case: int, traces, oracle: tuple[float, float, float], thesis: d
         f"{s.sphere_error:.3f} / {m.sphere_error:.3f}",
         "max | |D-F| - L_u | for t_a <= t <= t_f",
     )
+
+
+def _oracle_rows(tab: ComparisonTable, traces, lb: float, excess: float) -> None:
+    """The convex-program oracle's rows and whether the runs end back at D_s."""
+    s, m = traces["sliding"], traces["mpc"]
     tab.add(
         "lower bound, any controller on the sphere over [t_a, t_f] of sliding (deg)",
         None,
@@ -226,16 +260,6 @@ def _case_table(case: int, traces, oracle: tuple[float, float, float], thesis: d
     tab.add(
         "back at D_s (sliding / MPC)", True, f"{s.finished} / {m.finished}", "|D - D_s| <= 5 cm at the end"
     )
-    tab.emit(out, f"case{case}")
-    return {
-        "hover": h.beta_max,
-        "sliding": s.beta_max,
-        "mpc": m.beta_max,
-        "oracle_lb": lb,
-        "safe": g.beta_max,
-        "t_a_safe": g.t_a,
-        "t_a_sliding": s.t_a,
-    }
 
 
 def stealth_front(scenario, traces: dict[str, CovertTrace], *, n_arrivals: int = 6, step: float = 0.5):
