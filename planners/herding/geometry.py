@@ -27,7 +27,11 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
     Degenerate input gives 1 vertex (all points coincide) or 2 (all collinear:
     the two extreme points); a hull thinner than 1e-9 of its extent counts as collinear.
     """
-    pts = check_array("points", points, shape=(None, 2), min_rows=1)
+    return _convex_hull(check_array("points", points, shape=(None, 2), min_rows=1))
+
+
+def _convex_hull(pts: np.ndarray) -> np.ndarray:
+    """:func:`convex_hull` of checked points (HullTracker's rebuild)."""
     if pts.shape[0] >= 3:
         try:
             cand = _hull_candidates(pts)
@@ -109,7 +113,10 @@ class HullTracker:
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         """Counter-clockwise convex-hull vertices of (n, 2) points, m (as :func:`convex_hull`)."""
-        pts = check_array("points", points, shape=(None, 2), min_rows=1)
+        return self._track(check_array("points", points, shape=(None, 2), min_rows=1))
+
+    def _track(self, pts: np.ndarray) -> np.ndarray:
+        """:meth:`__call__` of checked points (the herders' own, checked where they enter)."""
         prev, cand = self._prev, self._cand
         if prev is not None and cand is not None and prev.shape == pts.shape:
             d = pts - prev
@@ -126,7 +133,7 @@ class HullTracker:
         return self._rebuild(pts)
 
     def _rebuild(self, pts: np.ndarray) -> np.ndarray:
-        V = convex_hull(pts)
+        V = _convex_hull(pts)
         self._prev, self._moved, self._cand = pts, 0.0, None
         if V.shape[0] >= 3 and pts.shape[0] >= _TRACK_MIN:
             # a large herd: first the animals within margin of the prefilter's octagon (inside
@@ -371,7 +378,7 @@ class ExtendedHull:
         )
 
 
-def min_enclosing_circle(points: np.ndarray) -> tuple[np.ndarray, float]:  # noqa: C901
+def min_enclosing_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
     """Smallest circle containing the points (n, 2): (centre, radius), m.
 
     Welzl's randomised incremental algorithm (expected O(n)); apply it to the hull
@@ -381,69 +388,74 @@ def min_enclosing_circle(points: np.ndarray) -> tuple[np.ndarray, float]:  # noq
     safely inside are re-tested with the scalar test, so the result is the same as
     the point-by-point loops to the last bit.
     """
-    arr = check_array("points", points, shape=(None, 2), min_rows=1)
-    P = list(arr)
+    return _min_enclosing_circle(check_array("points", points, shape=(None, 2), min_rows=1))
 
-    def norm(v: np.ndarray) -> float:  # bit-identical to np.linalg.norm of a 1-D float vector
-        return math.sqrt(v.dot(v))
 
-    def circ2(a, b):
-        c = (a + b) / 2
-        return c, norm(a - c)
+_Circle = tuple[np.ndarray, float]
 
-    def circ3(a, b, c):
-        ax, ay = a
-        bx, by = b
-        cx, cy = c
-        d = 2 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by))
-        if abs(d) < 1e-12:  # collinear: the widest pair
-            best = max((circ2(a, b), circ2(a, c), circ2(b, c)), key=lambda t: t[1])
-            return best
-        ux = (
-            (ax * ax + ay * ay) * (by - cy)
-            + (bx * bx + by * by) * (cy - ay)
-            + (cx * cx + cy * cy) * (ay - by)
-        ) / d
-        uy = (
-            (ax * ax + ay * ay) * (cx - bx)
-            + (bx * bx + by * by) * (ax - cx)
-            + (cx * cx + cy * cy) * (bx - ax)
-        ) / d
-        u = np.array([ux, uy])
-        return u, norm(a - u)
 
-    def inside(circle, p):
-        return norm(p - circle[0]) <= circle[1] * (1 + 1e-12) + 1e-9
+def _norm(v: np.ndarray) -> float:
+    """Bit-identical to np.linalg.norm of a 1-D float vector."""
+    return math.sqrt(v.dot(v))
 
-    def first_outside(circle, lo: int, hi: int) -> int:
-        """Smallest index in [lo, hi) of a point not ``inside`` circle (hi if none)."""
-        head = min(hi, lo + 4)  # short scans (the common case on ordered hulls): scalar
-        for q in range(lo, head):
-            if not inside(circle, P[q]):
-                return q
-        if head >= hi:
-            return hi
-        rel = arr[head:hi] - circle[0]
-        dist = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
-        # surely inside, whatever the rounding of the scalar norm (a few ulps); NaN is not
-        sure = dist <= (circle[1] * (1 + 1e-12) + 1e-9) * (1 - 1e-13)
-        for off in np.flatnonzero(~sure).tolist():
-            if not inside(circle, P[head + off]):
-                return head + off
+
+def _circ2(a: np.ndarray, b: np.ndarray) -> _Circle:
+    c = (a + b) / 2
+    return c, _norm(a - c)
+
+
+def _circ3(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> _Circle:
+    ax, ay = a
+    bx, by = b
+    cx, cy = c
+    d = 2 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by))
+    if abs(d) < 1e-12:  # collinear: the widest pair
+        return max((_circ2(a, b), _circ2(a, c), _circ2(b, c)), key=lambda t: t[1])
+    na, nb, nc = ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy
+    ux = (na * (by - cy) + nb * (cy - ay) + nc * (ay - by)) / d
+    uy = (na * (cx - bx) + nb * (ax - cx) + nc * (bx - ax)) / d
+    u = np.array([ux, uy])
+    return u, _norm(a - u)
+
+
+def _inside(circle: _Circle, p: np.ndarray) -> bool:
+    return _norm(p - circle[0]) <= circle[1] * (1 + 1e-12) + 1e-9
+
+
+def _first_outside(arr: np.ndarray, P: list[np.ndarray], circle: _Circle, lo: int, hi: int) -> int:
+    """Smallest index in [lo, hi) of a point (rows of arr, P the same rows) not ``_inside`` circle
+    (hi if none)."""
+    head = min(hi, lo + 4)  # short scans (the common case on ordered hulls): scalar
+    for q in range(lo, head):
+        if not _inside(circle, P[q]):
+            return q
+    if head >= hi:
         return hi
+    rel = arr[head:hi] - circle[0]
+    dist = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
+    # surely inside, whatever the rounding of the scalar norm (a few ulps); NaN is not
+    sure = dist <= (circle[1] * (1 + 1e-12) + 1e-9) * (1 - 1e-13)
+    for off in np.flatnonzero(~sure).tolist():
+        if not _inside(circle, P[head + off]):
+            return head + off
+    return hi
 
+
+def _min_enclosing_circle(arr: np.ndarray) -> tuple[np.ndarray, float]:
+    """:func:`min_enclosing_circle` of checked points (the herders' hull vertices)."""
+    P = list(arr)
     n = len(P)
-    c = (P[0], 0.0)
-    i = first_outside(c, 1, n)
+    c: _Circle = (P[0], 0.0)
+    i = _first_outside(arr, P, c, 1, n)
     while i < n:
         c = (P[i], 0.0)
-        j = first_outside(c, 0, i)
+        j = _first_outside(arr, P, c, 0, i)
         while j < i:
-            c = circ2(P[i], P[j])
-            k = first_outside(c, 0, j)
+            c = _circ2(P[i], P[j])
+            k = _first_outside(arr, P, c, 0, j)
             while k < j:
-                c = circ3(P[i], P[j], P[k])
-                k = first_outside(c, k + 1, j)
-            j = first_outside(c, j + 1, i)
-        i = first_outside(c, i + 1, n)
+                c = _circ3(P[i], P[j], P[k])
+                k = _first_outside(arr, P, c, k + 1, j)
+            j = _first_outside(arr, P, c, j + 1, i)
+        i = _first_outside(arr, P, c, i + 1, n)
     return np.asarray(c[0], dtype=float), float(c[1])

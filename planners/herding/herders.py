@@ -40,7 +40,7 @@ from droneplan.planners.herding.allocation import allocate_bruteforce, allocate_
 from droneplan.planners.herding.geometry import (
     ExtendedHull,
     HullTracker,
-    min_enclosing_circle,
+    _min_enclosing_circle,
 )
 from droneplan.planners.herding.guidance import fly_on_edge, fly_to_edge, steer
 from droneplan.scenarios.herding import HerdingCommand, HerdingObservation, HerdingPhase
@@ -136,16 +136,17 @@ class _Herder(abc.ABC):
 
         Replans (hull, allocation or driving formation) when ``obs.replan``.
         """
-        if obs.replan:
-            self._observe(obs.animals, obs.centroid, obs.phase, obs.drones)
+        if obs.replan:  # the observation's arrays are checked here, once, for the planning below
+            animals = check_array("animals", obs.animals, shape=(None, 2), min_rows=1)
+            self._observe(animals, check_array("centroid", obs.centroid, shape=(2,)), obs.phase, obs.drones)
         return HerdingCommand(*self._control(obs.t, obs.drones, obs.headings, obs.dt))
 
     def _observe(self, animals, centroid, phase, drones) -> None:
-        self.centroid = check_array("centroid", centroid, shape=(2,))
+        self.centroid = centroid
         if phase == HerdingPhase.GATHERING:
             if self.phase == HerdingPhase.DRIVING:  # the simulator sent the herd back to gathering
                 self._regroup()
-            self.hull = ExtendedHull._from_checked_hull(self.herd_hull(animals), self.p.d_s)
+            self.hull = ExtendedHull._from_checked_hull(self.herd_hull._track(animals), self.p.d_s)
             if self.on_hull.all():
                 self._plan_gathering(drones)
         else:
@@ -202,8 +203,8 @@ class _Herder(abc.ABC):
     # -- driving (§6.4.4), shared
     def _plan_driving(self, animals, drones) -> None:
         p = self.p
-        hv = self.herd_hull(animals)
-        centre, _ = min_enclosing_circle(hv)
+        hv = self.herd_hull._track(animals)
+        centre, _ = _min_enclosing_circle(hv)
         to_goal = self.goal - centre
         dist_goal = float(np.linalg.norm(to_goal))
         c = self.drive_centre
