@@ -450,7 +450,7 @@ def _run_studies(args, problems: list[str], executor, store: ResultStore) -> Non
             store.export(args.out / "results.parquet")
 
 
-def _run(args) -> int:  # noqa: C901
+def _run(args) -> int:
     if args.command == "list":
         return _run_list()
     if args.command == "certify":
@@ -459,27 +459,10 @@ def _run(args) -> int:  # noqa: C901
         _writable_out(args.out)
         return _run_open_gap(args)
     problems = _resolve(args.problem)
-    if args.command == "gap" and args.seeds < 1:
-        raise SystemExit(f"droneplan: --seeds must be >= 1, got {args.seeds}")
-    if args.command == "gap" and args.first_seed < 0:
-        raise SystemExit(f"droneplan: --first-seed must be >= 0, got {args.first_seed}")
-    workers = getattr(args, "workers", None)
-    if workers is not None and workers < 1:
-        raise SystemExit(f"droneplan: --workers must be >= 1, got {workers}")
+    workers = _checked_counts(args)
     _writable_out(args.out)
     if args.command == "bench":
-        for problem in problems:
-            out = args.out / problem
-            out.mkdir(parents=True, exist_ok=True)
-            print(f"### bench {problem} (thesis ch. {_CHAPTER[problem]}) -> {out}", flush=True)
-            _load(problem).bench(quick=args.quick, out=out)
-        if args.problem == "all":
-            from droneplan.studies.bench_summary import bench_summary, summary_markdown, write_summary
-
-            rows = bench_summary(quick=args.quick)
-            print(summary_markdown(rows), flush=True)
-            print(f"summary: {write_summary(rows, args.out)}", flush=True)
-        return 0
+        return _run_bench(args, problems)
     with contextlib.ExitStack() as stack:
         store = stack.enter_context(ResultStore(args.out / STORE_NAME))
         executor = stack.enter_context(make_executor(workers, args.dask))
@@ -500,6 +483,38 @@ def _run(args) -> int:  # noqa: C901
             file=sys.stderr,
         )
         return 1
+    return 0
+
+
+def _checked_counts(args) -> int | None:
+    """``--workers`` (None: one per core) after checking it and gap's ``--seeds``/``--first-seed``;
+    a bad value exits with a message naming the option."""
+    if args.command == "gap" and args.seeds < 1:
+        raise SystemExit(f"droneplan: --seeds must be >= 1, got {args.seeds}")
+    if args.command == "gap" and args.first_seed < 0:
+        raise SystemExit(f"droneplan: --first-seed must be >= 0, got {args.first_seed}")
+    workers = getattr(args, "workers", None)
+    most = common.WORKERS_PER_CORE * (os.cpu_count() or 1)
+    if workers is not None and not 1 <= workers <= most:
+        raise SystemExit(
+            f"droneplan: --workers must be in [1, {most}] ({common.WORKERS_PER_CORE} per core), got {workers}"
+        )
+    return workers
+
+
+def _run_bench(args, problems: list[str]) -> int:
+    """``droneplan bench``: each problem's benchmark, then (for "all") the summary table."""
+    for problem in problems:
+        out = args.out / problem
+        out.mkdir(parents=True, exist_ok=True)
+        print(f"### bench {problem} (thesis ch. {_CHAPTER[problem]}) -> {out}", flush=True)
+        _load(problem).bench(quick=args.quick, out=out)
+    if args.problem == "all":
+        from droneplan.studies.bench_summary import bench_summary, summary_markdown, write_summary
+
+        rows = bench_summary(quick=args.quick)
+        print(summary_markdown(rows), flush=True)
+        print(f"summary: {write_summary(rows, args.out)}", flush=True)
     return 0
 
 

@@ -212,3 +212,16 @@ def test_run_gap_bounds_workers_and_checks_dask_address(tmp_path):
     assert not list(tmp_path.iterdir())  # refused before --out was created
     with pytest.raises(ValueError, match=r"^workers"):
         make_executor(workers=most + 1).__enter__()
+
+
+def test_cli_workers_beyond_the_bound_exit_naming_the_option(tmp_path):
+    import os
+
+    from droneplan.studies.common import WORKERS_PER_CORE
+
+    most = WORKERS_PER_CORE * (os.cpu_count() or 1)
+    args = ["gap", "cells", "--seeds", "1", "--out", str(tmp_path / "o"), "--workers"]
+    for workers in (0, most + 1, 10**12):
+        with pytest.raises(SystemExit, match=rf"--workers must be in \[1, {most}\]"):
+            cli.main([*args, str(workers)])
+    assert not (tmp_path / "o").exists()  # refused before --out was created
