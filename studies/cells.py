@@ -1012,7 +1012,10 @@ def ga_ablation(
     :data:`INSTANCE_VARIANTS` (default all; :func:`ablation_tasks` says what runs on each);
     es_limit, milp_limit: time limits (s) of the exhaustive search (a stopped search still
     gives its best value, flagged ``es_complete``) and of the MILP (``p_milp`` is None unless
-    it is proven optimal).
+    it is proven optimal). Runs beyond the solves budget are refused up front, naming ``runs`` or
+    ``ablation_runs`` (see :func:`ablation_tasks`); executor: a
+    :class:`~droneplan.studies.common.StudyExecutor` or None; store: a ``ResultStore`` or None;
+    out: a directory path or None.
 
     Returns :func:`ablation_frame`'s table (one row per seed, m, variant); its
     ``attrs["finding"]`` holds :func:`ablation_finding`'s text and ``attrs["summary"]``
