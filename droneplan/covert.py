@@ -58,6 +58,7 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
     )
     from droneplan.solvers.result import SolveResult, Status
     from droneplan.studies.covert import stealth_front
+    from droneplan.studies.covert_front import optimised_front, plot_optimised_front
     from droneplan.studies.plots import plot_bearing, plot_path, plot_stealth_front
     from droneplan.studies.plots.covert import animate
 
@@ -109,6 +110,8 @@ __all__ = [
     "plot_path",
     "plot_bearing",
     "stealth_front",
+    "optimised_front",
+    "plot_optimised_front",
     "plot_stealth_front",
     "animate",
 ]
@@ -165,6 +168,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "Status",
     ),
     "droneplan.studies.covert": ("stealth_front",),
+    "droneplan.studies.covert_front": ("optimised_front", "plot_optimised_front"),
     "droneplan.studies.plots": (
         "plot_bearing",
         "plot_path",
