@@ -289,6 +289,7 @@ class ExtendedHull:
         :class:`HullTracker` return them); d_s: offset, m (> 0); mitre_limit: see
         :func:`extended_hull_vertices`.
         """
+        d_s, mitre_limit = _check_offset(d_s, mitre_limit)
         return cls._from_checked_hull(
             check_array("hull", hull, shape=(None, 2), min_rows=1), d_s, mitre_limit
         )
@@ -297,8 +298,8 @@ class ExtendedHull:
     def _from_checked_hull(
         cls, hull: np.ndarray, d_s: float, mitre_limit: float = MITRE_LIMIT
     ) -> ExtendedHull:
-        """:meth:`from_hull` of a hull already checked (as :class:`HullTracker` returns it)."""
-        d_s, mitre_limit = _check_offset(d_s, mitre_limit)
+        """:meth:`from_hull` of a hull, offset and mitre limit already checked (the herders': the
+        tracker's hull, HerdingParams.d_s)."""
         return cls.from_vertices(*_extended_hull_vertices(hull, d_s, mitre_limit))
 
     @classmethod
