@@ -9,7 +9,8 @@
   controller that keeps the sphere during the observation, and the whole-mission lower bound
   (:func:`formulations.covert_bounds.mission_lower_bound`) for any controller arriving by the
   sliding mode's arrival time.
-- ``reproduce`` also draws the stealth-versus-arrival-time front (:func:`stealth_front`).
+- ``reproduce`` also draws the stealth-versus-arrival-time front (:func:`stealth_front`), and in
+  full mode the optimised front beside it (:mod:`droneplan.studies.covert_front`).
 - ``bench``: MPC solve time per replan vs its control period (IPOPT and the OSQP
   real-time iteration), and the MPC-vs-sliding margin on both cases, for the MPC and
   the safeguarded MPC (MPC plan or sliding rollout per replan, with its arrival times).
@@ -38,6 +39,7 @@ from droneplan.planners.covert import (
 )
 from droneplan.scenarios.covert import CovertTrace, random_case, simulate, thesis_case
 from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study
+from droneplan.studies.covert_front import optimised_front_section
 from droneplan.studies.jobs import Job, run_jobs, run_reproduction
 from droneplan.studies.plots.covert import animate, plot_bearing, plot_path, plot_stealth_front
 from droneplan.studies.report import flag_reasons
@@ -646,8 +648,9 @@ def reproduce_jobs(*, quick: bool, out: Path) -> list[Job]:
     other problems; each run is made once and handed to every table that shows it.
 
     quick: 3 noise runs at 2 levels (full: 20 at 5), the stealth front of case 1 only, at 1 s
-    instants (full: both cases at 0.2 s, two more MPC approach speeds); out: directory for the
-    CSV, PNG and GIF files.
+    instants (full: both cases at 0.2 s, two more MPC approach speeds, and the optimised front of
+    :mod:`droneplan.studies.covert_front` for both cases); out: directory for the CSV, PNG and GIF
+    files.
     """
     out = Path(out)
     jobs: list[Job] = []
@@ -694,6 +697,13 @@ def reproduce_jobs(*, quick: bool, out: Path) -> list[Job]:
     jobs.append(
         Job("covert/summary", "covert case 1", _summary_job, {"out": out}, summary, cost=0.1, local=True)
     )
+    if not quick:
+        for case in (1, 2):
+            kwargs: dict[str, Any] = {"case": case, "out": out, "quick": False}
+            key = f"covert/optimised-front/case{case}"
+            jobs.append(
+                Job(key, "covert stealth front", optimised_front_section, kwargs, cost=120.0, local=True)
+            )
     return jobs
 
 
