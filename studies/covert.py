@@ -699,10 +699,10 @@ def reproduce_jobs(*, quick: bool, out: Path) -> list[Job]:
     )
     if not quick:
         for case in (1, 2):
-            kwargs: dict[str, Any] = {"case": case, "out": out, "quick": False}
+            front = {"case": case, "out": out, "quick": False}
             key = f"covert/optimised-front/case{case}"
             jobs.append(
-                Job(key, "covert stealth front", optimised_front_section, kwargs, cost=120.0, local=True)
+                Job(key, "covert stealth front", optimised_front_section, front, cost=120.0, local=True)
             )
     return jobs
 
