@@ -73,7 +73,8 @@ class InstantMinmaxProgram:
     |y - p_i| <= r_i  (extra balls),  in units scaled by L_u around F (y = (D - F) / L_u),
     laid out once for ``n_targets`` targets and ``n_balls`` extra balls in Clarabel's conic
     form (min q.x  s.t.  A x + z = b, z in the cones; x = (y, t, s)) and re-solved with new
-    data (targets, c, balls) by filling the few entries of A and b that change.
+    data (targets, c, balls) by filling the few entries of A and b that change; the solver is
+    built on the first solve and updated in place after (the sparsity pattern never changes).
     """
 
     last_accurate: bool = False
@@ -111,6 +112,7 @@ class InstantMinmaxProgram:
         self._csc = sparse.csc_matrix(mask.astype(float))  # the fixed pattern; its data is refilled
         self._nz = (self._csc.indices, np.repeat(np.arange(nx), np.diff(self._csc.indptr)))
         self._cones = [clarabel.NonnegativeConeT(n)] + [clarabel.SecondOrderConeT(4)] * (1 + n + nb)
+        self._solver: Any = None
 
     def set_instance(self, params: Any, targets: Any, balls: Any = None, radius: float | None = None) -> None:
         """Fill in the data: targets (n, 3) m, balls (n_balls, 4) rows (centre (3) m, radius m),
@@ -138,8 +140,13 @@ class InstantMinmaxProgram:
         """(s(c), ds/dc, y) or None when the solver failed; s = -inf when the balls do not meet."""
         self._A[self._diag] = c
         self._csc.data[:] = self._A[self._nz]
-        cl = self._clarabel
-        sol = cl.DefaultSolver(self._P, self._q, self._csc, self._b, self._cones, self._settings).solve()
+        if self._solver is None:
+            self._solver = self._clarabel.DefaultSolver(
+                self._P, self._q, self._csc, self._b, self._cones, self._settings
+            )
+        else:  # the same pattern: new values in place of the solver's copies (no warm start in an IPM)
+            self._solver.update(A=self._csc, b=self._b)
+        sol = self._solver.solve()
         status = str(sol.status)
         self.last_accurate = status == "Solved"
         if status == "PrimalInfeasible":

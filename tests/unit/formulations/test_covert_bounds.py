@@ -144,7 +144,8 @@ def test_reused_program_matches_a_freshly_built_one(seed, n, n_balls, c, radius)
     rng = np.random.default_rng(seed + 1)
     balls = np.column_stack([P.F_arr + rng.uniform(-300, 300, (n_balls, 3)), rng.uniform(50, 500, n_balls)])
     prog = InstantMinmaxProgram(n, n_balls)
-    prog.set_instance(P, _targets(seed + 2, n), balls[::-1] * 1.1, radius + 7.0)  # stale data first
+    prog.set_instance(P, _targets(seed + 2, n), balls[::-1] * 1.1, radius + 7.0)  # a solve on stale data
+    prog._s(1.0 - c)  # first, so that the solve below updates the solver in place
     prog.set_instance(P, A, balls, radius)
     got = prog._s(c)
     ref = _fresh_cvxpy_slack(A, c, balls, radius)
