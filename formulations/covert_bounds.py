@@ -85,7 +85,7 @@ class InstantMinmaxProgram:
             raise ValueError(f"n_targets must be an int >= 1, got {n_targets!r}")
         if isinstance(n_balls, bool) or not isinstance(n_balls, (int, np.integer)) or n_balls < 0:
             raise ValueError(f"n_balls must be an int >= 0, got {n_balls!r}")
-        import clarabel  # type: ignore[import-untyped]
+        import clarabel
 
         n, nb = int(n_targets), int(n_balls)
         self.n_targets, self.n_balls = n, nb
