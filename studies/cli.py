@@ -168,6 +168,10 @@ def _parser() -> argparse.ArgumentParser:
         "--library-dir", type=Path, default=None, help="where the library files are (default: the package's)"
     )
 
+    from droneplan.studies.library import cross
+
+    cross.add_arguments(sub.add_parser("cross-certify", help=cross.HELP))
+
     sub.add_parser("list", help="instance families (with their library entries) and registered methods")
 
     bench = sub.add_parser("bench", help="performance ratios measured in one run", epilog=epilog)
@@ -455,6 +459,13 @@ def _run(args) -> int:
         return _run_list()
     if args.command == "certify":
         return _run_certify(args)
+    if args.command == "cross-certify":
+        from droneplan.studies.library.cross import run as run_cross_certify
+
+        try:
+            return run_cross_certify(args)
+        except ValueError as exc:
+            raise StudyError(str(exc)) from None
     if args.command == "gap" and (args.methods or args.instances):
         _writable_out(args.out)
         return _run_open_gap(args)

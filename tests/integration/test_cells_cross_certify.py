@@ -93,3 +93,15 @@ def test_the_command_line_entry(tmp_path, capsys, monkeypatch):
     assert "DISAGREEMENT table4.2@1:m=1,seed=0" in capsys.readouterr().err
     with pytest.raises(ValueError, match="--m"):
         cross.run(parser.parse_args(["--m", "a,b"]))
+
+
+def test_droneplan_cross_certify_command(tmp_path, capsys):
+    from droneplan.studies import cli
+
+    code = cli.main(
+        ["cross-certify", "--m", "1", "--seeds", "1", "--time-limit", "10", "--out", str(tmp_path)]
+    )
+    assert code == 0
+    assert "0 disagreements" in capsys.readouterr().out
+    assert cli.main(["cross-certify", "no-such-family"]) == 2
+    assert "family must be a cells family" in capsys.readouterr().err
