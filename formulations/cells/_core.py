@@ -33,21 +33,39 @@ class Evaluation:
     """(n,) bool over ``problem.users``: user covered by a drone-cell (inactive users False)."""
 
 
-def as_positions(problem: CellProblem, positions) -> np.ndarray:
-    """Validate and return drone-cell positions as a float (k, 2) array, 0 <= k <= n_cells."""
+def as_positions(problem: CellProblem, positions, name: str = "positions") -> np.ndarray:
+    """Validate and return drone-cell positions as a float (k, 2) array (one point (2,) or an
+    empty array is accepted too); errors name the parameter ``name`` of the public entry."""
     check_instance("problem", problem, CellProblem)
-    p = check_array("positions", positions)
+    p = check_array(name, positions)
     if p.size == 0:
         p = p.reshape(0, 2)
     if p.ndim == 1 and p.shape[0] == 2:
         p = p.reshape(1, 2)
-    return check_array("positions", p, shape=(None, 2))
+    return check_array(name, p, shape=(None, 2))
 
 
 def pairwise_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(len(a), len(b)) Euclidean distances (m) between the points ``a`` ((p, 2) m) and ``b``
     ((q, 2) m): the one distance helper of the cells package."""
     return np.hypot(a[:, None, 0] - b[None, :, 0], a[:, None, 1] - b[None, :, 1])
+
+
+def _as_mask(name: str, value, k: int) -> np.ndarray:
+    """``value`` as a (k,) bool array; TypeError unless its dtype is bool, ValueError on another shape."""
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be a bool array, got {type(value).__name__}")
+    try:
+        arr = np.asarray(value)
+    except (ValueError, TypeError) as exc:  # ragged nesting
+        raise TypeError(f"{name} must be a bool array ({exc})") from None
+    if arr.size == 0 and arr.dtype.kind in "fO":  # an empty list has no dtype of its own
+        arr = arr.astype(bool)
+    if arr.dtype != bool:
+        raise TypeError(f"{name} must be a bool array, got dtype {arr.dtype}")
+    if arr.shape != (k,):
+        raise ValueError(f"{name} must have shape ({k},) (one flag per drone-cell), got {arr.shape}")
+    return arr
 
 
 def connected_mask(
@@ -58,14 +76,15 @@ def connected_mask(
 
     problem: the CellProblem (users, GBSs, m, radii in metres).
     positions: (k, 2) drone-cell positions (m).
-    usable: (k,) bool, drone-cells allowed to relay (default: all).
+    usable: (k,) bool, drone-cells allowed to relay (default: all); a bool array with one
+        entry per drone-cell (ints and other dtypes are refused).
     """
     check_instance("problem", problem, CellProblem)
     positions = as_positions(problem, positions)
     k = len(positions)
+    usable = np.ones(k, dtype=bool) if usable is None else _as_mask("usable", usable, k)
     if k == 0:
         return np.zeros(0, dtype=bool)
-    usable = np.ones(k, dtype=bool) if usable is None else usable
     direct = np.any(pairwise_distances(positions, problem.gbs) <= problem.r1 + TOL, axis=1) & usable
     adj = (pairwise_distances(positions, positions) <= problem.r2 + TOL) & usable[:, None] & usable[None, :]
     reach = direct.copy()
@@ -241,7 +260,7 @@ def candidate_sites(problem: CellProblem, extra=None) -> Candidates:
     check_instance("problem", problem, CellProblem)
     pts = raw_candidate_points(problem)
     if extra is not None:
-        ex = as_positions(problem, extra)
+        ex = as_positions(problem, extra, "extra")
         pts = merge_points(np.concatenate([ex, pts], axis=0)) if len(pts) else merge_points(ex)
     n_gen = len(pts)
     pts = pts[site_feasible(problem, pts)]

@@ -16,7 +16,7 @@ from __future__ import annotations
 import warnings
 from typing import Any
 
-from droneplan.core.validation import check_int
+from droneplan.core.validation import check_bool, check_int
 from droneplan.formulations.cells._bnb import search
 from droneplan.formulations.cells._core import evaluate
 from droneplan.formulations.cells._milp import CONNECTIVITY, solve_model
@@ -29,8 +29,17 @@ ENGINES = ("bnb", "milp")
 """Exact engines of :func:`solve_exact`: the combinatorial branch and bound or the model."""
 
 
-def _check_common(problem: CellProblem, engine: str, backend: str, connectivity: str, workers: int) -> None:
-    """The argument checks shared by the entries (each error names its parameter)."""
+def _check_common(
+    problem: CellProblem,
+    engine: str,
+    backend: str,
+    connectivity: str,
+    workers: int,
+    max_rounds: int,
+    user_cliques: bool,
+) -> None:
+    """The argument checks shared by the entries (each error names its parameter; the
+    warm start is checked by ``prepare`` under its own name)."""
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
     if engine not in ENGINES:
@@ -39,6 +48,8 @@ def _check_common(problem: CellProblem, engine: str, backend: str, connectivity:
     if connectivity not in CONNECTIVITY:
         raise ValueError(f"connectivity must be one of {CONNECTIVITY}, got {connectivity!r}")
     check_int("workers", workers, min_value=1)
+    check_int("max_rounds", max_rounds, min_value=0)
+    check_bool("user_cliques", user_cliques)
 
 
 def _early_exit(prep: Prepared, backend: str, engine: str) -> SolveResult | None:
@@ -217,8 +228,8 @@ def solve_exact(
     connectivity: "hops" (default) or "lazy", the model's exact backhaul formulation (hop
         levels measured faster: Table 4.2 m = 4 seed 3, CP-SAT, 1 worker, from the optimum
         as incumbent: proven in 78 s, lazy cuts still at bound 66 after 120 s).
-    max_rounds: at most this many model solves (engine "milp"; then FEASIBLE with the
-        bound found so far).
+    max_rounds: at most this many model solves, an int >= 0 (engine "milp"; then FEASIBLE
+        with the bound found so far).
     user_cliques: add the per-user at-most-one rows to the model (engine "milp").
 
     Returns a SolveResult: ``x`` positions (k, 2) with k <= m, ``objective`` covered
@@ -231,7 +242,7 @@ def solve_exact(
     ``global_optimal`` (objective equals the continuous bound), ``rounds`` (model solves),
     ``model_stats``. ``message`` says which bound is which and which engine gave it.
     """
-    _check_common(problem, engine, backend, connectivity, workers)
+    _check_common(problem, engine, backend, connectivity, workers, max_rounds, user_cliques)
     prep = prepare(problem, warm_start=warm_start, time_limit=time_limit)
     done = _early_exit(prep, "bnb" if engine == "bnb" else backend, engine)
     if done is not None:

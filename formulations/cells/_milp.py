@@ -91,7 +91,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from droneplan.core.validation import check_instance
+from droneplan.core.validation import check_bool, check_instance, check_int, check_real, check_sequence
 from droneplan.formulations.cells._core import TOL, Candidates, candidate_sites, evaluate, pairwise_distances
 from droneplan.formulations.cells._prepare import Prepared, _feasible_subset, coverage_upper_bound
 from droneplan.scenarios.cells import CellProblem
@@ -369,6 +369,40 @@ def _new_model(backend: str):
     return get_backend(backend, kind="linear").new_model()
 
 
+def _as_keep(keep: Any, n: int) -> np.ndarray:
+    """``keep`` as a 1-D int64 array of distinct indices into ``n`` candidates (TypeError for
+    floats and bools, ValueError out of range or repeated); an empty list keeps nothing."""
+    if isinstance(keep, (str, bytes)) or keep is None:
+        raise TypeError(f"keep must be an array of candidate indices, got {type(keep).__name__}")
+    try:
+        arr = np.asarray(keep)
+    except (ValueError, TypeError) as exc:  # ragged nesting
+        raise TypeError(f"keep must be a 1-D array of candidate indices ({exc})") from None
+    if arr.size == 0 and arr.dtype.kind in "fO":  # an empty list has no dtype of its own
+        arr = arr.astype(np.int64)
+    if arr.dtype.kind not in "iu":
+        raise TypeError(f"keep must be an array of int candidate indices, got dtype {arr.dtype}")
+    if arr.ndim != 1:
+        raise ValueError(f"keep must be a 1-D array of candidate indices, got shape {arr.shape}")
+    if arr.size and (int(arr.min()) < 0 or int(arr.max()) >= n):
+        raise ValueError(
+            f"keep must hold indices in [0, {n}) (the candidates), got {int(arr.min())}..{int(arr.max())}"
+        )
+    if len(np.unique(arr)) != len(arr):
+        raise ValueError("keep must not repeat a candidate index")
+    return arr.astype(np.int64)
+
+
+def _as_objective_range(objective_range: Any) -> tuple[float, float] | None:
+    """None, or ``objective_range`` as a pair (lo, hi) of finite numbers (covered users)."""
+    if objective_range is None:
+        return None
+    pair = check_sequence("objective_range", objective_range, min_len=2)
+    if len(pair) != 2:
+        raise ValueError(f"objective_range must be a pair (lo, hi), got {len(pair)} items")
+    return check_real("objective_range[0]", pair[0]), check_real("objective_range[1]", pair[1])
+
+
 def build_milp(  # noqa: C901, PLR0915
     problem: CellProblem,
     *,
@@ -386,10 +420,12 @@ def build_milp(  # noqa: C901, PLR0915
 
     backend: "cp-sat" (default), "highs" or "scip".
     candidates: a candidate set (default :func:`candidate_sites(problem)`).
-    keep: indices of candidates to keep (default all), e.g. from :func:`reduce_candidates`.
-    objective_range: (lo, hi) written as ``lo <= sum_j y_j <= hi`` (item 4), or None.
-    pair_limit: unused (conflicting pairs left over by the grid cliques are always written
-        as sector cliques, item 2); kept for callers that pass it.
+    keep: distinct indices of candidates to keep (a 1-D int array; default all), e.g. from
+        :func:`reduce_candidates`.
+    objective_range: (lo, hi) covered users, finite, written as ``lo <= sum_j y_j <= hi``
+        (item 4), or None.
+    pair_limit: an int >= 0, unused (conflicting pairs left over by the grid cliques are always
+        written as sector cliques, item 2); kept for callers that pass it.
     deadline: a ``time.perf_counter()`` value; building stops and returns None once it
         has passed (None: no limit).
     connectivity: "hops" (default; item 3b: the exact hop-level model) or "lazy" (item 3a:
@@ -403,13 +439,17 @@ def build_milp(  # noqa: C901, PLR0915
     check_instance("problem", problem, CellProblem)
     if connectivity not in CONNECTIVITY:
         raise ValueError(f"connectivity must be one of {CONNECTIVITY}, got {connectivity!r}")
+    check_instance("candidates", candidates, Candidates, optional=True)
+    check_int("pair_limit", pair_limit, min_value=0)
+    user_cliques = check_bool("user_cliques", user_cliques)
+    objective_range = _as_objective_range(objective_range)
     lin = _new_model(backend)
 
     def late() -> bool:
         return deadline is not None and time.perf_counter() > deadline
 
     cand = candidate_sites(problem) if candidates is None else candidates
-    idx = np.arange(len(cand.points)) if keep is None else np.asarray(keep, dtype=np.int64)
+    idx = np.arange(len(cand.points)) if keep is None else _as_keep(keep, len(cand.points))
     pts = cand.points[idx]
     cover = [cand.cover[i] for i in idx]
     direct = cand.direct[idx]

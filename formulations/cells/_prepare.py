@@ -358,7 +358,7 @@ def prepare(problem: CellProblem, *, warm_start=None, time_limit: float | None =
     check_instance("problem", problem, CellProblem)
     time_limit = check_time_limit(time_limit)
     t0 = time.perf_counter()
-    warm = None if warm_start is None else as_positions(problem, warm_start)
+    warm = None if warm_start is None else as_positions(problem, warm_start, "warm_start")
     info: dict[str, Any] = {}
     # candidates and the greedy incumbent first (fast), so a short time limit still returns a plan
     cand = candidate_sites(problem, extra=warm)

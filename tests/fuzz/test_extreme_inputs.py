@@ -214,31 +214,6 @@ def _known(where: str, what: str, name: str, param: str, *labels: str) -> None:
 
 
 _known(
-    _CELLS_CORE,
-    "usable is not checked (a bool mask of the users)",
-    "connected_mask",
-    "usable",
-    "1e12",
-    "1e-300",
-)
-_known(_CELLS_CORE, "usable is not checked (a bool mask of the users)", "connected_mask", "usable", "10**12")
-_known(
-    _CELLS_CORE, "extra is checked under the name 'positions'", "candidate_sites", "extra", "1e12", "1e-300"
-)
-_known(_CELLS_CORE, "extra is checked under the name 'positions'", "candidate_sites", "extra", "10**12")
-for _p in ("candidates", "keep", "objective_range"):
-    _known(_CELLS_CORE, f"build_milp does not check {_p}", "build_milp", _p, "1e12", "1e-300", "10**12")
-_known(_CELLS_CORE, "pair_limit NaN accepted (no check_int)", "build_milp", "pair_limit", "nan")
-for _n in ("build_milp", "solve_exact", "solve_milp"):
-    _known(_CELLS_CORE, "user_cliques is not checked as a bool", _n, "user_cliques", "str-flag")
-for _n in ("solve_exact", "solve_milp"):
-    _known(_CELLS_CORE, "max_rounds NaN accepted (no check_int)", _n, "max_rounds", "nan")
-for _n in ("solve_exact", "solve_milp", "branch_and_bound"):
-    _known(
-        _CELLS_CORE, "warm_start is checked under the name 'positions'", _n, "warm_start", "1e12", "1e-300"
-    )
-    _known(_CELLS_CORE, "warm_start is checked under the name 'positions'", _n, "warm_start", "10**12")
-_known(
     "planners/cells.py (owner CELLS)",
     "iter_max has no work budget (10**6 generations run until stopped)",
     "genetic",
