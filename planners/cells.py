@@ -331,6 +331,45 @@ def _run_batch(  # noqa: PLR0915
     return best_chrom.copy(), f[np.arange(N), i].astype(int), share
 
 
+_GA_WORKING_ARRAYS = 10
+"""Arrays of the population's shape (restarts, pop_size, m, 2) a generation holds at once
+(population, mutated copy, random draws, steps ...): the peak memory measured with
+``tracemalloc`` is 9-11 times the population array once that array dominates (restarts=10**5,
+pop_size=4, m=2: 120 MB; Table 4.3 m=4: 11 times)."""
+
+
+def _check_ga_work(problem: CellProblem, P: int, iter_max: int, N: int) -> None:
+    """Refuse up front a GA run beyond the work budgets (``droneplan.core.validation``).
+
+    - generations: ``iter_max`` sequential generations, each a Python-level step (about
+      0.2 ms), against the ``evaluations`` budget (100 000 by default);
+    - fitness evaluations: pop_size x restarts x (iter_max + 1) chromosomes (the initial
+      population and one pass per generation), against the ``elements`` budget (50 000 000 by
+      default): each evaluation is a vectorised pass over one chromosome of about 1-4 us CPU
+      (1.1 us with 3 users, 3.4 us on a Table 4.2 instance with m = 3), the cost of a few
+      array elements, not of a Python-level step. Table 4.3 at m = 4 (P = 200, N = 200,
+      iter_max = 50) asks for 2 040 000, far beyond the ``evaluations`` budget but 25 times
+      within this one; the error names the parameter furthest above its Table 4.3 value;
+    - memory: ``_GA_WORKING_ARRAYS`` arrays of the population's shape, against ``elements``.
+    """
+    m = problem.n_cells
+    P0, N0 = thesis_ga_settings(m)
+    check_work("iter_max (sequential generations)", iter_max, "evaluations")
+    ratios = {"pop_size": P / P0, "iter_max": (iter_max + 1) / 51, "restarts": N / N0}
+    blame = max(ratios, key=lambda k: ratios[k])
+    check_work(
+        f"{blame} (pop_size x restarts x (iter_max + 1) fitness evaluations, counted as array elements)",
+        float(P) * N * (iter_max + 1),
+        "elements",
+    )
+    # fitness() evaluates coverage in blocks of `chunk` chromosomes, so the user count does
+    # not multiply the memory
+    check_size(
+        f"restarts x pop_size x n_cells x 2 x {_GA_WORKING_ARRAYS} (the GA's working arrays)",
+        float(N) * P * m * 2 * _GA_WORKING_ARRAYS,
+    )
+
+
 def genetic(
     problem: CellProblem,
     *,
@@ -356,6 +395,12 @@ def genetic(
     (the full m x 2 best chromosome), ``seed``.
 
     problem: the CellProblem (users, GBSs, m, radii in metres).
+
+    Work budgets (``droneplan.core.validation.work_limits``): at most ``evaluations``
+    generations (iter_max; default 100 000), at most ``elements`` fitness evaluations
+    pop_size x restarts x (iter_max + 1) (default 50 000 000; Table 4.3 at m = 4 asks for
+    2 040 000) and the GA's working arrays within ``elements``; beyond them a ValueError names
+    the parameter, the size asked for and the limit before any work starts.
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
@@ -364,9 +409,7 @@ def genetic(
     N = N0 if restarts is None else restarts
     for name, v, lo in (("pop_size", P, 2), ("iter_max", iter_max, 0), ("restarts", N, 1)):
         check_int(name, v, min_value=lo)
-    # The population arrays are (restarts, pop_size, m, 2); fitness() evaluates coverage in
-    # blocks of `chunk` chromosomes, so the user count does not multiply the memory.
-    check_size("restarts x pop_size x n_cells x 2", int(N) * int(P) * problem.n_cells * 2)
+    _check_ga_work(problem, int(P), int(iter_max), int(N))
     if settings is not None and not isinstance(settings, GASettings):
         raise TypeError(f"settings must be GASettings or None, got {type(settings).__name__}")
     s = settings or GASettings()

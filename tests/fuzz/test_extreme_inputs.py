@@ -213,22 +213,6 @@ def _known(where: str, what: str, name: str, param: str, *labels: str) -> None:
         KNOWN[(name, param, label)] = f"{where}: {what}"
 
 
-_known(
-    "planners/cells.py (owner CELLS)",
-    "iter_max has no work budget (10**6 generations run until stopped)",
-    "genetic",
-    "iter_max",
-    "10**12",
-    "10**6",
-)
-_known(
-    "planners/cells.py (owner CELLS)",
-    "restarts has no work budget beyond its size check (10**6 restarts run until stopped)",
-    "genetic",
-    "restarts",
-    "10**6",
-)
-
 CASES = _cases()
 
 

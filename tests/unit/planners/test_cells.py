@@ -3,8 +3,18 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from droneplan.core.validation import MAX_ELEMENTS, MAX_EVALUATIONS, work_limits
 from droneplan.formulations.cells import CellProblem, circle_intersections, evaluate, solve_milp
-from droneplan.planners.cells import GASettings, Region, exhaustive, fitness, genetic, max_coverage_in_region
+from droneplan.planners.cells import (
+    GASettings,
+    Region,
+    _check_ga_work,
+    exhaustive,
+    fitness,
+    genetic,
+    max_coverage_in_region,
+    thesis_ga_settings,
+)
 
 
 def small(users, m=2, r1=3.0, r2=2.5, bounds=None):
@@ -74,6 +84,62 @@ def test_ga_settings_validation():
         genetic(random_small(0, 5, 1), pop_size=1, restarts=1)
     with pytest.raises(ValueError, match="restarts"):
         genetic(random_small(0, 5, 1), pop_size=4, restarts=0)
+
+
+# ----------------------------------------------------------------- GA work budgets
+def test_ga_refuses_too_many_generations_naming_iter_max():
+    with pytest.raises(ValueError, match=r"^iter_max .*1000000 evaluations.* limit of 100000"):
+        genetic(random_small(0, 5, 2), pop_size=4, iter_max=10**6, restarts=1, seed=0)
+    p = random_small(0, 5, 2)
+    with work_limits(evaluations=10):
+        assert genetic(p, pop_size=4, iter_max=10, restarts=1, seed=0).iterations == 10
+        with pytest.raises(ValueError, match=r"^iter_max .*11 evaluations.* limit of 10\b"):
+            genetic(p, pop_size=4, iter_max=11, restarts=1, seed=0)
+
+
+def test_ga_budgets_its_fitness_evaluations_naming_the_largest_factor():
+    p = random_small(0, 5, 2)  # Table 4.3 m = 2: P = 50, N = 50
+    asked = 4 * 1 * (200 + 1)  # pop_size x restarts x (iter_max + 1)
+    with work_limits(elements=asked):
+        assert genetic(p, pop_size=4, iter_max=200, restarts=1, seed=0).iterations == 200
+    with work_limits(elements=asked - 1), pytest.raises(ValueError, match=rf"^iter_max .*{asked} array"):
+        genetic(p, pop_size=4, iter_max=200, restarts=1, seed=0)
+    q = random_small(0, 5, 1)  # Table 4.3 m = 1: P = 20, N = 30
+    asked = 2 * 3000 * (100 + 1)  # restarts is 100 times its table value, iter_max twice
+    with work_limits(elements=asked - 1), pytest.raises(ValueError, match=rf"^restarts .*{asked} array"):
+        genetic(q, pop_size=2, iter_max=100, restarts=3000, seed=0)
+    asked = 5000 * 2 * (10 + 1)
+    with work_limits(elements=asked - 1), pytest.raises(ValueError, match=rf"^pop_size .*{asked} array"):
+        genetic(q, pop_size=5000, iter_max=10, restarts=2, seed=0)
+
+
+def test_ga_refuses_working_arrays_beyond_the_memory_budget():
+    # restarts=10**6 x pop_size=4 x m=2 x 2 coordinates x 10 working arrays = 1.6e8 elements
+    with pytest.raises(ValueError, match=r"^restarts x pop_size .*160000000 array elements"):
+        genetic(random_small(0, 5, 2), pop_size=4, iter_max=2, restarts=10**6, seed=0)
+
+
+@pytest.mark.parametrize(
+    ("m", "P", "iter_max", "N", "share"),
+    [(m, thesis_ga_settings(m)[0], 50, thesis_ga_settings(m)[1], 10) for m in (1, 2, 3, 4)]
+    + [
+        (2, 100, 2000, 1, 10),  # Fig. 4.3 without restarts
+        (2, 100, 50, 40, 10),  # Fig. 4.3 with restarts
+        (3, 200, 50, 80, 10),  # the largest Fig. 4.5 cell
+        (3, 100, 50, 4 * 60, 10),  # ablation "restarts-x4" at m = 3 (droneplan reproduce)
+        (3, 100, 50 * 60, 1, 10),  # ablation "no-restarts" at m = 3
+        (4, 200, 50 * 200, 1, 10),  # "no-restarts" at m = 4 (ga_ablation allows m <= 4)
+        (4, 200, 50, 4 * 200, 3),  # "restarts-x4" at m = 4: 8.2e6 evaluations, 1.3e7 array elements
+    ],
+)
+def test_thesis_and_study_ga_settings_fit_well_within_the_default_budgets(m, P, iter_max, N, share):
+    """Every GA setting of the thesis (Table 4.3) and of the studies passes the budgets even
+    when they are cut to 1/share of their defaults (``share`` = 10 for everything droneplan
+    reproduce runs)."""
+    evaluations = P * N * (iter_max + 1)
+    assert evaluations <= MAX_ELEMENTS // share and iter_max <= MAX_EVALUATIONS // share
+    with work_limits(elements=MAX_ELEMENTS // share, evaluations=MAX_EVALUATIONS // share):
+        _check_ga_work(random_small(0, 5, m), P, iter_max, N)  # raises if a budget is exceeded
 
 
 # ----------------------------------------------------------------- sweep
