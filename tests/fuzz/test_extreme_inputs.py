@@ -19,9 +19,9 @@ guard allows. NaN, a flag given as a string, arrays of NaN or 1e200 and scalars 
 time limit) must be refused; the other values may also be accepted, provided the result is
 finite (a huge time limit, a coarse tolerance or a one-frame animation are legitimate requests).
 
-Cases that fail in modules this file's owner does not maintain are marked ``xfail(strict=True)``
-with the missing check as the reason, so each flips to a failure (and its mark must go) once
-the check exists.
+Every case must pass: there is no list of known gaps. A new failure is fixed in the entry
+(a check naming the parameter, or a work budget refusing the call up front), with a direct
+regression test beside the entry's own tests.
 """
 
 from __future__ import annotations
@@ -195,22 +195,11 @@ def _cases() -> list[tuple[str, str, str, Any]]:
         for pname, valid in _parameters(name):
             for label, value in _values(valid):
                 huge_count = label == "10**12" and "seed" not in pname  # a seed of 10**12 is valid
-                quick = label in MUST_REFUSE or huge_count or (name, pname, label) in KNOWN
+                quick = label in MUST_REFUSE or huge_count
                 if name in SLOW and not quick:
                     continue
                 cases.append((name, pname, label, value))
     return cases
-
-
-# ---------------------------------------------------------------------------- known gaps
-_CELLS_CORE = "formulations/cells (owner CELLS)"
-_STUDY_CELLS = "studies/cells.py (owner SPEED-REPRODUCE)"
-KNOWN: dict[tuple[str, str, str], str] = {}
-
-
-def _known(where: str, what: str, name: str, param: str, *labels: str) -> None:
-    for label in labels:
-        KNOWN[(name, param, label)] = f"{where}: {what}"
 
 
 CASES = _cases()
@@ -218,15 +207,7 @@ CASES = _cases()
 
 def _param(case: tuple[str, str, str, Any]):
     name, pname, label, value = case
-    reason = KNOWN.get((name, pname, label))
-    marks = [pytest.mark.xfail(strict=True, reason=reason)] if reason else []
-    return pytest.param(name, pname, label, value, marks=marks, id=f"{name}-{pname}-{label}")
-
-
-def test_every_known_gap_is_a_case():
-    keys = {(n, p, lbl) for n, p, lbl, _ in CASES}
-    stale = sorted(set(KNOWN) - keys)
-    assert not stale, f"KNOWN entries that are no longer cases: {stale}"
+    return pytest.param(name, pname, label, value, id=f"{name}-{pname}-{label}")
 
 
 # ---------------------------------------------------------------------------- the guard
@@ -330,8 +311,7 @@ def _finite(result: Any) -> bool:
 
 @pytest.mark.parametrize(("name", "pname", "label", "value"), [_param(c) for c in CASES])
 def test_extreme_input_returns_or_refuses_naming_the_parameter(name, pname, label, value):
-    known = (name, pname, label) in KNOWN
-    kind, detail = verdict(name, pname, value, cpu=3.0 if known else CPU_SECONDS)
+    kind, detail = verdict(name, pname, value)
     assert kind != "failed", f"{name}({pname}={label}): {detail}"
     if kind == "returned":
         # a time limit of 1e200 s means "no limit"; every other scalar that large is refused
@@ -372,13 +352,9 @@ print(json.dumps(out))
 
 
 def _sample() -> list[str]:
-    """Every 6th case that must be refused or is a huge count (not the slow entries, not the known
-    gaps), plus every case of check_allocation, whose checks were once written as ``assert``."""
-    pool = [
-        c
-        for c in CASES
-        if c[0] not in SLOW and (c[2] in MUST_REFUSE or c[2] == "10**12") and tuple(c[:3]) not in KNOWN
-    ]
+    """Every 6th case that must be refused or is a huge count (not the slow entries), plus every
+    case of check_allocation, whose checks were once written as ``assert``."""
+    pool = [c for c in CASES if c[0] not in SLOW and (c[2] in MUST_REFUSE or c[2] == "10**12")]
     keys = [f"{n}-{p}-{lbl}" for n, p, lbl, _ in pool[::6]]
     keys += [f"{n}-{p}-{lbl}" for n, p, lbl, _ in CASES if n == "check_allocation"]
     return sorted(set(keys))
