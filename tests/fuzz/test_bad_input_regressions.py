@@ -169,13 +169,14 @@ def test_absurd_sizes_are_refused_up_front(call, name):
 
 
 def test_size_guard_admits_the_thesis_ga_settings_and_refuses_absurd_ones():
-    """The GA's size guard counts what it allocates (population arrays; coverage is evaluated in
-    blocks), so Table 4.3's m=4 settings (P=200, N_start=200, 382 users) run, as the thesis did;
-    an absurd population is still refused before allocating."""
+    """The GA's work and size guards count the fitness evaluations and what it allocates
+    (population arrays; coverage is evaluated in blocks), so Table 4.3's m=4 settings (P=200,
+    N_start=200, 382 users) run, as the thesis did; an absurd population is still refused up front,
+    naming the parameter furthest above its thesis value."""
     problem = dp.cells.thesis_problem(4, seed=0)
     ga = dp.cells.genetic(problem, iter_max=0, seed=0)  # thesis settings, no generations
     assert ga.info["pop_size"] == 200 and ga.info["restarts"] == 200
     assert ga.objective == dp.cells.evaluate(problem, ga.x).covered
-    with pytest.raises(ValueError, match="restarts x pop_size") as info:
+    with pytest.raises(ValueError, match=r"^pop_size .*fitness evaluations") as info:
         dp.cells.genetic(problem, pop_size=10**6, restarts=10**4, iter_max=1, seed=0)
     assert str(MAX_ELEMENTS) in str(info.value)
