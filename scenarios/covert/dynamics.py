@@ -297,7 +297,80 @@ class CovertTrace(LoopTrace):
     """Reference point of the run's camouflage constraint lines (m)."""
 
 
-def simulate(  # noqa: C901, PLR0915
+@dataclass
+class _Record:
+    """What the closed loop records at each instant: time (s), drone position (m) and heading,
+    the command (u, v) applied from that instant on (NaN at the last) and the phase."""
+
+    t: list[float] = field(default_factory=list)
+    drone: list[NDArray[np.float64]] = field(default_factory=list)
+    heading: list[NDArray[np.float64]] = field(default_factory=list)
+    u: list[NDArray[np.float64]] = field(default_factory=list)
+    v: list[float] = field(default_factory=list)
+    phase: list[Any] = field(default_factory=list)
+
+    def state(self, t: float, D: NDArray[np.float64], h: NDArray[np.float64]) -> None:
+        self.t.append(t)
+        self.drone.append(D.copy())
+        self.heading.append(h.copy())
+
+    def command(self, u: NDArray[np.float64], v: float, phase: Any) -> None:
+        self.u.append(u)
+        self.v.append(v)
+        self.phase.append(phase)
+
+    def last(self, phase: Any) -> None:
+        """Close the record: no command from the last instant on."""
+        self.command(np.full(3, np.nan), np.nan, phase)
+
+
+def _start(
+    scenario: CovertScenario, max_time: Any, initial_heading: Any, vtol: bool
+) -> tuple[float, float, NDArray[np.float64], NDArray[np.float64]]:
+    """Check the run's settings; returns (climb: height of D_s above the ground below it (m), 0
+    without ``vtol``; t_stop (s); the start position (D_s, or D_v with ``vtol``); the unit heading)."""
+    if not isinstance(scenario, CovertScenario):
+        raise TypeError(f"scenario must be a CovertScenario, got {type(scenario).__name__}")
+    p = scenario.params
+    climb = 0.0
+    if vtol:
+        climb = float(p.D_s[2] - scenario.terrain.height(p.D_s[0], p.D_s[1]))
+        if climb <= 0:
+            raise ValueError(
+                f"vtol=True needs D_s above the ground, but D_s is {-climb:.3f} m below the terrain there"
+            )
+    t_stop = (
+        p.duration + 60.0 + 2.0 * climb / p.V_max
+        if max_time is None
+        else check_positive("max_time", max_time)
+    )
+    if t_stop / p.dt > 1e7:
+        raise ValueError(f"max_time asks for {t_stop / p.dt:.3g} steps of dt = {p.dt} s, more than 1e7")
+    D = p.D_s_arr.copy()
+    if vtol:
+        D[2] -= climb  # D_v, on the ground below D_s
+    h = (
+        p.F_arr - p.D_s_arr
+        if initial_heading is None
+        else check_array("initial_heading", initial_heading, shape=(3,))
+    )
+    if np.linalg.norm(h) == 0:
+        raise ValueError("initial_heading must be a non-zero vector")
+    return climb, t_stop, D, h / np.linalg.norm(h)
+
+
+def _vertical_step(
+    leg: CovertPhase, D: NDArray[np.float64], ground: float, p: CovertParams
+) -> tuple[NDArray[np.float64], float]:
+    """One step of a vertical leg at V_max: up to D_s (TAKE_OFF) or down to ``ground`` (LANDING).
+    Returns the new position and the vertical speed (m/s) flown."""
+    room = p.D_s[2] - D[2] if leg == CovertPhase.TAKE_OFF else D[2] - ground
+    dz = min(p.V_max * p.dt, max(room, 0.0))
+    dz = dz if leg == CovertPhase.TAKE_OFF else -dz
+    return D + np.array([0.0, 0.0, dz]), dz / p.dt
+
+
+def simulate(
     scenario: CovertScenario,
     controller: Controller,
     *,
@@ -324,43 +397,16 @@ def simulate(  # noqa: C901, PLR0915
         and ends at D_s, as in the thesis's simulations (§3.5).
     Returns a :class:`CovertTrace` (beta is computed from the true positions).
     """
-    if not isinstance(scenario, CovertScenario):
-        raise TypeError(f"scenario must be a CovertScenario, got {type(scenario).__name__}")
     check_methods("controller", controller, ("reset", "command"))
     noise = check_nonneg("noise", noise)
     vtol = check_bool("vtol", vtol)
+    _, t_stop, D, h = _start(scenario, max_time, initial_heading, vtol)
     p = scenario.params
-    climb = 0.0  # height of D_s above the ground below it (m)
-    if vtol:
-        climb = float(p.D_s[2] - scenario.terrain.height(p.D_s[0], p.D_s[1]))
-        if climb <= 0:
-            raise ValueError(
-                f"vtol=True needs D_s above the ground, but D_s is {-climb:.3f} m below the terrain there"
-            )
     rng, drawn = resolve_seed(seed)
     seed = seed if drawn is None else drawn  # record the seed drawn for seed=None
-    t_stop = (
-        p.duration + 60.0 + 2.0 * climb / p.V_max
-        if max_time is None
-        else check_positive("max_time", max_time)
-    )
-    if t_stop / p.dt > 1e7:
-        raise ValueError(f"max_time asks for {t_stop / p.dt:.3g} steps of dt = {p.dt} s, more than 1e7")
-    D = p.D_s_arr.copy()
-    if vtol:
-        D[2] -= climb  # D_v, on the ground below D_s
-    h = (
-        p.F_arr - p.D_s_arr
-        if initial_heading is None
-        else check_array("initial_heading", initial_heading, shape=(3,))
-    )
-    if np.linalg.norm(h) == 0:
-        raise ValueError("initial_heading must be a non-zero vector")
-    h = h / np.linalg.norm(h)
     controller.reset(scenario, seed=seed)
-    n = scenario.n_targets
     steps = math.ceil(t_stop / p.dt - 1e-9)
-    ts, Ds, hs, us, vs, phases = [], [], [], [], [], []
+    rec = _Record()
     finished = False
     leg = CovertPhase.TAKE_OFF if vtol else None  # the vertical leg being flown (None: the controller)
     ground = 0.0  # ground height below the drone when it lands (m)
@@ -370,69 +416,55 @@ def simulate(  # noqa: C901, PLR0915
         obsmask = scenario.observable_at(t, D)
         rel = measure(A - D, noise, rng)
         rel[~obsmask] = np.nan
-        ts.append(t)
-        Ds.append(D.copy())
-        hs.append(h.copy())
+        rec.state(t, D, h)
         if k == steps:
-            us.append(np.full(3, np.nan))
-            vs.append(np.nan)
-            phases.append(controller.phase if leg is None else leg)
+            rec.last(controller.phase if leg is None else leg)
             break
         if leg is not None:  # a vertical leg: straight up to D_s or down to the ground at V_max
-            room = p.D_s[2] - D[2] if leg == CovertPhase.TAKE_OFF else D[2] - ground
-            dz = min(p.V_max * p.dt, max(room, 0.0))
-            dz = dz if leg == CovertPhase.TAKE_OFF else -dz
-            us.append(np.zeros(3))
-            vs.append(dz / p.dt)
-            phases.append(leg)
-            D = D + np.array([0.0, 0.0, dz])
+            D, vz = _vertical_step(leg, D, ground, p)
+            rec.command(np.zeros(3), vz, leg)
             if leg == CovertPhase.TAKE_OFF and D[2] >= p.D_s[2] - 1e-9:
                 D, leg = p.D_s_arr.copy(), None
             elif leg == CovertPhase.LANDING and D[2] <= ground + 1e-9:
                 D[2] = ground
                 finished = True
-                ts.append((k + 1) * p.dt)
-                Ds.append(D.copy())
-                hs.append(h.copy())
-                us.append(np.full(3, np.nan))
-                vs.append(np.nan)
-                phases.append(CovertPhase.DONE)
+                rec.state((k + 1) * p.dt, D, h)
+                rec.last(CovertPhase.DONE)
                 break
             continue
         u, v = controller.command(CovertObservation(t, D.copy(), h.copy(), rel, obsmask))
         if vtol and controller.finished:  # home at D_s: land straight down (Algorithm 1 step 2)
-            us.append(np.zeros(3))
-            vs.append(0.0)
-            phases.append(CovertPhase.LANDING)
+            rec.command(np.zeros(3), 0.0, CovertPhase.LANDING)
             leg = CovertPhase.LANDING
             ground = float(scenario.terrain.height(D[0], D[1]))
             continue
         u = np.asarray(u, dtype=float)
-        us.append(u.copy())
-        vs.append(float(v))
-        phases.append(controller.phase)
+        rec.command(u.copy(), float(v), controller.phase)
         D, h, _, _ = step_drone(D, h, u, float(v), p.dt, p)
         if controller.finished:
             finished = True
-            # record the final state
-            t = (k + 1) * p.dt
-            ts.append(t)
-            Ds.append(D.copy())
-            hs.append(h.copy())
-            us.append(np.full(3, np.nan))
-            vs.append(np.nan)
-            phases.append(CovertPhase.DONE)
+            rec.state((k + 1) * p.dt, D, h)  # the final state
+            rec.last(CovertPhase.DONE)
             break
-    t_arr = np.asarray(ts)
-    drone = np.asarray(Ds)
+    return _trace(scenario, controller, rec, seed, finished)
+
+
+def _trace(
+    scenario: CovertScenario, controller: Controller, rec: _Record, seed: Any, finished: bool
+) -> CovertTrace:
+    """The :class:`CovertTrace` of a recorded run: bearing changes from the true positions, the
+    phase times t_a and t_f, the largest distance from the sphere while on it."""
+    p = scenario.params
+    t_arr = np.asarray(rec.t)
+    drone = np.asarray(rec.drone)
     targets = scenario.targets_at(t_arr)
-    if n:
+    if scenario.n_targets:
         beta = bearing_changes(drone, targets, p.R)
         beta[~scenario.observable_at(t_arr, drone)] = np.nan
     else:
         beta = np.zeros((t_arr.size, 0))
-    phase = np.empty(len(phases), dtype=object)
-    phase[:] = [CovertPhase(ph) for ph in phases]
+    phase = np.empty(len(rec.phase), dtype=object)
+    phase[:] = [CovertPhase(ph) for ph in rec.phase]
     on = np.nonzero(phase == CovertPhase.ON_SPHERE)[0]
     ret = np.nonzero((phase == CovertPhase.RETREAT) | (phase == CovertPhase.DONE))[0]
     t_a = float(t_arr[on[0]]) if on.size else None
@@ -445,7 +477,11 @@ def simulate(  # noqa: C901, PLR0915
         sphere_error = math.nan
     bm = beta[~np.isnan(beta)]
     final = CovertFrame(
-        t=float(t_arr[-1]), drone=drone[-1], heading=np.asarray(hs[-1]), targets=targets[-1], phase=phase[-1]
+        t=float(t_arr[-1]),
+        drone=drone[-1],
+        heading=np.asarray(rec.heading[-1]),
+        targets=targets[-1],
+        phase=phase[-1],
     )
     return CovertTrace(
         t=t_arr,
@@ -453,7 +489,7 @@ def simulate(  # noqa: C901, PLR0915
         seed=seed,
         **controller_counters(controller),
         drone=drone,
-        heading=np.asarray(hs),
+        heading=np.asarray(rec.heading),
         targets=targets,
         beta=beta,
         beta_max=float(bm.max()) if bm.size else math.nan,
@@ -461,8 +497,8 @@ def simulate(  # noqa: C901, PLR0915
         t_a=t_a,
         t_f=t_f,
         phase=phase,
-        u=np.asarray(us),
-        v=np.asarray(vs),
+        u=np.asarray(rec.u),
+        v=np.asarray(rec.v),
         finished=finished,
         F=p.F,
         L_u=p.L_u,
