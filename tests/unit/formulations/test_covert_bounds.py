@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from droneplan.formulations.covert import (
@@ -132,6 +132,7 @@ def _fresh_cvxpy_slack(A, c, balls, radius):
 
 
 @settings(max_examples=25, deadline=None)
+@example(227, 1, 1, 0.25, 200.0)  # duals of the two solvers differ by 2e-4 relative here
 @given(
     st.integers(0, 10**6),
     st.integers(1, 8),
@@ -154,7 +155,12 @@ def test_reused_program_matches_a_freshly_built_one(seed, n, n_balls, c, radius)
         assert got[0] == -math.inf
         return
     assert got[0] == pytest.approx(ref[0], abs=1e-6)
-    assert got[1] == pytest.approx(ref[1], rel=1e-4, abs=1e-6)
+    # ds/dc comes from the dual multipliers, which two interior-point solves agree on only to about
+    # 1e-4; check it against s itself instead: it lies between the one-sided slopes of s at c
+    h = 1e-3
+    left = (ref[0] - _fresh_cvxpy_slack(A, c - h, balls, radius)[0]) / h
+    right = (_fresh_cvxpy_slack(A, c + h, balls, radius)[0] - ref[0]) / h
+    assert min(left, right) - 1e-5 <= got[1] <= max(left, right) + 1e-5
     # the optimum point may not be unique; its slack must be optimal all the same
     F = P.F_arr
     y = got[2]
