@@ -58,9 +58,9 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
     )
     from droneplan.solvers.result import SolveResult, Status
     from droneplan.studies.covert import stealth_front
-    from droneplan.studies.covert_front import optimised_front, plot_optimised_front
+    from droneplan.studies.covert_front import optimised_front
     from droneplan.studies.plots import plot_bearing, plot_path, plot_stealth_front
-    from droneplan.studies.plots.covert import animate
+    from droneplan.studies.plots.covert import animate, plot_optimised_front
 
 __all__ = [
     # world, presets, simulator
@@ -168,13 +168,13 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "Status",
     ),
     "droneplan.studies.covert": ("stealth_front",),
-    "droneplan.studies.covert_front": ("optimised_front", "plot_optimised_front"),
+    "droneplan.studies.covert_front": ("optimised_front",),
     "droneplan.studies.plots": (
         "plot_bearing",
         "plot_path",
         "plot_stealth_front",
     ),
-    "droneplan.studies.plots.covert": ("animate",),
+    "droneplan.studies.plots.covert": ("animate", "plot_optimised_front"),
 }
 
 """The module each public name comes from; a name is imported on first use, so importing this

@@ -24,13 +24,19 @@ from typing import Any
 
 import numpy as np
 
-from droneplan.core.validation import check_array, check_instance, check_int, check_nonneg, check_positive
+from droneplan.core.validation import (
+    check_array,
+    check_instance,
+    check_int,
+    check_nonneg,
+    check_positive,
+    check_work,
+)
 
 __all__ = [
     "QUICK_LIMITS",
     "FULL_LIMITS",
     "optimised_front",
-    "plot_optimised_front",
     "optimised_front_section",
 ]
 
@@ -132,7 +138,9 @@ def optimised_front(
 
     scenario: a covert scenario without obstacles (the bound needs a fixed visible set).
     arrival_times: the arrival-time limits T (s, each finite and > 0); a run counts for T if it
-    reached the sphere at t_a <= T. tries: MPC approach speeds tried per limit (int >= 1; each is
+    reached the sphere at t_a <= T. The closed-loop steps of the search (one sliding-mode run and up to
+    ``tries`` MPC runs per distinct limit) are checked up front against the evaluations budget.
+    tries: MPC approach speeds tried per limit (int >= 1; each is
     one closed-loop run, about 5 CPU s on thesis case 1). slack: time (s, >= 0) kept in hand when
     the MPC approach is scheduled to arrive by T. step: spacing (s, > 0) of the instants where
     the bound is evaluated (a subset of the control instants still gives a valid, weaker bound).
@@ -166,12 +174,15 @@ def optimised_front(
         raise TypeError(f"backend must be a str, got {type(backend).__name__}")
     if getattr(scenario, "obstacles", ()):
         raise ValueError("scenario has obstacles: the whole-mission bound needs a fixed visible set")
+    p = scenario.params
+    # at most one sliding-mode run and ``tries`` MPC runs per limit, each a control step per dt
+    steps = math.ceil((p.duration + 60.0) / p.dt)
+    check_work("arrival_times", (1 + limits.size * tries) * steps, "evaluations")
     runs = _runs(scenario, limits, tries, slack, backend)
     points = pd.DataFrame([_point_row(scenario, float(T), runs, step, margin_deg) for T in limits])
     found = points.dropna(subset=["t_f"]) if "t_f" in points else points.iloc[:0]
     if found.empty:
         return points, pd.DataFrame(columns=["t_a", "bound_deg"])
-    p = scenario.params
     t_min = (float(np.linalg.norm(p.D_s_arr - p.F_arr)) - p.L_u) / p.V_max
     grid = np.unique(np.r_[np.linspace(t_min + 0.5, float(limits.max()), n_curve), found.arrival_limit_s])
     t_end = float(found.t_end.max())
@@ -186,52 +197,6 @@ def optimised_front(
     )
     curve = pd.DataFrame([{"t_a": f.t_a, "bound_deg": f.value * DEG} for f in fronts])
     return points, curve
-
-
-def plot_optimised_front(points: Any, curve: Any, *, title: str = "", margin_deg: float = 1.0):
-    """Figure of the optimised front: beta_max (deg) against the arrival-time limit (s).
-
-    points, curve: the two DataFrames of :func:`optimised_front`. Each point is drawn at its
-    limit with its bound below it; points certified within ``margin_deg`` (deg) are filled, the
-    others hollow, and each is labelled with its distance to the bound. title: the axes title.
-    """
-    import matplotlib.pyplot as plt
-
-    margin_deg = check_positive("margin_deg", margin_deg)
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    if len(curve):
-        ax.plot(curve.t_a, curve.bound_deg, "k--", label="whole-mission lower bound (curve)")
-    pts = points.dropna(subset=["beta_max_deg"])
-    ax.plot(pts.arrival_limit_s, pts.beta_max_deg, "C0-", lw=1, label="optimised front (closed loop)")
-    ax.plot(pts.arrival_limit_s, pts.bound_deg, "kx", label="bound of each point's class")
-    cert = pts.certified_within_deg <= margin_deg
-    ax.plot(
-        pts.arrival_limit_s[cert],
-        pts.beta_max_deg[cert],
-        "o",
-        color="C0",
-        label=f"certified within {margin_deg:g} deg",
-    )
-    ax.plot(
-        pts.arrival_limit_s[~cert],
-        pts.beta_max_deg[~cert],
-        "o",
-        mfc="none",
-        color="C0",
-        label=f"gap above {margin_deg:g} deg",
-    )
-    for _, r in pts.iterrows():
-        ax.annotate(
-            f"+{r.certified_within_deg:.2f} deg",
-            (r.arrival_limit_s, r.beta_max_deg),
-            textcoords="offset points",
-            xytext=(4, 4),
-        )
-    ax.set_xlabel("arrival-time limit (s)")
-    ax.set_ylabel("max bearing change (deg)")
-    ax.set_title(title or "Stealth vs arrival time: optimised front and lower bound")
-    ax.legend(fontsize=8)
-    return fig
 
 
 QUICK_LIMITS = (8.0, 9.0, 12.0, 16.0, 20.0)
@@ -273,6 +238,8 @@ def optimised_front_section(case: int, out: Any, *, quick: bool) -> Any:
     stem = f"case{case}_optimised_front"
     points.to_csv(out / f"{stem}.csv", index=False)
     curve.to_csv(out / f"{stem}_bound.csv", index=False)
+    from droneplan.studies.plots.covert import plot_optimised_front
+
     fig = plot_optimised_front(points, curve, title=f"Case {case}: optimised stealth vs arrival front")
     fig.tight_layout()
     fig.savefig(out / f"{stem}.png", dpi=110)

@@ -8,12 +8,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from droneplan.core.validation import check_bool
+from droneplan.core.validation import check_bool, check_positive
 from droneplan.scenarios.covert import CovertScenario, CovertTrace
 from droneplan.studies.plots._animation import check_options, frame_indices, save_gif
 from droneplan.studies.plots._common import as_trace_dict, figure_axes
 
-__all__ = ["plot_path", "plot_bearing", "plot_stealth_front", "animate"]
+__all__ = ["plot_path", "plot_bearing", "plot_stealth_front", "plot_optimised_front", "animate"]
 
 
 def _sphere_patch(scenario: CovertScenario, drone_paths: list[NDArray[np.float64]], n: int = 20):
@@ -148,6 +148,56 @@ def plot_stealth_front(points: Any, bound: Any, *, ax: Any = None, title: str | 
     ax.legend(fontsize=7)
     if title is not None:
         ax.set_title(title)
+    return fig
+
+
+def plot_optimised_front(
+    points: Any, curve: Any, *, ax: Any = None, title: str | None = None, margin_deg: float = 1.0
+):
+    """Figure of the optimised stealth-arrival front: beta_max (deg) against the arrival-time limit (s).
+
+    points, curve: the two DataFrames of :func:`studies.covert_front.optimised_front` (points needs
+    arrival_limit_s, beta_max_deg, bound_deg and certified_within_deg; curve t_a and bound_deg;
+    either may have no rows). Each point is drawn at its limit with its bound below it; points
+    certified within ``margin_deg`` (deg, > 0) are filled, the others hollow, and each is labelled
+    with its distance to the bound. ax: a 2-D axes or None; title: the axes title (None: a default).
+    """
+    _check_frame("points", points, ("arrival_limit_s", "beta_max_deg", "bound_deg", "certified_within_deg"))
+    _check_frame("curve", curve, ("t_a", "bound_deg"))
+    margin_deg = check_positive("margin_deg", margin_deg)
+    fig, ax = figure_axes(ax, title=title, figsize=(7, 4.5))
+    if len(curve):
+        ax.plot(curve.t_a, curve.bound_deg, "k--", label="whole-mission lower bound (curve)")
+    pts = points.dropna(subset=["beta_max_deg"])
+    ax.plot(pts.arrival_limit_s, pts.beta_max_deg, "C0-", lw=1, label="optimised front (closed loop)")
+    ax.plot(pts.arrival_limit_s, pts.bound_deg, "kx", label="bound of each point's class")
+    cert = pts.certified_within_deg <= margin_deg
+    ax.plot(
+        pts.arrival_limit_s[cert],
+        pts.beta_max_deg[cert],
+        "o",
+        color="C0",
+        label=f"certified within {margin_deg:g} deg",
+    )
+    ax.plot(
+        pts.arrival_limit_s[~cert],
+        pts.beta_max_deg[~cert],
+        "o",
+        mfc="none",
+        color="C0",
+        label=f"gap above {margin_deg:g} deg",
+    )
+    for _, r in pts.iterrows():
+        ax.annotate(
+            f"+{r.certified_within_deg:.2f} deg",
+            (r.arrival_limit_s, r.beta_max_deg),
+            textcoords="offset points",
+            xytext=(4, 4),
+        )
+    ax.set_xlabel("arrival-time limit (s)")
+    ax.set_ylabel("max bearing change (deg)")
+    ax.set_title(title if title is not None else "Stealth vs arrival time: optimised front and lower bound")
+    ax.legend(fontsize=8)
     return fig
 
 

@@ -142,6 +142,17 @@ def _front_frames():
     return points, bound
 
 
+def _optimised_front_frames():
+    points = pd.DataFrame(
+        [
+            {"arrival_limit_s": 8.0, "beta_max_deg": 21.2, "bound_deg": 20.7, "certified_within_deg": 0.5},
+            {"arrival_limit_s": 12.0, "beta_max_deg": 20.6, "bound_deg": 18.0, "certified_within_deg": 2.6},
+        ]
+    )
+    curve = pd.DataFrame([{"t_a": 7.0, "bound_deg": 20.8}, {"t_a": 12.0, "bound_deg": 18.0}])
+    return points, curve
+
+
 def _gif_path() -> str:
     import tempfile
     from pathlib import Path
@@ -353,6 +364,19 @@ SPECS: dict[str, Spec] = {
         lambda: ((_covert_case(), {"hover": _hover_run()}), {"n_arrivals": 2, "step": 20.0}),
         {"scenario": "object", "n_arrivals": "int>=1", "step": "positive"},
     ),
+    "optimised_front": Spec(
+        # a limit below the earliest possible arrival: only the sliding-mode run is made
+        lambda: ((_covert_case(), [3.0]), {"tries": 1, "step": 20.0}),
+        {
+            "scenario": "object",
+            "arrival_times": "arcs",
+            "tries": "int>=1",
+            "slack": "nonneg",
+            "step": "positive",
+            "margin_deg": "positive",
+            "n_curve": "int>=1",
+        },
+    ),
     "SlidingSettings": Spec(lambda: ((), {}), {"eps_line": "positive", "home_radius": "positive"}),
     "SlidingModeObserver": Spec(lambda: ((), {}), {"settings": "object?"}),
     "HoverBenchmark": Spec(lambda: ((), {}), {"settings": "object?"}),
@@ -546,6 +570,10 @@ SPECS: dict[str, Spec] = {
     "plot_bearing": Spec(lambda: ((_covert_short(),), {}), {"traces": "traces", "ax": "ax"}),
     "plot_stealth_front": Spec(
         lambda: (_front_frames(), {}), {"points": "frame", "bound": "frame", "ax": "ax"}
+    ),
+    "plot_optimised_front": Spec(
+        lambda: (_optimised_front_frames(), {}),
+        {"points": "frame", "curve": "frame", "ax": "ax", "margin_deg": "positive"},
     ),
     "plot_top_view": Spec(lambda: ((_shark_run(),), {}), {"traces": "traces", "ax": "ax"}),
     "plot_time_series": Spec(
@@ -817,7 +845,7 @@ def test_deep_random_cells_instances_agree_with_the_bound(u, m):
 
 # -------------------------------------------------------------------------- plot helpers: axes and NaN data
 PLOT_2D = ["plot_map", "plot_deployment_region", "plot_bearing", "plot_stealth_front", "plot_top_view"]
-PLOT_2D += ["plot_time_series", "plot_state", "plot_final", "plot_footprint"]
+PLOT_2D += ["plot_time_series", "plot_state", "plot_final", "plot_footprint", "plot_optimised_front"]
 
 
 @pytest.mark.parametrize("name", [*PLOT_2D, "plot_path"])
@@ -864,6 +892,10 @@ NAN_RUNS = {
     "animate@herding": lambda: ((_with_nan(_herding_run()), _gif_path()), {}),
     "summary_table": lambda: (({"a": _with_nan(_herding_run())},), {}),
     "plot_stealth_front": lambda: (tuple(f.assign(t_a=np.nan) for f in _front_frames()), {}),
+    "plot_optimised_front": lambda: (
+        tuple(f.assign(bound_deg=np.nan) for f in _optimised_front_frames()),
+        {},
+    ),
 }
 
 

@@ -14,9 +14,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from droneplan.core.validation import work_limits
 from droneplan.planners.covert import SlidingModeObserver
 from droneplan.scenarios.covert import simulate, thesis_case
-from droneplan.studies.covert_front import optimised_front, plot_optimised_front
+from droneplan.studies.covert_front import optimised_front
+from droneplan.studies.plots.covert import plot_optimised_front
 
 DEG = 180.0 / math.pi
 
@@ -125,3 +127,11 @@ def test_section_refuses_bad_flags(tmp_path):
         optimised_front_section(1, None, quick=True)
     with pytest.raises(ValueError, match="case"):
         optimised_front_section(3, tmp_path, quick=True)
+
+
+def test_a_search_beyond_the_evaluations_budget_is_refused_up_front():
+    scenario = thesis_case(1)
+    with pytest.raises(ValueError, match=r"^arrival_times asks for \d+ evaluations, more than the limit"):
+        optimised_front(scenario, np.arange(8.0, 108.0, 1.0), tries=2)
+    with work_limits(evaluations=10), pytest.raises(ValueError, match="arrival_times"):
+        optimised_front(scenario, [3.0], tries=1)
