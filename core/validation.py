@@ -44,6 +44,7 @@ __all__ = [
     "check_int",
     "check_bool",
     "check_array",
+    "check_typed_array",
     "check_sequence",
     "check_size",
     "check_time_limit",
@@ -209,6 +210,26 @@ def check_size(name: str, n_elements: float, limit: int | None = None) -> None:
     """Refuse up front (before allocating) a request for more than ``limit`` array elements
     (None: the budget in force, ``MAX_ELEMENTS`` unless raised with ``work_limits``)."""
     check_work(name, n_elements, "elements", limit=limit)
+
+
+def check_typed_array(name: str, value: Any, kinds: str, what: str) -> np.ndarray:
+    """``value`` as an ndarray of its own dtype, which must be of a numpy kind in ``kinds``
+    (``"b"``: bool flags, ``"iu"``: integer indices); nothing is converted.
+
+    what: how messages describe the array (``"a bool array"``). Strings, None, ragged nesting and
+    another dtype raise TypeError naming ``name``; an empty list takes the first kind.
+    """
+    if isinstance(value, (str, bytes)) or value is None:
+        raise TypeError(f"{name} must be {what}, got {type(value).__name__}")
+    try:
+        arr = np.asarray(value)
+    except (ValueError, TypeError) as exc:  # ragged nesting
+        raise TypeError(f"{name} must be {what} ({exc})") from None
+    if arr.size == 0 and arr.dtype.kind in "fO":  # an empty list has no dtype of its own
+        arr = arr.astype(bool if kinds[0] == "b" else np.int64)
+    if arr.dtype.kind not in kinds:
+        raise TypeError(f"{name} must be {what}, got dtype {arr.dtype}")
+    return arr
 
 
 def check_array(  # noqa: C901

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import pandas as pd
+from tqdm.auto import tqdm
 
 from droneplan.studies.common import (
     StudyError,
@@ -264,7 +265,7 @@ class _Run:
         self.timings.append(JobTiming(key, job.section, wall, cpu, start, now, skipped))
         if job.task is not None:
             if result is not None and self.store is not None:
-                _Recorder(self.store, self.configs, _NoBar()).write(job.task, result)
+                _Recorder(self.store, self.configs, tqdm(disable=True)).write(job.task, result)
             result = None
         self.results[key] = result
         self.release(key)
@@ -277,14 +278,6 @@ class _Run:
         for d in (*self.jobs[key].needs.values(),):
             if all(u not in self.waiting for u in self.users[d]):
                 self.results.pop(d, None)
-
-
-class _NoBar:
-    def update(self, n: int = 1) -> None:
-        pass
-
-    def set_postfix_str(self, s: str, refresh: bool = True) -> None:
-        pass
 
 
 def run_jobs(

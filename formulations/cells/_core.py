@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from droneplan.core.validation import check_array, check_instance
+from droneplan.core.validation import check_array, check_instance, check_typed_array
 from droneplan.scenarios.cells import CellProblem
 
 TOL = 1e-6
@@ -53,16 +53,7 @@ def pairwise_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _as_mask(name: str, value, k: int) -> np.ndarray:
     """``value`` as a (k,) bool array; TypeError unless its dtype is bool, ValueError on another shape."""
-    if isinstance(value, (str, bytes)):
-        raise TypeError(f"{name} must be a bool array, got {type(value).__name__}")
-    try:
-        arr = np.asarray(value)
-    except (ValueError, TypeError) as exc:  # ragged nesting
-        raise TypeError(f"{name} must be a bool array ({exc})") from None
-    if arr.size == 0 and arr.dtype.kind in "fO":  # an empty list has no dtype of its own
-        arr = arr.astype(bool)
-    if arr.dtype != bool:
-        raise TypeError(f"{name} must be a bool array, got dtype {arr.dtype}")
+    arr = check_typed_array(name, value, "b", "a bool array")
     if arr.shape != (k,):
         raise ValueError(f"{name} must have shape ({k},) (one flag per drone-cell), got {arr.shape}")
     return arr

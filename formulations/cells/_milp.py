@@ -91,7 +91,14 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from droneplan.core.validation import check_bool, check_instance, check_int, check_real, check_sequence
+from droneplan.core.validation import (
+    check_bool,
+    check_instance,
+    check_int,
+    check_real,
+    check_sequence,
+    check_typed_array,
+)
 from droneplan.formulations.cells._core import TOL, Candidates, candidate_sites, evaluate, pairwise_distances
 from droneplan.formulations.cells._prepare import Prepared, _feasible_subset, coverage_upper_bound
 from droneplan.scenarios.cells import CellProblem
@@ -372,16 +379,7 @@ def _new_model(backend: str):
 def _as_keep(keep: Any, n: int) -> np.ndarray:
     """``keep`` as a 1-D int64 array of distinct indices into ``n`` candidates (TypeError for
     floats and bools, ValueError out of range or repeated); an empty list keeps nothing."""
-    if isinstance(keep, (str, bytes)) or keep is None:
-        raise TypeError(f"keep must be an array of candidate indices, got {type(keep).__name__}")
-    try:
-        arr = np.asarray(keep)
-    except (ValueError, TypeError) as exc:  # ragged nesting
-        raise TypeError(f"keep must be a 1-D array of candidate indices ({exc})") from None
-    if arr.size == 0 and arr.dtype.kind in "fO":  # an empty list has no dtype of its own
-        arr = arr.astype(np.int64)
-    if arr.dtype.kind not in "iu":
-        raise TypeError(f"keep must be an array of int candidate indices, got dtype {arr.dtype}")
+    arr = check_typed_array("keep", keep, "iu", "an array of int candidate indices")
     if arr.ndim != 1:
         raise ValueError(f"keep must be a 1-D array of candidate indices, got shape {arr.shape}")
     if arr.size and (int(arr.min()) < 0 or int(arr.max()) >= n):

@@ -54,6 +54,19 @@ _PREFILTER_MIN = 1500
 """Herds of at least this many animals are prefiltered before qhull (below, qhull alone is faster)."""
 
 
+def _octagon(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The octagon of the extreme points of (n, 2) ``pts`` along x, y, x + y and x - y: the
+    indices of its corners (8,), ccw (min x, min x+y, min y, max x-y, max x, max x+y, max y,
+    min x-y), the corners (8, 2) and the edge vectors from each corner to the next (8, 2), m."""
+    x, y = pts[:, 0], pts[:, 1]
+    s, d = x + y, x - y
+    ext = np.array(
+        [x.argmin(), s.argmin(), y.argmin(), d.argmax(), x.argmax(), s.argmax(), y.argmax(), d.argmin()]
+    )
+    corner = pts[ext]
+    return ext, corner, np.roll(corner, -1, axis=0) - corner
+
+
 def _hull_candidates(pts: np.ndarray) -> np.ndarray | None:
     """Indices (ascending) of the points that can be hull vertices, or None to keep them all.
 
@@ -66,13 +79,7 @@ def _hull_candidates(pts: np.ndarray) -> np.ndarray | None:
     if n < _PREFILTER_MIN:
         return None
     x, y = pts[:, 0], pts[:, 1]
-    s, d = x + y, x - y
-    # ccw around the octagon: min x, min x+y, min y, max x-y, max x, max x+y, max y, min x-y
-    ext = np.array(
-        [x.argmin(), s.argmin(), y.argmin(), d.argmax(), x.argmax(), s.argmax(), y.argmax(), d.argmin()]
-    )
-    corner = pts[ext]
-    edge = np.roll(corner, -1, axis=0) - corner
+    ext, corner, edge = _octagon(pts)
     scale = float(np.max(np.abs(corner - corner.mean(axis=0)))) + 1.0
     keep = np.zeros(n, dtype=bool)
     for (ax, ay), (ex, ey) in zip(corner.tolist(), edge.tolist(), strict=True):
@@ -154,12 +161,7 @@ def _octagon_band(pts: np.ndarray, margin: float) -> np.ndarray:
     extreme points along x, y, x + y and x - y, or outside it (a superset of the points within
     ``margin`` of the hull boundary: the octagon lies inside the hull)."""
     x, y = pts[:, 0], pts[:, 1]
-    s, d = x + y, x - y
-    ext = np.array(
-        [x.argmin(), s.argmin(), y.argmin(), d.argmax(), x.argmax(), s.argmax(), y.argmax(), d.argmin()]
-    )
-    corner = pts[ext]
-    edge = np.roll(corner, -1, axis=0) - corner
+    _, corner, edge = _octagon(pts)
     keep = np.zeros(pts.shape[0], dtype=bool)
     for (ax, ay), (ex, ey) in zip(corner.tolist(), edge.tolist(), strict=True):
         length = math.hypot(ex, ey)
