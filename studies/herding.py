@@ -454,7 +454,7 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
     _fig_6_7_snapshots(out, rows)
 
 
-def _sweep_task(name: str, key: str, value: Any, n: int, seed: int, n_animals: int) -> dict[str, Any]:
+def _sweep_task(name: str, key: str, value: Any, n: int, seed: int) -> dict[str, Any]:
     """The store task of one sweep point (``key``: the scenario keyword the sweep varies)."""
     t: dict[str, Any] = {
         "problem": "herding",
@@ -474,7 +474,7 @@ def _sweep_task(name: str, key: str, value: Any, n: int, seed: int, n_animals: i
     elif key == "V_animal":  # keep V_driving <= V_animal and grazing <= V_animal valid
         t["params"] = {
             "V_animal": float(value),
-            "V_driving": min(table_6_2_for(n_animals)[1], value),
+            "V_driving": min(table_6_2_for(n)[1], value),
             "graze_speed": min(1.0, float(value)),
         }
     else:
@@ -482,27 +482,37 @@ def _sweep_task(name: str, key: str, value: Any, n: int, seed: int, n_animals: i
     return t
 
 
+SWEEP_SEEDS = 20
+"""Runs per sweep point in the full reproduction, as in the thesis (§6.5: "each simulation runs for 20
+times")."""
+
+
+def _sweep_sizes(quick: bool) -> list[int]:
+    """Herd sizes of the Figs. 6.8-6.10 sweeps: 100 animals quick; 200 and 1000 full, as in the thesis."""
+    return [100] if quick else [200, 1000]
+
+
 def _sweep_tasks(quick: bool) -> list[dict[str, Any]]:
-    """The store tasks of Figs. 6.8-6.10 (quick: 100 animals, 1 seed, 2 values per sweep)."""
-    n_animals = 100 if quick else 200
-    seeds = range(1) if quick else range(5)
+    """The store tasks of Figs. 6.8-6.10 (quick: 100 animals, 1 seed, 2 values per sweep;
+    full: 200 and 1000 animals, :data:`SWEEP_SEEDS` seeds per point)."""
+    seeds = range(1) if quick else range(SWEEP_SEEDS)
     return [
-        _sweep_task(name, key, value, n, s, n_animals)
+        _sweep_task(name, key, value, n, s)
         for name, (_label, full, qv, _, key) in SWEEPS.items()
         for value in (qv if quick else full)
         for s in seeds
-        for n in ([n_animals, 1000] if (name == "R_b" and not quick) else [n_animals])  # Fig. 6.10a: 1000 too
+        for n in _sweep_sizes(quick)
     ]
 
 
 def _sweeps(out: Path, quick: bool, executor, store) -> None:
-    n_animals = 100 if quick else 200
-    seeds = range(1) if quick else range(5)
+    size_text = " and ".join(str(n) for n in _sweep_sizes(quick))
+    seeds = 1 if quick else SWEEP_SEEDS
     tasks = _sweep_tasks(quick)
     rows = _run_all(tasks, executor, store, "Figs. 6.8-6.10 runs")
     table = ComparisonTable(
-        f"Figs. 6.8-6.10 ({n_animals} animals{'' if quick else ', R_b also 1000'}, "
-        f"{len(seeds)} seed(s) per point): gathering time after the drones reach the hull (min)"
+        f"Figs. 6.8-6.10 ({size_text} animals, {seeds} seed(s) per point): "
+        "gathering time after the drones reach the hull (min)"
     )
     fig, axes = plt.subplots(2, 3, figsize=(13, 7))
     import pandas as pd
@@ -558,7 +568,7 @@ def _sweeps(out: Path, quick: bool, executor, store) -> None:
             "value: p = proposed / b = benchmark mean; * = a run that did not gather in 40 min",
         )
     fig.suptitle(
-        f"Figs. 6.8-6.10 ({n_animals} animals, {len(seeds)} seed(s) per point"
+        f"Figs. 6.8-6.10 ({size_text} animals, {seeds} seed(s) per point"
         f"{', reduced sweeps' if quick else ''})"
     )
     fig.tight_layout()
@@ -570,7 +580,7 @@ def _sweeps(out: Path, quick: bool, executor, store) -> None:
 
 def reproduce(*, quick: bool, out: Path, executor=None, store: ResultStore | None = None) -> None:
     """Fig. 6.7 (footprint, times, snapshots; 20 seeds at 200 and 1000 animals) and the Figs.
-    6.8-6.10 sweeps (200 animals, 5 seeds per point, plus 1000 animals for R_b); CSV + PNG in ``out``.
+    6.8-6.10 sweeps (200 and 1000 animals, 20 seeds per point); CSV + PNG in ``out``.
 
     quick: 2+1 seeds for Fig. 6.7 and reduced sweeps at 100 animals. executor: from
     ``make_executor`` (default: up to 2 local processes); store: the results store every
