@@ -12,6 +12,10 @@ the method's word:
 closed loop       the controller runs inside the problem's simulator; objective = the simulator's
                   metric (shark: time of first contact, s, which must be frontal and not early;
                   covert: max recorded bearing change, deg; herding: gathering + driving time, s)
+bound engines     droneplan's registered bound engines of closed-loop kinds
+                  (``Method.is_bound_engine``) return a proven bound with its kind and extras;
+                  their row has role ``bound``, no objective, and the bound only if its kind is
+                  one the store ranks (``BOUND_KINDS``)
 
 Statuses of a row: ``optimal``/``feasible`` (a verified plan), ``infeasible`` (the plan violates a
 constraint, named in ``message``), ``invalid`` (a return value of the wrong type or shape, NaN or
@@ -80,6 +84,8 @@ def execute(instance: StudyInstance, method: Method, seed: int, time_limit: floa
         return method.call(
             data.drone_s.copy(), data.steer_s.copy(), data.perimeter, seed=seed, time_limit=time_limit
         )
+    if method.is_bound_engine:
+        return method.call(data, seed=seed, time_limit=time_limit)
     ctl = method.controller()
     if instance.kind == "shark-path":
         from droneplan.scenarios.shark import simulate
@@ -91,6 +97,7 @@ def execute(instance: StudyInstance, method: Method, seed: int, time_limit: floa
             "touched_early": bool(shark.touched_early),
             "interception_distance": shark.interception_distance,
             "fallbacks": int(shark.fallbacks),
+            "capture_time": _number(getattr(ctl, "capture_time", None)),
         }
     if instance.kind == "covert-run":
         from droneplan.scenarios.covert import simulate as simulate_covert
@@ -315,6 +322,23 @@ def _score_closed_loop(instance: StudyInstance, metrics: Mapping[str, Any]) -> S
     return Scored("feasible", objective=total, message="gathering + driving time, s", extras=extras)
 
 
+def _score_bound_engine(returned: Mapping[str, Any]) -> Scored:
+    """A registered bound engine's result: its status, proven bound (of a ranked kind) and extras."""
+    from droneplan.studies.store import BOUND_KINDS
+
+    status = str(returned.get("status", ""))
+    if status not in ("optimal", "no_solution"):
+        return Scored("error", message=f"internal: a bound engine returned status {_describe(status)}")
+    bound = _number(returned.get("bound"))
+    kind = str(returned.get("bound_kind", "none"))
+    if bound is not None and (kind not in BOUND_KINDS or kind == "none"):
+        return Scored("error", message=f"internal: a bound engine returned bound kind {_describe(kind)}")
+    extras = dict(returned.get("extras") or {})
+    return Scored(
+        status, bound=bound, bound_kind=kind, message=str(returned.get("message", "")), extras=extras
+    )
+
+
 def score(instance: StudyInstance, method: Method, returned: Any) -> Scored:
     """Droneplan's verdict on what ``method`` returned for ``instance`` (module docstring: the rules)."""
     if instance.kind == "cells":
@@ -324,5 +348,7 @@ def score(instance: StudyInstance, method: Method, returned: Any) -> Scored:
     if instance.kind in CLOSED_LOOP_KINDS:
         if not isinstance(returned, Mapping):
             return Scored("error", message=f"internal: the simulation returned {_describe(returned)}")
+        if method.is_bound_engine:
+            return _score_bound_engine(returned)
         return _score_closed_loop(instance, returned)
     raise ValueError(f"unknown instance kind {instance.kind!r}")

@@ -13,6 +13,11 @@ each is a :class:`Method` whose ``target`` follows the contract of the instance 
                  a controller class of the closed-loop contract (``reset(scenario, *, seed)``,
                  ``command(observation)``, ``phase``), instantiated without arguments for every run
 
+Registered *bound engines* (``onsphere-optimum`` for covert runs, ``interception-bound`` for shark
+paths) are the exception on closed-loop kinds: they are droneplan's own functions
+``fn(scenario, *, seed, time_limit) -> {"status", "bound", "bound_kind", "message", "extras"}``
+with role ``bound`` and ``trusted_bound``, whose row carries a proven bound and no objective.
+
 ``seed`` is the instance's seed (0 when it has none) and ``time_limit`` the study's limit in
 seconds; a function may ignore them but must accept them as keywords. ``Method.params`` are
 passed on as further keywords (functions) or constructor arguments (classes) and are part of the
@@ -32,7 +37,15 @@ from typing import Any
 
 from droneplan.core.validation import check_time_limit
 
-__all__ = ["Method", "BUILTIN", "builtin_methods", "resolve_methods", "CLOSED_LOOP_KINDS"]
+__all__ = [
+    "Method",
+    "BUILTIN",
+    "DEFAULT_METHODS",
+    "builtin_methods",
+    "default_methods",
+    "resolve_methods",
+    "CLOSED_LOOP_KINDS",
+]
 
 CLOSED_LOOP_KINDS = ("shark-path", "covert-run", "herding-run")
 """Instance kinds whose methods are controller classes run by the problem's simulator."""
@@ -43,7 +56,8 @@ class Method:
     """One method of a study.
 
     name: the row's ``method`` (unique within a study). target: the function or controller class
-    (module docstring: the contract per kind). role: ``heuristic`` or ``model``. params: keyword
+    (module docstring: the contract per kind). role: ``heuristic`` or ``model`` (``bound`` for the
+    registered bound engines, which must have ``trusted_bound``). params: keyword
     arguments for the target, recorded in every row. kinds: the instance kinds it runs on (empty:
     decided by its contract, i.e. any kind that fits). trusted_bound: the method is one of
     droneplan's exact engines, whose proven bound is recorded as a bound (a user method's claimed
@@ -63,8 +77,10 @@ class Method:
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip() or "\n" in self.name:
             raise ValueError(f"a method name must be a non-empty one-line string, got {self.name!r}")
-        if self.role not in ("heuristic", "model"):
+        if self.role not in ("heuristic", "model", "bound"):
             raise ValueError(f"method {self.name!r}: role must be 'heuristic' or 'model', got {self.role!r}")
+        if self.role == "bound" and not self.trusted_bound:
+            raise ValueError(f"method {self.name!r}: role 'bound' is for droneplan's exact engines only")
         if not callable(self.target):
             raise TypeError(
                 f"method {self.name!r}: target must be a function or a class, got {self.target!r}"
@@ -75,6 +91,11 @@ class Method:
             )
         limit = check_time_limit(self.time_limit, f"method {self.name!r} time_limit")
         object.__setattr__(self, "time_limit", limit)
+
+    @property
+    def is_bound_engine(self) -> bool:
+        """True for a registered bound engine of a closed-loop kind (a function, not a controller)."""
+        return self.builtin and self.trusted_bound and self.role == "bound"
 
     @property
     def is_class(self) -> bool:
@@ -161,6 +182,18 @@ def _alloc_blind(d, s, M, *, seed, time_limit):
     return allocate_collision_blind(d, s, M)
 
 
+def _covert_onsphere(scenario, *, seed, time_limit):
+    from droneplan.studies.covert_gap import onsphere_bounds
+
+    return onsphere_bounds(scenario, seed=seed)
+
+
+def _shark_interception_bound(scenario, *, seed, time_limit):
+    from droneplan.studies.shark import interception_bounds
+
+    return interception_bounds(scenario, time_limit=time_limit)
+
+
 def _controller(module: str, name: str) -> Callable[..., Any]:
     """A lazily imported controller class (so listing the built-ins imports no solver)."""
 
@@ -181,6 +214,7 @@ _CONTROLLERS = (
     ("sliding", "covert", "SlidingModeObserver", "heuristic", "covert-run"),
     ("hover", "covert", "HoverBenchmark", "heuristic", "covert-run"),
     ("mpc", "covert", "MPCObserver", "model", "covert-run"),
+    ("mpc-safeguarded", "covert", "SafeguardedMPCObserver", "model", "covert-run"),
     ("proposed", "herding", "ProposedHerder", "heuristic", "herding-run"),
     ("benchmark", "herding", "BenchmarkHerder", "heuristic", "herding-run"),
 )
@@ -204,10 +238,45 @@ BUILTIN: dict[str, Method] = {
             Method(name, _controller(f"droneplan.planners.{layer}", cls), role, kinds=(kind,), builtin=True)
             for name, layer, cls, role, kind in _CONTROLLERS
         ),
+        Method(
+            "onsphere-optimum",
+            _covert_onsphere,
+            "bound",
+            kinds=("covert-run",),
+            trusted_bound=True,
+            builtin=True,
+        ),
+        Method(
+            "interception-bound",
+            _shark_interception_bound,
+            "bound",
+            kinds=("shark-path",),
+            trusted_bound=True,
+            builtin=True,
+        ),
     )
 }
 """The registered methods by name (``bnb`` is the cells branch and bound, ``milp`` the cells MILP;
-``exact`` the exact allocation algorithm)."""
+``exact`` the exact allocation algorithm; ``onsphere-optimum`` and ``interception-bound`` the bound
+engines of covert runs and shark paths)."""
+
+DEFAULT_METHODS: dict[str, tuple[str, ...]] = {
+    "covert-run": ("hover", "sliding", "mpc", "mpc-safeguarded", "onsphere-optimum"),
+    "shark-path": ("virtual-shark", "ocp", "interception-bound"),
+}
+"""The registered methods a study of these kinds runs when it is given none (the built-in gap studies)."""
+
+
+def default_methods(kind: str) -> list[str]:
+    """The methods a study on instances of ``kind`` runs when given none (``DEFAULT_METHODS``).
+
+    kind: an instance kind; one without defaults raises ValueError listing its registered methods.
+    """
+    if kind not in DEFAULT_METHODS:
+        raise ValueError(
+            f"methods: name at least one method; registered for {kind}: {', '.join(builtin_methods(kind))}"
+        )
+    return list(DEFAULT_METHODS[kind])
 
 
 def builtin_methods(kind: str) -> list[str]:
@@ -260,12 +329,10 @@ def resolve_methods(kind: str, methods: Any) -> list[Method]:
     """The study's methods for instances of ``kind``, each checked against that kind's contract.
 
     methods: one method or a list of them (module docstring: the accepted forms), or a mapping
-    ``{name: target}``.
+    ``{name: target}``; None: the kind's ``DEFAULT_METHODS`` (an error for kinds without them).
     """
     if methods is None:
-        raise ValueError(
-            f"methods: name at least one method; registered for {kind}: {', '.join(builtin_methods(kind))}"
-        )
+        methods = default_methods(kind)
     if isinstance(methods, Mapping):
         entries: list[Any] = list(methods.items())
     elif isinstance(methods, (str, Method, tuple)) or callable(methods):
@@ -286,7 +353,7 @@ def resolve_methods(kind: str, methods: Any) -> list[Method]:
             )
         closed = kind in CLOSED_LOOP_KINDS
         lazy = hasattr(m.target, "lazy_class")
-        if closed and not (m.is_class or lazy):
+        if closed and not (m.is_class or lazy or m.is_bound_engine):
             raise TypeError(f"method {m.name!r}: {kind} instances take a controller class, got {m.target!r}")
         if not closed and m.is_class:
             raise TypeError(

@@ -88,7 +88,7 @@ def _params_json(method: Method) -> dict[str, Any]:
 
 
 def plan_study(
-    problem: str, *, methods: Any, instances: Any = None, time_limit: float | None = None, **size: Any
+    problem: str, *, methods: Any = None, instances: Any = None, time_limit: float | None = None, **size: Any
 ) -> StudyPlan:
     """Resolve a study's instances and methods and hash each job's configuration (runs nothing).
 
@@ -265,7 +265,7 @@ def _run_options(workers: Any, dask: Any, progress: Any, store: Any, executor: A
 def gap(
     problem: str,
     *,
-    methods: Any,
+    methods: Any = None,
     instances: Any = None,
     out: str | os.PathLike,
     workers: int | None = None,
@@ -283,7 +283,8 @@ def gap(
         ``"alg3"``, ``"virtual-shark"``, ``"sliding"`` ...), ``"module:function"`` strings, the
         user's functions or controller classes, ``(name, target)`` pairs or
         :class:`~droneplan.studies.methods.Method` objects (one or a list; contracts in
-        :mod:`droneplan.studies.methods`).
+        :mod:`droneplan.studies.methods`); None: on covert runs and shark paths the built-in
+        controllers and bound engines (``methods.DEFAULT_METHODS``), elsewhere an error.
     instances: None (the problem's default family), a family name, a path to an instance file or
         directory, or a list of instances / data objects
         (:func:`~droneplan.studies.instances.resolve_instances`).

@@ -1,46 +1,74 @@
-"""studies.covert_gap: the covert gap study writes consistent, resumable rows."""
+"""studies.covert_gap: the covert gap study is an open study of the registered controllers and the
+on-sphere bound engine, resumable, and equal to the task function it replaced."""
 
 from __future__ import annotations
 
 import pytest
 
 import droneplan.studies.covert as covert
-import droneplan.studies.covert_gap as sc
+import droneplan.studies.covert_gap as cg
 from droneplan.studies.common import make_executor
+from droneplan.studies.methods import BUILTIN, DEFAULT_METHODS, Method, resolve_methods
 from droneplan.studies.store import load_results
 
 
 def test_gap_names_are_reachable_from_the_covert_study_module():
-    assert covert.gap is sc.gap and covert.GAP_THESIS is sc.GAP_THESIS
+    assert covert.gap is cg.gap and covert.GAP_THESIS is cg.GAP_THESIS
     with pytest.raises(AttributeError, match="no_such_name"):
         _ = covert.no_such_name
 
 
-def _must_not_run(task):
-    raise AssertionError(f"resume recomputed {task['instance']}")
+def test_gap_instances_cycle_through_two_to_six_targets():
+    insts = cg.gap_instances(6, first_seed=3)
+    assert [i.seed for i in insts] == [3, 4, 5, 6, 7, 8]
+    assert [i.size for i in insts] == [2 + s % 5 for s in range(3, 9)]
+    assert {i.family for i in insts} == {"random-group"}
 
 
-def test_gap_rows_are_consistent_and_resumable(tmp_path, monkeypatch):
-    # the covert gap is the heaviest task: it also exercises the Dask path (threads in this process)
-    distributed = pytest.importorskip("distributed")
-    with (
-        distributed.LocalCluster(
-            n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
-        ) as c,
-        make_executor(dask_address=c.scheduler_address) as ex,
-    ):
-        sc.gap(seeds=1, executor=ex, out=tmp_path)
-        monkeypatch.setattr(sc, "gap_task", _must_not_run)
-        sc.gap(seeds=1, executor=ex, out=tmp_path)  # resumes: nothing recomputed (else an error row)
-    df = load_results(tmp_path)
+def test_bound_engines_are_registered_and_users_cannot_pose_as_one():
+    engine = BUILTIN["onsphere-optimum"]
+    assert engine.is_bound_engine and engine.role == "bound" and "covert-run" in engine.kinds
+    assert [m.name for m in resolve_methods("covert-run", None)] == list(DEFAULT_METHODS["covert-run"])
+
+    def mine(scenario, *, seed, time_limit):
+        return {"status": "optimal", "bound": 0.0, "bound_kind": "proven-global"}
+
+    # a user's function is no controller class, and it cannot claim the bound role
+    with pytest.raises(TypeError, match="take a controller class"):
+        resolve_methods("covert-run", [mine])
+    with pytest.raises(ValueError, match="role 'bound' is for droneplan's exact engines"):
+        Method("mine", mine, "bound")
+
+
+def test_gap_rows_match_the_task_function_and_resume(tmp_path):
+    with make_executor(2) as ex:
+        df = cg.gap(seeds=1, executor=ex, out=tmp_path)
+        first = load_results(tmp_path)
+        cg.gap(seeds=1, executor=ex, out=tmp_path)  # resumes: every row reused
+    again = load_results(tmp_path)
+    assert sorted(again["finished_at"]) == sorted(first["finished_at"])
     assert (df["status"] != "error").all(), df["message"].tolist()
-    df = df.set_index("method")
-    assert set(df.index) == {"hover", "sliding", "mpc", "mpc-safeguarded", "onsphere-optimum"}
-    assert (df["size"] == 2).all()
-    # the proven on-sphere optimum is below what the sliding mode recorded on the sphere
-    assert df.loc["onsphere-optimum", "bound"] <= df.loc["sliding", "covert_onsphere_max_deg"] + 1e-9
-    assert df.loc["sliding", "covert_onsphere_max_deg"] <= df.loc["sliding", "objective"] + 1e-9
-    # the safeguarded MPC reaches the sphere by its deadline (predicted sliding arrival + 2 s)
-    assert df.loc["mpc-safeguarded", "covert_t_a_s"] <= df.loc["sliding", "covert_t_a_s"] + 2.5
-    assert df.loc["sliding", "gap_bound_kind"] == "instantaneous"
+    new = df.set_index("method")
+    assert set(new.index) == {"hover", "sliding", "mpc", "mpc-safeguarded", "onsphere-optimum"}
+    assert (new["size"] == 2).all()
+    # the task function the open study replaced, on the same group (2 targets, seed 0)
+    old = cg.gap_task({"problem": "covert", "instance": "gap:n_targets=2,seed=0", "seed": 0, "n_targets": 2})
+    old_rows = {r["method"]: r for r in old}
+    for name in ("hover", "sliding", "mpc", "mpc-safeguarded"):
+        assert new.loc[name, "objective"] == pytest.approx(old_rows[name]["objective"], rel=1e-9), name
+    assert new.loc["onsphere-optimum", "bound"] == pytest.approx(
+        old_rows["onsphere-optimum"]["bound"], rel=1e-9
+    )
+    assert new.loc["onsphere-optimum", "covert_mission_bound_deg"] == pytest.approx(
+        old_rows["sliding"]["covert_mission_bound_deg"], rel=1e-9
+    )
+    # the proven on-sphere optimum is below what the sliding mode recorded on the sphere, which is
+    # at most its whole-run maximum
+    onsphere = new.loc["onsphere-optimum", "covert_sliding_onsphere_max_deg"]
+    assert new.loc["onsphere-optimum", "bound"] <= onsphere + 1e-9
+    assert onsphere <= new.loc["sliding", "objective"] + 1e-9
+    assert new.loc["sliding", "gap_bound_kind"] == "instantaneous"
+    assert new.loc["onsphere-optimum", "role"] == "bound" and new.loc["onsphere-optimum", "bound_kind"] == (
+        "instantaneous"
+    )
     assert (tmp_path / "gap_summary.csv").exists() and (tmp_path / "gap_covert.png").exists()
