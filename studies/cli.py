@@ -332,7 +332,7 @@ def _run_open_gap(args) -> int:
     try:
         df = open_gap(
             args.problem,
-            methods=args.methods or _default_methods(args.problem, args.instances),
+            methods=args.methods or _default_methods(args.problem),
             instances=args.instances,
             out=args.out,
             workers=args.workers,
@@ -358,10 +358,13 @@ def _families() -> set[str]:
     return set(FAMILIES)
 
 
-def _default_methods(problem: str, instances) -> None:
-    """None (the built-in controllers and bound engines) for covert and shark; elsewhere an exit."""
-    if problem in ("covert", "shark"):
-        return
+def _default_methods(problem: str) -> list[str]:
+    """The built-in controllers and bound engines of covert runs and shark paths; elsewhere an exit."""
+    from droneplan.studies.methods import DEFAULT_METHODS
+
+    kind = {"covert": "covert-run", "shark": "shark-path"}.get(problem)
+    if kind is not None:
+        return list(DEFAULT_METHODS[kind])
     raise SystemExit("droneplan: name the methods with --method (droneplan list shows the registered ones)")
 
 

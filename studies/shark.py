@@ -10,7 +10,6 @@ and the optimal operator-shark assignment vs greedy nearest-operator.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -38,7 +37,6 @@ from droneplan.scenarios.shark import (
     simulate_repelling,
     thesis_trajectories,
 )
-from droneplan.solvers.result import SolveResult
 from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study
 from droneplan.studies.jobs import Job, run_reproduction
 from droneplan.studies.plots.shark import animate, plot_time_series, plot_top_view
@@ -392,72 +390,12 @@ def _repelling(out: Path, table: ComparisonTable, rows: list[dict]) -> None:
 
 # --------------------------------------------------------------------------- gap
 def gap_task(task: Mapping[str, Any]) -> list[dict]:
-    """One instance in the results schema (objectives in s, minimised).
-
-    ``kind="path"``: a random curvy shark path; the virtual shark's time to its interception
-    point vs the time-optimal interception OCP (IPOPT, a local optimum). ``kind="assign"``:
-    a random fleet (2-4 operators, 2-5 sharks); greedy vs optimal bottleneck assignment of
-    operators to sharks (latest interception time).
-    """
-    seed = int(task["seed"])
-    if task["kind"] == "path":
-        return _path_rows(task["instance"], seed)
-    return _assign_rows(task["instance"], seed)
-
-
-def _path_rows(instance: str, seed: int) -> list[dict]:
-    """Rows of a ``path`` gap instance: the virtual shark, the interception OCP and its bound."""
-    tr = random_trajectory(seed)
-    bearing = float(np.random.default_rng(seed).uniform(-180, 180))
-    O0 = operator_start(tr, bearing_deg=bearing)
-    vs_ctl = VirtualSharkInterceptor()
-    t0 = time.perf_counter()
-    vs = simulate(tr, vs_ctl, bearing_deg=bearing)
-    vs_time = time.perf_counter() - t0
-    res = optimal_interception(tr, O0, N=50)
-    T_vs = vs_ctl.capture_time
-    outcomes = [
-        Outcome(
-            "virtual-shark",
-            "heuristic",
-            "feasible" if T_vs else "no_solution",
-            objective=T_vs,
-            time_s=vs_time,
-            message="time to the interception point (capture), closed loop",
-            extras={
-                "bearing_deg": bearing,
-                "contact_s": vs.intercept_time,
-                "frontal": bool(vs.frontal),
-                "touched_early": bool(vs.touched_early),
-            },
-        ),
-        *_ocp_outcomes(res, bearing),
-    ]
-    return build_rows("shark", instance, seed=seed, size=1, sense="min", outcomes=outcomes)
-
-
-def _ocp_outcomes(res: SolveResult, bearing: float) -> list[Outcome]:
-    """The interception OCP's outcome and that of its proven lower bound on the interception time."""
-    lb = res.bound  # proven lower bound on T (relaxation), valid for the OCP and the virtual shark
-    return [
-        Outcome.of(
-            "ocp",
-            "model",
-            res,
-            bound_kind="proven-global",
-            extras={"bearing_deg": bearing, "start_won": res.info.get("start_won")},
-        ),
-        Outcome(
-            "interception-time-bound",
-            "bound",
-            "optimal" if lb is not None else "no_solution",
-            objective=lb,
-            bound=lb,
-            bound_kind="proven-global" if lb is not None else "none",
-            message=str(res.info.get("bound_message", "")),
-            extras={"bearing_deg": bearing},
-        ),
-    ]
+    """One fleet instance in the results schema (``kind="assign"``; objectives in s, minimised): a
+    random fleet (2-4 operators, 2-5 sharks), greedy vs optimal bottleneck assignment of operators to
+    sharks (latest interception time). The path instances run as an open study (:func:`gap`)."""
+    if task.get("kind") != "assign":
+        raise ValueError(f"task kind must be 'assign' (paths run as an open study), got {task.get('kind')!r}")
+    return _assign_rows(task["instance"], int(task["seed"]))
 
 
 def _assign_rows(instance: str, seed: int) -> list[dict]:
@@ -622,84 +560,6 @@ def _path_table(t: ComparisonTable, paths: pd.DataFrame) -> None:
             f"{int(early)}/{len(vs)}",
             "curvy random paths, random start bearing",
         )
-
-
-def _old_gap(*, seeds: int, executor, out: Path, store=None, first_seed: int = 0):
-    """Virtual shark vs OCP on ``seeds`` random paths; greedy vs optimal assignment on ``seeds`` fleets.
-
-    executor: from ``make_executor``; out: directory for the summary and figure; store: the
-    results store (default ``out/results.sqlite``). Returns the rows of these instances.
-    first_seed: seed of the first instance (instances first_seed .. first_seed + seeds - 1).
-    """
-    out = Path(out)
-    tasks = [
-        {"problem": "shark", "instance": instance_id(f"gap-{kind}", seed=s), "kind": kind, "seed": s}
-        for kind in ("path", "assign")
-        for s in range(first_seed, first_seed + seeds)
-    ]
-    with open_store(store, out) as st:
-        df = map_rows(gap_task, tasks, executor=executor, store=st, desc="shark gap")
-    report_study(
-        df, out, "shark", title="shark: interception time (s; paths) and latest interception (s; fleets)"
-    )
-    t = ComparisonTable("Shark ch. 5: optimality gap")
-    paths = df[df["study"] == "gap-path"].pivot(index="instance", columns="method", values="objective")
-    if {"ocp", "virtual-shark"} <= set(paths.columns):
-        r = (paths["ocp"] / paths["virtual-shark"]).dropna()
-        t.add(
-            "OCP T / virtual-shark T, random curvy paths (mean)",
-            "—",
-            float(r.mean()) if len(r) else None,
-            f"{len(r)} paths with both times; path known; 1 = no gain",
-        )
-        t.add("OCP T / virtual-shark T (worst = max)", "—", float(r.max()) if len(r) else None, "same paths")
-    if {"ocp", "virtual-shark", "interception-time-bound"} <= set(paths.columns):
-        lb = paths["interception-time-bound"]
-        og = (paths["ocp"] / lb - 1).dropna()
-        vg = (paths["virtual-shark"] / lb - 1).dropna()
-        t.add(
-            "OCP T / proven lower bound - 1 (median, %)",
-            "—",
-            100 * float(og.median()) if len(og) else None,
-            f"{len(og)} paths; bound: earliest T the operator at its speed limits can reach the frontal "
-            "point (relaxation without the no-early-touch constraint)",
-        )
-        t.add(
-            "OCP certified within 1% / 5% of the optimum",
-            "—",
-            f"{int((og <= 0.01).sum())}/{len(og)} / {int((og <= 0.05).sum())}/{len(og)}",
-            "T <= (1 + x) * bound",
-        )
-        t.add(
-            "virtual-shark T / proven lower bound - 1 (median, %)",
-            "—",
-            100 * float(vg.median()) if len(vg) else None,
-            f"{len(vg)} paths; capture of S2 (within gamma)",
-        )
-        t.add(
-            "virtual shark within 1% / 5% of the bound",
-            "—",
-            f"{int((vg <= 0.01).sum())}/{len(vg)} / {int((vg <= 0.05).sum())}/{len(vg)}",
-            "",
-        )
-    ocp_rows = df[(df["study"] == "gap-path") & (df["method"] == "ocp")]
-    if len(ocp_rows) and "warm_started" in ocp_rows:
-        t.add(
-            "OCP best plan came from the virtual-shark start",
-            "—",
-            f"{int(ocp_rows['warm_started'].fillna(False).astype(bool).sum())}/{len(ocp_rows)}",
-            "the rest from the formulation's crude starts (warm_started = False)",
-        )
-    vs = df[(df["study"] == "gap-path") & (df["method"] == "virtual-shark")]
-    if "shark_touched_early" in vs:
-        t.add(
-            "virtual shark touches early (Prop. 5.3.3 violated)",
-            "never",
-            f"{int(vs['shark_touched_early'].fillna(False).astype(bool).sum())}/{len(vs)}",
-            "curvy random paths, random start bearing",
-        )
-    t.emit(out, "gap_table")
-    return df
 
 
 # --------------------------------------------------------------------------- bench

@@ -1,5 +1,5 @@
 """studies.covert_gap: the covert gap study is an open study of the registered controllers and the
-on-sphere bound engine, resumable, and equal to the task function it replaced."""
+on-sphere bound engine, resumable, and equal to the runs and oracle made directly."""
 
 from __future__ import annotations
 
@@ -7,7 +7,10 @@ import pytest
 
 import droneplan.studies.covert as covert
 import droneplan.studies.covert_gap as cg
+from droneplan.planners.covert import HoverBenchmark, SlidingModeObserver
+from droneplan.scenarios.covert import random_case, simulate
 from droneplan.studies.common import make_executor
+from droneplan.studies.covert import _instant_optima
 from droneplan.studies.methods import BUILTIN, DEFAULT_METHODS, Method, resolve_methods
 from droneplan.studies.store import load_results
 
@@ -51,17 +54,12 @@ def test_gap_rows_match_the_task_function_and_resume(tmp_path):
     new = df.set_index("method")
     assert set(new.index) == {"hover", "sliding", "mpc", "mpc-safeguarded", "onsphere-optimum"}
     assert (new["size"] == 2).all()
-    # the task function the open study replaced, on the same group (2 targets, seed 0)
-    old = cg.gap_task({"problem": "covert", "instance": "gap:n_targets=2,seed=0", "seed": 0, "n_targets": 2})
-    old_rows = {r["method"]: r for r in old}
-    for name in ("hover", "sliding", "mpc", "mpc-safeguarded"):
-        assert new.loc[name, "objective"] == pytest.approx(old_rows[name]["objective"], rel=1e-9), name
-    assert new.loc["onsphere-optimum", "bound"] == pytest.approx(
-        old_rows["onsphere-optimum"]["bound"], rel=1e-9
-    )
-    assert new.loc["onsphere-optimum", "covert_mission_bound_deg"] == pytest.approx(
-        old_rows["sliding"]["covert_mission_bound_deg"], rel=1e-9
-    )
+    # the same runs and oracle made directly (the old task function's steps) on the same group
+    sc = random_case(2, 0)
+    for name, ctl in (("hover", HoverBenchmark()), ("sliding", SlidingModeObserver())):
+        assert new.loc[name, "objective"] == pytest.approx(simulate(sc, ctl).beta_max * cg.DEG, rel=1e-9)
+    _, lbs, _ = _instant_optima(simulate(sc, SlidingModeObserver()), sc)
+    assert new.loc["onsphere-optimum", "bound"] == pytest.approx(lbs.max() * cg.DEG, rel=1e-9)
     # the proven on-sphere optimum is below what the sliding mode recorded on the sphere, which is
     # at most its whole-run maximum
     onsphere = new.loc["onsphere-optimum", "covert_sliding_onsphere_max_deg"]
