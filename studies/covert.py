@@ -132,7 +132,9 @@ def _plot_beta(traces: dict[str, CovertTrace], path: Path, title: str, per_targe
 
 # --------------------------------------------------------------------------- reproduce
 def _case_table(case: int, traces, oracle: tuple[float, float, float], thesis: dict, out: Path, safe) -> dict:
-    h, s, m, g = traces["hover"], traces["sliding"], traces["mpc"], traces["mpc-safe"]
+    """The case table from its runs (the MPC variants' rows only for the variants that ran: see
+    :func:`_case_runs`); returns the values the summary shows (``safe`` None without that run)."""
+    h, s, m, g = traces["hover"], traces["sliding"], traces["mpc"], traces.get("mpc-safe")
     lb, _, excess = oracle
     tab = ComparisonTable(
         f"Case {case}: maximum recorded bearing change (Fig. 3.{10 if case == 1 else 14})",
@@ -148,8 +150,8 @@ def _case_table(case: int, traces, oracle: tuple[float, float, float], thesis: d
         "sliding": s.beta_max,
         "mpc": m.beta_max,
         "oracle_lb": lb,
-        "safe": g.beta_max,
-        "t_a_safe": g.t_a,
+        "safe": None if g is None else g.beta_max,
+        "t_a_safe": None if g is None else g.t_a,
         "t_a_sliding": s.t_a,
     }
 
@@ -180,7 +182,8 @@ def _thesis_rows(tab: ComparisonTable, traces, thesis: dict, lb: float) -> None:
 
 
 def _mpc_rows(tab: ComparisonTable, traces, safe) -> None:
-    """The MPC observers' rows (IPOPT, OSQP, slow approach, safeguarded) against the sliding mode."""
+    """The MPC observers' rows (IPOPT, and the OSQP, slow-approach and safeguarded variants that
+    ran) against the sliding mode."""
     s, m = traces["sliding"], traces["mpc"]
     tab.add(
         "beta_max MPC, IPOPT (deg)",
@@ -190,19 +193,24 @@ def _mpc_rows(tab: ComparisonTable, traces, safe) -> None:
     )
     tab.add("MPC vs sliding (%)", None, _pct(m.beta_max, s.beta_max), "(MPC - sliding) / sliding")
     tab.add("MPC fallbacks to sliding mode", None, m.fallbacks, "failed solves (counted in the trace)")
-    mo, ms = traces["mpc-osqp"], traces["mpc-slow"]
-    tab.add(
-        "beta_max MPC, OSQP SQP (deg)",
-        None,
-        mo.beta_max * DEG,
-        f"one QP per replan; {mo.fallbacks} fallbacks",
-    )
-    tab.add(
-        "beta_max MPC, approach at 0.3 V_max (deg)",
-        None,
-        ms.beta_max * DEG,
-        f"IPOPT; later arrival t_a = {ms.t_a:.1f} s",
-    )
+    if "mpc-osqp" in traces:
+        mo = traces["mpc-osqp"]
+        tab.add(
+            "beta_max MPC, OSQP SQP (deg)",
+            None,
+            mo.beta_max * DEG,
+            f"one QP per replan; {mo.fallbacks} fallbacks",
+        )
+    if "mpc-slow" in traces:
+        ms = traces["mpc-slow"]
+        tab.add(
+            "beta_max MPC, approach at 0.3 V_max (deg)",
+            None,
+            ms.beta_max * DEG,
+            f"IPOPT; later arrival t_a = {ms.t_a:.1f} s",
+        )
+    if "mpc-safe" not in traces:
+        return
     g = traces["mpc-safe"]
     tab.add(
         "beta_max safeguarded MPC (deg)",
@@ -222,14 +230,15 @@ def _mpc_rows(tab: ComparisonTable, traces, safe) -> None:
 
 def _arrival_rows(tab: ComparisonTable, traces, thesis: dict, safe) -> None:
     """Arrival and retreat times, and how well the runs keep to the sphere."""
-    s, m, g = traces["sliding"], traces["mpc"], traces["mpc-safe"]
-    tab.add(
-        "t_a safeguarded MPC / its arrival deadline (s)",
-        thesis.get("t_a"),
-        f"{g.t_a:.1f} / {safe.arrival_deadline:.1f}",
-        f"deadline = predicted sliding arrival + {safe.safeguard.arrival_tolerance:.1f} s; "
-        f"{g.fallbacks} fallbacks, {safe.late_sliding} late sliding steps",
-    )
+    s, m, g = traces["sliding"], traces["mpc"], traces.get("mpc-safe")
+    if g is not None:
+        tab.add(
+            "t_a safeguarded MPC / its arrival deadline (s)",
+            thesis.get("t_a"),
+            f"{g.t_a:.1f} / {safe.arrival_deadline:.1f}",
+            f"deadline = predicted sliding arrival + {safe.safeguard.arrival_tolerance:.1f} s; "
+            f"{g.fallbacks} fallbacks, {safe.late_sliding} late sliding steps",
+        )
     tab.add(
         "t_a sliding / MPC (s)", thesis.get("t_a"), f"{s.t_a:.1f} / {m.t_a:.1f}", "first time on the sphere"
     )
@@ -509,7 +518,8 @@ def _case_job(case: int, out: Path, quick: bool, oracle: tuple[float, float, flo
     """The case table, the 3-D and bearing figures (and case 1's GIF) from the runs."""
     sc = thesis_case(case, 0)
     traces = _traces(named)
-    result = _case_table(case, traces, oracle, _CASE_THESIS[case], out, named["safe"][1])
+    safe = named["safe"][1] if "safe" in named else None
+    result = _case_table(case, traces, oracle, _CASE_THESIS[case], out, safe)
     main = {k: traces[k] for k in ("hover", "sliding", "mpc")}
     fig_no = 9 if case == 1 else 14
     _plot_3d(sc, main, out / f"case{case}_3d.png", f"Case {case}: drone paths (Fig. 3.{fig_no}a)")
@@ -576,6 +586,8 @@ def _summary_job(out: Path, case1: dict, case2: dict) -> None:
             -_pct(r["mpc"], r["sliding"]),
             "positive = MPC lower max recorded beta",
         )
+        if r["safe"] is None:  # not run for this case (quick)
+            continue
         summary.add(
             f"case {case}: safeguarded MPC margin over sliding (%)",
             None,
@@ -595,6 +607,15 @@ ORACLE_COST = 25.0
 """Estimated CPU seconds of the per-instant oracle of one case."""
 
 
+def _case_runs(case: int, quick: bool) -> tuple[str, ...]:
+    """The runs of a case's table: every controller of :data:`RUN_COST`, except in a quick
+    reproduction of case 2, which runs the thesis's comparison (hover, sliding mode) and the MPC;
+    the MPC variants (OSQP, slow approach, safeguarded) are compared on case 1 there."""
+    if quick and case == 2:
+        return ("hover", "sliding", "mpc")
+    return tuple(RUN_COST)
+
+
 def _case_jobs(case: int, out: Path, quick: bool, jobs: list[Job]) -> str:
     """Append the runs, oracle, table and front of ``case`` to ``jobs``; returns the table's key."""
     section = f"covert case {case}"
@@ -605,7 +626,7 @@ def _case_jobs(case: int, out: Path, quick: bool, jobs: list[Job]) -> str:
         jobs.append(Job(key, sec, _run_job, kwargs, cost=RUN_COST.get(name, RUN_COST["mpc"])))
         return key
 
-    keys = {name: run(name) for name in RUN_COST}
+    keys = {name: run(name) for name in _case_runs(case, quick)}
     if not quick:  # the front's two extra approach speeds
         keys.update({f"mpc-p{p:g}": run(f"mpc-p{p:g}", "covert stealth front") for p in (0.5, 1.0)})
     arg = {k: k.replace("-", "_").replace(".", "_") for k in keys}
@@ -619,7 +640,7 @@ def _case_jobs(case: int, out: Path, quick: bool, jobs: list[Job]) -> str:
         jobs.append(Job(key, section, _oracle_part, piece, sliding, cost=ORACLE_COST / ORACLE_PARTS))
     jobs.append(Job(oracle, section, _oracle_join, {}, {**sliding, **slices}, cost=0.01))
     table = f"covert/base/case{case}/table"
-    needs = {arg[k]: keys[k] for k in RUN_COST}
+    needs = {arg[k]: keys[k] for k in _case_runs(case, quick)}
     kwargs = {"case": case, "out": out, "quick": quick}
     jobs.append(Job(table, section, _case_job, kwargs, {**needs, "oracle": oracle}, cost=3.0, local=True))
     if case == 1 or not quick:
@@ -645,7 +666,8 @@ def reproduce_jobs(*, quick: bool, out: Path) -> list[Job]:
     the per-instant oracle and each table or figure, so they share one executor with the
     other problems; each run is made once and handed to every table that shows it.
 
-    quick: 3 noise runs at 2 levels (full: 20 at 5), the stealth front of case 1 only, at 1 s
+    quick: 3 noise runs at 2 levels (full: 20 at 5), the MPC variants on case 1 only (case 2:
+    hover, sliding mode and MPC, see :func:`_case_runs`), the stealth front of case 1 only, at 1 s
     instants (full: both cases at 0.2 s, two more MPC approach speeds, and the optimised front of
     :mod:`droneplan.studies.covert_front` for both cases); out: directory for the CSV, PNG and GIF
     files.

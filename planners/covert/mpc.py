@@ -40,6 +40,7 @@ from droneplan.scenarios.covert import (
     bearing_changes,
     rotate_heading,
 )
+from droneplan.scenarios.covert.dynamics import cross3
 from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult
 
@@ -246,7 +247,7 @@ class MPCObserver(_PhasedController):
             self._hold = (axis, rate, left - 1, v_hold)
             if axis is None:
                 return self.sliding_command(obs)
-            return CovertCommand(rate * np.cross(axis, obs.heading), v_hold)
+            return CovertCommand(rate * cross3(axis, obs.heading), v_hold)
         self._hold = None
         home = self.phase == RETREAT and np.linalg.norm(p.D_s_arr - obs.drone) <= self.settings.home_radius
         if home or not obs.observable.any():
@@ -306,7 +307,7 @@ class MPCObserver(_PhasedController):
             u = u * (p.U_max / nu)
         v = float(np.clip(plan.v[0], -p.V_max, p.V_max))
         nu = float(np.linalg.norm(u))
-        axis = np.cross(obs.heading, u / nu) if nu > 1e-12 else np.zeros(3)
+        axis = cross3(obs.heading, u / nu) if nu > 1e-12 else np.zeros(3)
         self._hold = (axis, nu, model.settings.replan_every - 1, v)
         return CovertCommand(u, v)
 
@@ -421,10 +422,10 @@ class SafeguardedMPCObserver(MPCObserver):
             nu = float(np.linalg.norm(u))
             if nu > p.U_max:
                 u, nu = u * (p.U_max / nu), p.U_max
-            axis = np.cross(h, u / nu) if nu > 1e-12 else np.zeros(3)
+            axis = cross3(h, u / nu) if nu > 1e-12 else np.zeros(3)
             v = float(np.clip(plan.v[k], -p.V_max, p.V_max))
             for _ in range(round(dur / p.dt)):
-                h_new, integral = rotate_heading(h, nu * np.cross(axis, h), p.dt)
+                h_new, integral = rotate_heading(h, nu * cross3(axis, h), p.dt)
                 D, h = D + v * integral, h_new
                 out.append(D.copy())
         return np.asarray(out)

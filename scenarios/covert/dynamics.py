@@ -59,6 +59,22 @@ class CovertPhase(enum.StrEnum):
 
 
 # --------------------------------------------------------------------------- geometry
+def cross3(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Cross product of (..., 3) arrays over the last axis (broadcast), without checks.
+
+    The same values as ``np.cross(a, b)`` to the last bit (the same products and differences,
+    component by component) at a fraction of its cost on single vectors, which the closed loops
+    call thousands of times per run.
+    """
+    if a.ndim == 1 and b.ndim == 1:  # Python floats: the same IEEE products, no array temporaries
+        x0, x1, x2 = a.tolist()
+        y0, y1, y2 = b.tolist()
+        return np.array([x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0])
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def bearing_changes(drone: Any, targets: Any, R: Any) -> NDArray[np.float64]:
     """Bearing changes beta_j (3.6) in radians, vectorised.
 
@@ -85,7 +101,7 @@ def bearing_changes(drone: Any, targets: Any, R: Any) -> NDArray[np.float64]:
         raise ValueError("a target coincides with the reference point R")
     if A.size and np.min(na) < 1e-9:
         raise ValueError("a target coincides with the drone")
-    cross = np.linalg.norm(np.cross(a, c), axis=-1)
+    cross = np.linalg.norm(cross3(a, c), axis=-1)
     dot = np.sum(a * c, axis=-1)
     return np.arctan2(cross, dot)
 
