@@ -20,7 +20,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from droneplan.formulations.cells import evaluate, solve_exact, solve_milp
+from droneplan.core.validation import check_bool, check_int, check_positive, check_time_limit
+from droneplan.formulations.cells import ENGINES, evaluate, solve_exact, solve_milp
 from droneplan.planners.cells import (
     GASettings,
     exhaustive,
@@ -32,6 +33,7 @@ from droneplan.planners.cells import (
 from droneplan.scenarios.cells import (
     THESIS_TABLE_4_2,
     THESIS_TABLE_4_3,
+    CellParams,
     problem_from_instance,
     thesis_instance,
     thesis_problem,
@@ -64,6 +66,12 @@ __all__ = [
     "GAP_METHODS",
     "GAP_EXHAUSTIVE_LIMIT",
     "gap",
+    "GRID_MS",
+    "GRID_DENSITIES",
+    "density_params",
+    "bench_grid_specs",
+    "bench_grid_row",
+    "bench_grid",
     "bench",
 ]
 
@@ -1142,14 +1150,188 @@ def gap(*, seeds: int, executor=None, out: Path, store=None, m: int = 3, first_s
     return df
 
 
-def bench(*, quick: bool, out: Path) -> None:
+GRID_MS = (4, 6, 8, 10)
+"""Numbers of drone-cells m of the full ``bench cells`` grid."""
+GRID_DENSITIES = (1, 2, 4)
+"""User-density factors of the full grid (both Table 4.2 user intensities scaled)."""
+GRID_TIME_LIMIT = 600.0
+"""Default time limit of a full-grid row (s); quick rows get ``GRID_QUICK_TIME_LIMIT``."""
+GRID_QUICK_TIME_LIMIT = 60.0
+"""Default time limit of a quick-grid row (s)."""
+
+
+def density_params(factor: float) -> CellParams:
+    """Table 4.2 with both user intensities (lambda_c in the clusters, lambda_nc in the
+    background, users/m^2) multiplied by ``factor`` (> 0); the radii, ranges, cluster count
+    and area are unchanged. Factor 2 gives 757 users (17.6k candidate sites at m = 4) on
+    seed 0, factor 4 gives 1,478 users (64k candidates).
+
+    factor: density factor (> 0, dimensionless)."""
+    f = check_positive("factor", factor)
+    base = THESIS_TABLE_4_2
+    return replace(base, lambda_c=base.lambda_c * f, lambda_nc=base.lambda_nc * f)
+
+
+def bench_grid_specs(
+    *,
+    quick: bool,
+    time_limit: float | None = None,
+    ms=None,
+    densities=None,
+    engines=None,
+    seed: int = INSTANCE_SEED,
+    workers: int = 1,
+) -> list[dict[str, Any]]:
+    """The rows of the ``bench cells`` grid: every m x density x engine, in that order.
+
+    quick: the small grid (m = 4, densities 1 and 2, both engines, ``GRID_QUICK_TIME_LIMIT``
+        s a row) instead of ``GRID_MS`` x ``GRID_DENSITIES`` (``GRID_TIME_LIMIT`` s a row).
+    time_limit: seconds per row (the whole solve_exact call), None: the default above.
+    ms: numbers of drone-cells (ints >= 1; default by ``quick``).
+    densities: density factors (> 0, ``density_params``; default by ``quick``).
+    engines: names from ``ENGINES`` (default both).
+    seed: Table 4.2 user-snapshot seed (int >= 0).
+    workers: processes per solve (int >= 1; ``solve_exact``'s ``workers``).
+    """
+    quick = check_bool("quick", quick)
+    limit = check_time_limit(time_limit)
+    if limit is None:
+        limit = GRID_QUICK_TIME_LIMIT if quick else GRID_TIME_LIMIT
+    ms_list = [
+        check_int("ms", m, min_value=1) for m in (ms if ms is not None else ((4,) if quick else GRID_MS))
+    ]
+    dens = [
+        check_positive("densities", d)
+        for d in (densities if densities is not None else ((1, 2) if quick else GRID_DENSITIES))
+    ]
+    engs = list(engines) if engines is not None else list(ENGINES)
+    for e in engs:
+        if e not in ENGINES:
+            raise ValueError(f"engines must hold names from {ENGINES}, got {e!r}")
+    if not ms_list or not dens or not engs:
+        raise ValueError("ms, densities and engines must each hold at least one value")
+    seed = check_int("seed", seed, min_value=0)
+    workers = check_int("workers", workers, min_value=1)
+    return [
+        {"m": m, "density": d, "engine": e, "seed": seed, "time_limit": limit, "workers": workers}
+        for m in ms_list
+        for d in dens
+        for e in engs
+    ]
+
+
+def _grid_child() -> None:
+    """The child process of :func:`bench_grid_row`: reads a spec as JSON on stdin, solves,
+    writes the row as JSON on stdout (memory and CPU measured here, in a fresh process)."""
+    import json
+    import resource
+    import sys
+    import time
+
+    spec = json.loads(sys.stdin.read())
+    problem = thesis_problem(int(spec["m"]), int(spec["seed"]), params=density_params(float(spec["density"])))
+    base_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    cpu0 = time.process_time()
+    t0 = time.perf_counter()
+    res = solve_exact(
+        problem, engine=spec["engine"], time_limit=float(spec["time_limit"]), workers=int(spec["workers"])
+    )
+    wall = time.perf_counter() - t0
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    row = {
+        "users": len(problem.targets),
+        "candidates": res.info.get("model_stats", {}).get("candidates"),
+        "status": res.status.name,
+        "objective": res.objective,
+        "bound": res.bound,
+        "gap": res.gap,
+        "wall_s": wall,
+        "cpu_s": time.process_time() - cpu0 + kids.ru_utime + kids.ru_stime,
+        # ru_maxrss is in KiB on Linux
+        "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "worker_peak_rss_mib": kids.ru_maxrss / 1024,
+        "base_rss_mib": base_rss / 1024,
+    }
+    sys.stdout.write(json.dumps(row) + "\n")
+
+
+def bench_grid_row(spec: Mapping[str, Any]) -> dict[str, Any]:
+    """One grid row (a spec of :func:`bench_grid_specs`) solved in a fresh Python process,
+    so its peak memory is its own.
+
+    spec: m, density, engine, seed, time_limit (s) and workers.
+
+    Returns the spec with: users, candidates, status, objective, bound, gap,
+    ``time_to_proof_s`` (wall s, None when not proven within the limit), ``wall_s``,
+    ``cpu_s`` (CPU seconds of the solve, forked workers included), ``peak_rss_mib`` (peak
+    resident memory of the process, MiB; ``base_rss_mib`` is its value before the solve,
+    after the imports and the instance; ``worker_peak_rss_mib`` that of the largest forked
+    worker, 0 without), ``load_1min`` (the 1-minute load average when the row started).
+    """
+    import json
+    import subprocess
+    import sys
+
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    proc = subprocess.run(
+        [sys.executable, "-c", "from droneplan.studies.cells import _grid_child; _grid_child()"],
+        input=json.dumps(dict(spec)),
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if proc.returncode != 0:
+        raise RuntimeError(f"bench grid row {dict(spec)} failed:\n{proc.stderr[-2000:]}")
+    row = {**spec, **json.loads(proc.stdout.strip().splitlines()[-1]), "load_1min": load}
+    row["time_to_proof_s"] = row["wall_s"] if row["status"] == "OPTIMAL" else None
+    return row
+
+
+def bench_grid(
+    *, quick: bool, out: Path, time_limit: float | None = None, progress: bool = True
+) -> pd.DataFrame:
+    """The scale grid of ``bench cells``: time to proof (or status and gap at the limit),
+    CPU seconds, peak memory, wall and load for every m x density x engine row
+    (:func:`bench_grid_specs`), one fresh process per row, written to ``bench_cells_grid.csv``.
+
+    quick: the small grid; out: output directory; time_limit: seconds per row (None: the
+    grid's default); progress: print each row as it ends.
+    """
+    specs = bench_grid_specs(quick=quick, time_limit=time_limit)
+    rows = []
+    for spec in specs:
+        row = bench_grid_row(spec)
+        rows.append(row)
+        if progress:
+            proof = (
+                "not proven"
+                if row["time_to_proof_s"] is None
+                else f"proven in {row['time_to_proof_s']:.1f} s"
+            )
+            print(
+                f"cells grid m={row['m']} x{row['density']:g} {row['engine']}: {row['status']} "
+                f"{row['objective']:g}/{row['bound']:g} {proof}, {row['cpu_s']:.1f} CPU-s, "
+                f"{row['peak_rss_mib']:.0f} MiB, load {row['load_1min']:.2f}",
+                flush=True,
+            )
+    df = pd.DataFrame(rows)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    df.to_csv(out / "bench_cells_grid.csv", index=False)
+    return df
+
+
+def bench(*, quick: bool, out: Path, time_limit: float | None = None) -> None:
     """The bench targets: the distribution over thesis-scale seeds (median, worst)
     of the m=4 MILP (proven within 120 s?) and m=6 (within 300 s?; skipped under --quick, which
     also uses seeds 0-2 instead of 0-9), per-seed rows in ``bench_cells_seeds.csv``; the
-    GA/MILP time ratio; GA success rate at m=3.
+    GA/MILP time ratio; GA success rate at m=3; then the scale grid (``bench_grid``: m x
+    density x engine, time to proof, CPU s, peak memory and load, in ``bench_cells_grid.csv``).
 
-    quick: the short version; out: output directory."""
+    quick: the short version; out: output directory; time_limit: seconds per grid row
+    (None: ``GRID_TIME_LIMIT``, under quick ``GRID_QUICK_TIME_LIMIT``)."""
     out = Path(out)
+    check_time_limit(time_limit)
     t = ComparisonTable(
         "cells bench (thesis-scale instances; solve_exact(engine='bnb'), the candidate-site "
         "branch and bound; the HiGHS row is the model, solve_milp)"
@@ -1235,4 +1417,14 @@ def bench(*, quick: bool, out: Path) -> None:
         f"{lib['study_cpu_s']:.3g} CPU-s; re-solving (branch and bound, from 3 re-solved) "
         f"{lib['resolve_wall_s_estimate']:.3g} s; load {lib['load_before']:.2f} -> {lib['load_after']:.2f}",
     )
+    grid = bench_grid(quick=quick, out=out, time_limit=time_limit)
+    for g in grid.itertuples():
+        t.add(
+            f"m={g.m} density x{g.density:g} {g.engine}: time to proof (s)",
+            None,
+            "not proven" if g.time_to_proof_s is None or pd.isna(g.time_to_proof_s) else g.time_to_proof_s,
+            f"{g.status} {g.objective:g}/{g.bound:g} ({g.users} users, {g.candidates} sites), "
+            f"{g.cpu_s:.3g} CPU-s, peak {g.peak_rss_mib:.0f} MiB, load {g.load_1min:.2f}, "
+            f"limit {g.time_limit:g} s",
+        )
     t.emit(out, "bench_cells")

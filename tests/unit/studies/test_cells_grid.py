@@ -1,0 +1,76 @@
+"""The ``bench cells`` scale grid: its density scaling, its rows and one row run in a fresh
+process (on a tiny setting; no timing is asserted)."""
+
+import math
+
+import pytest
+
+from droneplan.formulations.cells import ENGINES, solve_exact
+from droneplan.scenarios.cells import THESIS_TABLE_4_2, expected_user_count, thesis_problem
+from droneplan.studies.cells import (
+    GRID_DENSITIES,
+    GRID_MS,
+    GRID_QUICK_TIME_LIMIT,
+    GRID_TIME_LIMIT,
+    bench_grid_row,
+    bench_grid_specs,
+    density_params,
+)
+
+
+def test_density_params_scale_both_intensities_and_the_expected_users():
+    p = density_params(4)
+    assert p.lambda_c == pytest.approx(4 * THESIS_TABLE_4_2.lambda_c)
+    assert p.lambda_nc == pytest.approx(4 * THESIS_TABLE_4_2.lambda_nc)
+    assert (p.R_d, p.r1, p.r2, p.n_clusters) == (
+        THESIS_TABLE_4_2.R_d,
+        THESIS_TABLE_4_2.r1,
+        THESIS_TABLE_4_2.r2,
+        THESIS_TABLE_4_2.n_clusters,
+    )
+    assert expected_user_count(p) == pytest.approx(4 * expected_user_count(THESIS_TABLE_4_2))
+    with pytest.raises(ValueError, match="factor"):
+        density_params(0)
+
+
+def test_grid_specs_cover_every_m_density_engine_once():
+    full = bench_grid_specs(quick=False)
+    keys = {(r["m"], r["density"], r["engine"]) for r in full}
+    assert len(full) == len(keys) == len(GRID_MS) * len(GRID_DENSITIES) * len(ENGINES)
+    assert {r["time_limit"] for r in full} == {GRID_TIME_LIMIT}
+    quick = bench_grid_specs(quick=True)
+    assert 0 < len(quick) < len(full)
+    assert {r["time_limit"] for r in quick} == {GRID_QUICK_TIME_LIMIT}
+    assert {r["time_limit"] for r in bench_grid_specs(quick=True, time_limit=7)} == {7.0}
+
+
+@pytest.mark.parametrize(
+    ("kw", "name"),
+    [
+        ({"time_limit": -1}, "time_limit"),
+        ({"ms": [0]}, "ms"),
+        ({"densities": [-2]}, "densities"),
+        ({"engines": ["simplex"]}, "engines"),
+        ({"seed": -1}, "seed"),
+        ({"workers": 0}, "workers"),
+    ],
+)
+def test_grid_specs_name_the_bad_parameter(kw, name):
+    with pytest.raises(ValueError, match=name):
+        bench_grid_specs(quick=True, **kw)
+
+
+def test_grid_row_runs_in_a_fresh_process_and_both_engines_agree():
+    specs = bench_grid_specs(quick=True, ms=[2], densities=[0.05], time_limit=60, seed=3)
+    rows = [bench_grid_row(s) for s in specs]
+    assert [r["engine"] for r in rows] == list(ENGINES)
+    # the same instance solved here, in this process, is the oracle of the rows' values
+    ref = solve_exact(thesis_problem(2, 3, params=density_params(0.05)), engine="bnb")
+    for r in rows:
+        assert r["status"] == "OPTIMAL"
+        assert r["objective"] == r["bound"] == ref.objective
+        assert r["users"] == len(thesis_problem(2, 3, params=density_params(0.05)).targets)
+        assert r["time_to_proof_s"] == r["wall_s"] > 0
+        assert r["cpu_s"] > 0
+        assert r["peak_rss_mib"] >= r["base_rss_mib"] > 0
+        assert math.isfinite(r["load_1min"])
