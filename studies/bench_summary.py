@@ -7,11 +7,17 @@ Rows:
   touching every front door (``droneplan.cells``, ``.covert``, ``.shark``, ``.herding``), with the
   heavy libraries (cvxpy, casadi, ortools, matplotlib, pandas) each import left loaded;
 - herding, simulated seconds per CPU second of the proposed herder over the first ``t_max``
-  seconds of the thesis set-up (goals: 200 at 1000 animals, 50 at 10^4; 200 animals has none).
+  seconds of the thesis set-up (goals: 200 at 1000 animals, 50 at 10^4; 200 animals has none);
+- gap seconds per instance of each problem's built-in study (``droneplan gap <problem>`` on a
+  small fixed number of seeds, in a child process: cells m = 3 on library instances, herding
+  allocation, shark paths and fleets, covert random groups; goal: 30 for covert), wall and CPU;
+- ``droneplan reproduce --quick`` (goal: 120 s wall), run in a child process into a temporary
+  directory, or read from the ``reproduce_times.csv`` of a run already made.
 
 Every row records its wall time, its CPU time and the 1-minute load average when it started, so
 a figure taken on a shared machine can be judged: the herding ratios use CPU time (what other
-processes disturb least); an import row's CPU time is the whole child interpreter's.
+processes disturb least); an import row's CPU time is the whole child interpreter's, and a gap or
+reproduce row's that of the child and every process it waited for (its job processes).
 """
 
 from __future__ import annotations
@@ -35,6 +41,14 @@ __all__ = [
     "BenchRow",
     "measure_import",
     "measure_herding",
+    "GAP_GOALS",
+    "GAP_SEEDS",
+    "REPRODUCE_GOAL_S",
+    "gap_row",
+    "measure_gap",
+    "reproduce_row",
+    "reproduce_row_from_times",
+    "measure_reproduce",
     "bench_summary",
     "summary_markdown",
     "write_summary",
@@ -50,6 +64,20 @@ HERDING_GOALS: dict[int, float | None] = {200: None, 1000: 200.0, 10_000: 50.0}
 """Goal per herd size (count of animals): simulated seconds per CPU second (None: no goal)."""
 
 _FRONT_DOORS = ("cells", "covert", "shark", "herding")
+
+GAP_GOALS: dict[str, float | None] = {"cells": None, "herding": None, "shark": None, "covert": 30.0}
+"""Goal per problem: wall seconds per instance of its built-in gap study (None: no goal)."""
+
+GAP_SEEDS: dict[str, tuple[int, int]] = {
+    "cells": (1, 3),
+    "herding": (1, 3),
+    "shark": (2, 10),
+    "covert": (2, 5),
+}
+"""Seeds of the gap study measured per problem: (quick, full)."""
+
+REPRODUCE_GOAL_S = 120.0
+"""Goal for ``droneplan reproduce --quick`` on an idle 2-core machine, s (wall)."""
 
 
 @dataclass(frozen=True)
@@ -181,17 +209,172 @@ def measure_herding(n_animals: int, *, t_max: float = 60.0, repeats: int = 1) ->
     )
 
 
-def bench_summary(*, quick: bool = True, sizes: Sequence[int] = tuple(HERDING_GOALS)) -> list[BenchRow]:
-    """Measure every goal of this summary in this process, one after another.
+def _cli(args: Sequence[str]) -> tuple[float, float, float]:
+    """Run ``droneplan <args>`` in a child interpreter: (wall s, CPU s of it and every process it
+    waited for, 1-minute load average at the start). A failing command raises RuntimeError."""
+    load = _load_average()
+    before = _children_cpu()
+    w0 = time.perf_counter()
+    done = subprocess.run(
+        [sys.executable, "-m", "droneplan.studies.cli", *args], capture_output=True, text=True, check=False
+    )
+    wall = time.perf_counter() - w0
+    if done.returncode != 0:
+        tail = (done.stderr or done.stdout).strip().splitlines()[-1:] or ["no output"]
+        raise RuntimeError(f"droneplan {' '.join(args)} exited with {done.returncode}: {tail[0]}")
+    return wall, _children_cpu() - before, load
 
-    quick: one run per herding size and 3 fresh interpreters per import row (False: 3 herding runs
-        and 5 interpreters, the fastest kept).
-    sizes: herd sizes for the herding rows (counts of animals).
+
+def gap_row(
+    problem: str, *, instances: int, wall: float, cpu: float, load: float, note: str = ""
+) -> BenchRow:
+    """The "gap seconds per instance" row of ``problem`` from a measured study.
+
+    problem: a key of ``GAP_GOALS``; instances: instances the study ran (count, >= 1); wall, cpu:
+    the study's wall and CPU seconds (all its processes); load: 1-minute load average at its start;
+    note: how it was run. The value is wall seconds per instance; the note gives CPU per instance.
     """
+    if problem not in GAP_GOALS:
+        raise ValueError(f"problem must be one of {', '.join(GAP_GOALS)}, got {problem!r}")
+    instances = check_int("instances", instances, min_value=1)
+    goal = GAP_GOALS[problem]
+    value = wall / instances
+    return BenchRow(
+        quantity=f"gap, {problem} (s wall per instance)",
+        goal="—" if goal is None else f"<= {goal:g}",
+        value=value,
+        met=None if goal is None else value <= goal,
+        wall=wall,
+        cpu=cpu,
+        load=load,
+        note=f"{instances} instances, {cpu / instances:.1f} CPU-s per instance; {note}".rstrip("; "),
+    )
+
+
+def measure_gap(problem: str, *, seeds: int, out: Path, workers: int | None = None) -> BenchRow:
+    """Time ``droneplan gap <problem> --seeds <seeds>`` in a child process into a fresh store.
+
+    problem: ``cells`` (m = 3, library instances), ``herding``, ``shark`` or ``covert``; seeds:
+    instances per size (count, >= 1); out: a scratch directory (the study's ``--out``; must not
+    hold a store of an earlier run, or rows would be reused); workers: ``--workers`` (None: one per
+    core).
+    """
+    from droneplan.studies.store import load_results
+
+    if problem not in GAP_GOALS:
+        raise ValueError(f"problem must be one of {', '.join(GAP_GOALS)}, got {problem!r}")
+    seeds = check_int("seeds", seeds, min_value=1)
+    out = Path(out)
+    if (out / "results.sqlite").exists():
+        raise ValueError(f"out must not hold a results store already (its rows would be reused): {out}")
+    args = ["gap", problem, "--seeds", str(seeds), "--out", str(out)]
+    if workers is not None:
+        args += ["--workers", str(check_int("workers", workers, min_value=1))]
+    wall, cpu, load = _cli(args)
+    df = load_results(out)
+    n = int(df.loc[df["problem"] == problem, "instance"].nunique())
+    cores = workers if workers is not None else os.cpu_count()
+    return gap_row(
+        problem,
+        instances=n,
+        wall=wall,
+        cpu=cpu,
+        load=load,
+        note=f"droneplan {' '.join(args[:4])}, {cores} workers",
+    )
+
+
+def reproduce_row(*, wall: float, cpu: float, load: float, note: str) -> BenchRow:
+    """The ``reproduce --quick`` row from its wall and CPU seconds, the load at its start and how it
+    was measured (``note``)."""
+    return BenchRow(
+        quantity="droneplan reproduce --quick (s wall)",
+        goal=f"<= {REPRODUCE_GOAL_S:g}",
+        value=wall,
+        met=wall <= REPRODUCE_GOAL_S,
+        wall=wall,
+        cpu=cpu,
+        load=load,
+        note=note,
+    )
+
+
+def reproduce_row_from_times(path: Path) -> BenchRow:
+    """The ``reproduce --quick`` row read from a run's ``reproduce_times.csv`` (its ``total`` row:
+    ``span_s``, first job start to last job end, as the wall time; ``cpu_s``, the jobs' CPU seconds).
+
+    path: the CSV file, or the run's ``--out`` directory holding it. The load of that run is not
+    recorded there (NaN).
+    """
+    import pandas as pd
+
+    path = Path(path)
+    if path.is_dir():
+        path = path / "reproduce_times.csv"
+    table = pd.read_csv(path)
+    total = table[table["section"] == "total"]
+    if total.empty:
+        raise ValueError(f"path: {path} has no 'total' row (not a reproduce_times.csv)")
+    row = total.iloc[0]
+    return reproduce_row(
+        wall=float(row["span_s"]),
+        cpu=float(row["cpu_s"]),
+        load=math.nan,
+        note=f"read from {path}: first job start to last job end, {int(row['jobs'])} jobs; load not recorded",
+    )
+
+
+def measure_reproduce(out: Path, *, workers: int | None = None) -> BenchRow:
+    """Time ``droneplan reproduce --quick --out <out>`` in a child process (wall, CPU of it and its
+    job processes, load at the start).
+
+    out: a scratch directory without an earlier run's store; workers: ``--workers`` (None: one per core).
+    """
+    out = Path(out)
+    if (out / "results.sqlite").exists():
+        raise ValueError(f"out must not hold a results store already (its rows would be reused): {out}")
+    args = ["reproduce", "--quick", "--out", str(out)]
+    if workers is not None:
+        args += ["--workers", str(check_int("workers", workers, min_value=1))]
+    wall, cpu, load = _cli(args)
+    cores = workers if workers is not None else os.cpu_count()
+    return reproduce_row(wall=wall, cpu=cpu, load=load, note=f"child process, every problem, {cores} workers")
+
+
+def bench_summary(
+    *,
+    quick: bool = True,
+    sizes: Sequence[int] = tuple(HERDING_GOALS),
+    gap_problems: Sequence[str] = tuple(GAP_GOALS),
+    reproduce_times: Path | None = None,
+) -> list[BenchRow]:
+    """Measure every goal of this summary, one after another.
+
+    quick: one run per herding size, 3 fresh interpreters per import row and the quick seeds of
+        ``GAP_SEEDS`` (False: 3 herding runs, 5 interpreters, the full seeds).
+    sizes: herd sizes for the herding rows (counts of animals).
+    gap_problems: problems whose gap study is timed (empty: none).
+    reproduce_times: a run's ``reproduce_times.csv`` (or its directory) to read the reproduce row
+        from; None: run ``droneplan reproduce --quick`` here (in a temporary directory).
+    """
+    import tempfile
+
     herds = [check_int(f"sizes[{i}]", n, min_value=1) for i, n in enumerate(sizes)]
+    problems = list(gap_problems)
+    for i, problem in enumerate(problems):
+        if problem not in GAP_GOALS:
+            raise ValueError(f"gap_problems[{i}] must be one of {', '.join(GAP_GOALS)}, got {problem!r}")
     runs, interpreters = (1, 3) if quick else (3, 5)
     rows = [measure_import(repeats=interpreters), measure_import(doors=True, repeats=interpreters)]
     rows += [measure_herding(n, repeats=runs) for n in herds]
+    with tempfile.TemporaryDirectory(prefix="droneplan-bench-") as tmp:
+        for problem in problems:
+            seeds = GAP_SEEDS[problem][0 if quick else 1]
+            rows.append(measure_gap(problem, seeds=seeds, out=Path(tmp) / f"gap-{problem}"))
+        if reproduce_times is None:
+            rows.append(measure_reproduce(Path(tmp) / "reproduce"))
+        else:
+            rows.append(reproduce_row_from_times(reproduce_times))
     return rows
 
 

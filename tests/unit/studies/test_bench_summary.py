@@ -45,15 +45,73 @@ def test_the_summary_table_and_files(tmp_path, monkeypatch):
     monkeypatch.setattr(
         bs, "measure_import", lambda **kw: bs.BenchRow("import", "<= 0.5", 0.2, True, 0.2, 0.1, 1.0)
     )
+    monkeypatch.setattr(
+        bs,
+        "measure_gap",
+        lambda problem, **kw: bs.gap_row(problem, instances=2, wall=8.0, cpu=12.0, load=1.0),
+    )
+    monkeypatch.setattr(
+        bs, "measure_reproduce", lambda out, **kw: bs.reproduce_row(wall=150.0, cpu=280.0, load=0.5, note="x")
+    )
     rows = bs.bench_summary(sizes=(20,))
-    assert [r.quantity.split(",")[0] for r in rows] == ["import", "import", "herding"]
+    kinds = [
+        "import",
+        "import",
+        "herding",
+        "gap",
+        "gap",
+        "gap",
+        "gap",
+        "droneplan reproduce --quick (s wall)",
+    ]
+    assert [r.quantity.split(",")[0] for r in rows] == kinds
+    assert [r.quantity for r in rows[3:7]] == [f"gap, {p} (s wall per instance)" for p in bs.GAP_GOALS]
     text = bs.summary_markdown(rows)
     assert text.count("\n") == 2 + len(rows)
     assert "| <= 0.5 | 0.200 | yes |" in text
+    assert "| gap, covert (s wall per instance) | <= 30 | 4.000 | yes |" in text
+    assert "| droneplan reproduce --quick (s wall) | <= 120 | 150.0 | NO |" in text
     path = bs.write_summary(rows, tmp_path / "out")
     assert path.read_text() == text
     saved = json.loads((tmp_path / "out" / "bench_summary.json").read_text())
     assert [r["value"] for r in saved] == [r.value for r in rows]
+
+
+def test_a_gap_row_is_wall_time_per_instance_with_cpu_per_instance_in_its_note():
+    row = bs.gap_row("covert", instances=4, wall=100.0, cpu=180.0, load=2.5, note="how")
+    assert row.value == 25.0 and row.goal == "<= 30" and row.met is True
+    assert (row.wall, row.cpu, row.load) == (100.0, 180.0, 2.5)
+    assert row.note == "4 instances, 45.0 CPU-s per instance; how"
+    slow = bs.gap_row("covert", instances=1, wall=31.0, cpu=40.0, load=0.0)
+    assert slow.met is False
+    other = bs.gap_row("shark", instances=3, wall=9.0, cpu=6.0, load=0.0)
+    assert other.goal == "—" and other.met is None and other.value == 3.0
+
+
+def test_the_reproduce_row_reads_a_runs_time_table(tmp_path):
+    from droneplan.studies.jobs import JobTiming, time_table
+
+    timings = [
+        JobTiming("a", "covert case 1", start=10.0, end=40.0, wall=30.0, cpu=25.0),
+        JobTiming("b", "shark table 5.2", start=12.0, end=70.0, wall=58.0, cpu=50.0),
+    ]
+    time_table(timings).to_csv(tmp_path / "reproduce_times.csv", index=False)
+    row = bs.reproduce_row_from_times(tmp_path)  # the run's directory or the file itself
+    assert row == bs.reproduce_row_from_times(tmp_path / "reproduce_times.csv")
+    assert row.value == row.wall == 60.0 and row.cpu == 75.0 and math.isnan(row.load)
+    assert row.goal == "<= 120" and row.met is True and "2 jobs" in row.note
+    (tmp_path / "other.csv").write_text("section,jobs,cpu_s,job_wall_s,span_s\ncovert,1,1.0,1.0,1.0\n")
+    with pytest.raises(ValueError, match=r"^path: .* has no 'total' row"):
+        bs.reproduce_row_from_times(tmp_path / "other.csv")
+
+
+def test_a_gap_study_is_timed_in_a_child_process(tmp_path):
+    row = bs.measure_gap("shark", seeds=1, out=tmp_path / "gap", workers=2)
+    # one random path and one random fleet; the value is the wall time over those two instances
+    assert row.note.startswith("2 instances,") and row.value == pytest.approx(row.wall / 2)
+    assert row.cpu > 0 and row.goal == "—"
+    with pytest.raises(ValueError, match=r"^out must not hold a results store"):
+        bs.measure_gap("shark", seeds=1, out=tmp_path / "gap")
 
 
 @pytest.mark.parametrize(
@@ -65,6 +123,10 @@ def test_the_summary_table_and_files(tmp_path, monkeypatch):
         (lambda: bs.measure_herding(2.5), "n_animals", TypeError),
         (lambda: bs.measure_import(repeats=0), "repeats", ValueError),
         (lambda: bs.bench_summary(sizes=(200, -1)), "sizes[1]", ValueError),
+        (lambda: bs.bench_summary(sizes=(), gap_problems=("cells", "x")), "gap_problems[1]", ValueError),
+        (lambda: bs.gap_row("x", instances=1, wall=1.0, cpu=1.0, load=0.0), "problem", ValueError),
+        (lambda: bs.gap_row("cells", instances=0, wall=1.0, cpu=1.0, load=0.0), "instances", ValueError),
+        (lambda: bs.measure_gap("cells", seeds=0, out="unused"), "seeds", ValueError),
     ],
 )
 def test_bad_input_is_refused_by_name(call, name, error):
