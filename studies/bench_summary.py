@@ -316,11 +316,13 @@ def reproduce_row_from_times(path: Path) -> BenchRow:
     if total.empty:
         raise ValueError(f"path: {path} has no 'total' row (not a reproduce_times.csv)")
     row = total.iloc[0]
+    problems = sorted({str(sec).split()[0] for sec in table["section"] if sec != "total"})
     return reproduce_row(
         wall=float(row["span_s"]),
         cpu=float(row["cpu_s"]),
         load=math.nan,
-        note=f"read from {path}: first job start to last job end, {int(row['jobs'])} jobs; load not recorded",
+        note=f"read from {path}: first job start to last job end, {int(row['jobs'])} jobs of "
+        f"{', '.join(problems)}; load not recorded",
     )
 
 

@@ -99,7 +99,7 @@ def test_the_reproduce_row_reads_a_runs_time_table(tmp_path):
     row = bs.reproduce_row_from_times(tmp_path)  # the run's directory or the file itself
     assert row == bs.reproduce_row_from_times(tmp_path / "reproduce_times.csv")
     assert row.value == row.wall == 60.0 and row.cpu == 75.0 and math.isnan(row.load)
-    assert row.goal == "<= 120" and row.met is True and "2 jobs" in row.note
+    assert row.goal == "<= 120" and row.met is True and "2 jobs of covert, shark;" in row.note
     (tmp_path / "other.csv").write_text("section,jobs,cpu_s,job_wall_s,span_s\ncovert,1,1.0,1.0,1.0\n")
     with pytest.raises(ValueError, match=r"^path: .* has no 'total' row"):
         bs.reproduce_row_from_times(tmp_path / "other.csv")
