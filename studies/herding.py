@@ -12,6 +12,8 @@ simulated seconds per wall second for 1000 animals and 4 drones, proposed vs ben
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import functools
 import json
 import os
 import subprocess
@@ -34,6 +36,7 @@ from droneplan.planners.herding import (
 )
 from droneplan.scenarios.herding import (
     HerdingFrame,
+    HerdingParams,
     HerdingPhase,
     HerdingTrace,
     simulate,
@@ -240,7 +243,7 @@ def _run_records(df: pd.DataFrame) -> list[dict]:
     for _, row in df.iterrows():
         r = {k[len("herding_") :]: v for k, v in row.items() if k.startswith("herding_")}
         r = {k: (None if (isinstance(v, float) and np.isnan(v)) else v) for k, v in r.items()}
-        r["method"] = row["method"]
+        r["method"], r["instance"] = row["method"], row["instance"]
         r["curve_t"], r["curve_r"] = np.asarray(r["curve_t"], float), np.asarray(r["curve_r"], float)
         r["snapshots"] = {
             float(t): HerdingFrame(
@@ -455,31 +458,63 @@ def _fig_6_7(out: Path, quick: bool, executor, store) -> None:
 
 
 def _sweep_task(name: str, key: str, value: Any, n: int, seed: int) -> dict[str, Any]:
-    """The store task of one sweep point (``key``: the scenario keyword the sweep varies)."""
+    """The store task of one sweep point (``key``: the scenario keyword the sweep varies).
+
+    The task holds only the settings that differ from the §6.5 set-up (:func:`_sweep_settings`), and
+    its instance id names only those: the points of different sweeps that fall on the default
+    scenario (n_d = 4, V_max = 25 m/s, V_animal = 4 m/s, R_b = 100 m, d_s = 30 m) are one task, run
+    once per seed and herd size and shown in each of those sweeps.
+    """
+    field, n_drones, params = _sweep_settings(key, value, n)
+    named: dict[str, Any] = dict(params)
+    if field is not None:
+        named["field"] = field
+    if n_drones is not None:
+        named["n_drones"] = n_drones
     t: dict[str, Any] = {
         "problem": "herding",
-        "instance": instance_id("fig6.8-6.10", sweep=name, value=value, n=n, seed=seed),
-        "sweep": name,
-        "value": value,
+        "instance": instance_id("fig6.8-6.10", n=n, seed=seed, **named),
         "n": n,
         "seed": seed,
         "t_max": 2400.0,
         "gather_only": True,
         "curve_every": 30.0,
     }
+    if field is not None:
+        t["field"] = field
+    if n_drones is not None:
+        t["n_drones"] = n_drones
+    if params:
+        t["params"] = params
+    return t
+
+
+def _sweep_settings(key: str, value: Any, n: int) -> tuple[Any, int | None, dict[str, float]]:
+    """(square field side or None, drone count or None, HerdingParams overrides) of a sweep point
+    on ``n`` animals, each None or left out where it equals the thesis set-up's value."""
     if key == "field":
-        t["field"] = value
-    elif key == "n_drones":
-        t["n_drones"] = value
-    elif key == "V_animal":  # keep V_driving <= V_animal and grazing <= V_animal valid
-        t["params"] = {
+        return value, None, {}
+    if key == "n_drones":
+        return None, (None if int(value) == _DEFAULT_DRONES else int(value)), {}
+    if key == "V_animal":  # keep V_driving <= V_animal and grazing <= V_animal valid
+        params = {
             "V_animal": float(value),
-            "V_driving": min(table_6_2_for(n)[1], value),
+            "V_driving": min(table_6_2_for(n)[1], float(value)),
             "graze_speed": min(1.0, float(value)),
         }
     else:
-        t["params"] = {key: float(value)}
-    return t
+        params = {key: float(value)}
+    defaults = _default_params(n)
+    return None, None, {k: v for k, v in params.items() if v != defaults[k]}
+
+
+_DEFAULT_DRONES = HerdingParams().n_drones
+
+
+@functools.cache
+def _default_params(n: int) -> dict[str, Any]:
+    """The HerdingParams of :func:`thesis_scenario` on ``n`` animals, by field name."""
+    return dataclasses.asdict(thesis_scenario(n, seed=0).params)
 
 
 SWEEP_SEEDS = 20
@@ -496,13 +531,14 @@ def _sweep_tasks(quick: bool) -> list[dict[str, Any]]:
     """The store tasks of Figs. 6.8-6.10 (quick: 100 animals, 1 seed, 2 values per sweep;
     full: 200 and 1000 animals, :data:`SWEEP_SEEDS` seeds per point)."""
     seeds = range(1) if quick else range(SWEEP_SEEDS)
-    return [
+    tasks = (
         _sweep_task(name, key, value, n, s)
         for name, (_label, full, qv, _, key) in SWEEPS.items()
         for value in (qv if quick else full)
         for s in seeds
         for n in _sweep_sizes(quick)
-    ]
+    )
+    return list({t["instance"]: t for t in tasks}.values())  # points on the default scenario: once
 
 
 def _sweeps(out: Path, quick: bool, executor, store) -> None:
@@ -518,22 +554,20 @@ def _sweeps(out: Path, quick: bool, executor, store) -> None:
     import pandas as pd
 
     flat: list[dict[str, Any]] = []
-    for a, (name, (label, full, qv, statement, _)) in zip(
+    by_run = {(r["instance"], r["method"]): r for r in rows}
+    sizes = _sweep_sizes(quick)
+    for a, (name, (label, full, qv, statement, key)) in zip(
         axes.flat, SWEEPS.items(), strict=True
     ):  # 2 x 3 axes, 6 sweeps
         values = qv if quick else full
         cells: dict[Any, list[str]] = {v: [] for v in values}
-        sizes = sorted({r["n"] for r in rows if r["sweep"] == name})
         for n_sw, (m, style) in [
             (n_sw, ms) for n_sw in sizes for ms in (("proposed", "o-"), ("benchmark", "s--"))
         ]:
             ys = []
             for v in values:
-                rs = [
-                    r
-                    for r in rows
-                    if r["sweep"] == name and r["value"] == v and r["method"] == m and r["n"] == n_sw
-                ]
+                runs = (by_run.get((_sweep_task(name, key, v, n_sw, s)["instance"], m)) for s in range(seeds))
+                rs = [r for r in runs if r is not None]
                 g = [r["gather_after_hull"] for r in rs]
                 ys.append(_minutes(_mean(g)))
                 fails = sum(x is None for x in g)

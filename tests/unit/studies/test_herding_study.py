@@ -111,3 +111,50 @@ def test_bench_speed_rows_record_cpu_wall_and_load(monkeypatch):
         assert "load average" in row["how measured"]
     assert all("CPU-s" in r["how measured"] and "wall" in r["how measured"] for r in table.rows[:3])
     assert [r["thesis"] for r in table.rows] == ["—", "target >= 200", "target >= 50", "target <= 0.5"]
+
+
+def _scenario_of(task):
+    """The scenario a sweep task's run simulates (as studies.herding._run_traced builds it)."""
+    from droneplan.scenarios.herding import thesis_scenario
+
+    field = task.get("field")
+    size = (float(field), float(field)) if field else (1200.0, 600.0)
+    return thesis_scenario(
+        int(task["n"]),
+        seed=int(task["seed"]),
+        field_size=size,
+        n_drones=int(task.get("n_drones", 4)),
+        **task.get("params", {}),
+    )
+
+
+def test_sweep_points_on_the_default_scenario_share_one_run():
+    """n_d = 4, V_max = 25, V_animal = 4, R_b = 100 and d_s = 30 are the §6.5 set-up: one task per
+    seed and size, whose scenario is the default one; every other point keeps its own task and
+    simulates the value it names."""
+    tasks = study._sweep_tasks(False)
+    ids = [t["instance"] for t in tasks]
+    assert len(ids) == len(set(ids))
+    n_points = sum(len(full) for (_, full, _, _, _) in study.SWEEPS.values())
+    defaults_per_run = 5  # one value of each of five sweeps is the set-up's own
+    assert len(tasks) == (n_points - defaults_per_run + 1) * study.SWEEP_SEEDS * 2
+    default = {
+        name: study._sweep_task(name, key, value, 200, 3)["instance"]
+        for name, (_, _, _, _, key), value in [
+            (nm, study.SWEEPS[nm], v)
+            for nm, v in [("n_drones", 4), ("V_max", 25), ("V_animal", 4), ("R_b", 100), ("d_s", 30)]
+        ]
+    }
+    assert len(set(default.values())) == 1
+    shared = next(t for t in tasks if t["instance"] == next(iter(default.values())))
+    base = _scenario_of({"n": 200, "seed": 3})
+    assert _scenario_of(shared).params == base.params
+    for name, (_, full, _, _, key) in study.SWEEPS.items():
+        for value in full:
+            sc = _scenario_of(study._sweep_task(name, key, value, 1000, 1))
+            if key == "field":
+                assert np.ptp(sc.animals, axis=0) == pytest.approx([value, value], rel=0.05)
+            elif key == "n_drones":
+                assert sc.params.n_drones == value
+            else:
+                assert getattr(sc.params, key) == value
