@@ -48,6 +48,9 @@ __all__ = [
     "report_study",
     "gap_figure",
     "timed",
+    "load_average",
+    "Measured",
+    "measured",
 ]
 
 
@@ -776,15 +779,56 @@ def gap_figure(df: pd.DataFrame, path: Path, *, title: str = "") -> Path:
 
 
 # --------------------------------------------------------------------------- timing
-def timed(fn: Callable[..., Any], *args, repeat: int = 1, **kwargs) -> tuple[Any, float]:
-    """Call ``fn`` ``repeat`` times; return the last result and the median wall time (s)."""
+def load_average() -> float:
+    """The 1-minute load average of the machine (NaN where the platform has none)."""
+    return os.getloadavg()[0] if hasattr(os, "getloadavg") else math.nan
+
+
+@dataclass
+class Measured:
+    """What a bench row records about the work it timed (filled in by :func:`measured`)."""
+
+    wall_s: float = math.nan
+    """Wall time, s."""
+    cpu_s: float = math.nan
+    """CPU time of this process, s (the figure other processes on a shared machine disturb least)."""
+    load: float = math.nan
+    """1-minute load average when the work started."""
+
+    @property
+    def note(self) -> str:
+        """``"1.23 s wall, 1.20 CPU-s, load average 0.6 on 2 cores"``: the text a bench row shows."""
+        load = f"load average {self.load:.1f} on {os.cpu_count()} cores"
+        return f"{self.wall_s:.2f} s wall, {self.cpu_s:.2f} CPU-s, {load}"
+
+
+@contextlib.contextmanager
+def measured() -> Iterator[Measured]:
+    """Time the ``with`` block: wall time, this process's CPU time and the load average at its start.
+
+    ``with measured() as m: work()`` then ``m.wall_s``, ``m.cpu_s``, ``m.load``, ``m.note``. Ratios
+    of two methods run in one process are to be taken from ``cpu_s``.
+    """
+    m = Measured(load=load_average())
+    c0, w0 = time.process_time(), time.perf_counter()
+    try:
+        yield m
+    finally:
+        m.wall_s, m.cpu_s = time.perf_counter() - w0, time.process_time() - c0
+
+
+def timed(fn: Callable[..., Any], *args, repeat: int = 1, **kwargs) -> tuple[Any, Measured]:
+    """Call ``fn(*args, **kwargs)`` ``repeat`` times; return the last result and a :class:`Measured`
+    holding the median wall time and the median CPU time of one call (s) and the load average at
+    the start."""
     if repeat < 1:
         raise ValueError(f"repeat must be >= 1, got {repeat}")
-    times = []
+    walls, cpus = [], []
     result = None
+    load = load_average()
     for _ in range(repeat):
-        t0 = time.perf_counter()
-        result = fn(*args, **kwargs)
-        times.append(time.perf_counter() - t0)
-    times.sort()
-    return result, times[len(times) // 2]
+        with measured() as one:
+            result = fn(*args, **kwargs)
+        walls.append(one.wall_s)
+        cpus.append(one.cpu_s)
+    return result, Measured(wall_s=float(np.median(walls)), cpu_s=float(np.median(cpus)), load=load)

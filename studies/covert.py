@@ -15,7 +15,6 @@
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -34,7 +33,7 @@ from droneplan.planners.covert import (
     SlidingModeObserver,
 )
 from droneplan.scenarios.covert import CovertTrace, simulate, thesis_case
-from droneplan.studies.common import ComparisonTable
+from droneplan.studies.common import ComparisonTable, measured
 from droneplan.studies.covert_front import optimised_front_section
 from droneplan.studies.jobs import Job, run_reproduction
 from droneplan.studies.plots.covert import animate, plot_bearing, plot_path, plot_stealth_front
@@ -761,9 +760,8 @@ def bench(*, quick: bool, out: Path) -> None:
             ctl = MPCObserver(
                 mpc=MPCSettings(replan_every=every), observer=MPCObserverSettings(backend=backend)
             )
-            t0 = time.perf_counter()
-            tr = simulate(sc, ctl)
-            wall = time.perf_counter() - t0
+            with measured() as run:
+                tr = simulate(sc, ctl)
             period = every * sc.params.dt
             st = tr.solve_times
             med, p90 = float(np.median(st)), float(np.quantile(st, 0.9))
@@ -778,7 +776,9 @@ def bench(*, quick: bool, out: Path) -> None:
                     "solves": st.size,
                     "beta_mpc_deg": tr.beta_max * DEG,
                     "beta_sliding_deg": sl.beta_max * DEG,
-                    "wall_s": wall,
+                    "wall_s": run.wall_s,
+                    "cpu_s": run.cpu_s,
+                    "load_1min": run.load,
                 }
             )
             target = "<= 1" if backend == "ipopt" else "<= 0.1"
@@ -787,7 +787,7 @@ def bench(*, quick: bool, out: Path) -> None:
                 f"{name}: median solve / period",
                 target,
                 med / period,
-                f"median {med * 1e3:.1f} ms, p90 {p90 * 1e3:.1f} ms over {st.size} solves",
+                f"median {med * 1e3:.1f} ms, p90 {p90 * 1e3:.1f} ms over {st.size} solves; run {run.note}",
             )
             tab.add(
                 f"{name}: fallbacks", None, f"{tr.fallbacks}/{st.size}", "failed solves -> sliding command"
@@ -802,9 +802,8 @@ def bench(*, quick: bool, out: Path) -> None:
     for case in (1, 2):
         sc = thesis_case(case, 0)
         ctl = SafeguardedMPCObserver()
-        t0 = time.perf_counter()
-        tr = simulate(sc, ctl)
-        wall = time.perf_counter() - t0
+        with measured() as run:
+            tr = simulate(sc, ctl)
         sl = sliding[case]
         tab.add(
             f"case {case} safeguarded ipopt @ 0.5 s: MPC margin over sliding (%)",
@@ -824,13 +823,13 @@ def bench(*, quick: bool, out: Path) -> None:
             f"case {case} safeguarded @ 0.5 s: median (solve + scoring) / period",
             "<= 1",
             med / 0.5,
-            f"median {med * 1e3:.1f} ms over {tr.solve_times.size} replans",
+            f"median {med * 1e3:.1f} ms over {tr.solve_times.size} replans; run {run.note}",
         )
         tab.add(
-            f"case {case} safeguarded: wall time / simulated time",
+            f"case {case} safeguarded: CPU time / simulated time",
             None,
-            wall / tr.t[-1],
-            "whole closed loop incl. both candidates' scoring",
+            run.cpu_s / tr.t[-1],
+            f"whole closed loop incl. both candidates' scoring; {run.note}",
         )
         rows.append(
             {
@@ -843,28 +842,30 @@ def bench(*, quick: bool, out: Path) -> None:
                 "solves": tr.solve_times.size,
                 "beta_mpc_deg": tr.beta_max * DEG,
                 "beta_sliding_deg": sl.beta_max * DEG,
-                "wall_s": wall,
+                "wall_s": run.wall_s,
+                "cpu_s": run.cpu_s,
+                "load_1min": run.load,
             }
         )
     # what a later arrival buys (the margin's only lever, see the on-sphere bound in reproduce)
     for case in (1, 2):
         sc = thesis_case(case, 0)
-        tr = simulate(sc, MPCObserver(observer=MPCObserverSettings(progress=0.3)))
+        with measured() as run:
+            tr = simulate(sc, MPCObserver(observer=MPCObserverSettings(progress=0.3)))
         tab.add(
             f"case {case} ipopt, approach at 0.3 V_max: margin over sliding (%)",
             None,
             -_pct(tr.beta_max, sliding[case].beta_max),
-            f"arrives at t_a = {tr.t_a:.1f} s vs {sliding[case].t_a:.1f} s",
+            f"arrives at t_a = {tr.t_a:.1f} s vs {sliding[case].t_a:.1f} s; run {run.note}",
         )
     sc = thesis_case(2, 0)
-    t0 = time.perf_counter()
-    tr = simulate(sc, SlidingModeObserver())
-    per_step = (time.perf_counter() - t0) / tr.t.size
+    with measured() as run:
+        tr = simulate(sc, SlidingModeObserver())
     tab.add(
-        "sliding mode: wall time per control step / dt",
+        "sliding mode: CPU time per control step / dt",
         None,
-        per_step / sc.params.dt,
-        "whole closed loop incl. simulation, case 2",
+        run.cpu_s / tr.t.size / sc.params.dt,
+        f"whole closed loop incl. simulation, case 2; {run.note}",
     )
     tab.emit(out, "bench")
     import pandas as pd

@@ -43,7 +43,15 @@ from droneplan.scenarios.herding import (
     table_6_2_for,
     thesis_scenario,
 )
-from droneplan.studies.common import ComparisonTable, make_executor, map_rows, report_study, timed
+from droneplan.studies.common import (
+    ComparisonTable,
+    load_average,
+    make_executor,
+    map_rows,
+    measured,
+    report_study,
+    timed,
+)
 from droneplan.studies.common import open_store as _store
 from droneplan.studies.jobs import Job, run_reproduction
 from droneplan.studies.plots.herding import animate, plot_state
@@ -819,23 +827,31 @@ def bench(*, quick: bool, out: Path) -> None:
     d, s, M = random_allocation_instance(64, 0)
     _, t64 = timed(solve_allocation, d, s, M, repeat=50)
     table.add(
-        "exact allocation, n = 64 (ms)", "target < 10", t64 * 1e3, "median of 50 solves, random hull instance"
+        "exact allocation, n = 64 (ms)",
+        "target < 10",
+        t64.wall_s * 1e3,
+        f"median of 50 solves, random hull instance; one solve {t64.note}",
     )
     d, s, M = random_allocation_instance(7, 1)
     _, t_bf = timed(allocate_bruteforce, d, s, M, repeat=3)
     _, t_ex = timed(solve_allocation, d, s, M, repeat=50)
     table.add(
-        "Algorithm 3 / exact time ratio, n = 7",
+        "Algorithm 3 / exact CPU-time ratio, n = 7",
         "n!·2^n = 645120 allocations",
-        t_bf / t_ex,
-        f"medians: Alg. 3 {t_bf * 1e3:.1f} ms, exact {t_ex * 1e3:.3f} ms",
+        t_bf.cpu_s / t_ex.cpu_s,
+        f"medians: Alg. 3 {t_bf.note}; exact {t_ex.cpu_s * 1e3:.3f} ms CPU",
     )
     d, s, M = random_allocation_instance(12, 2)
     _, t_cp = timed(solve_allocation, d, s, M, method="cp-sat", repeat=3)
-    table.add("CP-SAT / exact time ratio, n = 12", "—", t_cp / t_ex, f"CP-SAT {t_cp * 1e3:.1f} ms (1 worker)")
+    table.add(
+        "CP-SAT / exact CPU-time ratio, n = 12",
+        "—",
+        t_cp.cpu_s / t_ex.cpu_s,
+        f"CP-SAT (1 worker) median {t_cp.note}",
+    )
     t_sim = 300.0 if quick else 1200.0
+    load = load_average()
     r = run_once({"n": 1000, "seed": 0, "method": "proposed", "t_max": t_sim, "gather_only": False})
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     table.add(
         "simulation, 1000 animals + 4 drones (sim s / wall s)",
         "target >= 50",
@@ -872,10 +888,6 @@ def bench(*, quick: bool, out: Path) -> None:
     table.emit(out, "bench")
 
 
-def _load_average() -> float:
-    return os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-
-
 def _bench_speed(table: ComparisonTable) -> None:
     """Rows: simulated seconds per CPU second at 200, 1000 and 10^4 animals (60 s of gathering
     by the proposed herder, thesis set-up), and the time of ``import droneplan`` in a fresh
@@ -883,23 +895,20 @@ def _bench_speed(table: ComparisonTable) -> None:
     shared machine disturb least; wall time and the load average stand beside it."""
     for n, goal in ((200, "—"), (1000, "target >= 200"), (10_000, "target >= 50")):
         scenario = thesis_scenario(n, seed=0)
-        load = _load_average()
-        c0, w0 = time.process_time(), time.perf_counter()
-        trace = simulate(scenario, ProposedHerder(), t_max=60.0, seed=1)
-        cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+        with measured() as run:
+            trace = simulate(scenario, ProposedHerder(), t_max=60.0, seed=1)
         sim = float(trace.t[-1])
         table.add(
             f"simulation, {n} animals + 4 drones, 60 s gathering (sim s / CPU s)",
             goal,
-            sim / cpu,
-            f"{sim:.0f} s simulated in {cpu:.2f} CPU-s, {wall:.2f} s wall; load average {load:.1f} "
-            f"on {os.cpu_count()} cores",
+            sim / run.cpu_s,
+            f"{sim:.0f} s simulated: {run.note}",
         )
     try:
         import resource
     except ImportError:  # not on this platform: no child CPU time
         resource = None  # type: ignore[assignment]
-    load = _load_average()
+    load = load_average()
     before = resource.getrusage(resource.RUSAGE_CHILDREN) if resource else None
     w0 = time.perf_counter()
     subprocess.run([sys.executable, "-c", "import droneplan"], check=True)

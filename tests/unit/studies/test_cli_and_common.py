@@ -225,3 +225,24 @@ def test_cli_workers_beyond_the_bound_exit_naming_the_option(tmp_path):
         with pytest.raises(SystemExit, match=rf"--workers must be in \[1, {most}\]"):
             cli.main([*args, str(workers)])
     assert not (tmp_path / "o").exists()  # refused before --out was created
+
+
+def test_timed_and_measured_record_wall_cpu_and_load():
+    """A bench measurement holds the median wall and CPU time of one call and the load average;
+    busy work shows up as CPU time, a sleep only as wall time."""
+    import math
+    import time
+
+    from droneplan.studies.common import measured, timed
+
+    result, m = timed(sum, range(200_000), repeat=3)
+    assert result == sum(range(200_000))
+    assert m.cpu_s > 0 and m.wall_s > 0
+    assert math.isfinite(m.load) and m.load >= 0
+    assert "CPU-s" in m.note and "s wall" in m.note and "load average" in m.note
+    with measured() as idle:
+        time.sleep(0.2)
+    assert idle.wall_s >= 0.2
+    assert idle.cpu_s < idle.wall_s / 2
+    with pytest.raises(ValueError, match="repeat"):
+        timed(sum, [1], repeat=0)
