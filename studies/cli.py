@@ -326,13 +326,15 @@ def _run_open_gap(args) -> int:
 
     if args.problem == "all":
         raise SystemExit("droneplan: --method/--instances need one problem (cells, herding, shark or covert)")
+    if not args.methods:
+        _default_methods(args.problem)
     size = _sizes(args)
     if args.instances is None or args.instances in _families():
         size.update(seeds=args.seeds, first_seed=args.first_seed)
     try:
         df = open_gap(
             args.problem,
-            methods=args.methods or _default_methods(args.problem),
+            methods=args.methods or None,  # None: the kind's registered defaults
             instances=args.instances,
             out=args.out,
             workers=args.workers,
@@ -358,14 +360,13 @@ def _families() -> set[str]:
     return set(FAMILIES)
 
 
-def _default_methods(problem: str) -> list[str]:
-    """The built-in controllers and bound engines of covert runs and shark paths; elsewhere an exit."""
-    from droneplan.studies.methods import DEFAULT_METHODS
-
-    kind = {"covert": "covert-run", "shark": "shark-path"}.get(problem)
-    if kind is not None:
-        return list(DEFAULT_METHODS[kind])
-    raise SystemExit("droneplan: name the methods with --method (droneplan list shows the registered ones)")
+def _default_methods(problem: str) -> None:
+    """Covert and shark studies run their kind's registered defaults without ``--method``; the
+    others exit naming the option."""
+    if problem not in ("covert", "shark"):
+        raise SystemExit(
+            "droneplan: name the methods with --method (droneplan list shows the registered ones)"
+        )
 
 
 def _report_times(jobs, timings, wall: float, own: float, executor, out: Path) -> pd.DataFrame:

@@ -9,6 +9,9 @@ the method's word:
                   overlap, backhaul, count, bounds); objective = covered users
 ``allocation``    ``(target, direction)`` becomes an allocation whose travels droneplan computes
                   and ``check_allocation`` verifies against (6.20)-(6.23); objective = max travel (m)
+``shark-fleet``   ``(sharks, operator)`` must serve exactly the sharks to serve (all, or the n
+                  closest to a swimmer) with distinct operators; objective = latest predicted
+                  interception time (s) from droneplan's ``interception_time_matrix``
 closed loop       the controller runs inside the problem's simulator; objective = the simulator's
                   metric (shark: time of first contact, s, which must be frontal and not early;
                   covert: max recorded bearing change, deg; herding: gathering + driving time, s)
@@ -44,6 +47,7 @@ SENSE_OF_KIND = {
     "cells": "max",
     "allocation": "min",
     "shark-path": "min",
+    "shark-fleet": "min",
     "covert-run": "min",
     "herding-run": "min",
 }
@@ -84,6 +88,9 @@ def execute(instance: StudyInstance, method: Method, seed: int, time_limit: floa
         return method.call(
             data.drone_s.copy(), data.steer_s.copy(), data.perimeter, seed=seed, time_limit=time_limit
         )
+    if instance.kind == "shark-fleet":
+        arrays = (data.operators, data.sharks_pos, data.sharks_vel, data.humans)
+        return method.call(*(a.copy() for a in arrays), seed=seed, time_limit=time_limit)
     if method.is_bound_engine:
         return method.call(data, seed=seed, time_limit=time_limit)
     ctl = method.controller()
@@ -286,6 +293,85 @@ def _score_allocation(instance: StudyInstance, returned: Any, method: Method) ->
     return scored
 
 
+_FLEET_COSTS: dict[str, np.ndarray] = {}  # interception-time matrices by instance fingerprint
+
+
+def _fleet_costs(instance: StudyInstance) -> tuple[np.ndarray, np.ndarray]:
+    """(interception-time matrix (n, s) in s, indices of the sharks to serve) of a fleet instance."""
+    from droneplan.formulations.shark import select_sharks
+    from droneplan.planners.shark import interception_time_matrix
+
+    d = instance.data
+    key = instance.fingerprint()
+    if key not in _FLEET_COSTS:
+        if len(_FLEET_COSTS) > 64:
+            _FLEET_COSTS.clear()
+        _FLEET_COSTS[key] = interception_time_matrix(d.operators, d.sharks_pos, d.sharks_vel)
+    near = np.min(np.linalg.norm(d.sharks_pos[:, None, :2] - d.humans[None, :, :2], axis=2), axis=1)
+    n, s = len(d.operators), len(d.sharks_pos)
+    return _FLEET_COSTS[key], select_sharks(near, n) if s > n else np.arange(s)
+
+
+def _fleet_plan(plan: Any, n: int) -> tuple[np.ndarray, np.ndarray] | str:
+    """(sharks, operator) as integer arrays, or why they are not an assignment."""
+    if hasattr(plan, "sharks") and hasattr(plan, "operator"):
+        plan = (plan.sharks, plan.operator)
+    if not (isinstance(plan, (tuple, list)) and len(plan) == 2):
+        return "a fleet method returns (sharks, operator) or an Assignment, got " + _describe(plan)
+    try:
+        arrs = [np.asarray(a) for a in plan]
+    except (TypeError, ValueError):
+        return "sharks and operator must be arrays of integers"
+    for name, arr in zip(("sharks", "operator"), arrs, strict=True):
+        if arr.ndim != 1 or arr.dtype.kind not in "iu":
+            return f"{name} must be a 1-D array of integers, got {_describe(arr)}"
+    if arrs[0].shape != arrs[1].shape:
+        return f"sharks and operator must have the same length, got {arrs[0].shape} and {arrs[1].shape}"
+    if np.any(arrs[1] < 0) or np.any(arrs[1] >= n):
+        return f"operator indexes must lie in 0..{n - 1}"
+    return arrs[0].astype(int), arrs[1].astype(int)
+
+
+def _score_fleet(instance: StudyInstance, returned: Any, method: Method) -> Scored:
+    scored = Scored("feasible")
+    plan, has = _unwrap(returned, method, scored)
+    if not has:
+        return scored
+    cost, serve = _fleet_costs(instance)
+    found = _fleet_plan(plan, len(cost))
+    if isinstance(found, str):
+        return Scored("invalid", message=found, extras=scored.extras)
+    sharks, operator = found
+    if sorted(sharks.tolist()) != serve.tolist():
+        scored.status = "infeasible"
+        scored.message = (
+            f"the sharks to serve are {serve.tolist()}, the plan serves {sorted(sharks.tolist())}"
+        )
+        return scored
+    if len(set(operator.tolist())) != len(operator):
+        scored.status = "infeasible"
+        scored.message = "an operator is sent to two sharks"
+        return scored
+    times = cost[operator, sharks]
+    if not np.all(np.isfinite(times)):
+        k = int(np.argmax(~np.isfinite(times)))
+        scored.status = "infeasible"
+        scored.message = (
+            f"operator {operator[k]} cannot reach shark {sharks[k]} within the prediction horizon"
+        )
+        return scored
+    scored.objective = float(times.max())
+    scored.extras["n_sharks"] = len(instance.data.sharks_pos)
+    if method.trusted_bound and isinstance(returned, SolveResult) and returned.status is Status.OPTIMAL:
+        scored.status = "optimal"
+        bound = _number(returned.bound)
+        if bound is not None:
+            scored.bound, scored.bound_kind = bound, "proven-global"
+        scored.message = returned.message
+    _check_claim(scored)
+    return scored
+
+
 def _score_closed_loop(instance: StudyInstance, metrics: Mapping[str, Any]) -> Scored:
     extras = {k: v for k, v in metrics.items() if k not in ("intercept_time", "beta_max_deg", "total_time")}
     if instance.kind == "shark-path":
@@ -345,6 +431,8 @@ def score(instance: StudyInstance, method: Method, returned: Any) -> Scored:
         return _score_cells(instance, returned, method)
     if instance.kind == "allocation":
         return _score_allocation(instance, returned, method)
+    if instance.kind == "shark-fleet":
+        return _score_fleet(instance, returned, method)
     if instance.kind in CLOSED_LOOP_KINDS:
         if not isinstance(returned, Mapping):
             return Scored("error", message=f"internal: the simulation returned {_describe(returned)}")

@@ -7,7 +7,8 @@ own object (its ``data``) with where it came from:
 ``kind``      what the data is, and so which method contract applies (``KINDS``):
               ``cells`` (a :class:`~droneplan.scenarios.cells.CellProblem`), ``allocation``
               (an :class:`AllocationInstance`), ``shark-path`` (an
-              :class:`~droneplan.scenarios.shark.simulate.InterceptionScenario`), ``herding-run``
+              :class:`~droneplan.scenarios.shark.simulate.InterceptionScenario`), ``shark-fleet``
+              (a :class:`FleetInstance`: operators and sharks to assign), ``herding-run``
               (a :class:`~droneplan.scenarios.herding.HerdingScenario`), ``covert-run`` (a covert
               scenario)
 ``family``    the family name (``"table4.2"``, ``"allocation"`` ...) or ``"user"``
@@ -49,6 +50,7 @@ __all__ = [
     "KINDS",
     "INSTANCE_FORMAT",
     "AllocationInstance",
+    "FleetInstance",
     "StudyInstance",
     "Family",
     "FAMILIES",
@@ -61,11 +63,12 @@ __all__ = [
     "InstanceFileError",
 ]
 
-KINDS = ("cells", "allocation", "shark-path", "herding-run", "covert-run")
+KINDS = ("cells", "allocation", "shark-path", "shark-fleet", "herding-run", "covert-run")
 PROBLEM_OF_KIND = {
     "cells": "cells",
     "allocation": "herding",
     "shark-path": "shark",
+    "shark-fleet": "shark",
     "herding-run": "herding",
     "covert-run": "covert",
 }
@@ -110,6 +113,34 @@ class AllocationInstance:
         return len(self.drone_s)
 
 
+@dataclass(frozen=True)
+class FleetInstance:
+    """Operators to assign to sharks (thesis §5.3.1): each selected shark gets its own operator.
+
+    operators: (n, 3) operator positions (m). sharks_pos: (s, 3) shark positions (m). sharks_vel:
+    (s, 3) shark velocities (m/s; predicted constant). humans: (h, 2) swimmer positions (m); when
+    s > n the n sharks closest to a swimmer are the ones to serve.
+    """
+
+    operators: np.ndarray
+    sharks_pos: np.ndarray
+    sharks_vel: np.ndarray
+    humans: np.ndarray
+
+    def __post_init__(self) -> None:
+        O = check_array("operators", self.operators, shape=(None, 3), min_rows=1)
+        S = check_array("sharks_pos", self.sharks_pos, shape=(None, 3), min_rows=1)
+        V = check_array("sharks_vel", self.sharks_vel, shape=(len(S), 3))
+        H = check_array("humans", self.humans, shape=(None, 2), min_rows=1)
+        for name, arr in (("operators", O), ("sharks_pos", S), ("sharks_vel", V), ("humans", H)):
+            object.__setattr__(self, name, arr)
+
+    @property
+    def n(self) -> int:
+        """Number of operators."""
+        return len(self.operators)
+
+
 # --------------------------------------------------------------------------- data <-> JSON
 def _arr(a: Any) -> list:
     return np.asarray(a, dtype=float).tolist()
@@ -139,6 +170,16 @@ def _alloc_to(a: AllocationInstance) -> dict:
 
 def _alloc_from(d: Mapping[str, Any]) -> AllocationInstance:
     return AllocationInstance(np.asarray(d["drone_s"]), np.asarray(d["steer_s"]), d["perimeter"])
+
+
+def _fleet_to(f: FleetInstance) -> dict:
+    return {k: _arr(getattr(f, k)) for k in ("operators", "sharks_pos", "sharks_vel", "humans")}
+
+
+def _fleet_from(d: Mapping[str, Any]) -> FleetInstance:
+    return FleetInstance(
+        *(np.asarray(d[k], dtype=float) for k in ("operators", "sharks_pos", "sharks_vel", "humans"))
+    )
 
 
 def _shark_to(s: InterceptionScenario) -> dict:
@@ -201,6 +242,7 @@ _CODECS: dict[str, tuple[Callable[[Any], dict | None], Callable[[Mapping[str, An
     "cells": (_cells_to, _cells_from, CellProblem),
     "allocation": (_alloc_to, _alloc_from, AllocationInstance),
     "shark-path": (_shark_to, _shark_from, InterceptionScenario),
+    "shark-fleet": (_fleet_to, _fleet_from, FleetInstance),
     "herding-run": (_herding_to, _herding_from, HerdingScenario),
     "covert-run": (_covert_to, lambda d: None, None),
 }
@@ -213,7 +255,8 @@ def _kind_of(data: Any) -> str:
     if type(data).__name__ == "CovertScenario":
         return "covert-run"
     raise TypeError(
-        "an instance must be a CellProblem, AllocationInstance, InterceptionScenario, HerdingScenario or "
+        "an instance must be a CellProblem, AllocationInstance, InterceptionScenario, FleetInstance, "
+        "HerdingScenario or "
         f"covert scenario (or a StudyInstance), got {type(data).__name__}"
     )
 
@@ -259,7 +302,7 @@ class StudyInstance:
         d = self.data
         if self.kind == "cells":
             return int(d.n_cells)
-        if self.kind == "allocation":
+        if self.kind in ("allocation", "shark-fleet"):
             return d.n
         if self.kind == "herding-run":
             return int(d.params.n_drones)
@@ -398,6 +441,16 @@ def _shark_random(seed: int) -> InterceptionScenario:
     return InterceptionScenario(random_trajectory(seed), bearing_deg=bearing)
 
 
+def _shark_fleet(seed: int) -> FleetInstance:
+    g = np.random.default_rng(check_int("seed", seed, min_value=0))
+    n, s = int(g.integers(2, 5)), int(g.integers(2, 6))
+    O = np.c_[g.uniform(-60, 60, (n, 2)), np.full(n, 2.0)]
+    S = np.c_[g.uniform(-60, 60, (s, 2)), g.uniform(-5, -1, s)]
+    spd, hdg = g.uniform(1.0, 5.0, s), g.uniform(-np.pi, np.pi, s)  # below VoMxy: every shark is reachable
+    V = np.c_[spd * np.cos(hdg), spd * np.sin(hdg), np.zeros(s)]
+    return FleetInstance(O, S, V, g.uniform(-30, 30, (6, 2)))
+
+
 def _herding_run(n_animals: int, seed: int) -> HerdingScenario:
     return thesis_scenario(
         check_int("n_animals", n_animals, min_value=1), check_int("seed", seed, min_value=0)
@@ -503,6 +556,16 @@ FAMILIES: dict[str, Family] = {
             "random curvy shark path (random curvature, speed, depth) and a random start bearing",
         ),
         Family(
+            "random-fleet",
+            "shark",
+            "shark-fleet",
+            1,
+            (),
+            {},
+            _shark_fleet,
+            "random fleet: 2-4 operators, 2-5 sharks at constant velocity, 6 swimmers (120 m x 120 m)",
+        ),
+        Family(
             "thesis-case",
             "covert",
             "covert-run",
@@ -590,8 +653,8 @@ def family_instances(
 def as_instance(obj: Any, *, name: str | None = None) -> StudyInstance:
     """``obj`` as a :class:`StudyInstance`: itself, or the user's own data object wrapped as family ``user``.
 
-    obj: a StudyInstance, CellProblem, AllocationInstance, InterceptionScenario, HerdingScenario
-    or covert scenario. name: the user instance's name (default: its fingerprint).
+    obj: a StudyInstance, CellProblem, AllocationInstance, InterceptionScenario, FleetInstance,
+    HerdingScenario or covert scenario. name: the user instance's name (default: its fingerprint).
     """
     if isinstance(obj, StudyInstance):
         return obj

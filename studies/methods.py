@@ -9,6 +9,9 @@ each is a :class:`Method` whose ``target`` follows the contract of the instance 
                  (``target[j]``: index of drone j's steering point in ``steer_s`` padded as by
                  ``pad_steering_points``; ``direction[j]``: +1 or -1), or an ``Allocation``, or a
                  ``SolveResult`` whose ``x`` is one
+``shark-fleet``  ``fn(operators, sharks_pos, sharks_vel, humans, *, seed, time_limit) -> (sharks,
+                 operator)`` (``operator[k]``: index of the operator sent to shark ``sharks[k]``),
+                 or an ``Assignment``, or a ``SolveResult`` whose ``x`` is one
 ``shark-path``, ``covert-run``, ``herding-run``
                  a controller class of the closed-loop contract (``reset(scenario, *, seed)``,
                  ``command(observation)``, ``phase``), instantiated without arguments for every run
@@ -182,6 +185,24 @@ def _alloc_blind(d, s, M, *, seed, time_limit):
     return allocate_collision_blind(d, s, M)
 
 
+def _fleet_bottleneck(operators, sharks_pos, sharks_vel, humans, *, seed, time_limit):
+    import dataclasses
+
+    from droneplan.planners.shark import allocate_operators
+
+    res = allocate_operators(operators, sharks_pos, sharks_vel, humans)
+    if res.bound is None:
+        return res
+    # CP-SAT rounds each time to the nearest ms: the unrounded optimum is at most 0.5 ms below its bound
+    return dataclasses.replace(res, bound=res.bound - 0.5e-3)
+
+
+def _fleet_greedy(operators, sharks_pos, sharks_vel, humans, *, seed, time_limit):
+    from droneplan.planners.shark import allocate_operators
+
+    return allocate_operators(operators, sharks_pos, sharks_vel, humans, greedy=True)
+
+
 def _covert_onsphere(scenario, *, seed, time_limit):
     from droneplan.studies.covert_gap import onsphere_bounds
 
@@ -220,6 +241,7 @@ _CONTROLLERS = (
 )
 _CELLS = ("cells",)
 _ALLOC = ("allocation",)
+_FLEET = ("shark-fleet",)
 
 BUILTIN: dict[str, Method] = {
     m.name: m
@@ -234,6 +256,8 @@ BUILTIN: dict[str, Method] = {
         Method("cp-sat", _alloc_cpsat, "model", kinds=_ALLOC, trusted_bound=True, builtin=True),
         Method("alg3", _alloc_alg3, kinds=_ALLOC, builtin=True),
         Method("collision-blind", _alloc_blind, kinds=_ALLOC, builtin=True),
+        Method("bottleneck", _fleet_bottleneck, "model", kinds=_FLEET, trusted_bound=True, builtin=True),
+        Method("greedy-nearest", _fleet_greedy, kinds=_FLEET, builtin=True),
         *(
             Method(name, _controller(f"droneplan.planners.{layer}", cls), role, kinds=(kind,), builtin=True)
             for name, layer, cls, role, kind in _CONTROLLERS
@@ -257,12 +281,14 @@ BUILTIN: dict[str, Method] = {
     )
 }
 """The registered methods by name (``bnb`` is the cells branch and bound, ``milp`` the cells MILP;
-``exact`` the exact allocation algorithm; ``onsphere-optimum`` and ``interception-bound`` the bound
-engines of covert runs and shark paths)."""
+``exact`` the exact allocation algorithm; ``bottleneck`` the optimal operator-shark assignment
+(CP-SAT) and ``greedy-nearest`` the nearest-free-operator baseline; ``onsphere-optimum`` and
+``interception-bound`` the bound engines of covert runs and shark paths)."""
 
 DEFAULT_METHODS: dict[str, tuple[str, ...]] = {
     "covert-run": ("hover", "sliding", "mpc", "mpc-safeguarded", "onsphere-optimum"),
     "shark-path": ("virtual-shark", "ocp", "interception-bound"),
+    "shark-fleet": ("bottleneck", "greedy-nearest"),
 }
 """The registered methods a study of these kinds runs when it is given none (the built-in gap studies)."""
 

@@ -3,14 +3,14 @@
 `droneplan reproduce shark` — Fig. 5.10 (z_o*, eps* vs z_s: thesis formula beside the exact
 optimum), Fig. 5.11 (classical pursuit), Table 5.2 (interception distance for paths a-d:
 thesis, virtual shark, OCP), Fig. 5.12 panels, repelling episodes.
-`droneplan gap shark` — virtual-shark time vs the OCP optimum on random paths (path known),
-and the optimal operator-shark assignment vs greedy nearest-operator.
+`droneplan gap shark` — virtual shark vs the online OCP (closed-loop time of first contact) on
+random paths, with the offline OCP and its proven bound beside them, and the optimal operator-shark
+assignment vs greedy nearest-operator on random fleets.
 `droneplan bench shark` — online OCP replan time vs Ts, OCP/virtual-shark time ratios.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -37,11 +37,10 @@ from droneplan.scenarios.shark import (
     simulate_repelling,
     thesis_trajectories,
 )
-from droneplan.studies.common import ComparisonTable, map_rows, open_store, report_study
+from droneplan.studies.common import ComparisonTable, report_study
 from droneplan.studies.jobs import Job, run_reproduction
 from droneplan.studies.plots.shark import animate, plot_time_series, plot_top_view
 from droneplan.studies.report import flag_reasons
-from droneplan.studies.store import Outcome, build_rows, instance_id
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -52,7 +51,6 @@ __all__ = [
     "BOUND_METRIC",
     "reproduce",
     "reproduce_jobs",
-    "gap_task",
     "gap",
     "interception_bounds",
     "bench",
@@ -389,54 +387,6 @@ def _repelling(out: Path, table: ComparisonTable, rows: list[dict]) -> None:
 
 
 # --------------------------------------------------------------------------- gap
-def gap_task(task: Mapping[str, Any]) -> list[dict]:
-    """One fleet instance in the results schema (``kind="assign"``; objectives in s, minimised): a
-    random fleet (2-4 operators, 2-5 sharks), greedy vs optimal bottleneck assignment of operators to
-    sharks (latest interception time). The path instances run as an open study (:func:`gap`)."""
-    if task.get("kind") != "assign":
-        raise ValueError(f"task kind must be 'assign' (paths run as an open study), got {task.get('kind')!r}")
-    return _assign_rows(task["instance"], int(task["seed"]))
-
-
-def _assign_rows(instance: str, seed: int) -> list[dict]:
-    """Rows of an ``assign`` gap instance: optimal bottleneck vs greedy assignment of a random fleet."""
-    g = np.random.default_rng(seed)
-    n, s = int(g.integers(2, 5)), int(g.integers(2, 6))
-    O = np.c_[g.uniform(-60, 60, (n, 2)), np.full(n, 2.0)]
-    S = np.c_[g.uniform(-60, 60, (s, 2)), g.uniform(-5, -1, s)]
-    spd, hdg = g.uniform(1.0, 5.0, s), g.uniform(-np.pi, np.pi, s)  # below VoMxy: every shark is reachable
-    V = np.c_[spd * np.cos(hdg), spd * np.sin(hdg), np.zeros(s)]
-    H = g.uniform(-30, 30, (6, 2))
-    opt = allocate_operators(O, S, V, H)
-    gr = allocate_operators(O, S, V, H, greedy=True)
-    extras = {"n_sharks": s}
-    outcomes = [
-        Outcome(
-            "bottleneck",
-            "model",
-            opt.status.value,
-            objective=_finite_or_none(opt.objective),
-            bound=_finite_or_none(opt.objective) if opt.status.value == "optimal" else None,
-            bound_kind="proven-global" if opt.status.value == "optimal" else "none",
-            time_s=opt.solve_time,
-            message=opt.message,
-            extras=extras,
-        ),
-        Outcome(
-            "greedy",
-            "heuristic",
-            gr.status.value if _finite_or_none(gr.objective) is not None else "no_solution",
-            objective=_finite_or_none(gr.objective),
-            time_s=gr.solve_time,
-            message=gr.message or "greedy leaves a shark unreachable"
-            if _finite_or_none(gr.objective) is None
-            else gr.message,
-            extras=extras,
-        ),
-    ]
-    return build_rows("shark", instance, seed=seed, size=n, sense="min", outcomes=outcomes)
-
-
 def _finite_or_none(v):
     return float(v) if v is not None and np.isfinite(v) else None
 
@@ -478,20 +428,10 @@ def interception_bounds(scenario: Any, *, time_limit: float | None = None) -> di
     }
 
 
-def _assign_gap(seeds: int, first_seed: int, executor, out: Path, store) -> pd.DataFrame:
-    """The fleet-assignment rows (greedy vs optimal bottleneck) of ``seeds`` random fleets."""
-    tasks = [
-        {"problem": "shark", "instance": instance_id("gap-assign", seed=s), "kind": "assign", "seed": s}
-        for s in range(first_seed, first_seed + seeds)
-    ]
-    with open_store(store, out) as st:
-        return map_rows(gap_task, tasks, executor=executor, store=st, desc="shark assignment gap")
-
-
 def gap(*, seeds: int, executor=None, out: Path, store=None, first_seed: int = 0):
-    """Virtual shark vs the online OCP in closed loop on ``seeds`` random paths (an open study,
-    :func:`droneplan.studies.study.gap`, with the offline OCP and its proven bound as extras), and
-    greedy vs optimal assignment on ``seeds`` random fleets.
+    """Virtual shark vs the online OCP in closed loop on ``seeds`` random paths (with the offline OCP
+    and its proven bound as extras), and greedy vs optimal assignment on ``seeds`` random fleets: two
+    open studies (:func:`droneplan.studies.study.gap`) of the registered methods.
 
     executor: where the jobs run (from ``make_executor``; default: one per core); out: directory for
     the summary and figure; store: the results store (default ``out/results.sqlite``). Returns the
@@ -512,12 +452,30 @@ def gap(*, seeds: int, executor=None, out: Path, store=None, first_seed: int = 0
         store=store,
         executor=executor,
     )
-    df = pd.concat([paths, _assign_gap(seeds, first_seed, executor, out, store)], ignore_index=True)
+    fleets = open_gap(
+        "shark",
+        instances="random-fleet",
+        seeds=seeds,
+        first_seed=first_seed,
+        out=out,
+        store=store,
+        executor=executor,
+    )
+    df = pd.concat([paths, fleets], ignore_index=True)
     report_study(
         df, out, "shark", title="shark: time of first contact (s; paths) and latest interception (s; fleets)"
     )
     t = ComparisonTable("Shark ch. 5: optimality gap")
     _path_table(t, paths)
+    obj = fleets.pivot(index="instance", columns="method", values="objective")
+    if {"bottleneck", "greedy-nearest"} <= set(obj.columns):
+        r = (obj["greedy-nearest"] / obj["bottleneck"]).dropna()
+        t.add(
+            "greedy nearest operator / optimal bottleneck, latest interception (median)",
+            "—",
+            float(r.median()) if len(r) else None,
+            f"{len(r)} random fleets with both assignments feasible; predicted virtual-shark capture times",
+        )
     t.emit(out, "gap_table")
     return df
 
