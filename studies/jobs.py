@@ -35,6 +35,8 @@ from droneplan.studies.common import (
 from droneplan.studies.store import ResultStore, error_row
 
 __all__ = [
+    "TIMES_NAME",
+    "JOB_TIMES_NAME",
     "Job",
     "JobTiming",
     "JobsFailed",
@@ -44,6 +46,12 @@ __all__ = [
     "idle_estimate",
     "run_reproduction",
 ]
+
+TIMES_NAME = "reproduce_times.csv"
+"""The per-section time table a reproduction writes in its ``--out`` folder (:func:`time_table`;
+its ``total`` row's ``span_s`` is the run's wall time, s)."""
+JOB_TIMES_NAME = "reproduce_job_times.csv"
+"""The per-job timings a reproduction writes beside :data:`TIMES_NAME`."""
 
 
 @dataclass(frozen=True)

@@ -504,6 +504,50 @@ figure img { max-width: 100%; border: 1px solid #ddd; } figcaption { font-size: 
 """
 
 
+def _run_html(out: Path) -> str:
+    """Where and how long the run took: the machines and code that made the stored rows (the
+    store's provenance columns) and the last invocation's time per section (its time table),
+    each only when ``out`` holds it."""
+    from droneplan.studies.jobs import TIMES_NAME
+    from droneplan.studies.store import STORE_NAME, ResultStore
+
+    parts: list[str] = []
+    if (out / STORE_NAME).is_file():
+        with ResultStore(out / STORE_NAME, readonly=True) as store:
+            runs = store.runs()
+        escaped = [{k: html.escape(str(v)) for k, v in r.items()} for r in runs]
+        items = "".join(
+            f"<li>{e['rows']} rows: {e['cpu']} ({e['cores']} cores), droneplan {e['droneplan_version']}, "
+            f"commit {e['git_commit']}, code hash {e['code_hash']}; "
+            f"finished {e['first']} to {e['last']}</li>\n"
+            for e in escaped
+        )
+        if items:
+            parts.append(f"<p>The rows in the results store were made by:</p>\n<ul>\n{items}</ul>\n")
+    times = out / TIMES_NAME
+    if times.is_file():
+        with times.open(newline="", encoding="utf-8") as fh:
+            rows = list(csv.DictReader(fh))
+        total = next((r for r in rows if r.get("section") == "total"), None)
+        if total is not None:
+            parts.append(
+                f"<p>The last <code>droneplan reproduce</code> into this folder took "
+                f"{float(total['span_s']):.0f} s of wall time and {float(total['cpu_s']):.0f} CPU seconds in "
+                f"its {total['jobs']} jobs (a resumed run counts only the jobs it ran; the table below "
+                f"is <code>{TIMES_NAME}</code>).</p>\n"
+            )
+        head = "<tr><th>section</th><th>jobs</th><th>CPU s</th><th>span s</th></tr>\n"
+        body = "".join(
+            f"<tr><td>{html.escape(r['section'])}</td><td>{r['jobs']}</td>"
+            f"<td>{float(r['cpu_s']):.1f}</td><td>{float(r['span_s']):.1f}</td></tr>\n"
+            for r in rows
+        )
+        parts.append(f"<table>\n{head}{body}</table>\n")
+    if not parts:
+        return ""
+    return '<h2 id="run">This run: machine, code and time</h2>\n' + "".join(parts)
+
+
 def _version() -> str:
     try:
         return importlib.metadata.version("droneplan")
@@ -539,6 +583,7 @@ def write_report(out: str | Path, *, problems: Sequence[str] = PROBLEMS, title: 
     ]
     parts += [f'<li><a href="#{p}">{html.escape(CHAPTER_TITLES[p])}</a></li>\n' for p in problems]
     parts.append("</ul>\n")
+    parts.append(_run_html(out))
     for problem in problems:
         folder = out / problem
         parts.append(f'<h2 id="{problem}">{html.escape(CHAPTER_TITLES[problem])}</h2>\n')

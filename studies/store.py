@@ -978,6 +978,24 @@ class ResultStore:
         args = (ERROR_STATUS, problem) if problem else (ERROR_STATUS,)
         return {(p, i, m, c or "") for p, i, m, c in self._query(q, args)}
 
+    def runs(self, problem: str | None = None) -> list[dict[str, Any]]:
+        """Who made the current rows: one dict per distinct (``droneplan_version``, ``git_commit``,
+        ``code_hash``, ``cpu``, ``cores``) with ``rows`` (count) and ``first``/``last`` (the
+        earliest and latest ``finished_at``, ISO 8601 UTC), most rows first.
+
+        problem: only this problem's rows (default all).
+        """
+        keys = ("droneplan_version", "git_commit", "code_hash", "cpu", "cores")
+        where = " WHERE problem = ?" if problem else ""
+        q = (
+            f"SELECT {', '.join(keys)}, COUNT(*), MIN(finished_at), MAX(finished_at) FROM rows{where} "
+            f"GROUP BY {', '.join(keys)} ORDER BY COUNT(*) DESC"
+        )
+        found = self._query(q, (problem,) if problem else ())
+        return [
+            {**dict(zip(keys, r[:5], strict=True)), "rows": r[5], "first": r[6], "last": r[7]} for r in found
+        ]
+
     def count(self) -> int:
         """Number of current rows in the store (superseded rows not counted)."""
         return int(self._query("SELECT COUNT(*) FROM rows")[0][0])

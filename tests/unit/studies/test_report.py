@@ -146,3 +146,28 @@ def test_every_problem_has_deviation_notes_as_a_markdown_table():
         assert table[0] == "| where | thesis | here | why |"
         assert len(table) == 2 + len(DEVIATIONS[problem])
         assert all(line.count(" | ") == 3 for line in table[2:]), "a '|' inside a note must be escaped"
+
+
+def test_report_states_the_machine_code_and_run_time(out):
+    """With a results store and a time table in the folder, the page says which machine and code
+    made the rows and how long the last reproduce took, per section; without them it says nothing."""
+    assert 'id="run"' not in write_report(out).read_text()
+    from droneplan.studies.jobs import TIMES_NAME
+    from droneplan.studies.store import COLUMNS, STORE_NAME, ResultStore
+
+    row = dict.fromkeys(COLUMNS)
+    row.update(study="t", problem="cells", instance="t:seed=0", method="ga", role="heuristic", sense="max")
+    row.update(status="feasible", objective=3.0, bound_kind="none", config="", cpu="Test CPU 9000", cores=2)
+    row.update(
+        git_commit="deadbeef", code_hash="c0de", droneplan_version="0.1.0", finished_at="2026-11-26T01:00:00"
+    )
+    with ResultStore(out / STORE_NAME) as st:
+        st.write([row])
+    (out / TIMES_NAME).write_text(
+        "section,jobs,cpu_s,job_wall_s,span_s\ncells table 4.3,3,10.0,10.5,6.0\ntotal,3,10.0,10.5,6.2\n"
+    )
+    text = write_report(out).read_text()
+    assert 'id="run"' in text
+    assert "Test CPU 9000 (2 cores)" in text and "commit deadbeef" in text
+    assert "took 6 s of wall time and 10 CPU seconds in its 3 jobs" in text
+    assert "<td>cells table 4.3</td><td>3</td><td>10.0</td><td>6.0</td>" in text

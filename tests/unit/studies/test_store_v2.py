@@ -552,3 +552,48 @@ def test_claims_of_dead_stale_and_live_processes(tmp_path):
 def test_store_module_exports_its_public_names():
     for name in store_module.__all__:
         assert hasattr(store_module, name), name
+
+
+def test_runs_says_which_machine_and_code_made_the_rows(tmp_path):
+    """One entry per (version, commit, code hash, CPU, cores), most rows first, with the span of
+    finishing times; a problem filter counts only its rows."""
+    common = {"droneplan_version": "0.1.0", "cores": 2, "code_hash": "abc"}
+    with ResultStore(tmp_path / STORE_NAME) as st:
+        st.write(
+            [
+                _row(
+                    "a",
+                    1.0,
+                    instance="t:seed=0",
+                    cpu="CPU X",
+                    git_commit="c1",
+                    finished_at="2026-01-01T10:00:00",
+                    **common,
+                ),
+                _row(
+                    "b",
+                    2.0,
+                    instance="t:seed=0",
+                    cpu="CPU X",
+                    git_commit="c1",
+                    finished_at="2026-01-01T12:00:00",
+                    **common,
+                ),
+                _row(
+                    "a",
+                    3.0,
+                    instance="t:seed=1",
+                    cpu="CPU Y",
+                    git_commit="c2",
+                    finished_at="2026-01-02T09:00:00",
+                    **common,
+                ),
+            ]
+        )
+        runs = st.runs()
+        assert [(r["cpu"], r["git_commit"], r["rows"]) for r in runs] == [
+            ("CPU X", "c1", 2),
+            ("CPU Y", "c2", 1),
+        ]
+        assert (runs[0]["first"], runs[0]["last"]) == ("2026-01-01T10:00:00", "2026-01-01T12:00:00")
+        assert st.runs("cells") == []
