@@ -1,7 +1,9 @@
 """The reproduction report: one static HTML page from what ``droneplan reproduce`` wrote.
 
 ``droneplan reproduce --quick --report`` (or ``python -m droneplan.studies.report OUT`` on an
-existing ``--out`` directory) writes ``OUT/report.html``. For each problem it shows every thesis
+existing ``--out`` directory) writes ``OUT/report.html``. It opens with the run itself: the machines
+and code that made the stored rows and the last reproduce's wall and CPU time per section. For each
+problem it shows every thesis
 table written under ``OUT/<problem>/`` (the CSV files with ``thesis`` and ``this run`` columns,
 deviation column included, rows beyond the deviation threshold highlighted), the list of those
 rows with the reason each carries in its ``why`` column (:data:`FLAG_REASONS`; a flagged row
