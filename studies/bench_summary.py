@@ -308,9 +308,11 @@ def reproduce_row_from_times(path: Path) -> BenchRow:
     """
     import pandas as pd
 
+    from droneplan.studies.jobs import TIMES_NAME
+
     path = Path(path)
     if path.is_dir():
-        path = path / "reproduce_times.csv"
+        path = path / TIMES_NAME
     table = pd.read_csv(path)
     total = table[table["section"] == "total"]
     if total.empty:
