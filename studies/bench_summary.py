@@ -33,6 +33,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from droneplan.core.validation import check_int, check_positive
+from droneplan.studies.common import load_average, measured
 
 __all__ = [
     "HEAVY_MODULES",
@@ -102,10 +103,6 @@ class BenchRow:
     """How it was measured."""
 
 
-def _load_average() -> float:
-    return os.getloadavg()[0] if hasattr(os, "getloadavg") else math.nan
-
-
 def _children_cpu() -> float:
     """CPU time of this process's finished children, s (NaN where the platform cannot tell)."""
     try:
@@ -137,7 +134,7 @@ def measure_import(*, doors: bool = False, repeats: int = 3) -> BenchRow:
         wall time, interpreter start-up included (the value and ``wall``, s) and its CPU time.
     """
     repeats = check_int("repeats", repeats, min_value=1)
-    load = _load_average()
+    load = load_average()
     best: tuple[float, float, dict] | None = None
     for _ in range(repeats):
         before = _children_cpu()
@@ -184,14 +181,13 @@ def measure_herding(n_animals: int, *, t_max: float = 60.0, repeats: int = 1) ->
     t_max = check_positive("t_max", t_max)
     repeats = check_int("repeats", repeats, min_value=1)
     scenario = thesis_scenario(n_animals, seed=0)
-    load = _load_average()
+    load = load_average()
     best: tuple[float, float, float] | None = None
     for _ in range(repeats):
-        c0, w0 = time.process_time(), time.perf_counter()
-        trace = simulate(scenario, ProposedHerder(), t_max=t_max, seed=1)
-        cpu, wall = time.process_time() - c0, time.perf_counter() - w0
-        if best is None or cpu < best[0]:
-            best = (cpu, wall, float(trace.t[-1]))
+        with measured() as run:
+            trace = simulate(scenario, ProposedHerder(), t_max=t_max, seed=1)
+        if best is None or run.cpu_s < best[0]:
+            best = (run.cpu_s, run.wall_s, float(trace.t[-1]))
     if best is None:  # repeats >= 1: cannot happen
         raise RuntimeError("no run was measured")
     cpu, wall, simulated = best
@@ -212,7 +208,7 @@ def measure_herding(n_animals: int, *, t_max: float = 60.0, repeats: int = 1) ->
 def _cli(args: Sequence[str]) -> tuple[float, float, float]:
     """Run ``droneplan <args>`` in a child interpreter: (wall s, CPU s of it and every process it
     waited for, 1-minute load average at the start). A failing command raises RuntimeError."""
-    load = _load_average()
+    load = load_average()
     before = _children_cpu()
     w0 = time.perf_counter()
     done = subprocess.run(
@@ -314,6 +310,9 @@ def reproduce_row_from_times(path: Path) -> BenchRow:
     if path.is_dir():
         path = path / TIMES_NAME
     table = pd.read_csv(path)
+    missing = {"section", "jobs", "cpu_s", "span_s"} - set(table.columns)
+    if missing:
+        raise ValueError(f"path: {path} lacks the columns {sorted(missing)} (not a {TIMES_NAME})")
     total = table[table["section"] == "total"]
     if total.empty:
         raise ValueError(f"path: {path} has no 'total' row (not a reproduce_times.csv)")
@@ -368,6 +367,8 @@ def bench_summary(
     for i, problem in enumerate(problems):
         if problem not in GAP_GOALS:
             raise ValueError(f"gap_problems[{i}] must be one of {', '.join(GAP_GOALS)}, got {problem!r}")
+    # a given run's time table is read first, so a missing or foreign file fails before the measuring
+    earlier = None if reproduce_times is None else reproduce_row_from_times(reproduce_times)
     runs, interpreters = (1, 3) if quick else (3, 5)
     rows = [measure_import(repeats=interpreters), measure_import(doors=True, repeats=interpreters)]
     rows += [measure_herding(n, repeats=runs) for n in herds]
@@ -375,10 +376,7 @@ def bench_summary(
         for problem in problems:
             seeds = GAP_SEEDS[problem][0 if quick else 1]
             rows.append(measure_gap(problem, seeds=seeds, out=Path(tmp) / f"gap-{problem}"))
-        if reproduce_times is None:
-            rows.append(measure_reproduce(Path(tmp) / "reproduce"))
-        else:
-            rows.append(reproduce_row_from_times(reproduce_times))
+        rows.append(measure_reproduce(Path(tmp) / "reproduce") if earlier is None else earlier)
     return rows
 
 

@@ -180,6 +180,17 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument(
         "--out", type=Path, default=Path("results"), help="directory for the CSV (default: results)"
     )
+    bench.add_argument(
+        "--reproduce-times",
+        type=Path,
+        default=None,
+        metavar="PATH",
+        help="summary: read the reproduce --quick row from this run's reproduce_times.csv (or its "
+        "folder) instead of running it",
+    )
+    bench.add_argument(
+        "--summary-only", action="store_true", help="with 'all': only the summary table of the speed goals"
+    )
     return parser
 
 
@@ -274,7 +285,7 @@ def _sizes(args) -> dict:
 
 
 def _run_list() -> int:
-    from droneplan.studies.instances import FAMILIES
+    from droneplan.studies.instances import FAMILIES, KINDS
     from droneplan.studies.library import load_library
     from droneplan.studies.methods import builtin_methods
 
@@ -285,7 +296,7 @@ def _run_list() -> int:
         print(f"  {fam.name}@{fam.version}: {fam.problem}, {fam.kind}; {grid}; {n_lib} certified")
         print(f"      {fam.describe}")
     print("registered methods by instance kind:")
-    for kind in ("cells", "allocation", "shark-path", "covert-run", "herding-run"):
+    for kind in KINDS:
         print(f"  {kind}: {', '.join(builtin_methods(kind))}")
     return 0
 
@@ -370,12 +381,13 @@ def _default_methods(problem: str) -> None:
 
 
 def _report_times(jobs, timings, wall: float, own: float, executor, out: Path) -> pd.DataFrame:
-    """Print and write (``reproduce_times.csv``, ``reproduce_job_times.csv``) where the time went."""
+    """Print and write (``reproduce_times.csv``, ``reproduce_job_times.csv``: the names
+    :data:`~droneplan.studies.jobs.TIMES_NAME`, ``JOB_TIMES_NAME``) where the time went."""
     import dataclasses
 
     import pandas as pd
 
-    from droneplan.studies.jobs import idle_estimate, time_table
+    from droneplan.studies.jobs import JOB_TIMES_NAME, TIMES_NAME, idle_estimate, time_table
 
     table = time_table(timings)
     if not timings:
@@ -389,9 +401,9 @@ def _report_times(jobs, timings, wall: float, own: float, executor, out: Path) -
         f"longest chain {path:.1f} CPU s; estimated wall on {slots} idle cores {idle:.1f} s",
         flush=True,
     )
-    table.to_csv(out / "reproduce_times.csv", index=False)
+    table.to_csv(out / TIMES_NAME, index=False)
     per_job = pd.DataFrame([dataclasses.asdict(t) for t in timings])
-    per_job.to_csv(out / "reproduce_job_times.csv", index=False)
+    per_job.to_csv(out / JOB_TIMES_NAME, index=False)
     return table
 
 
@@ -522,7 +534,11 @@ def _checked_counts(args) -> int | None:
 
 def _run_bench(args, problems: list[str]) -> int:
     """``droneplan bench``: each problem's benchmark, then (for "all") the summary table."""
-    for problem in problems:
+    if args.summary_only and args.problem != "all":
+        raise SystemExit("droneplan: --summary-only goes with 'bench all'")
+    if args.reproduce_times is not None and args.problem != "all":
+        raise SystemExit("droneplan: --reproduce-times goes with 'bench all' (it feeds the summary)")
+    for problem in [] if args.summary_only else problems:
         out = args.out / problem
         out.mkdir(parents=True, exist_ok=True)
         print(f"### bench {problem} (thesis ch. {_CHAPTER[problem]}) -> {out}", flush=True)
@@ -530,7 +546,10 @@ def _run_bench(args, problems: list[str]) -> int:
     if args.problem == "all":
         from droneplan.studies.bench_summary import bench_summary, summary_markdown, write_summary
 
-        rows = bench_summary(quick=args.quick)
+        try:
+            rows = bench_summary(quick=args.quick, reproduce_times=args.reproduce_times)
+        except (OSError, ValueError) as exc:  # a missing or foreign reproduce_times file
+            raise SystemExit(f"droneplan: {exc}") from None
         print(summary_markdown(rows), flush=True)
         print(f"summary: {write_summary(rows, args.out)}", flush=True)
     return 0

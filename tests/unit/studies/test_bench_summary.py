@@ -103,6 +103,25 @@ def test_the_reproduce_row_reads_a_runs_time_table(tmp_path):
     (tmp_path / "other.csv").write_text("section,jobs,cpu_s,job_wall_s,span_s\ncovert,1,1.0,1.0,1.0\n")
     with pytest.raises(ValueError, match=r"^path: .* has no 'total' row"):
         bs.reproduce_row_from_times(tmp_path / "other.csv")
+    (tmp_path / "foreign.csv").write_text("a,b\n1,2\n")
+    with pytest.raises(ValueError, match=r"^path: .* lacks the columns"):
+        bs.reproduce_row_from_times(tmp_path / "foreign.csv")
+    # the summary reads a given table before it measures anything, so a bad path fails at once
+    with pytest.raises(ValueError, match=r"^path: .* lacks the columns"):
+        bs.bench_summary(sizes=(), gap_problems=(), reproduce_times=tmp_path / "foreign.csv")
+
+
+def test_bench_cli_summary_options(tmp_path):
+    """--summary-only and --reproduce-times go with 'bench all'; a bad times file exits in one line."""
+    from droneplan.studies import cli
+
+    for argv in (["bench", "cells", "--summary-only"], ["bench", "cells", "--reproduce-times", "x.csv"]):
+        with pytest.raises(SystemExit, match="goes with 'bench all'"):
+            cli.main([*argv, "--out", str(tmp_path)])
+    (tmp_path / "foreign.csv").write_text("a,b\n1,2\n")
+    argv = ["bench", "all", "--summary-only", "--reproduce-times", str(tmp_path / "foreign.csv")]
+    with pytest.raises(SystemExit, match="^droneplan: path: .* lacks the columns"):
+        cli.main([*argv, "--out", str(tmp_path)])
 
 
 def test_a_gap_study_is_timed_in_a_child_process(tmp_path):
