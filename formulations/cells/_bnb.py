@@ -122,8 +122,8 @@ Why each element is exact:
    candidate of each) and ends their paths: it is in L or linked to a bridge in L.
    When every bridge lies outside L, v or another site is in L (item 6).
    ``_separated_groups`` takes the largest bound over the choices. The successor's
-   link to a bridge candidate is tested exactly, on the packed link rows of
-   ``_link_rows`` (built once per search). Testing it with coordinates took 140 of
+   link to a bridge candidate is tested exactly, on packed link rows (``LinkRows``:
+   each row built when first used, then kept). Testing it with coordinates took 140 of
    241 s on m = 6 seed 1, so that version tested only at r = 3. Measured on m = 6
    seed 1 (Table 4.2): the subtree of its first two sites took 82 s before item 12 and
    4 s with it.
@@ -306,6 +306,47 @@ class BitRows:
         return ((self.packed[i, cols >> 3] >> (cols & 7).astype(np.uint8)) & 1).astype(bool)
 
 
+class LinkRows:
+    """The sites within ``reach`` (m) of each other as packed bit rows (little-endian,
+    ceil(n / 8) bytes a row), each row computed on first use (the same distance test) and kept.
+
+    Only the rows the search asks for are built: item 11 reads those of nearby siblings and
+    item 12 those of bridge candidates. Building every row took 160 s and n^2 / 8 bytes
+    (512 MiB) at Table 4.2 density x 4 (64k sites), before the search had used a handful.
+
+    pts: (n, 2) site positions (m); reach: link range with its tolerance (m)."""
+
+    def __init__(self, pts: np.ndarray, reach: float) -> None:
+        self.pts = pts
+        self.reach = reach
+        self.n = len(pts)
+        self._rows: dict[int, np.ndarray] = {}
+
+    def __len__(self) -> int:
+        return self.n
+
+    def packed(self, i: int) -> np.ndarray:
+        """(ceil(n / 8),) uint8: site i's packed row."""
+        row = self._rows.get(i)
+        if row is None:
+            d = pairwise_distances(self.pts[[i]], self.pts)[0]
+            row = self._rows[i] = np.packbits(d <= self.reach, bitorder="little")
+        return row
+
+    def __getitem__(self, q) -> np.ndarray:
+        """(len(q), ceil(n / 8)) uint8: the packed rows of the sites ``q`` (indices)."""
+        return np.stack([self.packed(int(i)) for i in np.asarray(q).tolist()])
+
+    def row(self, i: int) -> np.ndarray:
+        """(n,) bool: the sites linked to site i."""
+        return np.unpackbits(self.packed(i), count=self.n, bitorder="little").view(bool)
+
+    def at(self, i: int, cols) -> np.ndarray:
+        """Bool array: whether site i is linked to each of the sites ``cols`` (indices)."""
+        cols = np.asarray(cols, dtype=np.int64)
+        return pairwise_distances(self.pts[[i]], self.pts[cols])[0] <= self.reach
+
+
 class BranchAndBoundSearch:
     """The search of the module docstring with its state on the object.
 
@@ -330,8 +371,19 @@ class BranchAndBoundSearch:
     incumbent covers; upper: a known upper bound; time_limit: seconds from ``t0``
     (None: none); node_limit: stop after about this many nodes; free_bounds: item 9's
     B_0, ..., B_{m-1} when known; t0: ``time.perf_counter()`` at the start of the
-    solve (default: now).
+    solve (default: now); parent: a search over the same ``cand`` (the same object) and
+    users whose site structures (order, user sets, cliques, conflicts) this one shares
+    instead of building copies (item 9's backhaul-free searches).
     """
+
+    order: np.ndarray
+    pts: np.ndarray
+    w: np.ndarray
+    bits: list[int]
+    packed: np.ndarray
+    tree: cKDTree
+    clique: np.ndarray
+    conflict: BitRows
 
     def __init__(
         self,
@@ -344,6 +396,7 @@ class BranchAndBoundSearch:
         node_limit: int | None = None,
         free_bounds: list[float] | None = None,
         t0: float | None = None,
+        parent: BranchAndBoundSearch | None = None,
     ) -> None:
         self.t0 = time.perf_counter() if t0 is None else t0
         self.problem = problem
@@ -354,18 +407,35 @@ class BranchAndBoundSearch:
         self.upper = upper
         self.time_limit = time_limit
         self.node_limit = node_limit
-        w_all = np.array([len(c) for c in cand.cover], dtype=np.int64)
-        self.order = np.lexsort((np.arange(self.n), -w_all))
-        self.pts = cand.points[self.order]
-        self.w = w_all[self.order]
-        self.bits = self._user_bits()
-        self.packed = self._packed_users()
-        self.tree = cKDTree(self.pts)
-        self.clique = self._clique_partition()
-        self.conflict = self._conflicts()
-        self.dg = np.min(pairwise_distances(self.pts, problem.gbs), axis=1)
         self.r2 = problem.r2
         self.r1t, self.r2t = problem.r1 + TOL, problem.r2 + TOL
+        if (
+            parent is not None
+            and parent.cand is cand
+            and parent.problem.R_d == problem.R_d
+            and np.array_equal(parent.problem.targets, problem.targets)
+        ):
+            # the same sites in the same order (the order and every structure below depend
+            # on the sites, the users and R_d only): share them instead of building copies
+            # (item 9's searches; each conflict relation is n^2 / 8 bytes)
+            self.order, self.pts, self.w = parent.order, parent.pts, parent.w
+            self.bits, self.packed, self.tree = parent.bits, parent.packed, parent.tree
+            self.clique, self.conflict = parent.clique, parent.conflict
+        else:
+            w_all = np.array([len(c) for c in cand.cover], dtype=np.int64)
+            self.order = np.lexsort((np.arange(self.n), -w_all))
+            self.pts = cand.points[self.order]
+            self.w = w_all[self.order]
+            self.bits = self._user_bits()
+            self.packed = self._packed_users()
+            self.tree = cKDTree(self.pts)
+            self.clique = self._clique_partition()
+            self.conflict = self._conflicts()
+        self.dg = np.min(pairwise_distances(self.pts, problem.gbs), axis=1)
+        # every two sites linked (item 9's searches): the link relations are never built
+        # and the link tests of items 11-12 hold trivially
+        span = float(np.hypot(*np.ptp(self.pts, axis=0))) if self.n else 0.0  # >= every site distance
+        self.all_linked = bool(self.r2t >= span and float(self.dg.max(initial=0.0)) <= self.r1t)
         self.cg = _relay_cost(self.dg, problem.r1, problem.r2)  # item 3, GBS -> site
         # the search state
         self.best_val = int(incumbent_value)
@@ -381,8 +451,7 @@ class BranchAndBoundSearch:
         # the incumbent value the workers share (filled by ``_split_root``)
         self.split: tuple[int, int, int] = (0, 1, 0)
         self.shared: list = []
-        self._links: np.ndarray | None = None
-        self._link_matrix: BitRows | None = None
+        self._links: LinkRows | None = None
         self._lens: dict[int, np.ndarray] = {}
 
     # ------------------------------------------------------------------ set-up
@@ -438,18 +507,16 @@ class BranchAndBoundSearch:
             rows.set(i[keep], j[keep])
         return rows
 
-    def link_rows(self) -> np.ndarray:
-        """``_link_rows(pts, r2t)``, built on first use (item 12's exact link test)."""
+    def link_rows(self) -> LinkRows:
+        """The sites within r2 + TOL of each other (:class:`LinkRows`: a row is built when
+        first used; items 11 and 12's exact link tests)."""
         if self._links is None:
-            self._links = _link_rows(self.pts, self.r2t)
+            self._links = LinkRows(self.pts, self.r2t)
         return self._links
 
-    def link_matrix(self) -> BitRows:
-        """Sites within r2 + TOL of each other (``link_rows`` as :class:`BitRows`, for item
-        11), built on first use."""
-        if self._link_matrix is None:
-            self._link_matrix = BitRows(self.link_rows(), self.n)
-        return self._link_matrix
+    def link_matrix(self) -> LinkRows:
+        """The same relation as :meth:`link_rows` (item 11 reads rows and single links)."""
+        return self.link_rows()
 
     def lens_sites(self, a: int) -> np.ndarray:
         """Item 11: the sites within 2 R_d (+ 2 m) of site a that do not overlap it, the
@@ -787,11 +854,14 @@ class BranchAndBoundSearch:
         new_b = self.bits[b] & ~ubits
         best: np.ndarray | None = None
         best_count = 0
-        linked = self.link_matrix()
         for a in reversed(explored[-_SIBLINGS:]):
             if not self._may_replace(P, ubits, a, b, new_b, cm):
                 continue
-            e = cm & (self.conflict.row(a) | (linked.row(b) & ~linked.row(a)))
+            if self.all_linked:  # b links to no site that a does not
+                e = cm & self.conflict.row(a)
+            else:
+                linked = self.link_matrix()
+                e = cm & (self.conflict.row(a) | (linked.row(b) & ~linked.row(a)))
             count = int(np.count_nonzero(e))
             if count == 0:
                 return True
@@ -804,9 +874,10 @@ class BranchAndBoundSearch:
         P site b links to, and covering b's new users or keeping at least as many."""
         if math.dist(self.pts[a], self.pts[b]) > _SIBLING_RADIUS or self.dg[b] <= self.r1t < self.dg[a]:
             return False
-        linked = self.link_matrix()
-        if P and np.any(linked.at(b, P) & ~linked.at(a, P)):
-            return False
+        if P and not self.all_linked:
+            linked = self.link_matrix()
+            if np.any(linked.at(b, P) & ~linked.at(a, P)):
+                return False
         if not new_b & ~self.bits[a]:
             return True
         # not a cover of b's new users: compare counts instead. A completion site that does
@@ -1081,7 +1152,13 @@ class BranchAndBoundSearch:
                 raise _Timeout
             left = None if budget is None else max(budget - (time.perf_counter() - t_b), 0.01)
             sub = search(
-                unlinked(k), self.cand, np.zeros((0, 2)), 0, time_limit=left, free_bounds=self.conf_bound
+                unlinked(k),
+                self.cand,
+                np.zeros((0, 2)),
+                0,
+                time_limit=left,
+                free_bounds=self.conf_bound,
+                parent=self,
             )
             self.conf_bound.append(sub.bound)
 
@@ -1197,6 +1274,7 @@ def search(
     workers: int = 1,
     node_limit: int | None = None,
     main: bool = True,
+    parent: BranchAndBoundSearch | None = None,
 ) -> BnbResult:
     """Exact search of the candidate problem (module docstring; the state lives on a
     :class:`BranchAndBoundSearch`).
@@ -1215,7 +1293,8 @@ def search(
     limit after about this many search nodes (checked every ``_CHECK_EVERY``; a
     deterministic budget); main: False runs the primal heuristics only (no elimination, no
     main search; the result is not proven and its bound is ``upper``), to hand another
-    engine a start.
+    engine a start. parent: a search over the same ``cand`` whose site structures this one
+    shares (item 9's searches).
     """
     t0 = time.perf_counter()
     n = len(cand.points)
@@ -1235,6 +1314,7 @@ def search(
         node_limit=node_limit,
         free_bounds=free_bounds,
         t0=t0,
+        parent=parent,
     )
     return bb.run(best_pos, eliminate=eliminate, heuristics=heuristics, workers=workers, main=main)
 
@@ -1324,7 +1404,7 @@ def _separated_groups(
     tops: list[int],
     r1t: float,
     r2t: float,
-    links: np.ndarray | None = None,
+    links: np.ndarray | LinkRows | None = None,
 ) -> float:
     """Item 12: an upper bound on sum_{q in Q} w[q] over the completions Q (at most r
     sites of ``cmask``) that connect the placement P, when the unreached groups of P are
@@ -1335,7 +1415,8 @@ def _separated_groups(
     GBS (m); P: indices of the placed sites, dpp their (|P|, |P|) distances (m), reach
     (|P|,) which of them reach a GBS through P; tops: r values, the i-th bounding the
     i-th heaviest completion site outside the bridge and successor slots; r1t, r2t: the
-    link ranges with tolerance (m); links: ``_link_rows(pts, r2t)`` (built here if None)."""
+    link ranges with tolerance (m); links: the link relation of the sites within r2t
+    (:class:`LinkRows`, or its rows as one packed array), built here if None."""
     members = _unreached_groups(dpp, reach, r2t)
     k = len(members)
     if k > 3:
@@ -1369,7 +1450,7 @@ def _separated_groups(
             return -math.inf
         return sum(max(bridge_l[g], bridge_n[g]) for g in range(k)) + sum(tops[: r - k])
     # the successor is linked to a bridge outside L, so within 2 r2t of the group
-    rows = _link_rows(pts, r2t) if links is None else links
+    rows = LinkRows(pts, r2t) if links is None else links
     succ_to = [(d <= 2 * r2t) & _linked_to(rows, full, full[(d <= r2t) & ~in_l]) for d in d_to]
     sides = _GroupSides(bridge_l, bridge_n, succ_to, d_to, in_l, wf, w_l, r2t)
     return float(max(sides.bound(outside, r, tops) for outside in itertools.product((False, True), repeat=k)))
@@ -1450,21 +1531,9 @@ class _GroupSides:
         return _heaviest(self.wf, v)
 
 
-def _link_rows(pts: np.ndarray, reach: float) -> np.ndarray:
-    """(n, ceil(n / 8)) uint8: row i holds bit j (little-endian packing) when sites i and
-    j of ``pts`` ((n, 2) m) are within ``reach`` (m) of each other."""
-    n = len(pts)
-    out = np.zeros((n, (n + 7) // 8), dtype=np.uint8)
-    for lo in range(0, n, 512):
-        part = pts[lo : lo + 512]
-        d = pairwise_distances(part, pts)
-        out[lo : lo + 512] = np.packbits(d <= reach, axis=1, bitorder="little")
-    return out
-
-
-def _linked_to(links: np.ndarray, sites: np.ndarray, q: np.ndarray) -> np.ndarray:
+def _linked_to(links, sites: np.ndarray, q: np.ndarray) -> np.ndarray:
     """(len(sites),) bool: which of the sites (indices) are linked to some site of q
-    (indices), by the rows ``links`` of ``_link_rows``."""
+    (indices), by the packed rows ``links`` (:class:`LinkRows`, or its rows as one array)."""
     if len(q) == 0:
         return np.zeros(len(sites), dtype=bool)
     row = np.bitwise_or.reduce(links[q], axis=0)

@@ -184,6 +184,7 @@ def _solve_bnb(prep: Prepared, workers: int) -> SolveResult:
         model_stats={
             "engine": "bnb",
             "candidates": len(prep.cand.points),
+            "pruned_sites": int(prep.info.get("pruned_sites", 0)),
             "nodes": bb.nodes,
             "eliminated": bb.eliminated,
             "elimination_time": bb.elimination_time,
@@ -249,8 +250,12 @@ def solve_exact(
         return done
     if engine == "bnb":
         # the search polishes its incumbent itself; a warm start is polished here too, so it
-        # is always tried, and the better of the two lines starts the search
+        # is always tried, and the better of the two lines starts the search. The sites that
+        # cannot beat the incumbent go first (``Prepared.prune_candidates``), and again once
+        # the polish has raised it.
+        prep.prune_candidates()
         _polish(prep, greedy=False)
+        prep.prune_candidates()
         return _solve_bnb(prep, workers)
     _polish(prep)
     done = _early_exit(prep, backend, engine)
