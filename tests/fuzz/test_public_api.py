@@ -294,10 +294,10 @@ SPECS: dict[str, Spec] = {
                 "runs": 1,
                 "variants": ["thesis"],
                 "es_limit": 5.0,
-                "milp_limit": 5.0,
+                "exact_limit": 5.0,
             },
         ),
-        {"runs": "int>=1", "es_limit": "positive", "milp_limit": "positive"},
+        {"runs": "int>=1", "es_limit": "positive", "exact_limit": "positive"},
     ),
     # ---- covert
     "CovertParams": Spec(

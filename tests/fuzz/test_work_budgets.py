@@ -190,7 +190,8 @@ def test_max_coverage_valid_call_agrees_with_a_count():
 
 @pytest.mark.parametrize("param", ["seeds", "ms", "variants", "instances"])
 def test_ga_ablation_with_an_empty_list_names_it(param):
-    kwargs = {"seeds": [0], "ms": (1,), "runs": 1, "variants": ["thesis"], "es_limit": 5.0, "milp_limit": 5.0}
+    kwargs = {"seeds": [0], "ms": (1,), "runs": 1, "variants": ["thesis"]}
+    kwargs |= {"es_limit": 5.0, "exact_limit": 5.0}
     kwargs[param] = []
     err = _quick(dp.cells.ga_ablation, **kwargs)
     assert param in str(err)

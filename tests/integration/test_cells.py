@@ -13,8 +13,8 @@ def test_reproduce_quick_writes_tables_and_orders_methods(tmp_path):
     # the continuous-valid bound holds for both heuristics (their plans are feasible placements)
     assert (raw["continuous_bound"] >= raw["es_obj"]).all()
     assert (raw["continuous_bound"] >= raw["ga_best"]).all()
-    assert (raw["continuous_bound"] >= raw["milp_obj"]).all()
-    assert (raw["milp_obj"] <= raw["milp_bound"]).all()
+    assert (raw["continuous_bound"] >= raw["exact_obj"]).all()
+    assert (raw["exact_obj"] <= raw["exact_bound"]).all()
 
 
 @pytest.mark.slow

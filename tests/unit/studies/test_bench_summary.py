@@ -120,7 +120,7 @@ def test_bench_cli_summary_options(tmp_path):
             cli.main([*argv, "--out", str(tmp_path)])
     (tmp_path / "foreign.csv").write_text("a,b\n1,2\n")
     argv = ["bench", "all", "--summary-only", "--reproduce-times", str(tmp_path / "foreign.csv")]
-    with pytest.raises(SystemExit, match="^droneplan: path: .* lacks the columns"):
+    with pytest.raises(SystemExit, match=r"^droneplan: path: .* lacks the columns"):
         cli.main([*argv, "--out", str(tmp_path)])
 
 

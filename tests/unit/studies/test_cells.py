@@ -47,7 +47,7 @@ def test_reproduce_tasks_emit_schema_rows_within_the_bounds():
                 "kind": "exact",
                 "m": 1,
                 "seed": 0,
-                "milp_limit": 60.0,
+                "exact_limit": 60.0,
                 "es_limit": 20.0,
             }
         )
@@ -64,29 +64,29 @@ def test_reproduce_tasks_emit_schema_rows_within_the_bounds():
             "restarts": 3,
         }
     )[0]
-    milp = exact["milp"]
-    assert milp["bound_kind"] == "candidate-set" and milp["objective"] <= milp["bound"]
+    bnb = exact["bnb"]  # the row is named after the engine that made it
+    assert bnb["bound_kind"] == "candidate-set" and bnb["objective"] <= bnb["bound"]
     assert exact["exhaustive"]["objective"] <= exact["continuous-bound"]["bound"]
     assert ga["objective"] <= exact["continuous-bound"]["bound"]
     assert ga["objective"] <= ga["cells_polished"]  # polishing never loses users
 
 
-def test_ga_ablation_rows_respect_the_milp_optimum(tmp_path):
+def test_ga_ablation_rows_respect_the_exact_optimum(tmp_path):
     from droneplan.studies.common import make_executor
     from droneplan.studies.store import ResultStore
 
     variants = ["thesis", "noSA", "no-restarts"]
-    kw = {"seeds": [0], "ms": (1,), "runs": 2, "variants": variants, "es_limit": 60, "milp_limit": 60}
+    kw = {"seeds": [0], "ms": (1,), "runs": 2, "variants": variants, "es_limit": 60, "exact_limit": 60}
     df = study.ga_ablation(**kw, out=tmp_path)
     assert list(df["variant"]) == [*variants, "clusters-only"]
     # the clusters-only instance is the same snapshot without its background users
     th, cl = df.iloc[0], df.iloc[-1]
     assert cl["users"] == "clusters-only" and cl["active_users"] < th["active_users"]
-    assert cl["milp_obj"] <= th["milp_obj"] and cl["clusters_in_reach"] == th["clusters_in_reach"]
-    assert (df["milp_status"] == "OPTIMAL").all()
+    assert cl["exact_obj"] <= th["exact_obj"] and cl["clusters_in_reach"] == th["clusters_in_reach"]
+    assert (df["exact_status"] == "OPTIMAL").all()
     # every GA plan and the exhaustive-search plan are feasible placements: never above the optimum
-    assert (df["best_obj"] <= df["milp_obj"]).all() and (df["es_obj"] <= df["milp_obj"]).all()
-    assert df["p_es"].between(0, 1).all() and df["p_milp"].between(0, 1).all()
+    assert (df["best_obj"] <= df["exact_obj"]).all() and (df["es_obj"] <= df["exact_obj"]).all()
+    assert df["p_es"].between(0, 1).all() and df["p_exact"].between(0, 1).all()
     assert df["best_share"].between(0, 1).all()
     assert (df["users_direct_reach"] <= df["users_in_reach"]).all()
     assert (df["users_in_reach"] <= df["active_users"]).all()
@@ -104,7 +104,7 @@ def test_ga_ablation_rows_respect_the_milp_optimum(tmp_path):
 
 
 def test_ablation_tasks_pair_the_variants_runs_with_the_thesis_runs():
-    tasks = study.ablation_tasks(seeds=[0, 1], ms=(1, 2), runs=3, ablation_runs=2, es_limit=5, milp_limit=5)
+    tasks = study.ablation_tasks(seeds=[0, 1], ms=(1, 2), runs=3, ablation_runs=2, es_limit=5, exact_limit=5)
     refs = [t for t in tasks if t["kind"] == "ref"]
     runs = [t for t in tasks if t["kind"] == "run"]
     n_other = len(study.INSTANCE_VARIANTS) - 1
@@ -122,9 +122,9 @@ def test_ablation_tasks_pair_the_variants_runs_with_the_thesis_runs():
             ]
             assert len(twin) == 1 and twin[0]["run_seed"] == t["run_seed"]
     with pytest.raises(ValueError, match="instances"):
-        study.ablation_tasks(seeds=[0], ms=(1,), runs=1, instances=["nope"], es_limit=5, milp_limit=5)
+        study.ablation_tasks(seeds=[0], ms=(1,), runs=1, instances=["nope"], es_limit=5, exact_limit=5)
     with pytest.raises(ValueError, match="variants"):
-        study.ablation_tasks(seeds=[0], ms=(1,), runs=1, variants=["nope"], es_limit=5, milp_limit=5)
+        study.ablation_tasks(seeds=[0], ms=(1,), runs=1, variants=["nope"], es_limit=5, exact_limit=5)
 
 
 def test_instance_features_checks_the_centres_and_counts_them_against_the_reach():
@@ -154,7 +154,7 @@ def test_instance_features_checks_the_centres_and_counts_them_against_the_reach(
 def test_ga_ablation_refuses_runs_beyond_the_solves_budget_up_front(kw, name, tmp_path):
     from droneplan.core.validation import MAX_SOLVES
 
-    kw = {"seeds": [0], "ms": (1,), "variants": ["thesis"], "es_limit": 5.0, "milp_limit": 5.0, **kw}
+    kw = {"seeds": [0], "ms": (1,), "variants": ["thesis"], "es_limit": 5.0, "exact_limit": 5.0, **kw}
     refusal = rf"^{name} asks for \d+ solver calls, more than the limit of {MAX_SOLVES}"
     with pytest.raises(ValueError, match=refusal):
         study.ga_ablation(**kw, out=tmp_path)
@@ -164,7 +164,7 @@ def test_ga_ablation_refuses_runs_beyond_the_solves_budget_up_front(kw, name, tm
 def test_ablation_budget_counts_every_run_and_reference_as_tasks_do():
     from droneplan.core.validation import work_limits
 
-    kw = {"seeds": [0, 1], "ms": (1, 2), "runs": 3, "ablation_runs": 2, "es_limit": 5, "milp_limit": 5}
+    kw = {"seeds": [0, 1], "ms": (1, 2), "runs": 3, "ablation_runs": 2, "es_limit": 5, "exact_limit": 5}
     tasks = study.ablation_tasks(**kw)
     cost = sum(2 if t["kind"] == "ref" else study._ga_run_cost(t["variant"]) for t in tasks)
     with work_limits(solves=cost):
@@ -175,6 +175,6 @@ def test_ablation_budget_counts_every_run_and_reference_as_tasks_do():
 
 @pytest.mark.parametrize("param", ["executor", "store", "out"])
 def test_ga_ablation_checks_executor_store_and_out(param):
-    kw = {"seeds": [0], "ms": (1,), "runs": 1, "variants": ["thesis"], "es_limit": 5.0, "milp_limit": 5.0}
+    kw = {"seeds": [0], "ms": (1,), "runs": 1, "variants": ["thesis"], "es_limit": 5.0, "exact_limit": 5.0}
     with pytest.raises(TypeError, match=f"^{param} must be"):
         study.ga_ablation(**kw, **{param: 10**12})

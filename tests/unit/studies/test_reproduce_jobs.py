@@ -109,7 +109,7 @@ def _tiny_jobs(store_path) -> list[Job]:
             "kind": "exact",
             "m": 1,
             "seed": 0,
-            "milp_limit": 30.0,
+            "exact_limit": 30.0,
             "es_limit": 5.0,
         }
     ]
