@@ -228,8 +228,11 @@ class _Run:
         return skip
 
     def ready(self) -> list[str]:
+        """The jobs whose inputs are all in, in the order to start them: store tasks first (they
+        are cheap and put finished work on disk, so a long run stopped midway keeps it and frees
+        its inputs' results), then the longest chains."""
         keys = [k for k, deps in self.waiting.items() if not deps]
-        return sorted(keys, key=lambda k: (-self.prio[k], k))
+        return sorted(keys, key=lambda k: (self.jobs[k].task is None, -self.prio[k], k))
 
     def start(self, key: str) -> tuple[Callable[..., Any], dict[str, Any]] | None:
         """Take ``key`` off the waiting list; its call, or None when there is nothing to run."""
@@ -291,7 +294,8 @@ class _Run:
 def run_jobs(
     jobs: list[Job], *, executor: StudyExecutor, store: ResultStore | None = None, progress: bool = True
 ) -> list[JobTiming]:
-    """Run every job once its inputs are ready, longest chains first, on ``executor``.
+    """Run every job once its inputs are ready, on ``executor``: a store task as soon as it can
+    start (its rows are on disk from then on), the others longest chains first.
 
     jobs: the jobs (keys unique, no cycles); executor: from :func:`common.make_executor` (a
     serial one runs the jobs in this process in the same order rules); store: the results

@@ -186,3 +186,34 @@ def test_the_animated_herding_run_is_the_run_of_the_table():
     assert (record["curve_r"] == plain["curve_r"]).all()
     rows = herding._pair_job(task, (record, trace), plain)
     assert [r["objective"] for r in rows] == [plain["total_time"]] * 2
+
+
+def _rows_for(task) -> list[dict]:
+    from droneplan.studies.store import Outcome, build_rows
+
+    outcome = Outcome("m", "heuristic", "feasible", objective=1.0)
+    return build_rows("herding", task["instance"], seed=0, size=1, sense="min", outcomes=[outcome])
+
+
+def test_a_store_task_runs_as_soon_as_its_inputs_are_in(tmp_path):
+    """A long run keeps its finished work: the store task joining two runs starts before the
+    other, longer chains, so its rows are on disk while those still run."""
+    task = {"problem": "herding", "instance": "t:seed=0"}
+    jobs = [
+        Job("long1", "s", _add, {"a": 1}, cost=10.0),
+        Job("long2", "s", _add, {"a": 2}, cost=10.0),
+        Job("r1", "s", _add, {"a": 3}, cost=30.0),
+        Job("r2", "s", _add, {"a": 4}, cost=30.0),
+        Job("join", "s", _join_rows, {"task": task}, {"a": "r1", "b": "r2"}, cost=0.05, task=task),
+    ]
+    path = tmp_path / "results.sqlite"
+    with make_executor(1) as ex, ResultStore(path) as st:  # serial: the start order is the rule's
+        timings = run_jobs(jobs, executor=ex, store=st, progress=False)
+        assert list(st.frame()["status"]) == ["feasible"]
+    order = [t.key for t in timings]  # serial: in the order they ran
+    assert order.index("join") < order.index("long1")
+    assert order[:3] in (["r1", "r2", "join"], ["r2", "r1", "join"])
+
+
+def _join_rows(task, a: int, b: int) -> list[dict]:
+    return _rows_for(task)
