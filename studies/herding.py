@@ -663,12 +663,15 @@ def _pair_jobs(
     for t in tasks:
         key = f"herding/{t['instance']}"
         runs = {}
+        # both herders' runs of a scenario get the pair's mean estimate, so the scheduler starts them
+        # together and their join writes the scenario's rows early (a long run keeps them if stopped)
+        cost = (_run_cost(t, "proposed") + _run_cost(t, "benchmark")) / 2.0
         for m in ("proposed", "benchmark"):
             runs[m] = f"{key}/{m}"
             kwargs: dict[str, Any] = {"task": t, "method": m}
             if m == "proposed" and frames and t["instance"] in frames:
                 kwargs["frame_every"] = frames[t["instance"]]
-            jobs.append(Job(runs[m], section, _method_run, kwargs, cost=_run_cost(t, m)))
+            jobs.append(Job(runs[m], section, _method_run, kwargs, cost=cost))
         jobs.append(Job(key, section, _pair_job, {"task": t}, runs, cost=0.05, task=t))
     return jobs
 
