@@ -128,6 +128,27 @@ Why each element is exact:
    seed 1 (Table 4.2): the subtree of its first two sites took 82 s before item 12 and
    4 s with it.
 
+13. **Dominated sites.** After item 10, let A be the sites still alive. Site d dominates
+   site c when d comes before c in the search order and
+   - S(c) is a subset of S(d);
+   - d is direct (within r1 + TOL of a GBS) when c is;
+   - every site of A (other than c and d) that does not overlap c does not overlap d;
+   - every site of A (other than c and d) linked to c is linked to d.
+   Set inclusion alone is not enough: d may overlap a site that c does not, or miss a
+   link c has, and then swapping c for d breaks a placement; the last two conditions rule
+   that out, over every site a better placement can use (item 10). Take a placement X
+   of sites of A better than the incumbent that holds c. If d is not in X, X - c + d
+   overlaps nothing (the third condition), every link of c is a link of d (the second and
+   fourth), so it stays connected, and it covers S(X) or more (the first). If d is in X,
+   X - c is connected the same way (a path through c passes through d) and covers S(X).
+   Each swap moves a site to an earlier place in the order or removes one, so repeating
+   them ends with a placement of the same value or better and no dominated site: clearing
+   every dominated site keeps an optimal placement when one beats the incumbent. The two
+   geometric conditions are tested on counts (``cKDTree`` over A): the sites overlapping
+   d but not c lie at distances [2 R_d - TOL, 2 R_d - TOL + |c - d|] from c, those linked
+   to c but not to d at (r2 + TOL - |c - d|, r2 + TOL]; an empty annulus (widened by
+   1e-6 m) is sufficient. Pairs are sought within ``_DOMINANCE_RADIUS`` (thin annuli).
+
 With ``workers`` > 1 the search is split over forked processes (``_split_root``): each
 takes its share of the children of every node at depth 1 (m >= 4), so one heavy root
 child does not stay on one core.
@@ -182,7 +203,9 @@ class BnbResult:
     nodes: int
     """Search nodes visited."""
     eliminated: int = 0
-    """Candidate sites cleared before the search (item 10)."""
+    """Candidate sites cleared before the search (items 10 and 13)."""
+    dominated: int = 0
+    """Of those, sites cleared as dominated (item 13)."""
     elimination_time: float = 0.0
     """Seconds spent on items 9-10 (the backhaul-free searches and the site tests)."""
     separated: int = 0
@@ -1177,6 +1200,48 @@ class BranchAndBoundSearch:
             if cleared == 0:
                 break
 
+    def drop_dominated(self, alive: np.ndarray) -> int:
+        """Item 13: clear in ``alive`` every site dominated by another alive site; returns
+        how many were cleared."""
+        idx = np.flatnonzero(alive)
+        if len(idx) < 2:
+            return 0
+        pts = self.pts[idx]
+        tree = cKDTree(pts)
+        pairs = tree.query_pairs(_DOMINANCE_RADIUS, output_type="ndarray")
+        if len(pairs) == 0:
+            return 0
+        # (c, d) with d earlier in the search order (so w[d] >= w[c]), as positions in idx
+        pairs = np.sort(pairs, axis=1)
+        d_loc, c_loc = pairs[:, 0], pairs[:, 1]
+        c, d = idx[c_loc], idx[d_loc]
+        direct = self.dg <= self.r1t
+        ok = ~direct[c] | direct[d]
+        for lo in range(0, len(c), 4096):  # S(c) within S(d), a block of pairs at a time
+            sl = slice(lo, lo + 4096)
+            ok[sl] &= ~np.any(self.packed[c[sl]] & ~self.packed[d[sl]], axis=1)
+        c_loc, c, d = c_loc[ok], c[ok], d[ok]
+        if len(c) == 0:
+            return 0
+        gap = np.hypot(*(self.pts[c] - self.pts[d]).T)
+        at = pts[c_loc]
+        r_conf = 2 * self.problem.R_d - TOL
+
+        def annulus(inner: np.ndarray | float, outer: np.ndarray | float) -> np.ndarray:
+            """Alive sites within [inner - 1e-6, outer + 1e-6] of c (a superset of the annulus)."""
+            far = tree.query_ball_point(at, np.asarray(outer) + 1e-6, return_length=True)
+            near = tree.query_ball_point(at, np.maximum(np.asarray(inner) - 1e-6, 0.0), return_length=True)
+            return far - near
+
+        # sites overlapping d but not c, or linked to c but not to d: none on these annuli
+        ok = annulus(r_conf, r_conf + gap) == 0
+        ok &= annulus(self.r2t - gap, self.r2t) == 0
+        # a pair's own sites lie inside both inner discs (the gap is far below 2 R_d - TOL)
+        ok &= gap < min(r_conf, self.r2t) / 2
+        drop = np.unique(c[ok])
+        alive[drop] = False
+        return len(drop)
+
     def improve_start(self, incumbent: np.ndarray) -> None:
         """The primal heuristics from the incumbent's sites (when all are candidates)."""
         start = []
@@ -1232,11 +1297,13 @@ class BranchAndBoundSearch:
         root = np.ones(self.n, dtype=bool)
         proven = True
         elimination_time = 0.0
+        dominated = 0
         try:
             if eliminate and self.m >= 3:
                 t_el = time.perf_counter()
                 try:
                     self.eliminate_sites(root)
+                    dominated = self.drop_dominated(root)
                 finally:
                     elimination_time = time.perf_counter() - t_el
             if workers > 1 and self.m >= 3 and self.n >= _SPLIT_MIN_SITES and _can_fork():
@@ -1257,6 +1324,7 @@ class BranchAndBoundSearch:
             eliminated=int(self.n - root.sum()),
             elimination_time=elimination_time,
             separated=int(self.separated),
+            dominated=dominated,
         )
 
 
@@ -1574,6 +1642,10 @@ def _close(pp: np.ndarray, dist: np.ndarray, r2: float) -> np.ndarray:
         d = nd
     return d
 
+
+_DOMINANCE_RADIUS = 50.0
+"""Item 13: dominating sites are sought this close (m); farther pairs rarely qualify, as
+their annuli are wide."""
 
 _SIBLINGS = 16
 """Item 11: explored siblings tried as replacements of a new child (the latest ones)."""

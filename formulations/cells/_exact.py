@@ -187,6 +187,7 @@ def _solve_bnb(prep: Prepared, workers: int) -> SolveResult:
             "pruned_sites": int(prep.info.get("pruned_sites", 0)),
             "nodes": bb.nodes,
             "eliminated": bb.eliminated,
+            "dominated": bb.dominated,
             "elimination_time": bb.elimination_time,
         },
     )
