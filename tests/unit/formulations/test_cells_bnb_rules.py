@@ -210,3 +210,19 @@ def test_dominated_sites_leave_the_optimum_unchanged():
             # a dominated site keeps a dominating one alive: never every site of the optimum
             assert dropped < s.n
     assert dropped_total > 0
+
+
+def test_links_to_many_bridges_found_by_tree_include_every_exact_link():
+    # item 12's link test past _LINK_ROWS_MAX bridge candidates (a KD-tree, range widened by
+    # 1e-6 m) returns every site the exact rows link, and here no other
+    from droneplan.formulations.cells._bnb import _LINK_ROWS_MAX, LinkRows, _linked_to
+
+    rng = np.random.default_rng(5)
+    pts = rng.uniform(0, 40, size=(400, 2))
+    links = LinkRows(pts, 3.0)
+    sites = np.arange(400)
+    q = rng.choice(400, size=_LINK_ROWS_MAX + 20, replace=False)
+    exact = np.unpackbits(np.bitwise_or.reduce(links[q], axis=0), count=400, bitorder="little").astype(bool)
+    got = _linked_to(links, sites, q)
+    assert np.array_equal(got, exact)
+    assert 0 < exact.sum() < 400
