@@ -11,6 +11,7 @@ in its own file, plus one line in ``registry._BUILTIN``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping, Sequence
@@ -125,6 +126,16 @@ def _highs_model(solver: pywraplp.Solver) -> Any:
     highs.setOptionValue("output_flag", False)
     highs.passModel(lp)
     return highs
+
+
+def _highs_start(highs: Any, warm_start: Mapping[Any, float]) -> bool:
+    """Hand the start solution {pywraplp variable: value} to ``highs`` (highspy's sparse
+    ``setSolution``, columns in the pywraplp order); True when HiGHS accepted it."""
+    import highspy
+
+    idx = np.array([v.index() for v in warm_start], dtype=np.int32)
+    val = np.array([float(x) for x in warm_start.values()], dtype=float)
+    return bool(highs.setSolution(len(idx), idx, val) == highspy.HighsStatus.kOk)
 
 
 def _highs_readout(
@@ -272,12 +283,14 @@ class HighsAdapter(PywraplpAdapter):
     """HiGHS (branch and cut, dual simplex). Models are built with pywraplp and solved by
     highspy, handed over as their MPModelProto: pywraplp's HiGHS interface reports
     MPSOLVER_UNKNOWN_STATUS at the time limit and drops HiGHS's incumbent, while highspy
-    returns it (FEASIBLE, with HiGHS's bound). Takes no start solution (with ortools 9.15,
-    SetHint followed by Solve crashes the process under HiGHS)."""
+    returns it (FEASIBLE, with HiGHS's bound). Takes a start solution, handed to highspy's
+    ``setSolution`` (sparse: the variables given; HiGHS completes a partial one when it can),
+    never to pywraplp (with ortools 9.15, SetHint followed by Solve crashes the process
+    under HiGHS)."""
 
     name = "highs"
     solver_id = "HIGHS"
-    takes_hint = False
+    takes_hint = True
     quiet_parameters = "output_flag=false"
     description = "HiGHS MILP/LP (models built with OR-Tools pywraplp, solved by highspy)"
     status_map = _HIGHS_STATUS
@@ -306,19 +319,25 @@ class HighsAdapter(PywraplpAdapter):
         if relative_gap is not None:
             options["mip_rel_gap"] = float(relative_gap)
 
+        passed = [False]
+
         def call() -> tuple[str, Any]:
             highs = _highs_model(solver)
             if time_limit is not None:
                 options["time_limit"] = max(time_limit - (time.perf_counter() - t0), 1e-3)
             for key, value in options.items():
                 highs.setOptionValue(key, value)
+            if warm_start:
+                passed[0] = _highs_start(highs, warm_start)
             highs.run()
             return highs.getModelStatus().name, highs
 
         def read(code: Any, highs: Any, status: Status, _elapsed: float) -> NativeReadout:
-            return _highs_readout(highs, code, status, variables, bool(warm_start), self.name)
+            unused = bool(warm_start) and not passed[0]
+            return _highs_readout(highs, code, status, variables, unused, self.name)
 
-        return run_native(self, call, read, warm_started=False)
+        out = run_native(self, call, read, warm_started=False)
+        return dataclasses.replace(out, warm_started=passed[0]) if passed[0] else out
 
 
 class ScipAdapter(PywraplpAdapter):

@@ -221,8 +221,9 @@ def solve_exact(
         feasible part (sites outside bounds, in a GBS cell, overlapping or without
         backhaul dropped) is always polished by the primal heuristics, beside the greedy
         start; the better line (the warm start's on a tie) becomes the incumbent, the
-        model's hint (CP-SAT; HiGHS through pywraplp takes none, there the incumbent's
-        value is the model's objective cut) and the search's start. ``info["warm_start"]``
+        model's hint (CP-SAT's hint; HiGHS's start solution through highspy's
+        ``setSolution``; the incumbent's value is also the model's objective cut) and the
+        search's start. ``info["warm_start"]``
         says what happened (``used``, ``value``, ``polished_value``, ``greedy_value``,
         ``reason``), ``info["incumbent"]`` which line won and its value.
     workers: for engine "milp", CP-SAT workers / MIP threads; for "bnb", processes that
