@@ -178,3 +178,18 @@ def test_ga_ablation_checks_executor_store_and_out(param):
     kw = {"seeds": [0], "ms": (1,), "runs": 1, "variants": ["thesis"], "es_limit": 5.0, "exact_limit": 5.0}
     with pytest.raises(TypeError, match=f"^{param} must be"):
         study.ga_ablation(**kw, **{param: 10**12})
+
+
+@pytest.mark.parametrize("engine", ["bnb", "milp"])
+def test_warm_start_effect_rows(engine):
+    """The GA's plan as warm start: the warm run starts from at least the GA's users, both runs
+    to proof agree on the optimum, and the row says whether the plan became the incumbent."""
+    df = study.warm_start_effect(2, [0, 1], engine=engine, time_limit=60.0, short_limit=1.0, progress=False)
+    assert list(df["seed"]) == [0, 1] and (df["engine"] == engine).all()
+    assert (df["warm_short"] >= df["ga"]).all()
+    assert (df["cold_status"] == "OPTIMAL").all() and (df["warm_status"] == "OPTIMAL").all()
+    assert (df["cold_objective"] == df["warm_objective"]).all()
+    assert (df["warm_objective"] >= df["ga"]).all()
+    assert all(r.warm_reason for r in df.itertuples())
+    with pytest.raises(ValueError, match=r"^engine must be one of"):
+        study.warm_start_effect(2, [0], engine="gurobi", progress=False)
