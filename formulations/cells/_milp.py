@@ -75,6 +75,24 @@ and ~3*10^6 pairs within r2, far too many to write out):
 Measured (Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s each, items 3b, 6, 7): 8 of
 10 proven (0.3-80 s), seeds 4 and 5 open (51 / 59, 61 / 73).
 
+8. **Lifted hop rows (exact; HiGHS and SCIP only, ``LIFTED_HOPS``).** The hop rows of 3b let
+   the LP feed a far site from itself: a square term a_Q at level l - 1 may hold c's own
+   z_{c,l-1}, so z_{c,l} <= z_{c,l-1} + ... costs no relay, and one relay at 1/3 feeds
+   three overlapping sites at 1/3 each. Two exact repairs (``_hop_levels``,
+   ``_clique_hop_rows``): a site's row leaves out the sources closer than 2 R_d - TOL (they
+   overlap it and are never used with it), and every user clique C_u of item 5 gets
+   ``sum_{c in C_u} z_{c,l} <= its sources`` (at most one site of C_u is used). LP bound of
+   the final model of Table 4.2 m = 4 seed 5 (HiGHS, all 4 518 sites): 72.8 -> 64.6
+   (optimum 61), but 1.1 M -> 1.4 M terms and a much slower LP. HiGHS, 1 thread, 120 s:
+   seed 0 proven in 23.5 instead of 35.1 CPU s, seed 6 bound 65 instead of 66 (load ~4).
+   CP-SAT, 1 worker: slower on every seed tried (seeds 0, 3, 6 proven in 12.7, 28.0, 19.9
+   CPU s instead of 5.0, 19.8, 10.5; seeds 4 and 5 still open), so it stays off there.
+   Tried and dropped: a level chain (e_l >= z_{c,l}, e_l <= e_{l-1}, the level-(l-1) sum
+   >= e_l; exact, LP 72.84 -> 72.76 only), an objective cut one above the incumbent
+   (CP-SAT then proves infeasibility without its LP bound: the restricted rounds that
+   proved in seconds stayed open), and CP-SAT ``linearization_level`` 2 with 1 worker
+   (final model of seed 5 open after 60 s either way, bound 70 vs 73).
+
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
 search of ``_bnb``. Both start from ``_prepare.prepare`` (candidates, incumbent, bounds).
@@ -192,8 +210,83 @@ def _uncovered_pairs(points: np.ndarray, R_d: float, cliques: list[np.ndarray]) 
 _SQUARE = 6
 """The hop rows' squares have side r2 / ``_SQUARE``."""
 
+LIFTED_HOPS: dict[str, bool] = {"highs": True, "scip": True}
+"""Backends whose model gets the lifted hop rows of item 8 by default (by registry name;
+others, CP-SAT among them, do not: measured slower there)."""
 
-def _hop_levels(lin, x: list, pts: np.ndarray, direct: np.ndarray, problem: CellProblem, late):  # noqa: C901
+
+class _LevelSources:
+    """The level-(l-1) sources of the hop rows at one level l, with their squares (item 3b)."""
+
+    def __init__(
+        self, pts: np.ndarray, src: np.ndarray, var, problem: CellProblem, lin, squares: dict, lev: int
+    ):
+        """pts: all sites (m); src: indices of the sources; var[d]: source d's variable at level
+        l - 1; squares: the model's square map, extended here; lev: the level l."""
+        side = problem.r2 / _SQUARE
+        self.pts, self.src, self.var, self.side = pts, src, var, side
+        self.reach = problem.r2 + TOL
+        """Link range (m)."""
+        keys, inv = np.unique(np.floor(pts[src] / side).astype(np.int64), axis=0, return_inverse=True)
+        self.inv = inv.ravel()
+        members = [src[self.inv == q] for q in range(len(keys))]
+        self.agg = np.array([len(g) >= 2 for g in members])
+        self.sq_var: dict[int, Any] = {}
+        for q in np.flatnonzero(self.agg).tolist():
+            v = lin.unit_var(f"a{lev - 1}_{q}")
+            lin.add_implies_any(v, [var[d] for d in members[q].tolist()])
+            self.sq_var[q] = v
+            squares[lev - 1, tuple(keys[q].tolist())] = (v, members[q])
+        self.lo = keys * side  # square corners (m)
+        self.tree = cKDTree(pts[src])
+
+    def terms(self, centre: np.ndarray, rch: float, inner: float = 0.0, skip: int = -1) -> list:
+        """Terms for the sources at distance in [inner, rch] of ``centre`` (except ``skip``):
+        the squares inside that annulus by their variable, the other sources one by one."""
+        lo, side = self.lo, self.side
+        ax, ay = np.abs(lo[:, 0] - centre[0]), np.abs(lo[:, 0] + side - centre[0])
+        bx, by = np.abs(lo[:, 1] - centre[1]), np.abs(lo[:, 1] + side - centre[1])
+        full = self.agg & (np.hypot(np.maximum(ax, ay), np.maximum(bx, by)) <= rch)
+        if inner > 0:
+            in_x = (lo[:, 0] <= centre[0]) & (centre[0] <= lo[:, 0] + side)
+            in_y = (lo[:, 1] <= centre[1]) & (centre[1] <= lo[:, 1] + side)
+            near = np.hypot(np.where(in_x, 0.0, np.minimum(ax, ay)), np.where(in_y, 0.0, np.minimum(bx, by)))
+            full &= near >= inner
+        idx = np.asarray(self.tree.query_ball_point(centre, rch), dtype=np.int64)
+        idx = idx[~full[self.inv[idx]]]
+        if inner > 0:
+            idx = idx[np.hypot(*(self.pts[self.src[idx]] - centre).T) >= inner]
+        out = [self.sq_var[q] for q in np.flatnonzero(full).tolist()]
+        return out + [self.var[d] for d in self.src[idx].tolist() if d != skip]
+
+
+def _clique_hop_rows(lin, z: dict, lev: int, clique_rows: list, sources: _LevelSources, R_d: float) -> int:
+    """The clique-lifted hop rows of item 8 at level ``lev``; returns their terms.
+
+    For a user u whose covering sites C_u pairwise overlap (item 5):
+    ``sum_{c in C_u} z_{c,l} <= sum of the level-(l-1) sources at distance in
+    [R_d - 3 TOL, R_d + r2 + 2 TOL] of u``. Exact: at most one site of C_u is used, so the
+    left side is 0 or 1. When it is 1, the used site c (within R_d + TOL of u) has a used
+    level-(l-1) neighbour d within r2 + TOL of c, so within R_d + r2 + 2 TOL of u; and d does
+    not overlap c (>= 2 R_d - TOL from c), so it is >= R_d - 2 TOL from u (a square term is
+    positive only when a source in it is)."""
+    n_terms = 0
+    seen: set = set()
+    rch = R_d + TOL + sources.reach
+    for centre, sites in clique_rows:
+        lhs_sites = tuple(c for c in sites if (c, lev) in z)
+        if len(lhs_sites) < 2 or lhs_sites in seen:
+            continue
+        seen.add(lhs_sites)
+        terms = sources.terms(centre, rch, inner=R_d - 3 * TOL)
+        lin.add(lin.sum([z[c, lev] for c in lhs_sites]) <= lin.sum(terms))
+        n_terms += len(terms)
+    return n_terms
+
+
+def _hop_levels(
+    lin, x: list, pts: np.ndarray, direct: np.ndarray, problem: CellProblem, late, clique_rows: list | None
+):
     """The hop-level rows of item 3b, with the sources of a row grouped by squares.
 
     A square Q (side r2 / _SQUARE) holding several level-(l-1) sources gets one variable
@@ -206,11 +299,14 @@ def _hop_levels(lin, x: list, pts: np.ndarray, direct: np.ndarray, problem: Cell
     sides r2/4, r2/8, r2/12: 0.64, 0.66, 0.89 M), and CP-SAT (1 worker) then proves seed 4
     in 101 s (before: bound 61 after 120 s) and seed 3 in 21 s (before: 80 s).
 
+    ``clique_rows`` (a list of (user position, its clique sites), or None): the lifted rows
+    of item 8; then a site's row also leaves out the sources that overlap it.
+
     Returns (z, squares, level variables, terms) or None once ``late()``."""
     m = problem.n_cells
     nd = np.flatnonzero(~direct)
-    reach = problem.r2 + TOL
-    side = problem.r2 / _SQUARE
+    # item 8: sources closer than 2 R_d - TOL overlap c and are never used with it
+    inner = 0.0 if clique_rows is None else 2 * problem.R_d - 2 * TOL
     dg = np.min(pairwise_distances(pts[nd], problem.gbs), axis=1)
     # level l reaches r1 + (l - 1) r2 (each link has tolerance TOL)
     lowest = np.maximum(2, np.ceil((dg - problem.r1 - m * TOL) / problem.r2).astype(np.int64) + 1)
@@ -220,7 +316,6 @@ def _hop_levels(lin, x: list, pts: np.ndarray, direct: np.ndarray, problem: Cell
             z[c, lev] = lin.bool_var(f"z{c}_{lev}")
     for k, c in enumerate(nd.tolist()):
         lin.add(lin.sum([z[c, lev] for lev in range(int(lowest[k]), m + 1)]) == x[c])
-    cell = np.floor(pts / side).astype(np.int64)
     squares: dict = {}
     n_vars = n_terms = 0
     for lev in range(2, m + 1):
@@ -230,35 +325,16 @@ def _hop_levels(lin, x: list, pts: np.ndarray, direct: np.ndarray, problem: Cell
             for c in rows.tolist():
                 lin.add_implies_any(z[c, lev], [])
             continue
-
-        def var(d: int, lv: int = lev - 1) -> Any:
-            return x[d] if lv == 1 else z[d, lv]
-
-        keys, inv = np.unique(cell[src], axis=0, return_inverse=True)
-        inv = inv.ravel()
-        members = [src[inv == q] for q in range(len(keys))]
-        agg = np.array([len(g) >= 2 for g in members])
-        sq_var: dict[int, Any] = {}
-        for q in np.flatnonzero(agg).tolist():
-            v = lin.unit_var(f"a{lev - 1}_{q}")
-            lin.add_implies_any(v, [var(d) for d in members[q].tolist()])
-            sq_var[q] = v
-            squares[lev - 1, tuple(keys[q].tolist())] = (v, members[q])
-        lo = keys * side  # square corners (m)
-        src_tree = cKDTree(pts[src])
+        sources = _LevelSources(
+            pts, src, x if lev == 2 else {d: z[d, lev - 1] for d in src.tolist()}, problem, lin, squares, lev
+        )
         for c in rows.tolist():
-            far = np.hypot(
-                np.maximum(np.abs(lo[:, 0] - pts[c, 0]), np.abs(lo[:, 0] + side - pts[c, 0])),
-                np.maximum(np.abs(lo[:, 1] - pts[c, 1]), np.abs(lo[:, 1] + side - pts[c, 1])),
-            )
-            full = agg & (far <= reach)
-            near = np.asarray(src_tree.query_ball_point(pts[c], reach), dtype=np.int64)
-            near = near[~full[inv[near]]]
-            terms = [sq_var[q] for q in np.flatnonzero(full).tolist()]
-            terms += [var(d) for d in src[near].tolist() if d != c]
+            terms = sources.terms(pts[c], sources.reach, inner=inner, skip=c)
             lin.add_implies_any(z[c, lev], terms)
             n_vars += 1
             n_terms += len(terms)
+        if clique_rows:
+            n_terms += _clique_hop_rows(lin, z, lev, clique_rows, sources, problem.R_d)
         if late():
             return None
     return z, squares, n_vars, n_terms
@@ -317,7 +393,7 @@ def _user_clique_sites(
 
 def _coverage_objective(
     lin, x: list, pts: np.ndarray, cover: list, problem: CellProblem, user_cliques: bool
-) -> tuple[dict, Any, int, int]:
+) -> tuple[dict, Any, dict[int, list[int]], int]:
     """The covered-user count as a linear expression over the site variables ``x``.
 
     Returns (y, objective, clique rows, users written without a variable):
@@ -353,7 +429,7 @@ def _coverage_objective(
         y[users[0]] = v
         lin.add_implies_any(v, [x[i] for i in group])  # (4.9): counted only if a chosen site covers it
         terms.append(len(users) * v)
-    return y, lin.sum(terms), len(cliques), len(cliques)
+    return y, lin.sum(terms), cliques, len(cliques)
 
 
 def reduce_candidates(
@@ -413,6 +489,7 @@ def build_milp(  # noqa: C901, PLR0915
     connectivity: str = "hops",
     cuts: list | None = None,
     user_cliques: bool = True,
+    lifted_hops: bool | None = None,
 ) -> CellModel | None:
     """Build the candidate model (module docstring) without solving it.
 
@@ -433,8 +510,12 @@ def build_milp(  # noqa: C901, PLR0915
         indices into the full candidate set (restricted to ``keep``: dropped sites are 0, so a
         restricted cut stays valid).
     user_cliques: add the per-user at-most-one rows of item 5 (default True).
+    lifted_hops: add the lifted hop rows of item 8 ("hops" with ``user_cliques`` only); None
+        (default): per backend, ``LIFTED_HOPS``.
     """
     check_instance("problem", problem, CellProblem)
+    if lifted_hops is not None:
+        lifted_hops = check_bool("lifted_hops", lifted_hops)
     if connectivity not in CONNECTIVITY:
         raise ValueError(f"connectivity must be one of {CONNECTIVITY}, got {connectivity!r}")
     check_instance("candidates", candidates, Candidates, optional=True)
@@ -452,7 +533,8 @@ def build_milp(  # noqa: C901, PLR0915
     cover = [cand.cover[i] for i in idx]
     direct = cand.direct[idx]
     x = [lin.bool_var(f"x{i}") for i in range(len(pts))]
-    y, objective, n_user_cliques, n_subst = _coverage_objective(lin, x, pts, cover, problem, user_cliques)
+    y, objective, user_clique_sites, n_subst = _coverage_objective(lin, x, pts, cover, problem, user_cliques)
+    n_user_cliques = len(user_clique_sites)
     if x:
         lin.add(lin.sum(x) <= problem.n_cells)
     # (4.8) non-overlap: grid cliques, then every remaining conflicting pair
@@ -503,7 +585,13 @@ def build_milp(  # noqa: C901, PLR0915
             n_cuts += 1
     squares: dict = {}
     if connectivity == "hops" and len(nd):  # item 3b
-        built = _hop_levels(lin, x, pts, direct, problem, late)
+        lifted = LIFTED_HOPS.get(backend, False) if lifted_hops is None else lifted_hops
+        clique_rows = (
+            [(problem.targets[u], sorted(sites)) for u, sites in user_clique_sites.items()]
+            if lifted
+            else None
+        )
+        built = _hop_levels(lin, x, pts, direct, problem, late, clique_rows)
         if built is None:
             return None
         z, squares, n_level_vars, n_level_terms = built
