@@ -11,6 +11,7 @@ the MILP (``solve_milp``, CP-SAT by default, HiGHS beside it) certifies the same
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import tempfile
 from collections.abc import Mapping
@@ -84,6 +85,7 @@ __all__ = [
     "bench_grid_specs",
     "bench_grid_row",
     "bench_grid",
+    "grid_text",
     "bench",
 ]
 
@@ -1395,7 +1397,9 @@ def bench_grid_row(spec: Mapping[str, Any]) -> dict[str, Any]:
     ``cpu_s`` (CPU seconds of the solve, forked workers included), ``peak_rss_mib`` (peak
     resident memory of the process, MiB; ``base_rss_mib`` is its value before the solve,
     after the imports and the instance; ``worker_peak_rss_mib`` that of the largest forked
-    worker, 0 without), ``load_1min`` (the 1-minute load average when the row started).
+    worker, 0 without), ``load_1min`` (the 1-minute load average when the row started). A
+    process that fails (e.g. out of memory) gives status "ERROR" and its last error line in
+    ``error``.
     """
     import json
     import subprocess
@@ -1409,11 +1413,34 @@ def bench_grid_row(spec: Mapping[str, Any]) -> dict[str, Any]:
         text=True,
         check=False,
     )
-    if proc.returncode != 0:
-        raise RuntimeError(f"bench grid row {dict(spec)} failed:\n{proc.stderr[-2000:]}")
+    if proc.returncode != 0:  # e.g. out of memory: the row says so, the grid goes on
+        tail = proc.stderr.strip().splitlines()[-1:] or [f"exit code {proc.returncode}"]
+        return {**spec, "status": "ERROR", "error": tail[0], "load_1min": load, "time_to_proof_s": None}
     row = {**spec, **json.loads(proc.stdout.strip().splitlines()[-1]), "load_1min": load}
     row["time_to_proof_s"] = row["wall_s"] if row["status"] == "OPTIMAL" else None
     return row
+
+
+def grid_text(row: Mapping[str, Any]) -> str:
+    """One grid row (:func:`bench_grid_row`) in words: status, value/bound, proof time, CPU
+    seconds, peak memory and load (or the error of a failed row).
+
+    row: a row of :func:`bench_grid_row`."""
+
+    def num(key: str, fmt: str) -> str:
+        v = row.get(key)
+        return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else format(v, fmt)
+
+    if row.get("status") == "ERROR":
+        return f"ERROR ({row.get('error', '')}), load {num('load_1min', '.2f')}"
+    t = row.get("time_to_proof_s")
+    proof = "not proven" if t is None or (isinstance(t, float) and math.isnan(t)) else f"proven in {t:.1f} s"
+    return (
+        f"{row['status']} {num('objective', 'g')}/{num('bound', 'g')} {proof} "
+        f"({num('users', 'g')} users, {num('candidates', 'g')} sites), {num('cpu_s', '.1f')} CPU-s, "
+        f"peak {num('peak_rss_mib', '.0f')} MiB, load {num('load_1min', '.2f')}, "
+        f"limit {num('time_limit', 'g')} s"
+    )
 
 
 def bench_grid(
@@ -1432,16 +1459,8 @@ def bench_grid(
         row = bench_grid_row(spec)
         rows.append(row)
         if progress:
-            proof = (
-                "not proven"
-                if row["time_to_proof_s"] is None
-                else f"proven in {row['time_to_proof_s']:.1f} s"
-            )
             print(
-                f"cells grid m={row['m']} x{row['density']:g} {row['engine']}: {row['status']} "
-                f"{row['objective']:g}/{row['bound']:g} {proof}, {row['cpu_s']:.1f} CPU-s, "
-                f"{row['peak_rss_mib']:.0f} MiB, load {row['load_1min']:.2f}",
-                flush=True,
+                f"cells grid m={row['m']} x{row['density']:g} {row['engine']}: {grid_text(row)}", flush=True
             )
     df = pd.DataFrame(rows)
     out = Path(out)
@@ -1555,13 +1574,12 @@ def bench(*, quick: bool, out: Path, time_limit: float | None = None) -> None:
         f"{lib['resolve_wall_s_estimate']:.3g} s; load {lib['load_before']:.2f} -> {lib['load_after']:.2f}",
     )
     grid = bench_grid(quick=quick, out=out, time_limit=time_limit)
-    for g in grid.itertuples():
+    for g in grid.to_dict("records"):
+        proof = g.get("time_to_proof_s")
         t.add(
-            f"m={g.m} density x{g.density:g} {g.engine}: time to proof (s)",
+            f"m={g['m']} density x{g['density']:g} {g['engine']}: time to proof (s)",
             None,
-            "not proven" if g.time_to_proof_s is None or pd.isna(g.time_to_proof_s) else g.time_to_proof_s,
-            f"{g.status} {g.objective:g}/{g.bound:g} ({g.users} users, {g.candidates} sites), "
-            f"{g.cpu_s:.3g} CPU-s, peak {g.peak_rss_mib:.0f} MiB, load {g.load_1min:.2f}, "
-            f"limit {g.time_limit:g} s",
+            "not proven" if proof is None or pd.isna(proof) else proof,
+            grid_text(g),
         )
     t.emit(out, "bench_cells")

@@ -15,6 +15,7 @@ from droneplan.studies.cells import (
     bench_grid_row,
     bench_grid_specs,
     density_params,
+    grid_text,
 )
 
 
@@ -74,3 +75,13 @@ def test_grid_row_runs_in_a_fresh_process_and_both_engines_agree():
         assert r["cpu_s"] > 0
         assert r["peak_rss_mib"] >= r["base_rss_mib"] > 0
         assert math.isfinite(r["load_1min"])
+        assert grid_text(r).startswith(f"OPTIMAL {ref.objective:g}/{ref.objective:g} proven in")
+
+
+def test_a_failing_grid_row_is_recorded_not_raised():
+    # a density whose user count the scenario refuses up front: the child process fails
+    spec = bench_grid_specs(quick=True, ms=[2], densities=[1e12], engines=["bnb"], time_limit=5)[0]
+    row = bench_grid_row(spec)
+    assert row["status"] == "ERROR" and "ValueError" in row["error"]
+    assert row["time_to_proof_s"] is None
+    assert grid_text(row).startswith("ERROR (ValueError")
