@@ -83,8 +83,10 @@ Measured (Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s each, items 3b, 6,
    overlap it and are never used with it), and every user clique C_u of item 5 gets
    ``sum_{c in C_u} z_{c,l} <= its sources`` (at most one site of C_u is used). LP bound of
    the final model of Table 4.2 m = 4 seed 5 (HiGHS, all 4 518 sites): 72.8 -> 64.6
-   (optimum 61), but 1.1 M -> 1.4 M terms and a much slower LP. HiGHS, 1 thread, 120 s:
-   seed 0 proven in 23.5 instead of 35.1 CPU s, seed 6 bound 65 instead of 66 (load ~4).
+   (optimum 61), but 1.1 M -> 1.4 M terms and a much slower LP. HiGHS, 1 thread, 120 s,
+   load 3-4, CPU s with / without: seeds 0, 1, 9 proven in 23.5 / 35.1, 17.1 / 36.5,
+   8.0 / 7.1, seed 7 in 57.6 / 20.4 (slower); open seeds 5 and 6 end at bound 64 / 73 and
+   65 / 66.
    CP-SAT, 1 worker: slower on every seed tried (seeds 0, 3, 6 proven in 12.7, 28.0, 19.9
    CPU s instead of 5.0, 19.8, 10.5; seeds 4 and 5 still open), so it stays off there.
    Tried and dropped: a level chain (e_l >= z_{c,l}, e_l <= e_{l-1}, the level-(l-1) sum
