@@ -191,6 +191,13 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument(
         "--summary-only", action="store_true", help="with 'all': only the summary table of the speed goals"
     )
+    bench.add_argument(
+        "--time-limit",
+        type=float,
+        default=None,
+        metavar="S",
+        help="cells: seconds per row of the scale grid (default 600, 60 with --quick)",
+    )
     return parser
 
 
@@ -534,6 +541,8 @@ def _checked_counts(args) -> int | None:
 
 def _run_bench(args, problems: list[str]) -> int:
     """``droneplan bench``: each problem's benchmark, then (for "all") the summary table."""
+    if args.time_limit is not None and "cells" not in problems:
+        raise SystemExit("droneplan: --time-limit applies to 'bench cells' (its scale grid)")
     if args.summary_only and args.problem != "all":
         raise SystemExit("droneplan: --summary-only goes with 'bench all'")
     if args.reproduce_times is not None and args.problem != "all":
@@ -542,7 +551,11 @@ def _run_bench(args, problems: list[str]) -> int:
         out = args.out / problem
         out.mkdir(parents=True, exist_ok=True)
         print(f"### bench {problem} (thesis ch. {_CHAPTER[problem]}) -> {out}", flush=True)
-        _load(problem).bench(quick=args.quick, out=out)
+        extra = {"time_limit": args.time_limit} if problem == "cells" else {}
+        try:
+            _load(problem).bench(quick=args.quick, out=out, **extra)
+        except ValueError as exc:  # a bad option value, named by the check that refused it
+            raise SystemExit(f"droneplan: {exc}") from None
     if args.problem == "all":
         from droneplan.studies.bench_summary import bench_summary, summary_markdown, write_summary
 

@@ -118,6 +118,12 @@ def test_bench_cli_summary_options(tmp_path):
     for argv in (["bench", "cells", "--summary-only"], ["bench", "cells", "--reproduce-times", "x.csv"]):
         with pytest.raises(SystemExit, match="goes with 'bench all'"):
             cli.main([*argv, "--out", str(tmp_path)])
+    with pytest.raises(SystemExit, match="applies to 'bench cells'"):
+        cli.main(["bench", "herding", "--time-limit", "5", "--out", str(tmp_path)])
+    with pytest.raises(SystemExit, match="^droneplan: time_limit"):
+        cli.main(["bench", "cells", "--time-limit", "-5", "--out", str(tmp_path)])
+    with pytest.raises(SystemExit):  # argparse: not a number
+        cli.main(["bench", "cells", "--time-limit", "soon", "--out", str(tmp_path)])
     (tmp_path / "foreign.csv").write_text("a,b\n1,2\n")
     argv = ["bench", "all", "--summary-only", "--reproduce-times", str(tmp_path / "foreign.csv")]
     with pytest.raises(SystemExit, match=r"^droneplan: path: .* lacks the columns"):
