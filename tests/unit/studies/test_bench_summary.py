@@ -120,7 +120,7 @@ def test_bench_cli_summary_options(tmp_path):
             cli.main([*argv, "--out", str(tmp_path)])
     with pytest.raises(SystemExit, match="applies to 'bench cells'"):
         cli.main(["bench", "herding", "--time-limit", "5", "--out", str(tmp_path)])
-    with pytest.raises(SystemExit, match="^droneplan: time_limit"):
+    with pytest.raises(SystemExit, match=r"^droneplan: time_limit"):
         cli.main(["bench", "cells", "--time-limit", "-5", "--out", str(tmp_path)])
     with pytest.raises(SystemExit):  # argparse: not a number
         cli.main(["bench", "cells", "--time-limit", "soon", "--out", str(tmp_path)])
