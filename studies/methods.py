@@ -34,7 +34,7 @@ from __future__ import annotations
 import hashlib
 import importlib
 import inspect
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -357,14 +357,7 @@ def resolve_methods(kind: str, methods: Any) -> list[Method]:
     methods: one method or a list of them (module docstring: the accepted forms), or a mapping
     ``{name: target}``; None: the kind's ``DEFAULT_METHODS`` (an error for kinds without them).
     """
-    if methods is None:
-        methods = default_methods(kind)
-    if isinstance(methods, Mapping):
-        entries: list[Any] = list(methods.items())
-    elif isinstance(methods, (str, Method, tuple)) or callable(methods):
-        entries = [methods]
-    else:
-        entries = list(methods)
+    entries = _method_entries(kind, methods)
     if not entries:
         raise ValueError("methods must not be empty")
     out = [_one(e, kind, i) for i, e in enumerate(entries)]
@@ -386,6 +379,22 @@ def resolve_methods(kind: str, methods: Any) -> list[Method]:
                 f"method {m.name!r}: {kind} instances take a function, got the class {m.target.__name__}"
             )
     return out
+
+
+def _method_entries(kind: str, methods: Any) -> list[Any]:
+    """:func:`resolve_methods`'s ``methods`` as a list of single entries (None: the kind's defaults)."""
+    if methods is None:
+        methods = default_methods(kind)
+    if isinstance(methods, Mapping):
+        return list(methods.items())
+    if isinstance(methods, (str, Method, tuple)) or callable(methods):
+        return [methods]
+    if isinstance(methods, Iterable):
+        return list(methods)
+    raise TypeError(
+        "methods must be a method (a registered name, 'module:function', a function or class, "
+        f"a (name, method) pair) or a list or mapping of them, got {type(methods).__name__}"
+    )
 
 
 def check_study_time_limit(time_limit: Any) -> float | None:
