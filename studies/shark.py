@@ -443,23 +443,17 @@ def gap(*, seeds: int, executor=None, out: Path, store=None, first_seed: int = 0
     from droneplan.studies.study import gap as open_gap
 
     out = Path(out)
-    paths = open_gap(
-        "shark",
-        instances="random-path",
-        seeds=seeds,
-        first_seed=first_seed,
-        out=out,
-        store=store,
-        executor=executor,
-    )
-    fleets = open_gap(
-        "shark",
-        instances="random-fleet",
-        seeds=seeds,
-        first_seed=first_seed,
-        out=out,
-        store=store,
-        executor=executor,
+    paths, fleets = (
+        open_gap(
+            "shark",
+            instances=family,
+            seeds=seeds,
+            first_seed=first_seed,
+            out=out,
+            store=store,
+            executor=executor,
+        )
+        for family in ("random-path", "random-fleet")
     )
     df = pd.concat([paths, fleets], ignore_index=True)
     report_study(
