@@ -316,6 +316,6 @@ def animate(trace: Any, path: Any, *, fps: int = 8, stride: int = 1, view: str =
                 circle.set_data(F[0] + r * np.cos(th), F[1] + r * np.sin(th))
         bm = f"{beta_m[i]:.1f} deg" if np.isfinite(beta_m[i]) else "no target seen"
         title.set_text(f"t = {trace.t[i]:.1f} s, {trace.phase[i]}, beta_m = {bm}")
-        return track, now, herd, title
+        return track, now, herd, circle, title
 
     return save_gif(fig, update, list(range(len(frames))), path, frame_rate)

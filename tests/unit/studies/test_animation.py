@@ -12,7 +12,7 @@ import pytest
 from PIL import Image
 
 import droneplan as dp
-from droneplan.studies.plots._animation import MAX_FRAMES, frame_indices
+from droneplan.studies.plots._animation import MAX_FRAMES, frame_indices, save_gif
 
 NAN = float("nan")
 
@@ -78,6 +78,50 @@ def test_herding_animation_and_write_gif_share_the_writer(herding_run, tmp_path)
     assert _frames(a) == len(frame_indices(n, 2))
     b = dp.herding.write_gif(herding_run, tmp_path / "w.gif")
     assert _frames(b) == n
+
+
+def _moving_point_figure():
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(3, 2.5))
+    ax.plot([0, 1], [0, 1], color="0.5", label="static track")
+    (point,) = ax.plot([], [], "o", ms=20, color="tab:blue", label="moving")
+    ax.set_xlim(-0.1, 1.1)
+    ax.set_ylim(-0.1, 1.1)
+    ax.legend(loc="upper left")
+    title = ax.set_title("")
+    xs = np.linspace(0.3, 1.0, 6)
+
+    def update(k: int):  # the point stays clear of the legend (a changing artist is drawn on top)
+        point.set_data([xs[k]], [0.15])
+        title.set_text(f"frame {k}")
+        return point, title
+
+    return fig, update
+
+
+def test_blitted_frames_match_a_full_redraw_of_the_same_state(tmp_path):
+    """The GIF writer draws the static part once and only the changed artists per frame; each
+    frame must look like the whole figure drawn at that state."""
+    import io
+
+    fig, update = _moving_point_figure()
+    path = save_gif(fig, update, list(range(6)), tmp_path / "m.gif", 5)
+    with Image.open(path) as im:
+        assert im.n_frames == 6
+        for k in range(6):
+            im.seek(k)
+            got = np.asarray(im.convert("RGB"), dtype=int)
+            ref_fig, ref_update = _moving_point_figure()
+            ref_update(k)
+            buf = io.BytesIO()
+            ref_fig.savefig(buf, format="png")
+            matplotlib.pyplot.close(ref_fig)
+            ref = np.asarray(Image.open(buf).convert("RGB"), dtype=int)
+            assert got.shape == ref.shape
+            # GIF frames are palette images: allow small colour shifts, not a missing or stale artist
+            differs = np.abs(got - ref).sum(axis=2) > 60
+            assert differs.mean() < 0.001, (k, differs.mean())
 
 
 CASES = ["covert", "shark", "herding"]
