@@ -54,10 +54,11 @@ def save_gif(fig: Any, update: Callable[[int], Any], frames: list[int], path: Pa
     """Draw ``update(k)`` for each k of ``frames`` on ``fig`` and save the frames as a looping GIF at
     ``fps`` frames per second; the folder of ``path`` is created and the figure closed. Returns path.
 
-    ``update`` returns every artist it changes (None entries are skipped). The rest of the figure (axes, ticks, legend, tracks)
-    is drawn once and each frame redraws only those artists over it (blitting): matplotlib's own
-    ``Animation.save`` draws the whole figure twice per frame, and the axes' text is most of that
-    work. The pixels are the same as a full draw's, except that the changing artists lie on top.
+    ``update`` returns every artist it changes (None entries are skipped). The rest of the figure
+    (axes, ticks, legend, tracks) is drawn once and each frame redraws only those artists over it
+    (blitting): matplotlib's own ``Animation.save`` draws the whole figure twice per frame, and the
+    axes' text is most of that work. The pixels are the same as a full draw's, except that the
+    changing artists lie on top.
     """
     import matplotlib.pyplot as plt
     from PIL import Image
@@ -76,8 +77,8 @@ def save_gif(fig: Any, update: Callable[[int], Any], frames: list[int], path: Pa
             canvas.restore_region(background)
             for a in changed:
                 fig.draw_artist(a)
-            width, height = canvas.get_width_height(physical=True)
-            images.append(Image.frombuffer("RGBA", (width, height), bytes(canvas.buffer_rgba()), "raw", "RGBA", 0, 1))
+            size = canvas.get_width_height(physical=True)
+            images.append(Image.frombuffer("RGBA", size, bytes(canvas.buffer_rgba()), "raw", "RGBA", 0, 1))
         images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
     finally:
         plt.close(fig)
