@@ -81,6 +81,7 @@ from droneplan.solvers.result import SolveResult, Status
 
 __all__ = [
     "METHODS",
+    "solve_checked_exact",
     "Allocation",
     "validate_allocation_input",
     "pad_steering_points",
@@ -431,6 +432,40 @@ def _hint(am: AllocationModel, hint: Allocation) -> dict:
 
 
 # --------------------------------------------------------------------------- public solve
+def solve_checked_exact(d: np.ndarray, s: np.ndarray, M: float) -> SolveResult:
+    """:func:`solve_allocation` with ``method="exact"`` on inputs already as
+    :func:`validate_allocation_input` returns them (float arrays, 1 <= len(s) <= len(d), every
+    position in [0, M), M > 0): the herders' own, whose arc positions hold that by construction,
+    so the check is not repeated at each re-allocation. d, s: drone and steering-point arc
+    positions, m; M: perimeter, m."""
+    n = d.size
+    t0 = time.perf_counter()
+    pts = pad_steering_points(s, n, M)
+    out = _exact(d, pts, M)
+    elapsed = time.perf_counter() - t0
+    msg = f"steering points padded from {s.size} to {n}" if s.size < n else ""
+    if out is None:
+        return SolveResult(
+            Status.INFEASIBLE,
+            backend="exact-cyclic-shift",
+            backend_status="infeasible",
+            message=("coincident steering points; " + msg).strip("; "),
+            solve_time=elapsed,
+        )
+    alloc, worst = out
+    return SolveResult(
+        Status.OPTIMAL,
+        objective=worst,
+        bound=worst,
+        x=alloc,
+        backend="exact-cyclic-shift",
+        backend_status="optimal",
+        message=msg,
+        solve_time=elapsed,
+        iterations=2 * n,
+    )
+
+
 def solve_allocation(
     drone_s,
     steer_s,
@@ -459,34 +494,10 @@ def solve_allocation(
         raise ValueError(f"method must be 'exact' or a cp backend {available_backends('cp')}, got {method!r}")
     workers = check_int("workers", workers, min_value=1)
     d, s, M = validate_allocation_input(drone_s, steer_s, perimeter)
+    if method == "exact":
+        return solve_checked_exact(d, s, M)
     n = d.size
     padded = s.size < n
-    if method == "exact":
-        t0 = time.perf_counter()
-        pts = pad_steering_points(s, n, M)
-        out = _exact(d, pts, M)
-        elapsed = time.perf_counter() - t0
-        msg = f"steering points padded from {s.size} to {n}" if padded else ""
-        if out is None:
-            return SolveResult(
-                Status.INFEASIBLE,
-                backend="exact-cyclic-shift",
-                backend_status="infeasible",
-                message=("coincident steering points; " + msg).strip("; "),
-                solve_time=elapsed,
-            )
-        alloc, worst = out
-        return SolveResult(
-            Status.OPTIMAL,
-            objective=worst,
-            bound=worst,
-            x=alloc,
-            backend="exact-cyclic-shift",
-            backend_status="optimal",
-            message=msg,
-            solve_time=elapsed,
-            iterations=2 * n,
-        )
     am = build_allocation_model(d, s, M)
     res = get_backend(method, kind="cp").solve_cp(
         am.model,

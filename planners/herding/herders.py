@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from droneplan.core.validation import check_array, check_instance, check_int, check_positive, require_set
-from droneplan.formulations.herding import solve_allocation
+from droneplan.formulations.herding import solve_allocation, solve_checked_exact
 from droneplan.planners.herding.allocation import allocate_bruteforce, allocate_collision_blind, crosses
 from droneplan.planners.herding.geometry import (
     ExtendedHull,
@@ -95,6 +95,8 @@ def _allocate(method: str, drone_s, steer_s, M):
         return allocate_bruteforce(drone_s, steer_s, M)
     if method == "collision-blind":
         return allocate_collision_blind(drone_s, steer_s, M)
+    if method == "exact":  # the herder's arc positions lie in [0, M) by construction
+        return solve_checked_exact(drone_s, steer_s, M)
     return solve_allocation(drone_s, steer_s, M, method=method, workers=1)
 
 
