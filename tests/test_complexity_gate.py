@@ -12,7 +12,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 FOLDERS = ("droneplan", "core", "solvers", "scenarios", "formulations", "planners", "studies", "tests")
-CEILING = {"C901": 29, "PLR0915": 13}
+CEILING = {"C901": 26, "PLR0915": 11}
 MARK = re.compile(r"#\s*noqa:\s*([A-Z0-9, ]+)")
 
 

@@ -73,7 +73,8 @@ and ~3*10^6 pairs within r2, far too many to write out):
    ``evaluate``, and the model alone proves the bound). Items 1 and 4 prune with it.
 
 Measured (Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s each, items 3b, 6, 7): 8 of
-10 proven (0.3-80 s), seeds 4 and 5 open (51 / 59, 61 / 73).
+10 proven (0.3-80 s), seeds 4 and 5 open (51 / 59, 61 / 73). With item 9 and one round
+(``TARGET_START``): all 10 proven, worst seed 5 in 52 CPU s and seed 4 in 23 CPU s (load 6).
 
 8. **Lifted hop rows (exact; HiGHS and SCIP only, ``LIFTED_HOPS``).** The hop rows of 3b let
    the LP feed a far site from itself: a square term a_Q at level l - 1 may hold c's own
@@ -95,6 +96,19 @@ Measured (Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s each, items 3b, 6,
    proved in seconds stayed open), and CP-SAT ``linearization_level`` 2 with 1 worker
    (final model of seed 5 open after 60 s either way, bound 70 vs 73).
 
+9. **Light-site rows (exact; ``_light_site_rows``).** With the objective cut
+   ``sum_j y_j >= lo`` of item 4 and B_k the continuous bound of k discs (B_0 = 0, B_k
+   nondecreasing), a placement that holds k sites of weight |S(c)| <= t covers at most
+   k t + B_{m-k} users (a union is at most the sum; its other sites are at most m - k
+   discs). So when k t + B_{m-k} < lo for some k, at most k - 1 chosen sites weigh <= t:
+   ``sum_{|S(c)| <= t} x_c <= k - 1`` (k the smallest such). Pairs likewise: two sites with
+   |S(a)| + |S(b)| <= T = lo - 1 - B_{m-2} are never chosen together, written per t <= T/2
+   as ``sum_{|S(c)| <= t} x_c + sum_{|S(c)| <= T - t} x_c <= 2`` (a site of the first sum
+   counts twice). Every placement worth >= lo satisfies them, and the incumbent (the
+   hint) is worth lo. They stop the LP from paying relays with many light sites: Table
+   4.2 m = 4 seed 5, final round (4 518 sites), CP-SAT, 1 worker, load 4.5: proven in
+   34 CPU s, while without them the bound stayed at 73 after 37 CPU s.
+
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
 search of ``_bnb``. Both start from ``_prepare.prepare`` (candidates, incumbent, bounds).
@@ -103,6 +117,7 @@ search of ``_bnb``. Both start from ``_prepare.prepare`` (candidates, incumbent,
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 import time
 from dataclasses import dataclass, field
@@ -135,6 +150,13 @@ BACKENDS = tuple(available_backends("linear"))
 # Options are keyed by backend name (data, looked up like the backend itself).
 FEW_WORKER_OPTIONS: dict[str, dict[str, Any]] = {"cp-sat": {"subsolvers": ["max_lp", "core"]}}
 """Backend options used when ``workers <= 2``, by registry name."""
+
+TARGET_START: dict[str, float] = {"hops": 0.0, "lazy": 0.5}
+"""The first target of ``solve_model``'s descending scheme, by connectivity: incumbent + this
+share of the gap to the continuous bound (0: the full reduced model at once). With the
+light-site rows (item 9) the scheme's rounds cost more than they save on the hop model: Table
+4.2 m = 4 seed 5, CP-SAT, 1 worker, 120 s: from 0.5 three rounds, open at bound 64 after 62
+CPU s; from 0 one round, proven in 52 CPU s. The lazy model (not measured) keeps 0.5."""
 
 CONNECTIVITY = ("lazy", "hops")
 """Exact backhaul formulations of the candidate model (module docstring, item 3)."""
@@ -434,6 +456,40 @@ def _coverage_objective(
     return y, lin.sum(terms), cliques, len(cliques)
 
 
+def _light_site_rows(lin, x: list, weights: np.ndarray, lo: float, bounds: list[float]) -> int:
+    """The light-site rows of item 9 for the objective cut ``sum_j y_j >= lo``; returns how
+    many were added.
+
+    weights: |S(c)| per site of ``x``; bounds: B_0, ..., B_m, the continuous bound of k discs
+    (covered users, B_0 = 0), each valid for any k pairwise compatible candidate sites."""
+    m = len(bounds) - 1
+    lo_i = math.ceil(lo - 1e-9)
+    if len(x) == 0 or m < 1:
+        return 0
+    order = np.argsort(weights, kind="stable")
+    ws = weights[order]
+
+    def lighter(t: int) -> list:
+        return [x[i] for i in order[: np.searchsorted(ws, t, side="right")].tolist()]
+
+    n_rows = 0
+    for t in range(int(ws[-1]) + 1):
+        # k sites of weight <= t leave at most k t + B_{m-k} users: below lo, k - 1 at most
+        k = next((k for k in range(1, m + 1) if k * t + bounds[m - k] < lo_i), None)
+        light = lighter(t)
+        if k is not None and len(light) > k - 1:
+            lin.add(lin.sum(light) <= k - 1)
+            n_rows += 1
+    if m >= 2:
+        top = lo_i - 1 - math.floor(bounds[m - 2] + 1e-9)  # two sites weighing <= top in all: excluded
+        for t in range(top // 2 + 1):
+            light, heavier = lighter(t), lighter(top - t)
+            if len(light) and len(heavier) >= 2:
+                lin.add(lin.sum(light) + lin.sum(heavier) <= 2)
+                n_rows += 1
+    return n_rows
+
+
 def reduce_candidates(
     problem: CellProblem,
     cand: Candidates,
@@ -479,7 +535,20 @@ def _as_objective_range(objective_range: Any) -> tuple[float, float] | None:
     return check_real("objective_range[0]", pair[0]), check_real("objective_range[1]", pair[1])
 
 
-def build_milp(  # noqa: C901, PLR0915
+def _as_disc_bounds(disc_bounds: Any, m: int) -> list[float] | None:
+    """None, or ``disc_bounds`` as m + 1 finite numbers B_0 = 0 <= B_1 <= ... <= B_m."""
+    if disc_bounds is None:
+        return None
+    seq = check_sequence("disc_bounds", disc_bounds, min_len=m + 1)
+    if len(seq) != m + 1:
+        raise ValueError(f"disc_bounds must hold m + 1 = {m + 1} bounds (B_0..B_m), got {len(seq)}")
+    vals = [check_real(f"disc_bounds[{k}]", b) for k, b in enumerate(seq)]
+    if vals[0] != 0 or any(b < a for a, b in itertools.pairwise(vals)):
+        raise ValueError(f"disc_bounds must start at 0 and never decrease, got {vals}")
+    return vals
+
+
+def build_milp(
     problem: CellProblem,
     *,
     backend: str = "cp-sat",
@@ -492,6 +561,7 @@ def build_milp(  # noqa: C901, PLR0915
     cuts: list | None = None,
     user_cliques: bool = True,
     lifted_hops: bool | None = None,
+    disc_bounds: Any = None,
 ) -> CellModel | None:
     """Build the candidate model (module docstring) without solving it.
 
@@ -514,16 +584,19 @@ def build_milp(  # noqa: C901, PLR0915
     user_cliques: add the per-user at-most-one rows of item 5 (default True).
     lifted_hops: add the lifted hop rows of item 8 ("hops" with ``user_cliques`` only); None
         (default): per backend, ``LIFTED_HOPS``.
+    disc_bounds: None, or (B_0, ..., B_m): for k = 0..m an upper bound on the users any k
+        discs cover (covered users, e.g. ``coverage_upper_bound(problem, k)``; B_0 = 0);
+        with ``objective_range`` they add the light-site rows of item 9.
     """
     check_instance("problem", problem, CellProblem)
-    if lifted_hops is not None:
-        lifted_hops = check_bool("lifted_hops", lifted_hops)
+    lifted_hops = None if lifted_hops is None else check_bool("lifted_hops", lifted_hops)
     if connectivity not in CONNECTIVITY:
         raise ValueError(f"connectivity must be one of {CONNECTIVITY}, got {connectivity!r}")
     check_instance("candidates", candidates, Candidates, optional=True)
     check_int("pair_limit", pair_limit, min_value=0)
     user_cliques = check_bool("user_cliques", user_cliques)
     objective_range = _as_objective_range(objective_range)
+    bounds_k = _as_disc_bounds(disc_bounds, problem.n_cells)
     lin = _new_model(backend)
 
     def late() -> bool:
@@ -536,57 +609,34 @@ def build_milp(  # noqa: C901, PLR0915
     direct = cand.direct[idx]
     x = [lin.bool_var(f"x{i}") for i in range(len(pts))]
     y, objective, user_clique_sites, n_subst = _coverage_objective(lin, x, pts, cover, problem, user_cliques)
-    n_user_cliques = len(user_clique_sites)
     if x:
         lin.add(lin.sum(x) <= problem.n_cells)
     # (4.8) non-overlap: grid cliques, then every remaining conflicting pair
-    if late():
+    overlap = None if late() else _nonoverlap_rows(lin, x, pts, problem.R_d, late)
+    if overlap is None or late():
         return None
-    cliques = _grid_cliques(pts, problem.R_d) if len(pts) else []
-    for q in cliques:
-        lin.add_at_most_one([x[i] for i in q])
-    extra = _uncovered_pairs(pts, problem.R_d, cliques)
-    sectors = _sector_cliques(pts, extra)
-    for k, q in enumerate(sectors):
-        lin.add_at_most_one([x[i] for i in q.tolist()])
-        if k % 20_000 == 19_999 and late():
-            return None
-    if late():
-        return None
-    nd = np.flatnonzero(~direct)
-    n_level_vars = n_level_terms = n_cuts = 0
+    stats = {
+        "candidates": len(cand.points),
+        "kept": len(pts),
+        "users": len(y),
+        "substituted_users": n_subst,
+        **overlap,
+        "connectivity": connectivity,
+        "level_vars": 0,
+        "connectivity_terms": 0,
+        "lazy_cuts": 0,
+        "user_cliques": len(user_clique_sites),
+        "light_site_rows": 0,
+    }
     z: dict[tuple[int, int], Any] = {}
-    if connectivity == "lazy" and len(nd):
-        # item 3a: every non-direct site needs a chosen, non-overlapping neighbour within r2
-        tree = cKDTree(pts)
-        for k, nb in enumerate(tree.query_ball_point(pts[nd], problem.r2 + TOL)):
-            c = int(nd[k])
-            nb = np.asarray(nb, dtype=np.int64)
-            far = np.hypot(*(pts[nb] - pts[c]).T) >= 2 * problem.R_d - TOL
-            src = [x[d] for d in nb[far].tolist()]
-            lin.add_implies_any(x[c], src)
-            n_level_terms += len(src)
-            if k % 500 == 499 and late():
-                return None
-    if connectivity == "lazy" and cuts:
-        local = np.full(len(cand.points), -1, dtype=np.int64)
-        local[idx] = np.arange(len(idx))
-        for cut in cuts or ():
-            if cut[0] == "clique":
-                q = local[cut[1]]
-                lin.add_at_most_one([x[i] for i in q[q >= 0].tolist()])
-            else:
-                w, bnd = local[cut[1]], local[cut[2]]
-                w, bnd = w[w >= 0], bnd[bnd >= 0]
-                if len(w) == 0:
-                    continue
-                b = lin.bool_var(f"cut{n_cuts}")
-                lin.add_implies_any(b, [x[j] for j in bnd.tolist()])
-                for e in w.tolist():
-                    lin.add(x[e] <= b)
-            n_cuts += 1
     squares: dict = {}
-    if connectivity == "hops" and len(nd):  # item 3b
+    if connectivity == "lazy":
+        terms = _neighbour_rows(lin, x, pts, np.flatnonzero(~direct), problem, late)
+        if terms is None:
+            return None
+        stats["connectivity_terms"] = terms
+        stats["lazy_cuts"] = _lazy_cut_rows(lin, x, idx, len(cand.points), cuts or [])
+    elif not direct.all():  # item 3b
         lifted = LIFTED_HOPS.get(backend, False) if lifted_hops is None else lifted_hops
         clique_rows = (
             [(problem.targets[u], sorted(sites)) for u, sites in user_clique_sites.items()]
@@ -596,27 +646,10 @@ def build_milp(  # noqa: C901, PLR0915
         built = _hop_levels(lin, x, pts, direct, problem, late, clique_rows)
         if built is None:
             return None
-        z, squares, n_level_vars, n_level_terms = built
+        z, squares, stats["level_vars"], stats["connectivity_terms"] = built
     if x:
-        if objective_range is not None:
-            obj_lo, obj_hi = objective_range
-            lin.add(objective >= math.ceil(obj_lo - 1e-9))
-            lin.add(objective <= math.floor(obj_hi + 1e-9))
-        lin.maximize(objective)
-    stats = {
-        "candidates": len(cand.points),
-        "kept": len(pts),
-        "users": len(y),
-        "substituted_users": n_subst,
-        "grid_cliques": len(cliques),
-        "extra_pairs": len(extra),
-        "sector_cliques": len(sectors),
-        "connectivity": connectivity,
-        "level_vars": n_level_vars,
-        "connectivity_terms": n_level_terms,
-        "lazy_cuts": n_cuts,
-        "user_cliques": n_user_cliques,
-    }
+        weights = np.array([len(c) for c in cover], dtype=np.int64)
+        stats["light_site_rows"] = _objective_rows(lin, x, objective, weights, objective_range, bounds_k)
     return CellModel(
         problem=problem,
         backend=backend,
@@ -630,6 +663,85 @@ def build_milp(  # noqa: C901, PLR0915
         squares=squares,
         stats=stats,
     )
+
+
+def _nonoverlap_rows(lin, x: list, pts: np.ndarray, R_d: float, late) -> dict[str, int] | None:
+    """The non-overlap rows (4.8) of item 2: grid cliques, then the conflicting pairs they miss
+    as sector cliques. Returns their counts, or None once ``late()``."""
+    cliques = _grid_cliques(pts, R_d) if len(pts) else []
+    for q in cliques:
+        lin.add_at_most_one([x[i] for i in q])
+    extra = _uncovered_pairs(pts, R_d, cliques)
+    sectors = _sector_cliques(pts, extra)
+    for k, q in enumerate(sectors):
+        lin.add_at_most_one([x[i] for i in q.tolist()])
+        if k % 20_000 == 19_999 and late():
+            return None
+    return {"grid_cliques": len(cliques), "extra_pairs": len(extra), "sector_cliques": len(sectors)}
+
+
+def _neighbour_rows(lin, x: list, pts: np.ndarray, nd: np.ndarray, problem: CellProblem, late) -> int | None:
+    """Item 3a: every non-direct site (indices ``nd``) needs a chosen, non-overlapping
+    neighbour within r2. Returns the rows' terms, or None once ``late()``."""
+    if len(nd) == 0:
+        return 0
+    n_terms = 0
+    tree = cKDTree(pts)
+    for k, nb in enumerate(tree.query_ball_point(pts[nd], problem.r2 + TOL)):
+        c = int(nd[k])
+        nb = np.asarray(nb, dtype=np.int64)
+        far = np.hypot(*(pts[nb] - pts[c]).T) >= 2 * problem.R_d - TOL
+        src = [x[d] for d in nb[far].tolist()]
+        lin.add_implies_any(x[c], src)
+        n_terms += len(src)
+        if k % 500 == 499 and late():
+            return None
+    return n_terms
+
+
+def _lazy_cut_rows(lin, x: list, idx: np.ndarray, n_cand: int, cuts: list) -> int:
+    """The cuts of item 3a found so far (indices into all ``n_cand`` candidates), restricted to
+    the kept sites ``idx`` (a dropped site is 0, so a restricted cut stays valid); returns
+    how many were written."""
+    local = np.full(n_cand, -1, dtype=np.int64)
+    local[idx] = np.arange(len(idx))
+    n_cuts = 0
+    for cut in cuts:
+        if cut[0] == "clique":
+            q = local[cut[1]]
+            lin.add_at_most_one([x[i] for i in q[q >= 0].tolist()])
+        else:
+            w, bnd = local[cut[1]], local[cut[2]]
+            w, bnd = w[w >= 0], bnd[bnd >= 0]
+            if len(w) == 0:
+                continue
+            b = lin.bool_var(f"cut{n_cuts}")
+            lin.add_implies_any(b, [x[j] for j in bnd.tolist()])
+            for e in w.tolist():
+                lin.add(x[e] <= b)
+        n_cuts += 1
+    return n_cuts
+
+
+def _objective_rows(
+    lin,
+    x: list,
+    objective,
+    weights: np.ndarray,
+    objective_range: tuple[float, float] | None,
+    bounds_k: list[float] | None,
+) -> int:
+    """The objective cuts of item 4 and, with ``bounds_k``, the light-site rows of item 9
+    (returns how many of those); then the objective itself."""
+    n_light = 0
+    if objective_range is not None:
+        obj_lo, obj_hi = objective_range
+        lin.add(objective >= math.ceil(obj_lo - 1e-9))
+        lin.add(objective <= math.floor(obj_hi + 1e-9))
+        if bounds_k is not None:
+            n_light = _light_site_rows(lin, x, weights, obj_lo, bounds_k)
+    lin.maximize(objective)
+    return n_light
 
 
 # --------------------------------------------------------------------------- solve
@@ -726,7 +838,155 @@ def _bound_m_minus_1(prep: Prepared) -> float:
     return float(len(prep.problem.targets)) if relax.bound is None else float(relax.bound)
 
 
-def solve_model(  # noqa: C901, PLR0915
+def _disc_bounds(prep: Prepared, b_prev: float) -> list[float]:
+    """(B_0, ..., B_m) for the light-site rows of item 9: B_k the continuous bound of k discs
+    (``coverage_upper_bound``), B_{m-1} = ``b_prev`` and B_m = ``prep.ub``. A bound for more
+    discs also bounds fewer, so each B_k is lowered to the smallest later one (and a bound
+    not computed in time is that later one): valid, and nondecreasing."""
+    m = prep.problem.n_cells
+    out = [float(prep.ub)] * (m + 1)
+    if m >= 1:
+        out[m - 1] = min(float(b_prev), out[m])
+    for k in range(m - 2, 0, -1):
+        out[k] = out[k + 1]
+        if not prep.expired():
+            relax = coverage_upper_bound(prep.problem, k, time_limit=prep.left())
+            if relax.bound is not None:
+                out[k] = min(out[k], float(relax.bound))
+    out[0] = 0.0
+    return out
+
+
+class _ModelSolve:
+    """One call of :func:`solve_model`: the prepared instance, the backend settings and the
+    search state shared by the rounds of the target scheme."""
+
+    def __init__(
+        self,
+        prep: Prepared,
+        *,
+        backend: str,
+        workers: int,
+        connectivity: str,
+        max_rounds: int,
+        user_cliques: bool,
+    ) -> None:
+        """The arguments of :func:`solve_model`."""
+        self.prep, self.backend, self.workers = prep, backend, workers
+        self.connectivity, self.max_rounds, self.user_cliques = connectivity, max_rounds, user_cliques
+        self.b_prev = _bound_m_minus_1(prep)
+        self.disc_bounds = _disc_bounds(prep, self.b_prev)
+        self.state = _SearchState(inc=prep.inc, inc_val=float(prep.inc_val))
+        self.tree = cKDTree(prep.cand.points)
+        self.cuts: list = []
+        self.deadline = None if prep.time_limit is None else prep.t0 + prep.time_limit
+
+    def relaxation(self, keep: np.ndarray, found: list) -> SolveResult:
+        """Build and solve the model on the sites ``keep`` with the cuts ``found`` (one round
+        of the cut loop); ``x`` of the result is (kept indices, positions, evaluation)."""
+        prep, state, backend = self.prep, self.state, self.backend
+        problem = prep.problem
+        state.rounds += 1
+        mdl = None
+        if not prep.expired():
+            mdl = build_milp(
+                problem,
+                backend=backend,
+                candidates=prep.cand,
+                keep=keep,
+                deadline=self.deadline,
+                objective_range=(state.inc_val, prep.ub),
+                connectivity=self.connectivity,
+                cuts=found,
+                user_cliques=self.user_cliques,
+                disc_bounds=self.disc_bounds,
+            )
+        if mdl is None or prep.expired():  # building can be long: the limit covers it
+            return SolveResult(Status.NO_SOLUTION, backend=backend, message="time limit")
+        state.stats = mdl.stats
+        hint = _hint(problem, mdl, state.inc)
+        res = mdl.model.solve(
+            variables=mdl.x,
+            time_limit=prep.left(),
+            workers=self.workers,
+            hint={v: int(b) for v, b in hint.items()},
+            options=FEW_WORKER_OPTIONS.get(backend) if self.workers <= 2 else None,
+        )
+        state.raw = res.backend_status
+        if res.bound is not None:
+            res = dataclasses.replace(res, bound=float(math.floor(res.bound + 1e-6)))
+        if not res.has_solution:
+            return res
+        chosen = np.flatnonzero(np.asarray(res.x) > 0.5)
+        pos = mdl.points[chosen]
+        ev = evaluate(problem, pos)
+        feas = pos if ev.feasible else _feasible_subset(problem, pos)
+        cv = evaluate(problem, feas).covered
+        if cv > state.inc_val:
+            state.inc, state.inc_val = feas, cv
+        return dataclasses.replace(res, x=(keep[chosen], pos, ev), objective=float(ev.covered))
+
+    def separate(self, res: SolveResult) -> list:
+        """The cuts violated by a round's placement (none when it is feasible)."""
+        idx, pos, ev = res.x
+        if ev.feasible:
+            return []
+        if self.connectivity == "hops":  # exact model: a bug, never hidden
+            raise RuntimeError(
+                f"internal: the hop-level model returned an infeasible placement: {ev.violations}"
+            )
+        new: list = []
+        _add_cuts(self.prep.problem, self.prep.cand, self.tree, idx, pos, new)
+        return new
+
+    def solve_restricted(self, keep: np.ndarray) -> tuple[str, float]:
+        """Solve the model restricted to ``keep`` with ``objective >= incumbent value`` exactly:
+        ``solvers.lazy.lazy_constraint_loop`` (one round with hop levels: nothing is ever
+        violated; lazy cuts otherwise). Returns ("optimal", value) or ("stopped", bound of
+        the restricted problem)."""
+        state, prep = self.state, self.prep
+        if state.rounds >= self.max_rounds or prep.expired():
+            return "stopped", math.inf
+        out = lazy_constraint_loop(
+            lambda found, _left: self.relaxation(keep, found),
+            self.separate,
+            sense="max",
+            max_rounds=self.max_rounds - state.rounds,
+            time_limit=prep.left(),
+            cuts=self.cuts,
+        )
+        self.cuts[:] = out.info["cuts"]  # valid for every restriction: kept for the next one
+        if out.status is Status.INFEASIBLE:
+            # nothing in the restricted relaxation reaches the incumbent's value (the
+            # incumbent itself is feasible for it, so this only happens at rounding
+            # edges): the restricted optimum is at most the incumbent's value
+            return "optimal", float(state.inc_val)
+        if out.status is Status.OPTIMAL and out.objective is not None:
+            return "optimal", float(out.objective)
+        return "stopped", math.inf if out.bound is None else float(out.bound)
+
+    def targets(self) -> tuple[Status, float]:
+        """The descending target scheme (exact): any solution worth more than g uses only sites
+        with |S(c)| + B_{m-1} > g. Solve on those; an optimum z_r > g is the optimum of the
+        full candidate problem, otherwise z_r is a new incumbent and g is lowered, ending
+        with g = incumbent value (the plain pruning of item 1). Returns (status, bound)."""
+        state, ub = self.state, self.prep.ub
+        g = state.inc_val + TARGET_START[self.connectivity] * (ub - state.inc_val)
+        while True:
+            g = max(g, state.inc_val)
+            final = g <= state.inc_val
+            keep = reduce_candidates(self.prep.problem, self.prep.cand, g, state.inc, self.b_prev)
+            outcome, val = self.solve_restricted(keep)
+            if outcome == "optimal" and (val > g or final):
+                return Status.OPTIMAL, min(ub, max(val, state.inc_val))
+            if outcome == "stopped":
+                # restricted to sites of value > g (unless final): solutions worth more than g
+                # are bounded by val; others are bounded by g
+                return Status.FEASIBLE, min(ub, val if final else max(val, math.floor(g)))
+            g = state.inc_val + 0.5 * (g - state.inc_val) if g - state.inc_val > 2 else state.inc_val
+
+
+def solve_model(
     prep: Prepared,
     *,
     backend: str,
@@ -744,114 +1004,17 @@ def solve_model(  # noqa: C901, PLR0915
     max_rounds: model solves at most (target scheme and cut rounds).
     user_cliques: add the per-user at-most-one rows of item 5.
     """
-    problem, cand, ub = prep.problem, prep.cand, prep.ub
-    b_prev = _bound_m_minus_1(prep)
-    state = _SearchState(inc=prep.inc, inc_val=float(prep.inc_val))
-    tree = cKDTree(cand.points)
-    cuts: list = []
-    deadline = None if prep.time_limit is None else prep.t0 + prep.time_limit
-
-    def solve_restricted(keep: np.ndarray) -> tuple[str, float]:  # noqa: C901
-        """Solve the model restricted to ``keep`` with ``objective >= incumbent value`` exactly:
-        ``solvers.lazy.lazy_constraint_loop`` (one round with hop levels: nothing is ever
-        violated; lazy cuts otherwise). Returns ("optimal", value) or ("stopped", bound of
-        the restricted problem)."""
-
-        def relaxation(found: list, time_left: float | None) -> SolveResult:
-            state.rounds += 1
-            mdl = None
-            if not prep.expired():
-                mdl = build_milp(
-                    problem,
-                    backend=backend,
-                    candidates=cand,
-                    keep=keep,
-                    deadline=deadline,
-                    objective_range=(state.inc_val, ub),
-                    connectivity=connectivity,
-                    cuts=found,
-                    user_cliques=user_cliques,
-                )
-            if mdl is None or prep.expired():  # building can be long: the limit covers it
-                return SolveResult(Status.NO_SOLUTION, backend=backend, message="time limit")
-            state.stats = mdl.stats
-            hint = _hint(problem, mdl, state.inc)
-            res = mdl.model.solve(
-                variables=mdl.x,
-                time_limit=prep.left(),
-                workers=workers,
-                hint={v: int(b) for v, b in hint.items()},
-                options=FEW_WORKER_OPTIONS.get(backend) if workers <= 2 else None,
-            )
-            state.raw = res.backend_status
-            if res.bound is not None:
-                res = dataclasses.replace(res, bound=float(math.floor(res.bound + 1e-6)))
-            if not res.has_solution:
-                return res
-            chosen = np.flatnonzero(np.asarray(res.x) > 0.5)
-            pos = mdl.points[chosen]
-            ev = evaluate(problem, pos)
-            feas = pos if ev.feasible else _feasible_subset(problem, pos)
-            cv = evaluate(problem, feas).covered
-            if cv > state.inc_val:
-                state.inc, state.inc_val = feas, cv
-            return dataclasses.replace(res, x=(keep[chosen], pos, ev), objective=float(ev.covered))
-
-        def separate(res: SolveResult) -> list:
-            idx, pos, ev = res.x
-            if ev.feasible:
-                return []
-            if connectivity == "hops":  # exact model: a bug, never hidden
-                raise RuntimeError(
-                    f"internal: the hop-level model returned an infeasible placement: {ev.violations}"
-                )
-            new: list = []
-            _add_cuts(problem, cand, tree, idx, pos, new)
-            return new
-
-        if state.rounds >= max_rounds or prep.expired():
-            return "stopped", math.inf
-        out = lazy_constraint_loop(
-            relaxation,
-            separate,
-            sense="max",
-            max_rounds=max_rounds - state.rounds,
-            time_limit=prep.left(),
-            cuts=cuts,
-        )
-        cuts[:] = out.info["cuts"]  # valid for every restriction: kept for the next one
-        if out.status is Status.INFEASIBLE:
-            # nothing in the restricted relaxation reaches the incumbent's value (the
-            # incumbent itself is feasible for it, so this only happens at rounding
-            # edges): the restricted optimum is at most the incumbent's value
-            return "optimal", float(state.inc_val)
-        if out.status is Status.OPTIMAL and out.objective is not None:
-            return "optimal", float(out.objective)
-        return "stopped", math.inf if out.bound is None else float(out.bound)
-
-    # Descending target scheme (exact): any solution worth more than g uses only sites
-    # with |S(c)| + B_{m-1} > g. Solve on those; an optimum z_r > g is the optimum of the
-    # full candidate problem, otherwise z_r is a new incumbent and g is lowered, ending
-    # with g = incumbent value (the plain pruning of item 1).
-    best_bound = ub
-    status = Status.FEASIBLE
-    g = state.inc_val + 0.5 * (ub - state.inc_val)
-    while True:
-        g = max(g, state.inc_val)
-        final = g <= state.inc_val
-        keep = reduce_candidates(problem, cand, g, state.inc, b_prev)
-        outcome, val = solve_restricted(keep)
-        if outcome == "optimal" and (val > g or final):
-            status = Status.OPTIMAL
-            best_bound = min(best_bound, max(val, state.inc_val))
-            break
-        if outcome == "stopped":
-            # restricted to sites of value > g (unless final): solutions worth more than g are
-            # bounded by val; others are bounded by g
-            best_bound = min(best_bound, val if final else max(val, math.floor(g)))
-            break
-        g = state.inc_val + 0.5 * (g - state.inc_val) if g - state.inc_val > 2 else state.inc_val
-    obj = float(evaluate(problem, state.inc).covered)
+    run = _ModelSolve(
+        prep,
+        backend=backend,
+        workers=workers,
+        connectivity=connectivity,
+        max_rounds=max_rounds,
+        user_cliques=user_cliques,
+    )
+    status, best_bound = run.targets()
+    state = run.state
+    obj = float(evaluate(prep.problem, state.inc).covered)
     if obj >= best_bound:
         status = Status.OPTIMAL
     msg = prep.bound_text(best_bound, f"the candidate model on {backend} (engine 'milp')")
