@@ -226,3 +226,53 @@ def test_links_to_many_bridges_found_by_tree_include_every_exact_link():
     got = _linked_to(links, sites, q)
     assert np.array_equal(got, exact)
     assert 0 < exact.sum() < 400
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 10_000), st.integers(5, 8), st.integers(3, 4), st.booleans())
+def test_backhaul_free_completion_answers_like_brute_force(seed, n, m, clustered):
+    # item 14: the relaxed search below P finds a placement above z exactly when some
+    # non-overlapping P + Q (connected or not) covers more than z; when it finds none, no
+    # feasible placement below P beats z either (the node may be cut)
+    p = _clustered(seed, 3, m) if clustered else _scattered(seed, n, m)
+    s = BranchAndBoundSearch(p, candidate_sites(p), 0)
+    oracle = _Oracle(p, s)
+    answers = set()
+    for P in _partial_placements(oracle, m):
+        node = s.node(list(P))
+        relaxed_sets = oracle.completions(P, node.cmask, feasible=False)
+        relaxed = max([node.val] + [s._bits_of([*P, *Q]).bit_count() for Q, _ in relaxed_sets])
+        feasible = max((v for _, v in oracle.completions(P, node.cmask)), default=0)
+        for z in (relaxed - 1, relaxed):
+            s.best_val = z
+            found = s.free_completion(node)
+            answers.add(found)
+            assert found is (relaxed > z)
+            assert found or feasible <= z
+    assert answers == {True, False}
+
+
+def test_lazy_greedy_gains_hold_every_value_of_the_full_scan():
+    # item 7 reads the gains of a weight-ordered prefix only (``_lazy_gains``): its r largest
+    # gains, its largest under each mask and its largest of all equal those of every site
+    from droneplan.formulations.cells._bnb import _popcount_rows
+
+    p = _scattered(3, 60, 4)
+    s = BranchAndBoundSearch(p, candidate_sites(p), 0)
+    assert s.n > 256  # more than the first prefix block
+    rng = np.random.default_rng(0)
+    C = np.arange(s.n)
+    short = 0
+    for _ in range(40):
+        covered = np.bitwise_or.reduce(s.packed[rng.choice(s.n, size=int(rng.integers(0, 4)))], axis=0)
+        masks = [rng.random(s.n) < q for q in (0.5, 0.02)]
+        r = int(rng.integers(1, 5))
+        gain, end = s._lazy_gains(C, covered, masks, r, 0)
+        full = _popcount_rows(s.packed & ~covered)
+        assert np.array_equal(gain, full[:end])
+        assert np.sort(gain)[-r:].sum() == np.sort(full)[-r:].sum()
+        assert gain.max() == full.max()
+        for mask in masks:
+            assert (gain[mask[:end]].max(initial=-1)) == full[mask].max(initial=-1)
+        short += end < s.n
+    assert short > 0  # the prefix was shorter than the scan in some cases
