@@ -156,12 +156,14 @@ Why each element is exact:
    feasible completion of P is a completion of the relaxed problem (the same sites,
    pairwise non-overlapping, fewer constraints) covering the same users, so when that
    search ends without one, no feasible placement below P beats z and the node is cut.
-   Its own rules are items 1-11 on the relaxed problem, exact there (item 11 included: no
-   earlier sibling's subtree held a placement above z, or the search would have stopped).
-   A search stopped at its node budget cuts nothing. Shallower nodes rarely gain: on
-   Table 4.2 m = 8 seed 1 the relaxed completion of the 40 heaviest root children still
-   reached 89-91 (incumbent 88), while it cut 75-80 % of the nodes that items 1-13 left
-   open at depths 2-5.
+   Its own rules are items 1-6 and 9-11 on the relaxed problem, exact there (item 11
+   included: no earlier sibling's subtree held a placement above z, or the search would
+   have stopped). A search stopped at its node budget cuts nothing. Measured with a fixed
+   incumbent one below the optimum's bound, Table 4.2 m = 8 (CPU s to prove nothing
+   better): seed 1 (z = 89) 46 s without item 14, 18 s with it; seed 3 (z = 103) 44 s
+   without, 25 s with it. Item 7 inside the relaxed search doubled its cost (48 s on seed
+   3) and probes at depth 1 cut every root child there but cost more than the main search
+   spent on them (34 s).
 
 With ``workers`` > 1 the search is split over forked processes (``_split_root``): each
 takes its share of the children of every node at depth 1 (m >= 4), so one heavy root
@@ -413,7 +415,8 @@ class BranchAndBoundSearch:
     test can call one alone: :meth:`greedy_dual` (item 7), :meth:`clique_values`
     (items 2 and 4), :meth:`relay_filter` (item 3), :meth:`linkable_weight` (item 6),
     :meth:`unreached_bounds` (items 5, 8 and 12), :meth:`replaced_by_sibling` (item 11),
-    :meth:`site_can_improve` (item 10); :meth:`node_bound` combines them with item 9.
+    :meth:`site_can_improve` (item 10), :meth:`free_completion` (item 14);
+    :meth:`node_bound` combines items 1-12 with item 9.
     :meth:`node` builds the node of any placement P for such tests.
 
     problem: the CellProblem; cand: its candidate sites; incumbent_value: users the
@@ -503,6 +506,7 @@ class BranchAndBoundSearch:
         self._links: LinkRows | None = None
         self._lens: dict[int, np.ndarray] = {}
         self.witness = False  # stop at the first placement better than the incumbent (item 14)
+        self.dual_from: float = 3  # item 7 at nodes with this many free slots or more
         self._free: BranchAndBoundSearch | None = None  # item 14's relaxed search, built on first use
         self.free_cuts = 0
 
@@ -890,7 +894,7 @@ class BranchAndBoundSearch:
         z, val, r = self.best_val, node.val, self.m - node.depth
         C = np.flatnonzero(node.cmask)
         cover_bound = math.inf
-        if r >= 3:  # item 7 over every candidate that fits the relay bound
+        if r >= self.dual_from:  # item 7 over every candidate that fits the relay bound
             cover_bound = self.greedy_dual(node.P, C, node.dist, node.reach, r)
             if val + cover_bound <= z:
                 return None
@@ -988,6 +992,7 @@ class BranchAndBoundSearch:
                 unlinked, self.cand, self.best_val, parent=self, t0=self.t0, time_limit=self.time_limit
             )
             free.witness = True
+            free.dual_from = math.inf  # item 7 cost more than it cut there
         free.conf_bound = self.conf_bound  # B_k bound the relaxed problem too (item 9)
         free.best_val, free.best, free.nodes = self.best_val, None, 0
         free.node_limit = _FREE_NODES if node_limit is None else node_limit
@@ -1743,9 +1748,10 @@ _DOMINANCE_RADIUS = 50.0
 """Item 13: dominating sites are sought this close (m); farther pairs rarely qualify, as
 their annuli are wide."""
 
-_FREE_DEPTH = 1
+_FREE_DEPTH = 2
 """Item 14: the relaxed completion search runs at nodes of at least this depth."""
 _FREE_NODES = 20_000
+"""Item 14: node budget of one relaxed completion search."""
 """Item 14: node budget of one relaxed completion search."""
 
 _SIBLINGS = 16
