@@ -103,11 +103,13 @@ Measured (Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s each, items 3b, 6,
    discs). So when k t + B_{m-k} < lo for some k, at most k - 1 chosen sites weigh <= t:
    ``sum_{|S(c)| <= t} x_c <= k - 1`` (k the smallest such). Pairs likewise: two sites with
    |S(a)| + |S(b)| <= T = lo - 1 - B_{m-2} are never chosen together, written per t <= T/2
-   as ``sum_{|S(c)| <= t} x_c + sum_{|S(c)| <= T - t} x_c <= 2`` (a site of the first sum
-   counts twice). Every placement worth >= lo satisfies them, and the incumbent (the
-   hint) is worth lo. They stop the LP from paying relays with many light sites: Table
+   as ``K sum_{|S(c)| <= t} x_c + sum_{t < |S(c)| <= T - t} x_c <= K``, K >= 1 the most
+   sites of weight <= T - t the first rule allows (so the row cuts nothing else; two sites
+   of the first sum are a pair too, 2 t <= T). Every placement worth >= lo satisfies them,
+   and the incumbent (the hint) is worth lo. They stop the LP from paying relays with many light sites: Table
    4.2 m = 4 seed 5, final round (4 518 sites), CP-SAT, 1 worker, load 4.5: proven in
-   34 CPU s, while without them the bound stayed at 73 after 37 CPU s.
+   34 CPU s, while without them the bound stayed at 73 after 37 CPU s. ``solve_model`` writes
+   them on CP-SAT only (``LIGHT_ROWS``: HiGHS measured slower with them).
 
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
@@ -151,12 +153,18 @@ BACKENDS = tuple(available_backends("linear"))
 FEW_WORKER_OPTIONS: dict[str, dict[str, Any]] = {"cp-sat": {"subsolvers": ["max_lp", "core"]}}
 """Backend options used when ``workers <= 2``, by registry name."""
 
-TARGET_START: dict[str, float] = {"hops": 0.0, "lazy": 0.5}
-"""The first target of ``solve_model``'s descending scheme, by connectivity: incumbent + this
-share of the gap to the continuous bound (0: the full reduced model at once). With the
-light-site rows (item 9) the scheme's rounds cost more than they save on the hop model: Table
-4.2 m = 4 seed 5, CP-SAT, 1 worker, 120 s: from 0.5 three rounds, open at bound 64 after 62
-CPU s; from 0 one round, proven in 52 CPU s. The lazy model (not measured) keeps 0.5."""
+TARGET_START: dict[str, float] = {"cp-sat": 0.0}
+"""The first target of ``solve_model``'s descending scheme on the hop model, by backend
+(others: 0.5; the lazy model always 0.5): incumbent + this share of the gap to the
+continuous bound (0: the full reduced model at once). On CP-SAT with the light-site rows
+(item 9) the scheme's rounds cost more than they save: Table 4.2 m = 4 seed 5, 1 worker,
+120 s: from 0.5 three rounds, open at bound 64 after 62 CPU s; from 0 one round, proven in
+52 CPU s. On HiGHS (without the rows) seed 0 took 72.5 CPU s from 0 against 29 from 0.5."""
+
+LIGHT_ROWS: dict[str, bool] = {"cp-sat": True}
+"""Backends whose model gets the light-site rows of item 9 from ``solve_model`` (by registry
+name). HiGHS is left out: Table 4.2 m = 4 seed 0 (one worker, load 4-5) stayed open at bound
+65 after 82 CPU s with them and was proven in 29 CPU s without."""
 
 CONNECTIVITY = ("lazy", "hops")
 """Exact backhaul formulations of the candidate model (module docstring, item 3)."""
@@ -472,20 +480,26 @@ def _light_site_rows(lin, x: list, weights: np.ndarray, lo: float, bounds: list[
     def lighter(t: int) -> list:
         return [x[i] for i in order[: np.searchsorted(ws, t, side="right")].tolist()]
 
+    def most(t: int) -> int:
+        """How many chosen sites of weight <= t a placement worth >= lo holds at most."""
+        k = next((k for k in range(1, m + 1) if k * t + bounds[m - k] < lo_i), None)
+        return m if k is None else k - 1
+
     n_rows = 0
     for t in range(int(ws[-1]) + 1):
-        # k sites of weight <= t leave at most k t + B_{m-k} users: below lo, k - 1 at most
-        k = next((k for k in range(1, m + 1) if k * t + bounds[m - k] < lo_i), None)
         light = lighter(t)
-        if k is not None and len(light) > k - 1:
-            lin.add(lin.sum(light) <= k - 1)
+        if len(light) > most(t):
+            lin.add(lin.sum(light) <= most(t))
             n_rows += 1
     if m >= 2:
         top = lo_i - 1 - math.floor(bounds[m - 2] + 1e-9)  # two sites weighing <= top in all: excluded
         for t in range(top // 2 + 1):
             light, heavier = lighter(t), lighter(top - t)
-            if len(light) and len(heavier) >= 2:
-                lin.add(lin.sum(light) + lin.sum(heavier) <= 2)
+            cap = most(top - t)
+            if len(light) and len(heavier) > len(light) and cap >= 1:
+                # a site of weight <= t (coefficient cap) excludes every other site of weight <= top - t
+                others = heavier[len(light) :]
+                lin.add(lin.sum([cap * v for v in light] + others) <= cap)
                 n_rows += 1
     return n_rows
 
@@ -875,7 +889,7 @@ class _ModelSolve:
         self.prep, self.backend, self.workers = prep, backend, workers
         self.connectivity, self.max_rounds, self.user_cliques = connectivity, max_rounds, user_cliques
         self.b_prev = _bound_m_minus_1(prep)
-        self.disc_bounds = _disc_bounds(prep, self.b_prev)
+        self.disc_bounds = _disc_bounds(prep, self.b_prev) if LIGHT_ROWS.get(backend, False) else None
         self.state = _SearchState(inc=prep.inc, inc_val=float(prep.inc_val))
         self.tree = cKDTree(prep.cand.points)
         self.cuts: list = []
@@ -971,7 +985,8 @@ class _ModelSolve:
         full candidate problem, otherwise z_r is a new incumbent and g is lowered, ending
         with g = incumbent value (the plain pruning of item 1). Returns (status, bound)."""
         state, ub = self.state, self.prep.ub
-        g = state.inc_val + TARGET_START[self.connectivity] * (ub - state.inc_val)
+        start = TARGET_START.get(self.backend, 0.5) if self.connectivity == "hops" else 0.5
+        g = state.inc_val + start * (ub - state.inc_val)
         while True:
             g = max(g, state.inc_val)
             final = g <= state.inc_val
