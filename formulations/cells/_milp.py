@@ -74,7 +74,8 @@ and ~3*10^6 pairs within r2, far too many to write out):
 
 Measured (Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s each, items 3b, 6, 7): 8 of
 10 proven (0.3-80 s), seeds 4 and 5 open (51 / 59, 61 / 73). With item 9 and one round
-(``TARGET_START``): all 10 proven, worst seed 5 in 52 CPU s and seed 4 in 23 CPU s (load 6).
+(``TARGET_START``), load 5.5-6: 9 of 10 proven within 120 s (0.8-26 CPU s, seed 4 in 26),
+seed 5 proven in 69.7 CPU s (140 s wall; at 120 s wall, 64 CPU s, it stood at 61 / 65).
 
 8. **Lifted hop rows (exact; HiGHS and SCIP only, ``LIFTED_HOPS``).** The hop rows of 3b let
    the LP feed a far site from itself: a square term a_Q at level l - 1 may hold c's own
@@ -106,9 +107,11 @@ Measured (Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s each, items 3b, 6,
    as ``K sum_{|S(c)| <= t} x_c + sum_{t < |S(c)| <= T - t} x_c <= K``, K >= 1 the most
    sites of weight <= T - t the first rule allows (so the row cuts nothing else; two sites
    of the first sum are a pair too, 2 t <= T). Every placement worth >= lo satisfies them,
-   and the incumbent (the hint) is worth lo. They stop the LP from paying relays with many light sites: Table
-   4.2 m = 4 seed 5, final round (4 518 sites), CP-SAT, 1 worker, load 4.5: proven in
-   34 CPU s, while without them the bound stayed at 73 after 37 CPU s. ``solve_model`` writes
+   and the incumbent (the hint) is worth lo. They stop the LP from paying relays with many
+   light sites: Table 4.2 m = 4 seed 5, the full reduced model (4 518 sites), CP-SAT, 1
+   worker, load 4.5: without them the bound stayed at 73 after 37 CPU s; with them (a first,
+   stronger but inexact form of the pair rows) proven in 34-40 CPU s; with these exact rows,
+   in the whole solve, proven in 70 CPU s. ``solve_model`` writes
    them on CP-SAT only (``LIGHT_ROWS``: HiGHS measured slower with them).
 
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
@@ -158,8 +161,9 @@ TARGET_START: dict[str, float] = {"cp-sat": 0.0}
 (others: 0.5; the lazy model always 0.5): incumbent + this share of the gap to the
 continuous bound (0: the full reduced model at once). On CP-SAT with the light-site rows
 (item 9) the scheme's rounds cost more than they save: Table 4.2 m = 4 seed 5, 1 worker,
-120 s: from 0.5 three rounds, open at bound 64 after 62 CPU s; from 0 one round, proven in
-52 CPU s. On HiGHS (without the rows) seed 0 took 72.5 CPU s from 0 against 29 from 0.5."""
+120 s (rows in the first, stronger pair form): from 0.5 three rounds, open at bound 64
+after 62 CPU s; from 0 one round, proven in 52 CPU s. On HiGHS, seed 0: 72.5 CPU s from 0
+with the rows, not proven in 82 CPU s from 0.5 with them, 29 CPU s from 0.5 without."""
 
 LIGHT_ROWS: dict[str, bool] = {"cp-sat": True}
 """Backends whose model gets the light-site rows of item 9 from ``solve_model`` (by registry
