@@ -76,8 +76,8 @@ Measured (Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s each, items 3b, 6,
 10 proven (0.3-80 s), seeds 4 and 5 open (51 / 59, 61 / 73). With item 9 and one round
 (``TARGET_START``), load 5.5-6: 9 of 10 proven within 120 s (0.8-26 CPU s, seed 4 in 26),
 seed 5 proven in 69.7 CPU s (140 s wall; at 120 s wall, 64 CPU s, it stood at 61 / 65).
-m = 6, 600 s, load 5-6: seeds 0 and 2-9 proven (0.9-28 CPU s, seed 5 in 94 CPU s); seed 1 was
-open at 66 / 75 after 479 CPU s (with the first form of the pair rows).
+m = 6, 600 s, load 5-6: seeds 0 and 2-9 proven (0.9-28 CPU s, seed 5 in 94 CPU s); seed 1 stays
+open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row terms).
 
 8. **Lifted hop rows (exact; HiGHS and SCIP only, ``LIFTED_HOPS``).** The hop rows of 3b let
    the LP feed a far site from itself: a square term a_Q at level l - 1 may hold c's own
