@@ -94,18 +94,6 @@ def test_circle_intersections_lie_on_both_circles(x1, y1, r1, x2, y2, r2):
 
 
 # ----------------------------------------------------------------- MILP vs brute force (same candidates)
-def brute_force(problem):
-    cand = candidate_sites(problem)
-    best = 0
-    for k in range(1, problem.n_cells + 1):
-        for combo in itertools.combinations(range(len(cand.points)), k):
-            pos = cand.points[list(combo)]
-            ev = evaluate(problem, pos)
-            if ev.feasible and ev.covered > best:
-                best = ev.covered
-    return best
-
-
 def random_small(seed, n, m):
     rng = np.random.default_rng(seed)
     users = rng.uniform(-6, 6, size=(n, 2))
@@ -114,7 +102,7 @@ def random_small(seed, n, m):
 
 @pytest.mark.parametrize("seed", range(4))
 @pytest.mark.parametrize(("backend", "engine"), [("cp-sat", "milp"), ("highs", "milp"), ("cp-sat", "bnb")])
-def test_milp_equals_brute_force_m2(seed, backend, engine):
+def test_milp_equals_brute_force_m2(brute_force, seed, backend, engine):
     p = random_small(seed, 14, 2)
     res = solve_exact(p, backend=backend, time_limit=60, engine=engine)
     assert res.status is Status.OPTIMAL
@@ -126,7 +114,7 @@ def test_milp_equals_brute_force_m2(seed, backend, engine):
 
 @pytest.mark.parametrize(("connectivity", "engine"), [("lazy", "milp"), ("hops", "milp"), ("lazy", "bnb")])
 @pytest.mark.parametrize("seed", range(6))
-def test_milp_equals_brute_force_m3(seed, connectivity, engine):
+def test_milp_equals_brute_force_m3(brute_force, seed, connectivity, engine):
     p = random_small(seed, 9, 3)
     res = solve_exact(p, time_limit=60, connectivity=connectivity, engine=engine)
     assert res.status is Status.OPTIMAL and res.objective == brute_force(p)
@@ -310,7 +298,7 @@ def test_time_limit_covers_model_building():
 # ----------------------------------------------------------------- exact branch and bound (issue 13)
 @settings(max_examples=25, deadline=None)
 @given(st.integers(0, 10_000), st.integers(3, 10), st.integers(1, 3))
-def test_bnb_equals_brute_force(seed, n, m):
+def test_bnb_equals_brute_force(brute_force, seed, n, m):
     # same candidate set, every placement enumerated: the B&B optimum must match, stay below
     # the continuous bound, and be a feasible placement worth what it says
     p = random_small(seed, n, m)
@@ -618,7 +606,7 @@ def test_bnb_split_over_two_processes_equals_brute_force(seed, monkeypatch):
     assert ev.feasible and ev.covered == best
 
 
-def test_bnb_counts_a_shared_lens_user_once():
+def test_bnb_counts_a_shared_lens_user_once(brute_force):
     # two drone-cells exactly 2 R_d apart both cover the user midway (a lens user): the
     # additive bound counts it twice, the value must count it once
     users = [[4.0, 0.0], [5.0, 0.0], [6.0, 0.0], [4.0, 0.3], [6.0, 0.3]]
@@ -628,7 +616,7 @@ def test_bnb_counts_a_shared_lens_user_once():
     assert evaluate(p, res.x).covered == 5
 
 
-def test_bnb_with_relays_and_two_gbs():
+def test_bnb_with_relays_and_two_gbs(brute_force):
     # two GBSs; clusters reachable only through relays on either side
     rng = np.random.default_rng(7)
     users = np.concatenate([rng.normal([7.0, 0.0], 0.3, (5, 2)), rng.normal([-9.0, 0.0], 0.3, (3, 2))])
@@ -700,7 +688,7 @@ def _check_relay_bound(seed):
 
 
 # ----------------------------------------------------------------- the public entries
-def test_entries_name_their_engine_and_agree():
+def test_entries_name_their_engine_and_agree(brute_force):
     from droneplan.formulations.cells import branch_and_bound
 
     p = random_small(2, 14, 3)

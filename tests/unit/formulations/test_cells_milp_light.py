@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from droneplan.formulations.cells import build_milp, candidate_sites, coverage_upper_bound, evaluate
+from droneplan.formulations.cells import build_milp, coverage_upper_bound, evaluate
 from droneplan.formulations.cells._milp import _light_site_rows
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.result import Status
@@ -119,24 +119,13 @@ def clustered(seed, n_clusters, per_cluster, m, half_width=6.0):
     )
 
 
-def brute_force(problem):
-    cand = candidate_sites(problem)
-    best = 0
-    for k in range(1, problem.n_cells + 1):
-        for combo in itertools.combinations(range(len(cand.points)), k):
-            ev = evaluate(problem, cand.points[list(combo)])
-            if ev.feasible and ev.covered > best:
-                best = ev.covered
-    return best
-
-
 def disc_bounds(problem):
     return [0.0] + [float(coverage_upper_bound(problem, k).bound) for k in range(1, problem.n_cells + 1)]
 
 
 @settings(max_examples=12, deadline=None)
 @given(st.integers(0, 10_000), st.integers(2, 3), st.sampled_from(["cp-sat", "highs"]))
-def test_model_with_the_rows_at_the_optimum_keeps_it(seed, n_clusters, backend):
+def test_model_with_the_rows_at_the_optimum_keeps_it(brute_force, seed, n_clusters, backend):
     # lo = the optimum itself: the strongest rows a solve can get, and still the optimum stays
     p = clustered(seed, n_clusters, 3, m=3)
     opt = brute_force(p)
@@ -149,7 +138,7 @@ def test_model_with_the_rows_at_the_optimum_keeps_it(seed, n_clusters, backend):
     assert ev.feasible and ev.covered == round(res.objective) == opt
 
 
-def test_rows_are_written_on_clustered_instances():
+def test_rows_are_written_on_clustered_instances(brute_force):
     rows = 0
     for seed in range(6):
         p = clustered(seed, 3, 3, m=3)

@@ -6,14 +6,12 @@ them must reach the brute-force optimum of the candidate problem (and the branch
 bound's on larger instances), on either backend.
 """
 
-import itertools
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from droneplan.formulations.cells import branch_and_bound, build_milp, candidate_sites, evaluate
+from droneplan.formulations.cells import branch_and_bound, build_milp, evaluate
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.result import Status
 
@@ -29,17 +27,6 @@ def clustered(seed, n_clusters, per_cluster, m, half_width=6.0):
     )
 
 
-def brute_force(problem):
-    cand = candidate_sites(problem)
-    best = 0
-    for k in range(1, problem.n_cells + 1):
-        for combo in itertools.combinations(range(len(cand.points)), k):
-            ev = evaluate(problem, cand.points[list(combo)])
-            if ev.feasible and ev.covered > best:
-                best = ev.covered
-    return best
-
-
 def model_optimum(problem, backend, lifted):
     mdl = build_milp(problem, backend=backend, lifted_hops=lifted)
     res = mdl.model.solve(variables=mdl.x, time_limit=60, workers=1)
@@ -52,7 +39,7 @@ def model_optimum(problem, backend, lifted):
 
 @settings(max_examples=15, deadline=None)
 @given(st.integers(0, 10_000), st.integers(2, 3), st.sampled_from(["highs", "cp-sat"]))
-def test_lifted_model_equals_brute_force(seed, n_clusters, backend):
+def test_lifted_model_equals_brute_force(brute_force, seed, n_clusters, backend):
     p = clustered(seed, n_clusters, 3, m=3)
     value, _ = model_optimum(p, backend, lifted=True)
     assert value == brute_force(p)
