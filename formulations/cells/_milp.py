@@ -759,6 +759,11 @@ def _objective_rows(
         lin.add(objective >= math.ceil(obj_lo - 1e-9))
         lin.add(objective <= math.floor(obj_hi + 1e-9))
         if bounds_k is not None:
+            # k candidate sites cover at most the k largest |S(c)| together; the continuous bound
+            # alone was found below that on a small clustered instance (a candidate disc holding 4
+            # users, B_1 = 3), so each B_k is raised to that sum where it falls short: the rows stay valid
+            top = np.concatenate([[0], np.cumsum(np.sort(weights)[::-1])]).astype(float)
+            bounds_k = [max(float(b), float(top[min(k, len(weights))])) for k, b in enumerate(bounds_k)]
             n_light = _light_site_rows(lin, x, weights, obj_lo, bounds_k)
     lin.maximize(objective)
     return n_light
