@@ -128,6 +128,17 @@ def _highs_model(solver: pywraplp.Solver) -> Any:
     return highs
 
 
+def _mip_presolve_is_unsafe(highs: Any) -> bool:
+    """True for a MIP on HiGHS 1.14.x, whose MIP presolve (singleton-column stuffing with
+    integer columns) can return a suboptimal point with status optimal; fixed in HiGHS 1.15.0
+    (ERGO-Code/HiGHS pull request 2961). On a 10-user maximum-coverage model with one disc it
+    reported 3 where a set of 4 users exists. The pin highspy < 1.15 keeps OR-Tools importable,
+    so MIPs on 1.14 run with presolve off."""
+    integrality = highs.getLp().integrality_
+    is_mip = integrality is not None and any(int(k) != 0 for k in integrality)
+    return is_mip and (highs.versionMajor(), highs.versionMinor()) == (1, 14)
+
+
 def _highs_start(highs: Any, warm_start: Mapping[Any, float]) -> bool:
     """Hand the start solution {pywraplp variable: value} to ``highs`` (highspy's sparse
     ``setSolution``, columns in the pywraplp order); True when HiGHS accepted it."""
@@ -139,7 +150,13 @@ def _highs_start(highs: Any, warm_start: Mapping[Any, float]) -> bool:
 
 
 def _highs_readout(
-    highs: Any, code: str, status: Status, variables: Sequence[Any], warm_start: bool, name: str
+    highs: Any,
+    code: str,
+    status: Status,
+    variables: Sequence[Any],
+    warm_start: bool,
+    name: str,
+    presolve_off: bool = False,
 ) -> NativeReadout:
     """The solution of a HiGHS run: at a limit, its incumbent (FEASIBLE) when it has one."""
     info = highs.getInfo()
@@ -164,6 +181,8 @@ def _highs_readout(
         notes.append(f"stopped at the limit ({code}); the incumbent is not proven optimal")
     elif status is Status.ERROR:
         notes.append(f"{name} returned status {code}")
+    if presolve_off:
+        notes.append("MIP presolve off (HiGHS 1.14 presolve can return a suboptimal point as optimal)")
     return NativeReadout(
         objective=objective,
         bound=bound,
@@ -171,6 +190,7 @@ def _highs_readout(
         message="; ".join(notes),
         status=status,
         iterations=int(info.mip_node_count) if is_mip and status.has_solution else None,
+        info={"presolve": "off"} if presolve_off else {},
     )
 
 
@@ -286,7 +306,8 @@ class HighsAdapter(PywraplpAdapter):
     returns it (FEASIBLE, with HiGHS's bound). Takes a start solution, handed to highspy's
     ``setSolution`` (sparse: the variables given; HiGHS completes a partial one when it can),
     never to pywraplp (with ortools 9.15, SetHint followed by Solve crashes the process
-    under HiGHS)."""
+    under HiGHS). MIPs on HiGHS 1.14 run with presolve off (``_mip_presolve_is_unsafe``);
+    the result's ``info["presolve"]`` and message say so."""
 
     name = "highs"
     solver_id = "HIGHS"
@@ -320,11 +341,15 @@ class HighsAdapter(PywraplpAdapter):
             options["mip_rel_gap"] = float(relative_gap)
 
         passed = [False]
+        presolve_off = [False]
 
         def call() -> tuple[str, Any]:
             highs = _highs_model(solver)
             if time_limit is not None:
                 options["time_limit"] = max(time_limit - (time.perf_counter() - t0), 1e-3)
+            if _mip_presolve_is_unsafe(highs):
+                options["presolve"] = "off"
+                presolve_off[0] = True
             for key, value in options.items():
                 highs.setOptionValue(key, value)
             if warm_start:
@@ -334,7 +359,7 @@ class HighsAdapter(PywraplpAdapter):
 
         def read(code: Any, highs: Any, status: Status, _elapsed: float) -> NativeReadout:
             unused = bool(warm_start) and not passed[0]
-            return _highs_readout(highs, code, status, variables, unused, self.name)
+            return _highs_readout(highs, code, status, variables, unused, self.name, presolve_off[0])
 
         out = run_native(self, call, read, warm_started=False)
         return dataclasses.replace(out, warm_started=passed[0]) if passed[0] else out
