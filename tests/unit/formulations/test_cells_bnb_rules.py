@@ -276,3 +276,70 @@ def test_lazy_greedy_gains_hold_every_value_of_the_full_scan():
             assert (gain[mask[:end]].max(initial=-1)) == full[mask].max(initial=-1)
         short += end < s.n
     assert short > 0  # the prefix was shorter than the scan in some cases
+
+
+def test_successor_sites_from_a_short_prefix_keep_item_12_valid():
+    # item 12 tests the successor links on a prefix of the heaviest sites only and counts the
+    # later ones as linked: a superset of the exact successors, so its bound stays above every
+    # feasible completion (checked here with a prefix of 1 site, against the oracle, on relay
+    # chains)
+    from droneplan.formulations.cells import _bnb
+
+    checked = widened = 0
+    saved = _bnb._SUCCESSOR_PREFIX
+    try:
+        for seed in range(12):
+            rng = np.random.default_rng(seed)
+            # two arms of users out from the GBS (relay chains) and two stray users
+            arm = np.array([[2.4, 0.0], [4.8, 0.0], [7.2, 0.0]])
+            users = np.concatenate([arm, arm[:, ::-1], rng.uniform(-8, 8, size=(2, 2))])
+            p = _problem(users + rng.normal(0, 0.3, size=users.shape), 4)
+            s = BranchAndBoundSearch(p, candidate_sites(p), -1)
+            oracle = _Oracle(p, s)
+            for P in _partial_placements(oracle, 4):
+                node = s.node(list(P))
+                if node.reach.all():
+                    continue
+                full = np.flatnonzero(node.cmask)
+                in_l = s.dg[full] <= s.r1t
+                d = np.hypot(*(s.pts[full] - s.pts[P[0]]).T)
+                _bnb._SUCCESSOR_PREFIX = 10**6
+                exact = _bnb._successor_sites(s.link_rows(), full, d, in_l, s.r2t)
+                _bnb._SUCCESSOR_PREFIX = 1
+                short = _bnb._successor_sites(s.link_rows(), full, d, in_l, s.r2t)
+                assert np.all(short | ~exact)  # a superset
+                widened += int(np.any(short & ~exact))
+                feas = oracle.completions(P, node.cmask)
+                kids = s.relay_filter(node, np.flatnonzero(node.cmask))
+                if not feas or kids is None:
+                    continue
+                r = 4 - len(P)
+                tops = s.clique_values(kids.C[kids.ok], r, 0)
+                best = max(int(s.w[list(Q)].sum()) for Q, _ in feas)
+                assert s.separated_bound(node, r, tops) >= best
+                b, b_sep = s.unreached_bounds(node, kids, tops, 0, s.linkable_weight(kids, 0), math.inf)
+                assert node.val + best <= min(b, b_sep)
+                checked += 1
+    finally:
+        _bnb._SUCCESSOR_PREFIX = saved
+    assert checked > 0 and widened > 0
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 10_000), st.integers(5, 8), st.integers(3, 4), st.booleans())
+def test_site_elimination_keeps_an_optimal_placement(brute_force, seed, n, m, no_dual):
+    # items 9-10 as the search runs them (the first test, then probe rounds that re-probe only
+    # the sites near the incumbent; item 7 in the probes or not): with the incumbent one below
+    # the optimum, the alive sites still hold an optimal placement, or a probe found one
+    p = _clustered(seed, 3, m) if n % 2 else _scattered(seed, n, m)
+    opt = brute_force(p)
+    assume(opt > 0)
+    s = BranchAndBoundSearch(p, candidate_sites(p), opt - 1)
+    if no_dual:
+        s.dual_from = math.inf
+    oracle = _Oracle(p, s)
+    alive = np.ones(s.n, dtype=bool)
+    s.eliminate_sites(alive)
+    kept = max((v for key, v in oracle.feasible.items() if alive[list(key)].all()), default=0)
+    assert kept == opt or s.best_val == opt
+    assert s.best_val <= opt
