@@ -53,8 +53,11 @@ and ~3*10^6 pairs within r2, far too many to write out):
    most m hops, and a site at hop l >= 2 has a neighbour at hop l - 1, so the labels
    satisfy the rows. Conversely, by induction on l every labelled site reaches a GBS.
    Level l is offered only to sites within r1 + (l - 1) r2 of a GBS (farther ones
-   cannot be l hops away). The neighbour sums need not exclude overlapping sites: two
-   overlapping sites are never both used (item 2).
+   cannot be l hops away). A row leaves out the sources closer to c than 2 R_d - TOL and
+   the squares of 3b wholly inside that disc: they overlap c, so they are 0 whenever c is
+   used (item 2), and the neighbour that labels c is elsewhere in the row. This also
+   stops the LP from feeding c from its own level-(l-1) variable through its own square:
+   LP bound of the final model of Table 4.2 m = 4 seed 5 72.84 -> 71.42, with fewer terms.
 4. **Objective cuts (exact).** ``sum_j y_j <= B_m`` (the continuous bound, from a
    relaxation) and ``sum_j y_j >= z`` for an incumbent of value z (no worse solution is
    of interest; the incumbent satisfies it and is the hint).
@@ -82,12 +85,16 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
 8. **Lifted hop rows (exact; HiGHS and SCIP only, ``LIFTED_HOPS``).** The hop rows of 3b let
    the LP feed a far site from itself: a square term a_Q at level l - 1 may hold c's own
    z_{c,l-1}, so z_{c,l} <= z_{c,l-1} + ... costs no relay, and one relay at 1/3 feeds
-   three overlapping sites at 1/3 each. Two exact repairs (``_hop_levels``,
-   ``_clique_hop_rows``): a site's row leaves out the sources closer than 2 R_d - TOL (they
-   overlap it and are never used with it), and every user clique C_u of item 5 gets
-   ``sum_{c in C_u} z_{c,l} <= its sources`` (at most one site of C_u is used). LP bound of
-   the final model of Table 4.2 m = 4 seed 5 (HiGHS, all 4 518 sites): 72.8 -> 64.6
-   (optimum 61), but 1.1 M -> 1.4 M terms and a much slower LP. HiGHS, 1 thread, 120 s,
+   three overlapping sites at 1/3 each. The first is repaired for every backend in 3b; for
+   the second every user clique C_u of item 5 gets
+   ``sum_{c in C_u} z_{c,l} <= its sources`` (``_clique_hop_rows``; at most one site of C_u
+   is used), where the squares straddling the circle of radius R_d - 3 TOL around u are
+   written source by source. LP bound of the final model of Table 4.2 m = 4 seed 5 (all
+   4 518 sites): 71.42 -> 64.62 (optimum 61) at 0.80 M -> 0.93 M terms, LP 2 -> 24 CPU s
+   (HiGHS simplex). Splitting the site rows' straddling squares too (the first form) gave
+   the same 64.62 with 1.4 M terms and a 124 CPU s LP; clique rows without any split: 68.06;
+   rows over squares of side (2 R_d - 2 TOL) / sqrt(2) as cliques instead of user cliques:
+   70.97. Figures below are of the first form. HiGHS, 1 thread, 120 s,
    load 3-4, CPU s with / without: seeds 0, 1, 9 proven in 23.5 / 35.1, 17.1 / 36.5,
    8.0 / 7.1, seed 7 in 57.6 / 20.4 (slower); open seeds 5 and 6 end at bound 64 / 73 and
    65 / 66.
@@ -115,6 +122,20 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    stronger but inexact form of the pair rows) proven in 34-40 CPU s; with these exact rows,
    in the whole solve, proven in 70 CPU s. ``solve_model`` writes
    them on CP-SAT only (``LIGHT_ROWS``: HiGHS measured slower with them).
+
+10. **LP fixing (exact; ``lp_fixing``, CP-SAT only, ``LP_FIXING``).** CP-SAT with one
+   worker does not bring its bound down to the LP bound of the lifted rows of item 8 on a
+   model this size (Table 4.2 m = 4 seed 5 with them: bound 73 after 77 CPU s), while
+   HiGHS's simplex solves that LP in about 25 CPU s. So before the final model, when item 1
+   keeps at least ``LP_FIXING_MIN_SITES`` sites, the lifted model's LP relaxation is solved
+   and its row duals y give, by weak duality over the 0/1 box (``solvers.lp_bound``: valid
+   for *any* y, so neither HiGHS's optimality nor its tolerances matter), a bound B on every
+   placement worth at least the incumbent value z (the model's objective cut), and a bound
+   B + min(d_c, 0) on those that hold site c (d_c the reduced cost of x_c). A site whose
+   bound is below z + 1 is in no better placement and is dropped (the incumbent's sites stay);
+   floor(B) caps the objective, and when it is <= z the incumbent is proven at once. Table
+   4.2 m = 4 seed 5: 3 431 of 4 518 sites dropped, cap 73 -> 64, proven in 83 CPU s (was
+   open at 61 / 71 after 75 CPU s).
 
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
@@ -145,6 +166,7 @@ from droneplan.formulations.cells._core import TOL, Candidates, candidate_sites,
 from droneplan.formulations.cells._prepare import Prepared, _feasible_subset, coverage_upper_bound
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.lazy import lazy_constraint_loop
+from droneplan.solvers.lp_bound import lp_dual_bound
 from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
 
@@ -171,6 +193,22 @@ LIGHT_ROWS: dict[str, bool] = {"cp-sat": True}
 """Backends whose model gets the light-site rows of item 9 from ``solve_model`` (by registry
 name). HiGHS is left out: Table 4.2 m = 4 seed 0 (one worker, load 4-5) stayed open at bound
 65 after 82 CPU s with them and was proven in 29 CPU s without."""
+
+LP_FIXING: dict[str, bool] = {"cp-sat": True}
+"""Backends whose hop model is first reduced by the LP fixing of item 10 (by registry name)."""
+
+LP_FIXING_MIN_SITES = 1500
+"""Item 10 runs only when the pruning of item 1 keeps at least this many sites (below it
+CP-SAT proves Table 4.2 m = 4 in a few seconds, less than the LP takes)."""
+
+LP_FIXING_SHARE = 0.5
+"""Share of the time left that the LP of item 10 may take (HiGHS returns no usable duals
+before the simplex ends, so a stopped LP fixes nothing)."""
+
+LP_FIXING_MAX_TERMS = 1_200_000
+"""Item 10 is skipped when the lifted model has more hop-row terms than this: Table 4.2
+m = 4 seed 5 (0.93 M terms) solves its LP in about 25 CPU s, m = 6 seed 1 (1.75 M) had not
+solved it after 300 s."""
 
 CONNECTIVITY = ("lazy", "hops")
 """Exact backhaul formulations of the candidate model (module docstring, item 3)."""
@@ -278,14 +316,20 @@ class _LevelSources:
         self.lo = keys * side  # square corners (m)
         self.tree = cKDTree(pts[src])
 
-    def terms(self, centre: np.ndarray, rch: float, inner: float = 0.0, skip: int = -1) -> list:
+    def terms(
+        self, centre: np.ndarray, rch: float, inner: float = 0.0, skip: int = -1, split: bool = True
+    ) -> list:
         """Terms for the sources at distance in [inner, rch] of ``centre`` (except ``skip``):
-        the squares inside that annulus by their variable, the other sources one by one."""
+        the squares inside that disc by their variable, the other sources one by one. A square
+        wholly closer than ``inner`` gives no term; with ``split`` (item 8) a square that
+        straddles the ``inner`` circle is written source by source (its closer sources left
+        out), without it by its variable."""
         lo, side = self.lo, self.side
         ax, ay = np.abs(lo[:, 0] - centre[0]), np.abs(lo[:, 0] + side - centre[0])
         bx, by = np.abs(lo[:, 1] - centre[1]), np.abs(lo[:, 1] + side - centre[1])
-        full = self.agg & (np.hypot(np.maximum(ax, ay), np.maximum(bx, by)) <= rch)
-        if inner > 0:
+        far = np.hypot(np.maximum(ax, ay), np.maximum(bx, by))
+        full = self.agg & (far <= rch) & (far >= inner)
+        if inner > 0 and split:
             in_x = (lo[:, 0] <= centre[0]) & (centre[0] <= lo[:, 0] + side)
             in_y = (lo[:, 1] <= centre[1]) & (centre[1] <= lo[:, 1] + side)
             near = np.hypot(np.where(in_x, 0.0, np.minimum(ax, ay)), np.where(in_y, 0.0, np.minimum(bx, by)))
@@ -343,8 +387,8 @@ def _hop_levels(
     Returns (z, squares, level variables, terms) or None once ``late()``."""
     m = problem.n_cells
     nd = np.flatnonzero(~direct)
-    # item 8: sources closer than 2 R_d - TOL overlap c and are never used with it
-    inner = 0.0 if clique_rows is None else 2 * problem.R_d - 2 * TOL
+    # sources closer than 2 R_d - TOL overlap c and are never used with it (item 3b)
+    inner = 2 * problem.R_d - 2 * TOL
     dg = np.min(pairwise_distances(pts[nd], problem.gbs), axis=1)
     # level l reaches r1 + (l - 1) r2 (each link has tolerance TOL)
     lowest = np.maximum(2, np.ceil((dg - problem.r1 - m * TOL) / problem.r2).astype(np.int64) + 1)
@@ -367,7 +411,7 @@ def _hop_levels(
             pts, src, x if lev == 2 else {d: z[d, lev - 1] for d in src.tolist()}, problem, lin, squares, lev
         )
         for c in rows.tolist():
-            terms = sources.terms(pts[c], sources.reach, inner=inner, skip=c)
+            terms = sources.terms(pts[c], sources.reach, inner=inner, skip=c, split=False)
             lin.add_implies_any(z[c, lev], terms)
             n_vars += 1
             n_terms += len(terms)
@@ -882,6 +926,58 @@ def _disc_bounds(prep: Prepared, b_prev: float) -> list[float]:
     return out
 
 
+def lp_fixing(
+    problem: CellProblem,
+    cand: Candidates,
+    keep: np.ndarray,
+    *,
+    incumbent: np.ndarray,
+    objective_range: tuple[float, float],
+    disc_bounds: list[float] | None = None,
+    user_cliques: bool = True,
+    deadline: float | None = None,
+    time_limit: float | None = None,
+    max_terms: int | None = None,
+) -> tuple[np.ndarray, float, dict[str, Any]] | None:
+    """Item 10: which of the sites ``keep`` a placement covering more than lo =
+    ``objective_range[0]`` users may hold, by the LP relaxation of the lifted hop model.
+
+    Returns (alive: bool per site of ``keep``, an upper bound on every placement of the
+    ``keep`` sites worth >= lo, stats), or None past ``deadline`` (a ``time.perf_counter()``
+    value) or when the lifted model has more than ``max_terms`` hop-row terms (None: no
+    cap). The sites of ``incumbent`` ((k, 2) m) stay alive. ``disc_bounds`` and
+    ``user_cliques`` as in :func:`build_milp`; ``time_limit`` (s) for the LP solve.
+    """
+    t0 = time.perf_counter()
+    mdl = build_milp(
+        problem,
+        backend="highs",
+        candidates=cand,
+        keep=keep,
+        deadline=deadline,
+        objective_range=objective_range,
+        user_cliques=user_cliques,
+        lifted_hops=True,
+        disc_bounds=disc_bounds,
+    )
+    if mdl is None or (deadline is not None and time.perf_counter() > deadline):
+        return None
+    if max_terms is not None and mdl.stats["connectivity_terms"] > max_terms:
+        return None
+    lpb = lp_dual_bound(mdl.model.native, mdl.x, time_limit=time_limit)
+    # a better placement covers at least lo + 1 users (an integer)
+    alive = lpb.at_one >= math.floor(objective_range[0] + 1e-9) + 1
+    if len(incumbent) and len(mdl.points):
+        alive |= np.any(pairwise_distances(mdl.points, incumbent) <= 1e-3, axis=1)
+    stats = {
+        "lp_bound": lpb.bound,
+        "lp_status": lpb.status,
+        "lp_fixed_sites": int(len(keep) - alive.sum()),
+        "lp_time": time.perf_counter() - t0,
+    }
+    return alive, float(math.floor(lpb.bound)), stats
+
+
 class _ModelSolve:
     """One call of :func:`solve_model`: the prepared instance, the backend settings and the
     search state shared by the rounds of the target scheme."""
@@ -905,6 +1001,8 @@ class _ModelSolve:
         self.tree = cKDTree(prep.cand.points)
         self.cuts: list = []
         self.deadline = None if prep.time_limit is None else prep.t0 + prep.time_limit
+        self.ub = float(prep.ub)  # the model's objective cap (item 4), lowered by item 10
+        self.fix_stats: dict[str, Any] = {}
 
     def relaxation(self, keep: np.ndarray, found: list) -> SolveResult:
         """Build and solve the model on the sites ``keep`` with the cuts ``found`` (one round
@@ -920,7 +1018,7 @@ class _ModelSolve:
                 candidates=prep.cand,
                 keep=keep,
                 deadline=self.deadline,
-                objective_range=(state.inc_val, prep.ub),
+                objective_range=(state.inc_val, self.ub),
                 connectivity=self.connectivity,
                 cuts=found,
                 user_cliques=self.user_cliques,
@@ -928,7 +1026,7 @@ class _ModelSolve:
             )
         if mdl is None or prep.expired():  # building can be long: the limit covers it
             return SolveResult(Status.NO_SOLUTION, backend=backend, message="time limit")
-        state.stats = mdl.stats
+        state.stats = {**mdl.stats, **self.fix_stats}
         hint = _hint(problem, mdl, state.inc)
         res = mdl.model.solve(
             variables=mdl.x,
@@ -990,25 +1088,63 @@ class _ModelSolve:
             return "optimal", float(out.objective)
         return "stopped", math.inf if out.bound is None else float(out.bound)
 
+    def lp_fixing(self, keep: np.ndarray) -> np.ndarray | None:
+        """Item 10 on the sites ``keep`` (``lp_fixing``) when it is on for this backend and
+        model; lowers ``self.ub`` to the LP bound. None: not run (or no time to build the LP)."""
+        prep, state = self.prep, self.state
+        if (
+            not LP_FIXING.get(self.backend, False)
+            or self.connectivity != "hops"
+            or len(keep) < LP_FIXING_MIN_SITES
+            or "highs" not in BACKENDS
+        ):
+            return None
+        left = prep.left()
+        out = lp_fixing(
+            prep.problem,
+            prep.cand,
+            keep,
+            incumbent=state.inc,
+            objective_range=(state.inc_val, self.ub),
+            disc_bounds=self.disc_bounds,
+            user_cliques=self.user_cliques,
+            deadline=self.deadline,
+            time_limit=None if left is None else LP_FIXING_SHARE * left,
+            max_terms=LP_FIXING_MAX_TERMS,
+        )
+        if out is None:
+            self.fix_stats = {"lp_fixing": "skipped (model above LP_FIXING_MAX_TERMS terms, or no time)"}
+            return None
+        alive, bound, self.fix_stats = out
+        self.ub = min(self.ub, bound)
+        return keep[alive]
+
     def targets(self) -> tuple[Status, float]:
         """The descending target scheme (exact): any solution worth more than g uses only sites
         with |S(c)| + B_{m-1} > g. Solve on those; an optimum z_r > g is the optimum of the
         full candidate problem, otherwise z_r is a new incumbent and g is lowered, ending
-        with g = incumbent value (the plain pruning of item 1). Returns (status, bound)."""
-        state, ub = self.state, self.prep.ub
+        with g = incumbent value (the plain pruning of item 1, then item 10). Returns
+        (status, bound)."""
+        state = self.state
         start = TARGET_START.get(self.backend, 0.5) if self.connectivity == "hops" else 0.5
-        g = state.inc_val + start * (ub - state.inc_val)
+        g = state.inc_val + start * (self.ub - state.inc_val)
         while True:
             g = max(g, state.inc_val)
             final = g <= state.inc_val
             keep = reduce_candidates(self.prep.problem, self.prep.cand, g, state.inc, self.b_prev)
+            if final:
+                fixed = self.lp_fixing(keep)
+                keep = keep if fixed is None else fixed
+                if self.ub <= state.inc_val:  # the LP bound alone proves the incumbent
+                    state.stats = dict(self.fix_stats)
+                    return Status.OPTIMAL, float(state.inc_val)
             outcome, val = self.solve_restricted(keep)
             if outcome == "optimal" and (val > g or final):
-                return Status.OPTIMAL, min(ub, max(val, state.inc_val))
+                return Status.OPTIMAL, min(self.ub, max(val, state.inc_val))
             if outcome == "stopped":
                 # restricted to sites of value > g (unless final): solutions worth more than g
                 # are bounded by val; others are bounded by g
-                return Status.FEASIBLE, min(ub, val if final else max(val, math.floor(g)))
+                return Status.FEASIBLE, min(self.ub, val if final else max(val, math.floor(g)))
             g = state.inc_val + 0.5 * (g - state.inc_val) if g - state.inc_val > 2 else state.inc_val
 
 

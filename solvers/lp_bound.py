@@ -1,0 +1,116 @@
+"""A safe upper bound of a maximisation MILP from the duals of its LP relaxation, and the
+bound with any one binary variable set to 1 (for reduced-cost fixing).
+
+Weak duality with a box, written so that it needs nothing from the LP solver to be valid:
+for the model ``max c x`` subject to ``lo_r <= A x <= up_r`` and ``l <= x <= u`` (every
+bound of x finite), take *any* row multipliers y and d = c - A^T y. Every x of the box
+with A x in the row range satisfies
+
+    c x = y (A x) + d x <= sum_r (y_r up_r if y_r > 0 else y_r lo_r) + sum_j max(d_j l_j, d_j u_j) = B(y),
+
+(a multiplier whose side of the row is infinite is set to 0 first). So B(y) bounds the LP
+relaxation and hence every integer point, whether or not y is optimal or even feasible for
+the dual: the LP solver (HiGHS's simplex) only makes it tight. With x_j fixed to 1 (a
+binary, l_j = 0, u_j = 1), the j-th term is d_j instead of max(0, d_j), so every point with
+x_j = 1 is bounded by B(y) + min(d_j, 0). The sums are taken in float64; ``margin`` adds
+1e-9 times the sum of the absolute values of every product involved, plus 1e-7, which is
+more than their rounding error.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from ortools.linear_solver import pywraplp
+
+from droneplan.core.validation import check_time_limit
+
+
+@dataclass(frozen=True)
+class LpBound:
+    """The result of :func:`lp_dual_bound`."""
+
+    bound: float
+    """B(y) + margin: every feasible point's objective is at most this (objective units)."""
+    at_one: np.ndarray
+    """Per requested variable: the bound on every feasible point where that variable is 1."""
+    status: str
+    """HiGHS's model status of the LP solve (the bound is valid whatever it is)."""
+    lp_value: float | None
+    """The LP optimum HiGHS reports (None without one); ``bound`` is its safe counterpart."""
+    time: float
+    """Wall-clock seconds of the LP solve and the bound."""
+
+
+def lp_dual_bound(
+    solver: pywraplp.Solver, variables: Sequence[Any], *, time_limit: float | None = None
+) -> LpBound:
+    """A safe upper bound of the maximisation model ``solver`` (module docstring) from the
+    row duals of its LP relaxation, solved by HiGHS (highspy), and the bound with each of
+    ``variables`` set to 1.
+
+    solver: a pywraplp model with a maximised linear objective and every variable bounded.
+    variables: binary variables of ``solver`` (0/1 bounds) whose fixed-to-1 bound is wanted.
+    time_limit: seconds for the LP solve (None: none); at the limit the duals reached so far
+        still give a valid, weaker bound.
+    """
+    import highspy  # type: ignore[import-untyped]
+    import scipy.sparse as sp
+
+    from droneplan.solvers.mip import _highs_model
+
+    time_limit = check_time_limit(time_limit)
+    if not isinstance(solver, pywraplp.Solver):
+        raise TypeError(f"solver must be a pywraplp.Solver, got {type(solver).__name__}")
+    if not solver.Objective().maximization():
+        raise ValueError("solver must maximise its objective (lp_dual_bound bounds from above)")
+    t0 = time.perf_counter()
+    highs = _highs_model(solver)
+    lp = highs.getLp()
+    cols = np.array([v.index() for v in variables], dtype=np.int64)
+    col_lo, col_up = np.asarray(lp.col_lower_, dtype=float), np.asarray(lp.col_upper_, dtype=float)
+    if not (np.isfinite(col_lo).all() and np.isfinite(col_up).all()):
+        raise ValueError("solver must bound every variable (the dual bound uses the box)")
+    if len(cols) and (np.any(col_lo[cols] != 0) or np.any(col_up[cols] != 1)):
+        raise ValueError("variables must be 0/1 variables of solver")
+    lp.integrality_ = []
+    highs.passModel(lp)
+    if time_limit is not None:
+        highs.setOptionValue("time_limit", max(time_limit - (time.perf_counter() - t0), 1e-3))
+    highs.run()
+    status = highs.modelStatusToString(highs.getModelStatus())
+    value = highs.getInfo().objective_function_value if status == "Optimal" else None
+    y = np.asarray(highs.getSolution().row_dual, dtype=float)
+    row_lo, row_up = np.asarray(lp.row_lower_, dtype=float), np.asarray(lp.row_upper_, dtype=float)
+    if len(y) != len(row_lo) or not np.isfinite(y).all():
+        y = np.zeros(len(row_lo))  # no duals: B(0) is the box bound of the objective, still valid
+    y = np.where(((y > 0) & ~np.isfinite(row_up)) | ((y < 0) & ~np.isfinite(row_lo)), 0.0, y)
+    mat = highs.getLp().a_matrix_
+    kind = sp.csr_matrix if mat.format_ == highspy.MatrixFormat.kRowwise else sp.csc_matrix
+    a = kind(
+        (np.asarray(mat.value_), np.asarray(mat.index_), np.asarray(mat.start_)),
+        shape=(len(row_lo), len(col_lo)),
+    ).tocsr()
+    up_f = np.where(np.isfinite(row_up), row_up, 0.0)  # y_r is 0 where its side is infinite
+    lo_f = np.where(np.isfinite(row_lo), row_lo, 0.0)
+    row_part = np.where(y > 0, y * up_f, y * lo_f)
+    d = np.asarray(lp.col_cost_, dtype=float) - a.T @ y
+    col_part = np.maximum(d * col_lo, d * col_up)
+    scale = np.abs(row_part).sum() + np.abs(col_part).sum() + float((abs(a).T @ np.abs(y)).sum())
+    margin = 1e-9 * scale + 1e-7
+    bound = float(row_part.sum() + col_part.sum() + float(lp.offset_)) + margin
+    at_one = bound - col_part[cols] + d[cols] if len(cols) else np.zeros(0)  # = bound + min(d_j, 0)
+    if not math.isfinite(bound):
+        raise RuntimeError(f"internal: the dual bound is not finite ({bound})")
+    return LpBound(
+        bound=bound,
+        at_one=np.asarray(at_one, dtype=float),
+        status=status,
+        lp_value=value,
+        time=time.perf_counter() - t0,
+    )
