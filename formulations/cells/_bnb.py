@@ -48,7 +48,9 @@ Why each element is exact:
    largest gains (f, gains over the users outside S(P), Q among the candidates that pass
    item 3); G runs through the greedy sets G_0 = {}, G_1, ..., G_r, and item 6 applies to
    the gains as well. Used at nodes with >= 3 free slots (at 2 it cost more than it cut:
-   m=4 seed 3 not proven in 59 s cpu, against 14 s without it).
+   m=4 seed 3 not proven in 59 s cpu, against 14 s without it), and only where the other
+   rules did not cut the node (it is the costliest: a node's bound is the least of all the
+   rules either way).
 8. **Two relay slots.** If an unreached P site a has relay lower bound >= 2, its path
    to a GBS holds >= 2 completion sites; the one next to the GBS side (item 6) and the
    one next to a's group (item 5) are then distinct, so two slots are bounded by the
@@ -71,6 +73,12 @@ Why each element is exact:
    9-11 at m = 6 (Table 4.2, 300 s): seeds 0, 2, 4, 7, 8 and 9 proven (worst 17 s;
    before: 2, 8 and 9); seeds 1, 3, 5 and 6 stayed open (incumbents 6-11 % below B_6)
    until items 11-12 and the split (all 10 within 300 s, worst 175 s on seed 1).
+   The probes (``probe_sites``) leave item 7 out once it has cut under 1 % of the first
+   ``_DUAL_TRIAL``, and a repeated round probes only the sites whose last bound came within
+   ``_REPROBE_MARGIN`` of z (a probe only ever drops sites, so probing fewer keeps it exact).
+   At Table 4.2 density x 4 (m = 4, seed 0, 64k sites) the probes took 356 of 423 CPU-s
+   and the search was not proven in 600 s; with both changes and item 12's successor prefix
+   the whole solve is proven in 125 CPU-s (the probes of 19.5k sites clear 4.6k).
 
 11. **Sibling replacement.** At a node P, let a be a child searched before b (a earlier
    in the order). Suppose a is direct when b is, links to every P site that b links to,
@@ -126,7 +134,9 @@ Why each element is exact:
    each row built when first used, then kept). Testing it with coordinates took 140 of
    241 s on m = 6 seed 1, so that version tested only at r = 3. Measured on m = 6
    seed 1 (Table 4.2): the subtree of its first two sites took 82 s before item 12 and
-   4 s with it.
+   4 s with it. The successor link test runs on the ``_SUCCESSOR_PREFIX`` heaviest sites
+   near a group and counts the lighter ones as linked (``_successor_sites``): item 12 reads
+   only heaviest weights, which a superset can only raise.
 
 13. **Dominated sites.** After item 10, let A be the sites still alive. Site d dominates
    site c when d comes before c in the search order and
@@ -149,7 +159,7 @@ Why each element is exact:
    to c but not to d at (r2 + TOL - |c - d|, r2 + TOL]; an empty annulus (widened by
    1e-6 m) is sufficient. Pairs are sought within ``_DOMINANCE_RADIUS`` (thin annuli).
 
-14. **Backhaul-free completion.** At a node P with r >= 3 free slots and depth >= 2,
+14. **Backhaul-free completion.** At a node P with r >= 3 free slots and depth >= 1,
    the search of item 9 (backhaul dropped: every site linked) is run below P itself, over
    the same completions (``cmask``, and ``must`` of item 11), with the incumbent value z
    as its incumbent; it stops at the first placement above z (``free_completion``). Every
@@ -162,8 +172,10 @@ Why each element is exact:
    incumbent one below the optimum's bound, Table 4.2 m = 8 (CPU s to prove nothing
    better): seed 1 (z = 89) 46 s without item 14, 18 s with it; seed 3 (z = 103) 44 s
    without, 25 s with it. Item 7 inside the relaxed search doubled its cost (48 s on seed
-   3) and probes at depth 1 cut every root child there but cost more than the main search
-   spent on them (34 s).
+   3). At depth 1 (the root's children) it first cost more than it cut with z = 103 (34 s),
+   but from the incumbent the search reaches itself (z = 101) it cuts 552 of the 564 root
+   children it runs at, and m = 8 seed 3 is proven (101 in 165 CPU-s, 1 worker; from depth
+   2 it was still open at 101/104 after 487 CPU-s).
 
 With ``workers`` > 1 the search is split over forked processes (``_split_root``): each
 takes its share of the children of every node at depth 1 (m >= 4), so one heavy root
@@ -335,14 +347,25 @@ class BitRows:
     def __init__(self, packed: np.ndarray, n: int) -> None:
         self.packed = packed
         self.n = n
+        # unpacked rows kept once asked for, up to _ROW_CACHE_BYTES (the search asks for the
+        # same sites' rows again and again: 4.2M unpacks, 33 of 430 CPU-s on m = 8 seed 3)
+        self._rows: dict[int, np.ndarray] = {}
+        self._rows_max = _ROW_CACHE_BYTES // max(n, 1)
 
     def set(self, i: np.ndarray, j: np.ndarray) -> None:
         """Relate the sites i[k] and j[k] (index arrays), in that direction only."""
         np.bitwise_or.at(self.packed, (i, j >> 3), (1 << (j & 7)).astype(np.uint8))
+        self._rows.clear()
 
     def row(self, i: int) -> np.ndarray:
-        """(n,) bool: the sites related to site i."""
-        return np.unpackbits(self.packed[i], count=self.n, bitorder="little").view(bool)
+        """(n,) bool: the sites related to site i (read-only: it may be a kept copy)."""
+        got = self._rows.get(i)
+        if got is None:
+            got = np.unpackbits(self.packed[i], count=self.n, bitorder="little").view(bool)
+            got.flags.writeable = False
+            if len(self._rows) < self._rows_max:
+                self._rows[i] = got
+        return got
 
     def any_of(self, rows: list[int]) -> np.ndarray:
         """(n,) bool: the sites related to some site of ``rows`` (none when it is empty)."""
@@ -1796,6 +1819,9 @@ _LINK_ROWS_MAX = 64
 """Item 12: beyond this many bridge candidates their links are found with a KD-tree rather
 than by their rows (stacking thousands of rows took 250 of 600 s at density x 4)."""
 
+_ROW_CACHE_BYTES = 128 * 2**20
+"""Bytes of unpacked conflict rows a :class:`BitRows` keeps."""
+
 _REPROBE_MARGIN = 2
 """Item 10: after a probe round that cleared sites, the sites whose bound came within this
 many users of the incumbent are probed again."""
@@ -1810,7 +1836,7 @@ _DOMINANCE_RADIUS = 50.0
 """Item 13: dominating sites are sought this close (m); farther pairs rarely qualify, as
 their annuli are wide."""
 
-_FREE_DEPTH = 2
+_FREE_DEPTH = 1
 """Item 14: the relaxed completion search runs at nodes of at least this depth."""
 _FREE_NODES = 20_000
 """Item 14: node budget of one relaxed completion search."""
