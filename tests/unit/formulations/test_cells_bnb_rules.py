@@ -343,3 +343,22 @@ def test_site_elimination_keeps_an_optimal_placement(brute_force, seed, n, m, no
     kept = max((v for key, v in oracle.feasible.items() if alive[list(key)].all()), default=0)
     assert kept == opt or s.best_val == opt
     assert s.best_val <= opt
+
+
+def test_kept_conflict_rows_match_the_packed_relation():
+    # BitRows keeps unpacked rows (read-only) up to its byte budget; a kept row equals a fresh
+    # unpack, and relating more sites drops the kept rows
+    from droneplan.formulations.cells._bnb import BitRows
+
+    rng = np.random.default_rng(1)
+    n = 70
+    dense = rng.random((n, n)) < 0.2
+    rows = BitRows(np.zeros((n, (n + 7) // 8), dtype=np.uint8), n)
+    i, j = np.nonzero(dense)
+    rows.set(i, j)
+    for k in (3, 3, 41):
+        got = rows.row(k)
+        assert np.array_equal(got, dense[k]) and not got.flags.writeable
+    rows.set(np.array([3]), np.array([0]))
+    dense[3, 0] = True
+    assert np.array_equal(rows.row(3), dense[3])
