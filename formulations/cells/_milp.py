@@ -134,8 +134,14 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    B + min(d_c, 0) on those that hold site c (d_c the reduced cost of x_c). A site whose
    bound is below z + 1 is in no better placement and is dropped (the incumbent's sites stay);
    floor(B) caps the objective, and when it is <= z the incumbent is proven at once. Table
-   4.2 m = 4 seed 5: 3 431 of 4 518 sites dropped, cap 73 -> 64, proven in 83 CPU s (was
-   open at 61 / 71 after 75 CPU s).
+   4.2 m = 4 seed 5: 3 431 of 4 518 sites dropped, cap 73 -> 64, proven in 71.5 CPU s
+   (106 s wall, load 2.5-3; the LP 37 s of it), where it was open at 61 / 71 after 75 CPU s.
+   Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s, load 2.4-3.1: all 10 proven, CPU s
+   4.2, 3.2, 0.4, 5.3, 27.3, 71.5, 3.9, 2.6, 0.1, 1.6 (before items 3b's leaving out and 10,
+   same load: seed 5 open, seeds 3 and 4 in 14.2 and 56.2). Seed 5 with 2 workers: 73 CPU s,
+   70.6 s wall. m = 6, 600 s: seed 5 in 82.4 CPU s (was 94), seed 0 in 4.2. m = 6 seed 1
+   stays open: its lifted model has 1.75 M terms and HiGHS had not solved its LP after
+   300 s, so ``LP_FIXING_MAX_TERMS`` skips the item there.
 
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
