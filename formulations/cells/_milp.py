@@ -207,6 +207,11 @@ LP_FIXING_MIN_SITES = 1500
 """Item 10 runs only when the pruning of item 1 keeps at least this many sites (below it
 CP-SAT proves Table 4.2 m = 4 in a few seconds, less than the LP takes)."""
 
+LP_FIXING_LEVELS = 3
+"""The LP of item 10 merges the hop levels from this one up (``build_milp(max_level=)``, a
+relaxation): Table 4.2 m = 4 seed 5, LP 64.62 -> 65.00 but 26 -> 2.8 CPU s, 3 431 -> 3 253
+sites dropped."""
+
 LP_FIXING_SHARE = 0.5
 """Share of the time left that the LP of item 10 may take (HiGHS returns no usable duals
 before the simplex ends, so a stopped LP fixes nothing)."""
@@ -372,8 +377,32 @@ def _clique_hop_rows(lin, z: dict, lev: int, clique_rows: list, sources: _LevelS
     return n_terms
 
 
+def _source_vars(lin, z: dict, nd: np.ndarray, lev: int, merged: bool) -> tuple[np.ndarray, dict]:
+    """The sources of the hop rows at level ``lev`` >= 3 and their variables: the sites with a
+    level-(lev-1) variable, by it. ``merged`` (the top level of a merged model, see
+    ``_hop_levels``): the sites with a variable at level lev - 1 or lev, each by a unit
+    u_d <= z_{d,lev-1} + z_{d,lev} ("at level lev - 1 or above")."""
+    if not merged:
+        src = np.array([c for c in nd.tolist() if (c, lev - 1) in z], dtype=np.int64)
+        return src, {d: z[d, lev - 1] for d in src.tolist()}
+    var: dict[int, Any] = {}
+    for d in nd.tolist():
+        own = [z[d, lv] for lv in (lev - 1, lev) if (d, lv) in z]
+        if own:
+            var[d] = lin.unit_var(f"u{d}_{lev}")
+            lin.add_implies_any(var[d], own)
+    return np.array(sorted(var), dtype=np.int64), var
+
+
 def _hop_levels(
-    lin, x: list, pts: np.ndarray, direct: np.ndarray, problem: CellProblem, late, clique_rows: list | None
+    lin,
+    x: list,
+    pts: np.ndarray,
+    direct: np.ndarray,
+    problem: CellProblem,
+    late,
+    clique_rows: list | None,
+    top: int | None = None,
 ):
     """The hop-level rows of item 3b, with the sources of a row grouped by squares.
 
@@ -388,34 +417,39 @@ def _hop_levels(
     in 101 s (before: bound 61 after 120 s) and seed 3 in 21 s (before: 80 s).
 
     ``clique_rows`` (a list of (user position, its clique sites), or None): the lifted rows
-    of item 8; then a site's row also leaves out the sources that overlap it.
+    of item 8.
+
+    ``top`` < m (a relaxation, for item 10 only): levels top..m merge into one, "level top or
+    above", whose rows take the sources at level top - 1 or top. Every connected placement
+    still satisfies the rows (label a site at hop h >= top with top: its neighbour at hop
+    h - 1 is labelled top - 1 or top), but a far site may then be fed by another far site.
 
     Returns (z, squares, level variables, terms) or None once ``late()``."""
     m = problem.n_cells
+    top = m if top is None else min(m, max(3, top))
     nd = np.flatnonzero(~direct)
     # sources closer than 2 R_d - TOL overlap c and are never used with it (item 3b)
     inner = 2 * problem.R_d - 2 * TOL
     dg = np.min(pairwise_distances(pts[nd], problem.gbs), axis=1)
     # level l reaches r1 + (l - 1) r2 (each link has tolerance TOL)
     lowest = np.maximum(2, np.ceil((dg - problem.r1 - m * TOL) / problem.r2).astype(np.int64) + 1)
+    lowest = np.minimum(lowest, top)
     z: dict[tuple[int, int], Any] = {}
     for k, c in enumerate(nd.tolist()):
-        for lev in range(int(lowest[k]), m + 1):
+        for lev in range(int(lowest[k]), top + 1):
             z[c, lev] = lin.bool_var(f"z{c}_{lev}")
     for k, c in enumerate(nd.tolist()):
-        lin.add(lin.sum([z[c, lev] for lev in range(int(lowest[k]), m + 1)]) == x[c])
+        lin.add(lin.sum([z[c, lev] for lev in range(int(lowest[k]), top + 1)]) == x[c])
     squares: dict = {}
     n_vars = n_terms = 0
-    for lev in range(2, m + 1):
+    for lev in range(2, top + 1):
         rows = nd[lowest <= lev]
-        src = np.flatnonzero(direct) if lev == 2 else np.array([c for c in nd.tolist() if (c, lev - 1) in z])
+        src, var = (np.flatnonzero(direct), x) if lev == 2 else _source_vars(lin, z, nd, lev, lev == top < m)
         if len(rows) == 0 or len(src) == 0:
             for c in rows.tolist():
                 lin.add_implies_any(z[c, lev], [])
             continue
-        sources = _LevelSources(
-            pts, src, x if lev == 2 else {d: z[d, lev - 1] for d in src.tolist()}, problem, lin, squares, lev
-        )
+        sources = _LevelSources(pts, src, var, problem, lin, squares, lev)
         for c in rows.tolist():
             terms = sources.terms(pts[c], sources.reach, inner=inner, skip=c, split=False)
             lin.add_implies_any(z[c, lev], terms)
@@ -605,6 +639,11 @@ def _as_objective_range(objective_range: Any) -> tuple[float, float] | None:
     return check_real("objective_range[0]", pair[0]), check_real("objective_range[1]", pair[1])
 
 
+def _as_max_level(max_level: Any) -> int | None:
+    """None, or ``max_level`` as an int >= 3 (a hop level)."""
+    return None if max_level is None else check_int("max_level", max_level, min_value=3)
+
+
 def _as_disc_bounds(disc_bounds: Any, m: int) -> list[float] | None:
     """None, or ``disc_bounds`` as m + 1 finite numbers B_0 = 0 <= B_1 <= ... <= B_m."""
     if disc_bounds is None:
@@ -632,6 +671,7 @@ def build_milp(
     user_cliques: bool = True,
     lifted_hops: bool | None = None,
     disc_bounds: Any = None,
+    max_level: int | None = None,
 ) -> CellModel | None:
     """Build the candidate model (module docstring) without solving it.
 
@@ -657,8 +697,12 @@ def build_milp(
     disc_bounds: None, or (B_0, ..., B_m): for k = 0..m an upper bound on the users any k
         discs cover (covered users, e.g. ``coverage_upper_bound(problem, k)``; B_0 = 0);
         with ``objective_range`` they add the light-site rows of item 9.
+    max_level: None (default: the exact model), or an int >= 3: hop levels from this one up
+        merge into one (``_hop_levels``), a relaxation of the candidate problem with fewer
+        rows, whose bounds are valid but whose solutions may be disconnected.
     """
     check_instance("problem", problem, CellProblem)
+    max_level = _as_max_level(max_level)
     lifted_hops = None if lifted_hops is None else check_bool("lifted_hops", lifted_hops)
     if connectivity not in CONNECTIVITY:
         raise ValueError(f"connectivity must be one of {CONNECTIVITY}, got {connectivity!r}")
@@ -713,7 +757,7 @@ def build_milp(
             if lifted
             else None
         )
-        built = _hop_levels(lin, x, pts, direct, problem, late, clique_rows)
+        built = _hop_levels(lin, x, pts, direct, problem, late, clique_rows, max_level)
         if built is None:
             return None
         z, squares, stats["level_vars"], stats["connectivity_terms"] = built
@@ -944,6 +988,7 @@ def lp_fixing(
     deadline: float | None = None,
     time_limit: float | None = None,
     max_terms: int | None = None,
+    max_level: int | None = None,
 ) -> tuple[np.ndarray, float, dict[str, Any]] | None:
     """Item 10: which of the sites ``keep`` a placement covering more than lo =
     ``objective_range[0]`` users may hold, by the LP relaxation of the lifted hop model.
@@ -952,7 +997,9 @@ def lp_fixing(
     ``keep`` sites worth >= lo, stats), or None past ``deadline`` (a ``time.perf_counter()``
     value) or when the lifted model has more than ``max_terms`` hop-row terms (None: no
     cap). The sites of ``incumbent`` ((k, 2) m) stay alive. ``disc_bounds`` and
-    ``user_cliques`` as in :func:`build_milp`; ``time_limit`` (s) for the LP solve.
+    ``user_cliques`` as in :func:`build_milp`, and ``max_level`` (its hop levels merged from
+    this one up, a relaxation: the bound and the fixing stay valid); ``time_limit`` (s) for
+    the LP solve.
     """
     t0 = time.perf_counter()
     mdl = build_milp(
@@ -965,6 +1012,7 @@ def lp_fixing(
         user_cliques=user_cliques,
         lifted_hops=True,
         disc_bounds=disc_bounds,
+        max_level=max_level,
     )
     if mdl is None or (deadline is not None and time.perf_counter() > deadline):
         return None
@@ -1117,6 +1165,7 @@ class _ModelSolve:
             deadline=self.deadline,
             time_limit=None if left is None else LP_FIXING_SHARE * left,
             max_terms=LP_FIXING_MAX_TERMS,
+            max_level=LP_FIXING_LEVELS,
         )
         if out is None:
             self.fix_stats = {"lp_fixing": "skipped (model above LP_FIXING_MAX_TERMS terms, or no time)"}

@@ -13,7 +13,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from droneplan.formulations.cells import _milp, candidate_sites, coverage_upper_bound, evaluate, solve_exact
+from droneplan.formulations.cells import (
+    _milp,
+    branch_and_bound,
+    build_milp,
+    candidate_sites,
+    coverage_upper_bound,
+    evaluate,
+    solve_exact,
+)
 from droneplan.formulations.cells._core import TOL, pairwise_distances
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.result import Status
@@ -51,10 +59,12 @@ def disc_bounds(problem):
     return [0.0] + [float(coverage_upper_bound(problem, k).bound) for k in range(1, problem.n_cells + 1)]
 
 
-@settings(max_examples=10, deadline=None)
-@given(st.integers(0, 10_000), st.integers(2, 3), st.integers(0, 2))
-def test_fixed_sites_cannot_beat_the_cut(seed, n_clusters, below):
-    p = clustered(seed, n_clusters, 3, m=3)
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 10_000), st.sampled_from([(2, 3), (3, 3), (2, 4)]), st.integers(0, 2))
+def test_fixed_sites_cannot_beat_the_cut(seed, shape, below):
+    # at m = 4 the LP merges hop levels 3 and 4 (a relaxation, as item 10 runs it)
+    n_clusters, m = shape
+    p = clustered(seed, n_clusters, 3, m=m)
     cand = candidate_sites(p)
     best = best_holding_each_site(p, cand)
     opt = int(best.max())
@@ -62,7 +72,13 @@ def test_fixed_sites_cannot_beat_the_cut(seed, n_clusters, below):
     bounds = disc_bounds(p)
     keep = np.arange(len(cand.points))
     out = _milp.lp_fixing(
-        p, cand, keep, incumbent=np.zeros((0, 2)), objective_range=(lo, bounds[-1]), disc_bounds=bounds
+        p,
+        cand,
+        keep,
+        incumbent=np.zeros((0, 2)),
+        objective_range=(lo, bounds[-1]),
+        disc_bounds=bounds,
+        max_level=3,
     )
     assert out is not None
     alive, bound, stats = out
@@ -104,3 +120,24 @@ def test_solve_with_fixing_equals_brute_force(brute_force, monkeypatch, seed):
     assert ev.feasible and ev.covered == res.objective
     if res.info["model_stats"]:  # no early exit: item 10 ran before the model
         assert "lp_bound" in res.info["model_stats"]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_merged_levels_are_a_relaxation(seed):
+    # levels 3..5 merged into one: fewer level variables, and its optimum is at least the
+    # exact optimum (every connected placement satisfies the merged rows)
+    p = clustered(seed, 4, 3, m=5, half_width=7.0)
+    bb = branch_and_bound(p, time_limit=60, workers=1)
+    assert bb.status is Status.OPTIMAL
+    exact = build_milp(p, backend="cp-sat")
+    merged = build_milp(p, backend="cp-sat", max_level=3)
+    assert merged.stats["level_vars"] < exact.stats["level_vars"]
+    res = merged.model.solve(variables=merged.x, time_limit=60, workers=1)
+    assert res.status is Status.OPTIMAL
+    assert round(res.objective) >= bb.objective
+
+
+@pytest.mark.parametrize(("max_level", "error"), [(2, ValueError), (1.5, TypeError), ("3", TypeError)])
+def test_bad_max_level_is_refused_by_name(max_level, error):
+    with pytest.raises(error, match="max_level"):
+        build_milp(clustered(0, 2, 3, m=4), max_level=max_level)
