@@ -134,14 +134,17 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    B + min(d_c, 0) on those that hold site c (d_c the reduced cost of x_c). A site whose
    bound is below z + 1 is in no better placement and is dropped (the incumbent's sites stay);
    floor(B) caps the objective, and when it is <= z the incumbent is proven at once. Table
-   4.2 m = 4 seed 5: 3 431 of 4 518 sites dropped, cap 73 -> 64, proven in 71.5 CPU s
-   (106 s wall, load 2.5-3; the LP 37 s of it), where it was open at 61 / 71 after 75 CPU s.
-   Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s, load 2.4-3.1: all 10 proven, CPU s
-   4.2, 3.2, 0.4, 5.3, 27.3, 71.5, 3.9, 2.6, 0.1, 1.6 (before items 3b's leaving out and 10,
-   same load: seed 5 open, seeds 3 and 4 in 14.2 and 56.2). Seed 5 with 2 workers: 73 CPU s,
-   70.6 s wall. m = 6, 600 s: seed 5 in 82.4 CPU s (was 94), seed 0 in 4.2. m = 6 seed 1
-   stays open: its lifted model has 1.75 M terms and HiGHS had not solved its LP after
-   300 s, so ``LP_FIXING_MAX_TERMS`` skips the item there.
+   4.2 m = 4 seed 5 (all hop levels): 3 431 of 4 518 sites dropped, cap 73 -> 64, proven in
+   71.5 CPU s (the LP 37 s wall of it), where it was open at 61 / 71 after 75 CPU s. The LP is
+   built with hop levels 3..m merged when m <= 4 (``LP_FIXING_LEVELS``, a relaxation): LP
+   26 -> 2.8 CPU s, cap 65, 3 253 sites dropped, the whole solve 24 CPU s.
+   Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s, load 2.9-3.0: all 10 proven, CPU s
+   4.7, 2.4, 0.5, 5.6, 7.8, 23.1, 4.5, 2.6, 0.1, 1.7 (seed 5 34 s wall). Before items 3b's
+   leaving out and 10, load 1-3.4: seed 5 open at 61 / 71 (74.9 CPU s), seeds 3 and 4 in 14.2
+   and 56.2 CPU s. On m = 6 seed 1 the LP (all levels, 1.75 M terms: not solved in 300 s;
+   levels merged from 3, 4 or 5: 75.0, the cap already) fixes nothing: it stays open
+   (66 / 75 after 497 CPU s, 607 s wall). m = 6 seed 5 (all levels): 2 007 of 3 410 sites
+   dropped, proven in 83.6 CPU s (130 s wall, load 3.1; 94 CPU s without item 10).
 
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
@@ -209,17 +212,23 @@ CP-SAT proves Table 4.2 m = 4 in a few seconds, less than the LP takes)."""
 
 LP_FIXING_LEVELS = 3
 """The LP of item 10 merges the hop levels from this one up (``build_milp(max_level=)``, a
-relaxation): Table 4.2 m = 4 seed 5, LP 64.62 -> 65.00 but 26 -> 2.8 CPU s, 3 431 -> 3 253
-sites dropped."""
+relaxation) when m <= ``LP_FIXING_MERGE_MAX_M``: Table 4.2 m = 4 seed 5, LP 64.62 -> 65.00
+but 26 -> 2.8 CPU s, 3 431 -> 3 253 sites dropped."""
+
+LP_FIXING_MERGE_MAX_M = 4
+"""Largest m whose item-10 LP merges levels. At m = 6 merging costs too much bound: Table 4.2
+m = 6 seed 5 (incumbent 85), all levels: LP 88.90, 2 007 sites dropped, proven in 82 CPU s;
+merged from level 3 or 5: 89.00, 1 284 or 1 329 dropped, not proven after 5 min wall."""
 
 LP_FIXING_SHARE = 0.5
 """Share of the time left that the LP of item 10 may take (HiGHS returns no usable duals
 before the simplex ends, so a stopped LP fixes nothing)."""
 
 LP_FIXING_MAX_TERMS = 1_200_000
-"""Item 10 is skipped when the lifted model has more hop-row terms than this: Table 4.2
-m = 4 seed 5 (0.93 M terms) solves its LP in about 25 CPU s, m = 6 seed 1 (1.75 M) had not
-solved it after 300 s."""
+"""Item 10 is skipped when the lifted model has more hop-row terms than this: with all hop
+levels, Table 4.2 m = 4 seed 5 (0.93 M terms) solved its LP in about 25 CPU s, m = 6 seed 1
+(1.75 M) had not after 300 s (so it is skipped there; merged from level 3 its LP is 75.0,
+the cap already, and fixes nothing)."""
 
 CONNECTIVITY = ("lazy", "hops")
 """Exact backhaul formulations of the candidate model (module docstring, item 3)."""
@@ -1165,7 +1174,7 @@ class _ModelSolve:
             deadline=self.deadline,
             time_limit=None if left is None else LP_FIXING_SHARE * left,
             max_terms=LP_FIXING_MAX_TERMS,
-            max_level=LP_FIXING_LEVELS,
+            max_level=LP_FIXING_LEVELS if prep.problem.n_cells <= LP_FIXING_MERGE_MAX_M else None,
         )
         if out is None:
             self.fix_stats = {"lp_fixing": "skipped (model above LP_FIXING_MAX_TERMS terms, or no time)"}
