@@ -139,7 +139,9 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    built with hop levels 3..m merged when m <= 4 (``LP_FIXING_LEVELS``, a relaxation): LP
    26 -> 2.8 CPU s, cap 65, 3 253 sites dropped, the whole solve 24 CPU s.
    Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s, load 2.9-3.0: all 10 proven, CPU s
-   4.7, 2.4, 0.5, 5.6, 7.8, 23.1, 4.5, 2.6, 0.1, 1.7 (seed 5 34 s wall). Before items 3b's
+   4.7, 2.4, 0.5, 5.6, 7.8, 23.1, 4.5, 2.6, 0.1, 1.7 (seed 5 34 s wall); with the CP-SAT
+   subsolvers of ``FEW_WORKER_OPTIONS`` now default: 3.8, 2.0, 0.5, 4.7, 6.4, 16.1, 4.9, 2.8,
+   0.1, 1.5 (seed 5 23 s wall); 2 workers, seed 5: 21.7 CPU s, 34 s wall. Before items 3b's
    leaving out and 10, load 1-3.4: seed 5 open at 61 / 71 (74.9 CPU s), seeds 3 and 4 in 14.2
    and 56.2 CPU s. On m = 6 seed 1 the LP (all levels, 1.75 M terms: not solved in 300 s;
    levels merged from 3, 4 or 5: 75.0, the cap already) fixes nothing: it stays open
@@ -184,9 +186,12 @@ BACKENDS = tuple(available_backends("linear"))
 
 # With 1-2 workers CP-SAT's default portfolio has no LP-based subsolver, so its bound
 # on this covering model stalls far above the optimum (m=4 thesis instance: bound 222 vs
-# optimum 61 after 120 s). An LP-relaxation worker plus the core-based worker close it.
-# Options are keyed by backend name (data, looked up like the backend itself).
-FEW_WORKER_OPTIONS: dict[str, dict[str, Any]] = {"cp-sat": {"subsolvers": ["max_lp", "core"]}}
+# optimum 61 after 120 s). Two LP-based workers close it: the default LP search (what one
+# worker runs) and the one with the full linearization. With the core-based worker in place
+# of the first, Table 4.2 m = 4 seed 5 (2 workers, with item 10) stayed open at 61 / 65
+# after 120 s (75 CPU s, load 3-4); with these two it was proven in 21.7 CPU s (34 s wall),
+# seeds 0, 3, 4, 6 alike (4.8-6.8 CPU s either way). Keyed by backend name.
+FEW_WORKER_OPTIONS: dict[str, dict[str, Any]] = {"cp-sat": {"subsolvers": ["default_lp", "max_lp"]}}
 """Backend options used when ``workers <= 2``, by registry name."""
 
 TARGET_START: dict[str, float] = {"cp-sat": 0.0}
