@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import itertools
 
+import numpy as np
 import pytest
 
 from droneplan.formulations.cells import candidate_sites, evaluate
+from droneplan.scenarios.cells import CellProblem
 
 
 def _best_coverage_by_enumeration(problem) -> int:
@@ -26,3 +28,23 @@ def _best_coverage_by_enumeration(problem) -> int:
 def brute_force():
     """The brute-force oracle: ``brute_force(problem)`` is the optimum over the candidate sites."""
     return _best_coverage_by_enumeration
+
+
+def _clustered_problem(seed, n_clusters, per_cluster, m, half_width=6.0, background=0) -> CellProblem:
+    """Users in tight clusters (many overlapping sites per cluster) spread far enough apart that
+    the clusters need relays (R_d = R_g = 1, r1 = 3, r2 = 2.5), plus ``background`` users drawn
+    uniformly over the square of half-side ``half_width``."""
+    rng = np.random.default_rng(seed)
+    centres = rng.uniform(-half_width, half_width, size=(n_clusters, 2))
+    users = np.concatenate([rng.normal(c, 0.3, size=(per_cluster, 2)) for c in centres])
+    users = np.concatenate([users, rng.uniform(-half_width, half_width, size=(background, 2))])
+    return CellProblem(
+        users=users, gbs=np.zeros((1, 2)), n_cells=m, R_d=1.0, R_g=1.0, r1=3.0, r2=2.5, bounds=None
+    )
+
+
+@pytest.fixture(scope="session")
+def clustered():
+    """``clustered(seed, n_clusters, per_cluster, m, half_width=6.0, background=0)``: a small
+    clustered cells instance whose clusters need relays."""
+    return _clustered_problem

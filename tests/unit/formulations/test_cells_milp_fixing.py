@@ -23,19 +23,7 @@ from droneplan.formulations.cells import (
     solve_exact,
 )
 from droneplan.formulations.cells._core import TOL, pairwise_distances
-from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.result import Status
-
-
-def clustered(seed, n_clusters, per_cluster, m, half_width=6.0):
-    """Users in tight clusters far enough apart that relays are needed (r1 = 3, r2 = 2.5)."""
-    rng = np.random.default_rng(seed)
-    centres = rng.uniform(-half_width, half_width, size=(n_clusters, 2))
-    users = np.concatenate([rng.normal(c, 0.3, size=(per_cluster, 2)) for c in centres])
-    users = np.concatenate([users, rng.uniform(-half_width, half_width, size=(3, 2))])
-    return CellProblem(
-        users=users, gbs=np.zeros((1, 2)), n_cells=m, R_d=1.0, R_g=1.0, r1=3.0, r2=2.5, bounds=None
-    )
 
 
 def best_holding_each_site(problem, cand):
@@ -61,10 +49,10 @@ def disc_bounds(problem):
 
 @settings(max_examples=12, deadline=None)
 @given(st.integers(0, 10_000), st.sampled_from([(2, 3), (3, 3), (2, 4)]), st.integers(0, 2))
-def test_fixed_sites_cannot_beat_the_cut(seed, shape, below):
+def test_fixed_sites_cannot_beat_the_cut(clustered, seed, shape, below):
     # at m = 4 the LP merges hop levels 3 and 4 (a relaxation, as item 10 runs it)
     n_clusters, m = shape
-    p = clustered(seed, n_clusters, 3, m=m)
+    p = clustered(seed, n_clusters, 3, m=m, background=3)
     cand = candidate_sites(p)
     best = best_holding_each_site(p, cand)
     opt = int(best.max())
@@ -89,10 +77,10 @@ def test_fixed_sites_cannot_beat_the_cut(seed, shape, below):
     assert stats["lp_fixed_sites"] == int((~alive).sum())
 
 
-def test_fixing_drops_sites_on_clustered_instances():
+def test_fixing_drops_sites_on_clustered_instances(clustered):
     dropped = 0
     for seed in range(4):
-        p = clustered(seed, 3, 3, m=3)
+        p = clustered(seed, 3, 3, m=3, background=3)
         cand = candidate_sites(p)
         opt = int(best_holding_each_site(p, cand).max())
         bounds = disc_bounds(p)
@@ -110,9 +98,9 @@ def test_fixing_drops_sites_on_clustered_instances():
 
 
 @pytest.mark.parametrize("seed", range(4))
-def test_solve_with_fixing_equals_brute_force(brute_force, monkeypatch, seed):
+def test_solve_with_fixing_equals_brute_force(clustered, brute_force, monkeypatch, seed):
     monkeypatch.setattr(_milp, "LP_FIXING_MIN_SITES", 0)  # run it on these small models too
-    p = clustered(seed, 3, 3, m=3)
+    p = clustered(seed, 3, 3, m=3, background=3)
     res = solve_exact(p, engine="milp", backend="cp-sat", time_limit=60, workers=1)
     assert res.status is Status.OPTIMAL
     assert res.objective == brute_force(p)
@@ -123,10 +111,10 @@ def test_solve_with_fixing_equals_brute_force(brute_force, monkeypatch, seed):
 
 
 @pytest.mark.parametrize("seed", range(3))
-def test_merged_levels_are_a_relaxation(seed):
+def test_merged_levels_are_a_relaxation(clustered, seed):
     # levels 3..5 merged into one: fewer level variables, and its optimum is at least the
     # exact optimum (every connected placement satisfies the merged rows)
-    p = clustered(seed, 4, 3, m=5, half_width=7.0)
+    p = clustered(seed, 4, 3, m=5, half_width=7.0, background=3)
     bb = branch_and_bound(p, time_limit=60, workers=1)
     assert bb.status is Status.OPTIMAL
     exact = build_milp(p, backend="cp-sat")
@@ -138,6 +126,6 @@ def test_merged_levels_are_a_relaxation(seed):
 
 
 @pytest.mark.parametrize(("max_level", "error"), [(2, ValueError), (1.5, TypeError), ("3", TypeError)])
-def test_bad_max_level_is_refused_by_name(max_level, error):
+def test_bad_max_level_is_refused_by_name(clustered, max_level, error):
     with pytest.raises(error, match="max_level"):
-        build_milp(clustered(0, 2, 3, m=4), max_level=max_level)
+        build_milp(clustered(0, 2, 3, m=4, background=3), max_level=max_level)

@@ -15,7 +15,6 @@ from hypothesis import strategies as st
 
 from droneplan.formulations.cells import build_milp, coverage_upper_bound, evaluate
 from droneplan.formulations.cells._milp import _light_site_rows
-from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.result import Status
 
 
@@ -108,26 +107,15 @@ def test_rows_cut_a_light_site_and_a_light_pair_only():
     assert not _cut(rec.rows, (1, 2))
 
 
-def clustered(seed, n_clusters, per_cluster, m, half_width=6.0):
-    """Users in tight clusters far enough apart that relays are needed (r1 = 3, r2 = 2.5)."""
-    rng = np.random.default_rng(seed)
-    centres = rng.uniform(-half_width, half_width, size=(n_clusters, 2))
-    users = np.concatenate([rng.normal(c, 0.3, size=(per_cluster, 2)) for c in centres])
-    users = np.concatenate([users, rng.uniform(-half_width, half_width, size=(4, 2))])
-    return CellProblem(
-        users=users, gbs=np.zeros((1, 2)), n_cells=m, R_d=1.0, R_g=1.0, r1=3.0, r2=2.5, bounds=None
-    )
-
-
 def disc_bounds(problem):
     return [0.0] + [float(coverage_upper_bound(problem, k).bound) for k in range(1, problem.n_cells + 1)]
 
 
 @settings(max_examples=12, deadline=None)
 @given(st.integers(0, 10_000), st.integers(2, 3), st.sampled_from(["cp-sat", "highs"]))
-def test_model_with_the_rows_at_the_optimum_keeps_it(brute_force, seed, n_clusters, backend):
+def test_model_with_the_rows_at_the_optimum_keeps_it(clustered, brute_force, seed, n_clusters, backend):
     # lo = the optimum itself: the strongest rows a solve can get, and still the optimum stays
-    p = clustered(seed, n_clusters, 3, m=3)
+    p = clustered(seed, n_clusters, 3, m=3, background=4)
     opt = brute_force(p)
     bounds = disc_bounds(p)
     mdl = build_milp(p, backend=backend, objective_range=(opt, bounds[-1]), disc_bounds=bounds)
@@ -138,10 +126,10 @@ def test_model_with_the_rows_at_the_optimum_keeps_it(brute_force, seed, n_cluste
     assert ev.feasible and ev.covered == round(res.objective) == opt
 
 
-def test_rows_are_written_on_clustered_instances(brute_force):
+def test_rows_are_written_on_clustered_instances(clustered, brute_force):
     rows = 0
     for seed in range(6):
-        p = clustered(seed, 3, 3, m=3)
+        p = clustered(seed, 3, 3, m=3, background=4)
         opt = brute_force(p)
         bounds = disc_bounds(p)
         mdl = build_milp(p, objective_range=(opt, bounds[-1]), disc_bounds=bounds)
@@ -162,7 +150,7 @@ def test_rows_are_written_on_clustered_instances(brute_force):
         ([0, 1, float("nan"), 3], ValueError),
     ],
 )
-def test_bad_disc_bounds_are_refused_by_name(disc_bounds_arg, error):
-    p = clustered(0, 2, 3, m=3)
+def test_bad_disc_bounds_are_refused_by_name(clustered, disc_bounds_arg, error):
+    p = clustered(0, 2, 3, m=3, background=4)
     with pytest.raises(error, match="disc_bounds"):
         build_milp(p, disc_bounds=disc_bounds_arg)

@@ -12,19 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from droneplan.formulations.cells import branch_and_bound, build_milp, evaluate
-from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.result import Status
-
-
-def clustered(seed, n_clusters, per_cluster, m, half_width=6.0):
-    """Users in tight clusters (many overlapping sites per cluster, so user cliques with
-    several sites) spread far enough that the clusters need relays (r1 = 3, r2 = 2.5)."""
-    rng = np.random.default_rng(seed)
-    centres = rng.uniform(-half_width, half_width, size=(n_clusters, 2))
-    users = np.concatenate([rng.normal(c, 0.3, size=(per_cluster, 2)) for c in centres])
-    return CellProblem(
-        users=users, gbs=np.zeros((1, 2)), n_cells=m, R_d=1.0, R_g=1.0, r1=3.0, r2=2.5, bounds=None
-    )
 
 
 def model_optimum(problem, backend, lifted):
@@ -39,14 +27,14 @@ def model_optimum(problem, backend, lifted):
 
 @settings(max_examples=15, deadline=None)
 @given(st.integers(0, 10_000), st.integers(2, 3), st.sampled_from(["highs", "cp-sat"]))
-def test_lifted_model_equals_brute_force(brute_force, seed, n_clusters, backend):
+def test_lifted_model_equals_brute_force(clustered, brute_force, seed, n_clusters, backend):
     p = clustered(seed, n_clusters, 3, m=3)
     value, _ = model_optimum(p, backend, lifted=True)
     assert value == brute_force(p)
 
 
 @pytest.mark.parametrize("seed", range(4))
-def test_lifted_model_equals_branch_and_bound_m4(seed):
+def test_lifted_model_equals_branch_and_bound_m4(clustered, seed):
     p = clustered(seed, 4, 3, m=4, half_width=7.0)
     bb = branch_and_bound(p, time_limit=60, workers=1)
     assert bb.status is Status.OPTIMAL
@@ -57,14 +45,14 @@ def test_lifted_model_equals_branch_and_bound_m4(seed):
     assert stats["connectivity_terms"] != plain_stats["connectivity_terms"]
 
 
-def test_lifted_rows_default_per_backend():
+def test_lifted_rows_default_per_backend(clustered):
     p = clustered(1, 4, 3, m=4, half_width=7.0)
     for backend, lifted in (("highs", True), ("cp-sat", False)):
         default = build_milp(p, backend=backend).stats["connectivity_terms"]
         assert default == build_milp(p, backend=backend, lifted_hops=lifted).stats["connectivity_terms"]
 
 
-def test_lifted_hops_bad_input():
+def test_lifted_hops_bad_input(clustered):
     p = clustered(0, 2, 3, m=2)
     with pytest.raises(TypeError, match="lifted_hops"):
         build_milp(p, lifted_hops="yes")
