@@ -30,6 +30,8 @@ from ortools.linear_solver import pywraplp
 
 from droneplan.core.validation import check_time_limit
 
+__all__ = ["LpBound", "lp_dual_bound"]
+
 
 @dataclass(frozen=True)
 class LpBound:
