@@ -85,6 +85,7 @@ __all__ = [
     "bench_grid_specs",
     "bench_grid_row",
     "bench_grid",
+    "grid_main",
     "grid_text",
     "bench",
 ]
@@ -1382,6 +1383,8 @@ def _grid_child() -> None:
         "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "worker_peak_rss_mib": kids.ru_maxrss / 1024,
         "base_rss_mib": base_rss / 1024,
+        # the engine's counters (search nodes, eliminated sites, model size ...) as JSON text
+        "model_stats": json.dumps(res.info.get("model_stats", {}), default=str, sort_keys=True),
     }
     sys.stdout.write(json.dumps(row) + "\n")
 
@@ -1444,29 +1447,74 @@ def grid_text(row: Mapping[str, Any]) -> str:
 
 
 def bench_grid(
-    *, quick: bool, out: Path, time_limit: float | None = None, progress: bool = True
+    *,
+    quick: bool,
+    out: Path,
+    time_limit: float | None = None,
+    progress: bool = True,
+    ms=None,
+    densities=None,
+    engines=None,
+    seed: int = INSTANCE_SEED,
 ) -> pd.DataFrame:
     """The scale grid of ``bench cells``: time to proof (or status and gap at the limit),
     CPU seconds, peak memory, wall and load for every m x density x engine row
-    (:func:`bench_grid_specs`), one fresh process per row, written to ``bench_cells_grid.csv``.
+    (:func:`bench_grid_specs`), one fresh process per row, written to ``bench_cells_grid.csv``
+    (rewritten after every row, so a grid cut short keeps the rows it ran).
 
     quick: the small grid; out: output directory; time_limit: seconds per row (None: the
     grid's default); progress: print each row as it ends.
+    ms, densities, engines: a subset of the grid (numbers of drone-cells, density factors,
+        engine names; None: the grid's default, as in :func:`bench_grid_specs`).
+    seed: Table 4.2 user-snapshot seed (int >= 0).
     """
-    specs = bench_grid_specs(quick=quick, time_limit=time_limit)
+    specs = bench_grid_specs(
+        quick=quick, time_limit=time_limit, ms=ms, densities=densities, engines=engines, seed=seed
+    )
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
     rows = []
     for spec in specs:
         row = bench_grid_row(spec)
         rows.append(row)
+        pd.DataFrame(rows).to_csv(out / "bench_cells_grid.csv", index=False)
         if progress:
             print(
                 f"cells grid m={row['m']} x{row['density']:g} {row['engine']}: {grid_text(row)}", flush=True
             )
-    df = pd.DataFrame(rows)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    df.to_csv(out / "bench_cells_grid.csv", index=False)
-    return df
+    return pd.DataFrame(rows)
+
+
+def grid_main(argv=None) -> int:
+    """Run a chosen part of the scale grid from the command line (``python -m
+    droneplan.studies.cells --ms 6 8 --densities 2 4 --engines bnb --out DIR``); every option
+    left out takes the full grid's default. Returns the exit code (0).
+
+    argv: the arguments (list of str; None: ``sys.argv[1:]``)."""
+    import argparse
+
+    ap = argparse.ArgumentParser(
+        prog="python -m droneplan.studies.cells",
+        description="Rows of the bench cells scale grid, each in a fresh process (bench_grid).",
+    )
+    ap.add_argument("--ms", type=int, nargs="+", default=None, help="numbers of drone-cells m")
+    ap.add_argument("--densities", type=float, nargs="+", default=None, help="user-density factors")
+    ap.add_argument("--engines", nargs="+", default=None, choices=list(ENGINES), help="exact engines")
+    ap.add_argument("--seed", type=int, default=INSTANCE_SEED, help="Table 4.2 user-snapshot seed")
+    ap.add_argument("--time-limit", type=float, default=None, help="seconds per row")
+    ap.add_argument("--quick", action="store_true", help="the quick grid's defaults")
+    ap.add_argument("--out", type=Path, required=True, help="output directory (bench_cells_grid.csv)")
+    args = ap.parse_args(argv)
+    bench_grid(
+        quick=args.quick,
+        out=args.out,
+        time_limit=args.time_limit,
+        ms=args.ms,
+        densities=args.densities,
+        engines=args.engines,
+        seed=args.seed,
+    )
+    return 0
 
 
 def bench(*, quick: bool, out: Path, time_limit: float | None = None) -> None:
@@ -1583,3 +1631,9 @@ def bench(*, quick: bool, out: Path, time_limit: float | None = None) -> None:
             grid_text(g),
         )
     t.emit(out, "bench_cells")
+
+
+if __name__ == "__main__":
+    import sys
+
+    sys.exit(grid_main())
