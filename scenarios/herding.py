@@ -503,8 +503,9 @@ def drone_step(
     dt: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Integrate (6.3)-(6.6) over ``dt`` with |v| <= V_max, |omega| <= U_max (clipped)."""
-    v = np.clip(np.asarray(v, dtype=float), -params.V_max, params.V_max)
-    omega = np.clip(np.asarray(omega, dtype=float), -params.U_max, params.U_max)
+    # np.clip's values (NaN kept), from the two ufuncs: a few µs less per call on a few drones
+    v = np.minimum(np.maximum(np.asarray(v, dtype=float), -params.V_max), params.V_max)
+    omega = np.minimum(np.maximum(np.asarray(omega, dtype=float), -params.U_max), params.U_max)
     drones = np.asarray(drones, dtype=float)
     headings = np.asarray(headings, dtype=float)
     step = v * dt

@@ -3,6 +3,7 @@ minimum enclosing circle. Vectorised with numpy; degenerate herds never raise.""
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -172,6 +173,10 @@ def _octagon_band(pts: np.ndarray, margin: float) -> np.ndarray:
     return np.flatnonzero(keep)
 
 
+_POINT_AT_SCALAR_MAX = 12
+"""Up to this many arc positions (one per drone), :meth:`ExtendedHull.point_at` works in plain
+Python floats (faster than a dozen numpy calls on a few values)."""
+
 _TRACK_MIN = 64
 """Herds of at least this many animals are tracked by :class:`HullTracker` (smaller ones: qhull
 on all)."""
@@ -317,6 +322,7 @@ class ExtendedHull:
     def __post_init__(self) -> None:
         self._AB, self._L2, self._L = _edges(self.vertices)
         self._last_project: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._lists: tuple[list[float], ...] | None = None  # plain-float copies for _point_at_scalar
 
     @property
     def perimeter(self) -> float:
@@ -329,11 +335,37 @@ class ExtendedHull:
 
     def point_at(self, s) -> np.ndarray:
         """Points at arc positions ``s`` (any shape, taken mod perimeter), shape (..., 2)."""
-        s = np.mod(np.asarray(s, dtype=float), self.perimeter)
+        s = np.asarray(s, dtype=float)
+        if s.ndim == 1 and s.size <= _POINT_AT_SCALAR_MAX and bool(np.isfinite(s).all()):
+            return self._point_at_scalar(s.tolist())
+        s = np.mod(s, self.perimeter)
         i = np.clip(np.searchsorted(self.cum, s, side="right") - 1, 0, len(self.vertices) - 1)
         L = self._L[i]
         t = np.divide(s - self.cum[i], L, out=np.zeros_like(s), where=L > 0)
         return self.vertices[i] + t[..., None] * self._AB[i]
+
+    def _point_at_scalar(self, s: list[float]) -> np.ndarray:
+        """:meth:`point_at` of a few finite arc positions in Python floats (the same operations,
+        the same values to the last bit: Python's float % rounds as np.mod, bisect_right finds
+        searchsorted's side="right")."""
+        if self._lists is None:
+            self._lists = (
+                self.cum.tolist(),
+                self._L.tolist(),
+                self.vertices[:, 0].tolist(),
+                self.vertices[:, 1].tolist(),
+                self._AB[:, 0].tolist(),
+                self._AB[:, 1].tolist(),
+            )
+        cum, Ls, vx, vy, ex, ey = self._lists
+        M, last = cum[-1], len(vx) - 1
+        out = []
+        for si in s:
+            sm = si % M
+            i = min(max(bisect.bisect_right(cum, sm) - 1, 0), last)
+            t = (sm - cum[i]) / Ls[i] if Ls[i] > 0 else 0.0
+            out.append((vx[i] + t * ex[i], vy[i] + t * ey[i]))
+        return np.array(out, dtype=float).reshape(len(s), 2)
 
     def project(self, q: np.ndarray):
         """Closest points on the polygon to points q (k, 2) (Remark 6.4.2, eq. 6.11).

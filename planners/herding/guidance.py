@@ -15,6 +15,8 @@ v = V_max g(a, b), u = U_max g(a, b) F(a, b).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from droneplan.planners.herding.geometry import ExtendedHull
@@ -46,10 +48,13 @@ def steer(headings: np.ndarray, b: np.ndarray, V_max: float, U_max: float, dt: f
     Returns (v (n,), omega (n,)).
 
     Written per coordinate (the same values as :func:`g` and :func:`F` of the rows, to the last
-    bit, without numpy's reductions over the short last axis).
+    bit, without numpy's reductions over the short last axis); up to ``_SCALAR_MAX`` drones in
+    plain Python floats (the same operations, the same values).
     """
     ax, ay = np.cos(headings), np.sin(headings)
     b = np.asarray(b, dtype=float)
+    if ax.ndim == 1 and ax.size <= _SCALAR_MAX and b.shape == (ax.size, 2):
+        return _steer_scalar(ax.tolist(), ay.tolist(), b.tolist(), V_max, U_max, dt)
     bx, by = b[:, 0], b[:, 1]
     ab = ax * bx + ay * by  # (a, b)
     gg = np.where(ab > 0, 1.0, -1.0)  # g(a, b)
@@ -68,6 +73,37 @@ def steer(headings: np.ndarray, b: np.ndarray, V_max: float, U_max: float, dt: f
     along = np.abs(ab)  # progress available along the heading
     v = gg * np.minimum(V_max, along / dt)
     return v, omega
+
+
+def _sign(x: float) -> float:
+    """np.sign of a Python float (0.0 for both zeros, NaN for NaN)."""
+    return 1.0 if x > 0 else -1.0 if x < 0 else (x if x != x else 0.0)
+
+
+def _minimum(a: float, x: float) -> float:
+    """np.minimum(a, x) for a finite ``a`` (a NaN ``x`` propagates)."""
+    return a if a < x else x
+
+
+def _steer_scalar(ax: list[float], ay: list[float], b: list[list[float]], V_max, U_max, dt):
+    """:func:`steer` for a few drones, one at a time in Python floats (the numpy version's
+    operations in the same order; arccos stays numpy's, on all drones at once)."""
+    gg_l, turn_l, cos_l, along_l = [], [], [], []
+    for axi, ayi, (bx, by) in zip(ax, ay, b, strict=True):
+        ab = axi * bx + ayi * by
+        gg = 1.0 if ab > 0 else -1.0
+        fx, fy = bx - ab * axi, by - ab * ayi
+        fn = math.sqrt(fx * fx + fy * fy)
+        ux, uy = (fx / fn, fy / fn) if fn > 1e-12 else (0.0, 0.0)
+        turn_l.append(gg * _sign(ux * -ayi + uy * axi))
+        nb = math.sqrt(bx * bx + by * by)
+        cos_l.append(((gg * axi) * bx + (gg * ayi) * by) / nb if nb > 1e-12 else 1.0)
+        gg_l.append(gg)
+        along_l.append(abs(ab))
+    ang = np.arccos(np.clip(np.array(cos_l), -1.0, 1.0)).tolist()
+    omega = [t * _minimum(U_max, a / dt) for t, a in zip(turn_l, ang, strict=True)]
+    v = [gg * _minimum(V_max, al / dt) for gg, al in zip(gg_l, along_l, strict=True)]
+    return np.array(v), np.array(omega)
 
 
 def fly_to_edge(

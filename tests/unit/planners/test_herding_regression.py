@@ -429,3 +429,57 @@ def test_the_scalar_waypoint_equals_the_vectorised_one(monkeypatch):
         assert np.array_equal(scalar, vectorised)
         checked += n
     assert checked > 1000
+
+
+def test_the_scalar_point_at_equals_the_vectorised_one(monkeypatch):
+    """Points at a few arc positions are found in plain Python; on random hulls and positions
+    (vertices, the perimeter itself, negative and beyond-a-lap positions included) they are the
+    numpy version's points to the bit."""
+    from droneplan.planners.herding import geometry
+
+    rng = np.random.default_rng(15)
+    checked = 0
+    for _ in range(400):
+        hull = dp.herding.ExtendedHull.from_points(
+            rng.uniform(0.0, 300.0, (int(rng.integers(1, 40)), 2)), 30.0
+        )
+        M, n_e = hull.perimeter, len(hull.vertices)
+        n = int(rng.integers(1, 13))
+        s = rng.uniform(-M, 2 * M, n)
+        s[: n // 3] = hull.vertex_s[rng.integers(0, n_e, n // 3)]
+        if n > 1:
+            s[-1] = M
+        scalar = hull.point_at(s)
+        monkeypatch.setattr(geometry, "_POINT_AT_SCALAR_MAX", 0)
+        vectorised = hull.point_at(s)
+        monkeypatch.setattr(geometry, "_POINT_AT_SCALAR_MAX", 12)
+        assert scalar.shape == vectorised.shape == (n, 2)
+        assert np.array_equal(scalar, vectorised)
+        checked += n
+    assert checked > 1000
+
+
+def test_the_scalar_steering_law_equals_the_vectorised_one(monkeypatch):
+    """The sliding-mode law of a few drones runs in plain Python; on random headings and target
+    vectors (zero vectors, vectors along and against the heading included) it gives the numpy
+    version's speeds and turn rates to the bit."""
+    from droneplan.planners.herding import guidance
+
+    rng = np.random.default_rng(16)
+    kinds = set()
+    for trial in range(2000):
+        n = int(rng.integers(1, 13))
+        headings = rng.uniform(-4.0, 4.0, n)
+        b = rng.normal(size=(n, 2)) * rng.uniform(0.0, 30.0)
+        if trial % 4 == 0:  # along or against the heading, or no vector at all
+            a = np.column_stack([np.cos(headings), np.sin(headings)])
+            b = a * rng.choice([-2.0, 0.0, 3.0], (n, 1))
+        dt = float(rng.choice([0.05, 0.1, 1.0]))
+        scalar = guidance.steer(headings, b, 3.0, 1.5, dt)
+        monkeypatch.setattr(guidance, "_SCALAR_MAX", 0)
+        vectorised = guidance.steer(headings, b, 3.0, 1.5, dt)
+        monkeypatch.setattr(guidance, "_SCALAR_MAX", 12)
+        for x, y in zip(scalar, vectorised, strict=True):
+            assert np.array_equal(x, y)
+        kinds.update(np.sign(scalar[1]).tolist())
+    assert kinds == {-1.0, 0.0, 1.0}
