@@ -10,6 +10,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+try:  # scipy's qhull wrapper behind ConvexHull (see _qhull_2d)
+    from scipy.spatial._qhull import _Qhull as _QHULL
+except ImportError:  # pragma: no cover - another scipy layout: ConvexHull alone
+    _QHULL = None
+
 from droneplan.core.validation import check_array, check_positive, check_real
 
 __all__ = [
@@ -31,14 +36,40 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
     return _convex_hull(check_array("points", points, shape=(None, 2), min_rows=1))
 
 
+def _qhull_2d(pts: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """``ConvexHull(pts)``'s (vertices, volume, area) of (n, 2) points: ccw vertex indices, the
+    enclosed area (m^2) and the perimeter (m). QhullError on flat input, as ConvexHull.
+
+    ConvexHull also builds the facet, neighbour and equation arrays, which cost as much as the
+    hull itself on the herders' hundred-odd points; this runs the same qhull calls (mode "i",
+    option "Qt", triangulated, the 2-D extremes in order) on scipy's qhull wrapper and reads only
+    these three, so the result is ConvexHull's. Should that wrapper change, ConvexHull is used.
+    """
+    if _QHULL is not None:
+        try:
+            q = _QHULL(b"i", pts, None, required_options=b"Qt")
+        except (TypeError, AttributeError):  # another scipy: the public class below
+            pass
+        else:
+            try:
+                q.triangulate()
+                vertices = q.get_extremes_2d()
+                volume, area = q.volume_area()
+            finally:
+                q.close()
+            return vertices, float(volume), float(area)
+    hull = ConvexHull(pts)
+    return hull.vertices, float(hull.volume), float(hull.area)
+
+
 def _convex_hull(pts: np.ndarray) -> np.ndarray:
     """:func:`convex_hull` of checked points (HullTracker's rebuild)."""
     if pts.shape[0] >= 3:
         try:
             cand = _hull_candidates(pts)
-            hull = ConvexHull(pts if cand is None else pts[cand])
-            if hull.volume > 1e-9 * hull.area * hull.area:  # 2-D: volume = area, area = perimeter
-                return pts[hull.vertices if cand is None else cand[hull.vertices]]
+            vertices, volume, area = _qhull_2d(pts if cand is None else pts[cand])
+            if volume > 1e-9 * area * area:  # 2-D: volume = area, area = perimeter
+                return pts[vertices if cand is None else cand[vertices]]
         except QhullError:
             pass  # Qhull rejects flat input: collinear or coincident points are handled below
     c = pts.mean(axis=0)
@@ -133,9 +164,9 @@ class HullTracker:
             if self._moved < 0.45 * self.margin:  # margin / 2, less a safety for rounding
                 self._prev = pts
                 try:
-                    hull = ConvexHull(pts[cand])
-                    if hull.volume > 1e-9 * hull.area * hull.area:
-                        return pts[cand[hull.vertices]]
+                    vertices, volume, area = _qhull_2d(pts[cand])
+                    if volume > 1e-9 * area * area:
+                        return pts[cand[vertices]]
                 except QhullError:
                     pass  # degenerate: the whole herd below
         return self._rebuild(pts)

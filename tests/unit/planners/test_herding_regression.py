@@ -483,3 +483,34 @@ def test_the_scalar_steering_law_equals_the_vectorised_one(monkeypatch):
             assert np.array_equal(x, y)
         kinds.update(np.sign(scalar[1]).tolist())
     assert kinds == {-1.0, 0.0, 1.0}
+
+
+def test_the_lean_qhull_call_gives_convexhulls_answer():
+    """The herders' hull runs scipy's qhull wrapper without ConvexHull's facet arrays; on random,
+    rounded (duplicate points) and collinear herds it returns ConvexHull's vertices, area and
+    perimeter to the bit, and refuses the same flat inputs."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    from droneplan.planners.herding import geometry
+
+    assert geometry._QHULL is not None  # the lean path is the one under test
+    rng = np.random.default_rng(17)
+    outcomes = {"hull": 0, "flat": 0}
+    for trial in range(1500):
+        pts = rng.normal(size=(int(rng.integers(3, 150)), 2)) * rng.uniform(0.01, 100.0)
+        if trial % 5 == 0:
+            pts = np.round(pts)
+        if trial % 7 == 0:
+            pts[:, 1] = 2.0 * pts[:, 0]
+        try:
+            hull = ConvexHull(pts)
+        except QhullError:
+            with pytest.raises(QhullError):
+                geometry._qhull_2d(pts)
+            outcomes["flat"] += 1
+            continue
+        vertices, volume, area = geometry._qhull_2d(pts)
+        assert np.array_equal(vertices, hull.vertices)
+        assert (volume, area) == (hull.volume, hull.area)
+        outcomes["hull"] += 1
+    assert min(outcomes.values()) > 50
