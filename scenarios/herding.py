@@ -486,8 +486,9 @@ def _repulsion(nb: np.ndarray, pos: np.ndarray, dist: np.ndarray, r_a: float) ->
     """
     close = dist < r_a
     # only the leading neighbours can be closer than r_a (the distances increase along a row):
-    # the trailing ones would add zeros
-    k = int(np.max(np.count_nonzero(close, axis=1), initial=0))
+    # the trailing ones would add zeros. k, the most close neighbours of any row, is the number
+    # of columns whose least distance is below r_a (those least distances increase too)
+    k = int(np.searchsorted(dist.min(axis=0), r_a)) if dist.size else 0
     if k == 0:
         return np.zeros((pos.shape[0], 2))
     w = np.where(close[:, :k], 1.0 / np.maximum(dist[:, :k], 1e-12), 0.0).T

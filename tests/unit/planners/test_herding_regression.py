@@ -514,3 +514,27 @@ def test_the_lean_qhull_call_gives_convexhulls_answer():
         assert (volume, area) == (hull.volume, hull.area)
         outcomes["hull"] += 1
     assert min(outcomes.values()) > 50
+
+
+def test_the_repulsion_stops_at_the_last_close_neighbour_without_changing_the_sum():
+    """The animals' repulsion sums only the leading neighbour columns that hold a neighbour closer
+    than r_a in some row; on random sorted neighbour lists (missing neighbours at infinity, rows
+    with none close) it equals the sum over every column."""
+    from droneplan.scenarios.herding import _repulsion, _unit
+
+    rng = np.random.default_rng(18)
+    ks = set()
+    for _ in range(1500):
+        m, K = int(rng.integers(1, 30)), int(rng.integers(1, 22))
+        pos = rng.uniform(0.0, 50.0, (m, 2))
+        nb = pos[None, :, :] + rng.normal(size=(K, m, 2)) * rng.uniform(0.2, 5.0)
+        dist = np.sort(np.hypot(*(nb - pos[None]).transpose(2, 0, 1)).T, axis=1)
+        dist[rng.random((m, K)) < 0.1] = np.inf
+        dist = np.sort(dist, axis=1)
+        r_a = float(rng.uniform(0.5, 6.0))
+        close = dist < r_a
+        w = np.where(close, 1.0 / np.maximum(dist, 1e-12), 0.0).T
+        every_column = _unit((w[:, :, None] * (pos - nb)).sum(axis=0))
+        assert np.array_equal(_repulsion(nb, pos, dist, r_a), every_column)
+        ks.add(int(close.sum(axis=1).max()) == K)
+    assert ks == {True, False}
