@@ -274,12 +274,25 @@ def _shift_row(z: list[float], t: list[float], M: float, n: int, r: int, k1: int
     the end): (max travel, z*, travel), or None when (6.19), (6.22) or (6.23) fails."""
     zstar = []
     for j in range(n):
-        k = k1 + (1 if j + r >= n else 0)
-        tz = t[(j + r) % n]
-        if not (k == (-1 if tz > z[j] else 0) or k == (1 if tz < z[j] else 0)):
+        jr = j + r
+        k, tz = (k1 + 1, t[jr - n]) if jr >= n else (k1, t[jr])
+        zj = z[j]
+        # (6.19): a target ahead may wrap back (k = -1), one behind forward (k = +1), else k = 0
+        if tz > zj:
+            if k != -1 and k != 0:
+                return None
+        elif tz < zj:
+            if k != 0 and k != 1:
+                return None
+        elif k != 0:
             return None
         zstar.append(tz + k * M)
-    if n > 1 and not (all(zstar[j + 1] - zstar[j] > 0 for j in range(n - 1)) and zstar[-1] < zstar[0] + M):
+    prev = zstar[0]
+    for zs in zstar[1:]:  # (6.23): strictly increasing ...
+        if not zs - prev > 0:
+            return None
+        prev = zs
+    if n > 1 and not prev < zstar[0] + M:  # ... (6.22): within one lap
         return None
     travel = [abs(zs - zj) for zs, zj in zip(zstar, z, strict=True)]
     return max(travel), zstar, travel
