@@ -404,6 +404,19 @@ def test_the_delivered_share_skips_only_herds_clear_of_the_goal():
     assert shares == {0.0, 0.5, 1.0}
 
 
+def _random_hull_and_arc_positions(rng, *, min_points: int, max_n: int, span: tuple[float, float]):
+    """An extended hull of min_points..39 random animals and 1..max_n arc positions drawn in
+    span (in perimeters), a third of them on vertices."""
+    hull = dp.herding.ExtendedHull.from_points(
+        rng.uniform(0.0, 300.0, (int(rng.integers(min_points, 40)), 2)), 30.0
+    )
+    M, n_e = hull.perimeter, len(hull.vertices)
+    n = int(rng.integers(1, max_n + 1))
+    s = rng.uniform(span[0] * M, span[1] * M, n)
+    s[: n // 3] = hull.vertex_s[rng.integers(0, n_e, n // 3)]  # on a vertex
+    return hull, s
+
+
 def test_the_scalar_waypoint_equals_the_vectorised_one(monkeypatch):
     """O* of a few drones is picked in plain Python; on random hulls, positions and targets (drones
     on vertices and targets just behind included) it is the numpy version's point to the bit."""
@@ -412,13 +425,8 @@ def test_the_scalar_waypoint_equals_the_vectorised_one(monkeypatch):
     rng = np.random.default_rng(14)
     checked = 0
     for _ in range(400):
-        hull = dp.herding.ExtendedHull.from_points(
-            rng.uniform(0.0, 300.0, (int(rng.integers(3, 40)), 2)), 30.0
-        )
-        M, n_e = hull.perimeter, len(hull.vertices)
-        n = int(rng.integers(1, 9))
-        s = rng.uniform(0.0, M, n)
-        s[: n // 3] = hull.vertex_s[rng.integers(0, n_e, n // 3)]  # on a vertex
+        hull, s = _random_hull_and_arc_positions(rng, min_points=3, max_n=8, span=(0.0, 1.0))
+        M, n = hull.perimeter, s.size
         target = np.mod(s + rng.choice([-0.5, 1.0, 50.0, -80.0], n) * rng.uniform(0.0, 1.0, n), M)
         edge = hull.project(hull.point_at(s))[2]
         direction = rng.choice([-1, 1], n)
@@ -440,13 +448,8 @@ def test_the_scalar_point_at_equals_the_vectorised_one(monkeypatch):
     rng = np.random.default_rng(15)
     checked = 0
     for _ in range(400):
-        hull = dp.herding.ExtendedHull.from_points(
-            rng.uniform(0.0, 300.0, (int(rng.integers(1, 40)), 2)), 30.0
-        )
-        M, n_e = hull.perimeter, len(hull.vertices)
-        n = int(rng.integers(1, 13))
-        s = rng.uniform(-M, 2 * M, n)
-        s[: n // 3] = hull.vertex_s[rng.integers(0, n_e, n // 3)]
+        hull, s = _random_hull_and_arc_positions(rng, min_points=1, max_n=12, span=(-1.0, 2.0))
+        M, n = hull.perimeter, s.size
         if n > 1:
             s[-1] = M
         scalar = hull.point_at(s)
