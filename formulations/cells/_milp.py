@@ -233,7 +233,8 @@ LP_FIXING_MAX_TERMS = 1_200_000
 """Item 10 is skipped when the lifted model has more hop-row terms than this: with all hop
 levels, Table 4.2 m = 4 seed 5 (0.93 M terms) solved its LP in about 25 CPU s, m = 6 seed 1
 (1.75 M) had not after 300 s (so it is skipped there; merged from level 3 its LP is 75.0,
-the cap already, and fixes nothing)."""
+the cap already, and fixes nothing). The build stops as soon as the rows pass the cap: built
+in full and then discarded, that model cost 8-12 s of m = 6 seed 1's time limit."""
 
 CONNECTIVITY = ("lazy", "hops")
 """Exact backhaul formulations of the candidate model (module docstring, item 3)."""
@@ -367,7 +368,9 @@ class _LevelSources:
         return out + [self.var[d] for d in self.src[idx].tolist() if d != skip]
 
 
-def _clique_hop_rows(lin, z: dict, lev: int, clique_rows: list, sources: _LevelSources, R_d: float) -> int:
+def _clique_hop_rows(
+    lin, z: dict, lev: int, clique_rows: list, sources: _LevelSources, R_d: float, late
+) -> int | None:
     """The clique-lifted hop rows of item 8 at level ``lev``; returns their terms.
 
     For a user u whose covering sites C_u pairwise overlap (item 5):
@@ -376,11 +379,14 @@ def _clique_hop_rows(lin, z: dict, lev: int, clique_rows: list, sources: _LevelS
     left side is 0 or 1. When it is 1, the used site c (within R_d + TOL of u) has a used
     level-(l-1) neighbour d within r2 + TOL of c, so within R_d + r2 + 2 TOL of u; and d does
     not overlap c (>= 2 R_d - TOL from c), so it is >= R_d - 2 TOL from u (a square term is
-    positive only when a source in it is)."""
+    positive only when a source in it is). None once ``late()`` (checked every
+    ``_LATE_EVERY`` rows)."""
     n_terms = 0
     seen: set = set()
     rch = R_d + TOL + sources.reach
-    for centre, sites in clique_rows:
+    for k, (centre, sites) in enumerate(clique_rows):
+        if k % _LATE_EVERY == _LATE_EVERY - 1 and late():
+            return None
         lhs_sites = tuple(c for c in sites if (c, lev) in z)
         if len(lhs_sites) < 2 or lhs_sites in seen:
             continue
@@ -417,6 +423,7 @@ def _hop_levels(
     late,
     clique_rows: list | None,
     top: int | None = None,
+    max_terms: int | None = None,
 ):
     """The hop-level rows of item 3b, with the sources of a row grouped by squares.
 
@@ -438,7 +445,9 @@ def _hop_levels(
     still satisfies the rows (label a site at hop h >= top with top: its neighbour at hop
     h - 1 is labelled top - 1 or top), but a far site may then be fed by another far site.
 
-    Returns (z, squares, level variables, terms) or None once ``late()``."""
+    Returns (z, squares, level variables, terms), or None once ``late()`` (checked every
+    ``_LATE_EVERY`` rows: one level of Table 4.2 m = 6 takes seconds) or once the rows hold
+    more than ``max_terms`` terms (None: no cap)."""
     m = problem.n_cells
     top = m if top is None else min(m, max(3, top))
     nd = np.flatnonzero(~direct)
@@ -456,6 +465,10 @@ def _hop_levels(
         lin.add(lin.sum([z[c, lev] for lev in range(int(lowest[k]), top + 1)]) == x[c])
     squares: dict = {}
     n_vars = n_terms = 0
+
+    def stop(terms: int) -> bool:
+        return late() or (max_terms is not None and terms > max_terms)
+
     for lev in range(2, top + 1):
         rows = nd[lowest <= lev]
         src, var = (np.flatnonzero(direct), x) if lev == 2 else _source_vars(lin, z, nd, lev, lev == top < m)
@@ -464,16 +477,47 @@ def _hop_levels(
                 lin.add_implies_any(z[c, lev], [])
             continue
         sources = _LevelSources(pts, src, var, problem, lin, squares, lev)
-        for c in rows.tolist():
-            terms = sources.terms(pts[c], sources.reach, inner=inner, skip=c, split=False)
-            lin.add_implies_any(z[c, lev], terms)
-            n_vars += 1
-            n_terms += len(terms)
-        if clique_rows:
-            n_terms += _clique_hop_rows(lin, z, lev, clique_rows, sources, problem.R_d)
-        if late():
+        level_terms = _level_rows(lin, z, lev, rows, sources, inner, clique_rows, problem.R_d, stop, n_terms)
+        if level_terms is None:
             return None
+        n_vars += len(rows)
+        n_terms += level_terms
     return z, squares, n_vars, n_terms
+
+
+def _level_rows(
+    lin,
+    z: dict,
+    lev: int,
+    rows: np.ndarray,
+    sources: _LevelSources,
+    inner: float,
+    clique_rows: list | None,
+    R_d: float,
+    stop,
+    before: int,
+) -> int | None:
+    """The hop rows of item 3b at level ``lev`` for the sites ``rows`` (sources closer than
+    ``inner`` left out) and, with ``clique_rows``, the lifted rows of item 8; returns their
+    terms, or None once ``stop(terms written, ``before`` included)`` is true (checked every
+    ``_LATE_EVERY`` rows and at the end)."""
+    n_terms = 0
+    for k, c in enumerate(rows.tolist()):
+        if k % _LATE_EVERY == _LATE_EVERY - 1 and stop(before + n_terms):
+            return None
+        terms = sources.terms(sources.pts[c], sources.reach, inner=inner, skip=c, split=False)
+        lin.add_implies_any(z[c, lev], terms)
+        n_terms += len(terms)
+    if clique_rows:
+        lifted = _clique_hop_rows(lin, z, lev, clique_rows, sources, R_d, lambda: stop(before + n_terms))
+        if lifted is None:
+            return None
+        n_terms += lifted
+    return None if stop(before + n_terms) else n_terms
+
+
+_LATE_EVERY = 256
+"""Rows between two deadline checks while the hop rows are written."""
 
 
 def _sector_cliques(points: np.ndarray, pairs: np.ndarray) -> list[np.ndarray]:
@@ -686,6 +730,7 @@ def build_milp(
     lifted_hops: bool | None = None,
     disc_bounds: Any = None,
     max_level: int | None = None,
+    max_terms: int | None = None,
 ) -> CellModel | None:
     """Build the candidate model (module docstring) without solving it.
 
@@ -714,8 +759,12 @@ def build_milp(
     max_level: None (default: the exact model), or an int >= 3: hop levels from this one up
         merge into one (``_hop_levels``), a relaxation of the candidate problem with fewer
         rows, whose bounds are valid but whose solutions may be disconnected.
+    max_terms: None (default: no cap), or an int >= 0: building stops and returns None as
+        soon as the hop rows hold more terms than this (so a model too large to be used
+        costs no full build).
     """
     check_instance("problem", problem, CellProblem)
+    max_terms = None if max_terms is None else check_int("max_terms", max_terms, min_value=0)
     max_level = _as_max_level(max_level)
     lifted_hops = None if lifted_hops is None else check_bool("lifted_hops", lifted_hops)
     if connectivity not in CONNECTIVITY:
@@ -771,7 +820,7 @@ def build_milp(
             if lifted
             else None
         )
-        built = _hop_levels(lin, x, pts, direct, problem, late, clique_rows, max_level)
+        built = _hop_levels(lin, x, pts, direct, problem, late, clique_rows, max_level, max_terms)
         if built is None:
             return None
         z, squares, stats["level_vars"], stats["connectivity_terms"] = built
@@ -1010,10 +1059,10 @@ def lp_fixing(
     Returns (alive: bool per site of ``keep``, an upper bound on every placement of the
     ``keep`` sites worth >= lo, stats), or None past ``deadline`` (a ``time.perf_counter()``
     value) or when the lifted model has more than ``max_terms`` hop-row terms (None: no
-    cap). The sites of ``incumbent`` ((k, 2) m) stay alive. ``disc_bounds`` and
-    ``user_cliques`` as in :func:`build_milp`, and ``max_level`` (its hop levels merged from
-    this one up, a relaxation: the bound and the fixing stay valid); ``time_limit`` (s) for
-    the LP solve.
+    cap; building stops as soon as it has more). The sites of ``incumbent`` ((k, 2) m) stay
+    alive. ``disc_bounds`` and ``user_cliques`` as in :func:`build_milp`, and ``max_level``
+    (its hop levels merged from this one up, a relaxation: the bound and the fixing stay
+    valid); ``time_limit`` (s) for the LP solve, which also ends by ``deadline``.
     """
     t0 = time.perf_counter()
     mdl = build_milp(
@@ -1027,11 +1076,13 @@ def lp_fixing(
         lifted_hops=True,
         disc_bounds=disc_bounds,
         max_level=max_level,
+        max_terms=max_terms,
     )
     if mdl is None or (deadline is not None and time.perf_counter() > deadline):
         return None
-    if max_terms is not None and mdl.stats["connectivity_terms"] > max_terms:
-        return None
+    if deadline is not None:  # the LP ends by the deadline, however long the build took
+        left = max(deadline - time.perf_counter(), 0.01)
+        time_limit = left if time_limit is None else min(time_limit, left)
     lpb = lp_dual_bound(mdl.model.native, mdl.x, time_limit=time_limit)
     # a better placement covers at least lo + 1 users (an integer)
     alive = lpb.at_one >= math.floor(objective_range[0] + 1e-9) + 1
