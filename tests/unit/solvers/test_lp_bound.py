@@ -54,10 +54,10 @@ def _enumerate(rows, c, n):
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.integers(0, 100_000), st.integers(3, 9))
-def test_bound_is_above_every_integer_point(seed, n):
+@given(st.integers(0, 100_000), st.integers(3, 9), st.sampled_from(["simplex", "ipm"]))
+def test_bound_is_above_every_integer_point(seed, n, method):
     s, x, rows, c = _random_model(seed, n)
-    out = lp_dual_bound(s, x, time_limit=30)
+    out = lp_dual_bound(s, x, time_limit=30, method=method)
     best, best_at = _enumerate(rows, c, n)
     assert out.bound >= best - 1e-9
     assert np.all(out.at_one >= best_at - 1e-9)
@@ -66,7 +66,8 @@ def test_bound_is_above_every_integer_point(seed, n):
         assert out.lp_value - 1e-6 <= out.bound <= out.lp_value + 1e-4
 
 
-def test_fixing_bound_excludes_a_variable_that_cannot_be_one():
+@pytest.mark.parametrize("method", ["simplex", "ipm"])
+def test_fixing_bound_excludes_a_variable_that_cannot_be_one(method):
     # max 3a + 2b + c, 2a + 2b + 2c <= 3: the LP takes a = 1, b = 1/2 (basic, so the row's dual
     # is 1 and unique), bound 4; with c = 1 the duals give 4 - 1 = 3, so a point better than
     # the integer optimum 3 (a alone) never has c = 1, while a and b keep the bound 4
@@ -75,7 +76,7 @@ def test_fixing_bound_excludes_a_variable_that_cannot_be_one():
     a, b, c = (s.BoolVar(n) for n in "abc")
     s.Add(2 * a + 2 * b + 2 * c <= 3)
     s.Maximize(3 * a + 2 * b + c)
-    out = lp_dual_bound(s, [a, b, c])
+    out = lp_dual_bound(s, [a, b, c], method=method)
     assert out.status == "Optimal" and out.bound == pytest.approx(4, abs=1e-4)
     assert out.at_one == pytest.approx([4, 4, 3], abs=1e-4)
 
@@ -92,6 +93,8 @@ def test_bad_input_is_refused_by_name():
         lp_dual_bound(lin, [a])
     with pytest.raises(ValueError, match="time_limit"):
         lp_dual_bound(s, [a], time_limit=-1)
+    with pytest.raises(ValueError, match="method"):
+        lp_dual_bound(s, [a], method="barrier")
     free = s.NumVar(0.0, s.infinity(), "free")
     s.Add(a <= free)
     with pytest.raises(ValueError, match="bound every variable"):
