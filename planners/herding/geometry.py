@@ -278,7 +278,7 @@ def _extended_hull_vertices(P: np.ndarray, d_s: float, mitre_limit: float) -> tu
     # outward bisector (incoming minus outgoing edge direction: defined at hairpins too)
     bx, by = hx[prv] - hx, hy[prv] - hy
     blen = np.sqrt(bx * bx + by * by)
-    cos_half = np.sqrt(np.clip((1.0 + dot) / 2.0, 0.0, 1.0))
+    cos_half = np.sqrt(np.minimum(np.maximum((1.0 + dot) / 2.0, 0.0), 1.0))  # np.clip's values, faster
     # mitre length d_s / cos(half the turn); capped at mitre_limit * d_s (our rule for sharp
     # corners of thin herds, where the mitre runs off beyond any barking range)
     reach = d_s * np.minimum(1.0 / np.maximum(cos_half, 1e-12), mitre_limit)
@@ -414,7 +414,7 @@ class ExtendedHull:
         qx, qy = q[:, 0, None], q[:, 1, None]
         ax, ay, ex, ey = A[:, 0], A[:, 1], AB[:, 0], AB[:, 1]
         t = ((qx - ax) * ex + (qy - ay) * ey) / np.maximum(L2, 1e-300)
-        t = np.clip(t, 0.0, 1.0)
+        t = np.minimum(np.maximum(t, 0.0), 1.0)  # np.clip's values (a zero may lose its sign), faster
         cx, cy = ax + t * ex, ay + t * ey  # the closest point of each edge
         dx, dy = qx - cx, qy - cy
         i = np.argmin(dx * dx + dy * dy, axis=1)

@@ -100,7 +100,7 @@ def _steer_scalar(ax: list[float], ay: list[float], b: list[list[float]], V_max,
         cos_l.append(((gg * axi) * bx + (gg * ayi) * by) / nb if nb > 1e-12 else 1.0)
         gg_l.append(gg)
         along_l.append(abs(ab))
-    ang = np.arccos(np.clip(np.array(cos_l), -1.0, 1.0)).tolist()
+    ang = np.arccos([min(max(c, -1.0), 1.0) for c in cos_l]).tolist()  # np.clip's values
     omega = [t * _minimum(U_max, a / dt) for t, a in zip(turn_l, ang, strict=True)]
     v = [gg * _minimum(V_max, al / dt) for gg, al in zip(gg_l, along_l, strict=True)]
     return np.array(v), np.array(omega)
