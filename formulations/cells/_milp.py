@@ -145,10 +145,9 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    leaving out and 10, load 1-3.4: seed 5 open at 61 / 71 (74.9 CPU s), seeds 3 and 4 in 14.2
    and 56.2 CPU s. On m = 6 seed 1 the LP (all levels, 1.75 M terms: not solved in 300 s;
    levels merged from 3, 4 or 5: 75.0, the cap already) fixes nothing: it stays open
-   (66 / 75 after 497 CPU s, 607 s wall). Solved by IPM instead
-   (``LP_FIXING_IPM_TERMS``): LP 47 s, bound 73.79, 268 sites fixed; still open, at 66 / 73
-   after 600 s (596 CPU s, 1 worker, load 2). m = 6 seed 5 (all levels): 2 007 of 3 410 sites
-   dropped, proven in 83.6 CPU s (130 s wall, load 3.1; 94 CPU s without item 10).
+   (66 / 75 after 497 CPU s, 607 s wall); by IPM it is solved in 47 s, and the solve still
+   ends open, at 66 / 73 (``LP_FIXING_MAX_TERMS``). m = 6 seed 5 (all levels): 2 007 of 3 410
+   sites dropped, proven in 83.6 CPU s (130 s wall, load 3.1; 94 CPU s without item 10).
 
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
@@ -231,18 +230,21 @@ LP_FIXING_SHARE = 0.5
 """Share of the time left that the LP of item 10 may take (HiGHS returns no usable duals
 before the simplex ends, so a stopped LP fixes nothing)."""
 
-LP_FIXING_MAX_TERMS = 4_000_000
+LP_FIXING_MAX_TERMS = 1_200_000
 """Item 10 is skipped when the lifted model has more hop-row terms than this (the build stops
-as soon as the rows pass the cap)."""
+as soon as the rows pass the cap: built in full and then discarded, that model cost 8-12 s of
+m = 6 seed 1's time limit). With all hop levels, Table 4.2 m = 4 seed 5 (0.93 M terms) solved
+its LP in about 25 CPU s, m = 6 seed 1 (1.5 M) had not after 300 s (merged from level 3 its
+LP is 75.0, the cap already, and fixes nothing). By IPM (``LP_FIXING_METHOD``) it took 47
+CPU s (bound 73.79, 268 sites fixed), and with the cap at 4 M m = 6 seed 1 ended at 66 / 73
+after 600 s instead of 66 / 75, still open; but m = 8 seed 3 (CP-SAT, 1 worker, load 2)
+then spent 68 s on that LP and was proven in 84 CPU s instead of 28, so the cap stays."""
 
-LP_FIXING_IPM_TERMS = 1_200_000
-"""Above this many hop-row terms the LP of item 10 is solved by HiGHS's interior point method
-with crossover (``lp_dual_bound(method="ipm")``), below it by the simplex. With all hop
-levels, Table 4.2 m = 4 seed 5 (0.93 M terms) solved its LP by the simplex in about 25 CPU s,
-m = 6 seed 1 (1.5 M) had not after 300 s (so item 10 was skipped there; merged from level 3
-its LP is 75.0, the cap already, and fixes nothing); by IPM it took 47 CPU s: bound 73.79, the
-cap 75 -> 73, 268 sites fixed. On m = 6 seed 5 (below the threshold) IPM took as long as the
-simplex and its duals fixed 768 sites instead of 2 007."""
+LP_FIXING_METHOD = "simplex"
+"""HiGHS's LP algorithm for item 10 (``lp_dual_bound(method=)``). Measured with IPM (with
+crossover; the bound is valid either way), Table 4.2 m = 6, CP-SAT, 1 worker, load 2, CPU s
+simplex / IPM: seed 3 121 / 32 (LP 115 / 20 s), seed 5 67 / 116 (IPM's duals fixed 768 sites
+instead of 2 007), so neither wins."""
 
 CONNECTIVITY = ("lazy", "hops")
 """Exact backhaul formulations of the candidate model (module docstring, item 3)."""
@@ -1091,7 +1093,7 @@ def lp_fixing(
     if deadline is not None:  # the LP ends by the deadline, however long the build took
         left = max(deadline - time.perf_counter(), 0.01)
         time_limit = left if time_limit is None else min(time_limit, left)
-    method = "ipm" if mdl.stats["connectivity_terms"] > LP_FIXING_IPM_TERMS else "simplex"
+    method = LP_FIXING_METHOD
     lpb = lp_dual_bound(mdl.model.native, mdl.x, time_limit=time_limit, method=method)
     # a better placement covers at least lo + 1 users (an integer)
     alive = lpb.at_one >= math.floor(objective_range[0] + 1e-9) + 1
