@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import math
 import numbers
+import os
 from collections.abc import Iterator, Sequence
 from contextvars import ContextVar
 from typing import Any, TypeVar
@@ -37,6 +38,7 @@ __all__ = [
     "work_limits",
     "current_limit",
     "check_work",
+    "machine_memory",
     "check_real",
     "check_positive",
     "check_nonneg",
@@ -108,6 +110,14 @@ def current_limit(kind: str) -> int:
     if kind not in _UNITS:
         raise ValueError(f"kind must be one of {sorted(_UNITS)}, got {kind!r}")
     return dict(_LIMITS.get())[kind]
+
+
+def machine_memory() -> float | None:
+    """This machine's physical memory, bytes (None where the system does not say)."""
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, ValueError, OSError):
+        return None
 
 
 def check_work(name: str, asked: float, kind: str = "elements", *, limit: float | None = None) -> None:

@@ -173,6 +173,7 @@ from droneplan.core.validation import (
     check_real,
     check_sequence,
     check_typed_array,
+    machine_memory,
 )
 from droneplan.formulations.cells._core import TOL, Candidates, candidate_sites, evaluate, pairwise_distances
 from droneplan.formulations.cells._prepare import Prepared, _feasible_subset, coverage_upper_bound
@@ -229,6 +230,22 @@ merged from level 3 or 5: 89.00, 1 284 or 1 329 dropped, not proven after 5 min 
 LP_FIXING_SHARE = 0.5
 """Share of the time left that the LP of item 10 may take (HiGHS returns no usable duals
 before the simplex ends, so a stopped LP fixes nothing)."""
+
+MODEL_BYTES_PER_TERM = 128
+"""Peak memory of a model solve per hop-row term, bytes, with the backend's own copies: Table 4.2
+density x4 at m = 4 (seed 0) peaked at 15.7 GiB with 139 M hop-row terms on CP-SAT (113 bytes a
+term), rounded up."""
+
+MODEL_MEMORY_SHARE = 0.5
+"""Share of the machine's memory a model may take: a model whose hop rows pass
+``MODEL_MEMORY_SHARE * memory / MODEL_BYTES_PER_TERM`` terms is refused (``model_term_cap``)."""
+
+
+def model_term_cap() -> int | None:
+    """Most hop-row terms a model may hold on this machine (None: its memory is not known)."""
+    memory = machine_memory()
+    return None if memory is None else int(MODEL_MEMORY_SHARE * memory / MODEL_BYTES_PER_TERM)
+
 
 LP_FIXING_MAX_TERMS = 1_200_000
 """Item 10 is skipped when the lifted model has more hop-row terms than this (the build stops
@@ -1134,6 +1151,19 @@ class _ModelSolve:
         self.deadline = None if prep.time_limit is None else prep.t0 + prep.time_limit
         self.ub = float(prep.ub)  # the model's objective cap (item 4), lowered by item 10
         self.fix_stats: dict[str, Any] = {}
+        self.term_cap = model_term_cap()  # a model over it would not fit: refused while it is built
+
+    def _refuse_model_size(self) -> None:
+        """The model's build stopped at ``term_cap`` terms: refuse it, naming the size asked for."""
+        cap = int(self.term_cap or 0)
+        memory = machine_memory() or 0.0
+        raise ValueError(
+            f"problem: the candidate model's hop rows hold more than {cap:,} terms (more than "
+            f"{cap * MODEL_BYTES_PER_TERM / 2**30:.1f} GiB with the solver's copies, at "
+            f"{MODEL_BYTES_PER_TERM} bytes a term), over {MODEL_MEMORY_SHARE:.0%} of this machine's "
+            f"memory ({memory / 2**30:.1f} GiB); use engine='bnb', connectivity='lazy' or fewer "
+            "candidate sites"
+        )
 
     def relaxation(self, keep: np.ndarray, found: list) -> SolveResult:
         """Build and solve the model on the sites ``keep`` with the cuts ``found`` (one round
@@ -1154,7 +1184,10 @@ class _ModelSolve:
                 cuts=found,
                 user_cliques=self.user_cliques,
                 disc_bounds=self.disc_bounds,
+                max_terms=self.term_cap,
             )
+            if mdl is None and not prep.expired() and self.term_cap is not None:
+                self._refuse_model_size()
         if mdl is None or prep.expired():  # building can be long: the limit covers it
             return SolveResult(Status.NO_SOLUTION, backend=backend, message="time limit")
         state.stats = {**mdl.stats, **self.fix_stats}

@@ -68,3 +68,17 @@ def test_time_limit_covers_the_whole_call(limit):
     assert wall <= limit + 2.0, wall
     assert res.status in (Status.FEASIBLE, Status.OPTIMAL)
     assert res.x is not None and len(res.x) >= 1
+
+
+def test_a_model_too_large_for_the_machine_is_refused_naming_its_size(monkeypatch):
+    """A model whose hop rows pass the machine's share (``model_term_cap``) is refused with a
+    ValueError naming the terms and the memory, not built until memory runs out; with the real
+    cap the same call solves."""
+    p = thesis_problem(3, 0)
+    assert _milp.model_term_cap() is not None and _milp.model_term_cap() > 10**6
+    monkeypatch.setattr(_milp, "model_term_cap", lambda: 50)
+    with pytest.raises(ValueError, match=r"hop rows hold more than 50 terms.*memory"):
+        solve_exact(p, engine="milp", workers=1, time_limit=120)
+    monkeypatch.undo()
+    res = solve_exact(p, engine="milp", workers=1, time_limit=120)
+    assert res.status is Status.OPTIMAL
