@@ -203,7 +203,6 @@ import functools
 import itertools
 import math
 import multiprocessing
-import os
 import queue
 import time
 from dataclasses import dataclass
@@ -211,7 +210,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from droneplan.core.validation import check_work
+from droneplan.core.validation import check_work, machine_memory
 from droneplan.formulations.cells._core import TOL, Candidates, evaluate, pairwise_distances
 from droneplan.scenarios.cells import CellProblem
 
@@ -1539,9 +1538,8 @@ def _check_memory(n: int) -> None:
     ceil(n / 8) bytes a row each) would not fit in this machine's memory, naming the size
     asked for."""
     need = 2.0 * n * ((n + 7) // 8)
-    try:
-        avail = float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
-    except (AttributeError, ValueError, OSError):  # not knowable here: let the search try
+    avail = machine_memory()
+    if avail is None:  # not knowable here: let the search try
         return
     if need > avail:
         raise ValueError(
