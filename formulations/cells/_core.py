@@ -198,6 +198,15 @@ class Candidates:
     n_generated: int
     """Number of distinct points generated before the feasibility filter."""
 
+    def subset(self, idx: np.ndarray) -> Candidates:
+        """The sites ``idx`` (indices into these candidates, in that order) as candidates."""
+        return Candidates(
+            points=self.points[idx],
+            cover=[self.cover[i] for i in np.asarray(idx).tolist()],
+            direct=self.direct[idx],
+            n_generated=self.n_generated,
+        )
+
 
 def raw_candidate_points(problem: CellProblem) -> np.ndarray:
     """Every active user location, the intersection points of the radius-R_d circles

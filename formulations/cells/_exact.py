@@ -21,7 +21,7 @@ import numpy as np
 
 from droneplan.core.validation import check_bool, check_int
 from droneplan.formulations.cells._bnb import BranchAndBoundSearch, _Timeout, search
-from droneplan.formulations.cells._core import Candidates, evaluate
+from droneplan.formulations.cells._core import evaluate
 from droneplan.formulations.cells._milp import CONNECTIVITY, solve_model
 from droneplan.formulations.cells._prepare import Prepared, _near_any, prepare
 from droneplan.scenarios.cells import CellProblem
@@ -214,12 +214,7 @@ def _eliminate_for_model(prep: Prepared) -> None:
     if len(prep.inc):
         keep |= _near_any(cand.points, np.asarray(prep.inc, dtype=float).reshape(-1, 2))
     idx = np.flatnonzero(keep)
-    prep.cand = Candidates(
-        points=cand.points[idx],
-        cover=[cand.cover[i] for i in idx.tolist()],
-        direct=cand.direct[idx],
-        n_generated=cand.n_generated,
-    )
+    prep.cand = cand.subset(idx)
     prep.info["elimination"] = {
         "run": True,
         "complete": complete,

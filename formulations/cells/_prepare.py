@@ -309,12 +309,7 @@ class Prepared:
         dropped = int(n - keep.sum())
         if dropped:
             idx = np.flatnonzero(keep)
-            self.cand = Candidates(
-                points=cand.points[idx],
-                cover=[cand.cover[i] for i in idx.tolist()],
-                direct=cand.direct[idx],
-                n_generated=cand.n_generated,
-            )
+            self.cand = cand.subset(idx)
         self.info["pruned_sites"] = int(self.info.get("pruned_sites", 0)) + dropped
         self.info["bound_m_minus_1"] = self._b_prev
         return dropped
