@@ -77,8 +77,35 @@ def test_a_model_too_large_for_the_machine_is_refused_naming_its_size(monkeypatc
     p = thesis_problem(3, 0)
     assert _milp.model_term_cap() is not None and _milp.model_term_cap() > 10**6
     monkeypatch.setattr(_milp, "model_term_cap", lambda: 50)
-    with pytest.raises(ValueError, match=r"hop rows hold more than 50 terms.*memory"):
+    with pytest.raises(ValueError, match=r"hop rows would hold more than 50 terms.*memory"):
         solve_exact(p, engine="milp", workers=1, time_limit=120)
     monkeypatch.undo()
     res = solve_exact(p, engine="milp", workers=1, time_limit=120)
     assert res.status is Status.OPTIMAL
+
+
+def test_projected_terms_stop_a_large_model_before_its_rows_are_written(m4, monkeypatch):
+    """With project_terms, a model whose hop rows would pass max_terms several times over stops
+    before a level is written (only the sampled rows are counted); a cap above the model's size
+    builds the same model as without a cap."""
+    p, cand = m4
+    keep = np.arange(0, len(cand.points), 3)
+    full = build_milp(p, candidates=cand, keep=keep, lifted_hops=False)
+    terms = full.stats["connectivity_terms"]
+    calls = {"n": 0}
+    real_terms = _milp._LevelSources.terms
+
+    def counting_terms(self, *a, **k):
+        calls["n"] += 1
+        return real_terms(self, *a, **k)
+
+    monkeypatch.setattr(_milp._LevelSources, "terms", counting_terms)
+    out = build_milp(
+        p, candidates=cand, keep=keep, lifted_hops=False, max_terms=terms // 20, project_terms=True
+    )
+    assert out is None
+    assert calls["n"] <= _milp._PROJECTION_SAMPLE  # the sample of the first level, no row written
+    calls["n"] = 0
+    same = build_milp(p, candidates=cand, keep=keep, lifted_hops=False, max_terms=terms, project_terms=True)
+    assert same is not None and same.stats == full.stats
+    assert calls["n"] > full.stats["level_vars"]  # every row written, after the samples
