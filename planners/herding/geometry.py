@@ -45,21 +45,27 @@ def _qhull_2d(pts: np.ndarray) -> tuple[np.ndarray, float, float]:
     option "Qt", triangulated, the 2-D extremes in order) on scipy's qhull wrapper and reads only
     these three, so the result is ConvexHull's. Should that wrapper change, ConvexHull is used.
     """
-    if _QHULL is not None:
-        try:
-            q = _QHULL(b"i", pts, None, required_options=b"Qt")
-        except (TypeError, AttributeError):  # another scipy: the public class below
-            pass
-        else:
-            try:
-                q.triangulate()
-                vertices = q.get_extremes_2d()
-                volume, area = q.volume_area()
-            finally:
-                q.close()
-            return vertices, float(volume), float(area)
+    lean = None if _QHULL is None else _lean_qhull_2d(pts)
+    if lean is not None:
+        return lean
     hull = ConvexHull(pts)
     return hull.vertices, float(hull.volume), float(hull.area)
+
+
+def _lean_qhull_2d(pts: np.ndarray) -> tuple[np.ndarray, float, float] | None:
+    """:func:`_qhull_2d` on scipy's qhull wrapper; None when that wrapper takes other arguments
+    (another scipy)."""
+    try:
+        q = _QHULL(b"i", pts, None, required_options=b"Qt")
+    except (TypeError, AttributeError):
+        return None
+    try:
+        q.triangulate()
+        vertices = q.get_extremes_2d()
+        volume, area = q.volume_area()
+    finally:
+        q.close()
+    return vertices, float(volume), float(area)
 
 
 def _convex_hull(pts: np.ndarray) -> np.ndarray:
