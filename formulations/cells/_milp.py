@@ -541,6 +541,32 @@ def _projected_terms(sources: _LevelSources, rows: np.ndarray, inner: float) -> 
     return float(np.mean(counts)) * len(rows) if counts else 0.0
 
 
+def _projected_model_terms(
+    problem: CellProblem, cand: Candidates, keep: np.ndarray, backend: str
+) -> tuple[float, float]:
+    """The hop-row terms of the exact hop model (item 3b) over the sites ``keep`` of ``cand``
+    projected as ``build_milp(project_terms=True)`` first projects them, before anything of the
+    model is built: level 2's terms from the same sample of its rows (``_projected_terms``)
+    times the m - 1 levels. Returns (that projection, level 2's projection); (0, 0) without
+    level-2 rows or sources. Level 2's rows and sources are those of ``_hop_levels``: the
+    non-direct sites within r1 + r2 (with its tolerance) of a GBS, and the direct sites; only
+    their square variables are made, on a scratch model of ``backend``."""
+    m = problem.n_cells
+    pts, direct = cand.points[keep], cand.direct[keep]
+    nd, src = np.flatnonzero(~direct), np.flatnonzero(direct)
+    if m < 2 or len(nd) == 0 or len(src) == 0:
+        return 0.0, 0.0
+    dg = np.min(pairwise_distances(pts[nd], problem.gbs), axis=1)
+    rows = nd[np.ceil((dg - problem.r1 - m * TOL) / problem.r2) + 1 <= 2]  # lowest level 2
+    if len(rows) == 0:
+        return 0.0, 0.0
+    lin = _new_model(backend)
+    var = {d: lin.bool_var(f"x{d}") for d in src.tolist()}
+    sources = _LevelSources(pts, src, var, problem, lin, {}, 2)
+    level2 = _projected_terms(sources, rows, 2 * problem.R_d - 2 * TOL)
+    return level2 * (m - 1), level2
+
+
 def _level_rows(
     lin,
     z: dict,
@@ -1187,26 +1213,74 @@ class _ModelSolve:
         self.prep, self.backend, self.workers = prep, backend, workers
         self.connectivity, self.max_rounds, self.user_cliques = connectivity, max_rounds, user_cliques
         self.b_prev = _bound_m_minus_1(prep)
-        self.disc_bounds = _disc_bounds(prep, self.b_prev) if LIGHT_ROWS.get(backend, False) else None
         self.state = _SearchState(inc=prep.inc, inc_val=float(prep.inc_val))
+        self.ub = float(prep.ub)  # the model's objective cap (item 4), lowered by item 10
+        self.term_cap = model_term_cap()  # a model over it would not fit: refused before it is built
+        self._refuse_projected_size()  # before the bounds of item 9 and the LP of item 10
+        self.disc_bounds = _disc_bounds(prep, self.b_prev) if LIGHT_ROWS.get(backend, False) else None
         self.tree = cKDTree(prep.cand.points)
         self.cuts: list = []
         self.deadline = None if prep.time_limit is None else prep.t0 + prep.time_limit
-        self.ub = float(prep.ub)  # the model's objective cap (item 4), lowered by item 10
         self.fix_stats: dict[str, Any] = {}
-        self.term_cap = model_term_cap()  # a model over it would not fit: refused while it is built
 
-    def _refuse_model_size(self) -> None:
-        """The model's build stopped at ``term_cap`` terms: refuse it, naming the size asked for."""
+    def _first_target(self) -> float:
+        """The first target g of the descending scheme (``targets``; ``TARGET_START``)."""
+        state = self.state
+        start = TARGET_START.get(self.backend, 0.5) if self.connectivity == "hops" else 0.5
+        return max(state.inc_val + start * (self.ub - state.inc_val), state.inc_val)
+
+    def _lp_fixing_on(self, n_sites: int) -> bool:
+        """True when item 10 runs before a final round over ``n_sites`` sites (``lp_fixing``)."""
+        return (
+            LP_FIXING.get(self.backend, False)
+            and self.connectivity == "hops"
+            and n_sites >= LP_FIXING_MIN_SITES
+            and "highs" in BACKENDS
+        )
+
+    def _refuse_projected_size(self) -> None:
+        """Refuse up front a hop model that the first round's build would refuse: its sites
+        (``reduce_candidates`` at the first target) projected by ``_projected_model_terms``,
+        which is the build's own first check (the same sites and sample give the same figure),
+        past ``PROJECTION_MARGIN`` times ``term_cap``.
+
+        Nothing between here and that build makes the model smaller, except item 10 when the
+        first round is the final one: the LP fixing may drop sites. Its lifted model holds
+        at least level 2's rows of this model, so when level 2 alone is projected past
+        ``PROJECTION_MARGIN * LP_FIXING_MAX_TERMS`` its build stops and it drops nothing;
+        otherwise the decision is left to the build. Earlier, before ``solve_exact``'s polish,
+        no refusal is sound: the polish may raise the incumbent up to the continuous bound
+        (or to it, proving it without a model), and at that threshold Table 4.2 density x4
+        at m = 4 seed 0 keeps 2,384 of its 63,984 sites. Without a known cap, with the lazy
+        cuts (no hop rows) or with ``max_rounds`` 0 (no model built) nothing is refused."""
+        if self.term_cap is None or self.connectivity != "hops" or self.max_rounds == 0:
+            return
+        prep, g = self.prep, self._first_target()
+        keep = reduce_candidates(prep.problem, prep.cand, g, self.state.inc, self.b_prev)
+        total, level2 = _projected_model_terms(prep.problem, prep.cand, keep, self.backend)
+        if total <= PROJECTION_MARGIN * self.term_cap:
+            return
+        final = g <= self.state.inc_val
+        if final and self._lp_fixing_on(len(keep)) and level2 <= PROJECTION_MARGIN * LP_FIXING_MAX_TERMS:
+            return
+        self._refuse_model_size(total)
+
+    def _refuse_model_size(self, projected: float | None = None) -> None:
+        """Refuse the model, naming the size asked for: its build stopped at ``term_cap`` terms,
+        or (``projected``) its hop rows are projected to this many terms before it is built."""
         cap = int(self.term_cap or 0)
         memory = machine_memory() or 0.0
+        asked = (
+            "counted, or projected from a sample of a level's rows, while the model was built"
+            if projected is None
+            else f"about {projected:,.0f} ({projected * MODEL_BYTES_PER_TERM / 2**30:.1f} GiB), projected "
+            "from a sample of level 2's rows before the model is built"
+        )
         raise ValueError(
-            f"problem: the candidate model's hop rows would hold more than {cap:,} terms (counted, "
-            f"or projected from a sample of a level's rows; more than "
-            f"{cap * MODEL_BYTES_PER_TERM / 2**30:.1f} GiB with the solver's copies, at "
-            f"{MODEL_BYTES_PER_TERM} bytes a term), over {MODEL_MEMORY_SHARE:.0%} of this machine's "
-            f"memory ({memory / 2**30:.1f} GiB); use engine='bnb', connectivity='lazy' or fewer "
-            "candidate sites"
+            f"problem: the candidate model's hop rows would hold more than {cap:,} terms, the "
+            f"{MODEL_MEMORY_SHARE:.0%} of this machine's memory ({memory / 2**30:.1f} GiB) a model may "
+            f"take at {MODEL_BYTES_PER_TERM} bytes a term with the solver's copies: {asked}; use "
+            "engine='bnb', connectivity='lazy' or fewer candidate sites"
         )
 
     def relaxation(self, keep: np.ndarray, found: list) -> SolveResult:
@@ -1301,12 +1375,7 @@ class _ModelSolve:
         """Item 10 on the sites ``keep`` (``lp_fixing``) when it is on for this backend and
         model; lowers ``self.ub`` to the LP bound. None: not run (or no time to build the LP)."""
         prep, state = self.prep, self.state
-        if (
-            not LP_FIXING.get(self.backend, False)
-            or self.connectivity != "hops"
-            or len(keep) < LP_FIXING_MIN_SITES
-            or "highs" not in BACKENDS
-        ):
+        if not self._lp_fixing_on(len(keep)):
             return None
         left = prep.left()
         out = lp_fixing(
@@ -1336,8 +1405,7 @@ class _ModelSolve:
         with g = incumbent value (the plain pruning of item 1, then item 10). Returns
         (status, bound)."""
         state = self.state
-        start = TARGET_START.get(self.backend, 0.5) if self.connectivity == "hops" else 0.5
-        g = state.inc_val + start * (self.ub - state.inc_val)
+        g = self._first_target()
         while True:
             g = max(g, state.inc_val)
             final = g <= state.inc_val

@@ -1,0 +1,101 @@
+"""The MILP engine refuses a model too large for the machine before it builds anything of it:
+``_ModelSolve`` projects the first round's hop rows (``_projected_model_terms``, the build's own
+first projection) right after the polish, before the bounds of the light-site rows, the LP
+fixing and the model's rows; and only when nothing later could make that model smaller."""
+
+import numpy as np
+import pytest
+
+from droneplan.formulations.cells import _milp, build_milp, candidate_sites, solve_exact
+from droneplan.scenarios.cells import thesis_problem
+from droneplan.solvers.result import Status
+
+
+def _must_not_run(name):
+    def fail(*a, **k):
+        raise AssertionError(f"{name} ran before the model-size refusal")
+
+    return fail
+
+
+@pytest.fixture
+def no_model_work(monkeypatch):
+    """Every step after the refusal point fails the test if it runs."""
+    for name in ("_disc_bounds", "lp_fixing", "build_milp"):
+        monkeypatch.setattr(_milp, name, _must_not_run(name))
+    monkeypatch.setattr(_milp, "model_term_cap", lambda: 1000)
+
+
+@pytest.mark.parametrize("backend", ["cp-sat", "highs"])
+def test_refused_before_any_model_is_built(backend, no_model_work, monkeypatch):
+    """With a small cap the call is refused naming the projected terms, and neither the
+    light-site bounds, the LP fixing nor any model build has run. On CP-SAT the first round
+    is the final one and the LP fixing could drop sites, so its own cap is lowered below level
+    2's projection (its build would stop there and drop nothing)."""
+    if backend not in _milp.BACKENDS:
+        pytest.skip(f"{backend} not installed")
+    monkeypatch.setattr(_milp, "LP_FIXING_MAX_TERMS", 100)
+    p = thesis_problem(4, 0)
+    with pytest.raises(
+        ValueError, match=r"more than 1,000 terms.*memory.*about [\d,]+ \([\d.]+ GiB\), projected"
+    ):
+        solve_exact(p, engine="milp", backend=backend, workers=1, time_limit=120)
+
+
+def test_not_refused_early_while_the_lp_fixing_may_shrink_the_model(monkeypatch):
+    """CP-SAT, first round final, LP fixing on and its model possibly under its cap: the early
+    check leaves the decision to the build (which then refuses, counting while building)."""
+    p = thesis_problem(4, 0)
+    monkeypatch.setattr(_milp, "model_term_cap", lambda: 1000)
+    monkeypatch.setattr(_milp, "LP_FIXING_MIN_SITES", 1)
+    with pytest.raises(ValueError, match=r"more than 1,000 terms.*while the model was built"):
+        solve_exact(p, engine="milp", workers=1, time_limit=120)
+
+
+@pytest.mark.parametrize(("connectivity", "max_rounds"), [("hops", 0), ("lazy", 1)])
+def test_no_refusal_when_no_hop_model_is_built(connectivity, max_rounds, monkeypatch):
+    """No hop rows (lazy cuts) or no model at all (max_rounds 0): nothing to refuse."""
+    monkeypatch.setattr(_milp, "model_term_cap", lambda: 1000)
+    monkeypatch.setattr(_milp, "_projected_model_terms", _must_not_run("_projected_model_terms"))
+    p = thesis_problem(3, 0)
+    res = solve_exact(
+        p, engine="milp", workers=1, time_limit=60, connectivity=connectivity, max_rounds=max_rounds
+    )
+    assert res.status in (Status.OPTIMAL, Status.FEASIBLE)
+    assert res.objective is not None and res.objective >= res.info["incumbent"]["value"]
+
+
+def test_a_normal_instance_is_not_refused():
+    """Table 4.2 m = 4 seed 0 with this machine's cap: proven, to the branch and bound's value."""
+    p = thesis_problem(4, 0)
+    res = solve_exact(p, engine="milp", workers=1, time_limit=120)
+    ref = solve_exact(p, engine="bnb", workers=1, time_limit=120)
+    assert res.status is Status.OPTIMAL and ref.status is Status.OPTIMAL
+    assert res.objective == ref.objective
+
+
+def test_early_projection_is_the_builds_first_check(monkeypatch):
+    """The projection of ``_projected_model_terms`` is the figure the build's first check uses:
+    with ``max_terms`` just below it over ``PROJECTION_MARGIN`` the build stops before writing a
+    row (only the sample is counted), just above it the build writes level 2's rows."""
+    p = thesis_problem(4, 0)
+    cand = candidate_sites(p)
+    keep = np.arange(0, len(cand.points), 3)
+    total, level2 = _milp._projected_model_terms(p, cand, keep, "cp-sat")
+    assert total == level2 * (p.n_cells - 1) and level2 > 1000
+    calls = {"n": 0}
+    real_terms = _milp._LevelSources.terms
+
+    def counting_terms(self, *a, **k):
+        calls["n"] += 1
+        return real_terms(self, *a, **k)
+
+    monkeypatch.setattr(_milp._LevelSources, "terms", counting_terms)
+    edge = total / _milp.PROJECTION_MARGIN
+    below = build_milp(
+        p, candidates=cand, keep=keep, lifted_hops=False, max_terms=int(edge) - 1, project_terms=True
+    )
+    assert below is None and calls["n"] <= _milp._PROJECTION_SAMPLE
+    calls["n"] = 0
+    build_milp(p, candidates=cand, keep=keep, lifted_hops=False, max_terms=int(edge) + 1, project_terms=True)
+    assert calls["n"] > 2 * _milp._PROJECTION_SAMPLE  # level 2's rows were written after its sample
