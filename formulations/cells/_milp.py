@@ -1273,14 +1273,14 @@ class _ModelSolve:
         asked = (
             "counted, or projected from a sample of a level's rows, while the model was built"
             if projected is None
-            else f"about {projected:,.0f} ({projected * MODEL_BYTES_PER_TERM / 2**30:.1f} GiB), projected "
-            "from a sample of level 2's rows before the model is built"
+            else f"about {projected:,.0f} terms ({projected * MODEL_BYTES_PER_TERM / 2**30:.1f} GiB), "
+            "projected from a sample of level 2's rows before the model is built"
         )
         raise ValueError(
-            f"problem: the candidate model's hop rows would hold more than {cap:,} terms, the "
-            f"{MODEL_MEMORY_SHARE:.0%} of this machine's memory ({memory / 2**30:.1f} GiB) a model may "
-            f"take at {MODEL_BYTES_PER_TERM} bytes a term with the solver's copies: {asked}; use "
-            "engine='bnb', connectivity='lazy' or fewer candidate sites"
+            f"problem: the candidate model's hop rows would hold more than {cap:,} terms, the most a "
+            f"model may take here ({MODEL_MEMORY_SHARE:.0%} of this machine's memory, "
+            f"{memory / 2**30:.1f} GiB, at {MODEL_BYTES_PER_TERM} bytes a term with the solver's "
+            f"copies): {asked}; use engine='bnb', connectivity='lazy' or fewer candidate sites"
         )
 
     def relaxation(self, keep: np.ndarray, found: list) -> SolveResult:

@@ -37,7 +37,7 @@ def test_refused_before_any_model_is_built(backend, no_model_work, monkeypatch):
     monkeypatch.setattr(_milp, "LP_FIXING_MAX_TERMS", 100)
     p = thesis_problem(4, 0)
     with pytest.raises(
-        ValueError, match=r"more than 1,000 terms.*memory.*about [\d,]+ \([\d.]+ GiB\), projected"
+        ValueError, match=r"more than 1,000 terms.*memory.*about [\d,]+ terms \([\d.]+ GiB\), projected"
     ):
         solve_exact(p, engine="milp", backend=backend, workers=1, time_limit=120)
 
