@@ -324,6 +324,11 @@ def solve_exact(
     None, with the reason in ``message``, when no backend could compute it),
     ``global_optimal`` (objective equals the continuous bound), ``rounds`` (model solves),
     ``model_stats``. ``message`` says which bound is which and which engine gave it.
+
+    Raises ValueError (engine "milp", hop levels) when the model's hop rows are projected past
+    half this machine's memory at 128 bytes a term (``_milp.model_term_cap``), naming the terms
+    asked for: after the polish (which may raise the incumbent and so prune the model) and
+    before the model, or the LP of its site fixing, is built.
     """
     _check_common(problem, engine, backend, connectivity, workers, max_rounds, user_cliques)
     check_bool("bnb_elimination", bnb_elimination)
