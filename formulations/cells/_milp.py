@@ -441,6 +441,15 @@ def _source_vars(lin, z: dict, nd: np.ndarray, lev: int, merged: bool) -> tuple[
     return np.array(sorted(var), dtype=np.int64), var
 
 
+def _lowest_levels(problem: CellProblem, points: np.ndarray) -> np.ndarray:
+    """The lowest hop level (>= 2) each non-direct site of ``points`` ((k, 2) m) may take in the
+    hop rows of item 3b: level l reaches r1 + (l - 1) r2 from a GBS, each of the m links with
+    tolerance TOL."""
+    dg = np.min(pairwise_distances(points, problem.gbs), axis=1)
+    reach = np.ceil((dg - problem.r1 - problem.n_cells * TOL) / problem.r2).astype(np.int64) + 1
+    return np.maximum(2, reach)
+
+
 def _hop_levels(
     lin,
     x: list,
@@ -482,10 +491,7 @@ def _hop_levels(
     nd = np.flatnonzero(~direct)
     # sources closer than 2 R_d - TOL overlap c and are never used with it (item 3b)
     inner = 2 * problem.R_d - 2 * TOL
-    dg = np.min(pairwise_distances(pts[nd], problem.gbs), axis=1)
-    # level l reaches r1 + (l - 1) r2 (each link has tolerance TOL)
-    lowest = np.maximum(2, np.ceil((dg - problem.r1 - m * TOL) / problem.r2).astype(np.int64) + 1)
-    lowest = np.minimum(lowest, top)
+    lowest = np.minimum(_lowest_levels(problem, pts[nd]), top)
     z: dict[tuple[int, int], Any] = {}
     for k, c in enumerate(nd.tolist()):
         for lev in range(int(lowest[k]), top + 1):
@@ -556,8 +562,7 @@ def _projected_model_terms(
     nd, src = np.flatnonzero(~direct), np.flatnonzero(direct)
     if m < 2 or len(nd) == 0 or len(src) == 0:
         return 0.0, 0.0
-    dg = np.min(pairwise_distances(pts[nd], problem.gbs), axis=1)
-    rows = nd[np.ceil((dg - problem.r1 - m * TOL) / problem.r2) + 1 <= 2]  # lowest level 2
+    rows = nd[_lowest_levels(problem, pts[nd]) <= 2]
     if len(rows) == 0:
         return 0.0, 0.0
     lin = _new_model(backend)
