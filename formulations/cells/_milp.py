@@ -149,6 +149,28 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    ends open, at 66 / 73 (``LP_FIXING_MAX_TERMS``). m = 6 seed 5 (all levels): 2 007 of 3 410
    sites dropped, proven in 83.6 CPU s (130 s wall, load 3.1; 94 CPU s without item 10).
 
+11. **Why Table 4.2 m = 6 seed 1 stays open (66 / 73 after 600 s; the branch and bound proves 66).**
+   Its optimum holds three far sites (14, 14, 15 users, two links from the GBS) fed by relays
+   of 7 and 3 users and a direct site of 13; six discs without backhaul cover 75, the cap of
+   item 4. The LP relaxation of the final model (all 4,387 sites, HiGHS IPM, 55 CPU s) reaches
+   that cap with one direct site at 1 and the far mass at hop levels 5 and 6: a square variable
+   at level l - 1 feeds many level-l sites at once, so the mass a level needs halves level by
+   level down to the direct site (at most 0.005 at levels 2-4). Relays cost the LP almost
+   nothing. Tried on that model and dropped, because none moved the bound:
+   - rows from BFS layers of the link graph. Every path from a GBS crosses each layer, so a
+     used site in layer k needs a used site in every layer below. LP 75.00 -> 75.00: there are
+     only three layers here, and one direct site serves them all;
+   - level-profile rows. When level l is used, at most m - l + 1 sites sit at levels >= l,
+     which gives ``sum_{l' >= l} z <= (m - l + 1) v_l`` with ``v_l <= sum z_{., l-1}``. LP 74.99;
+   - node-cut rows separated at the LP point (max-flow from the direct sites with capacities
+     x, one cut per island of far sites the LP has not linked). LP 75.00 -> 74.72 after four
+     rounds of 16 cuts, about 50 s a round;
+   - the branch and bound's site probes written as rows, ``obj + (ub - U_c) x_c <= ub``
+     (3,837 rows, U_c mostly 67-75). CP-SAT, 1 worker, 600 s: 66 / 73, as without them;
+   - HiGHS with 2 threads instead of CP-SAT: 66 / 73 after 600 s (452 CPU s).
+   Held-out Table 4.2 seeds are proven (CP-SAT, 1 worker): m = 4 seeds 10-19 within 19 CPU s
+   each; m = 6 seeds 10-19 within 600 s, most in 0.8-24 CPU s and seed 14 in 259 CPU s.
+
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
 search of ``_bnb``. Both start from ``_prepare.prepare`` (candidates, incumbent, bounds).
