@@ -1533,11 +1533,16 @@ def search(
     return bb.run(best_pos, eliminate=eliminate, heuristics=heuristics, workers=workers, main=main)
 
 
+def relation_bytes(n: int) -> float:
+    """Bytes the search's two site relations over ``n`` candidates take (conflict and link, as
+    packed bit rows of ceil(n / 8) bytes)."""
+    return 2.0 * n * ((n + 7) // 8)
+
+
 def _check_memory(n: int) -> None:
-    """Refuse up front a search whose conflict and link relations (packed bit rows,
-    ceil(n / 8) bytes a row each) would not fit in this machine's memory, naming the size
-    asked for."""
-    need = 2.0 * n * ((n + 7) // 8)
+    """Refuse up front a search whose conflict and link relations (``relation_bytes``) would
+    not fit in this machine's memory, naming the size asked for."""
+    need = relation_bytes(n)
     avail = machine_memory()
     if avail is None:  # not knowable here: let the search try
         return

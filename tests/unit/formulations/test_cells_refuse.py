@@ -99,3 +99,34 @@ def test_early_projection_is_the_builds_first_check(monkeypatch):
     calls["n"] = 0
     build_milp(p, candidates=cand, keep=keep, lifted_hops=False, max_terms=int(edge) + 1, project_terms=True)
     assert calls["n"] > 2 * _milp._PROJECTION_SAMPLE  # level 2's rows were written after its sample
+
+
+def test_polish_skipped_when_the_site_relations_would_not_fit(monkeypatch):
+    """The polish holds the branch and bound's site relations; past POLISH_MEMORY_SHARE of the
+    machine's memory the starts are used unpolished (said in info), and the model still proves
+    the branch and bound's optimum from the greedy start."""
+    from droneplan.formulations.cells import _bnb, _exact
+
+    p = thesis_problem(3, 0)
+    n = len(candidate_sites(p).points)
+    need = _bnb.relation_bytes(n)
+    expected = solve_exact(p, engine="bnb", workers=1, time_limit=120)
+    monkeypatch.setattr(_exact, "machine_memory", lambda: need / _exact.POLISH_MEMORY_SHARE - 1.0)
+    monkeypatch.setattr(_exact, "search", _must_not_run("the polish"))
+    res = solve_exact(p, engine="milp", workers=1, time_limit=120)
+    assert res.info["incumbent"]["polish"].startswith("skipped: the site relations would take")
+    assert res.info["incumbent"]["value"] == res.info["incumbent"]["greedy"]
+    assert res.status is Status.OPTIMAL and expected.status is Status.OPTIMAL
+    assert res.objective == expected.objective
+
+
+def test_polish_runs_when_the_site_relations_fit(monkeypatch):
+    """At exactly POLISH_MEMORY_SHARE of the memory the polish runs."""
+    from droneplan.formulations.cells import _bnb, _exact
+
+    p = thesis_problem(3, 0)
+    need = _bnb.relation_bytes(len(candidate_sites(p).points))
+    monkeypatch.setattr(_exact, "machine_memory", lambda: need / _exact.POLISH_MEMORY_SHARE)
+    res = solve_exact(p, engine="milp", workers=1, time_limit=120)
+    assert res.info["incumbent"]["polish"] == "run"
+    assert res.info["incumbent"]["greedy_polished"] >= res.info["incumbent"]["greedy"]
