@@ -1352,41 +1352,58 @@ def bench_grid_specs(
     ]
 
 
-def _grid_child() -> None:
-    """The child process of :func:`bench_grid_row`: reads a spec as JSON on stdin, solves,
-    writes the row as JSON on stdout (memory and CPU measured here, in a fresh process)."""
+def _grid_solve(spec: Mapping[str, Any]) -> dict[str, Any]:
+    """Solve one grid row's instance in this process and measure it (the work of
+    :func:`_grid_child`). A refusal of the engine (a ValueError, e.g. a model too large for the
+    machine) is a row too: status "REFUSED", its message in ``error``, with the seconds and the
+    memory it took to answer."""
     import json
     import resource
-    import sys
     import time
 
-    spec = json.loads(sys.stdin.read())
     problem = thesis_problem(int(spec["m"]), int(spec["seed"]), params=density_params(float(spec["density"])))
     base_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     cpu0 = time.process_time()
     t0 = time.perf_counter()
-    res = solve_exact(
-        problem, engine=spec["engine"], time_limit=float(spec["time_limit"]), workers=int(spec["workers"])
-    )
+    try:
+        res = solve_exact(
+            problem, engine=spec["engine"], time_limit=float(spec["time_limit"]), workers=int(spec["workers"])
+        )
+    except ValueError as err:
+        res, refusal = None, str(err)
     wall = time.perf_counter() - t0
     kids = resource.getrusage(resource.RUSAGE_CHILDREN)
-    row = {
+    measured = {
         "users": len(problem.targets),
-        "candidates": res.info.get("model_stats", {}).get("candidates"),
-        "status": res.status.name,
-        "objective": res.objective,
-        "bound": res.bound,
-        "gap": res.gap,
         "wall_s": wall,
         "cpu_s": time.process_time() - cpu0 + kids.ru_utime + kids.ru_stime,
         # ru_maxrss is in KiB on Linux
         "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         "worker_peak_rss_mib": kids.ru_maxrss / 1024,
         "base_rss_mib": base_rss / 1024,
+    }
+    if res is None:
+        return {**measured, "status": "REFUSED", "error": refusal}
+    return {
+        **measured,
+        "candidates": res.info.get("model_stats", {}).get("candidates"),
+        "status": res.status.name,
+        "objective": res.objective,
+        "bound": res.bound,
+        "gap": res.gap,
         # the engine's counters (search nodes, eliminated sites, model size ...) as JSON text
         "model_stats": json.dumps(res.info.get("model_stats", {}), default=str, sort_keys=True),
     }
-    sys.stdout.write(json.dumps(row) + "\n")
+
+
+def _grid_child() -> None:
+    """The child process of :func:`bench_grid_row`: reads a spec as JSON on stdin, solves,
+    writes the row as JSON on stdout (memory and CPU measured here, in a fresh process)."""
+    import json
+    import sys
+
+    spec = json.loads(sys.stdin.read())
+    sys.stdout.write(json.dumps(_grid_solve(spec)) + "\n")
 
 
 def bench_grid_row(spec: Mapping[str, Any]) -> dict[str, Any]:
@@ -1400,9 +1417,11 @@ def bench_grid_row(spec: Mapping[str, Any]) -> dict[str, Any]:
     ``cpu_s`` (CPU seconds of the solve, forked workers included), ``peak_rss_mib`` (peak
     resident memory of the process, MiB; ``base_rss_mib`` is its value before the solve,
     after the imports and the instance; ``worker_peak_rss_mib`` that of the largest forked
-    worker, 0 without), ``load_1min`` (the 1-minute load average when the row started). A
-    process that fails (e.g. out of memory) gives status "ERROR" and its last error line in
-    ``error``.
+    worker, 0 without), ``load_1min`` (the 1-minute load average when the row started). An
+    engine that refuses the instance (a ValueError, e.g. a model too large for the machine)
+    gives status "REFUSED", its message in ``error``, with the seconds and memory it took to
+    answer; a process that fails (e.g. out of memory) gives status "ERROR" and its last error
+    line in ``error``.
     """
     import json
     import subprocess
@@ -1436,6 +1455,11 @@ def grid_text(row: Mapping[str, Any]) -> str:
 
     if row.get("status") == "ERROR":
         return f"ERROR ({row.get('error', '')}), load {num('load_1min', '.2f')}"
+    if row.get("status") == "REFUSED":
+        return (
+            f"REFUSED after {num('wall_s', '.1f')} s, {num('cpu_s', '.1f')} CPU-s, peak "
+            f"{num('peak_rss_mib', '.0f')} MiB, load {num('load_1min', '.2f')} ({row.get('error', '')})"
+        )
     t = row.get("time_to_proof_s")
     proof = "not proven" if t is None or (isinstance(t, float) and math.isnan(t)) else f"proven in {t:.1f} s"
     return (

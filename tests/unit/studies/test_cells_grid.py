@@ -116,3 +116,18 @@ def test_grid_main_refuses_bad_arguments(args):
     with pytest.raises(SystemExit) as e:
         grid_main(args)
     assert e.value.code == 2
+
+
+def test_a_refused_grid_row_is_measured(monkeypatch):
+    """An engine's refusal (a model over the machine's cap, here a cap of 1,000 terms) is a row
+    with status REFUSED, the message and the seconds and memory the refusal took."""
+    from droneplan.formulations.cells import _milp
+    from droneplan.studies.cells import _grid_solve
+
+    monkeypatch.setattr(_milp, "model_term_cap", lambda: 1000)
+    monkeypatch.setattr(_milp, "LP_FIXING_MAX_TERMS", 100)
+    spec = bench_grid_specs(quick=True, ms=[4], densities=[1.0], engines=["milp"], time_limit=120)[0]
+    row = {**spec, **_grid_solve(spec), "load_1min": 0.5}
+    assert row["status"] == "REFUSED" and "more than 1,000 terms" in row["error"]
+    assert row["wall_s"] > 0 and row["cpu_s"] > 0 and row["peak_rss_mib"] >= row["base_rss_mib"] > 0
+    assert grid_text(row).startswith("REFUSED after ") and "more than 1,000 terms" in grid_text(row)
