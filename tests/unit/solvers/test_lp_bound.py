@@ -104,3 +104,38 @@ def test_bad_input_is_refused_by_name():
     s2.Maximize(t)
     with pytest.raises(ValueError, match="0/1 variables"):
         lp_dual_bound(s2, [t])
+
+
+def test_a_swamped_bound_is_solved_again_without_presolve(monkeypatch):
+    """When the bound from the presolved LP exceeds its optimum by more than PRESOLVE_RETRY_GAP
+    (huge postsolve duals), the LP is solved again without presolve and each bound is the
+    smaller of the two; a sane bound is not solved again."""
+    from droneplan.solvers import lp_bound
+
+    s, x, rows, c = _random_model(7, 6)
+    best, best_at = _enumerate(rows, c, 6)
+    real = lp_bound._solve_and_bound
+    calls = []
+
+    def swamped_first(highs, lp, cols, method, time_limit, *, presolve):
+        calls.append(presolve)
+        status, value, bound, at_one = real(highs, lp, cols, method, time_limit, presolve=presolve)
+        if presolve:  # what HiGHS's postsolve returned on a degenerate cells LP: valid, useless
+            return status, value, bound + 2000.0, at_one + np.arange(len(at_one)) * 1000.0
+        return status, value, bound, at_one
+
+    monkeypatch.setattr(lp_bound, "_solve_and_bound", swamped_first)
+    out = lp_dual_bound(s, x)
+    assert calls == [True, False]
+    assert out.lp_value is not None and out.bound <= out.lp_value + 1e-4 * max(1.0, abs(out.lp_value))
+    assert out.bound >= best - 1e-6
+    assert np.all(out.at_one >= best_at - 1e-6)
+    calls.clear()
+
+    def counted(*a, **k):
+        calls.append(k["presolve"])
+        return real(*a, **k)
+
+    monkeypatch.setattr(lp_bound, "_solve_and_bound", counted)
+    lp_dual_bound(s, x)
+    assert calls == [True]
