@@ -162,9 +162,13 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
      only three layers here, and one direct site serves them all;
    - level-profile rows. When level l is used, at most m - l + 1 sites sit at levels >= l,
      which gives ``sum_{l' >= l} z <= (m - l + 1) v_l`` with ``v_l <= sum z_{., l-1}``. LP 74.99;
-   - node-cut rows separated at the LP point (max-flow from the direct sites with capacities
-     x, one cut per island of far sites the LP has not linked). LP 75.00 -> 74.72 after four
-     rounds of 16 cuts, about 50 s a round;
+   - node-cut rows separated at the LP point: for an island W of far sites that the LP's
+     positive sites do not link to a direct site, ``x_e <= b <= sum of the sites next to W``
+     for every e in W (valid: a path from a GBS to e enters W through one of them). LP 75.00 ->
+     74.71 after four rounds, 33 rows, about 55 s an LP: each round the LP spreads its mass
+     thinly over another group of sites. A max-flow check of one island found at most 1e-4
+     of link capacity under a far site at 0.17: the LP feeds it through about a thousandfold
+     fan-out over four levels. The clique-lifted rows of item 8 limit that fan-out (LP 73.79);
    - the branch and bound's site probes written as rows, ``obj + (ub - U_c) x_c <= ub``
      (3,837 rows, U_c mostly 67-75). CP-SAT, 1 worker, 600 s: 66 / 73, as without them;
    - HiGHS with 2 threads instead of CP-SAT: 66 / 73 after 600 s (452 CPU s).
