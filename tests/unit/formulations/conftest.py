@@ -48,3 +48,20 @@ def clustered():
     """``clustered(seed, n_clusters, per_cluster, m, half_width=6.0, background=0)``: a small
     clustered cells instance whose clusters need relays."""
     return _clustered_problem
+
+
+@pytest.fixture
+def hop_term_calls(monkeypatch):
+    """Counts the calls of ``_LevelSources.terms`` (one per hop row written or sampled) in
+    ``calls["n"]``; returns that dict."""
+    from droneplan.formulations.cells import _milp
+
+    calls = {"n": 0}
+    real_terms = _milp._LevelSources.terms
+
+    def counting_terms(self, *a, **k):
+        calls["n"] += 1
+        return real_terms(self, *a, **k)
+
+    monkeypatch.setattr(_milp._LevelSources, "terms", counting_terms)
+    return calls

@@ -74,7 +74,7 @@ def test_a_normal_instance_is_not_refused():
     assert res.objective == ref.objective
 
 
-def test_early_projection_is_the_builds_first_check(monkeypatch):
+def test_early_projection_is_the_builds_first_check(hop_term_calls):
     """The projection of ``_projected_model_terms`` is the figure the build's first check uses:
     with ``max_terms`` just below it over ``PROJECTION_MARGIN`` the build stops before writing a
     row (only the sample is counted), just above it the build writes level 2's rows."""
@@ -83,14 +83,8 @@ def test_early_projection_is_the_builds_first_check(monkeypatch):
     keep = np.arange(0, len(cand.points), 3)
     total, level2 = _milp._projected_model_terms(p, cand, keep, "cp-sat")
     assert total == level2 * (p.n_cells - 1) and level2 > 1000
-    calls = {"n": 0}
-    real_terms = _milp._LevelSources.terms
-
-    def counting_terms(self, *a, **k):
-        calls["n"] += 1
-        return real_terms(self, *a, **k)
-
-    monkeypatch.setattr(_milp._LevelSources, "terms", counting_terms)
+    calls = hop_term_calls
+    calls["n"] = 0  # the projection above sampled rows too
     edge = total / _milp.PROJECTION_MARGIN
     below = build_milp(
         p, candidates=cand, keep=keep, lifted_hops=False, max_terms=int(edge) - 1, project_terms=True
