@@ -1539,14 +1539,18 @@ def relation_bytes(n: int) -> float:
     return 2.0 * n * ((n + 7) // 8)
 
 
+def relations_fit(n: int, share: float = 1.0) -> bool:
+    """True when the search's site relations over ``n`` candidates (``relation_bytes``) take
+    at most ``share`` of this machine's memory, or when that memory is not knowable here."""
+    avail = machine_memory()
+    return avail is None or relation_bytes(n) <= share * avail
+
+
 def _check_memory(n: int) -> None:
     """Refuse up front a search whose conflict and link relations (``relation_bytes``) would
     not fit in this machine's memory, naming the size asked for."""
-    need = relation_bytes(n)
-    avail = machine_memory()
-    if avail is None:  # not knowable here: let the search try
-        return
-    if need > avail:
+    if not relations_fit(n):
+        need, avail = relation_bytes(n), machine_memory() or 0.0
         raise ValueError(
             f"problem: the branch and bound would hold two {n} x {n} site relations as bit rows "
             f"({need / 2**30:.1f} GiB), more than this machine's memory ({avail / 2**30:.1f} GiB); "

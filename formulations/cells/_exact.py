@@ -19,8 +19,14 @@ from typing import Any
 
 import numpy as np
 
-from droneplan.core.validation import check_bool, check_int, machine_memory
-from droneplan.formulations.cells._bnb import BranchAndBoundSearch, _Timeout, relation_bytes, search
+from droneplan.core.validation import check_bool, check_int
+from droneplan.formulations.cells._bnb import (
+    BranchAndBoundSearch,
+    _Timeout,
+    relation_bytes,
+    relations_fit,
+    search,
+)
 from droneplan.formulations.cells._core import evaluate
 from droneplan.formulations.cells._milp import CONNECTIVITY, solve_model
 from droneplan.formulations.cells._prepare import Prepared, _near_any, prepare
@@ -123,8 +129,8 @@ def _polish(prep: Prepared, *, greedy: bool = True) -> None:
         return
     left = prep.left()
     budget = (_POLISH_MAX_S if left is None else min(_POLISH_MAX_S, 0.25 * left)) / len(starts)
-    need, memory = relation_bytes(len(prep.cand.points)), machine_memory()
-    skip = memory is not None and need > POLISH_MEMORY_SHARE * memory
+    n_sites = len(prep.cand.points)
+    skip = not relations_fit(n_sites, POLISH_MEMORY_SHARE)
     polished: dict[str, int] = {}
     for name, pos, val in starts:
         if not skip:
@@ -143,7 +149,7 @@ def _polish(prep: Prepared, *, greedy: bool = True) -> None:
         "value": int(prep.inc_val),
         "from": "warm_start" if prep.warm_used else "greedy",
         "polish": (
-            f"skipped: the site relations would take {need / 2**30:.1f} GiB, over "
+            f"skipped: the site relations would take {relation_bytes(n_sites) / 2**30:.1f} GiB, over "
             f"{POLISH_MEMORY_SHARE:.0%} of this machine's memory"
             if skip
             else "run"

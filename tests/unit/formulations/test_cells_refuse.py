@@ -105,7 +105,7 @@ def test_polish_skipped_when_the_site_relations_would_not_fit(monkeypatch):
     n = len(candidate_sites(p).points)
     need = _bnb.relation_bytes(n)
     expected = solve_exact(p, engine="bnb", workers=1, time_limit=120)
-    monkeypatch.setattr(_exact, "machine_memory", lambda: need / _exact.POLISH_MEMORY_SHARE - 1.0)
+    monkeypatch.setattr(_bnb, "machine_memory", lambda: need / _exact.POLISH_MEMORY_SHARE - 1.0)
     monkeypatch.setattr(_exact, "search", _must_not_run("the polish"))
     res = solve_exact(p, engine="milp", workers=1, time_limit=120)
     assert res.info["incumbent"]["polish"].startswith("skipped: the site relations would take")
@@ -120,7 +120,7 @@ def test_polish_runs_when_the_site_relations_fit(monkeypatch):
 
     p = thesis_problem(3, 0)
     need = _bnb.relation_bytes(len(candidate_sites(p).points))
-    monkeypatch.setattr(_exact, "machine_memory", lambda: need / _exact.POLISH_MEMORY_SHARE)
+    monkeypatch.setattr(_bnb, "machine_memory", lambda: need / _exact.POLISH_MEMORY_SHARE)
     res = solve_exact(p, engine="milp", workers=1, time_limit=120)
     assert res.info["incumbent"]["polish"] == "run"
     assert res.info["incumbent"]["greedy_polished"] >= res.info["incumbent"]["greedy"]
