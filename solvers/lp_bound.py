@@ -47,6 +47,9 @@ class LpBound:
     """The LP optimum HiGHS reports (None without one); ``bound`` is its safe counterpart."""
     time: float
     """Wall-clock seconds of the LP solve and the bound."""
+    method: str = "simplex"
+    """The LP algorithm(s) whose duals gave the bound: "simplex", "ipm", or "simplex, then ipm"
+    (``lp_dual_bound(ipm_after=)``)."""
 
 
 LP_METHODS = ("simplex", "ipm")
@@ -60,6 +63,7 @@ def lp_dual_bound(
     *,
     time_limit: float | None = None,
     method: str = "simplex",
+    ipm_after: float | None = None,
 ) -> LpBound:
     """A safe upper bound of the maximisation model ``solver`` (module docstring) from the
     row duals of its LP relaxation, solved by HiGHS (highspy), and the bound with each of
@@ -73,16 +77,15 @@ def lp_dual_bound(
         needs nothing from the solver); IPM with crossover solved the lifted hop LP of Table
         4.2 m = 6 seed 1 (1.5 M terms) in 47 s, where the simplex had not in 300 s, but its
         duals fixed fewer sites on m = 6 seed 5 (768 against 2 007, same LP value 88.90).
+    ipm_after: None (default), or seconds > 0, with ``method="simplex"``: when the simplex has
+        not ended after this long, IPM solves the LP again in the rest of ``time_limit``, and
+        the bounds of the two solves are combined (each the smaller; both are valid). A
+        stopped simplex leaves duals that bound almost nothing, while IPM can be far faster on
+        a degenerate LP (the simplex's own duals, where it ends in time, fixed more sites).
     """
-    if method not in LP_METHODS:
-        raise ValueError(f"method must be one of {LP_METHODS}, got {method!r}")
     from droneplan.solvers.mip import _highs_model
 
-    time_limit = check_time_limit(time_limit)
-    if not isinstance(solver, pywraplp.Solver):
-        raise TypeError(f"solver must be a pywraplp.Solver, got {type(solver).__name__}")
-    if not solver.Objective().maximization():
-        raise ValueError("solver must maximise its objective (lp_dual_bound bounds from above)")
+    time_limit, ipm_after = _checked_settings(solver, time_limit, method, ipm_after)
     t0 = time.perf_counter()
     highs = _highs_model(solver)
     lp = highs.getLp()
@@ -97,14 +100,44 @@ def lp_dual_bound(
     def left() -> float | None:
         return None if time_limit is None else max(time_limit - (time.perf_counter() - t0), 1e-3)
 
-    status, value, bound, at_one = _solve_and_bound(highs, lp, cols, method, left(), presolve=True)
+    first = left() if ipm_after is None else min(ipm_after, left() or math.inf)
+    status, value, bound, at_one = _solve_and_bound(highs, lp, cols, method, first, presolve=True)
+    used = method
+    if ipm_after is not None and status != "Optimal" and (left() or math.inf) > IPM_MIN_SECONDS:
+        status, value, ipm_bound, ipm_at_one = _solve_and_bound(highs, lp, cols, "ipm", left(), presolve=True)
+        bound, at_one, used = min(bound, ipm_bound), np.minimum(at_one, ipm_at_one), "simplex, then ipm"
+        method = "ipm"
     if status == "Optimal" and value is not None and _swamped(bound, value):
         # HiGHS's postsolve can return huge, nearly cancelling duals (|y| ~ 6e9 on a degenerate
         # LP); they stay valid but their rounding margin swamps the bound. Solved again without
         # presolve, and each bound is the smaller of the two (both are valid).
         retry = _solve_and_bound(highs, lp, cols, method, left(), presolve=False)
         bound, at_one = min(bound, retry[2]), np.minimum(at_one, retry[3])
-    return LpBound(bound=bound, at_one=at_one, status=status, lp_value=value, time=time.perf_counter() - t0)
+    return LpBound(
+        bound=bound, at_one=at_one, status=status, lp_value=value, time=time.perf_counter() - t0, method=used
+    )
+
+
+IPM_MIN_SECONDS = 0.05
+"""``lp_dual_bound(ipm_after=)`` starts IPM only with more than this many seconds left."""
+
+
+def _checked_settings(
+    solver: Any, time_limit: Any, method: Any, ipm_after: Any
+) -> tuple[float | None, float | None]:
+    """Check :func:`lp_dual_bound`'s model and settings by name; returns (time_limit, ipm_after)."""
+    if method not in LP_METHODS:
+        raise ValueError(f"method must be one of {LP_METHODS}, got {method!r}")
+    time_limit = check_time_limit(time_limit)
+    if ipm_after is not None:
+        ipm_after = check_time_limit(ipm_after, "ipm_after")
+        if method != "simplex":
+            raise ValueError(f"ipm_after needs method='simplex', got method={method!r}")
+    if not isinstance(solver, pywraplp.Solver):
+        raise TypeError(f"solver must be a pywraplp.Solver, got {type(solver).__name__}")
+    if not solver.Objective().maximization():
+        raise ValueError("solver must maximise its objective (lp_dual_bound bounds from above)")
+    return time_limit, ipm_after
 
 
 PRESOLVE_RETRY_GAP = 1e-4

@@ -139,3 +139,46 @@ def test_a_swamped_bound_is_solved_again_without_presolve(monkeypatch):
     monkeypatch.setattr(lp_bound, "_solve_and_bound", counted)
     lp_dual_bound(s, x)
     assert calls == [True]
+
+
+def test_a_stopped_simplex_hands_the_rest_of_the_time_to_ipm(monkeypatch):
+    """With ``ipm_after``, a simplex that has not ended in that time leaves the LP to IPM for the
+    rest of ``time_limit``; each bound is the smaller of the two (both stay above enumeration)."""
+    from droneplan.solvers import lp_bound
+
+    s, x, rows, c = _random_model(11, 6)
+    best, best_at = _enumerate(rows, c, 6)
+    real = lp_bound._solve_and_bound
+    calls = []
+
+    def stopped_simplex(highs, lp, cols, method, time_limit, *, presolve):
+        calls.append((method, time_limit))
+        status, value, bound, at_one = real(highs, lp, cols, method, time_limit, presolve=presolve)
+        if method == "simplex":  # what a simplex stopped at its limit leaves: valid, weak duals
+            return "Time limit reached", None, bound + 50.0, at_one + 50.0
+        return status, value, bound, at_one
+
+    monkeypatch.setattr(lp_bound, "_solve_and_bound", stopped_simplex)
+    out = lp_dual_bound(s, x, time_limit=20, ipm_after=2)
+    assert [m for m, _ in calls] == ["simplex", "ipm"]
+    assert calls[0][1] == 2 and 2 < calls[1][1] <= 20
+    assert out.method == "simplex, then ipm" and out.status == "Optimal"
+    assert out.lp_value is not None and out.bound <= out.lp_value + 1e-4 * max(1.0, abs(out.lp_value))
+    assert out.bound >= best - 1e-6 and np.all(out.at_one >= best_at - 1e-6)
+
+
+def test_a_simplex_that_ends_in_time_is_not_solved_again():
+    s, x, rows, c = _random_model(12, 5)
+    out = lp_dual_bound(s, x, ipm_after=30)
+    assert out.method == "simplex" and out.status == "Optimal"
+    assert out.bound >= _enumerate(rows, c, 5)[0] - 1e-9
+
+
+def test_ipm_after_is_checked_by_name():
+    s, x, _, _ = _random_model(13, 3)
+    with pytest.raises(ValueError, match="ipm_after"):
+        lp_dual_bound(s, x, ipm_after=0)
+    with pytest.raises(ValueError, match="ipm_after"):
+        lp_dual_bound(s, x, method="ipm", ipm_after=5)
+    with pytest.raises(TypeError, match="ipm_after"):
+        lp_dual_bound(s, x, ipm_after="5")
