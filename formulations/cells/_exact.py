@@ -137,6 +137,7 @@ def _polish(prep: Prepared, *, greedy: bool = True) -> None:
             bb = search(
                 prep.problem, prep.cand, pos, val, upper=prep.ub, time_limit=budget, workers=1, main=False
             )
+            prep.polish_stopped |= not bb.built
             ev = evaluate(prep.problem, bb.positions)
             if ev.feasible and ev.covered > val:
                 pos, val = bb.positions, int(ev.covered)
@@ -152,6 +153,8 @@ def _polish(prep: Prepared, *, greedy: bool = True) -> None:
             f"skipped: the site relations would take {relation_bytes(n_sites) / 2**30:.1f} GiB, over "
             f"{POLISH_MEMORY_SHARE:.0%} of this machine's memory"
             if skip
+            else "stopped: its share of the time limit passed while the site relations were built"
+            if prep.polish_stopped
             else "run"
         ),
     }
@@ -217,9 +220,13 @@ def _eliminate_for_model(prep: Prepared) -> None:
     t_start = time.perf_counter()
     left = prep.left()
     limit = None if left is None else (t_start - prep.t0) + ELIMINATION_SHARE * left
-    bb = BranchAndBoundSearch(
-        prep.problem, cand, int(prep.inc_val), upper=prep.ub, time_limit=limit, t0=prep.t0
-    )
+    try:
+        bb = BranchAndBoundSearch(
+            prep.problem, cand, int(prep.inc_val), upper=prep.ub, time_limit=limit, t0=prep.t0
+        )
+    except _Timeout:  # its share of the time passed while the site relations were built
+        prep.info["elimination"] = {"run": False, "sites": n, "reason": "time limit"}
+        return
     alive = np.ones(bb.n, dtype=bool)
     complete, dominated = True, 0
     try:

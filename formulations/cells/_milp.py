@@ -1297,8 +1297,16 @@ class _ModelSolve:
         no refusal is sound: the polish may raise the incumbent up to the continuous bound
         (or to it, proving it without a model), and at that threshold Table 4.2 density x4
         at m = 4 seed 0 keeps 2,384 of its 63,984 sites. Without a known cap, with the lazy
-        cuts (no hop rows) or with ``max_rounds`` 0 (no model built) nothing is refused."""
-        if self.term_cap is None or self.connectivity != "hops" or self.max_rounds == 0:
+        cuts (no hop rows) or with ``max_rounds`` 0 (no model built) nothing is refused, nor
+        when the time limit stopped the polish before it could start (``polish_stopped``: the
+        incumbent could still rise, so the model's size is not known; the build's own checks
+        and the time limit answer instead)."""
+        if (
+            self.term_cap is None
+            or self.connectivity != "hops"
+            or self.max_rounds == 0
+            or self.prep.polish_stopped
+        ):
             return
         prep, g = self.prep, self._first_target()
         keep = reduce_candidates(prep.problem, prep.cand, g, self.state.inc, self.b_prev)

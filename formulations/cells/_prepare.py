@@ -265,6 +265,9 @@ class Prepared:
     """``time.perf_counter()`` at the start of the call."""
     time_limit: float | None
     """Seconds for the whole call, None: none."""
+    polish_stopped: bool = False
+    """True when the time limit passed before the polish (``_exact._polish``) could start a
+    heuristic, so a longer limit may still raise the incumbent."""
     _b_prev: float | None = None
     """:meth:`bound_m_minus_1` once computed."""
 

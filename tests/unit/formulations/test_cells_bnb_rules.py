@@ -362,3 +362,34 @@ def test_kept_conflict_rows_match_the_packed_relation():
     rows.set(np.array([3]), np.array([0]))
     dense[3, 0] = True
     assert np.array_equal(rows.row(3), dense[3])
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 10_000), st.integers(2, 12), st.sampled_from([0.5, 1.0, 2.0]))
+def test_conflict_rows_are_every_pair_closer_than_two_discs(seed, n_clusters, R_d):
+    """The grid-cell build of the conflict relation equals the brute-force one: every pair of
+    distinct sites closer than 2 R_d - TOL, and no other (clustered users put many sites in a
+    few cells, scattered ones spread them over many)."""
+    rng = np.random.default_rng(seed)
+    centres = rng.uniform(-6, 6, size=(n_clusters, 2))
+    users = np.concatenate([rng.normal(c, 0.4 * R_d, size=(4, 2)) for c in centres])
+    p = CellProblem(users=users, gbs=np.zeros((1, 2)), n_cells=3, R_d=R_d, R_g=R_d, r1=3 * R_d, r2=2.5 * R_d)
+    s = BranchAndBoundSearch(p, candidate_sites(p), 0)
+    d = np.hypot(*(s.pts[:, None, :] - s.pts[None, :, :]).transpose(2, 0, 1))
+    expected = (d < 2 * R_d - TOL) & ~np.eye(s.n, dtype=bool)
+    got = np.stack([s.conflict.row(i) for i in range(s.n)]) if s.n else np.zeros((0, 0), bool)
+    assert np.array_equal(got, expected)
+
+
+def test_search_stopped_while_building_its_relations_returns_the_start_unproven(monkeypatch):
+    """A time limit that passes while the site relations are built stops the search there: the
+    start comes back, not proven, with the given upper bound, and ``built`` says nothing ran."""
+    from droneplan.formulations.cells import _bnb
+
+    p = _clustered(3, 8, 3)
+    cand = candidate_sites(p)
+    monkeypatch.setattr(_bnb.BranchAndBoundSearch, "out_of_time", lambda self: True)
+    start = cand.points[:1]
+    out = _bnb.search(p, cand, start, 1, upper=99.0, time_limit=1.0)
+    assert not out.built and not out.proven and out.nodes == 0
+    assert out.value == 1 and out.bound == 99.0 and np.array_equal(out.positions, start)

@@ -124,3 +124,34 @@ def test_polish_runs_when_the_site_relations_fit(monkeypatch):
     res = solve_exact(p, engine="milp", workers=1, time_limit=120)
     assert res.info["incumbent"]["polish"] == "run"
     assert res.info["incumbent"]["greedy_polished"] >= res.info["incumbent"]["greedy"]
+
+
+def test_no_early_refusal_when_the_time_limit_stopped_the_polish(monkeypatch):
+    """When the polish's share of the time passed while the search's relations were built, the
+    incumbent could still rise with more time, so the up-front projection does not refuse; the
+    model's build (with its own count) and the time limit answer instead."""
+    from droneplan.formulations.cells import _bnb
+
+    monkeypatch.setattr(_bnb.BranchAndBoundSearch, "out_of_time", lambda self: True)
+    monkeypatch.setattr(_milp, "model_term_cap", lambda: 1000)
+    monkeypatch.setattr(_milp, "LP_FIXING_MAX_TERMS", 100)
+    monkeypatch.setattr(_milp, "_projected_model_terms", _must_not_run("_projected_model_terms"))
+    p = thesis_problem(4, 0)
+    with pytest.raises(ValueError, match=r"more than 1,000 terms.*while the model was built"):
+        solve_exact(p, engine="milp", workers=1, time_limit=120)
+
+
+def test_a_stopped_polish_is_said_and_the_model_still_proves(monkeypatch):
+    """The polish stopped by its time share (its search built nothing) leaves the greedy start
+    as the incumbent, says so in info, and the model still proves the branch and bound's
+    optimum."""
+    from droneplan.formulations.cells import _bnb
+
+    p = thesis_problem(3, 0)
+    expected = solve_exact(p, engine="bnb", workers=1, time_limit=120)
+    monkeypatch.setattr(_bnb.BranchAndBoundSearch, "out_of_time", lambda self: True)
+    res = solve_exact(p, engine="milp", workers=1, time_limit=120)
+    assert res.info["incumbent"]["polish"].startswith("stopped: its share of the time limit passed")
+    assert res.info["incumbent"]["value"] == res.info["incumbent"]["greedy"]
+    assert res.status is Status.OPTIMAL and expected.status is Status.OPTIMAL
+    assert res.objective == expected.objective
