@@ -39,6 +39,7 @@ __all__ = [
     "current_limit",
     "check_work",
     "machine_memory",
+    "machine_load",
     "check_real",
     "check_positive",
     "check_nonneg",
@@ -117,6 +118,14 @@ def machine_memory() -> float | None:
     try:
         return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
     except (AttributeError, ValueError, OSError):
+        return None
+
+
+def machine_load() -> float | None:
+    """This machine's 1-minute load average, runnable processes (None where the system does not say)."""
+    try:
+        return float(os.getloadavg()[0])
+    except (AttributeError, OSError):
         return None
 
 

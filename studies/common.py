@@ -781,7 +781,10 @@ def gap_figure(df: pd.DataFrame, path: Path, *, title: str = "") -> Path:
 # --------------------------------------------------------------------------- timing
 def load_average() -> float:
     """The 1-minute load average of the machine (NaN where the platform has none)."""
-    return os.getloadavg()[0] if hasattr(os, "getloadavg") else math.nan
+    from droneplan.core.validation import machine_load
+
+    load = machine_load()
+    return math.nan if load is None else load
 
 
 @dataclass

@@ -186,6 +186,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -200,6 +201,7 @@ from droneplan.core.validation import (
     check_real,
     check_sequence,
     check_typed_array,
+    machine_load,
     machine_memory,
 )
 from droneplan.formulations.cells._core import TOL, Candidates, candidate_sites, evaluate, pairwise_distances
@@ -299,7 +301,20 @@ LP takes 273.6 CPU s by simplex and 15.4 by IPM, with the same bound (95.44, whi
 incumbent 95) and 2,281 of 2,289 sites fixed by either. With this switch the whole solve took
 56.5 s wall and 35.7 CPU s (load 2.6), proven by the LP fixing alone. m = 6 seed 3: the simplex
 takes 120 s (1,990 sites fixed) and IPM 28 s (759 fixed); with the switch the solve is proven in
-60.1 CPU s, 121 with the simplex alone. On m = 6 seeds 0-2 and 4-9 the simplex ends within 30 s."""
+60.1 CPU s, 121 with the simplex alone. On m = 6 seeds 0-2 and 4-9 the simplex ends within 30 s.
+The threshold is in seconds of a whole core: on a machine loaded past one runnable process per
+core it is stretched by the load per core (``_ipm_after``). At load 5 on 2 cores, before that,
+m = 6 seed 5's simplex (32 s alone) was stopped at 30 s wall, IPM fixed 768 sites instead of
+2,007, and the solve took 134.8 CPU s instead of 54.4."""
+
+
+def _ipm_after() -> float:
+    """``LP_FIXING_IPM_AFTER`` in wall seconds now: times the 1-minute load per core when that
+    is above 1 (each runnable process then gets about cores / load of a core)."""
+    load = machine_load()
+    per_core = 0.0 if load is None else load / (os.cpu_count() or 1)
+    return LP_FIXING_IPM_AFTER * max(1.0, per_core)
+
 
 CONNECTIVITY = ("lazy", "hops")
 """Exact backhaul formulations of the candidate model (module docstring, item 3)."""
@@ -1222,7 +1237,7 @@ def lp_fixing(
     if deadline is not None:  # the LP ends by the deadline, however long the build took
         left = max(deadline - time.perf_counter(), 0.01)
         time_limit = left if time_limit is None else min(time_limit, left)
-    ipm_after = LP_FIXING_IPM_AFTER if LP_FIXING_METHOD == "simplex" else None
+    ipm_after = _ipm_after() if LP_FIXING_METHOD == "simplex" else None
     lpb = lp_dual_bound(
         mdl.model.native, mdl.x, time_limit=time_limit, method=LP_FIXING_METHOD, ipm_after=ipm_after
     )

@@ -129,3 +129,37 @@ def test_merged_levels_are_a_relaxation(clustered, seed):
 def test_bad_max_level_is_refused_by_name(clustered, max_level, error):
     with pytest.raises(error, match="max_level"):
         build_milp(clustered(0, 2, 3, m=4, background=3), max_level=max_level)
+
+
+@pytest.mark.parametrize(
+    ("load", "cores", "factor"), [(None, 2, 1.0), (1.0, 2, 1.0), (2.0, 2, 1.0), (6.0, 2, 3.0)]
+)
+def test_the_simplex_share_is_stretched_only_on_an_oversubscribed_machine(monkeypatch, load, cores, factor):
+    """The simplex gets LP_FIXING_IPM_AFTER seconds of a whole core: on a machine running more
+    processes than cores the wall-clock threshold grows by the load per core."""
+    monkeypatch.setattr(_milp, "machine_load", lambda: load)
+    monkeypatch.setattr(_milp.os, "cpu_count", lambda: cores)
+    assert _milp._ipm_after() == pytest.approx(factor * _milp.LP_FIXING_IPM_AFTER)
+
+
+def test_lp_fixing_hands_a_slow_simplex_over_to_ipm(clustered, monkeypatch):
+    """With a tiny simplex share the fixing still ends with a valid bound, from IPM (named in
+    its stats), and drops no site that a placement better than the incumbent holds."""
+    monkeypatch.setattr(_milp, "_ipm_after", lambda: 1e-6)
+    p = clustered(2, 3, 3, m=3, background=3)
+    cand = candidate_sites(p)
+    best = best_holding_each_site(p, cand)
+    opt = int(best.max())
+    bounds = disc_bounds(p)
+    out = _milp.lp_fixing(
+        p,
+        cand,
+        np.arange(len(cand.points)),
+        incumbent=np.zeros((0, 2)),
+        objective_range=(opt - 1, bounds[-1]),
+        disc_bounds=bounds,
+    )
+    assert out is not None
+    alive, bound, stats = out
+    assert stats["lp_method"] == "simplex, then ipm"
+    assert bound >= opt and np.all(best[~alive] <= opt - 1)
