@@ -296,19 +296,19 @@ LP_FIXING_IPM_AFTER = 60.0
 """Seconds the simplex of item 10 gets before IPM takes over the rest of its time
 (``lp_dual_bound(ipm_after=)``): a simplex stopped by its time limit fixes nothing. Table 4.2
 m = 8 seed 4 (CP-SAT, 1 worker, load 2.8): the simplex hit its limit after 302.7 s (half the
-time left) and fixed nothing, then CP-SAT proved 95 in about 10 s more (313.8 s wall); that
-LP takes 273.6 CPU s by simplex and 15.4 by IPM, with the same bound (95.44, which proves the
+time left) and fixed nothing, then CP-SAT proved 95 in about 10 s more (313.8 s wall); that LP
+takes 273.6 CPU s by simplex and 15.4 by IPM, with the same bound (95.44, which proves the
 incumbent 95) and 2,281 of 2,289 sites fixed by either. With the switch after 30 s the whole
 solve took 56.5 s wall and 35.7 CPU s (load 2.6), proven by the LP fixing alone. m = 6 seed 3:
 the simplex takes 120 s (1,990 sites fixed) and IPM 28 s (759 fixed); switched after 30 s the
 solve was proven in 60.1 CPU s, 121 with the simplex alone. IPM is not always the faster: on a
-Thomas-process instance (m = 6, 7,045 sites) the simplex ends in 42 s and fixes 2,784 sites,
-while switched after 30 s the LP took 164 s and fixed 1,697; and on Table 4.2 m = 6 seeds 0-2
-and 4-9 the simplex ends within 33 s. Hence 60 s. The threshold is in seconds of a whole core:
-on a machine loaded past one runnable process per core it is stretched by the load per core
-(``_ipm_after``). At load 5 on 2 cores, before that, m = 6 seed 5's simplex (32 s alone) was
-stopped at 30 s wall, IPM fixed 768 sites instead of 2,007, and the solve took 134.8 CPU s
-instead of 54.4."""
+Thomas-process instance (m = 6, 7,045 sites) the LP fixing (its build and the simplex) takes
+42 s and fixes 2,784 sites, while switched after 30 s it took 164 s and fixed 1,697; and on
+Table 4.2 m = 6 seeds 0-2 and 4-9 the simplex ends within 33 s. Hence 60 s. The threshold is in
+seconds of a whole core: on a machine loaded past one runnable process per core it is stretched
+by the load per core (``_ipm_after``). At load 5 on 2 cores, before that, m = 6 seed 5's
+simplex (32 s alone) was stopped at 30 s wall, IPM fixed 768 sites instead of 2,007, and the
+solve took 134.8 CPU s instead of 54.4."""
 
 
 def _ipm_after() -> float:
