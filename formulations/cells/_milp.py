@@ -172,7 +172,16 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    - the branch and bound's site probes written as rows, ``obj + (ub - U_c) x_c <= ub``
      (3,837 rows, U_c mostly 67-75). CP-SAT, 1 worker, 600 s: 66 / 73, as without them;
    - HiGHS with 2 threads instead of CP-SAT: 66 / 73 after 600 s (452 CPU s);
-   - the lifted rows of item 8 on CP-SAT (1.75 M hop-row terms, 1 worker): 66 / 75 after 600 s.
+   - the lifted rows of item 8 on CP-SAT (1.75 M hop-row terms, 1 worker): 66 / 75 after 600 s;
+   - on the lifted LP of item 8 (73.79; HiGHS IPM, 50 s): regional packing rows, for grid squares
+     Q of side 1, 2 and 3 km on two shifted grids, ``sum_{c in Q} w_c x_c <= V_Q(k) + (slope)
+     (sum_{c in Q} x_c - k)`` along the concave envelope of V_Q(k), the most users k pairwise
+     non-overlapping sites of Q cover (exact by CP-SAT; valid since a placement's sites in Q
+     are such a set). 126-362 rows, LP 73.79 at every size: the LP's sites are nearly integral
+     within a square (one direct site at 1, the far clusters at 1 or split between two
+     overlapping sites). The level-profile rows above, for every pair of levels k < l
+     (``sum_{l' >= l} n_l' <= (m - l + 1) n_k``, n_l the mass at level l): LP 73.27, with about
+     one unit of mass at each of the six levels, a chain-like fractional mixture of trees.
    Held-out Table 4.2 seeds are proven (CP-SAT, 1 worker): m = 4 seeds 10-19 within 19 CPU s
    each; m = 6 seeds 10-19 within 600 s, most in 0.8-24 CPU s and seed 14 in 259 CPU s.
 
