@@ -293,7 +293,13 @@ its LP in about 25 CPU s, m = 6 seed 1 (1.5 M) had not after 300 s (merged from 
 LP is 75.0, the cap already, and fixes nothing). By IPM (``LP_FIXING_METHOD``) it took 47
 CPU s (bound 73.79, 268 sites fixed), and with the cap at 4 M m = 6 seed 1 ended at 66 / 73
 after 600 s instead of 66 / 75, still open; but m = 8 seed 3 (CP-SAT, 1 worker, load 2)
-then spent 68 s on that LP and was proven in 84 CPU s instead of 28, so the cap stays."""
+then spent 68 s on that LP and was proven in 84 CPU s instead of 28, so the cap stays.
+Measured again with the simplex handing over to IPM (``LP_FIXING_IPM_AFTER``), CP-SAT, 1
+worker, load 1.2-2: m = 8 seed 3 (1.27 M lifted terms) with a cap of 4 M, 96.6 CPU s against
+19.2 under this cap; a Thomas-process instance at m = 6 (7,045 sites, 1.67 M lifted terms),
+353 CPU s under this cap, 243 with a cap of 4 M (the simplex switched to IPM after 30 s, 1,697
+sites fixed), 548 with a cap of 2 M (the simplex ended in 45 s, 2,784 fixed, 4,261 sites left):
+the fixing's effect on CP-SAT's search is erratic, so the cap still stays."""
 
 LP_FIXING_METHOD = "simplex"
 """HiGHS's LP algorithm for item 10 (``lp_dual_bound(method=)``). Measured with IPM (with
