@@ -77,21 +77,25 @@ def test_fixed_sites_cannot_beat_the_cut(clustered, seed, shape, below):
     assert stats["lp_fixed_sites"] == int((~alive).sum())
 
 
+def fix_one_below_optimum(p, cand, opt):
+    """The LP fixing of every candidate site with the objective cut one below the optimum."""
+    bounds = disc_bounds(p)
+    return _milp.lp_fixing(
+        p,
+        cand,
+        np.arange(len(cand.points)),
+        incumbent=np.zeros((0, 2)),
+        objective_range=(opt - 1, bounds[-1]),
+        disc_bounds=bounds,
+    )
+
+
 def test_fixing_drops_sites_on_clustered_instances(clustered):
     dropped = 0
     for seed in range(4):
         p = clustered(seed, 3, 3, m=3, background=3)
         cand = candidate_sites(p)
-        opt = int(best_holding_each_site(p, cand).max())
-        bounds = disc_bounds(p)
-        out = _milp.lp_fixing(
-            p,
-            cand,
-            np.arange(len(cand.points)),
-            incumbent=np.zeros((0, 2)),
-            objective_range=(opt - 1, bounds[-1]),
-            disc_bounds=bounds,
-        )
+        out = fix_one_below_optimum(p, cand, int(best_holding_each_site(p, cand).max()))
         assert out is not None
         dropped += int((~out[0]).sum())
     assert dropped > 0
@@ -150,15 +154,7 @@ def test_lp_fixing_hands_a_slow_simplex_over_to_ipm(clustered, monkeypatch):
     cand = candidate_sites(p)
     best = best_holding_each_site(p, cand)
     opt = int(best.max())
-    bounds = disc_bounds(p)
-    out = _milp.lp_fixing(
-        p,
-        cand,
-        np.arange(len(cand.points)),
-        incumbent=np.zeros((0, 2)),
-        objective_range=(opt - 1, bounds[-1]),
-        disc_bounds=bounds,
-    )
+    out = fix_one_below_optimum(p, cand, opt)
     assert out is not None
     alive, bound, stats = out
     assert stats["lp_method"] == "simplex, then ipm"
