@@ -135,8 +135,8 @@ def test_no_early_refusal_when_the_time_limit_stopped_the_polish(monkeypatch):
     monkeypatch.setattr(_bnb.BranchAndBoundSearch, "out_of_time", lambda self: True)
     monkeypatch.setattr(_milp, "model_term_cap", lambda: 1000)
     monkeypatch.setattr(_milp, "LP_FIXING_MAX_TERMS", 100)
-    monkeypatch.setattr(_milp, "_projected_model_terms", _must_not_run("_projected_model_terms"))
     p = thesis_problem(4, 0)
+    # the refusal named is the build's count, not the projection made before the model
     with pytest.raises(ValueError, match=r"more than 1,000 terms.*while the model was built"):
         solve_exact(p, engine="milp", workers=1, time_limit=120)
 
@@ -155,3 +155,17 @@ def test_a_stopped_polish_is_said_and_the_model_still_proves(monkeypatch):
     assert res.info["incumbent"]["value"] == res.info["incumbent"]["greedy"]
     assert res.status is Status.OPTIMAL and expected.status is Status.OPTIMAL
     assert res.objective == expected.objective
+
+
+def test_lp_fixing_skipped_before_its_model_when_level_2_alone_is_over_its_cap(monkeypatch):
+    """The LP fixing's lifted model holds at least level 2's hop rows of the final model: when
+    those alone are projected past its cap, no LP model is built (the skip is said in the
+    model's stats) and the final model still proves the branch and bound's optimum."""
+    p = thesis_problem(4, 0)
+    expected = solve_exact(p, engine="bnb", workers=1, time_limit=120)
+    monkeypatch.setattr(_milp, "LP_FIXING_MIN_SITES", 1)
+    monkeypatch.setattr(_milp, "LP_FIXING_MAX_TERMS", 10)
+    monkeypatch.setattr(_milp, "lp_fixing", _must_not_run("the LP fixing's model"))
+    res = solve_exact(p, engine="milp", workers=1, time_limit=120)
+    assert res.info["model_stats"]["lp_fixing"].startswith("skipped (level 2's hop rows projected at")
+    assert res.status is Status.OPTIMAL and res.objective == expected.objective
