@@ -323,7 +323,8 @@ Table 4.2 m = 6 seeds 0-2 and 4-9 the simplex ends within 33 s. Hence 60 s. The 
 seconds of a whole core: on a machine loaded past one runnable process per core it is stretched
 by the load per core (``_ipm_after``). At load 5 on 2 cores, before that, m = 6 seed 5's
 simplex (32 s alone) was stopped at 30 s wall, IPM fixed 768 sites instead of 2,007, and the
-solve took 134.8 CPU s instead of 54.4."""
+solve took 134.8 CPU s instead of 54.4. With 60 s (load 1.4-1.8): seed 5 proven in 44.3 CPU s
+(the simplex ended in time), seed 3 in 86.9 (handed over after 60 s)."""
 
 
 def _ipm_after() -> float:
