@@ -95,6 +95,15 @@ def test_early_projection_is_the_builds_first_check(hop_term_calls):
     assert calls["n"] > 2 * _milp._PROJECTION_SAMPLE  # level 2's rows were written after its sample
 
 
+def assert_proven_from_the_greedy_start(res, expected, polish):
+    """The model proved the branch and bound's optimum from the unpolished greedy start, and its
+    info says why the polish left it (``polish``: how that reason begins)."""
+    assert res.info["incumbent"]["polish"].startswith(polish)
+    assert res.info["incumbent"]["value"] == res.info["incumbent"]["greedy"]
+    assert res.status is Status.OPTIMAL and expected.status is Status.OPTIMAL
+    assert res.objective == expected.objective
+
+
 def test_polish_skipped_when_the_site_relations_would_not_fit(monkeypatch):
     """The polish holds the branch and bound's site relations; past POLISH_MEMORY_SHARE of the
     machine's memory the starts are used unpolished (said in info), and the model still proves
@@ -108,10 +117,7 @@ def test_polish_skipped_when_the_site_relations_would_not_fit(monkeypatch):
     monkeypatch.setattr(_bnb, "machine_memory", lambda: need / _exact.POLISH_MEMORY_SHARE - 1.0)
     monkeypatch.setattr(_exact, "search", _must_not_run("the polish"))
     res = solve_exact(p, engine="milp", workers=1, time_limit=120)
-    assert res.info["incumbent"]["polish"].startswith("skipped: the site relations would take")
-    assert res.info["incumbent"]["value"] == res.info["incumbent"]["greedy"]
-    assert res.status is Status.OPTIMAL and expected.status is Status.OPTIMAL
-    assert res.objective == expected.objective
+    assert_proven_from_the_greedy_start(res, expected, "skipped: the site relations would take")
 
 
 def test_polish_runs_when_the_site_relations_fit(monkeypatch):
@@ -151,10 +157,7 @@ def test_a_stopped_polish_is_said_and_the_model_still_proves(monkeypatch):
     expected = solve_exact(p, engine="bnb", workers=1, time_limit=120)
     monkeypatch.setattr(_bnb.BranchAndBoundSearch, "out_of_time", lambda self: True)
     res = solve_exact(p, engine="milp", workers=1, time_limit=120)
-    assert res.info["incumbent"]["polish"].startswith("stopped: its share of the time limit passed")
-    assert res.info["incumbent"]["value"] == res.info["incumbent"]["greedy"]
-    assert res.status is Status.OPTIMAL and expected.status is Status.OPTIMAL
-    assert res.objective == expected.objective
+    assert_proven_from_the_greedy_start(res, expected, "stopped: its share of the time limit passed")
 
 
 def test_lp_fixing_skipped_before_its_model_when_level_2_alone_is_over_its_cap(monkeypatch):
