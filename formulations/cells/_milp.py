@@ -182,6 +182,15 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
      overlapping sites). The level-profile rows above, for every pair of levels k < l
      (``sum_{l' >= l} n_l' <= (m - l + 1) n_k``, n_l the mass at level l): LP 73.27, with about
      one unit of mass at each of the six levels, a chain-like fractional mixture of trees.
+   - regional fan-in rows on that lifted LP: in a shortest-path tree of a placement a site at
+     level l - 1 has at most m - l + 1 children (a path of l - 1 sites leads to it), so for a
+     square R the level-l mass in R is at most m - l + 1 times the level-(l-1) mass within
+     r2 + TOL of R. 1 km squares on two shifted grids, levels 5 and 6 (350 rows, 0.27 M terms):
+     LP 73.79 unchanged. Its levels 1-6 hold 1.16, 0.52, 0.83, 1.06, 1.30 and 1.13 units, so
+     no level feeds more than the rows allow; the thin fan-out is gone once the rows of item 8
+     are in, and what remains is the mixture of chains;
+   - CP-SAT with the subsolvers max_lp and lb_tree_search (its best-bound tree search), 2
+     workers: 66 / 75 after 600 s.
    Held-out Table 4.2 seeds are proven (CP-SAT, 1 worker): m = 4 seeds 10-19 within 19 CPU s
    each; m = 6 seeds 10-19 within 600 s, most in 0.8-24 CPU s and seed 14 in 259 CPU s.
 
