@@ -37,13 +37,22 @@ from droneplan.solvers.result import SolveResult, Status
 ENGINES = ("bnb", "milp")
 """Exact engines of :func:`solve_exact`: the combinatorial branch and bound or the model."""
 
+DEFAULT_WORKERS: dict[str, int] = {"bnb": 2, "milp": 1}
+"""Workers of :func:`solve_exact` per engine when ``workers`` is None: the branch and bound's
+forked processes, the model's CP-SAT workers (or MIP threads). A second CP-SAT worker slowed the
+model's proof on a 2-core machine and did not speed it up (Table 4.2, CP-SAT, wall s with 1 / 2
+workers, load 1-2): m = 6 seed 14 203 / 494 (494 with the subsolvers of
+``_milp.FEW_WORKER_OPTIONS``, 484 and 463 with pseudo_costs or no_lp in place of max_lp, 464
+with default_lp alone; at load 3, 2 workers left it open at 88 / 99 after 600 s), seed 3 87.0 /
+87.8, seed 5 43.6 / 43.6, a Thomas-process m = 6 instance 344 / 350, m = 4 seed 5 14.5 / 13.8."""
+
 
 def _check_common(
     problem: CellProblem,
     engine: str,
     backend: str,
     connectivity: str,
-    workers: int,
+    workers: int | None,
     max_rounds: int,
     user_cliques: bool,
 ) -> None:
@@ -56,7 +65,8 @@ def _check_common(
     get_backend(backend, kind="linear")  # an unknown or unavailable backend raises ValueError here
     if connectivity not in CONNECTIVITY:
         raise ValueError(f"connectivity must be one of {CONNECTIVITY}, got {connectivity!r}")
-    check_int("workers", workers, min_value=1)
+    if workers is not None:
+        check_int("workers", workers, min_value=1)
     check_int("max_rounds", max_rounds, min_value=0)
     check_bool("user_cliques", user_cliques)
 
@@ -303,7 +313,7 @@ def solve_exact(
     backend: str = "cp-sat",
     time_limit: float | None = None,
     warm_start=None,
-    workers: int = 2,
+    workers: int | None = None,
     connectivity: str = "hops",
     max_rounds: int = 200,
     user_cliques: bool = True,
@@ -331,7 +341,9 @@ def solve_exact(
         says what happened (``used``, ``value``, ``polished_value``, ``greedy_value``,
         ``reason``), ``info["incumbent"]`` which line won and its value.
     workers: for engine "milp", CP-SAT workers / MIP threads; for "bnb", processes that
-        share the search on thesis-scale instances (forked; 1: this process alone).
+        share the search on thesis-scale instances (forked; 1: this process alone). None
+        (default): per engine, ``DEFAULT_WORKERS`` (2 for "bnb", 1 for "milp": a second CP-SAT
+        worker slowed the model's proofs measured on 2 cores).
     connectivity: "hops" (default) or "lazy", the model's exact backhaul formulation (hop
         levels measured faster: Table 4.2 m = 4 seed 3, CP-SAT, 1 worker, from the optimum
         as incumbent: proven in 78 s, lazy cuts still at bound 66 after 120 s).
@@ -364,6 +376,7 @@ def solve_exact(
     """
     _check_common(problem, engine, backend, connectivity, workers, max_rounds, user_cliques)
     check_bool("bnb_elimination", bnb_elimination)
+    workers = DEFAULT_WORKERS[engine] if workers is None else workers
     prep = prepare(problem, warm_start=warm_start, time_limit=time_limit)
     done = _early_exit(prep, "bnb" if engine == "bnb" else backend, engine)
     if done is not None:
@@ -413,7 +426,7 @@ def solve_milp(
     backend: str = "cp-sat",
     time_limit: float | None = None,
     warm_start=None,
-    workers: int = 2,
+    workers: int | None = None,
     connectivity: str = "hops",
     max_rounds: int = 200,
     user_cliques: bool = True,
@@ -426,7 +439,7 @@ def solve_milp(
     backend: "cp-sat" (default), "highs" or "scip".
     time_limit: wall-clock limit (s) for the whole call, None: none.
     warm_start: drone-cell positions ((k, 2) m) handed in as a start (``solve_exact``).
-    workers: CP-SAT workers / MIP threads.
+    workers: CP-SAT workers / MIP threads; None (default): 1 (``DEFAULT_WORKERS``).
     connectivity: "hops" (default) or "lazy", the exact backhaul formulation.
     max_rounds: at most this many model solves.
     user_cliques: add the per-user at-most-one rows.

@@ -704,6 +704,36 @@ def test_entries_reject_bad_engine_and_workers():
         assert solve_milp(p, engine="bnb").info["engine"] == "bnb"
 
 
+@pytest.mark.parametrize(
+    ("entry", "engine", "expected"),
+    [(solve_exact, "bnb", 2), (solve_exact, "milp", 1), (solve_milp, "milp", 1), (solve_exact, "milp", 2)],
+)
+def test_default_workers_per_engine(monkeypatch, entry, engine, expected):
+    """workers=None resolves per engine (DEFAULT_WORKERS); an explicit count is passed on."""
+    from droneplan.formulations.cells import _exact
+
+    assert _exact.DEFAULT_WORKERS == {"bnb": 2, "milp": 1}
+    seen, result = [], object()
+
+    def bnb(prep, workers):
+        seen.append(workers)
+        return result
+
+    def model(prep, *, workers, **kw):
+        seen.append(workers)
+        return result
+
+    monkeypatch.setattr(_exact, "_solve_bnb", bnb)
+    monkeypatch.setattr(_exact, "solve_model", model)
+    monkeypatch.setattr(_exact, "_early_exit", lambda *a: None)
+    p = random_small(0, 3, 1)
+    kwargs = {} if expected == _exact.DEFAULT_WORKERS[engine] else {"workers": expected}
+    if entry is solve_exact:
+        kwargs["engine"] = engine
+    assert entry(p, **kwargs) is result
+    assert seen == [expected]
+
+
 def _save_disagreement(directory, problem, found: dict) -> str:
     """Write the instance and what each method found to a JSON file; return its path."""
     import json
