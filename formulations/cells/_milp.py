@@ -191,6 +191,14 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
      are in, and what remains is the mixture of chains;
    - CP-SAT with the subsolvers max_lp and lb_tree_search (its best-bound tree search), 2
      workers: 66 / 75 after 600 s.
+   - a split at the root on the hop depth (CP-SAT, 1 worker, 600 s a part). With the labels
+     of levels 4-6 set to 0 (placements of depth <= 3, the optimum's) the model proves 66 in
+     154 s; the other part (a site labelled 4) ends at 66 / 75, at 66 / 73 on HiGHS or after
+     item 10's LP (73.79, 256 sites fixed). That part still holds the optimum: its far sites
+     are linked, so one may be labelled 4 through another labelled 3. Rows that make the labels
+     the hop counts (a site labelled l >= 3 has no used site labelled <= l - 2 in the squares
+     wholly inside its link disc; 12,380 enforced clause sets, 0.54 M literals, exact for the
+     shortest-path labelling of item 3b) left both the whole model and that part at 66 / 75.
    Held-out Table 4.2 seeds are proven (CP-SAT, 1 worker): m = 4 seeds 10-19 within 19 CPU s
    each; m = 6 seeds 10-19 within 600 s, most in 0.8-24 CPU s and seed 14 in 259 CPU s.
 
