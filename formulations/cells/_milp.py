@@ -199,8 +199,13 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
      the hop counts (a site labelled l >= 3 has no used site labelled <= l - 2 in the squares
      wholly inside its link disc; 12,380 enforced clause sets, 0.54 M literals, exact for the
      shortest-path labelling of item 3b) left both the whole model and that part at 66 / 75.
-   Held-out Table 4.2 seeds are proven (CP-SAT, 1 worker): m = 4 seeds 10-19 within 19 CPU s
-   each; m = 6 seeds 10-19 within 600 s, most in 0.8-24 CPU s and seed 14 in 259 CPU s.
+   Held-out Table 4.2 seeds (CP-SAT, 1 worker): m = 4 seeds 10-29 all proven within 120 s (the
+   slowest, seed 29, in 47 CPU s); m = 8 seeds 10-19 all proven, each within 14 CPU s; m = 6 seeds
+   10-28 and 31-34 proven within 600 s, most in 0.1-42 CPU s, seed 14 in 259 and seed 34 in 168
+   CPU s (298 s wall at load 2-4). Seeds 29 and 30 stay open, as seed 1 does (3 of 35 seeds):
+   seed 29 at 87 / 98 (optimum 88, by the branch and bound; HiGHS 88 / 92), seed 30 at 91 / 92
+   (optimum 91: a gap of one user that neither HiGHS nor CP-SAT closes, nor CP-SAT after item 10
+   with its term cap lifted and its LP by IPM, LP 92.45, 2,020 of 4,344 sites fixed).
 
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
