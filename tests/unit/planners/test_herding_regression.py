@@ -309,7 +309,7 @@ RECORDED = {
 
 
 @pytest.mark.parametrize("key", sorted(RECORDED))
-def test_a_run_reproduces_the_recorded_trajectory(key):
+def test_a_run_reproduces_the_recorded_trajectory(key, recorded_blas_kernel):
     name, herder = key.split("-")
     n, field, t_max = CASES[name]
     ref = RECORDED[key]

@@ -56,7 +56,7 @@ def run(name: str) -> dict[str, np.ndarray]:
 
 
 @pytest.mark.parametrize("name", sorted(RUNS))
-def test_same_seeds_give_the_saved_trajectories(name):
+def test_same_seeds_give_the_saved_trajectories(name, recorded_blas_kernel):
     saved = np.load(DATA)
     got = run(name)
     for key, value in got.items():
@@ -69,7 +69,9 @@ def test_same_seeds_give_the_saved_trajectories(name):
 
 @pytest.mark.parametrize("hull", ["prefilter", "tracker"])
 @pytest.mark.parametrize("name", ["p60", "cb200", "p1000"])
-def test_the_size_dependent_paths_give_the_saved_trajectories_too(name, hull, monkeypatch):
+def test_the_size_dependent_paths_give_the_saved_trajectories_too(
+    name, hull, monkeypatch, recorded_blas_kernel
+):
     """The split animal step and the hull prefilter, which only large herds take, and the hull
     tracker, which mid-size herds take, forced on for every run."""
     from droneplan.planners.herding import geometry
