@@ -207,6 +207,28 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    (optimum 91: a gap of one user that neither HiGHS nor CP-SAT closes, nor CP-SAT after item 10
    with its term cap lifted and its LP by IPM, LP 92.45, 2,020 of 4,344 sites fixed).
 
+12. **Dominance rows (exact for the optimum; ``dominance_rows``, CP-SAT, ``DOMINANCE_ROWS``).**
+   Order the model's sites by weight |S(c)| descending, then index. For a site a before b
+   that overlaps it, with S(b) within S(a) and a direct
+   when b is, let E be the model's other sites that overlap a but not b, or are linked to b
+   but not to a. The row ``x_b <= sum_{e in E} x_e`` cuts off feasible placements (those
+   holding b and nothing of E), but never the one that matters. Let X* be the optimal
+   candidate placement whose sites, sorted by the order, come lexicographically first. If X*
+   held b and no site of E, X* - b + a would be a placement: a overlaps no site of X* - b (one
+   overlapping a but not b would be in E, and none overlaps b), every site of X* linked to b is
+   linked to a, and a is direct when b is, so every path through b can run through a. It
+   covers S(X*) or more (S(b) within S(a)) and comes earlier in the order: a contradiction.
+   When X* beats the incumbent, its sites are all in the model (items 1 and 10 drop only sites
+   in no better placement, and each restricted round of the target scheme keeps every site of
+   a placement worth more than its target), and it meets every other row (each valid for
+   every placement worth at least the incumbent). So the model's optimum is the candidate
+   optimum whenever that beats the incumbent, and its bound stays valid. Rows the incumbent
+   breaks are left out, so the hint stays a solution (any subset of the rows is as exact),
+   and E is taken 1e-6 m wide on every side, so rounding can only add sites to it. A site b
+   with E empty is simply 0 (the branch and bound's item 13 clears such sites too). Clusters
+   hold many near-identical sites, and without these rows the search visits each of them in
+   turn with the same completion.
+
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
 search of ``_bnb``. Both start from ``_prepare.prepare`` (candidates, incumbent, bounds).
@@ -269,6 +291,20 @@ LIGHT_ROWS: dict[str, bool] = {"cp-sat": True}
 """Backends whose model gets the light-site rows of item 9 from ``solve_model`` (by registry
 name). HiGHS is left out: Table 4.2 m = 4 seed 0 (one worker, load 4-5) stayed open at bound
 65 after 82 CPU s with them and was proven in 29 CPU s without."""
+
+DOMINANCE_ROWS: dict[str, bool] = {"cp-sat": True}
+"""Backends whose models get the dominance rows of item 12 (by registry name)."""
+
+DOMINANCE_PER_SITE = 2
+"""Item 12: rows per dominated site b, from the dominating sites a whose E is smallest."""
+
+DOMINANCE_BLOCK = 1 << 20
+"""Item 12 compares a site's dominating sites with the sites near it this many pairs at a time
+(a float block of 8 MiB, and twice that for the differences)."""
+
+DOMINANCE_SHARE = 0.1
+"""Share of the time left that the rows of item 12 may take (rows are added site by site;
+any subset of them is exact, so a cut-short pass is kept)."""
 
 LP_FIXING: dict[str, bool] = {"cp-sat": True}
 """Backends whose hop model is first reduced by the LP fixing of item 10 (by registry name)."""
@@ -1173,6 +1209,96 @@ def _components_without_gbs(problem: CellProblem, pos: np.ndarray) -> list[np.nd
     return out
 
 
+def _dominating_pairs(mdl: CellModel, tree: cKDTree) -> tuple[np.ndarray, np.ndarray]:
+    """(b, a) index pairs of item 12, sorted by b: a comes before b in the order (weight |S(.)|
+    descending, then index), S(b) within S(a), a is direct when b is, and |a - b| < 2 R_d - TOL
+    by a margin (the two overlap)."""
+    import scipy.sparse as sp
+
+    problem = mdl.problem
+    pairs = tree.query_pairs(2 * problem.R_d - TOL - 1e-6, output_type="ndarray")
+    if len(pairs) == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    b = np.concatenate([pairs[:, 0], pairs[:, 1]])
+    a = np.concatenate([pairs[:, 1], pairs[:, 0]])
+    w = np.array([len(c) for c in mdl.cover], dtype=np.int64)
+    ok = ((w[a] > w[b]) | ((w[a] == w[b]) & (a < b))) & (~mdl.direct[b] | mdl.direct[a])
+    b, a = b[ok], a[ok]
+    cols = np.concatenate([np.asarray(c, dtype=np.int64) for c in mdl.cover])
+    rows = np.repeat(np.arange(len(mdl.cover)), w)
+    incidence = sp.csr_matrix((np.ones(len(rows), dtype=np.int32), (rows, cols)))
+    shared = np.zeros(len(b), dtype=np.int64)
+    for lo in range(0, len(b), 1 << 18):  # |S(a) & S(b)|, a block of pairs at a time
+        sl = slice(lo, lo + (1 << 18))
+        shared[sl] = np.asarray(incidence[a[sl]].multiply(incidence[b[sl]]).sum(axis=1)).ravel()
+    ok = shared == w[b]  # S(b) within S(a)
+    order = np.argsort(b[ok], kind="stable")
+    return b[ok][order], a[ok][order]
+
+
+def dominance_row_sets(
+    mdl: CellModel, on: np.ndarray, stop: float | None = None
+) -> tuple[list[tuple[int, np.ndarray]], bool]:
+    """The dominance rows of item 12 over the sites of ``mdl``, as (b, E): ``x_b <= sum_{e in E}
+    x_e`` (E an index array, empty: ``x_b = 0``), for each site b the ``DOMINANCE_PER_SITE``
+    pairs of ``_dominating_pairs`` with the smallest E. Rows that the placement ``on`` ((c,)
+    bool over the model's sites: the incumbent, which is the hint) breaks are left out. Stops
+    at ``stop`` (a ``time.perf_counter()`` value; any subset of the rows is exact). Returns
+    (rows, whether every site b was done)."""
+    problem, pts = mdl.problem, mdl.points
+    rows: list[tuple[int, np.ndarray]] = []
+    if len(pts) < 2:
+        return rows, True
+    tree = cKDTree(pts)
+    b_all, a_all = _dominating_pairs(mdl, tree)
+    r_conf, r_link, eps = 2 * problem.R_d - TOL, problem.r2 + TOL, 1e-6
+    reach = max(2 * r_conf, r_link) + eps  # E lies within this of b
+    starts = np.flatnonzero(np.r_[True, b_all[1:] != b_all[:-1]]) if len(b_all) else np.zeros(0, int)
+    for lo, hi in zip(starts, np.r_[starts[1:], len(b_all)], strict=True):
+        if stop is not None and time.perf_counter() > stop:
+            return rows, False
+        b, a = int(b_all[lo]), a_all[lo:hi]
+        near = np.asarray(tree.query_ball_point(pts[b], reach), dtype=np.int64)
+        d_b = np.hypot(*(pts[near] - pts[b]).T)[None, :]
+        best: list[tuple[int, int, np.ndarray]] = []  # (|E|, place, E) of b's smallest rows
+        step = max(1, DOMINANCE_BLOCK // max(len(near), 1))
+        for first in range(0, len(a), step):
+            block = a[first : first + step]
+            d_a = np.linalg.norm(pts[near][None, :, :] - pts[block][:, None, :], axis=2)  # (a, near)
+            # a superset (by eps) of: overlapping a but not b, or linked to b but not to a
+            overlap_a = (d_a < r_conf + eps) & (d_b > r_conf - eps)
+            in_e = overlap_a | ((d_b <= r_link + eps) & (d_a > r_link - eps))
+            in_e &= (near != b)[None, :] & (near[None, :] != block[:, None])
+            sizes = in_e.sum(axis=1)
+            smallest = np.argsort(sizes, kind="stable")[:DOMINANCE_PER_SITE].tolist()
+            best.extend((int(sizes[k]), first + k, np.sort(near[in_e[k]])) for k in smallest)
+            best = sorted(best, key=lambda t: t[:2])[:DOMINANCE_PER_SITE]
+        for _, _, e in best:
+            if on[b] and not on[e].any():
+                continue  # the incumbent breaks it: left out (the hint stays a solution)
+            rows.append((b, e))
+    return rows, True
+
+
+def dominance_rows(mdl: CellModel, on: np.ndarray, deadline: float | None = None) -> dict[str, Any]:
+    """Add the rows of ``dominance_row_sets`` (item 12) to ``mdl``, computed for at most
+    ``DOMINANCE_SHARE`` of the time left before ``deadline`` (a ``time.perf_counter()`` value,
+    None: no limit). Returns counts for the model's stats."""
+    t0 = time.perf_counter()
+    stop = None if deadline is None else t0 + DOMINANCE_SHARE * max(deadline - t0, 0.0)
+    rows, complete = dominance_row_sets(mdl, on, stop)
+    lin, x = mdl.model, mdl.x
+    for b, e in rows:
+        lin.add(x[b] <= (lin.sum([x[i] for i in e.tolist()]) if len(e) else 0))
+    return {
+        "dominance_rows": len(rows),
+        "dominance_zero": sum(len(e) == 0 for _, e in rows),
+        "dominance_terms": sum(len(e) for _, e in rows),
+        "dominance_complete": complete,
+        "dominance_time": time.perf_counter() - t0,
+    }
+
+
 def _hint(problem: CellProblem, mdl: CellModel, placement: np.ndarray) -> dict:
     """A complete start assignment {variable: 0/1} of ``mdl`` for ``placement`` (sites of
     the model): site variables, covered users, and hop levels from a breadth-first search."""
@@ -1431,8 +1557,10 @@ class _ModelSolve:
                 self._refuse_model_size()
         if mdl is None or prep.expired():  # building can be long: the limit covers it
             return SolveResult(Status.NO_SOLUTION, backend=backend, message="time limit")
-        state.stats = {**mdl.stats, **self.fix_stats}
         hint = _hint(problem, mdl, state.inc)
+        if DOMINANCE_ROWS.get(backend, False):
+            mdl.stats.update(dominance_rows(mdl, np.array([bool(hint[v]) for v in mdl.x]), self.deadline))
+        state.stats = {**mdl.stats, **self.fix_stats}
         res = mdl.model.solve(
             variables=mdl.x,
             time_limit=prep.left(),

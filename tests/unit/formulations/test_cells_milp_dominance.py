@@ -1,0 +1,104 @@
+"""The dominance rows of the cells MILP (``_milp`` item 12) cut off placements, but never the
+optimal placement that comes first in the site order, so the model keeps the optimum.
+
+Checked against brute force on small clustered instances, where near-identical sites abound:
+every feasible placement is enumerated, and the optimal one whose sites, sorted by the order
+(weight |S(c)| descending, then index), come first must meet every row.
+"""
+
+import itertools
+
+import numpy as np
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from droneplan.formulations.cells import build_milp, evaluate
+from droneplan.formulations.cells._milp import dominance_row_sets, dominance_rows
+from droneplan.solvers.result import Status
+
+
+def _feasible_placements(problem, points):
+    """(sites, covered) of every feasible placement of 1..m of ``points``."""
+    out = []
+    for k in range(1, problem.n_cells + 1):
+        for combo in itertools.combinations(range(len(points)), k):
+            ev = evaluate(problem, points[list(combo)])
+            if ev.feasible:
+                out.append((combo, ev.covered))
+    return out
+
+
+def _first_optimal(mdl, placements):
+    """The optimal placement whose order ranks, sorted, are lexicographically first."""
+    weight = np.array([len(c) for c in mdl.cover])
+    order = sorted(range(len(weight)), key=lambda i: (-weight[i], i))
+    rank = {site: r for r, site in enumerate(order)}
+    best = max(cov for _, cov in placements)
+    return min((combo for combo, cov in placements if cov == best), key=lambda c: sorted(rank[i] for i in c))
+
+
+def _breaks(on: np.ndarray, row) -> bool:
+    b, e = row
+    return bool(on[b]) and not on[e].any()
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 10_000), st.integers(2, 3))
+def test_the_first_optimal_placement_meets_every_row(clustered, seed, n_clusters):
+    p = clustered(seed, n_clusters, 3, m=3, background=3)
+    mdl = build_milp(p)
+    rows, complete = dominance_row_sets(mdl, np.zeros(len(mdl.x), dtype=bool))
+    assert complete
+    placements = _feasible_placements(p, mdl.points)
+    assume(placements)  # some draws have no site linked to the GBS
+    first = np.zeros(len(mdl.x), dtype=bool)
+    first[list(_first_optimal(mdl, placements))] = True
+    assert not any(_breaks(first, row) for row in rows)
+
+
+def test_rows_cut_off_feasible_placements_on_clustered_instances(clustered):
+    # the rows are not vacuous: they exclude feasible (non-first) placements, some optimal ones
+    rows_seen = cut_off = zero_rows = 0
+    for seed in range(4):
+        p = clustered(seed, 3, 3, m=3, background=3)
+        mdl = build_milp(p)
+        rows, _ = dominance_row_sets(mdl, np.zeros(len(mdl.x), dtype=bool))
+        rows_seen += len(rows)
+        zero_rows += sum(len(e) == 0 for _, e in rows)
+        for combo, _ in _feasible_placements(p, mdl.points):
+            on = np.zeros(len(mdl.x), dtype=bool)
+            on[list(combo)] = True
+            cut_off += any(_breaks(on, row) for row in rows)
+    assert rows_seen > 0 and zero_rows > 0 and cut_off > 0
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 10_000), st.sampled_from(["cp-sat", "highs"]))
+def test_model_with_the_rows_keeps_the_optimum(clustered, brute_force, seed, backend):
+    p = clustered(seed, 3, 3, m=3, background=4)
+    opt = brute_force(p)
+    mdl = build_milp(p, backend=backend)
+    stats = dominance_rows(mdl, np.zeros(len(mdl.x), dtype=bool))
+    assert stats["dominance_complete"]
+    res = mdl.model.solve(variables=mdl.x, time_limit=60, workers=1)
+    assert res.status is Status.OPTIMAL
+    chosen = mdl.points[np.asarray(res.x) > 0.5]
+    ev = evaluate(p, chosen)
+    assert ev.feasible and ev.covered == round(res.objective) == opt
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 10_000))
+def test_rows_the_incumbent_breaks_are_left_out(clustered, seed):
+    p = clustered(seed, 3, 3, m=3, background=3)
+    mdl = build_milp(p)
+    placements = _feasible_placements(p, mdl.points)
+    assume(placements)
+    every, _ = dominance_row_sets(mdl, np.zeros(len(mdl.x), dtype=bool))
+    # the last feasible placement in enumeration order: rarely the first optimal one
+    combo = placements[-1][0]
+    on = np.zeros(len(mdl.x), dtype=bool)
+    on[list(combo)] = True
+    kept, _ = dominance_row_sets(mdl, on)
+    assert not any(_breaks(on, row) for row in kept)
+    assert len(kept) == len(every) - sum(_breaks(on, row) for row in every)
