@@ -1210,7 +1210,7 @@ def _components_without_gbs(problem: CellProblem, pos: np.ndarray) -> list[np.nd
 
 
 def _dominating_pairs(mdl: CellModel, tree: cKDTree) -> tuple[np.ndarray, np.ndarray]:
-    """(b, a) index pairs of item 12, sorted by b: a comes before b in the order (weight |S(.)|
+    """(b, a) index pairs of item 12, sorted by b, then a: a comes before b in the order (weight |S(.)|
     descending, then index), S(b) within S(a), a is direct when b is, and |a - b| < 2 R_d - TOL
     by a margin (the two overlap)."""
     import scipy.sparse as sp
@@ -1232,7 +1232,7 @@ def _dominating_pairs(mdl: CellModel, tree: cKDTree) -> tuple[np.ndarray, np.nda
         sl = slice(lo, lo + (1 << 18))
         shared[sl] = np.asarray(incidence[a[sl]].multiply(incidence[b[sl]]).sum(axis=1)).ravel()
     ok = shared == w[b]  # S(b) within S(a)
-    order = np.argsort(b[ok], kind="stable")
+    order = np.lexsort((a[ok], b[ok]))
     return b[ok][order], a[ok][order]
 
 
@@ -1241,10 +1241,10 @@ def dominance_row_sets(
 ) -> tuple[list[tuple[int, np.ndarray]], bool]:
     """The dominance rows of item 12 over the sites of ``mdl``, as (b, E): ``x_b <= sum_{e in E}
     x_e`` (E an index array, empty: ``x_b = 0``), for each site b the ``DOMINANCE_PER_SITE``
-    pairs of ``_dominating_pairs`` with the smallest E. Rows that the placement ``on`` ((c,)
-    bool over the model's sites: the incumbent, which is the hint) breaks are left out. Stops
-    at ``stop`` (a ``time.perf_counter()`` value; any subset of the rows is exact). Returns
-    (rows, whether every site b was done)."""
+    pairs of ``_dominating_pairs`` with the smallest E (ties: the smaller index a). Rows that
+    the placement ``on`` ((c,) bool over the model's sites: the incumbent, which is the hint)
+    breaks are left out. Stops at ``stop`` (a ``time.perf_counter()`` value; any subset of the
+    rows is exact). Returns (rows, whether every site b was done)."""
     problem, pts = mdl.problem, mdl.points
     rows: list[tuple[int, np.ndarray]] = []
     if len(pts) < 2:
