@@ -149,7 +149,8 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    ends open, at 66 / 73 (``LP_FIXING_MAX_TERMS``). m = 6 seed 5 (all levels): 2 007 of 3 410
    sites dropped, proven in 83.6 CPU s (130 s wall, load 3.1; 94 CPU s without item 10).
 
-11. **Why Table 4.2 m = 6 seed 1 stays open (66 / 73 after 600 s; the branch and bound proves 66).**
+11. **Why the LP bound of Table 4.2 m = 6 seed 1 stays high** (before item 12 the model stayed open at
+   66 / 73 after 600 s; the optimum is 66, which the model with item 12 proves).
    Its optimum holds three far sites (14, 14, 15 users, two links from the GBS) fed by relays
    of 7 and 3 users and a direct site of 13; six discs without backhaul cover 75, the cap of
    item 4. The LP relaxation of the final model (all 4,387 sites, HiGHS IPM, 55 CPU s) reaches
@@ -199,7 +200,7 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
      the hop counts (a site labelled l >= 3 has no used site labelled <= l - 2 in the squares
      wholly inside its link disc; 12,380 enforced clause sets, 0.54 M literals, exact for the
      shortest-path labelling of item 3b) left both the whole model and that part at 66 / 75.
-   Held-out Table 4.2 seeds (CP-SAT, 1 worker): m = 4 seeds 10-29 all proven within 120 s (the
+   Held-out Table 4.2 seeds before item 12 (CP-SAT, 1 worker): m = 4 seeds 10-29 all proven within 120 s (the
    slowest, seed 29, in 47 CPU s); m = 8 seeds 10-19 all proven, each within 14 CPU s; m = 6 seeds
    10-28 and 31-34 proven within 600 s, most in 0.1-42 CPU s, seed 14 in 259 and seed 34 in 168
    CPU s (298 s wall at load 2-4). Seeds 29 and 30 stay open, as seed 1 does (3 of 35 seeds):

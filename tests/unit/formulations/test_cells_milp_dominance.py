@@ -12,7 +12,7 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from droneplan.formulations.cells import build_milp, evaluate
+from droneplan.formulations.cells import build_milp, evaluate, solve_exact
 from droneplan.formulations.cells._milp import dominance_row_sets, dominance_rows
 from droneplan.solvers.result import Status
 
@@ -102,3 +102,14 @@ def test_rows_the_incumbent_breaks_are_left_out(clustered, seed):
     kept, _ = dominance_row_sets(mdl, on)
     assert not any(_breaks(on, row) for row in kept)
     assert len(kept) == len(every) - sum(_breaks(on, row) for row in every)
+
+
+def test_solve_exact_writes_the_rows_and_proves_the_brute_force_optimum(clustered, brute_force):
+    written = 0
+    for seed in range(6):
+        p = clustered(seed, 3, 3, m=3, background=4)
+        res = solve_exact(p, engine="milp", time_limit=60)
+        assert res.status is Status.OPTIMAL and res.objective == brute_force(p)
+        assert evaluate(p, res.x).covered == res.objective
+        written += res.info["model_stats"].get("dominance_rows", 0)
+    assert written > 0
