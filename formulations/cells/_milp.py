@@ -299,6 +299,11 @@ DOMINANCE_ROWS: dict[str, bool] = {"cp-sat": True}
 DOMINANCE_PER_SITE = 2
 """Item 12: rows per dominated site b, from the dominating sites a whose E is smallest."""
 
+DOMINANCE_MAX_PAIRS = 2_000_000
+"""Item 12 looks for dominating sites among at most this many pairs of sites (the search radius
+is halved until they fit): at Table 4.2 density x4 every overlapping pair would be tens of
+millions."""
+
 DOMINANCE_BLOCK = 1 << 20
 """Item 12 compares a site's dominating sites with the sites near it this many pairs at a time
 (a float block of 8 MiB, and twice that for the differences)."""
@@ -1213,11 +1218,16 @@ def _components_without_gbs(problem: CellProblem, pos: np.ndarray) -> list[np.nd
 def _dominating_pairs(mdl: CellModel, tree: cKDTree) -> tuple[np.ndarray, np.ndarray]:
     """(b, a) index pairs of item 12, sorted by b, then a: a comes before b in the order (weight |S(.)|
     descending, then index), S(b) within S(a), a is direct when b is, and |a - b| < 2 R_d - TOL
-    by a margin (the two overlap)."""
+    by a margin (the two overlap), or a half, quarter, ... of that when more than
+    ``DOMINANCE_MAX_PAIRS`` pairs are that close."""
     import scipy.sparse as sp
 
     problem = mdl.problem
-    pairs = tree.query_pairs(2 * problem.R_d - TOL - 1e-6, output_type="ndarray")
+    radius = 2 * problem.R_d - TOL - 1e-6
+    # count_neighbors counts ordered pairs and each site with itself
+    while radius > 1e-3 and tree.count_neighbors(tree, radius) > 2 * DOMINANCE_MAX_PAIRS + tree.n:
+        radius /= 2
+    pairs = tree.query_pairs(radius, output_type="ndarray")
     if len(pairs) == 0:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     b = np.concatenate([pairs[:, 0], pairs[:, 1]])
