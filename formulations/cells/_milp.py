@@ -210,10 +210,10 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
 
 12. **Dominance rows (exact for the optimum; ``dominance_rows``, CP-SAT, ``DOMINANCE_ROWS``).**
    Order the model's sites by weight |S(c)| descending, then index. For a site a before b
-   that overlaps it, with S(b) within S(a) and a direct
-   when b is, let E be the model's other sites that overlap a but not b, or are linked to b
-   but not to a. The row ``x_b <= sum_{e in E} x_e`` cuts off feasible placements (those
-   holding b and nothing of E), but never the one that matters. Let X* be the optimal
+   that overlaps it, with S(b) within S(a) and a direct when b is, let E be the model's other
+   sites that overlap a but not b, or are linked to b but not to a. The row
+   ``x_b <= sum_{e in E} x_e`` cuts off feasible placements (those holding b and nothing of E),
+   but never the one that matters. Let X* be the optimal
    candidate placement whose sites, sorted by the order, come lexicographically first. If X*
    held b and no site of E, X* - b + a would be a placement: a overlaps no site of X* - b (one
    overlapping a but not b would be in E, and none overlaps b), every site of X* linked to b is
