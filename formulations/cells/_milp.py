@@ -1276,9 +1276,11 @@ def dominance_row_sets(
         return rows, True
     tree = cKDTree(pts)
     b_all, a_all = _dominating_pairs(mdl, tree)
+    if len(b_all) == 0:
+        return rows, True
     r_conf, r_link, eps = 2 * problem.R_d - TOL, problem.r2 + TOL, 1e-6
     reach = max(2 * r_conf, r_link) + eps  # E lies within this of b
-    starts = np.flatnonzero(np.r_[True, b_all[1:] != b_all[:-1]]) if len(b_all) else np.zeros(0, int)
+    starts = np.flatnonzero(np.r_[True, b_all[1:] != b_all[:-1]])
     for lo, hi in zip(starts, np.r_[starts[1:], len(b_all)], strict=True):
         if stop is not None and time.perf_counter() > stop:
             return rows, False

@@ -12,7 +12,7 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from droneplan.formulations.cells import build_milp, evaluate, solve_exact
+from droneplan.formulations.cells import build_milp, candidate_sites, evaluate, solve_exact
 from droneplan.formulations.cells._milp import dominance_row_sets, dominance_rows
 from droneplan.solvers.result import Status
 
@@ -113,3 +113,13 @@ def test_solve_exact_writes_the_rows_and_proves_the_brute_force_optimum(clustere
         assert evaluate(p, res.x).covered == res.objective
         written += res.info["model_stats"].get("dominance_rows", 0)
     assert written > 0
+
+
+def test_a_model_without_dominated_sites_gets_no_rows(clustered):
+    p = clustered(0, 3, 3, m=3, background=3)
+    cand = candidate_sites(p)
+    far = np.flatnonzero(np.hypot(*(cand.points - cand.points[0]).T) > 2 * p.R_d)[:1]
+    mdl = build_milp(p, candidates=cand, keep=np.r_[0, far])  # two sites, no overlapping pair
+    rows, complete = dominance_row_sets(mdl, np.zeros(len(mdl.x), dtype=bool))
+    assert len(mdl.x) == 2 and rows == [] and complete
+    assert dominance_rows(mdl, np.zeros(2, dtype=bool))["dominance_rows"] == 0
