@@ -209,16 +209,23 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    with its term cap lifted and its LP by IPM, LP 92.45, 2,020 of 4,344 sites fixed).
 
 12. **Dominance rows (exact for the optimum; ``dominance_rows``, CP-SAT, ``DOMINANCE_ROWS``).**
-   Order the model's sites by weight |S(c)| descending, then index. For a site a before b
-   that overlaps it, with S(b) within S(a) and a direct when b is, let E be the model's other
+   Order the model's sites by weight |S(c)| descending, then index. Let K(a) be the users of a
+   that no model site at least 2 R_d - TOL from a covers (all of S(a) but for users on its very
+   edge shared with a touching site; ``_private_users``). For a site a before b that overlaps
+   it, with |K(a) - S(b)| >= |S(b) - S(a)| and a direct when b is, let E be the model's other
    sites that overlap a but not b, or are linked to b but not to a. The row
    ``x_b <= sum_{e in E} x_e`` cuts off feasible placements (those holding b and nothing of E),
    but never the one that matters. Let X* be the optimal
    candidate placement whose sites, sorted by the order, come lexicographically first. If X*
    held b and no site of E, X* - b + a would be a placement: a overlaps no site of X* - b (one
    overlapping a but not b would be in E, and none overlaps b), every site of X* linked to b is
-   linked to a, and a is direct when b is, so every path through b can run through a. It
-   covers S(X*) or more (S(b) within S(a)) and comes earlier in the order: a contradiction.
+   linked to a, and a is direct when b is, so every path through b can run through a. With U
+   the users of X* - b, whose sites do not overlap a, U misses K(a), so a adds
+   |S(a) - U| - |S(b) - U| = |(S(a) - S(b)) - U| - |(S(b) - S(a)) - U| >= |K(a) - S(b)| -
+   |S(b) - S(a)| >= 0 users against b: X* - b + a covers S(X*) or more and comes earlier in the
+   order, a contradiction. (Non-overlapping discs share only edge users, so the condition
+   holds for nearly every pair with a before b; S(b) within S(a), the first form of these rows,
+   is the special case |S(b) - S(a)| = 0.)
    When X* beats the incumbent, its sites are all in the model (items 1 and 10 drop only sites
    in no better placement, and each restricted round of the target scheme keeps every site of
    a placement worth more than its target), and it meets every other row (each valid for
@@ -1229,11 +1236,35 @@ def _components_without_gbs(problem: CellProblem, pos: np.ndarray) -> list[np.nd
     return out
 
 
+def _private_users(mdl: CellModel, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """(entries,) bool over the cover entries (site ``rows[k]`` covers user ``cols[k]``): True
+    when no model site at least 2 R_d - TOL - 1e-6 m from that site covers that user, so that
+    no site that may share a placement with it does (K(a) of item 12)."""
+    import scipy.sparse as sp
+
+    problem, pts = mdl.problem, mdl.points
+    users = problem.targets
+    r_conf, eps = 2 * problem.R_d - TOL, 1e-6
+    private = np.ones(len(rows), dtype=bool)
+    # a site c >= r_conf - eps from a covers u only if |u - a| >= R_d - 2 TOL - eps: the edge
+    edge = np.flatnonzero(np.hypot(*(users[cols] - pts[rows]).T) > problem.R_d - 1e-4)
+    if len(edge) == 0:
+        return private
+    by_user = sp.csc_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(len(pts), len(users)))
+    start, count = by_user.indptr[cols[edge]], np.diff(by_user.indptr)[cols[edge]]
+    owner = np.repeat(rows[edge], count)  # site a of each (a, u, c) triple
+    offset = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    other = by_user.indices[np.repeat(start, count) + offset]  # the sites c covering u
+    apart = np.hypot(*(pts[other] - pts[owner]).T) >= r_conf - eps
+    private[edge] = np.add.reduceat(apart.astype(np.int64), np.cumsum(count) - count) == 0
+    return private
+
+
 def _dominating_pairs(mdl: CellModel, tree: cKDTree) -> tuple[np.ndarray, np.ndarray]:
     """(b, a) index pairs of item 12, sorted by b, then a: a comes before b in the order (weight |S(.)|
-    descending, then index), S(b) within S(a), a is direct when b is, and |a - b| < 2 R_d - TOL
-    by a margin (the two overlap), or a half, quarter, ... of that when more than
-    ``DOMINANCE_MAX_PAIRS`` pairs are that close."""
+    descending, then index), |K(a) - S(b)| >= |S(b) - S(a)| (``_private_users``), a is direct
+    when b is, and |a - b| < 2 R_d - TOL by a margin (the two overlap), or a half, quarter, ...
+    of that when more than ``DOMINANCE_MAX_PAIRS`` pairs are that close."""
     import scipy.sparse as sp
 
     problem = mdl.problem
@@ -1251,12 +1282,20 @@ def _dominating_pairs(mdl: CellModel, tree: cKDTree) -> tuple[np.ndarray, np.nda
     b, a = b[ok], a[ok]
     cols = np.concatenate([np.asarray(c, dtype=np.int64) for c in mdl.cover])
     rows = np.repeat(np.arange(len(mdl.cover)), w)
-    incidence = sp.csr_matrix((np.ones(len(rows), dtype=np.int32), (rows, cols)))
-    shared = np.zeros(len(b), dtype=np.int64)
-    for lo in range(0, len(b), 1 << 18):  # |S(a) & S(b)|, a block of pairs at a time
+    shape = (len(mdl.cover), len(problem.targets))
+    incidence = sp.csr_matrix((np.ones(len(rows), dtype=np.int32), (rows, cols)), shape=shape)
+    private = _private_users(mdl, rows, cols)
+    kept = sp.csr_matrix(
+        (np.ones(private.sum(), dtype=np.int32), (rows[private], cols[private])), shape=shape
+    )
+    n_kept = np.bincount(rows[private], minlength=len(w))
+    gain = np.zeros(len(b), dtype=np.int64)  # |K(a) - S(b)| - |S(b) - S(a)|
+    for lo in range(0, len(b), 1 << 18):  # a block of pairs at a time
         sl = slice(lo, lo + (1 << 18))
-        shared[sl] = np.asarray(incidence[a[sl]].multiply(incidence[b[sl]]).sum(axis=1)).ravel()
-    ok = shared == w[b]  # S(b) within S(a)
+        shared = np.asarray(incidence[a[sl]].multiply(incidence[b[sl]]).sum(axis=1)).ravel()
+        kept_shared = np.asarray(kept[a[sl]].multiply(incidence[b[sl]]).sum(axis=1)).ravel()
+        gain[sl] = (n_kept[a[sl]] - kept_shared) - (w[b[sl]] - shared)
+    ok = gain >= 0
     order = np.lexsort((a[ok], b[ok]))
     return b[ok][order], a[ok][order]
 

@@ -12,8 +12,9 @@ import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from droneplan.formulations.cells import build_milp, candidate_sites, evaluate, solve_exact
-from droneplan.formulations.cells._milp import dominance_row_sets, dominance_rows
+from droneplan.formulations.cells import _milp, build_milp, candidate_sites, evaluate, solve_exact
+from droneplan.formulations.cells._milp import _private_users, dominance_row_sets, dominance_rows
+from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.result import Status
 
 
@@ -123,3 +124,42 @@ def test_a_model_without_dominated_sites_gets_no_rows(clustered):
     rows, complete = dominance_row_sets(mdl, np.zeros(len(mdl.x), dtype=bool))
     assert len(mdl.x) == 2 and rows == [] and complete
     assert dominance_rows(mdl, np.zeros(2, dtype=bool))["dominance_rows"] == 0
+
+
+def _touching_sites_instance():
+    """Sites a = (5, 0) and c = (7 + 1e-7, 0) do not overlap but share the user u = (6, 0) on
+    both edges. b = (4.7, 0.3) overlaps a and covers as many users as a does, trading u for
+    q = (4, 0.6). The optimum is b + c (6 users): a + c counts u once and covers 5."""
+    users = np.array([[6, 0], [5, 0.2], [4.8, 0], [4.0, 0.6], [7.5, 0], [7, 0.5]], dtype=float)
+    p = CellProblem(
+        users=users, gbs=np.array([[2.5, 0.0]]), n_cells=2, R_d=1.0, R_g=1.0, r1=3.0, r2=2.5, bounds=None
+    )
+    cand = candidate_sites(p, extra=np.array([[5, 0], [4.7, 0.3], [7.0000001, 0]]))
+    return p, build_milp(p, candidates=cand)
+
+
+def test_a_user_shared_by_touching_sites_is_not_private(monkeypatch):
+    p, mdl = _touching_sites_instance()
+    a, b, c = (
+        int(np.flatnonzero(np.hypot(*(mdl.points - q).T) < 1e-6)[0]) for q in ([5, 0], [4.7, 0.3], [7, 0])
+    )
+    w = np.array([len(s) for s in mdl.cover])
+    rows, cols = np.repeat(np.arange(len(w)), w), np.concatenate(mdl.cover)
+    private = _private_users(mdl, rows, cols)
+    # brute force: an entry (site s, user u) is private unless a site >= 2 R_d - TOL from s covers u
+    far = np.hypot(*(mdl.points[:, None, :] - mdl.points[None, :, :]).transpose(2, 0, 1)) >= 2 * p.R_d - 2e-6
+    expect = [
+        not any(u in mdl.cover[t] for t in np.flatnonzero(far[s])) for s, u in zip(rows, cols, strict=True)
+    ]
+    assert private.tolist() == expect and not all(expect)
+    assert not private[(rows == a) & (cols == 0)].any() and not private[(rows == c) & (cols == 0)].any()
+    placements = _feasible_placements(p, mdl.points)
+    first = np.zeros(len(mdl.x), dtype=bool)
+    first[list(_first_optimal(mdl, placements))] = True
+    assert first[b] and first[c] and max(cov for _, cov in placements) == 6
+    rows_kept, _ = dominance_row_sets(mdl, np.zeros(len(mdl.x), dtype=bool))
+    assert not any(_breaks(first, row) for row in rows_kept)
+    # counting u as a's own would let a replace b and cut the optimum off
+    monkeypatch.setattr(_milp, "_private_users", lambda mdl, rows, cols: np.ones(len(rows), dtype=bool))
+    rows_counted, _ = dominance_row_sets(mdl, np.zeros(len(mdl.x), dtype=bool))
+    assert any(_breaks(first, row) for row in rows_counted)
