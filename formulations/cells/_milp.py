@@ -236,18 +236,20 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    with E empty is simply 0 (the branch and bound's item 13 clears such sites too). Clusters
    hold many near-identical sites, and without these rows the search visits each of them in
    turn with the same completion.
-   Measured (CP-SAT, 1 worker, 600 s, one run per core on a 2-core machine, load 1-2.8, each
-   plan confirmed by ``evaluate``): Table 4.2 m = 6 seed 1, open at 66 / 75 without the rows, is
-   proven in 266 s (7,687 rows, 262 of them x_b = 0). With ties in |E| broken otherwise the same
-   seed took 510 and 546 s, so the time depends on details of the rows. Seed 30, open at 91 / 92
-   without them, is proven in 201 s (4,130 rows). Table 4.2 m = 4 seeds 0-9 are all proven within
-   11.4 s, m = 6 seeds 0-9 within 266 s (seed 3 in 85 s, seed 5 in 42 s, the others within 12 s),
-   m = 8 seeds 0-9 within 81 s, and the held-out m = 6 seeds 20-34 except seed 29 (most within
-   50 s, seed 34 in 146 s). Seed 29 stays open at 88 / 98: its LP fixing (item 10) is skipped at
-   the term cap, and with the cap lifted it ends at 88 / 92; that LP is 92.76 with the rows as
-   without them, so the rows work on the search, not on the LP. Table 4.2 density x4 at m = 4
-   (19,545 sites; the rows cut short at ``DOMINANCE_SHARE``, 29,873 rows in 57 s) is proven in
-   188 s at a 1.96 GiB peak, where it took 469 s and 2.7 GiB without them.
+   Measured (CP-SAT, 1 worker, 600 s, one run per core on a 2-core machine, each plan confirmed
+   by ``evaluate``). In the first form (S(b) within S(a); load 1-2.8): Table 4.2 m = 6 seed 1,
+   open at 66 / 75 without rows, proven in 266 s (7,687 rows; 510 and 546 s with ties in |E|
+   broken otherwise, so the time depends on details of the rows); held-out seed 30, open at
+   91 / 92, proven in 201 s; seed 29 open at 88 / 98 (its LP fixing, item 10, skipped at the term
+   cap; with the cap lifted 88 / 92 or 87 / 92, and that LP is 92.76 with the rows as without
+   them: the rows work on the search, not on the LP). In this form (load 1.1-3.0): seed 29
+   proven 88 in 442 s (10,669 rows, built in 22 s), seed 1 in 145 s, seed 30 in 132 s, seed 34
+   in 70 s (146 before), seed 3 in 59 s (85); Table 4.2 m = 4 seeds 0-9 all within 12.1 s, m = 6
+   seeds 0-9 all (seed 1 the slowest), m = 8 seeds 0-9 all within 100 s (seed 4, most of it the
+   LP fixing), and the held-out m = 6 seeds 20-34 all 15 (seed 29 the slowest, the others within
+   132 s). Table 4.2 density x4 at m = 4 (19,545 sites; the rows of the first form cut short at
+   ``DOMINANCE_SHARE``, 29,873 rows in 57 s) was proven in 188 s at a 1.96 GiB peak, where it
+   took 469 s and 2.7 GiB without rows.
 
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
