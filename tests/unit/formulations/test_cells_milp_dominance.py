@@ -163,3 +163,17 @@ def test_a_user_shared_by_touching_sites_is_not_private(monkeypatch):
     monkeypatch.setattr(_milp, "_private_users", lambda mdl, rows, cols: np.ones(len(rows), dtype=bool))
     rows_counted, _ = dominance_row_sets(mdl, np.zeros(len(mdl.x), dtype=bool))
     assert any(_breaks(first, row) for row in rows_counted)
+
+
+def test_private_users_do_not_depend_on_the_block_size(clustered, monkeypatch):
+    p = clustered(3, 3, 4, m=3, background=6)
+    mdl = build_milp(p)
+    w = np.array([len(s) for s in mdl.cover])
+    rows, cols = np.repeat(np.arange(len(w)), w), np.concatenate(mdl.cover)
+    whole = _private_users(mdl, rows, cols)
+    monkeypatch.setattr(_milp, "DOMINANCE_BLOCK", 3)
+    assert _private_users(mdl, rows, cols).tolist() == whole.tolist()
+    _, tmdl = _touching_sites_instance()
+    w = np.array([len(s) for s in tmdl.cover])
+    rows, cols = np.repeat(np.arange(len(w)), w), np.concatenate(tmdl.cover)
+    assert not _private_users(tmdl, rows, cols).all()  # blocks of 3 still see the touching site
