@@ -328,11 +328,9 @@ is halved until they fit): at Table 4.2 density x4 every overlapping pair would 
 millions."""
 
 DOMINANCE_BLOCK = 1 << 20
-"""Item 12 compares a site's dominating sites with the sites near it this many pairs at a time
-(a float block of 8 MiB, and twice that for the differences), and checks the edge users of
-``_private_users`` this many (site, user, covering site) triples at a time: at Table 4.2 density
-x4 (m = 4, 19,545 sites) their users are covered by up to thousands of sites each, and all triples
-at once took 2.7 GiB."""
+"""``_private_users`` checks the edge users of item 12 this many (site, user, covering site)
+triples at a time: at Table 4.2 density x4 (m = 4, 19,545 sites) a user is covered by up to
+thousands of sites, and all triples at once took 2.7 GiB."""
 
 DOMINANCE_SHARE = 0.1
 """Share of the time left that the rows of item 12 may take (rows are added site by site;
@@ -1309,6 +1307,37 @@ def _dominating_pairs(mdl: CellModel, tree: cKDTree) -> tuple[np.ndarray, np.nda
     return b[ok][order], a[ok][order]
 
 
+def _smallest_sets(
+    pts: np.ndarray, b: int, a: np.ndarray, near: np.ndarray, radii: tuple[float, float, float]
+) -> list[np.ndarray]:
+    """The sets E of item 12 for site b and the ``DOMINANCE_PER_SITE`` sites of ``a`` (sorted
+    indices) with the smallest E (ties: the smaller index), E taken among ``near`` (the sites
+    that may be in one) and ``radii`` = (2 R_d - TOL, r2 + TOL, eps).
+
+    E is the sites within r_conf + eps of a and over r_conf - eps from b (overlapping a but not
+    b), plus those within r_link + eps of b and over r_link - eps from a (linked to b but not to
+    a): disjoint parts (r2 >= 2 R_d), neither holding a or b (a and b overlap). Their sizes are
+    counted by k-d tree range counts over the two candidate parts; the chosen sets are then
+    built from the distances themselves."""
+    r_conf, r_link, eps = radii
+    d_b = np.hypot(*(pts[near] - pts[b]).T)
+    part1, part2 = near[d_b > r_conf - eps], near[d_b <= r_link + eps]
+    sizes = np.zeros(len(a), dtype=np.int64)
+    if len(part1):
+        inside = np.nextafter(r_conf + eps, 0.0)  # strictly closer than r_conf + eps
+        sizes += cKDTree(pts[part1]).query_ball_point(pts[a], inside, return_length=True)
+    if len(part2):
+        within = cKDTree(pts[part2]).query_ball_point(pts[a], r_link - eps, return_length=True)
+        sizes += len(part2) - within
+    out = []
+    for k in np.lexsort((a, sizes))[:DOMINANCE_PER_SITE].tolist():
+        d_a = np.hypot(*(pts[near] - pts[a[k]]).T)
+        in_e = ((d_a < r_conf + eps) & (d_b > r_conf - eps)) | ((d_b <= r_link + eps) & (d_a > r_link - eps))
+        in_e &= (near != b) & (near != a[k])
+        out.append(np.sort(near[in_e]))
+    return out
+
+
 def dominance_row_sets(
     mdl: CellModel, on: np.ndarray, stop: float | None = None
 ) -> tuple[list[tuple[int, np.ndarray]], bool]:
@@ -1334,21 +1363,8 @@ def dominance_row_sets(
             return rows, False
         b, a = int(b_all[lo]), a_all[lo:hi]
         near = np.asarray(tree.query_ball_point(pts[b], reach), dtype=np.int64)
-        d_b = np.hypot(*(pts[near] - pts[b]).T)[None, :]
-        best: list[tuple[int, int, np.ndarray]] = []  # (|E|, place, E) of b's smallest rows
-        step = max(1, DOMINANCE_BLOCK // max(len(near), 1))
-        for first in range(0, len(a), step):
-            block = a[first : first + step]
-            d_a = np.linalg.norm(pts[near][None, :, :] - pts[block][:, None, :], axis=2)  # (a, near)
-            # a superset (by eps) of: overlapping a but not b, or linked to b but not to a
-            overlap_a = (d_a < r_conf + eps) & (d_b > r_conf - eps)
-            in_e = overlap_a | ((d_b <= r_link + eps) & (d_a > r_link - eps))
-            in_e &= (near != b)[None, :] & (near[None, :] != block[:, None])
-            sizes = in_e.sum(axis=1)
-            smallest = np.argsort(sizes, kind="stable")[:DOMINANCE_PER_SITE].tolist()
-            best.extend((int(sizes[k]), first + k, np.sort(near[in_e[k]])) for k in smallest)
-            best = sorted(best, key=lambda t: t[:2])[:DOMINANCE_PER_SITE]
-        for _, _, e in best:
+        best = _smallest_sets(pts, b, a, near, (r_conf, r_link, eps))
+        for e in best:
             if on[b] and not on[e].any():
                 continue  # the incumbent breaks it: left out (the hint stays a solution)
             rows.append((b, e))
