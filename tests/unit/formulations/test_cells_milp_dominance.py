@@ -11,6 +11,7 @@ import itertools
 import numpy as np
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
+from scipy.spatial import cKDTree
 
 from droneplan.formulations.cells import _milp, build_milp, candidate_sites, evaluate, solve_exact
 from droneplan.formulations.cells._milp import _private_users, dominance_row_sets, dominance_rows
@@ -177,3 +178,29 @@ def test_private_users_do_not_depend_on_the_block_size(clustered, monkeypatch):
     w = np.array([len(s) for s in tmdl.cover])
     rows, cols = np.repeat(np.arange(len(w)), w), np.concatenate(tmdl.cover)
     assert not _private_users(tmdl, rows, cols).all()  # blocks of 3 still see the touching site
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 10_000))
+def test_the_rows_hold_the_smallest_sets_e(clustered, seed):
+    # each site's rows are the sets E of its dominating sites with the fewest members (ties: the
+    # smaller index), E computed here from every pairwise distance
+    p = clustered(seed, 3, 4, m=3, background=6)
+    mdl = build_milp(p)
+    pts, on = mdl.points, np.zeros(len(mdl.x), dtype=bool)
+    rows, _ = dominance_row_sets(mdl, on)
+    b_all, a_all = _milp._dominating_pairs(mdl, cKDTree(pts))
+    d = np.hypot(*(pts[:, None, :] - pts[None, :, :]).transpose(2, 0, 1))
+    r_conf, r_link, eps = 2 * p.R_d - 1e-6, p.r2 + 1e-6, 1e-6
+    expect = []
+    for b in np.unique(b_all):
+        sets = []
+        for a in a_all[b_all == b]:
+            in_e = ((d[a] < r_conf + eps) & (d[b] > r_conf - eps)) | (
+                (d[b] <= r_link + eps) & (d[a] > r_link - eps)
+            )
+            in_e[[a, b]] = False
+            sets.append((int(in_e.sum()), int(a), np.flatnonzero(in_e)))
+        expect += [(int(b), e) for _, _, e in sorted(sets, key=lambda t: t[:2])[: _milp.DOMINANCE_PER_SITE]]
+    assert len(rows) == len(expect)
+    assert all(rb == eb and np.array_equal(re, ee) for (rb, re), (eb, ee) in zip(rows, expect, strict=True))
