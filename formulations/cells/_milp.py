@@ -249,7 +249,10 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    LP fixing), and the held-out m = 6 seeds 20-34 all 15 (seed 29 the slowest, the others within
    132 s). Table 4.2 density x4 at m = 4 (19,545 sites; the rows of the first form cut short at
    ``DOMINANCE_SHARE``, 29,873 rows in 57 s) was proven in 188 s at a 1.96 GiB peak, where it
-   took 469 s and 2.7 GiB without rows.
+   took 469 s and 2.7 GiB without rows; in this form (28,981 rows, cut short at 54 s) in 190 s
+   wall, 125 CPU s, load 2.2, 1.96 GiB peak. (Before the sizes of E were range counts
+   (``_smallest_sets``) and the edge users were checked in blocks, the same instance made 7,457
+   rows in that time and took 368 s and 3.2 GiB.)
 
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
