@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
 from droneplan.formulations.cells import _milp, build_milp, candidate_sites, evaluate, solve_exact
+from droneplan.formulations.cells._core import pairwise_distances
 from droneplan.formulations.cells._milp import _private_users, dominance_row_sets, dominance_rows
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.result import Status
@@ -148,7 +149,7 @@ def test_a_user_shared_by_touching_sites_is_not_private(monkeypatch):
     rows, cols = np.repeat(np.arange(len(w)), w), np.concatenate(mdl.cover)
     private = _private_users(mdl, rows, cols)
     # brute force: an entry (site s, user u) is private unless a site >= 2 R_d - TOL from s covers u
-    far = np.hypot(*(mdl.points[:, None, :] - mdl.points[None, :, :]).transpose(2, 0, 1)) >= 2 * p.R_d - 2e-6
+    far = pairwise_distances(mdl.points, mdl.points) >= 2 * p.R_d - 2e-6
     expect = [
         not any(u in mdl.cover[t] for t in np.flatnonzero(far[s])) for s, u in zip(rows, cols, strict=True)
     ]
@@ -190,7 +191,7 @@ def test_the_rows_hold_the_smallest_sets_e(clustered, seed):
     pts, on = mdl.points, np.zeros(len(mdl.x), dtype=bool)
     rows, _ = dominance_row_sets(mdl, on)
     b_all, a_all = _milp._dominating_pairs(mdl, cKDTree(pts))
-    d = np.hypot(*(pts[:, None, :] - pts[None, :, :]).transpose(2, 0, 1))
+    d = pairwise_distances(pts, pts)
     r_conf, r_link, eps = 2 * p.R_d - 1e-6, p.r2 + 1e-6, 1e-6
     expect = []
     for b in np.unique(b_all):
