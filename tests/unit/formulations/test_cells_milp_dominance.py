@@ -128,6 +128,12 @@ def test_a_model_without_dominated_sites_gets_no_rows(clustered):
     assert dominance_rows(mdl, np.zeros(2, dtype=bool))["dominance_rows"] == 0
 
 
+def _cover_entries(mdl):
+    """(site, user) of every cover entry of the model, as two index arrays."""
+    weight = np.array([len(s) for s in mdl.cover])
+    return np.repeat(np.arange(len(weight)), weight), np.concatenate(mdl.cover)
+
+
 def _touching_sites_instance():
     """Sites a = (5, 0) and c = (7 + 1e-7, 0) do not overlap but share the user u = (6, 0) on
     both edges. b = (4.7, 0.3) overlaps a and covers as many users as a does, trading u for
@@ -145,8 +151,7 @@ def test_a_user_shared_by_touching_sites_is_not_private(monkeypatch):
     a, b, c = (
         int(np.flatnonzero(np.hypot(*(mdl.points - q).T) < 1e-6)[0]) for q in ([5, 0], [4.7, 0.3], [7, 0])
     )
-    w = np.array([len(s) for s in mdl.cover])
-    rows, cols = np.repeat(np.arange(len(w)), w), np.concatenate(mdl.cover)
+    rows, cols = _cover_entries(mdl)
     private = _private_users(mdl, rows, cols)
     # brute force: an entry (site s, user u) is private unless a site >= 2 R_d - TOL from s covers u
     far = pairwise_distances(mdl.points, mdl.points) >= 2 * p.R_d - 2e-6
@@ -170,14 +175,12 @@ def test_a_user_shared_by_touching_sites_is_not_private(monkeypatch):
 def test_private_users_do_not_depend_on_the_block_size(clustered, monkeypatch):
     p = clustered(3, 3, 4, m=3, background=6)
     mdl = build_milp(p)
-    w = np.array([len(s) for s in mdl.cover])
-    rows, cols = np.repeat(np.arange(len(w)), w), np.concatenate(mdl.cover)
+    rows, cols = _cover_entries(mdl)
     whole = _private_users(mdl, rows, cols)
     monkeypatch.setattr(_milp, "DOMINANCE_BLOCK", 3)
     assert _private_users(mdl, rows, cols).tolist() == whole.tolist()
     _, tmdl = _touching_sites_instance()
-    w = np.array([len(s) for s in tmdl.cover])
-    rows, cols = np.repeat(np.arange(len(w)), w), np.concatenate(tmdl.cover)
+    rows, cols = _cover_entries(tmdl)
     assert not _private_users(tmdl, rows, cols).all()  # blocks of 3 still see the touching site
 
 
