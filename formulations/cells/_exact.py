@@ -29,7 +29,7 @@ from droneplan.formulations.cells._bnb import (
 )
 from droneplan.formulations.cells._core import evaluate
 from droneplan.formulations.cells._milp import CONNECTIVITY, solve_model
-from droneplan.formulations.cells._prepare import Prepared, _near_any, prepare
+from droneplan.formulations.cells._prepare import Prepared, _near_any, dropped_sites_text, prepare
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.registry import get_backend
 from droneplan.solvers.result import SolveResult, Status
@@ -172,7 +172,7 @@ def _polish(prep: Prepared, *, greedy: bool = True) -> None:
         ws = prep.info["warm_start"]
         ws["polished_value"] = polished["warm_start"]
         ws["used"] = prep.warm_used
-        head = ws["reason"].split("; its feasible part")[0].split("not used as incumbent")[0]
+        head = dropped_sites_text(ws["given"], len(starts[-1][1]))  # the warm start is the last start
         part = f"its feasible part ({ws['value']} users), polished to {polished['warm_start']}, "
         rival = f"greedy start polished to {prep.inc_val}" if greedy else f"greedy start ({prep.inc_val})"
         ws["reason"] = (

@@ -389,17 +389,23 @@ def _near_any(points: np.ndarray, sites: np.ndarray) -> np.ndarray:
     return near
 
 
+def dropped_sites_text(given: int, kept: int) -> str:
+    """The start of ``info["warm_start"]["reason"]``: how many of the ``given`` sites of a warm
+    start were dropped to keep a feasible part of ``kept`` sites ("" when none were)."""
+    dropped = given - kept
+    if not dropped:
+        return ""
+    return (
+        f"{dropped} of {given} given sites dropped to make it feasible (outside bounds, "
+        "in a GBS cell, overlapping, without backhaul or beyond n_cells); "
+    )
+
+
 def _warm_start_info(
     warm: np.ndarray, part: np.ndarray, value: int, greedy_value: int, used: bool
 ) -> dict[str, Any]:
     """``info["warm_start"]``: what happened to a given plan ``warm`` (feasible part ``part``)."""
-    dropped = len(warm) - len(part)
-    why = (
-        f"{dropped} of {len(warm)} given sites dropped to make it feasible (outside bounds, "
-        f"in a GBS cell, overlapping, without backhaul or beyond n_cells); "
-        if dropped
-        else ""
-    )
+    why = dropped_sites_text(len(warm), len(part))
     if used:
         why += f"its feasible part ({value} users) is the incumbent and the hint"
     else:

@@ -12,6 +12,7 @@ from droneplan.formulations.cells import (
     circle_intersections,
     coverage_upper_bound,
     evaluate,
+    greedy_placement,
     solve_exact,
     solve_milp,
 )
@@ -202,6 +203,14 @@ def test_warm_start_fate_is_reported():
     used = solve_milp(p, warm_start=best.x)
     assert used.warm_started and used.info["warm_start"]["used"]
     assert used.info["warm_start"]["value"] == best.objective
+    # a start that is the incumbent from the outset and then polished (greedy's plan, 4 users,
+    # polished to the optimum 5): the reason tells each part once
+    q = random_small(3, 14, 3)
+    start = greedy_placement(q)
+    for warm, dropped in ((start, 0), (np.vstack([start, [[50.0, 50.0]]]), 1)):
+        ws = solve_milp(q, warm_start=warm).info["warm_start"]
+        assert ws["used"] and ws["reason"].count("its feasible part") == 1 and "polished to 5" in ws["reason"]
+        assert ws["reason"].count("dropped") == dropped and ws["reason"].count("is the incumbent") == 1
     # a start with nothing feasible in it is not the incumbent, and the result says why
     poor = solve_milp(p, warm_start=[[50.0, 50.0]])
     ws = poor.info["warm_start"]
