@@ -184,7 +184,8 @@ child does not stay on one core.
 The last two slots are enumerated without a search node per site (the same tests,
 vectorised over the candidates). Two primal heuristics improve the start before the
 search: a 1-swap local search, then an exchange search that re-solves exactly (with the
-search below, rooted there) every incumbent minus 1 or 2 of its sites. Both only propose
+search below, rooted there) every incumbent minus 1 or 2 of its sites (minus 3 as well in
+the polish of ``_exact``, ``exchange_sizes``). Both only propose
 placements, checked with ``evaluate`` before they become the incumbent; exactness rests
 on the bounds above alone.
 
@@ -455,6 +456,8 @@ class BranchAndBoundSearch:
     order: np.ndarray
     pts: np.ndarray
     w: np.ndarray
+    exchange_sizes: tuple[int, ...] = (1, 2)
+    """Sizes of the site sets that :meth:`exchange` takes out of the incumbent."""
     bits: list[int]
     packed: np.ndarray
     tree: cKDTree
@@ -1290,16 +1293,17 @@ class BranchAndBoundSearch:
         return None
 
     def exchange(self, X: list[int]) -> None:
-        """Primal heuristic (no effect on exactness): for every set D of 1 or 2 sites of
-        the incumbent X, search all completions of X - D exactly (the search below, rooted
-        at X - D) for one better than the incumbent; repeat from each improvement."""
+        """Primal heuristic (no effect on exactness): for every set D of sites of the
+        incumbent X, of each size in ``exchange_sizes`` in turn, search all completions of
+        X - D exactly (the search below, rooted at X - D) for one better than the incumbent;
+        repeat from each improvement."""
         better: list[int] | None = X
         while better is not None and not self.expired():
             better = self._exchange_pass(better)
 
     def _exchange_pass(self, X: list[int]) -> list[int] | None:
         """One pass of :meth:`exchange`: the improved incumbent's sites, or None."""
-        for k in (1, 2):
+        for k in self.exchange_sizes:
             for D in itertools.combinations(range(len(X)), k):
                 R = sorted(X[i] for i in range(len(X)) if i not in D)
                 mask = self.compatible(R)
@@ -1514,6 +1518,7 @@ def search(
     node_limit: int | None = None,
     main: bool = True,
     parent: BranchAndBoundSearch | None = None,
+    exchange_sizes: tuple[int, ...] | None = None,
 ) -> BnbResult:
     """Exact search of the candidate problem (module docstring; the state lives on a
     :class:`BranchAndBoundSearch`).
@@ -1533,7 +1538,8 @@ def search(
     deterministic budget); main: False runs the primal heuristics only (no elimination, no
     main search; the result is not proven and its bound is ``upper``), to hand another
     engine a start. parent: a search over the same ``cand`` whose site structures this one
-    shares (item 9's searches).
+    shares (item 9's searches). exchange_sizes: the sizes of the site sets the exchange
+    heuristic takes out of the incumbent (None: ``BranchAndBoundSearch.exchange_sizes``).
     """
     t0 = time.perf_counter()
     n = len(cand.points)
@@ -1558,6 +1564,8 @@ def search(
         )
     except _Timeout:  # the time limit passed while the site relations were built: nothing searched
         return BnbResult(best_pos, best_val, float(upper), False, 0, built=False)
+    if exchange_sizes is not None:
+        bb.exchange_sizes = tuple(exchange_sizes)
     return bb.run(best_pos, eliminate=eliminate, heuristics=heuristics, workers=workers, main=main)
 
 

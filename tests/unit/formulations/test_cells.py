@@ -16,6 +16,9 @@ from droneplan.formulations.cells import (
     solve_exact,
     solve_milp,
 )
+from droneplan.formulations.cells._bnb import search
+from droneplan.formulations.cells._exact import POLISH_EXCHANGE_SIZES, polish_exchange_sizes
+from droneplan.formulations.cells._prepare import prepare
 from droneplan.solvers.result import Status
 
 
@@ -827,3 +830,51 @@ def test_branch_and_bound_refuses_matrices_beyond_memory(monkeypatch):
         search(p, cand, np.zeros((0, 2)), 0)
     monkeypatch.undo()
     assert search(p, cand, np.zeros((0, 2)), 0).value == brute_force_pruned(p)
+
+
+# the polish of the shared start: its exchange search also takes sets of three sites out of a start,
+# which leaves local optima of sets of one and two
+
+
+def _polished_value(problem, sizes):
+    """Users covered by the greedy start after the heuristics with exchange ``sizes``."""
+    prep = prepare(problem)
+    bb = search(
+        problem,
+        prep.cand,
+        prep.greedy,
+        prep.greedy_val,
+        upper=prep.ub,
+        time_limit=30,
+        workers=1,
+        main=False,
+        exchange_sizes=sizes,
+    )
+    ev = evaluate(problem, bb.positions)
+    assert ev.feasible and ev.covered == bb.value
+    return int(ev.covered)
+
+
+@pytest.mark.parametrize(("seed", "one_two", "optimum"), [(8, 9, 10), (15, 6, 8), (22, 9, 10)])
+def test_sets_of_three_leave_a_local_optimum_of_one_and_two(seed, one_two, optimum):
+    p = random_small(seed, 20, 4)
+    assert _polished_value(p, (1, 2)) == one_two
+    # the optimum as both engines prove it (each checked against brute force above)
+    assert _polished_value(p, (1, 2, 3)) == optimum == solve_exact(p, engine="bnb", workers=1).objective
+    # the start the engines share is polished with sets of three
+    res = solve_exact(p, engine="milp")
+    assert res.info["incumbent"]["greedy_polished"] == optimum == res.objective
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 10_000), st.integers(4, 5))
+def test_sets_of_three_never_end_lower(seed, m):
+    # the passes run as with sets of one and two until those stop, then go on
+    p = random_small(seed, 12, m)
+    assert _polished_value(p, (1, 2)) <= _polished_value(p, (1, 2, 3)) <= brute_force_pruned(p)
+
+
+def test_the_polish_takes_sets_of_three_only_below_m():
+    assert POLISH_EXCHANGE_SIZES == (1, 2, 3)
+    assert polish_exchange_sizes(2) == polish_exchange_sizes(3) == (1, 2)
+    assert polish_exchange_sizes(4) == polish_exchange_sizes(8) == (1, 2, 3)
