@@ -352,7 +352,6 @@ def test_bnb_with_site_elimination_equals_brute_force(seed, n, m):
     # m >= 3 switches on items 9-10 of _bnb (backhaul-free bounds, site elimination). The
     # search starts, heuristics off, from the runner-up placement (one step below the
     # optimum), so a site cleared one unit too eagerly loses the optimum
-    from droneplan.formulations.cells._bnb import search
 
     p = random_small(seed, n, m)
     best, runner_up, value = brute_force_pruned(p, runner_up=True)
@@ -366,7 +365,6 @@ def test_bnb_with_site_elimination_equals_brute_force(seed, n, m):
 def _check_bnb_on_clusters(seed, n_clusters, m, *, half_width, spread, per_cluster, eliminate=True):
     """Branch and bound on users in Gaussian clusters equals brute force; started from the
     runner-up placement with heuristics off (as above)."""
-    from droneplan.formulations.cells._bnb import search
 
     rng = np.random.default_rng(seed)
     centres = rng.uniform(-half_width, half_width, size=(n_clusters, 2))
@@ -400,7 +398,6 @@ def test_sibling_count_test_discounts_the_lens():
     # users that no completion site reaches. Here s, touching a's disc without overlapping
     # it, covers a's 2 edge users, so a keeps 1: P + b + s (4 users) beats P + a + s (3).
     # Without the lens term b would be skipped and the search would return 3.
-    from droneplan.formulations.cells._bnb import search
     from droneplan.formulations.cells._core import Candidates, coverage_lists
 
     users = [[10.0, 0.0], [11.0, 0.0], [11.0, 0.0], [8.0, 0.0], [8.0, 0.0]]
@@ -517,7 +514,6 @@ def test_separated_groups_bound_is_often_attained():
 def test_bnb_with_far_apart_groups_equals_brute_force(seed, m):
     # clusters in different directions beyond the GBS's reach, so nodes hold far-apart
     # unreached groups (item 12); started from the runner-up with heuristics off
-    from droneplan.formulations.cells._bnb import search
 
     rng = np.random.default_rng(seed)
     centres = rng.uniform(-9, 9, size=(3, 2))
@@ -818,8 +814,6 @@ def test_a_weak_warm_start_is_polished_and_its_fate_reported(engine):
 
 def test_branch_and_bound_refuses_matrices_beyond_memory(monkeypatch):
     import os
-
-    from droneplan.formulations.cells._bnb import search
 
     p = random_small(1, 12, 2)
     cand = candidate_sites(p)
