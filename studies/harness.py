@@ -31,6 +31,7 @@ differs from droneplan's the row is flagged ``claim-mismatch``. Only droneplan's
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -41,7 +42,7 @@ from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.instances import StudyInstance
 from droneplan.studies.methods import CLOSED_LOOP_KINDS, Method
 
-__all__ = ["Scored", "execute", "score", "SENSE_OF_KIND", "HERDING_T_MAX"]
+__all__ = ["Scored", "execute", "execute_plain", "score", "SENSE_OF_KIND", "HERDING_T_MAX"]
 
 SENSE_OF_KIND = {
     "cells": "max",
@@ -78,8 +79,11 @@ class Scored:
 def execute(instance: StudyInstance, method: Method, seed: int, time_limit: float | None) -> Any:
     """Run ``method`` on ``instance`` (in the job's child process) and return what is to be scored.
 
-    Static kinds return the method's raw return value; closed-loop kinds return the simulator's
-    metrics (a dict), because the controller only exists inside the simulation.
+    Static kinds return the method's raw return value. Closed-loop kinds return droneplan's
+    simulator's metrics (a dict): the simulator runs here, in a process the method never runs in,
+    and the controller in a process of its own (:class:`~droneplan.studies.sandbox.ControllerProcess`)
+    that only answers commands; a controller that fails or answers with something other than a
+    plain command gives ``{"controller_failed": message}``.
     """
     data = instance.data
     if instance.kind == "cells":
@@ -93,7 +97,34 @@ def execute(instance: StudyInstance, method: Method, seed: int, time_limit: floa
         return method.call(*(a.copy() for a in arrays), seed=seed, time_limit=time_limit)
     if method.is_bound_engine:
         return method.call(data, seed=seed, time_limit=time_limit)
-    ctl = method.controller()
+    from droneplan.studies.sandbox import ControllerFailed, ControllerProcess
+
+    t0 = time.perf_counter()
+    with ControllerProcess(method.controller) as ctl:
+        try:
+            metrics = _simulate(instance, ctl, seed)
+        except ControllerFailed as exc:
+            metrics = {"controller_failed": str(exc), "failure_status": exc.status}
+        metrics["method_time_s"] = ctl.method_time_s
+    metrics["simulation_time_s"] = max(0.0, time.perf_counter() - t0 - metrics["method_time_s"])
+    return metrics
+
+
+def execute_plain(instance: StudyInstance, method: Method, seed: int, time_limit: float | None) -> bytes:
+    """:func:`execute`, with its result as a :mod:`~droneplan.studies.wire` message (in the job's
+    child process): a return value that is not plain data becomes a refusal, scored ``invalid``."""
+    from droneplan.studies import wire
+
+    value = execute(instance, method, seed, time_limit)
+    try:
+        return wire.encode(value)
+    except wire.NotPlainError as exc:
+        return wire.refusal(exc, value)
+
+
+def _simulate(instance: StudyInstance, ctl: Any, seed: int) -> dict[str, Any]:
+    """The simulator's metrics of one closed-loop run of ``ctl`` on ``instance`` (droneplan's own run)."""
+    data = instance.data
     if instance.kind == "shark-path":
         from droneplan.scenarios.shark import simulate
 
@@ -190,11 +221,16 @@ def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scor
     if not has:
         return scored
     try:
-        pos = np.asarray(plan, dtype=float)
+        raw = np.asarray(plan)
     except (TypeError, ValueError):
+        raw = np.asarray(None)
+    if raw.dtype.kind not in "iuf" and raw.size:
         return Scored(
-            "invalid", message=f"positions must be numbers, got {_describe(plan)}", extras=scored.extras
+            "invalid",
+            message=f"positions must be numbers (reals), got {_describe(plan)}",
+            extras=scored.extras,
         )
+    pos = raw.astype(float)
     if pos.size == 0:
         pos = pos.reshape(0, 2)
     if pos.ndim == 1 and pos.shape == (2,):
@@ -206,6 +242,12 @@ def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scor
     if not np.all(np.isfinite(pos)):
         return Scored("invalid", message="positions contain NaN or inf", extras=scored.extras)
     problem = instance.data
+    if len(pos) > problem.n_cells:  # refused before any work that grows with the number of cells
+        return Scored(
+            "invalid",
+            message=f"the plan places {len(pos)} drone-cells; the instance has n_cells = {problem.n_cells}",
+            extras=scored.extras,
+        )
     ev = evaluate(problem, pos)
     scored.extras["n_placed"] = len(pos)
     if not ev.feasible:
@@ -373,7 +415,14 @@ def _score_fleet(instance: StudyInstance, returned: Any, method: Method) -> Scor
 
 
 def _score_closed_loop(instance: StudyInstance, metrics: Mapping[str, Any]) -> Scored:
-    extras = {k: v for k, v in metrics.items() if k not in ("intercept_time", "beta_max_deg", "total_time")}
+    extras = {
+        k: v
+        for k, v in metrics.items()
+        if k not in ("intercept_time", "beta_max_deg", "total_time", "controller_failed", "failure_status")
+    }
+    if "controller_failed" in metrics:
+        status = "invalid" if metrics.get("failure_status") == "invalid" else "error"
+        return Scored(status, message=str(metrics["controller_failed"]), extras=extras)
     if instance.kind == "shark-path":
         t = _number(metrics.get("intercept_time"))
         if metrics.get("touched_early"):
@@ -427,6 +476,15 @@ def _score_bound_engine(returned: Mapping[str, Any]) -> Scored:
 
 def score(instance: StudyInstance, method: Method, returned: Any) -> Scored:
     """Droneplan's verdict on what ``method`` returned for ``instance`` (module docstring: the rules)."""
+    from droneplan.studies.wire import Refused
+
+    if isinstance(returned, Refused):
+        return Scored(
+            "invalid",
+            message=f"the method returned something that is not plain data ({returned.why}); "
+            "methods return numbers, arrays, tuples, lists, dicts or droneplan's result types",
+            extras={"returned_type": returned.type_name} if returned.type_name else {},
+        )
     if instance.kind == "cells":
         return _score_cells(instance, returned, method)
     if instance.kind == "allocation":

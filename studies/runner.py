@@ -55,6 +55,8 @@ process group is killed and reaped before the exception propagates.
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import json
 import os
 import pickle
 import selectors
@@ -74,16 +76,34 @@ from tqdm.auto import tqdm
 if sys.platform != "win32":  # imported here, not in the child: an import after a fork can deadlock
     import resource
 
+
 from droneplan.core.validation import check_instance, check_int, check_nonneg, check_time_limit
 
-__all__ = ["OUTCOME_STATUSES", "Job", "JobOutcome", "run_isolated", "run_jobs"]
+_PR_SET_PDEATHSIG = 1  # prctl option (linux/prctl.h): a signal the kernel sends when the parent dies
+_PRCTL: Any = None
+if sys.platform.startswith("linux"):
+    with contextlib.suppress(OSError, AttributeError):
+        _PRCTL = ctypes.CDLL(None, use_errno=True).prctl
+
+__all__ = [
+    "OUTCOME_STATUSES",
+    "RESULT_MODES",
+    "Job",
+    "JobOutcome",
+    "die_with_parent",
+    "run_isolated",
+    "run_jobs",
+]
 
 OUTCOME_STATUSES = ("ok", "error", "timeout", "crashed")
+RESULT_MODES = ("pickle", "bytes")
+"""The values of :attr:`Job.returns`."""
 """The values of :attr:`JobOutcome.status`, in this order of how far the job got."""
 
 _TICK_S = 0.2  # longest wait between two looks at the children (s)
 _FAST_TICK_S = 0.01  # wait while a child has closed its pipe but not yet exited (s)
 _HEADER = struct.Struct(">Q")  # length prefix of a result message (bytes)
+_OK_PICKLE, _OK_BYTES, _ERROR = b"P", b"B", b"E"  # the first byte of a message: what follows
 _READ_CHUNK = 1 << 20  # bytes per read from a child's pipe
 _MESSAGE_CHARS = 300  # longest message kept in JobOutcome.error (characters)
 _END = object()  # end of the jobs
@@ -107,6 +127,13 @@ class Job:
     kwargs: keyword arguments of ``fn`` (a mapping of str).
     time_limit: wall time the job may take (s); None: no limit. The child is killed
         ``grace`` seconds after the limit (see :func:`run_jobs`).
+    returns: how the result travels back. ``"pickle"``: any picklable value, unpickled in the
+        parent; only for droneplan's own code, since unpickling runs whatever the bytes name.
+        ``"bytes"``: ``fn`` returns ``bytes`` (e.g. a :mod:`droneplan.studies.wire` message) and
+        the parent hands them over untouched, never unpickling anything the child wrote: the
+        mode for a child that runs code droneplan does not control.
+    max_result_bytes: the largest result the parent reads (bytes); a child that announces or
+        sends more is killed and its outcome is ``"error"``. None: no cap.
     """
 
     key: Hashable
@@ -114,6 +141,8 @@ class Job:
     args: tuple[Any, ...] = ()
     kwargs: Mapping[str, Any] = field(default_factory=dict)
     time_limit: float | None = None
+    returns: str = "pickle"
+    max_result_bytes: int | None = None
 
     def __post_init__(self) -> None:
         try:
@@ -125,6 +154,12 @@ class Job:
         check_instance("args", self.args, tuple)
         check_instance("kwargs", self.kwargs, Mapping)
         object.__setattr__(self, "time_limit", check_time_limit(self.time_limit))
+        if self.returns not in RESULT_MODES:
+            raise ValueError(f"returns must be one of {', '.join(RESULT_MODES)}, got {self.returns!r}")
+        if self.max_result_bytes is not None:
+            object.__setattr__(
+                self, "max_result_bytes", check_int("max_result_bytes", self.max_result_bytes, min_value=1)
+            )
 
 
 @dataclass(frozen=True)
@@ -293,7 +328,7 @@ class _Child:
             with _sigint_deferred():
                 pid = os.fork()
                 if pid == 0:  # pragma: no cover - runs in the child (coverage does not follow os._exit)
-                    _child_main(job, w, [r, *running], memory_limit)
+                    _child_main(job, w, [r, *running], memory_limit, parent)
                 os.close(w)
                 w = -1
                 running[r] = cls(job, pid, r, started)
@@ -331,12 +366,25 @@ class _Child:
                 self.eof = True
                 return
             self.buffer += data
+            if self.oversized() is not None:  # read no further: poll() kills it
+                return
 
     def message_complete(self) -> bool:
         if len(self.buffer) < _HEADER.size:
             return False
         (n,) = _HEADER.unpack_from(self.buffer)
         return len(self.buffer) >= _HEADER.size + n
+
+    def oversized(self) -> int | None:
+        """The announced or received size of a result beyond the job's cap (bytes), else None."""
+        cap = self.job.max_result_bytes
+        if cap is None:
+            return None
+        if len(self.buffer) >= _HEADER.size:
+            (n,) = _HEADER.unpack_from(self.buffer)
+            if n > cap + 1:  # + the message's kind byte
+                return n - 1
+        return len(self.buffer) if len(self.buffer) > cap + 1 + _HEADER.size else None
 
     # ----------------------------------------------------------------- life and death
     def exited(self) -> bool:
@@ -383,6 +431,14 @@ class _Child:
     # ----------------------------------------------------------------- outcome
     def poll(self, grace: float) -> JobOutcome | None:
         """The outcome if the child is done (it is then reaped), else None."""
+        too_big = self.oversized()
+        if too_big is not None:
+            self.kill_and_reap()
+            self.buffer = bytearray()
+            return self._outcome(
+                "error",
+                error=f"the result has {too_big} bytes, more than the cap of {self.job.max_result_bytes}",
+            )
         if self.message_complete():
             self.kill_and_reap()  # it has nothing left to do; this also ends helpers it left behind
             return self._from_message()
@@ -410,19 +466,30 @@ class _Child:
 
     def _from_message(self) -> JobOutcome:
         (n,) = _HEADER.unpack_from(self.buffer)
-        try:
-            message = pickle.loads(memoryview(self.buffer)[_HEADER.size : _HEADER.size + n])
-        except Exception as exc:  # noqa: BLE001 - e.g. a class whose unpickling fails
-            return self._outcome(
-                "error",
-                error=f"the return value could not be unpickled: {_one_line(exc)}",
-                traceback=tb_module.format_exc(),
-            )
-        finally:
-            self.buffer = bytearray()
-        if message[0] == "ok":
-            return self._outcome("ok", value=message[1])
-        return self._outcome("error", error=message[1], traceback=message[2])
+        body = bytes(memoryview(self.buffer)[_HEADER.size : _HEADER.size + n])
+        self.buffer = bytearray()
+        kind, payload = body[:1], body[1:]
+        if kind == _ERROR:
+            try:
+                error, traceback = json.loads(payload.decode("utf-8"))
+                return self._outcome("error", error=str(error)[:_MESSAGE_CHARS], traceback=str(traceback))
+            except Exception:  # noqa: BLE001 - whatever the child wrote
+                return self._outcome("error", error="the child sent an unreadable error message")
+        if kind == _OK_BYTES and self.job.returns == "bytes":
+            return self._outcome("ok", value=payload)
+        if kind == _OK_PICKLE and self.job.returns == "pickle":
+            try:
+                return self._outcome("ok", value=pickle.loads(payload))
+            except Exception as exc:  # noqa: BLE001 - e.g. a class whose unpickling fails
+                return self._outcome(
+                    "error",
+                    error=f"the return value could not be unpickled: {_one_line(exc)}",
+                    traceback=tb_module.format_exc(),
+                )
+        return self._outcome(
+            "error",
+            error=f"the child sent a message of kind {kind!r}, not a result of kind {self.job.returns!r}",
+        )
 
     def _crashed(self) -> JobOutcome:
         status = self.status
@@ -486,11 +553,29 @@ def _one_line(exc: BaseException) -> str:
 
 
 # --------------------------------------------------------------------------- the child
-def _child_main(job: Job, w: int, close_fds: list[int], memory_limit: int | None) -> None:  # pragma: no cover
+def die_with_parent(parent: int) -> None:  # pragma: no cover - runs in children
+    """Make the calling (forked) process get SIGKILL when its parent dies (Linux: ``prctl
+    PR_SET_PDEATHSIG``), and leave now if the parent ``parent`` (pid) is already gone.
+
+    So a job does not outlive a study killed with SIGKILL, which no handler can see. The kernel
+    sends the signal when the parent's forking *thread* ends; the job runner forks from the
+    thread that drives it, which lives as long as its jobs. Elsewhere than Linux only the check
+    is made.
+    """
+    if _PRCTL is not None:
+        _PRCTL(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+def _child_main(  # pragma: no cover
+    job: Job, w: int, close_fds: list[int], memory_limit: int | None, parent: int
+) -> None:
     """Everything the child does; it never returns (``os._exit`` in every path)."""
     code = 1
     try:
         os.setpgid(0, 0)
+        die_with_parent(parent)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         with contextlib.suppress(ValueError, OSError):  # the parent's Ctrl-C watcher is not ours
             signal.set_wakeup_fd(-1)
@@ -521,14 +606,22 @@ def _child_main(job: Job, w: int, close_fds: list[int], memory_limit: int | None
 
 
 def _call(job: Job) -> bytes:
-    """Run the job; its result message, pickled."""
+    """Run the job; its result message (a kind byte, then the payload)."""
     try:
         value = job.fn(*job.args, **job.kwargs)
     except BaseException as exc:  # noqa: BLE001 - SystemExit and KeyboardInterrupt are the job's errors too
-        return pickle.dumps(("error", _one_line(exc), tb_module.format_exc()))
+        return _error_message(_one_line(exc), tb_module.format_exc())
+    if job.returns == "bytes":
+        if isinstance(value, (bytes, bytearray)):
+            return _OK_BYTES + bytes(value)
+        return _error_message(f"TypeError: the job returned {type(value).__qualname__}, not bytes", "")
     try:
-        return pickle.dumps(("ok", value), protocol=pickle.HIGHEST_PROTOCOL)
+        return _OK_PICKLE + pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
     except BaseException as exc:  # noqa: BLE001 - whatever pickling raises
         error = f"{type(exc).__name__}: the return value ({type(value).__qualname__}) cannot be pickled"
         detail = _one_line(exc).partition(": ")[2]
-        return pickle.dumps(("error", f"{error}: {detail}" if detail else error, tb_module.format_exc()))
+        return _error_message(f"{error}: {detail}" if detail else error, tb_module.format_exc())
+
+
+def _error_message(error: str, traceback: str) -> bytes:
+    return _ERROR + json.dumps([error, traceback]).encode("utf-8", "replace")

@@ -27,7 +27,8 @@ from typing import Any
 import pandas as pd
 
 from droneplan.core.validation import check_bool, check_instance, check_int
-from droneplan.studies.harness import SENSE_OF_KIND, Scored, execute, score
+from droneplan.studies import wire
+from droneplan.studies.harness import SENSE_OF_KIND, Scored, execute_plain, score
 from droneplan.studies.instances import StudyInstance, resolve_instances
 from droneplan.studies.library import lookup
 from droneplan.studies.methods import Method, check_study_time_limit, resolve_methods
@@ -44,6 +45,10 @@ __all__ = [
     "DEFAULT_TIME_LIMIT",
     "GRACE_S",
     "LIBRARY_METHOD",
+    "MAX_RESULT_BYTES",
+    "SCORE_TIME_LIMIT",
+    "JOB_MEMORY_HEADROOM",
+    "address_space_limit",
 ]
 
 DEFAULT_TIME_LIMIT = 300.0
@@ -54,6 +59,20 @@ GRACE_S = 3.0
 
 LIBRARY_METHOD = "library"
 """The ``method`` of the reference row read from the certified library."""
+
+MAX_RESULT_BYTES = 64 << 20
+"""The largest return value a method's process may send back (bytes of its plain-data message)."""
+
+SCORE_TIME_LIMIT = 60.0
+"""Wall time droneplan's scoring of one returned plan may take (s); past it the row is ``invalid``."""
+
+JOB_MEMORY_HEADROOM = 8 << 30
+"""Address space a job may use beyond the study process's own (bytes) when ``gap`` is given no
+``memory_limit``: a forked job starts as a copy of the study process, so its limit is the study's
+virtual size plus this."""
+
+SCORE_MEMORY_HEADROOM = 2 << 30
+"""Address space droneplan's scoring of one plan may use beyond the study process's own (bytes)."""
 
 STUDY = "gap"
 
@@ -211,38 +230,82 @@ def _library_row(inst: StudyInstance) -> dict | None:
     return row
 
 
-def _verdict(task: _Task, outcome: JobOutcome) -> Scored:
+def _verdict(task: _Task, outcome: JobOutcome) -> tuple[Scored, float | None]:
+    """Droneplan's verdict on one job's outcome, and the time its scoring took (s; None: not scored).
+
+    The method's plain-data message is decoded here (nothing in it is executed) and scored in a
+    process of its own under :data:`SCORE_TIME_LIMIT` and a memory limit, so a plan that is costly
+    to check costs the study a bounded time and no memory.
+    """
     if outcome.status == "ok":
         try:
-            return score(task.instance, task.method, outcome.value)
-        except Exception as exc:  # noqa: BLE001 - a return value that breaks the scoring is the method's
-            return Scored("invalid", message=f"could not score the return value: {type(exc).__name__}: {exc}")
+            value = wire.decode(outcome.value, max_bytes=MAX_RESULT_BYTES)
+        except (wire.WireError, TypeError) as exc:
+            return Scored("invalid", message=f"the method's process sent an unreadable result: {exc}"), None
+        return _score_isolated(task, value)
     if outcome.status == "timeout":
-        return Scored("timeout", message=outcome.error)
+        return Scored("timeout", message=outcome.error), None
     if outcome.status == "crashed":
-        return Scored("error", message=f"the method's process {outcome.error}")
+        return Scored("error", message=f"the method's process {outcome.error}"), None
+    if outcome.error.startswith("the result has"):  # over MAX_RESULT_BYTES
+        return Scored("invalid", message=outcome.error), None
     # the method's own traceback (its last frames) helps its author; the row keeps the one-line cause
-    return Scored("error", message=outcome.error, extras={"traceback": outcome.traceback[-2000:]})
+    return Scored("error", message=outcome.error, extras={"traceback": outcome.traceback[-2000:]}), None
+
+
+def _score_isolated(task: _Task, value: Any) -> tuple[Scored, float]:
+    """:func:`~droneplan.studies.harness.score` run in a forked child with a time and memory budget."""
+    job = Job("score", score, (task.instance, task.method, value), time_limit=SCORE_TIME_LIMIT)
+    oc = run_isolated(job, grace=1.0, memory_limit=address_space_limit(SCORE_MEMORY_HEADROOM))
+    if oc.status == "ok" and isinstance(oc.value, Scored):
+        return oc.value, oc.wall_s
+    if oc.status == "timeout":
+        why = f"scoring the plan took longer than {SCORE_TIME_LIMIT:g} s"
+    elif oc.status == "error" and oc.error.startswith("MemoryError"):
+        why = f"scoring the plan needed more than {SCORE_MEMORY_HEADROOM >> 30} GiB"
+    else:
+        why = f"could not score the return value: {oc.error}"
+    return Scored("invalid", message=why), oc.wall_s
+
+
+def address_space_limit(headroom: int) -> int | None:
+    """This process's virtual size plus ``headroom`` (bytes): an ``RLIMIT_AS`` for a forked child
+    that may allocate ``headroom`` more; None where the size cannot be read (no ``/proc``)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("VmSize:"):
+                    return int(line.split()[1]) * 1024 + headroom
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
 
 
 @contextlib.contextmanager
 def _dask_outcomes(
-    address: str | None, jobs: list[Job], grace: float, executor: Any = None
+    address: str | None, jobs: list[Job], grace: float, headroom: int, executor: Any = None
 ) -> Iterator[Iterator[JobOutcome]]:
-    """Outcomes of ``jobs`` computed on a Dask cluster (each job isolated in a child on its worker)."""
+    """Outcomes of ``jobs`` computed on a Dask cluster (each job isolated in a child on its worker,
+    whose result comes back as the bytes of its plain-data message, decoded and scored here)."""
     import concurrent.futures as cf
 
     from droneplan.studies.common import make_executor
 
     with contextlib.ExitStack() as stack:
         ex = executor if executor is not None else stack.enter_context(make_executor(dask_address=address))
-        futures = [ex.submit(run_isolated, job, grace=grace) for job in jobs]
+        futures = [ex.submit(_run_on_worker, job, grace, headroom) for job in jobs]
 
         def gen() -> Iterator[JobOutcome]:
             for fut in cf.as_completed(futures):
                 yield fut.result()
 
         yield gen()
+
+
+def _run_on_worker(job: Job, grace: float, headroom: int) -> JobOutcome:
+    """One job in a child of this (Dask worker) process, with ``headroom`` bytes of address space
+    beyond this process's own."""
+    return run_isolated(job, grace=grace, memory_limit=address_space_limit(headroom))
 
 
 def _run_options(workers: Any, dask: Any, progress: Any, store: Any, executor: Any) -> tuple[int, Any]:
@@ -274,6 +337,7 @@ def gap(
     progress: bool = True,
     store: ResultStore | None = None,
     executor: Any = None,
+    memory_limit: int | None = None,
     **size: Any,
 ) -> pd.DataFrame:
     """Run a gap study of ``methods`` on ``instances`` and return its rows (long format).
@@ -300,12 +364,18 @@ def gap(
     executor: a :class:`~droneplan.studies.common.StudyExecutor` whose kind decides where the jobs
         run (serial: one at a time; processes: as many as its slots; dask: on its cluster), instead
         of ``workers``/``dask``.
+    memory_limit: address space each job may use beyond the study process's own (bytes; default
+        ``JOB_MEMORY_HEADROOM``, 8 GiB), applied as ``RLIMIT_AS`` of its process: an allocation past
+        it fails in the method (an ``error`` row naming MemoryError) instead of exhausting the machine.
     size: the family's size parameters (``m=4``, ``n=[8, 16]``) and ``seeds``, ``first_seed``.
 
     Returns the current rows of these instances for these methods and the library reference, with
     gaps filled in; rows already in the store under the same configuration are reused, not rerun.
     """
     n_workers, dask_executor = _run_options(workers, dask, progress, store, executor)
+    headroom = (
+        JOB_MEMORY_HEADROOM if memory_limit is None else check_int("memory_limit", memory_limit, min_value=1)
+    )
     plan = plan_study(problem, methods=methods, instances=instances, time_limit=time_limit, **size)
     out = Path(out)
     with contextlib.ExitStack() as stack:
@@ -319,15 +389,23 @@ def gap(
         desc = f"{problem} gap" if progress else None
         try:
             with (
-                _dask_outcomes(dask, list(jobs), GRACE_S, dask_executor)
+                _dask_outcomes(dask, list(jobs), GRACE_S, headroom, dask_executor)
                 if dask or dask_executor is not None
-                else contextlib.nullcontext(run_jobs(jobs, workers=n_workers, grace=GRACE_S, progress=desc))
+                else contextlib.nullcontext(
+                    run_jobs(
+                        jobs,
+                        workers=n_workers,
+                        grace=GRACE_S,
+                        progress=desc,
+                        memory_limit=address_space_limit(headroom),
+                    )
+                )
             ) as outcomes:
                 for oc in outcomes:
                     task = jobs.by_key[oc.key]  # type: ignore[index]
-                    row = _row(
-                        task, _verdict(task, oc), time_s=oc.wall_s, cpu_s=oc.cpu_s, time_limit=task.time_limit
-                    )
+                    verdict, score_s = _verdict(task, oc)
+                    verdict.extras["score_time_s"] = score_s
+                    row = _row(task, verdict, time_s=oc.wall_s, cpu_s=oc.cpu_s, time_limit=task.time_limit)
                     set_aside += store.write([row])  # writing a row ends its claim
                     jobs.in_flight.discard(oc.key)
         finally:
@@ -370,9 +448,11 @@ class _ClaimedJobs:
             self.in_flight.add(key)
             yield Job(
                 key,
-                execute,
+                execute_plain,
                 (t.instance, t.method, t.instance.seed or 0, t.time_limit),
                 time_limit=t.time_limit,
+                returns="bytes",
+                max_result_bytes=MAX_RESULT_BYTES,
             )
 
     def release_unfinished(self) -> None:

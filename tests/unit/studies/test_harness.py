@@ -45,7 +45,7 @@ def test_cells_valid_plan_is_scored_by_evaluate(cells):
         ("north of the river", "invalid", "must be numbers"),
         ([[0.0, 0.0]], "infeasible", "overlaps GBS"),
         (np.array([[2000.0, 0.0], [2100.0, 0.0]]), "infeasible", "overlap"),
-        (np.array([[2000.0, 0.0], [0.0, 2000.0], [-2000.0, 0.0]]), "infeasible", "n_cells = 2"),
+        (np.array([[2000.0, 0.0], [0.0, 2000.0], [-2000.0, 0.0]]), "invalid", "n_cells = 2"),
         (np.array([[4900.0, 4900.0]]), "infeasible", "no backhaul"),
     ],
 )
