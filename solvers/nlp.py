@@ -22,11 +22,16 @@ __all__ = ["BACKEND", "STATUS_MAP", "IpoptSolver", "IpoptAdapter"]
 
 BACKEND = "ipopt"
 
-# IPOPT return_status strings (IpReturnCodes). Statuses that stop at a point whose
+# IPOPT return_status strings (IpReturnCodes). IPOPT proves no global optimality, so no
+# code maps to OPTIMAL: "Solve_Succeeded" is a local optimum (a KKT point within IPOPT's
+# tolerance), FEASIBLE with info["local_optimum"] True. Statuses that stop at a point whose
 # quality is unknown are mapped to FEASIBLE here and demoted to NO_SOLUTION by
 # IpoptSolver.solve when that point violates the constraints.
+_LOCAL_OPTIMUM_CODE = "Solve_Succeeded"
+"""The one IPOPT code that means a KKT point within the requested tolerance."""
+
 STATUS_MAP: dict[Any, Status] = {
-    "Solve_Succeeded": Status.OPTIMAL,
+    _LOCAL_OPTIMUM_CODE: Status.FEASIBLE,
     "Solved_To_Acceptable_Level": Status.FEASIBLE,
     "Feasible_Point_Found": Status.FEASIBLE,
     "Maximum_Iterations_Exceeded": Status.FEASIBLE,
@@ -151,7 +156,10 @@ class IpoptSolver:
         ``info["lam_x"]``, ``info["lam_g"]``); used only when it had a solution.
         ``project`` is ignored (IPOPT iterates internally; see NlpSolver).
         Returns ``x`` = primal (np.ndarray), ``objective`` = f at x, ``bound`` = None
-        (a local solve proves no bound), ``info`` = {"lam_x", "lam_g", "g"}.
+        (a local solve proves no bound), ``info`` = {"lam_x", "lam_g", "g", "violation",
+        "x_last", "local_optimum"}. Status is never OPTIMAL: a converged solve
+        ("Solve_Succeeded", a KKT point) is FEASIBLE with ``info["local_optimum"]`` True;
+        every other stop has it False.
         """
         limit = self.time_limit if time_limit is None else time_limit
         check_time_limit(limit)
@@ -191,10 +199,9 @@ class IpoptSolver:
             x = np.asarray(sol["x"], dtype=float).ravel()
             g = np.asarray(sol["g"], dtype=float).ravel() if self.n_g else np.zeros(0)
             violation = self._violation(x, g, args)
-            message = ""
-            if status is Status.OPTIMAL:
-                message = "local optimum (KKT point); no global bound"
-            if code in _LIMIT_STATUSES or status is Status.FEASIBLE:
+            local = code == _LOCAL_OPTIMUM_CODE
+            message = "local optimum (KKT point); no global bound" if local else ""
+            if code in _LIMIT_STATUSES or (status is Status.FEASIBLE and not local):
                 # a point returned at a limit counts only if it satisfies the constraints
                 if violation <= self.feasibility_tol and np.isfinite(x).all():
                     status = Status.FEASIBLE
@@ -217,6 +224,7 @@ class IpoptSolver:
                     "g": g,
                     "violation": violation,
                     "x_last": x,
+                    "local_optimum": local,
                 },
             )
 

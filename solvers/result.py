@@ -21,9 +21,10 @@ class Status(enum.Enum):
     """Outcome of a solve, independent of the backend."""
 
     OPTIMAL = "optimal"
-    """A solution proven optimal (within the backend's tolerance)."""
+    """A solution proven optimal (within the backend's tolerance): never a local NLP or SQP optimum."""
     FEASIBLE = "feasible"
-    """A solution whose optimality is not proven (time limit, heuristic, local NLP stop)."""
+    """A solution whose optimality is not proven (time limit, heuristic, local NLP or SQP stop);
+    a local method's converged KKT point has ``info["local_optimum"]`` True."""
     INFEASIBLE = "infeasible"
     """Proven infeasible."""
     UNBOUNDED = "unbounded"
@@ -86,6 +87,14 @@ class SolveResult:
     def has_solution(self) -> bool:
         """True when ``x`` and ``objective`` hold a solution (OPTIMAL or FEASIBLE)."""
         return self.status.has_solution
+
+    @property
+    def converged(self) -> bool:
+        """True when the solve stopped at an optimum: proven (OPTIMAL), or local (FEASIBLE with
+        ``info["local_optimum"]`` True: a local NLP or SQP method reached a KKT point)."""
+        if self.status is Status.OPTIMAL:
+            return True
+        return self.status is Status.FEASIBLE and bool(self.info.get("local_optimum", False))
 
     @property
     def gap(self) -> float | None:

@@ -20,8 +20,14 @@ There is no line search or merit function: the proximal weights are the only
 globalisation, so too small a ``prox`` can make the iterates cycle on curved
 constraints (the unit tests show both cases). Soft rows make every QP feasible;
 the result reports the remaining constraint violation of the final iterate. The
-result's status is FEASIBLE when every QP was solved (a fixed number of steps
-proves no optimality) and the QP's status otherwise.
+result's status is FEASIBLE when every QP was solved (a local method proves no global
+optimality, so never OPTIMAL) and the QP's status otherwise. ``info["local_optimum"]``
+is True when the iterate is a KKT point: the last QP was solved to OSQP's tolerance with
+a step of at most ``KKT_STEP_TOL`` (relative to the iterate) and the final constraint
+violation is at most ``KKT_VIOLATION_TOL``. A zero step means the gradient of f is
+balanced by the QP's multipliers on the constraints linearised at the iterate, which
+is the first-order optimality condition of the NLP there; a real-time iteration that
+stops after one step far from such a point leaves it False.
 """
 
 from __future__ import annotations
@@ -39,7 +45,12 @@ import scipy.sparse as sp
 from droneplan.core.validation import check_time_limit, require_set
 from droneplan.solvers.result import SolveResult, Status
 
-__all__ = ["SqpStructure", "SqpSolver"]
+__all__ = ["SqpStructure", "SqpSolver", "KKT_STEP_TOL", "KKT_VIOLATION_TOL"]
+
+KKT_STEP_TOL = 1e-6
+"""Largest last step, as a fraction of max(1, |iterate|_inf), for the iterate to count as a KKT point."""
+KKT_VIOLATION_TOL = 1e-6
+"""Largest constraint violation (constraint units) for the iterate to count as a KKT point."""
 
 
 @dataclass(frozen=True)
@@ -198,8 +209,10 @@ class SqpSolver:
             after every step (default: identity).
         warm_start: unused (the QP duals of the previous solve are reused automatically).
         time_limit: per-QP limit is fixed at construction; passing one here raises.
-        Returns x = final iterate, objective = f there (no bound: a fixed number of steps
-        proves nothing), info = {"violation", "y"} (constraint violation, last QP duals).
+        Returns x = final iterate, objective = f there (no bound: a local method proves
+        none), status FEASIBLE (never OPTIMAL), info = {"violation", "y", "local_optimum",
+        "last_step"} (constraint violation, last QP duals, whether the iterate is a KKT point
+        (module docstring), the last step's inf-norm relative to max(1, |iterate|_inf)).
         """
         if time_limit is not None:
             raise ValueError("SqpSolver takes its time_limit at construction")
@@ -213,12 +226,14 @@ class SqpSolver:
         z = proj(self._vec("x0", x0, self.n_x, 0.0))
         res = None
         iters = 0
+        step = math.inf
         for _ in range(self.iterations):
             res = self._step(z, pvec, lbx_, ubx_, lbg_, ubg_)
             iters += res.iterations or 0
             if not res.has_solution:
                 break
             self._last = res
+            step = float(np.max(np.abs(res.x), initial=0.0)) / max(1.0, float(np.max(np.abs(z), initial=0.0)))
             z = proj(z + res.x)
         elapsed = time.perf_counter() - t0
         res = require_set(res, "iterations >= 1 solves at least one QP")
@@ -233,6 +248,7 @@ class SqpSolver:
                 np.max(np.maximum(gval - ubg_, 0), initial=0.0),
             )
         )
+        local = res.status is Status.OPTIMAL and step <= KKT_STEP_TOL and viol <= KKT_VIOLATION_TOL
         return SolveResult(
             Status.FEASIBLE,
             objective=float(self._f(z, pvec)),
@@ -244,5 +260,5 @@ class SqpSolver:
             solve_time=elapsed,
             iterations=iters,
             warm_started=x0 is not None,
-            info={"violation": viol, "y": res.info.get("y")},
+            info={"violation": viol, "y": res.info.get("y"), "local_optimum": local, "last_step": step},
         )

@@ -45,7 +45,7 @@ from droneplan.core.validation import (
 )
 from droneplan.scenarios.shark import THESIS_TABLE_5_1, SharkParams, SharkTrajectory
 from droneplan.solvers.registry import available_backends, get_backend
-from droneplan.solvers.result import SolveResult, Status
+from droneplan.solvers.result import SolveResult
 
 __all__ = [
     "InterceptionPlan",
@@ -422,8 +422,9 @@ def solve_interception(
         inside the field at t0 is refused (ValueError): there is nothing to intercept.
     warm_starts: starting plans (`InterceptionPlan`, e.g. virtual-shark rollouts on both
         sides of the path); when empty, two crude plans (one per side) are used.
-    Returns the best result: objective = T in s (a local optimum of the OCP), x =
-    `InterceptionPlan`, bound = the proven lower bound on T of
+    Returns the best result: objective = T in s, status FEASIBLE (a local optimum of the OCP,
+    ``info["local_optimum"]`` True when IPOPT converged; never OPTIMAL, since only the bound is
+    proven), x = `InterceptionPlan`, bound = the proven lower bound on T of
     `formulations.shark.bound.interception_time_bound` (None, with the reason in ``message``,
     if it could not be computed). info["tried"] lists (origin, side, status, T) of every start,
     info["start_won"] the origin of the start the best result came from; ``warm_started`` is
@@ -466,13 +467,14 @@ def solve_interception(
     for g in starts:
         r = ocp.solve(O0, t0=t0, shark_state=state, guess=g)
         tried.append((g.origin, g.side, r.status.name, None if r.x is None else r.objective))
-        if r.status not in (Status.OPTIMAL, Status.FEASIBLE):
+        if not r.has_solution:
             continue
         t_int = require_set(r.objective, "a solved OCP reports its T")
+        # at a tie, a converged local optimum beats a point IPOPT returned at a limit
         if (
             best is None
             or t_int < best_T - 1e-9
-            or (best.status != Status.OPTIMAL and r.status == Status.OPTIMAL and t_int <= best_T + 1e-6)
+            or (not best.converged and r.converged and t_int <= best_T + 1e-6)
         ):
             best, best_start, best_T = r, g, t_int
     try:
@@ -497,6 +499,6 @@ def solve_interception(
         bound=bound,
         warm_started=won not in ("crude", "unknown"),
         info={**best.info, "tried": tried, "start_won": won, "bound_message": bound_msg},
-        message=best.message.replace("local optimum (IPOPT), no bound", "local optimum (IPOPT)")
+        message=best.message.replace(f"({best.backend}), no bound", f"({best.backend})")
         + f"; best of {len(starts)} starts (side {best.x.side}, from the {won} start); bound: {bound_msg}",
     )

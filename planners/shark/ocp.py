@@ -100,8 +100,9 @@ class OCPInterceptor:
 
     The first solve starts from the virtual-shark rollout (known path) or the formulation's
     crude starts on both sides (best kept); later solves start from the previous plan shifted
-    by Ts, reusing its duals after a successful solve. ``solve_times`` (s) and ``statuses``
-    record every solve. When no solve of a replan gives a plan, the operator flies at VoMxy
+    by Ts, reusing its duals after a successful solve. ``solve_times`` (s), ``statuses`` and
+    ``converged`` (True where IPOPT reached a local optimum; a solve is FEASIBLE either way,
+    never OPTIMAL) record every solve. When no solve of a replan gives a plan, the operator flies at VoMxy
     towards the point one second ahead of the shark (a pursuit fallback) and ``fallbacks``
     counts that replan; the simulator copies both counts into the trace (``trace.fallbacks``,
     ``trace.status_counts``). Once the remaining time is below Ts the operator steps onto the
@@ -144,6 +145,7 @@ class OCPInterceptor:
         self._hold_since: float | None = None  # time the final hold began (s)
         self.solve_times: list[float] = []
         self.statuses: list[str] = []
+        self.converged: list[bool] = []
         self.plans: list[InterceptionPlan] = []
 
     def _first_guesses(self, t, O, S, V):
@@ -176,6 +178,7 @@ class OCPInterceptor:
             res = self.ocp.solve(O, guess=guess, warm_start=self._last, **kw)
             self.solve_times.append(res.solve_time)
             self.statuses.append(res.status.name)
+            self.converged.append(res.converged)
             if res.status in ok:
                 return res
         best: SolveResult | None = None
@@ -184,6 +187,7 @@ class OCPInterceptor:
             r = self.ocp.solve(O, guess=g, **kw)
             self.solve_times.append(r.solve_time)
             self.statuses.append(r.status.name)
+            self.converged.append(r.converged)
             if r.status in ok:
                 t_int = require_set(r.objective, "a solved OCP reports its T")
                 if best is None or t_int < best_T:

@@ -51,7 +51,8 @@ def test_optimal_altitude_vectorised_and_bad_input():
 
 def _check_plan(res, shark_at, O0):
     plan = res.x
-    assert res.status == Status.OPTIMAL and math.isclose(res.objective, plan.T)
+    assert res.status == Status.FEASIBLE and res.info["local_optimum"]  # a local optimum, not proven
+    assert math.isclose(res.objective, plan.T)
     assert np.allclose(plan.operator[0], O0)
     assert np.all(np.hypot(plan.velocity[:, 0], plan.velocity[:, 1]) <= P.VoMxy + 1e-6)
     assert np.all(np.abs(plan.velocity[:, 2]) <= P.VoMz + 1e-6)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from droneplan.solvers import Status, get_backend
+from droneplan.solvers import get_backend
 
 LINEAR = ["cp-sat", "highs", "scip"]
 
@@ -46,7 +46,7 @@ SOLVES = {**{b: (lambda v, b=b: _linear(b, v)) for b in LINEAR}, "ipopt": _nlp, 
 @pytest.mark.parametrize("backend", list(SOLVES))
 def test_quiet_by_default(backend, capfd):
     res = SOLVES[backend](False)
-    assert res.status is Status.OPTIMAL
+    assert res.converged  # proven optimal, or (IPOPT) a local optimum
     out, _ = capfd.readouterr()
     assert out == ""
 
@@ -70,4 +70,4 @@ def test_fresh_process_prints_no_banner():
 
 if __name__ == "__main__":  # run by test_fresh_process_prints_no_banner
     for name, solve in SOLVES.items():
-        assert solve(False).status is Status.OPTIMAL, name
+        assert solve(False).converged, name
