@@ -5,8 +5,10 @@ binding that may hang in C, segfault, print, sleep, raise, or return something t
 not a plan. :func:`run_jobs` runs each :class:`Job` in a child process of its own and
 turns whatever happens into one :class:`JobOutcome`:
 
-- ``"ok"``: ``fn`` returned; ``value`` is its return value (pickled in the child,
-  unpickled here);
+- ``"ok"``: ``fn`` returned; ``value`` is its return value: pickled in the child and
+  unpickled here for a job of droneplan's own code (``Job.returns == "pickle"``), or the
+  bytes ``fn`` returned, untouched, for a job running code droneplan does not control
+  (``"bytes"``: nothing the child writes is ever unpickled; see :mod:`droneplan.studies.wire`);
 - ``"error"``: ``fn`` raised (any exception, ``SystemExit`` and ``KeyboardInterrupt``
   included), its return value cannot be pickled, or an allocation went beyond
   ``memory_limit`` (``MemoryError``); ``error`` is one line ``"Type: message"`` and
@@ -35,11 +37,13 @@ runner is therefore POSIX-only (Linux, macOS); on a platform without ``os.fork``
 :func:`run_jobs` raises :class:`RuntimeError`.
 
 What the child does: it moves into its own process group (Ctrl-C in a terminal reaches
-only the parent, which then kills every child), ignores SIGINT, disables core dumps,
+only the parent, which then kills every child), asks the kernel to kill it when the parent
+dies (``PR_SET_PDEATHSIG`` on Linux, so a study killed with SIGKILL leaves no job running),
+ignores SIGINT, disables core dumps,
 applies ``memory_limit`` as its address-space limit (``RLIMIT_AS``), runs
 ``fn(*args, **kwargs)``, flushes its stdout and stderr (printed output goes to the
-parent's file descriptors), sends the length-prefixed pickle of its result through a
-pipe and leaves with ``os._exit``: never through the parent's ``atexit`` handlers,
+parent's file descriptors), sends its length-prefixed result message (a kind byte, then the
+pickle or the bytes; an error as JSON) through a pipe and leaves with ``os._exit``: never through the parent's ``atexit`` handlers,
 finalizers or ``finally`` blocks, whatever ``fn`` did.
 
 What the parent does: it keeps at most ``workers`` children alive, waits on their pipes
