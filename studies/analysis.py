@@ -61,10 +61,12 @@ __all__ = [
     "SOLVED_STATUSES",
     "FAILURE_COLUMNS",
     "AT_BEST_TOL",
+    "GAP_ZERO_TOL",
     "SUMMARY_COLUMNS",
     "performance_ratios",
     "performance_profile",
     "shifted_geometric_mean",
+    "snap_gap",
     "summary_table",
     "summary_markdown",
     "write_study_outputs",
@@ -79,10 +81,20 @@ FAILURE_COLUMNS = ("infeasible", "invalid", "timeout", "error", "no_solution")
 AT_BEST_TOL = 1e-6
 """A solved run is at the best when its ``gap_to_best`` is at most this (dimensionless)."""
 
+GAP_ZERO_TOL = 1e-9
+"""A summary statistic of relative gaps within this of 0 (dimensionless) is reported as exactly 0:
+float noise (a bound equal to the objective up to rounding, e.g. -5e-16), not a gap."""
+
 _GAP_FLOOR = 1e-9  # the store's denominator floor of a relative gap
 _RATIO_RTOL = 1e-12
 _NOT_METHODS = ("bound",)
 _NOT_PROFILED = ("bound", "task")
+
+
+def snap_gap(value: float) -> float:
+    """``value`` (a relative gap, dimensionless), or 0.0 when it is within ``GAP_ZERO_TOL`` of 0
+    (NaN and inf stay as they are)."""
+    return 0.0 if abs(value) <= GAP_ZERO_TOL else value
 
 
 # --------------------------------------------------------------------------- input handling
@@ -264,7 +276,8 @@ def summary_table(df: pd.DataFrame, *, time_shift: float = 1.0) -> pd.DataFrame:
     status, so that ``solved + infeasible + invalid + timeout + error + no_solution + other
     == n``; ``at_best`` solved runs with ``gap_to_best <= AT_BEST_TOL``; median and 95th
     percentile (linear interpolation) of ``gap_to_bound`` and ``gap_to_best`` over solved
-    runs (relative gaps, dimensionless; NaN when none has one); ``sgm_time_s`` the shifted
+    runs (relative gaps, dimensionless; NaN when none has one; within ``GAP_ZERO_TOL`` of 0:
+    exactly 0); ``sgm_time_s`` the shifted
     geometric mean (s) of the times of all runs that recorded one, failures included (a
     timeout counts with the time at which it was stopped); ``flagged`` runs whose ``flag``
     is non-empty. Sorted by problem, size, median gap to the bound, median gap to the best
@@ -297,8 +310,8 @@ def summary_table(df: pd.DataFrame, *, time_shift: float = 1.0) -> pd.DataFrame:
         rec["at_best"] = int((sv & (num["gap_to_best"].loc[ix] <= AT_BEST_TOL)).sum())
         for c in ("gap_to_bound", "gap_to_best"):
             v = num[c].loc[ix][sv].dropna()
-            rec[f"median_{c}"] = float(v.median()) if len(v) else math.nan
-            rec[f"p95_{c}"] = float(v.quantile(0.95)) if len(v) else math.nan
+            rec[f"median_{c}"] = snap_gap(float(v.median())) if len(v) else math.nan
+            rec[f"p95_{c}"] = snap_gap(float(v.quantile(0.95))) if len(v) else math.nan
         t = num["time_s"].loc[ix].dropna()
         t = t[np.isfinite(t) & (t >= 0)]
         rec["sgm_time_s"] = shifted_geometric_mean(t.to_numpy(), shift) if len(t) else math.nan

@@ -636,10 +636,12 @@ def summarize(df: pd.DataFrame, thesis: Mapping[tuple[str, str], str] | None = N
 
     Columns: problem, method, role, count, success_rate (fraction with a solution),
     errors, best_rate (fraction with gap_to_best <= 1e-6), median/mean/p95 of gap_to_bound
-    and gap_to_best, gap_bound_kind (the bound kinds the gaps were measured against),
-    median_time_s and ``thesis`` (the thesis's value for that method where it states one,
-    from ``thesis[(problem, method)]``).
+    and gap_to_best (within ``analysis.GAP_ZERO_TOL`` of 0: exactly 0), gap_bound_kind (the
+    bound kinds the gaps were measured against), median_time_s and ``thesis`` (the thesis's
+    value for that method where it states one, from ``thesis[(problem, method)]``).
     """
+    from droneplan.studies.analysis import snap_gap
+
     thesis = thesis or {}
     df = _with_columns(df)
     out = []
@@ -656,9 +658,9 @@ def summarize(df: pd.DataFrame, thesis: Mapping[tuple[str, str], str] | None = N
         }
         for col in ("gap_to_bound", "gap_to_best"):
             v = g[col].dropna()
-            rec[f"median_{col}"] = float(v.median()) if len(v) else None
-            rec[f"mean_{col}"] = float(v.mean()) if len(v) else None
-            rec[f"p95_{col}"] = float(v.quantile(0.95)) if len(v) else None
+            rec[f"median_{col}"] = snap_gap(float(v.median())) if len(v) else None
+            rec[f"mean_{col}"] = snap_gap(float(v.mean())) if len(v) else None
+            rec[f"p95_{col}"] = snap_gap(float(v.quantile(0.95))) if len(v) else None
         kinds = sorted(set(g["gap_bound_kind"].dropna()))
         rec["gap_bound_kind"] = ",".join(kinds)
         t = g["time_s"].dropna()

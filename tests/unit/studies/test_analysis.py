@@ -17,10 +17,12 @@ import pytest
 from matplotlib.figure import Figure
 
 from droneplan.studies.analysis import (
+    GAP_ZERO_TOL,
     SUMMARY_COLUMNS,
     performance_profile,
     performance_ratios,
     shifted_geometric_mean,
+    snap_gap,
     summary_markdown,
     summary_table,
     write_study_outputs,
@@ -250,6 +252,24 @@ def test_summary_counts_per_status(mixed):
     n = table.iloc[1].to_dict()
     assert (n["size"], n["n"], n["solved"], n["no_solution"], n["other"]) == (4, 2, 1, 1, 0)
     assert n["sgm_time_s"] == pytest.approx(2.0)
+
+
+def test_summary_prints_float_noise_gaps_as_zero():
+    """A bound equal to the objective up to rounding gives gaps like -5.15e-16: the summary (table,
+    CSV and Markdown) reports 0, while a real gap of 1e-6 stays."""
+    rows = [
+        _row("i0", "M", "feasible", 1.0, 1.0, gap_to_bound=-5.15e-16, gap_to_best=3e-10),
+        _row("i1", "M", "feasible", 1.0, 1.0, gap_to_bound=-5.15e-16, gap_to_best=-2e-10),
+        _row("i0", "N", "feasible", 1.0, 1.0, gap_to_bound=1e-6, gap_to_best=1e-6),
+    ]
+    table = summary_table(pd.DataFrame(rows)).set_index("method")
+    for col in ("median_gap_to_bound", "p95_gap_to_bound", "median_gap_to_best", "p95_gap_to_best"):
+        assert table.loc["M", col] == 0.0 and not math.copysign(1.0, table.loc["M", col]) < 0
+        assert table.loc["N", col] == pytest.approx(1e-6, rel=1e-12)
+    md = summary_markdown(pd.DataFrame(rows))
+    assert "e-16" not in md and "e-10" not in md and "1e-06" in md
+    assert snap_gap(GAP_ZERO_TOL) == 0.0 and snap_gap(2 * GAP_ZERO_TOL) == 2 * GAP_ZERO_TOL
+    assert math.isnan(snap_gap(math.nan)) and snap_gap(math.inf) == math.inf
 
 
 def test_summary_sorts_by_median_gap_and_reads_old_frames(mixed):

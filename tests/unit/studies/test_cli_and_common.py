@@ -141,6 +141,24 @@ def test_summarize_counts_and_gaps():
     assert summary.loc["milp", "success_rate"] == 1.0
 
 
+def test_summarize_prints_float_noise_gaps_as_zero():
+    """An objective equal to the bound up to rounding (gap -5.15e-16) summarises as a gap of 0."""
+    rows = pd.DataFrame(
+        {
+            "problem": ["covert"] * 2,
+            "method": ["sliding"] * 2,
+            "role": ["heuristic"] * 2,
+            "status": ["feasible"] * 2,
+            "gap_to_bound": [-5.15e-16, 4e-10],
+            "gap_to_best": [0.0, 2e-3],
+        }
+    )
+    rec = summarize(rows).iloc[0]
+    assert rec["median_gap_to_bound"] == 0.0 and rec["mean_gap_to_bound"] == 0.0
+    assert rec["p95_gap_to_bound"] == 0.0
+    assert rec["p95_gap_to_best"] == pytest.approx(0.95 * 2e-3)
+
+
 def test_all_dependencies_import_in_one_process():
     code = (
         "import cvxpy, casadi, osqp, shapely, scipy, pandas, matplotlib, tqdm;"
