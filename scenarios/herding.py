@@ -20,10 +20,12 @@ So no animal ever moves faster than ``V_animal`` (``graze_speed <= V_animal``).
 
 Drone model (6.3)-(6.6): ``d' = v a``, ``a' = u`` with ``|a| = 1``, ``(a, u) = 0``,
 ``|u| <= U_max``; we write ``u = omega a_perp`` and integrate the heading angle by
-rotation so ``|a| = 1`` exactly (DESIGN §4: ``U_max`` is the heading rate,
-rad/s). The thesis's guidance laws (6.13)/(6.16) command ``v = -V_max`` when the
-target is behind the drone, contradicting ``v in [0, V_max]`` of (6.5); the laws
-are implemented literally, so the simulator accepts ``|v| <= V_max``.
+rotation so ``|a| = 1`` exactly. ``U_max`` is the heading rate, rad/s: the thesis's
+tables give it in m/s^2, but in the model |a| = 1 and a' = u, so |u| <= U_max bounds
+the rate of turn, and we implement the model literally. The thesis's guidance laws
+(6.13)/(6.16) command ``v = -V_max`` when the target is behind the drone, contradicting
+``v in [0, V_max]`` of (6.5); the laws are implemented literally, so the simulator
+accepts ``|v| <= V_max``.
 
 A herder (planner) follows the closed-loop contract shared by every problem
 (:mod:`droneplan.scenarios.loop`):
@@ -105,7 +107,8 @@ class HerdingParams:
     V_max: float = 25.0
     """Maximum drone speed, m/s."""
     U_max: float = 5.0
-    """Maximum heading rate |u| of (6.5), rad/s (DESIGN §4)."""
+    """Maximum heading rate |u| of (6.5), rad/s (the thesis's tables say m/s^2; with |a| = 1
+    and a' = u, |u| is the rate of turn)."""
     V_animal: float = 4.0
     """Maximum animal speed (animals in a barking cone move at this speed), m/s."""
     beta: float = 2 * math.pi / 3
@@ -652,7 +655,8 @@ def simulate(  # noqa: C901, PLR0915
     Delivered means every animal within ``params.goal_radius`` of G (``trace.delivered`` holds
     the fraction inside at each recorded time). While driving, a herd whose footprint radius
     exceeds ``params.regroup_factor * R_c`` goes back to gathering (``trace.regroupings``), so it
-    arrives whole. The thesis states neither rule (our choice, issue 12 item 8).
+    arrives whole. The thesis states neither rule; both are our choice, so that a run ends
+    with a measurable delivery and a herd that splits while driving is gathered again.
 
     scenario: initial state and parameters; controller: a herder (module docstring: ``reset``, ``command``).
     t_max: simulated time limit, s (> 0). seed: int or Generator for the animals' noise (recorded).

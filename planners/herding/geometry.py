@@ -238,7 +238,7 @@ def extended_hull_vertices(
     buffer with an unlimited mitre) -- except at corners sharper than the mitre limit:
     there the mitre would run off far beyond the herd (a thin, nearly collinear herd has
     hairpin corners whose mitre is hundreds of metres long, and drones sent there bark at
-    nothing: issue 12 item 7), so E_i is put on the corner's outward bisector at
+    nothing), so E_i is put on the corner's outward bisector at
     ``mitre_limit * d_s`` from P_i (our rule; the thesis does not cover it). mitre_limit >= 1
     (inf: the unlimited mitre of Definition 6.3.1). Degenerate hulls (our rule, which the thesis
     does not cover): a point becomes the square of half-side d_s around it (its four

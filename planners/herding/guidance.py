@@ -3,8 +3,8 @@
 Commands are (v, omega): speed along the heading a (m/s) and heading rate
 (rad/s), with u = omega a_perp, |u| = |omega| (6.4)-(6.6).
 
-Discrete-time saturation (our addition, as DESIGN §4 allows for chattering): the
-literal laws command |v| = V_max and |u| = U_max until the target is reached,
+Discrete-time saturation (our addition, against the chattering of the sliding-mode
+laws in sampled time): the literal laws command |v| = V_max and |u| = U_max until the target is reached,
 which in a sampled simulation overshoots and chatters by V_max*dt around O*. We
 cap |v| at |(a, b)|/dt (the step along the heading never overshoots the
 projection of the target, so the distance to it never grows) and the turn at the

@@ -1,4 +1,4 @@
-"""The backend registry and the adapter shape (DESIGN §2 "Backends")."""
+"""The backend registry and the adapter shape: one adapter per backend, found by name."""
 
 from __future__ import annotations
 
