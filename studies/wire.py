@@ -153,7 +153,7 @@ class _Encoder:
         self.offset += len(data)
         return node
 
-    def node(self, value: Any, where: str, depth: int) -> Any:  # noqa: C901
+    def node(self, value: Any, where: str, depth: int) -> Any:
         if depth > MAX_DEPTH:
             raise NotPlainError(f"{where}: nested deeper than {MAX_DEPTH} levels")
         if value is None or type(value) in (bool, str, int):
@@ -166,16 +166,22 @@ class _Encoder:
             return self.node(value.item(), where, depth)
         tag = _tag_of(value)
         if tag is not None:
-            if isinstance(value, enum.Enum):
-                return {_TAG: "enum", "type": tag, "v": value.value}
-            fields = _fields(value)
-            if tag == "SolveResult":
-                fields["info"] = _plain_entries(dict(fields["info"] or {}))
-            return {
-                _TAG: "obj",
-                "type": tag,
-                "f": {k: self.node(v, f"{where}.{k}", depth + 1) for k, v in fields.items()},
-            }
+            return self.typed(tag, value, where, depth)
+        return self.container(value, where, depth)
+
+    def typed(self, tag: str, value: Any, where: str, depth: int) -> dict[str, Any]:
+        if isinstance(value, enum.Enum):
+            return {_TAG: "enum", "type": tag, "v": value.value}
+        fields = _fields(value)
+        if tag == "SolveResult":
+            fields["info"] = _plain_entries(dict(fields["info"] or {}))
+        return {
+            _TAG: "obj",
+            "type": tag,
+            "f": {k: self.node(v, f"{where}.{k}", depth + 1) for k, v in fields.items()},
+        }
+
+    def container(self, value: Any, where: str, depth: int) -> Any:
         if type(value) in (list, tuple):
             items = [self.node(v, f"{where}[{i}]", depth + 1) for i, v in enumerate(value)]
             return items if type(value) is list else {_TAG: "tuple", "v": items}
@@ -244,7 +250,7 @@ class _Decoder:
             )
         return np.frombuffer(self.blob[off : off + n], dtype=dtype).reshape(shape).copy()
 
-    def node(self, node: Any, depth: int) -> Any:  # noqa: C901
+    def node(self, node: Any, depth: int) -> Any:
         if depth > MAX_DEPTH:
             raise WireError(f"nested deeper than {MAX_DEPTH} levels")
         if node is None or isinstance(node, (bool, int, float, str)):
@@ -257,24 +263,24 @@ class _Decoder:
         if kind == "nd":
             return self.array(node)
         if kind == "float":
-            text = node.get("v")
-            if text not in ("nan", "inf", "-inf"):
-                raise WireError(f"a malformed float node {str(text)[:20]!r}")
-            return float(text)
+            return _non_finite(node.get("v"))
         if kind == "tuple":
             return tuple(self.node(v, depth + 1) for v in _as_list(node.get("v")))
         if kind == "dict":
-            out = {}
-            for pair in _as_list(node.get("v")):
-                if not (isinstance(pair, list) and len(pair) == 2 and isinstance(pair[0], str)):
-                    raise WireError("a malformed dict entry")
-                out[pair[0]] = self.node(pair[1], depth + 1)
-            if len(out) == 1 and _TAG + "refused" in out:
-                return _refused(out[_TAG + "refused"])
-            return out
+            return self.mapping(node, depth)
         if kind in ("enum", "obj"):
             return self.typed(node, depth)
         raise WireError(f"an unknown node kind {kind[:20]!r}")
+
+    def mapping(self, node: dict[str, Any], depth: int) -> Any:
+        out = {}
+        for pair in _as_list(node.get("v")):
+            if not (isinstance(pair, list) and len(pair) == 2 and isinstance(pair[0], str)):
+                raise WireError("a malformed dict entry")
+            out[pair[0]] = self.node(pair[1], depth + 1)
+        if len(out) == 1 and _TAG + "refused" in out:
+            return _refused(out[_TAG + "refused"])
+        return out
 
     def typed(self, node: dict[str, Any], depth: int) -> Any:
         cls = _types().get(str(node.get("type")))
@@ -298,6 +304,12 @@ class _Decoder:
             raise WireError(
                 f"a {cls.__name__} that cannot be built: {' '.join(str(exc).split())[:120]}"
             ) from None
+
+
+def _non_finite(text: Any) -> float:
+    if text not in ("nan", "inf", "-inf"):
+        raise WireError(f"a malformed float node {str(text)[:20]!r}")
+    return float(text)
 
 
 def _as_list(v: Any) -> list[Any]:
