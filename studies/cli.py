@@ -11,7 +11,8 @@ Every study writes its rows to one store, ``<--out>/results.sqlite`` (schema and
 :mod:`droneplan.studies.store`), exported to ``<--out>/results.csv`` after each problem;
 ``droneplan.load_results(out)`` reads it back. Exit codes: 0 done, 1 some task ended in an
 error row (rerun to retry it), 2 bad input (unwritable ``--out``, unreachable ``--dask``,
-a store of another schema), 130 interrupted by Ctrl-C (finished rows kept; rerun to resume).
+a store of another schema), 130 interrupted by Ctrl-C, 143 stopped by SIGTERM and 129 by SIGHUP
+(each handled as Ctrl-C is: jobs killed, finished rows kept; rerun to resume).
 """
 
 from __future__ import annotations
@@ -369,6 +370,15 @@ def _run_open_gap(args) -> int:
         f"{', '.join(str(p) for p in paths.values())}",
         flush=True,
     )
+    errors = df[df["status"] == "error"]
+    if len(errors):
+        first = errors.iloc[0]
+        print(
+            f"droneplan: {len(errors)} job(s) ended in an error row (first: {first['method']} on "
+            f"{first['instance']}: {first['message']}); rerun the same command to retry them",
+            file=sys.stderr,
+        )
+        return 1
     return 0
 
 
@@ -577,25 +587,50 @@ def main(argv: list[str] | None = None) -> int:
     common.INTERRUPT_GRACE_S = 3.0  # a solve stuck in C code after Ctrl-C: exit 130 anyway
     # Ctrl-C always stops a run with exit code 130, also when the process was started with SIGINT
     # ignored (a shell without job control starts background commands that way)
-    previous = signal.getsignal(signal.SIGINT)
-    if threading.current_thread() is threading.main_thread():
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, *_STOP_SIGNALS)}
+    if main_thread:
         signal.signal(signal.SIGINT, signal.default_int_handler)
+        for sig in _STOP_SIGNALS:  # SIGTERM and SIGHUP stop a run the way Ctrl-C does
+            signal.signal(sig, _stop)
     try:
         return _run(args)
     except (StudyError, StoreError) as exc:
         print(f"droneplan: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(
-            f"\ndroneplan: interrupted; finished rows are in {args.out / STORE_NAME}: rerun the same command "
-            "to resume",
-            file=sys.stderr,
-        )
-        return 130
+    except KeyboardInterrupt as exc:
+        how = f"stopped by {exc.signal.name}" if isinstance(exc, Stopped) else "interrupted"
+        print(f"\ndroneplan: {how}; {_kept(args)}: rerun the same command to resume", file=sys.stderr)
+        return 128 + exc.signal if isinstance(exc, Stopped) else 130
     finally:
         common.INTERRUPT_GRACE_S = None
-        if threading.current_thread() is threading.main_thread() and previous is not None:
-            signal.signal(signal.SIGINT, previous)
+        if main_thread:
+            for sig, handler in previous.items():
+                if handler is not None:
+                    signal.signal(sig, handler)
+
+
+_STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+
+
+def _kept(args) -> str:
+    """Where a stopped command's finished work is (the store of ``--out``, or the library)."""
+    if getattr(args, "out", None) is not None:
+        return f"finished rows are in {args.out / STORE_NAME}"
+    library = getattr(args, "library_dir", None)
+    return f"certified entries are in {library or 'the package library'}"
+
+
+class Stopped(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, handled as Ctrl-C is: the jobs are killed and the finished rows kept."""
+
+    def __init__(self, sig: signal.Signals) -> None:
+        super().__init__(sig.name)
+        self.signal = sig
+
+
+def _stop(signum: int, frame: object) -> None:
+    raise Stopped(signal.Signals(signum))
 
 
 if __name__ == "__main__":

@@ -17,8 +17,10 @@ own object (its ``data``) with where it came from:
 ``params``    the family's parameters for this instance (``{"m": 4, "seed": 3}``)
 
 Its ``id`` is ``"<family>@<version>:<k>=<v>,..."`` (``"table4.2@1:m=4,seed=3"``); a user
-instance's id is ``"user:<name>"`` or ``"user:<fingerprint>"``. :meth:`StudyInstance.fingerprint`
-hashes the data itself, so a study notices when data changed under an unchanged id.
+instance's id is ``"user:<name>#<8 hex of its fingerprint>"`` or ``"user:<fingerprint>"``.
+:meth:`StudyInstance.fingerprint` hashes the data itself, so an id means one data set: a user's
+edited data gets another id, and an instance file whose data is not what its family's
+generator makes is read as a user instance.
 
 Families are listed in ``FAMILIES`` (:func:`family_instances` expands one into instances).
 :func:`save_instance` / :func:`load_instance` write and read one JSON file per instance (the data
@@ -273,7 +275,8 @@ class StudyInstance:
     params: Mapping[str, Any]
     data: Any = field(repr=False, compare=False)
     name: str | None = None
-    """A user instance's name (its id is ``"user:<name>"``); None for family instances."""
+    """A user instance's name (its id is ``"user:<name>#<8 hex of its fingerprint>"``); None for
+    family instances."""
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -283,9 +286,12 @@ class StudyInstance:
 
     @property
     def id(self) -> str:
-        """The stable id (``"table4.2@1:m=4,seed=3"``, ``"user:<name or fingerprint>"``)."""
+        """The stable id (``"table4.2@1:m=4,seed=3"``, ``"user:<name>#<fingerprint[:8]>"`` or
+        ``"user:<fingerprint>"``). A user instance's id carries its data's fingerprint, so other
+        data under the same name is another instance, never compared with this one."""
         if self.family == "user":
-            return f"user:{self.name or self.fingerprint()}"
+            fp = self.fingerprint()
+            return f"user:{self.name}#{fp[:8]}" if self.name else f"user:{fp}"
         return f"{self.family}@{self.version}:" + ",".join(
             f"{k}={self.params[k]}" for k in sorted(self.params)
         )
@@ -382,7 +388,29 @@ class StudyInstance:
                 f"{source}: the data does not match its fingerprint (stored {d['fingerprint']}, "
                 f"computed {inst.fingerprint()}); the file was edited or its family changed"
             )
+        return _as_generated(inst)
+
+
+def _as_generated(inst: StudyInstance) -> StudyInstance:
+    """``inst`` if its data is what its family's generator makes for its parameters; otherwise the
+    same data as a user instance (id ``user:<fingerprint>``), so that a family id always means the
+    generator's data and a changed file is never compared with the family's instance."""
+    if inst.family == "user" or inst.payload() is None:
         return inst
+    fam = FAMILIES.get(inst.family)
+    try:
+        generated = fam is not None and fam.version == inst.version and fam.build(**inst.params)
+        same = bool(generated) and (
+            StudyInstance(
+                inst.problem, inst.kind, inst.family, inst.version, inst.params, generated
+            ).fingerprint()
+            == inst.fingerprint()
+        )
+    except (TypeError, ValueError):
+        same = False
+    if same:
+        return inst
+    return StudyInstance(inst.problem, inst.kind, "user", 0, {}, inst.data)
 
 
 # --------------------------------------------------------------------------- families

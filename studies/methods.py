@@ -31,7 +31,6 @@ configuration hash of every row. A method is given as a registered name (``BUILT
 
 from __future__ import annotations
 
-import hashlib
 import importlib
 import inspect
 from collections.abc import Callable, Iterable, Mapping
@@ -48,6 +47,7 @@ __all__ = [
     "default_methods",
     "resolve_methods",
     "CLOSED_LOOP_KINDS",
+    "RESERVED_NAMES",
 ]
 
 CLOSED_LOOP_KINDS = ("shark-path", "covert-run", "herding-run")
@@ -106,16 +106,12 @@ class Method:
         return inspect.isclass(self.target)
 
     def fingerprint(self) -> str:
-        """What identifies this method's code: its qualified name and a hash of its source (16 hex)."""
-        target = self.target
-        mod = getattr(target, "__module__", "") or ""
-        qual = getattr(target, "__qualname__", repr(target))
-        try:
-            src = inspect.getsource(target)
-        except (OSError, TypeError):
-            code = getattr(target, "__code__", None)
-            src = repr(code.co_code) if code is not None else qual
-        return f"{mod}:{qual}#" + hashlib.sha256(src.encode()).hexdigest()[:16]
+        """What identifies this method's code: its qualified name and a hash (16 hex) of its source,
+        its module and every module of the user's tree it imports
+        (:func:`~droneplan.studies.method_hash.code_fingerprint`)."""
+        from droneplan.studies.method_hash import code_fingerprint
+
+        return code_fingerprint(self.target)
 
     def call(self, *args: Any, seed: int, time_limit: float | None) -> Any:
         """Run the method's target with the contract's keywords plus ``params``."""
@@ -361,6 +357,8 @@ def resolve_methods(kind: str, methods: Any) -> list[Method]:
     if not entries:
         raise ValueError("methods must not be empty")
     out = [_one(e, kind, i) for i, e in enumerate(entries)]
+    for m in out:
+        _check_not_forged(m)
     names = [m.name for m in out]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
@@ -379,6 +377,37 @@ def resolve_methods(kind: str, methods: Any) -> list[Method]:
                 f"method {m.name!r}: {kind} instances take a function, got the class {m.target.__name__}"
             )
     return out
+
+
+RESERVED_NAMES = ("library", "task")
+"""Method names droneplan's own rows use (the certified reference row, a built-in study's error row)."""
+
+
+def _check_not_forged(m: Method) -> None:
+    """Only droneplan's registered methods carry a built-in name, ``builtin``, ``trusted_bound`` or
+    role ``bound``: a user's method states no proof and takes no name of droneplan's."""
+    registered = BUILTIN.get(m.name)
+    if registered is not None:
+        same = (m.target, m.role, m.kinds, m.trusted_bound, m.builtin) == (
+            registered.target,
+            registered.role,
+            registered.kinds,
+            registered.trusted_bound,
+            registered.builtin,
+        )
+        if not same:
+            raise ValueError(
+                f"method name {m.name!r} is reserved for droneplan's registered method; name yours "
+                f"otherwise, e.g. ('my-{m.name}', fn)"
+            )
+        return
+    if m.name in RESERVED_NAMES:
+        raise ValueError(f"method name {m.name!r} is reserved for droneplan's own rows; name yours otherwise")
+    if m.builtin or m.trusted_bound or m.role == "bound":
+        raise ValueError(
+            f"method {m.name!r}: builtin, trusted_bound and role 'bound' are droneplan's registered "
+            "engines' alone; a user's method states no proof (a bound it returns is kept as a claim)"
+        )
 
 
 def _method_entries(kind: str, methods: Any) -> list[Any]:

@@ -43,8 +43,8 @@ ignores SIGINT, disables core dumps,
 applies ``memory_limit`` as its address-space limit (``RLIMIT_AS``), runs
 ``fn(*args, **kwargs)``, flushes its stdout and stderr (printed output goes to the
 parent's file descriptors), sends its length-prefixed result message (a kind byte, then the
-pickle or the bytes; an error as JSON) through a pipe and leaves with ``os._exit``: never through the parent's ``atexit`` handlers,
-finalizers or ``finally`` blocks, whatever ``fn`` did.
+pickle or the bytes; an error as JSON) through a pipe and leaves with ``os._exit``: never
+through the parent's ``atexit`` handlers, finalizers or ``finally`` blocks, whatever ``fn`` did.
 
 What the parent does: it keeps at most ``workers`` children alive, waits on their pipes
 (reading results of any size as they arrive), kills a child that overran its limit,

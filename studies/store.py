@@ -141,6 +141,7 @@ __all__ = [
     "SIZE_MEANING",
     "OBJECTIVE_UNITS",
     "StoreError",
+    "InstanceDataError",
     "instance_id",
     "Outcome",
     "build_rows",
@@ -229,6 +230,10 @@ _EPS = 1e-9
 
 class StoreError(RuntimeError):
     """The store cannot be used (other schema version, not a store, unwritable, disk full ...)."""
+
+
+class InstanceDataError(ValueError):
+    """An instance id the store already holds under other data (one line)."""
 
 
 def instance_id(study: str, **params: Any) -> str:
@@ -597,6 +602,10 @@ _CLAIMS_DDL = (
     "method TEXT NOT NULL, config TEXT NOT NULL, host TEXT NOT NULL, pid INTEGER NOT NULL, "
     "claimed_at REAL NOT NULL, PRIMARY KEY (problem, instance, method, config))"
 )
+_INSTANCE_DATA_DDL = (
+    "CREATE TABLE IF NOT EXISTS instance_data (problem TEXT NOT NULL, instance TEXT NOT NULL, "
+    "fingerprint TEXT NOT NULL, PRIMARY KEY (problem, instance))"
+)
 _KEY_WHERE = " AND ".join(f"{k} = ?" for k in KEY)
 _TEXT_JSON = ("method_params", "packages")  # JSON text columns: a mapping given is encoded
 
@@ -741,6 +750,7 @@ class ResultStore:
             con.execute(_table_ddl("rows"))
             con.execute(_table_ddl("superseded"))
             con.execute(_CLAIMS_DDL)
+            con.execute(_INSTANCE_DATA_DDL)
             con.execute("COMMIT")
         except BaseException:  # e.g. Ctrl-C: undo a half-done transaction (a committed one stays)
             self._rollback()
@@ -858,8 +868,9 @@ class ResultStore:
                 con.execute(f"DELETE FROM claims WHERE {_KEY_WHERE}", key)
                 con.execute(insert, record)
             con.executemany(
-                "DELETE FROM rows WHERE problem = ? AND instance = ? AND method = ? AND status = ?",
-                [(p, i, _TASK_METHOD, ERROR_STATUS) for p, i in solved],
+                "DELETE FROM rows WHERE problem = ? AND instance = ? AND method = ? AND status = ? "
+                "AND role = ?",
+                [(p, i, _TASK_METHOD, ERROR_STATUS, _TASK_METHOD) for p, i in solved],
             )
             con.execute("COMMIT")
         except BaseException as exc:  # e.g. Ctrl-C: undo a half-done transaction (a committed one stays)
@@ -869,6 +880,39 @@ class ResultStore:
             raise
         self._checkpoint()
         return set_aside
+
+    # ------------------------------------------------------------------ instance data
+    def bind_instances(self, problem: str, fingerprints: Mapping[str, str]) -> None:
+        """Record the data fingerprint of each instance id of ``problem`` (id -> fingerprint), and
+        refuse, with a one-line :class:`InstanceDataError` and before anything is written, an id
+        this store already holds under another fingerprint: one id means one data set, so rows
+        computed on other data are never compared with these."""
+        con = self._writable()
+        try:
+            con.execute("BEGIN IMMEDIATE")
+            known = dict(
+                con.execute("SELECT instance, fingerprint FROM instance_data WHERE problem = ?", (problem,))
+            )
+            clash = sorted(i for i, fp in fingerprints.items() if known.get(i, fp) != fp)
+            if clash:
+                con.execute("ROLLBACK")
+                first = clash[0]
+                raise InstanceDataError(
+                    f"instance {first!r} names other data in {self.path} (stored fingerprint "
+                    f"{known[first]}, now {fingerprints[first]}"
+                    + (f"; {len(clash) - 1} more ids too" if len(clash) > 1 else "")
+                    + "): give the changed data another name or family version, or use another --out"
+                )
+            con.executemany(
+                "INSERT OR IGNORE INTO instance_data VALUES (?, ?, ?)",
+                [(problem, i, fp) for i, fp in fingerprints.items()],
+            )
+            con.execute("COMMIT")
+        except BaseException as exc:
+            self._rollback()
+            if isinstance(exc, (sqlite3.Error, OSError)):
+                raise _store_error(self.path, exc, "write") from exc
+            raise
 
     # ------------------------------------------------------------------ claims
     def _full_key(self, key: Sequence[str]) -> tuple[str, str, str, str]:

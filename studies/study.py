@@ -98,12 +98,15 @@ class StudyPlan:
     tasks: list[_Task]
 
 
-def _params_json(method: Method) -> dict[str, Any]:
+def _params_json(method: Method) -> Any:
+    """The method's parameters by value (:func:`~droneplan.studies.method_hash.params_value`); an
+    object without a stable value is refused with a one-line ValueError naming the method."""
+    from droneplan.studies.method_hash import params_value
+
     try:
-        config_hash(dict(method.params))
-        return dict(method.params)
-    except TypeError:
-        return {k: repr(v) for k, v in method.params.items()}
+        return params_value(dict(method.params))
+    except TypeError as exc:
+        raise ValueError(f"method {method.name!r}: {exc}") from None
 
 
 def plan_study(
@@ -381,6 +384,7 @@ def gap(
     with contextlib.ExitStack() as stack:
         if store is None:
             store = stack.enter_context(ResultStore(out / STORE_NAME))
+        store.bind_instances(problem, {i.id: i.fingerprint() for i in plan.instances})
         done = store.done_keys(problem)
         lib_rows = [r for r in (_library_row(i) for i in plan.instances) if r is not None]
         set_aside = store.write([r for r in lib_rows if _key(r) not in done]) if lib_rows else 0

@@ -8,6 +8,8 @@ without a bound, and left jobs running after the study was killed.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import importlib
 import os
 import signal
@@ -22,6 +24,7 @@ import pytest
 
 import droneplan
 import droneplan.formulations.cells as cells_formulation
+import droneplan.studies.methods
 from droneplan.formulations.herding import check_allocation
 from droneplan.planners.shark import VirtualSharkInterceptor
 from droneplan.studies import harness
@@ -249,3 +252,235 @@ def test_jobs_die_with_the_study(tmp_path, sig):
     finally:
         if proc.poll() is None:
             proc.kill()
+
+
+# --------------------------------------------------------------------------- one id, one data set
+def test_a_user_name_over_other_data_is_another_instance(tmp_path):
+    from droneplan.cells import thesis_problem
+    from droneplan.studies.instances import as_instance
+
+    a, b = thesis_problem(1, 0), thesis_problem(1, 1)
+    assert as_instance(a, name="town").id != as_instance(b, name="town").id
+    droneplan.gap(
+        "cells", methods=["greedy"], instances=[as_instance(a, name="town")], out=tmp_path, progress=False
+    )
+    df = droneplan.gap(
+        "cells", methods=["ga"], instances=[as_instance(b, name="town")], out=tmp_path, progress=False
+    )
+    assert len(set(df["instance"])) == 1 and df["method"].tolist() == ["ga"]  # greedy's row is not compared
+    everything = droneplan.load_results(tmp_path)
+    assert everything.groupby("instance")["method"].nunique().max() == 1
+
+
+def test_an_edited_family_file_becomes_a_user_instance(tmp_path):
+    import json
+
+    from droneplan.studies.instances import family_instances, load_instance, save_instance
+
+    inst = family_instances("table4.2", m=1, seeds=1)[0]
+    path = save_instance(inst, tmp_path / "one.json")
+    doc = json.loads(path.read_text())
+    doc["data"]["users"][0] = [doc["data"]["users"][0][0] + 500.0, doc["data"]["users"][0][1]]
+    del doc["fingerprint"]  # a careful editor removes the check too
+    path.write_text(json.dumps(doc))
+    edited = load_instance(path)
+    assert edited.id.startswith("user:") and edited.family == "user"
+    assert load_instance(save_instance(inst, tmp_path / "two.json")).id == inst.id  # unedited: unchanged
+
+
+def test_the_store_refuses_other_data_under_a_known_id(tmp_path):
+    from droneplan.studies.store import InstanceDataError, ResultStore
+
+    with ResultStore(tmp_path / "results.sqlite") as store:
+        store.bind_instances("cells", {"table4.2@1:m=1,seed=0": "a" * 16})
+        store.bind_instances("cells", {"table4.2@1:m=1,seed=0": "a" * 16})  # the same data: fine
+        with pytest.raises(InstanceDataError, match="names other data") as info:
+            store.bind_instances("cells", {"table4.2@1:m=1,seed=0": "b" * 16})
+        assert "\n" not in str(info.value)
+
+
+# --------------------------------------------------------------------------- only droneplan proves
+def _claims_a_bound(problem, *, seed, time_limit):
+    return droneplan.SolveResult(droneplan.Status.OPTIMAL, objective=0.0, bound=0.0, x=np.zeros((0, 2)))
+
+
+@pytest.mark.parametrize(
+    ("method", "words"),
+    [
+        (droneplan.studies.methods.Method("mine", _claims_a_bound, trusted_bound=True), "states no proof"),
+        (droneplan.studies.methods.Method("mine", _claims_a_bound, builtin=True), "states no proof"),
+        (
+            droneplan.studies.methods.Method(
+                "mine", _claims_a_bound, "bound", trusted_bound=True, builtin=True
+            ),
+            "states no proof",
+        ),
+        (("bnb", _claims_a_bound), "reserved for droneplan's registered method"),
+        (("library", _claims_a_bound), "reserved"),
+        (("task", _claims_a_bound), "reserved"),
+    ],
+)
+def test_a_user_method_cannot_declare_a_proof_or_take_a_builtin_name(tmp_path, method, words):
+    with pytest.raises(ValueError, match=words):
+        droneplan.gap("cells", methods=[method], m=1, seeds=1, out=tmp_path, progress=False)
+
+
+def test_a_claimed_bound_never_outranks_the_library(tmp_path):
+    df = droneplan.gap("cells", methods=[("claims", _claims_a_bound), "greedy"], m=1, seeds=1, out=tmp_path)
+    claims = df[df["method"] == "claims"].iloc[0]
+    assert np.isnan(claims["bound"]) and claims["cells_claimed_bound"] == 0.0
+    assert (df["gap_bound_kind"].dropna() != "none").all()
+    greedy = df[df["method"] == "greedy"].iloc[0]
+    assert "beats-bound" not in str(greedy["flag"]) and greedy["gap_to_bound"] >= 0
+
+
+# --------------------------------------------------------------------------- a complete, stable config hash
+def _write(path: Path, text: str) -> None:
+    path.write_text(textwrap.dedent(text))
+
+
+def test_the_code_hash_follows_the_users_helper_modules(tmp_path, monkeypatch):
+    from droneplan.studies.method_hash import code_fingerprint
+
+    _write(tmp_path / "hostile_helper.py", "RADIUS = 1.0\ndef helper():\n    return RADIUS\n")
+    _write(
+        tmp_path / "hostile_method.py",
+        "from hostile_helper import helper\n\n"
+        "def method(problem, *, seed, time_limit):\n    return helper()\n",
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import hostile_method
+
+    before = code_fingerprint(hostile_method.method)
+    assert code_fingerprint(hostile_method.method) == before
+    _write(tmp_path / "hostile_helper.py", "RADIUS = 2.0\ndef helper():\n    return RADIUS\n")
+    assert code_fingerprint(hostile_method.method) != before
+
+
+def _scaled(problem, *, seed, time_limit, scale=1.0, shift=None):
+    return np.zeros((0, 2))
+
+
+@pytest.mark.parametrize(
+    "make_param",
+    [
+        lambda: functools.partial(_scaled, scale=2.0),
+        lambda: np.arange(3.0),
+        lambda: Shift(1.0, (2, 3)),
+        lambda: droneplan.Status.OPTIMAL,
+    ],
+)
+def test_parameters_hash_by_value(make_param):
+    from droneplan.studies.methods import Method
+    from droneplan.studies.study import plan_study
+
+    def config():
+        m = Method("scaled", _scaled, params={"shift": make_param()})
+        return plan_study("cells", methods=[m], m=1, seeds=1).tasks[0].config
+
+    assert config() == config()  # a new object of the same value resumes
+
+
+def test_a_parameter_without_a_stable_value_is_refused_in_one_line():
+    from droneplan.studies.methods import Method
+    from droneplan.studies.study import plan_study
+
+    with pytest.raises(ValueError, match="no stable value to hash") as info:
+        plan_study("cells", methods=[Method("scaled", _scaled, params={"shift": object()})], m=1, seeds=1)
+    assert "\n" not in str(info.value) and "params['shift']" in str(info.value)
+
+
+@dataclasses.dataclass
+class Shift:
+    dx: float
+    cells: tuple
+
+
+# --------------------------------------------------------------------------- error rows, signals
+def test_a_user_method_named_task_keeps_its_error_rows(tmp_path):
+    from droneplan.studies.store import ResultStore
+
+    base = {"problem": "cells", "instance": "user:x", "config": "c", "sense": "max"}
+    with ResultStore(tmp_path / "results.sqlite") as store:
+        store.write([{**base, "method": "task", "role": "heuristic", "status": "error", "message": "boom"}])
+        store.write([{**base, "method": "greedy", "role": "heuristic", "status": "feasible", "objective": 3}])
+        rows = store.frame(problem="cells")
+    assert set(rows["method"]) == {"task", "greedy"}
+
+
+def test_gap_with_methods_exits_1_on_error_rows(tmp_path, monkeypatch, capsys):
+    from droneplan.studies.cli import main
+
+    _write(tmp_path / "hostile_raiser.py", "def fails(*a, seed, time_limit):\n    raise RuntimeError('no')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    code = main(
+        [
+            "gap",
+            "herding",
+            "--method",
+            "hostile_raiser:fails",
+            "--n",
+            "3",
+            "--seeds",
+            "1",
+            "--out",
+            str(tmp_path / "o"),
+        ]
+    )
+    assert code == 1 and "ended in an error row" in capsys.readouterr().err
+
+
+def test_ctrl_c_during_certify_is_one_line_and_130(monkeypatch, capsys):
+    from droneplan.studies import cli
+
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_run_certify", interrupted)
+    assert cli.main(["certify", "allocation"]) == 130
+    err = capsys.readouterr().err
+    assert "interrupted" in err and "Traceback" not in err
+
+
+_CLI_STUDY = textwrap.dedent(
+    """
+    import sys, time
+
+    def sleeper(*args, seed, time_limit):
+        open(sys.argv[1], "w").write("started")
+        time.sleep(120)
+    """
+)
+
+
+@pytest.mark.parametrize(("sig", "code"), [(signal.SIGTERM, 143), (signal.SIGHUP, 129)])
+def test_sigterm_and_sighup_stop_the_cli_as_ctrl_c_does(tmp_path, sig, code):
+    (tmp_path / "hostile_sleeper.py").write_text(
+        _CLI_STUDY.replace("sys.argv[1]", repr(str(tmp_path / "go")))
+    )
+    env = {**os.environ, "PYTHONPATH": str(tmp_path)}
+    cmd = [
+        sys.executable,
+        "-c",
+        "import sys; from droneplan.studies.cli import main; sys.exit(main())",
+        "gap",
+        "herding",
+        "--method",
+        "hostile_sleeper:sleeper",
+        "--n",
+        "3",
+        "--seeds",
+        "1",
+        "--out",
+        str(tmp_path / "o"),
+        "--time-limit",
+        "600",
+    ]
+    proc = subprocess.Popen(cmd, env=env, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 90
+    while not (tmp_path / "go").exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == code
+    assert f"stopped by {sig.name}" in err and "Traceback" not in err

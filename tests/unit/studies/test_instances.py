@@ -72,13 +72,13 @@ def test_json_round_trip(tmp_path, family):
 def test_directory_of_instances_and_user_ids(tmp_path):
     p = thesis_problem(2, 1)
     user = as_instance(p, name="my-town")
-    assert user.id == "user:my-town" and user.family == "user"
+    assert user.id == f"user:my-town#{user.fingerprint()[:8]}" and user.family == "user"
     anon = as_instance(p)
     assert anon.id == f"user:{anon.fingerprint()}"
     save_instance(user, tmp_path / "a.json")
     save_instance(family_instances("table4.2", m=1)[0], tmp_path / "b.json")
     loaded = resolve_instances("cells", tmp_path)
-    assert [i.id for i in loaded] == ["user:my-town", "table4.2@1:m=1,seed=0"]
+    assert [i.id for i in loaded] == [user.id, "table4.2@1:m=1,seed=0"]
     np.testing.assert_array_equal(loaded[0].data.users, p.users)
 
 
