@@ -152,6 +152,11 @@ def _read_table(  # noqa: C901
             if not any(cell.strip() for cell in row):
                 continue
             line = reader.line_num
+            if len(row) > len(header) and any(cell.strip() for cell in row[len(header) :]):
+                raise ValueError(
+                    f"{file}: line {line}: {len(row)} fields, the header has {len(header)} "
+                    "(decimal commas? write decimals with '.', or quote the field)"
+                )
             values = []
             for c, i in zip(cols, index, strict=True):
                 if i >= len(row):
@@ -280,6 +285,26 @@ def _json_kind(value: Any) -> str:
     return "null" if value is None else type(value).__name__
 
 
+_WGS84_NAMES = (
+    "urn:ogc:def:crs:OGC:1.3:CRS84",
+    "urn:ogc:def:crs:OGC::CRS84",
+    "EPSG:4326",
+    "urn:ogc:def:crs:EPSG::4326",
+)
+
+
+def _check_crs(file: Path, crs: Any) -> None:
+    """Refuse a (pre-RFC 7946) ``crs`` member that names anything but WGS 84 longitude/latitude."""
+    if crs is None:
+        return
+    name = crs.get("properties", {}).get("name") if isinstance(crs, dict) else None
+    if not isinstance(name, str) or name not in _WGS84_NAMES:
+        raise ValueError(
+            f"{file}: the 'crs' member names {name if isinstance(name, str) else crs!r}; droneplan reads "
+            "WGS 84 longitude/latitude (RFC 7946): reproject the file or drop a 'crs' that is WGS 84"
+        )
+
+
 def read_geojson_points(path: PathLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:  # noqa: C901
     """Longitudes and latitudes (degrees) of the points of a GeoJSON file.
 
@@ -303,8 +328,11 @@ def read_geojson_points(path: PathLike) -> tuple[NDArray[np.float64], NDArray[np
         raise ValueError(
             f"{file}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
         ) from None
+    except RecursionError:
+        raise ValueError(f"{file}: JSON nested too deeply to read") from None
     if not isinstance(doc, dict):
         raise ValueError(f"{file}: the top level must be a GeoJSON object, got {_json_kind(doc)}")
+    _check_crs(file, doc.get("crs"))
     kind = doc.get("type")
     located: list[tuple[str, list[Any]]] = []
     if kind == "FeatureCollection":

@@ -25,6 +25,7 @@ import inspect
 import os
 import signal
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -67,6 +68,33 @@ def _resolve(problem: str) -> list[str]:
             f"available: {', '.join(avail) or 'none'}"
         )
     return [problem]
+
+
+def _certify_arguments(cert: argparse.ArgumentParser) -> None:
+    """The options of ``droneplan certify``."""
+    cert.add_argument("family", help="a family with a library: " + ", ".join(_library_families()))
+    cert.add_argument("--m", default=None, help="cells: number(s) of drone-cells (default: the library's)")
+    cert.add_argument("--n", default=None, help="allocation: number(s) of drones (default: the library's)")
+    cert.add_argument("--seeds", type=int, default=None, help="number of seeds (default: the library's)")
+    cert.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
+    cert.add_argument(
+        "--time-limit", type=float, default=300.0, metavar="S", help="per instance (default 300 s)"
+    )
+    cert.add_argument("--workers", type=int, default=None, help="instances at once (default: cores)")
+    cert.add_argument("--force", action="store_true", help="recertify every entry")
+    cert.add_argument("--improve", action="store_true", help="recertify the entries not proven optimal")
+    cert.add_argument(
+        "--verify", action="store_true", help="re-prove the stored entries and report any that do not hold"
+    )
+    cert.add_argument(
+        "--sample", type=int, default=None, metavar="N", help="with --verify: re-prove N entries at random"
+    )
+    cert.add_argument(
+        "--sample-seed", type=int, default=None, metavar="S", help="with --sample: the draw's seed"
+    )
+    cert.add_argument(
+        "--library-dir", type=Path, default=None, help="where the library files are (default: the package's)"
+    )
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -150,23 +178,11 @@ def _parser() -> argparse.ArgumentParser:
         "(default: results)",
     )
 
-    cert = sub.add_parser(
-        "certify",
-        help="certify a family's instances (best plan, proven bound) into the reference library",
-    )
-    cert.add_argument("family", help="a family with a library: " + ", ".join(_library_families()))
-    cert.add_argument("--m", default=None, help="cells: number(s) of drone-cells (default: the library's)")
-    cert.add_argument("--n", default=None, help="allocation: number(s) of drones (default: the library's)")
-    cert.add_argument("--seeds", type=int, default=None, help="number of seeds (default: the library's)")
-    cert.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
-    cert.add_argument(
-        "--time-limit", type=float, default=300.0, metavar="S", help="per instance (default 300 s)"
-    )
-    cert.add_argument("--workers", type=int, default=None, help="instances at once (default: cores)")
-    cert.add_argument("--force", action="store_true", help="recertify every entry")
-    cert.add_argument("--improve", action="store_true", help="recertify the entries not proven optimal")
-    cert.add_argument(
-        "--library-dir", type=Path, default=None, help="where the library files are (default: the package's)"
+    _certify_arguments(
+        sub.add_parser(
+            "certify",
+            help="certify a family's instances (best plan, proven bound) into the reference library",
+        )
     )
 
     from droneplan.studies.library import cross
@@ -309,8 +325,50 @@ def _run_list() -> int:
     return 0
 
 
+def _run_verify(args) -> int:
+    from droneplan.studies.library.certify import verify
+
+    try:
+        summary = verify(
+            args.family,
+            time_limit=args.time_limit,
+            workers=args.workers,
+            directory=args.library_dir,
+            sample=args.sample,
+            seed=args.sample_seed,
+        )
+    except ValueError as exc:
+        raise StudyError(str(exc)) from None
+    print(
+        f"verify {summary['family']}: {summary['checked']} entries re-proven (sample seed "
+        f"{summary['seed']}), {len(summary['failed'])} do not hold",
+        flush=True,
+    )
+    for line in summary["failed"]:
+        print(f"  {line}", file=sys.stderr)
+    return 1 if summary["failed"] else 0
+
+
+def _usable_library_dir(directory: Path | None) -> None:
+    """Refuse, before any work, a ``--library-dir`` that cannot hold library files."""
+    if directory is None:
+        return
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=directory, prefix=".droneplan-check-"):
+            pass
+    except OSError as exc:
+        raise StudyError(
+            f"--library-dir {directory} is not a writable directory ({exc.strerror or exc})"
+        ) from None
+
+
 def _run_certify(args) -> int:
     from droneplan.studies.library.certify import certify
+
+    if args.verify:
+        return _run_verify(args)
+    _usable_library_dir(args.library_dir)
 
     size = _sizes(args)
     if args.seeds is not None:
@@ -318,7 +376,7 @@ def _run_certify(args) -> int:
     if args.first_seed:
         size["first_seed"] = args.first_seed
     try:
-        summary = certify(
+        summary = certify(  # a bad size (--n abc) is a TypeError naming it
             args.family,
             time_limit=args.time_limit,
             workers=args.workers,
@@ -327,7 +385,7 @@ def _run_certify(args) -> int:
             improve=args.improve,
             **size,
         )
-    except ValueError as exc:
+    except (ValueError, TypeError) as exc:
         raise StudyError(str(exc)) from None
     print(
         f"certify {summary['family']}: {summary['certified']} certified now, {summary['entries']} entries "

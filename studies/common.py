@@ -132,6 +132,50 @@ def check_executor_options(workers: object, dask_address: object) -> None:
     check_instance("dask_address", dask_address, str, optional=True)
 
 
+def _first_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split())[:160] or type(exc).__name__
+
+
+def _probe_scheduler(address: str, timeout: float) -> None:
+    """Check, within ``timeout`` seconds in all (connection and handshake), that a Dask scheduler
+    answers at ``address``; a :class:`StudyError` of one line otherwise.
+
+    The probe asks the peer for its identity over Dask's own protocol, in a thread of its own with
+    its own event loop, so a peer that accepts the connection and then stays silent, answers
+    HTTP or sends garbage costs the timeout and no more, and leaves no half-built client behind.
+    """
+    import asyncio
+
+    outcome: list[Any] = []
+
+    async def identity() -> Any:
+        from distributed.core import rpc
+
+        async with rpc(address, timeout=timeout) as peer:
+            return await peer.identity()
+
+    def run() -> None:
+        try:
+            outcome.append(asyncio.run(asyncio.wait_for(identity(), timeout)))
+        except BaseException as exc:  # noqa: BLE001 - whatever the peer made the client raise
+            outcome.append(exc)
+
+    thread = threading.Thread(target=run, name="droneplan-dask-probe", daemon=True)
+    thread.start()
+    thread.join(timeout + 1.0)
+    answer = outcome[0] if outcome else TimeoutError(f"no answer within {timeout:g} s")
+    if isinstance(answer, (TimeoutError, asyncio.TimeoutError)):
+        raise StudyError(f"cannot reach the Dask scheduler at {address}: no answer within {timeout:g} s")
+    if isinstance(answer, OSError):
+        raise StudyError(f"cannot reach the Dask scheduler at {address}: {_first_line(answer)}")
+    if isinstance(answer, BaseException):
+        raise StudyError(
+            f"{address} does not answer as a Dask scheduler (reading its reply failed: {_first_line(answer)})"
+        )
+    if not isinstance(answer, dict) or answer.get("type") != "Scheduler":
+        raise StudyError(f"{address} is not a Dask scheduler (it answered {str(answer)[:80]!r})")
+
+
 @contextlib.contextmanager
 def make_executor(
     workers: int | None = None, dask_address: str | None = None, *, connect_timeout: float = 5.0
@@ -151,6 +195,7 @@ def make_executor(
             from distributed import Client
         except ImportError as exc:  # pragma: no cover - depends on the extra
             raise StudyError("--dask needs distributed: pip install 'droneplan[distributed]'") from exc
+        _probe_scheduler(dask_address, connect_timeout)
         try:
             client = Client(dask_address, timeout=f"{connect_timeout}s", set_as_default=False)
         except (OSError, TimeoutError, ValueError) as exc:

@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from droneplan.core.files import JsonFileError, read_json
 from droneplan.core.validation import check_array, check_int, check_positive, check_work
 from droneplan.scenarios.cells import THESIS_TABLE_4_2, CellProblem, thesis_problem
 from droneplan.scenarios.herding import HerdingParams, HerdingScenario, thesis_scenario
@@ -751,15 +752,15 @@ def load_instance(path: str | Path) -> StudyInstance:
     """
     path = Path(path)
     try:
-        raw = gzip.decompress(path.read_bytes()).decode() if path.name.endswith(".gz") else path.read_text()
-        d = json.loads(raw, parse_constant=_reject_constant)
-    except FileNotFoundError:
-        raise
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, ValueError) as exc:
+        d = read_json(path, parse_constant=_reject_constant)
+    except JsonFileError as exc:
         raise InstanceFileError(
-            f"{path}: not a readable instance file ({type(exc).__name__}: {exc})"
+            str(exc).replace(f"{path}: ", f"{path}: not a readable instance file: ", 1)
         ) from None
-    return StudyInstance.from_dict(d, source=str(path))
+    try:
+        return StudyInstance.from_dict(d, source=str(path))
+    except RecursionError:
+        raise InstanceFileError(f"{path}: data nested too deeply to read") from None
 
 
 def _reject_constant(name: str) -> float:

@@ -314,6 +314,12 @@ def _import_target(spec: str) -> Any:
         obj: Any = importlib.import_module(mod)
     except ImportError as exc:
         raise ValueError(f"method {spec!r}: cannot import module {mod!r} ({exc})") from None
+    except Exception as exc:  # noqa: BLE001 - the user's module raised while it was imported
+        why = " ".join(str(exc).split())[:200]
+        raise ValueError(
+            f"method {spec!r}: importing module {mod!r} raised {type(exc).__name__}"
+            + (f": {why}" if why else "")
+        ) from None
     for part in attr.split("."):
         try:
             obj = getattr(obj, part)

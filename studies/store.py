@@ -138,6 +138,8 @@ __all__ = [
     "ERROR_STATUS",
     "SOLVED_STATUSES",
     "BEATS_BOUND",
+    "LIBRARY_METHOD",
+    "LIBRARY_SUSPECT",
     "SIZE_MEANING",
     "OBJECTIVE_UNITS",
     "StoreError",
@@ -209,6 +211,10 @@ SOLVED_STATUSES = ("optimal", "feasible")
 """Statuses of rows whose objective may define the instance's best (``gap_to_best``)."""
 BEATS_BOUND = "beats-bound"
 """Flag of a row whose objective is better than a proven-global or candidate-set bound."""
+LIBRARY_METHOD = "library"
+"""The ``method`` of the reference row a study reads from the certified library."""
+LIBRARY_SUSPECT = "library-suspect"
+"""The flag of a library row whose proven bound a verified plan of the same instance beats."""
 _STRICT_KINDS = ("proven-global", "candidate-set")
 _TASK_METHOD = "task"
 
@@ -369,7 +375,10 @@ def _gap_columns(  # noqa: C901
         if sense is None:
             continue
         better = max if sense == "min" else min  # the tightest bound
-        ref = [k for k in idx if reference is None or reference[k]]
+        suspect = _suspect_library_rows(cols, idx, obj, bnd, sense)
+        for k in suspect:
+            out["flag"][k] = _join_flags([*_flags(out["flag"][k]), LIBRARY_SUSPECT])
+        ref = [k for k in idx if (reference is None or reference[k]) and k not in suspect]
         strict = [bnd[k] for k in ref if cols["bound_kind"][k] in _STRICT_KINDS and bnd[k] is not None]
         limit = better(v for v in strict if v is not None) if strict else None
         beats = {k: _beats(obj[k], limit, sense) for k in idx}
@@ -400,6 +409,29 @@ def _gap_columns(  # noqa: C901
             if best is not None:
                 out["gap_to_best"][k] = _rel_gap(o, best, sense)
     return out
+
+
+def _suspect_library_rows(
+    cols: Mapping[str, Sequence[Any]], idx: list[int], obj: list[Any], bnd: list[Any], sense: str
+) -> set[int]:
+    """The certified-library rows of one instance whose proven bound a plan droneplan verified
+    beats: the library is wrong there, not the method (the row gets ``library-suspect`` and its
+    bound defines no gap)."""
+    verified = [
+        k
+        for k in idx
+        if cols["method"][k] != LIBRARY_METHOD
+        and cols["role"][k] != "bound"
+        and cols["status"][k] in SOLVED_STATUSES
+        and obj[k] is not None
+    ]
+    return {
+        k
+        for k in idx
+        if cols["method"][k] == LIBRARY_METHOD
+        and bnd[k] is not None
+        and any(_beats(obj[j], bnd[k], sense) for j in verified)
+    }
 
 
 _GAP_INPUTS = ("problem", "instance", "method", "role", "status", "sense", "objective", "bound")
@@ -613,6 +645,27 @@ DEFAULT_STALE_AFTER_S = 6 * 3600.0
 """A claim older than this (s) can be taken over even when its process may still run."""
 
 
+def _process_started_at(pid: int) -> float | None:
+    """When process ``pid`` started (Unix time, s), from ``/proc``; None where it cannot be read."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as fh:
+            ticks = int(fh.read().rsplit(")", 1)[-1].split()[19])
+        with open("/proc/stat", encoding="ascii") as fh:
+            boot = next(float(line.split()[1]) for line in fh if line.startswith("btime "))
+        return boot + ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, StopIteration):
+        return None
+
+
+def _claimant_alive(pid: int, claimed_at: float) -> bool:
+    """Whether the process that made a claim at ``claimed_at`` (Unix time, s) still runs: ``pid``
+    is alive and started before the claim (a pid reused by a later process is not the claimant)."""
+    if not _pid_alive(pid):
+        return False
+    started = _process_started_at(pid)
+    return started is None or started <= claimed_at + 2.0  # the clock-tick rounding of /proc
+
+
 def _pid_alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -762,6 +815,11 @@ class ResultStore:
         cols = [c for c in _V1_COLUMNS if c in have] + ["extras"]
         if "problem" not in have or "method" not in have:
             raise StoreError(f"{self.path} says schema version 1 but its rows table is not one; move it away")
+        if "config" in have:  # a version-2 table: migrating would drop its provenance columns
+            raise StoreError(
+                f"{self.path} says schema version 1 but holds version-2 rows (was its version edited?); "
+                "refusing to migrate it"
+            )
         names = ", ".join(f'"{c}"' for c in cols)
         con.execute(_table_ddl("rows_v2"))
         con.execute(f"INSERT INTO rows_v2 ({names}, config, flag) SELECT {names}, '', '' FROM rows")
@@ -948,7 +1006,7 @@ class ResultStore:
             ).fetchone()
             free = held is None or (
                 (held[0], held[1]) == (host, pid)
-                or (held[0] == host and not _pid_alive(int(held[1])))
+                or (held[0] == host and not _claimant_alive(int(held[1]), float(held[2])))
                 or now - float(held[2]) > stale_after
             )
             ok = free and done is None

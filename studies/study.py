@@ -34,7 +34,15 @@ from droneplan.studies.library import lookup
 from droneplan.studies.methods import Method, check_study_time_limit, resolve_methods
 from droneplan.studies.provenance import config_hash, provenance, provenance_columns
 from droneplan.studies.runner import Job, JobOutcome, run_isolated, run_jobs
-from droneplan.studies.store import PROBLEMS, STORE_NAME, Outcome, ResultStore, build_rows
+from droneplan.studies.store import (
+    LIBRARY_METHOD,
+    LIBRARY_SUSPECT,
+    PROBLEMS,
+    STORE_NAME,
+    Outcome,
+    ResultStore,
+    build_rows,
+)
 
 __all__ = [
     "gap",
@@ -57,8 +65,6 @@ DEFAULT_TIME_LIMIT = 300.0
 GRACE_S = 3.0
 """How long a job may overrun its time limit before the harness kills it (s)."""
 
-LIBRARY_METHOD = "library"
-"""The ``method`` of the reference row read from the certified library."""
 
 MAX_RESULT_BYTES = 64 << 20
 """The largest return value a method's process may send back (bytes of its plain-data message)."""
@@ -422,7 +428,24 @@ def gap(
     wanted_ids = {i.id for i in plan.instances}
     wanted_methods = {m.name for m in plan.methods} | {LIBRARY_METHOD}
     mask = df["instance"].isin(wanted_ids) & df["method"].isin(wanted_methods)
-    return df[mask].reset_index(drop=True)
+    found = df[mask].reset_index(drop=True)
+    _report_suspect_library(found)
+    return found
+
+
+def _report_suspect_library(df: pd.DataFrame) -> None:
+    """One line on stderr per certified-library entry that a verified plan of this study beats."""
+    suspect = df[(df["method"] == LIBRARY_METHOD) & df["flag"].fillna("").str.contains(LIBRARY_SUSPECT)]
+    for _, lib in suspect.iterrows():
+        rows = df[(df["instance"] == lib["instance"]) & (df["method"] != LIBRARY_METHOD)]
+        best = rows.loc[rows["objective"].idxmax() if lib["sense"] == "max" else rows["objective"].idxmin()]
+        print(
+            f"droneplan: the certified library entry of {lib['instance']} is suspect: {best['method']}'s "
+            f"plan, verified by droneplan, scores {best['objective']:g} beyond its proven bound "
+            f"{lib['bound']:g}; recheck it with `droneplan certify {lib['family']} --verify`",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 class _ClaimedJobs:

@@ -26,6 +26,7 @@ How each kind is certified:
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import fcntl
 import functools
@@ -40,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from droneplan.core.files import JsonFileError, read_json
 from droneplan.studies.instances import FAMILIES, StudyInstance, family_instances
 
 __all__ = [
@@ -65,6 +67,10 @@ LIBRARY_FAMILIES: dict[str, dict[str, Any]] = {
     "random-path": {"seeds": 20},
 }
 """The families the shipped library covers and the sizes and seeds it holds."""
+
+
+class LibraryFileError(ValueError):
+    """A library file that cannot be read (one line, starting with the path)."""
 
 
 @dataclass(frozen=True)
@@ -118,12 +124,29 @@ def _read(path: Path) -> dict[str, LibraryEntry]:
     if not path.exists():
         return {}
     try:
-        doc = json.loads(gzip.decompress(path.read_bytes()).decode())
-    except (OSError, ValueError) as exc:
-        raise ValueError(f"{path}: not a readable library file ({type(exc).__name__}: {exc})") from None
-    if not isinstance(doc, Mapping) or doc.get("format") != LIBRARY_FORMAT:
-        raise ValueError(f"{path}: not a droneplan library file")
-    return {e["id"]: LibraryEntry(**e) for e in doc["entries"]}
+        doc = read_json(path)
+    except JsonFileError as exc:
+        raise LibraryFileError(
+            str(exc).replace(f"{path}: ", f"{path}: not a readable library file: ", 1)
+        ) from None
+    if (
+        not isinstance(doc, Mapping)
+        or doc.get("format") != LIBRARY_FORMAT
+        or not isinstance(doc.get("entries"), list)
+    ):
+        raise LibraryFileError(f"{path}: not a droneplan library file")
+    fields = {f.name for f in dataclasses.fields(LibraryEntry)}
+    entries = {}
+    for i, e in enumerate(doc["entries"]):
+        unknown = sorted(set(e) - fields) if isinstance(e, Mapping) else []
+        if not isinstance(e, Mapping) or unknown or "id" not in e:
+            what = f"unknown fields {unknown}" if unknown else "not an entry"
+            raise LibraryFileError(f"{path}: entry {i} has {what}; this droneplan reads {LIBRARY_FORMAT!r}")
+        try:
+            entries[e["id"]] = LibraryEntry(**e)
+        except TypeError as exc:
+            raise LibraryFileError(f"{path}: entry {i} ({e['id']!r}) is incomplete: {exc}") from None
+    return entries
 
 
 @functools.lru_cache(maxsize=16)
@@ -186,6 +209,9 @@ def _write(family: str, path: Path, entries: Mapping[str, LibraryEntry]) -> Path
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     with os.fdopen(fd, "wb") as fh:
         fh.write(data)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # as any file written with open(): mkstemp makes it 0600
     os.replace(tmp, path)
     _cached.cache_clear()
     return path

@@ -8,6 +8,7 @@ entry, so an interrupted run keeps what it finished and the same command resumes
 from __future__ import annotations
 
 import os
+import random
 from typing import Any
 
 from droneplan.core.validation import check_int, check_time_limit
@@ -23,7 +24,7 @@ from droneplan.studies.library import (
 from droneplan.studies.provenance import provenance
 from droneplan.studies.runner import Job, run_jobs
 
-__all__ = ["certify", "CERTIFY_GRACE_S"]
+__all__ = ["certify", "verify", "CERTIFY_GRACE_S"]
 
 CERTIFY_GRACE_S = 30.0
 """How long a certification may overrun its time limit before its process is killed (s): the
@@ -106,3 +107,65 @@ def _better_or_equal(old, new) -> bool:
     if old.bound is None:
         return False
     return value_ok and sign * (new.bound - old.bound) >= 0
+
+
+def verify(
+    family: str,
+    *,
+    time_limit: float | None = 300.0,
+    workers: int | None = None,
+    directory: str | os.PathLike | None = None,
+    sample: int | None = None,
+    seed: int | None = None,
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Re-prove the stored entries of ``family`` and report those that do not hold; writes nothing.
+
+    An entry does not hold when the fresh certification finds a plan better than its stored
+    bound, or proves another optimum than the one it states. family, time_limit, workers,
+    directory: as for :func:`certify`. sample: re-prove this many entries drawn at random (None:
+    all). seed: the draw's seed (None: a fresh one, reported in the summary so a draw can be
+    repeated). Returns {"family", "checked", "seed", "failed"} (``failed``: one line per entry).
+    """
+    if family not in LIBRARY_FAMILIES:
+        raise ValueError(
+            f"no certified library for family {family!r}; families: {', '.join(LIBRARY_FAMILIES)}"
+        )
+    time_limit = check_time_limit(time_limit)
+    workers = check_int("workers", workers if workers is not None else (os.cpu_count() or 1), min_value=1)
+    entries = load_library(family, directory)
+    instances = [inst for inst in library_instances(family) if inst.id in entries]
+    seed = random.SystemRandom().randrange(2**31) if seed is None else check_int("seed", seed, min_value=0)
+    if sample is not None and check_int("sample", sample, min_value=1) < len(instances):
+        instances = random.Random(seed).sample(instances, sample)
+    jobs = [
+        Job(inst.id, certify_instance, (inst,), {"time_limit": time_limit}, time_limit=time_limit)
+        for inst in instances
+    ]
+    failed = []
+    for outcome in run_jobs(
+        jobs, workers=workers, grace=CERTIFY_GRACE_S, progress=f"verify {family}" if progress else None
+    ):
+        entry = entries[str(outcome.key)]
+        if outcome.status != "ok":
+            failed.append(f"{entry.id}: not re-proven ({outcome.status}: {outcome.error})")
+            continue
+        why = entry_disagrees(entry, outcome.value)
+        if why:
+            failed.append(f"{entry.id}: {why}")
+    return {"family": family, "checked": len(jobs), "seed": seed, "failed": failed}
+
+
+def entry_disagrees(entry: Any, fresh: dict[str, Any], tol: float = 1e-6) -> str:
+    """Why a stored entry does not hold against a fresh certification (``certify_instance``'s
+    fields), or ``""`` when it holds."""
+    sign = 1.0 if entry.sense == "max" else -1.0
+    value, bound = float(fresh["value"]), fresh.get("bound")
+    if entry.bound is not None and sign * (value - entry.bound) > tol * max(1.0, abs(entry.bound)):
+        return f"a plan of value {value:g} beats the stored bound {entry.bound:g}"
+    proven = fresh.get("status") == "optimal" and bound is not None
+    if proven and entry.status == "optimal" and abs(value - entry.value) > tol * max(1.0, abs(value)):
+        return f"the optimum is {value:g}, the entry states {entry.value:g}"
+    if entry.bound is None and abs(value - entry.value) > tol * max(1.0, abs(value)):
+        return f"the best value found now is {value:g}, the entry states {entry.value:g}"
+    return ""
