@@ -32,8 +32,10 @@ from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING
 
+from droneplan.core.files import JsonFileError
 from droneplan.studies import common
 from droneplan.studies.common import StudyError, make_executor, render_frame
+from droneplan.studies.library import LibraryFileError
 from droneplan.studies.problems import PROBLEMS
 from droneplan.studies.store import STORE_NAME, ResultStore, StoreError
 
@@ -653,7 +655,7 @@ def main(argv: list[str] | None = None) -> int:
             signal.signal(sig, _stop)
     try:
         return _run(args)
-    except (StudyError, StoreError) as exc:
+    except (StudyError, StoreError, JsonFileError, LibraryFileError) as exc:
         print(f"droneplan: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
