@@ -163,7 +163,7 @@ def _cells_to(p: CellProblem) -> dict:
 
 
 def _cells_from(d: Mapping[str, Any]) -> CellProblem:
-    users = np.asarray(d["users"], dtype=float).reshape(-1, 2)
+    users = np.asarray(d["users"]).reshape(-1, 2)  # no float(): "1.5" or true stays refused
     return CellProblem(users, d["gbs"], d["n_cells"], d["R_d"], d["R_g"], d["r1"], d["r2"], d.get("bounds"))
 
 
@@ -180,9 +180,7 @@ def _fleet_to(f: FleetInstance) -> dict:
 
 
 def _fleet_from(d: Mapping[str, Any]) -> FleetInstance:
-    return FleetInstance(
-        *(np.asarray(d[k], dtype=float) for k in ("operators", "sharks_pos", "sharks_vel", "humans"))
-    )
+    return FleetInstance(*(np.asarray(d[k]) for k in ("operators", "sharks_pos", "sharks_vel", "humans")))
 
 
 def _shark_to(s: InterceptionScenario) -> dict:

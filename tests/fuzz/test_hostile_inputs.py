@@ -290,3 +290,28 @@ def test_a_geojson_crs_other_than_wgs84_is_refused(tmp_path):
     path.write_text(json.dumps(doc))
     lon, lat = read_geojson_points(path)
     assert lon.tolist() == [10.0] and lat.tolist() == [20.0]
+
+
+@pytest.mark.parametrize(
+    ("family", "params", "key"), [("table4.2", {"m": 1}, "users"), ("random-fleet", {}, "operators")]
+)
+def test_string_positions_in_an_instance_file_are_refused_not_parsed(tmp_path, family, params, key):
+    """The cells and shark-fleet codecs converted with ``float()`` before the scenario's own check,
+    so a file whose positions were quoted ("1.5") loaded as if they were numbers."""
+    inst = family_instances(family, seeds=1, **params)[0]
+    doc = inst.to_dict()
+    doc["data"][key] = [[str(v) for v in row] for row in doc["data"][key]]
+    path = tmp_path / "quoted.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InstanceFileError, match=f"{key} must be an array of real numbers"):
+        load_instance(path)
+    doc = inst.to_dict()  # the same file with numbers still loads, unchanged
+    path.write_text(json.dumps(doc))
+    assert load_instance(path).fingerprint() == inst.fingerprint()
+
+
+def test_a_covert_run_needs_a_target():
+    """A scenario with no target paths was built, and its runs scored NaN bearings and bounds."""
+    case = droneplan.covert.random_case(1, seed=0)
+    with pytest.raises(ValueError, match=r"^paths must hold at least one target path"):
+        dataclasses.replace(case, paths=(), occlusions=())
