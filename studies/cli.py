@@ -89,6 +89,13 @@ def _certify_arguments(cert: argparse.ArgumentParser) -> None:
         "--verify", action="store_true", help="re-prove the stored entries and report any that do not hold"
     )
     cert.add_argument(
+        "--ids",
+        nargs="+",
+        default=None,
+        metavar="ID",
+        help="with --verify: re-prove only these entries (ids as 'droneplan list' shows them)",
+    )
+    cert.add_argument(
         "--sample", type=int, default=None, metavar="N", help="with --verify: re-prove N entries at random"
     )
     cert.add_argument(
@@ -336,6 +343,7 @@ def _run_verify(args) -> int:
             time_limit=args.time_limit,
             workers=args.workers,
             directory=args.library_dir,
+            ids=args.ids,
             sample=args.sample,
             seed=args.sample_seed,
         )

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import os
 import random
+from collections.abc import Sequence
 from typing import Any
 
-from droneplan.core.validation import check_int, check_time_limit
+from droneplan.core.validation import check_int, check_sequence, check_time_limit
 from droneplan.studies.library import (
     LIBRARY_FAMILIES,
     certify_instance,
@@ -115,6 +116,7 @@ def verify(
     time_limit: float | None = 300.0,
     workers: int | None = None,
     directory: str | os.PathLike | None = None,
+    ids: Sequence[str] | None = None,
     sample: int | None = None,
     seed: int | None = None,
     progress: bool = True,
@@ -123,9 +125,10 @@ def verify(
 
     An entry does not hold when the fresh certification finds a plan better than its stored
     bound, or proves another optimum than the one it states. family, time_limit, workers,
-    directory: as for :func:`certify`. sample: re-prove this many entries drawn at random (None:
-    all). seed: the draw's seed (None: a fresh one, reported in the summary so a draw can be
-    repeated). Returns {"family", "checked", "seed", "failed"} (``failed``: one line per entry).
+    directory: as for :func:`certify`. ids: re-prove only these entries (None: all). sample:
+    re-prove this many of them drawn at random (None: all). seed: the draw's seed (None: a fresh
+    one, reported in the summary so a draw can be repeated). Returns {"family", "checked",
+    "seed", "failed"} (``failed``: one line per entry).
     """
     if family not in LIBRARY_FAMILIES:
         raise ValueError(
@@ -135,6 +138,8 @@ def verify(
     workers = check_int("workers", workers if workers is not None else (os.cpu_count() or 1), min_value=1)
     entries = load_library(family, directory)
     instances = [inst for inst in library_instances(family) if inst.id in entries]
+    if ids is not None:
+        instances = _chosen(instances, ids)
     seed = random.SystemRandom().randrange(2**31) if seed is None else check_int("seed", seed, min_value=0)
     if sample is not None and check_int("sample", sample, min_value=1) < len(instances):
         instances = random.Random(seed).sample(instances, sample)
@@ -154,6 +159,15 @@ def verify(
         if why:
             failed.append(f"{entry.id}: {why}")
     return {"family": family, "checked": len(jobs), "seed": seed, "failed": failed}
+
+
+def _chosen(instances: list[Any], ids: Sequence[str]) -> list[Any]:
+    """The instances of ``instances`` named in ``ids``; an id without an entry is refused."""
+    wanted = {str(i) for i in check_sequence("ids", ids)}
+    unknown = sorted(wanted - {inst.id for inst in instances})
+    if unknown:
+        raise ValueError(f"ids: no library entry {unknown[0]!r} ({len(unknown)} unknown)")
+    return [inst for inst in instances if inst.id in wanted]
 
 
 def entry_disagrees(entry: Any, fresh: dict[str, Any], tol: float = 1e-6) -> str:

@@ -315,3 +315,23 @@ def test_a_covert_run_needs_a_target():
     case = droneplan.covert.random_case(1, seed=0)
     with pytest.raises(ValueError, match=r"^paths must hold at least one target path"):
         dataclasses.replace(case, paths=(), occlusions=())
+
+
+def test_certify_verify_exits_1_on_a_forged_entry_and_0_on_real_ones(tmp_path, capsys):
+    from droneplan.studies.cli import main
+
+    entries = load_library("allocation")
+    forged, honest = (inst.id for inst in library_instances("allocation", n=[2], seeds=2))
+    e = entries[forged]
+    kept = {
+        forged: dataclasses.replace(e, value=e.value + 10.0, bound=e.value + 10.0),
+        honest: entries[honest],
+    }
+    save_library("allocation", kept, tmp_path)
+    argv = ["certify", "allocation", "--verify", "--library-dir", str(tmp_path), "--workers", "1"]
+    assert main([*argv, "--ids", forged, honest]) == 1
+    captured = capsys.readouterr()
+    assert "2 entries re-proven" in captured.out and forged in captured.err and honest not in captured.err
+    assert main([*argv, "--ids", honest]) == 0
+    assert main([*argv, "--ids", "allocation@1:n=99,seed=0"]) == 2
+    assert "ids: no library entry" in capsys.readouterr().err
