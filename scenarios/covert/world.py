@@ -333,8 +333,6 @@ class CovertScenario:
         if not isinstance(self.terrain, Terrain):
             raise TypeError(f"terrain must be a Terrain, got {type(self.terrain).__name__}")
         paths = tuple(self.paths)
-        if not paths:  # every bearing, bound and score of a run is over its targets
-            raise ValueError("paths must hold at least one target path, got none")
         for j, path in enumerate(paths):
             if not isinstance(path, TargetPath):
                 raise TypeError(f"paths[{j}] must be a TargetPath, got {type(path).__name__}")

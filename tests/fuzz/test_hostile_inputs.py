@@ -310,13 +310,6 @@ def test_string_positions_in_an_instance_file_are_refused_not_parsed(tmp_path, f
     assert load_instance(path).fingerprint() == inst.fingerprint()
 
 
-def test_a_covert_run_needs_a_target():
-    """A scenario with no target paths was built, and its runs scored NaN bearings and bounds."""
-    case = droneplan.covert.random_case(1, seed=0)
-    with pytest.raises(ValueError, match=r"^paths must hold at least one target path"):
-        dataclasses.replace(case, paths=(), occlusions=())
-
-
 def test_certify_verify_exits_1_on_a_forged_entry_and_0_on_real_ones(tmp_path, capsys):
     from droneplan.studies.cli import main
 
