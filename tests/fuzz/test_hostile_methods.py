@@ -24,8 +24,13 @@ import pytest
 
 import droneplan
 import droneplan.formulations.cells as cells_formulation
+import droneplan.scenarios.covert.dynamics as covert_dynamics
+import droneplan.scenarios.herding as herding_scenarios
 import droneplan.studies.methods
+import droneplan.studies.study
 from droneplan.formulations.herding import check_allocation
+from droneplan.planners.covert import HoverBenchmark
+from droneplan.planners.herding import BenchmarkHerder
 from droneplan.planners.shark import VirtualSharkInterceptor
 from droneplan.studies import harness
 
@@ -36,6 +41,11 @@ ORIGINALS = {
     "score": harness.score,
     "check_allocation": check_allocation,
     "inside_field": shark_simulate.inside_field,
+}
+
+PATCHED_ORIGINALS = {
+    "_delivered": herding_scenarios._delivered,
+    "bearing_changes": covert_dynamics.bearing_changes,
 }
 
 
@@ -132,6 +142,77 @@ def test_a_controller_that_patches_the_simulator_changes_no_score(tmp_path):
         assert patching.loc[inst, "status"] == honest.loc[inst, "status"]
         assert patching.loc[inst, "objective"] == pytest.approx(honest.loc[inst, "objective"])
     assert (df.loc[df["method"] != "library", "shark_method_time_s"] > 0).all()
+
+
+class PatchingBenchmarkHerder(BenchmarkHerder):
+    """The benchmark herder, after making its process's herding simulator call the flock delivered."""
+
+    def __init__(self):
+        super().__init__()
+        herding_scenarios._delivered = lambda *args, **kwargs: True
+
+
+class PatchingHover(HoverBenchmark):
+    """The hover benchmark, after making its process's covert simulator record no bearing change."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        real = PATCHED_ORIGINALS["bearing_changes"]
+        covert_dynamics.bearing_changes = lambda drone, targets, R: 0.0 * real(drone, targets, R)
+
+
+_PATCHED_RUNS = {
+    "herding": (BenchmarkHerder, PatchingBenchmarkHerder, herding_scenarios, "_delivered", {}),
+    "covert": (
+        HoverBenchmark,
+        PatchingHover,
+        covert_dynamics,
+        "bearing_changes",
+        {"n_targets": 2, "seeds": 1},
+    ),
+}
+
+
+@pytest.mark.parametrize("problem", sorted(_PATCHED_RUNS))
+def test_a_controller_that_patches_its_simulator_changes_no_score(tmp_path, monkeypatch, problem):
+    """The old study ran the simulator in the method's process and believed its metrics: there the
+    patched delivery test ends a herding run at once, and the patched bearing changes give a
+    covert run beta_max 0, so the patching rows scored better than the honest ones. The last lines
+    show that the patch does change a run in the process that made it."""
+    honest_cls, patching_cls, module, attr, size = _PATCHED_RUNS[problem]
+    instances = None
+    if problem == "herding":
+        instances = [
+            droneplan.herding.thesis_scenario(10, seed=0, field_size=(100.0, 100.0), goal=(-100.0, 50.0))
+        ]
+    methods = [("honest", honest_cls), ("patching", patching_cls)]
+    df = droneplan.gap(
+        problem,
+        methods=methods,
+        instances=instances,
+        out=tmp_path,
+        workers=1,
+        progress=False,
+        time_limit=60,
+        **size,
+    )
+    _assert_scorers_untouched()
+    assert getattr(module, attr) is PATCHED_ORIGINALS[attr]
+    honest = df[df["method"] == "honest"].set_index("instance")
+    patching = df[df["method"] == "patching"].set_index("instance")
+    assert len(honest) == 1 and (honest["status"] == "feasible").all()
+    inst = honest.index[0]
+    assert patching.loc[inst, "status"] == "feasible"
+    assert patching.loc[inst, "objective"] == pytest.approx(honest.loc[inst, "objective"])
+    assert honest.loc[inst, "objective"] > 0
+
+    # in the controller's own process the patch works: the old study would have believed this run
+    monkeypatch.setattr(module, attr, getattr(module, attr))  # restored after the test
+    plan = droneplan.studies.study.plan_study(problem, methods=methods, instances=instances, **size)
+    instance = plan.instances[0]
+    metrics = harness._simulate(instance, patching_cls(), seed=0)
+    claimed = metrics["total_time"] if problem == "herding" else metrics["beta_max_deg"]
+    assert claimed < honest.loc[inst, "objective"]
 
 
 class SendsAnObjectAsCommand:
