@@ -413,3 +413,71 @@ def test_a_platform_without_fork_gets_a_clear_error(monkeypatch):
     monkeypatch.delattr(os, "fork")
     with pytest.raises(RuntimeError, match=r"needs os\.fork"):
         run_jobs([Job(0, int)])
+
+
+# ------------------------------------------------------------- jobs of code droneplan does not control
+_UNPICKLED: list[str] = []
+
+
+def _record_unpickling() -> str:
+    _UNPICKLED.append("ran")
+    return "ran"
+
+
+class _RecordsItsUnpickling:
+    def __reduce__(self):
+        return (_record_unpickling, ())
+
+
+def _open_files() -> set[tuple[int, int]]:
+    found = set()
+    for fd in range(256):
+        try:
+            st = os.fstat(fd)
+        except OSError:
+            continue
+        found.add((st.st_dev, st.st_ino))
+    return found
+
+
+def _writes_a_forged_pickle_result(before: set[tuple[int, int]]):
+    """Skips the return path and writes a framed pickle result message to every pipe it holds
+    that the test process did not have open before (its result pipe)."""
+    import pickle
+    import stat
+    import struct
+
+    body = b"P" + pickle.dumps(_RecordsItsUnpickling())
+    for fd in range(3, 256):
+        try:
+            st = os.fstat(fd)
+            if stat.S_ISFIFO(st.st_mode) and (st.st_dev, st.st_ino) not in before:
+                os.write(fd, struct.pack(">Q", len(body)) + body)
+        except OSError:
+            continue
+    os._exit(0)
+
+
+def test_a_bytes_job_never_unpickles_what_its_child_writes():
+    """With returns="pickle" the same forged message runs __reduce__ here (the last lines)."""
+    out = run_isolated(
+        Job("forged", _writes_a_forged_pickle_result, (_open_files(),), returns="bytes"), grace=1.0
+    )
+    assert _UNPICKLED == []
+    assert out.status == "error" and "kind b'P'" in out.error
+    trusted = run_isolated(
+        Job("forged", _writes_a_forged_pickle_result, (_open_files(),), returns="pickle"), grace=1.0
+    )
+    assert trusted.status == "ok" and trusted.value == "ran" and _UNPICKLED == ["ran"]
+    _UNPICKLED.clear()
+
+
+def test_a_bytes_job_hands_its_bytes_over_untouched_and_refuses_other_values():
+    assert run_isolated(Job("b", lambda: b"\x00raw", returns="bytes")).value == b"\x00raw"
+    out = run_isolated(Job("s", lambda: "text", returns="bytes"))
+    assert out.status == "error" and "returned str, not bytes" in out.error
+
+
+def test_a_result_past_its_cap_is_an_error_naming_the_size():
+    out = run_isolated(Job("big", lambda: bytes(1 << 20), returns="bytes", max_result_bytes=1000))
+    assert out.status == "error" and "more than the cap of 1000" in out.error
