@@ -118,6 +118,30 @@ def test_nothing_a_cells_method_returns_is_executed(tmp_path):
         assert "beats-bound" not in str(greedy["flag"])
 
 
+def test_over_dask_the_client_decodes_plain_data_and_scores_it(tmp_path):
+    """The worker hands back the child's bytes; the study decodes them, so a return value that
+    would patch the evaluator when unpickled is an invalid row here too."""
+    distributed = pytest.importorskip("distributed")
+    methods = [("pickle-bomb", returns_a_patching_object), "greedy"]
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
+    ) as cluster:
+        df = droneplan.gap(
+            "cells",
+            methods=methods,
+            m=2,
+            seeds=1,
+            out=tmp_path,
+            dask=cluster.scheduler_address,
+            progress=False,
+        )
+    _assert_scorers_untouched()
+    bomb = df[df["method"] == "pickle-bomb"].iloc[0]
+    assert bomb["status"] == "invalid" and "PatchesTheScorerWhenUnpickled" in bomb["message"]
+    greedy = df[df["method"] == "greedy"].iloc[0]
+    assert greedy["status"] in ("feasible", "optimal") and np.isfinite(greedy["cells_score_time_s"])
+
+
 class PatchingVirtualShark(VirtualSharkInterceptor):
     """The thesis controller, after patching the contact test and the simulator in its own process."""
 
