@@ -180,6 +180,14 @@ def _parser() -> argparse.ArgumentParser:
         "still running is stopped and recorded as timeout",
     )
     gap.add_argument(
+        "--memory-limit",
+        type=float,
+        default=None,
+        metavar="GIB",
+        help="open study: address space each job may use beyond the study's own, in GiB (default 8); "
+        "an allocation past it fails in the method (an error row)",
+    )
+    gap.add_argument(
         "--out",
         type=Path,
         default=Path("results"),
@@ -407,6 +415,15 @@ def _run_certify(args) -> int:
     return 1 if summary["failed"] else 0
 
 
+def _gib(value: float | None) -> int | None:
+    """``--memory-limit`` in bytes (None: the study's default)."""
+    if value is None:
+        return None
+    if not value > 0:
+        raise SystemExit(f"droneplan: --memory-limit must be > 0 GiB, got {value}")
+    return int(value * (1 << 30))
+
+
 def _run_open_gap(args) -> int:
     from droneplan.studies.analysis import summary_markdown, write_study_outputs
     from droneplan.studies.study import gap as open_gap
@@ -427,6 +444,7 @@ def _run_open_gap(args) -> int:
             workers=args.workers,
             dask=args.dask,
             time_limit=args.time_limit,
+            memory_limit=_gib(args.memory_limit),
             **size,
         )
     except (ValueError, TypeError, FileNotFoundError) as exc:

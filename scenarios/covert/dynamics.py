@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import enum
 import math
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple, Protocol
 
@@ -386,6 +387,17 @@ def _vertical_step(
     return D + np.array([0.0, 0.0, dz]), dz / p.dt
 
 
+def _warn_without_targets(scenario: CovertScenario) -> None:
+    """A run without a target is allowed (the drone's dynamics alone), but never silently."""
+    if not scenario.n_targets:
+        warnings.warn(
+            "the scenario has no target: the bearing change is undefined, so the trace's beta_max "
+            "is NaN (this run shows the drone's dynamics only)",
+            UserWarning,
+            stacklevel=3,
+        )
+
+
 def simulate(
     scenario: CovertScenario,
     controller: Controller,
@@ -414,6 +426,7 @@ def simulate(
     Returns a :class:`CovertTrace` (beta is computed from the true positions).
     """
     check_methods("controller", controller, ("reset", "command"))
+    _warn_without_targets(scenario)
     noise = check_nonneg("noise", noise)
     vtol = check_bool("vtol", vtol)
     _, t_stop, D, h = _start(scenario, max_time, initial_heading, vtol)

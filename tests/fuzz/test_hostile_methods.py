@@ -589,3 +589,20 @@ def test_sigterm_and_sighup_stop_the_cli_as_ctrl_c_does(tmp_path, sig, code):
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == code
     assert f"stopped by {sig.name}" in err and "Traceback" not in err
+
+
+def test_the_cli_memory_cap_is_configurable(tmp_path, monkeypatch, capsys):
+    from droneplan.studies.cli import main
+
+    _write(
+        tmp_path / "hostile_greedy.py",
+        "import numpy as np\n"
+        "def big(*a, seed, time_limit):\n    return np.ones(3 << 30, dtype=np.uint8)[:0]\n",
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    argv = ["gap", "herding", "--method", "hostile_greedy:big", "--n", "3", "--seeds", "1"]
+    assert main([*argv, "--out", str(tmp_path / "o"), "--memory-limit", "1"]) == 1
+    df = droneplan.load_results(tmp_path / "o")
+    assert "MemoryError" in df.loc[df["method"] == "hostile_greedy:big", "message"].iloc[0]
+    with pytest.raises(SystemExit, match="--memory-limit must be > 0"):
+        main([*argv, "--out", str(tmp_path / "p"), "--memory-limit", "0"])

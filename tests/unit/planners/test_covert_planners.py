@@ -137,8 +137,10 @@ def test_occlusion_tracks_the_visible_target():
 def test_no_targets_flies_the_benchmark_path():
     p = replace(THESIS_TABLE_3_2, duration=40.0)
     sc = CovertScenario(p, Terrain(), ())
-    a = simulate(sc, SlidingModeObserver())
-    b = simulate(sc, HoverBenchmark())
+    with pytest.warns(UserWarning, match="no target"):
+        a = simulate(sc, SlidingModeObserver())
+    with pytest.warns(UserWarning, match="beta_max is NaN"):
+        b = simulate(sc, HoverBenchmark())
     assert a.finished and b.finished
     assert a.drone.shape == b.drone.shape and np.allclose(a.drone, b.drone, atol=1e-9)
 
