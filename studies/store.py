@@ -115,7 +115,7 @@ import tempfile
 import time
 import urllib.parse
 from collections import defaultdict
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Self, TypeGuard
@@ -945,15 +945,12 @@ class ResultStore:
         refuse, with a one-line :class:`InstanceDataError` and before anything is written, an id
         this store already holds under another fingerprint: one id means one data set, so rows
         computed on other data are never compared with these."""
-        con = self._writable()
-        try:
-            con.execute("BEGIN IMMEDIATE")
+        with self._transaction() as con:
             known = dict(
                 con.execute("SELECT instance, fingerprint FROM instance_data WHERE problem = ?", (problem,))
             )
             clash = sorted(i for i, fp in fingerprints.items() if known.get(i, fp) != fp)
             if clash:
-                con.execute("ROLLBACK")
                 first = clash[0]
                 raise InstanceDataError(
                     f"instance {first!r} names other data in {self.path} (stored fingerprint "
@@ -965,8 +962,17 @@ class ResultStore:
                 "INSERT OR IGNORE INTO instance_data VALUES (?, ?, ?)",
                 [(problem, i, fp) for i, fp in fingerprints.items()],
             )
+
+    @contextlib.contextmanager
+    def _transaction(self) -> Iterator[sqlite3.Connection]:
+        """A write transaction (``BEGIN IMMEDIATE`` .. ``COMMIT``), rolled back on any exception;
+        an SQLite or OS error becomes a one-line :class:`StoreError`."""
+        con = self._writable()
+        try:
+            con.execute("BEGIN IMMEDIATE")
+            yield con
             con.execute("COMMIT")
-        except BaseException as exc:
+        except BaseException as exc:  # e.g. Ctrl-C: undo a half-done transaction (a committed one stays)
             self._rollback()
             if isinstance(exc, (sqlite3.Error, OSError)):
                 raise _store_error(self.path, exc, "write") from exc
@@ -994,10 +1000,8 @@ class ResultStore:
         full = self._full_key(key)
         if isinstance(stale_after, bool) or not isinstance(stale_after, (int, float)) or not stale_after > 0:
             raise ValueError(f"stale_after must be a number of seconds > 0, got {stale_after!r}")
-        con = self._writable()
         host, pid, now = socket.gethostname(), os.getpid(), time.time()
-        try:
-            con.execute("BEGIN IMMEDIATE")
+        with self._transaction() as con:
             done = con.execute(
                 f"SELECT 1 FROM rows WHERE {_KEY_WHERE} AND IFNULL(status, '') != ?", (*full, ERROR_STATUS)
             ).fetchone()
@@ -1014,12 +1018,6 @@ class ResultStore:
                 con.execute(
                     "INSERT OR REPLACE INTO claims VALUES (?, ?, ?, ?, ?, ?, ?)", (*full, host, pid, now)
                 )
-            con.execute("COMMIT")
-        except BaseException as exc:
-            self._rollback()
-            if isinstance(exc, (sqlite3.Error, OSError)):
-                raise _store_error(self.path, exc, "write") from exc
-            raise
         return ok
 
     def release(self, key: Sequence[str]) -> None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 import random
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 from droneplan.core.validation import check_int, check_sequence, check_time_limit
@@ -23,7 +23,7 @@ from droneplan.studies.library import (
     save_library,
 )
 from droneplan.studies.provenance import provenance
-from droneplan.studies.runner import Job, run_jobs
+from droneplan.studies.runner import Job, JobOutcome, run_jobs
 
 __all__ = ["certify", "verify", "CERTIFY_GRACE_S"]
 
@@ -62,16 +62,10 @@ def certify(
     entries = load_library(family, directory)
     todo = entries_to_certify(instances, entries, force=force, improve=improve)
     by_id = {inst.id: inst for inst in todo}
-    jobs = [
-        Job(inst.id, certify_instance, (inst,), {"time_limit": time_limit}, time_limit=time_limit)
-        for inst in todo
-    ]
     prov = provenance()
     failed: list[str] = []
     path = None
-    for outcome in run_jobs(
-        jobs, workers=workers, grace=CERTIFY_GRACE_S, progress=f"certify {family}" if progress else None
-    ):
+    for outcome in _certifications(todo, time_limit, workers, f"certify {family}" if progress else None):
         inst = by_id[str(outcome.key)]
         if outcome.status != "ok":
             failed.append(f"{inst.id}: {outcome.status}: {outcome.error}")
@@ -97,6 +91,17 @@ def certify(
         "entries": len(held),
         "proven": sum(e.status == "optimal" for e in held),
     }
+
+
+def _certifications(
+    instances: list[Any], time_limit: float | None, workers: int, progress: str | None
+) -> Iterator[JobOutcome]:
+    """The outcomes of certifying each instance in its own time-limited child process."""
+    jobs = [
+        Job(inst.id, certify_instance, (inst,), {"time_limit": time_limit}, time_limit=time_limit)
+        for inst in instances
+    ]
+    yield from run_jobs(jobs, workers=workers, grace=CERTIFY_GRACE_S, progress=progress)
 
 
 def _better_or_equal(old, new) -> bool:
@@ -143,14 +148,8 @@ def verify(
     seed = random.SystemRandom().randrange(2**31) if seed is None else check_int("seed", seed, min_value=0)
     if sample is not None and check_int("sample", sample, min_value=1) < len(instances):
         instances = random.Random(seed).sample(instances, sample)
-    jobs = [
-        Job(inst.id, certify_instance, (inst,), {"time_limit": time_limit}, time_limit=time_limit)
-        for inst in instances
-    ]
     failed = []
-    for outcome in run_jobs(
-        jobs, workers=workers, grace=CERTIFY_GRACE_S, progress=f"verify {family}" if progress else None
-    ):
+    for outcome in _certifications(instances, time_limit, workers, f"verify {family}" if progress else None):
         entry = entries[str(outcome.key)]
         if outcome.status != "ok":
             failed.append(f"{entry.id}: not re-proven ({outcome.status}: {outcome.error})")
@@ -158,7 +157,7 @@ def verify(
         why = entry_disagrees(entry, outcome.value)
         if why:
             failed.append(f"{entry.id}: {why}")
-    return {"family": family, "checked": len(jobs), "seed": seed, "failed": failed}
+    return {"family": family, "checked": len(instances), "seed": seed, "failed": failed}
 
 
 def _chosen(instances: list[Any], ids: Sequence[str]) -> list[Any]:
