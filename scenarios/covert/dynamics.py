@@ -426,10 +426,10 @@ def simulate(
     Returns a :class:`CovertTrace` (beta is computed from the true positions).
     """
     check_methods("controller", controller, ("reset", "command"))
-    _warn_without_targets(scenario)
     noise = check_nonneg("noise", noise)
     vtol = check_bool("vtol", vtol)
     _, t_stop, D, h = _start(scenario, max_time, initial_heading, vtol)
+    _warn_without_targets(scenario)  # after _start, which checks that it is a CovertScenario
     p = scenario.params
     rng, drawn = resolve_seed(seed)
     seed = seed if drawn is None else drawn  # record the seed drawn for seed=None
