@@ -373,8 +373,7 @@ def _usable_library_dir(directory: Path | None) -> None:
         return
     try:
         directory.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=directory, prefix=".droneplan-check-"):
-            pass
+        tempfile.TemporaryFile(dir=directory, prefix=".droneplan-check-").close()  # can a file be made?
     except OSError as exc:
         raise StudyError(
             f"--library-dir {directory} is not a writable directory ({exc.strerror or exc})"

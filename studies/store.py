@@ -865,7 +865,7 @@ class ResultStore:
             self._con = None
 
     # ------------------------------------------------------------------ writing
-    def write(self, rows: Iterable[Mapping[str, Any]]) -> int:  # noqa: C901, PLR0915
+    def write(self, rows: Iterable[Mapping[str, Any]]) -> int:  # noqa: C901
         """Write rows in one transaction, each replacing the row of the same key; returns how many
         older rows were set aside.
 
@@ -910,12 +910,10 @@ class ResultStore:
             raise ValueError("rows repeat a key (problem, instance, method, config)")
         task_rows = {(k[0], k[1]) for k in keys if k[2] == _TASK_METHOD}
         solved = sorted({(k[0], k[1]) for k in keys if k[2] != _TASK_METHOD} - task_rows)
-        con = self._writable()
         insert = f"INSERT OR REPLACE INTO rows VALUES ({', '.join('?' * (len(_CORE) + 1))})"
         same_method = "problem = ? AND instance = ? AND method = ? AND config != ?"
         set_aside = 0
-        try:
-            con.execute("BEGIN IMMEDIATE")
+        with self._transaction() as con:
             for key, record in records:
                 cur = con.execute(
                     f"INSERT OR REPLACE INTO superseded SELECT * FROM rows WHERE {same_method}", key
@@ -930,12 +928,6 @@ class ResultStore:
                 "AND role = ?",
                 [(p, i, _TASK_METHOD, ERROR_STATUS, _TASK_METHOD) for p, i in solved],
             )
-            con.execute("COMMIT")
-        except BaseException as exc:  # e.g. Ctrl-C: undo a half-done transaction (a committed one stays)
-            self._rollback()
-            if isinstance(exc, (sqlite3.Error, OSError)):
-                raise _store_error(self.path, exc, "write") from exc
-            raise
         self._checkpoint()
         return set_aside
 
