@@ -5,7 +5,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from matplotlib.collections import LineCollection
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
@@ -19,20 +18,42 @@ __all__ = ["plot_map", "plot_deployment_region"]
 
 def _links(problem: CellProblem, pos: np.ndarray, connected: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The backhaul links within range, as (k, 2, 2) segments (m): those of drone-cells that reach a
-    GBS, and those of drone-cells that do not. Drone-GBS within r1, drone-drone within r2."""
+    GBS, and those of drone-cells that do not. Drone-GBS within r1, drone-drone within r2. Links
+    drawn twice (coincident drone-cells) and links of zero length are dropped."""
     check_size("positions (drone-cell pairs)", float(len(pos)) ** 2 + len(pos) * len(problem.gbs))
-    segments, owner = [], []
+    good_cell = np.asarray(connected, bool)
     d_g = np.linalg.norm(pos[:, None, :] - problem.gbs[None, :, :], axis=2)
-    for i, g in zip(*np.nonzero(d_g <= problem.r1), strict=True):
-        segments.append((pos[i], problem.gbs[g]))
-        owner.append(i)
+    cell_g, gbs = np.nonzero(d_g <= problem.r1)
     d_d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)
-    for i, j in zip(*np.nonzero(np.triu(d_d <= problem.r2, k=1)), strict=True):
-        segments.append((pos[i], pos[j]))
-        owner.append(i)
-    seg = np.array(segments, dtype=float).reshape(-1, 2, 2)
-    good = np.asarray(connected, bool)[np.array(owner, dtype=int)] if owner else np.zeros(0, bool)
-    return seg[good], seg[~good]
+    cell_i, cell_j = np.nonzero(np.triu((d_d <= problem.r2) & (d_d > 0), k=1))
+    seg = np.concatenate(
+        [np.stack([pos[cell_g], problem.gbs[gbs]], axis=1), np.stack([pos[cell_i], pos[cell_j]], axis=1)]
+    ).reshape(-1, 2, 2)
+    good = np.concatenate([good_cell[cell_g], good_cell[cell_i]])
+    return _unique_segments(seg[good]), _unique_segments(seg[~good])
+
+
+def _unique_segments(seg: np.ndarray) -> np.ndarray:
+    """The distinct (n, 2, 2) segments of ``seg``."""
+    if not len(seg):
+        return seg
+    return np.unique(seg.reshape(-1, 4), axis=0).reshape(-1, 2, 2)
+
+
+def _polyline(segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """x and y of (n, p, 2) polylines joined into one line, NaN between polylines: one matplotlib
+    artist for any number of links or circles."""
+    n, p = segments.shape[:2]
+    xy = np.full((n, p + 1, 2), np.nan)
+    xy[:, :p] = segments
+    return xy[..., 0].ravel(), xy[..., 1].ravel()
+
+
+def _circles(centres: np.ndarray, radius: float, points: int = 97) -> np.ndarray:
+    """(n, points, 2) closed polylines of the circles of ``radius`` (m) around ``centres``."""
+    angle = np.linspace(0.0, 2.0 * np.pi, points)
+    ring = radius * np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    return np.asarray(centres, float).reshape(-1, 1, 2) + ring[None, :, :]
 
 
 def plot_map(  # noqa: C901
@@ -75,9 +96,9 @@ def plot_map(  # noqa: C901
     ok, bad = _links(problem, pos, ev.connected)
     for segments, style in ((ok, link_ok), (bad, link_bad)):
         if len(segments):
-            ax.add_collection(LineCollection(list(segments), **style))
-    for dx, dy in pos:
-        ax.add_patch(Circle((dx, dy), problem.R_d, fill=False, color="k", lw=1.0))
+            ax.plot(*_polyline(segments), **style)
+    if len(pos):  # one artist for all coverage disks: a thousand drone-cells draw as fast as one
+        ax.plot(*_polyline(_circles(np.unique(pos, axis=0), problem.R_d)), color="k", lw=1.0)
     if len(pos):
         ax.scatter(*pos.T, marker="s", s=30, c="k", zorder=3, label="drone-cells (coverage radius R_d)")
     handles, labels = ax.get_legend_handles_labels()

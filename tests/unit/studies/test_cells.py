@@ -21,19 +21,40 @@ def test_plot_map_draws_every_range_and_the_backhaul_links():
     )
     fig, ax = plt.subplots()
     assert study.plot_map(p, np.array([[2.5, 0.0], [4.5, 0.0]]), ax=ax, title="t", ranges=True) is fig
-    # GBS cell + r1 range, and the coverage disk of each drone-cell
-    assert len(ax.patches) == 2 + 2
-    # links: drone 0 - GBS (2.5 <= r1), drone 0 - drone 1 (2 <= r2); drone 1 - GBS is 4.5 > r1
+    # GBS cell + r1 range as patches
+    assert len(ax.patches) == 2
     from matplotlib.colors import to_rgba
 
-    green = to_rgba("tab:green")
-    links = [
-        seg
-        for c in ax.collections
-        if hasattr(c, "get_segments") and tuple(c.get_edgecolor()[0]) == green
-        for seg in c.get_segments()
-    ]
-    assert len(links) == 2
+    def polylines(color):
+        """The NaN-separated polylines (arrays of points) of the lines drawn in ``color``."""
+        out = []
+        for line in ax.lines:
+            if to_rgba(line.get_color()) != to_rgba(color):
+                continue
+            xy = line.get_xydata()
+            breaks = np.flatnonzero(np.isnan(xy[:, 0]))
+            out += [part for part in np.split(xy, breaks) if len(part[~np.isnan(part[:, 0])]) > 1]
+        return [part[~np.isnan(part[:, 0])] for part in out]
+
+    # the coverage disk of each drone-cell: closed rings of radius R_d around the two drone-cells
+    rings = polylines("k")
+    assert len(rings) == 2
+    for ring, centre in zip(rings, ([2.5, 0.0], [4.5, 0.0]), strict=True):
+        np.testing.assert_allclose(np.linalg.norm(ring - centre, axis=1), 1.0)
+    # links: drone 0 - GBS (2.5 <= r1), drone 0 - drone 1 (2 <= r2); drone 1 - GBS is 4.5 > r1
+    links = sorted(tuple(map(tuple, seg)) for seg in polylines("tab:green"))
+    assert links == [((2.5, 0.0), (0.0, 0.0)), ((2.5, 0.0), (4.5, 0.0))]
+    plt.close(fig)
+
+
+def test_plot_map_draws_coincident_drone_cells_once():
+    """A thousand drone-cells at one spot draw one ring and one link, not half a million links."""
+    p = CellProblem(users=[[2.5, 0.0]], gbs=[[0.0, 0.0]], n_cells=1000, R_d=1.0, R_g=1.0, r1=3.0, r2=2.5)
+    fig, ax = plt.subplots()
+    study.plot_map(p, np.tile([[2.5, 0.0]], (1000, 1)), ax=ax)
+    drawn = [line.get_xydata() for line in ax.lines]
+    pieces = sum(int(np.isnan(xy[:, 0]).sum()) for xy in drawn)  # one NaN closes each polyline
+    assert pieces == 2  # the coverage ring and the drone-GBS link
     plt.close(fig)
 
 
