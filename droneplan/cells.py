@@ -29,6 +29,7 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
         greedy_placement,
         solve_exact,
         solve_milp,
+        solve_model,
     )
     from droneplan.planners.cells import (
         GASettings,
@@ -84,6 +85,7 @@ __all__ = [
     "candidate_sites",
     "CellModel",
     "build_milp",
+    "solve_model",
     "solve_milp",
     "solve_exact",
     "branch_and_bound",
@@ -129,6 +131,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "greedy_placement",
         "solve_exact",
         "solve_milp",
+        "solve_model",
     ),
     "droneplan.planners.cells": (
         "GASettings",

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal, overload
+from typing import Any, Literal, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -315,10 +315,33 @@ class CellProblem:
     bounds: optional operating area (xmin, xmax, ymin, ymax) in metres; when given,
         drone-cells must lie inside it.
 
+    Variants of the thesis model (the defaults give the thesis model exactly):
+
+    weights: (n,) non-negative demand per user (None: every user weighs 1); the objective is
+        the covered weight.
+    no_fly: polygons (shapely Polygons, or closed (k, 2) vertex arrays in metres, first vertex
+        repeated last) in which no drone-cell centre may lie, nor on their edge (to ``TOL``).
+    capacity: an int >= 1, the most users one drone-cell serves (None: no limit). A user is then
+        counted once, served by one drone-cell within R_d, and the objective is the served
+        weight (a b-matching of users to drone-cells).
+
     Instances are immutable (arrays are copied and made read-only).
     """
 
-    __slots__ = ("R_d", "R_g", "active", "bounds", "gbs", "n_cells", "r1", "r2", "users")
+    __slots__ = (
+        "R_d",
+        "R_g",
+        "active",
+        "bounds",
+        "capacity",
+        "gbs",
+        "n_cells",
+        "no_fly",
+        "r1",
+        "r2",
+        "users",
+        "weights",
+    )
 
     # the slots' types (set once in __init__ through object.__setattr__)
     users: NDArray[np.float64]
@@ -330,6 +353,9 @@ class CellProblem:
     r2: float
     bounds: tuple[float, float, float, float] | None
     active: NDArray[np.bool_]
+    weights: NDArray[np.float64] | None
+    no_fly: tuple[Any, ...]
+    capacity: int | None
 
     def __init__(
         self,
@@ -341,6 +367,10 @@ class CellProblem:
         r1: float,
         r2: float,
         bounds: ArrayLike | None = None,
+        *,
+        weights: ArrayLike | None = None,
+        no_fly: Any = (),
+        capacity: int | None = None,
     ) -> None:
         pts = check_array("users", users, shape=(None, 2))
         stations = check_array("gbs", gbs, shape=(None, 2), min_rows=1)
@@ -370,6 +400,17 @@ class CellProblem:
             else np.zeros((0, len(stations)))
         )
         active = ~np.any(d <= radii["R_g"], axis=1)
+        demand = None
+        if weights is not None:
+            demand = check_array("weights", weights, shape=(len(pts),))
+            if np.any(demand < 0):
+                raise ValueError(
+                    f"weights must be non-negative, got {demand.min()} for user {int(demand.argmin())}"
+                )
+            demand.setflags(write=False)
+        zones = _as_no_fly(no_fly)
+        if capacity is not None:
+            capacity = check_int("capacity", capacity, min_value=1)
         pts.setflags(write=False)
         stations.setflags(write=False)
         active.setflags(write=False)
@@ -380,6 +421,9 @@ class CellProblem:
             object.__setattr__(self, k, v)
         object.__setattr__(self, "bounds", box)
         object.__setattr__(self, "active", active)
+        object.__setattr__(self, "weights", demand)
+        object.__setattr__(self, "no_fly", zones)
+        object.__setattr__(self, "capacity", capacity)
 
     def __setattr__(self, name: str, value: object) -> None:  # immutable
         raise AttributeError("CellProblem is immutable; use with_cells() or build a new one")
@@ -389,21 +433,84 @@ class CellProblem:
         """Users not served by a GBS (n', 2): the ones the objective counts."""
         return self.users[self.active]
 
+    @property
+    def target_weights(self) -> NDArray[np.float64]:
+        """(n',) weight of each user of :attr:`targets` (1 each without ``weights``)."""
+        if self.weights is None:
+            return np.ones(int(self.active.sum()))
+        return self.weights[self.active]
+
+    @property
+    def variants(self) -> tuple[str, ...]:
+        """The variants of the thesis model this instance uses ("weights", "no_fly",
+        "capacity"); empty for the thesis model."""
+        used = {"weights": self.weights is not None, "no_fly": bool(self.no_fly), "capacity": self.capacity}
+        return tuple(name for name, on in used.items() if on)
+
+    def _variant_kwargs(self) -> dict[str, Any]:
+        return {"weights": self.weights, "no_fly": self.no_fly, "capacity": self.capacity}
+
     def __reduce__(self) -> tuple:
         # pickled through the constructor (slots and the immutable __setattr__ defeat the default),
         # so instances travel to worker processes and Dask workers
+        from functools import partial
+
         return (
-            CellProblem,
+            partial(CellProblem, **self._variant_kwargs()),
             (self.users, self.gbs, self.n_cells, self.R_d, self.R_g, self.r1, self.r2, self.bounds),
         )
 
     def with_cells(self, n_cells: int) -> CellProblem:
         """The same instance with another number of drone-cells."""
-        return CellProblem(self.users, self.gbs, n_cells, self.R_d, self.R_g, self.r1, self.r2, self.bounds)
+        return CellProblem(
+            self.users,
+            self.gbs,
+            n_cells,
+            self.R_d,
+            self.R_g,
+            self.r1,
+            self.r2,
+            self.bounds,
+            **self._variant_kwargs(),
+        )
 
     def __repr__(self) -> str:
         return (
             f"CellProblem(n_users={len(self.users)}, active={int(self.active.sum())}, gbs={len(self.gbs)}, "
             f"n_cells={self.n_cells}, R_d={self.R_d}, R_g={self.R_g}, r1={self.r1}, r2={self.r2}, "
-            f"bounds={self.bounds})"
+            f"bounds={self.bounds}" + "".join(f", {name}=..." for name in self.variants) + ")"
         )
+
+
+def _as_no_fly(no_fly: Any) -> tuple[Any, ...]:
+    """``no_fly`` as a tuple of valid shapely Polygons (see :class:`CellProblem`)."""
+    from shapely.geometry import Polygon
+    from shapely.validation import explain_validity
+
+    if no_fly is None:
+        return ()
+    items = [no_fly] if isinstance(no_fly, Polygon) else list(no_fly)
+    zones = []
+    for i, item in enumerate(items):
+        name = f"no_fly[{i}]"
+        if isinstance(item, Polygon):
+            poly = item
+        else:
+            try:
+                vertices = check_array(name, item, shape=(None, 2))
+            except (TypeError, ValueError) as exc:
+                raise ValueError(
+                    f"{name} must be a shapely Polygon or a closed (k, 2) vertex array: {exc}"
+                ) from None
+            if len(vertices) < 4 or not np.array_equal(vertices[0], vertices[-1]):
+                raise ValueError(
+                    f"{name} is not a closed polygon: give at least 3 vertices and repeat the first one last"
+                )
+            poly = Polygon(vertices)
+        if poly.is_empty or not poly.is_valid or poly.area <= 0:
+            why = "empty" if poly.is_empty else explain_validity(poly)
+            raise ValueError(f"{name} is not a valid polygon ({why})")
+        if not np.all(np.isfinite(np.asarray(poly.exterior.coords))):
+            raise ValueError(f"{name} has non-finite vertices")
+        zones.append(poly)
+    return tuple(zones)

@@ -17,6 +17,7 @@ from droneplan.formulations.cells._core import (
 )
 from droneplan.formulations.cells._exact import ENGINES, branch_and_bound, solve_exact, solve_milp
 from droneplan.formulations.cells._milp import BACKENDS, CellModel, build_milp, reduce_candidates
+from droneplan.formulations.cells._open import BNB_VARIANTS, solve_model
 from droneplan.formulations.cells._prepare import coverage_upper_bound, greedy_placement
 from droneplan.scenarios.cells import CellProblem, problem_from_instance, thesis_problem
 
@@ -37,6 +38,8 @@ __all__ = [
     "greedy_placement",
     "reduce_candidates",
     "build_milp",
+    "solve_model",
+    "BNB_VARIANTS",
     "solve_milp",
     "solve_exact",
     "branch_and_bound",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,6 +32,10 @@ class Evaluation:
     """(k,) bool: drone-cell i reaches a GBS through backhaul links (relays allowed)."""
     covered_mask: np.ndarray
     """(n,) bool over ``problem.users``: user covered by a drone-cell (inactive users False)."""
+    value: float = float("nan")
+    """The objective: the covered weight (``covered`` without weights), or with a capacity
+    the most weight the drone-cells can serve (a user served once, by one drone-cell within
+    R_d, at most ``capacity`` users a drone-cell)."""
 
 
 def as_positions(problem: CellProblem, positions, name: str = "positions") -> np.ndarray:
@@ -121,14 +126,68 @@ def evaluate(problem: CellProblem, positions) -> Evaluation:
         dd = pairwise_distances(pos, pos)
         for i, h in zip(*np.nonzero(np.triu(dd < 2 * problem.R_d - TOL, 1)), strict=True):
             v.append(f"drone-cells {i} and {h} overlap: distance {dd[i, h]:.3f} < 2 R_d (4.8)")
+        v += [f"drone-cell {i} lies in no-fly zone {z}" for i, z in in_no_fly(problem, pos)]
     conn = connected_mask(problem, pos)
     v += [f"drone-cell {i} has no backhaul path to a GBS" for i in np.flatnonzero(~conn)]
     mask = np.zeros(len(problem.users), dtype=bool)
+    within = np.zeros((len(problem.users), k), dtype=bool)
     if k and len(problem.users):
-        mask = np.any(pairwise_distances(problem.users, pos) <= problem.R_d + TOL, axis=1) & problem.active
+        within = (pairwise_distances(problem.users, pos) <= problem.R_d + TOL) & problem.active[:, None]
+        mask = np.any(within, axis=1)
+    weights = np.ones(len(problem.users)) if problem.weights is None else problem.weights
+    if problem.capacity is None:
+        value = float(weights[mask].sum())
+    else:
+        value = served_weight(within, weights, problem.capacity)
     return Evaluation(
-        covered=int(mask.sum()), feasible=not v, violations=tuple(v), connected=conn, covered_mask=mask
+        covered=int(mask.sum()),
+        feasible=not v,
+        violations=tuple(v),
+        connected=conn,
+        covered_mask=mask,
+        value=value,
     )
+
+
+def in_no_fly(problem: CellProblem, points: np.ndarray) -> list[tuple[int, int]]:
+    """(point index, zone index) of every point of ``points`` ((k, 2) m) inside a no-fly zone
+    of ``problem`` or within ``TOL / 2`` of its edge."""
+    if not problem.no_fly or not len(points):
+        return []
+    import shapely
+
+    found = []
+    for z, zone in enumerate(problem.no_fly):
+        near = shapely.dwithin(zone, shapely.points(points), TOL / 2)
+        found += [(int(i), z) for i in np.flatnonzero(near)]
+    return sorted(found)
+
+
+def served_weight(within: np.ndarray, weights: np.ndarray, capacity: int) -> float:
+    """The most weight drone-cells serve when each user is served at most once, by a drone-cell
+    it lies within (``within``: (n, k) bool), and each drone-cell serves at most ``capacity``
+    users: a maximum-weight b-matching. Its LP is a transportation problem (totally unimodular),
+    so the LP optimum is the integer one."""
+    from scipy.optimize import linprog
+    from scipy.sparse import coo_matrix
+
+    users, cells = np.nonzero(within & (np.asarray(weights)[:, None] > 0))
+    if not len(users):
+        return 0.0
+    n_arcs = len(users)
+    arc = np.arange(n_arcs)
+    user_ids, user_row = np.unique(users, return_inverse=True)
+    cell_ids, cell_row = np.unique(cells, return_inverse=True)
+    rows = np.concatenate([user_row, len(user_ids) + cell_row])
+    a_ub = coo_matrix((np.ones(2 * n_arcs), (rows, np.concatenate([arc, arc]))))
+    b_ub = np.concatenate([np.ones(len(user_ids)), np.full(len(cell_ids), float(capacity))])
+    res = linprog(
+        -np.asarray(weights, float)[users], A_ub=a_ub.tocsr(), b_ub=b_ub, bounds=(0, 1), method="highs"
+    )
+    if res.status != 0:
+        raise RuntimeError(f"the b-matching LP of the served weight failed: {res.message}")
+    chosen = res.x > 0.5  # an integral vertex (total unimodularity)
+    return float(np.asarray(weights, float)[users[chosen]].sum())
 
 
 # --------------------------------------------------------------------------- geometry
@@ -232,7 +291,43 @@ def raw_candidate_points(problem: CellProblem) -> np.ndarray:
                     q[:, axis] = val
                     q[:, 1 - axis] += s * h
                     parts.append(q)
+        parts += _no_fly_edge_points(t, R, problem.no_fly)
     return merge_points(np.concatenate(parts, axis=0))
+
+
+_EIGHTHS = np.arange(8) * np.pi / 4
+
+
+def _no_fly_edge_points(targets: np.ndarray, R: float, zones: tuple) -> list[np.ndarray]:
+    """Where the radius-R circles around ``targets`` cross the edges of the no-fly ``zones``,
+    each moved ``TOL`` off the edge to both sides (the side inside the zone is then filtered
+    out; the other covers the same users, coverage being tested to R + TOL): a site pushed
+    against a zone stops on such a point, as it stops on the area edges. The zones' corners,
+    moved ``TOL`` in eight directions, are candidates too."""
+    parts = []
+    for zone in zones:
+        rings = [zone.exterior, *zone.interiors]
+        for ring in rings:
+            xy = np.asarray(ring.coords)
+            ring_offsets = TOL * np.stack([np.cos(_EIGHTHS), np.sin(_EIGHTHS)], axis=1)
+            parts.append((xy[:-1, None, :] + ring_offsets[None, :, :]).reshape(-1, 2))  # the corners
+            for a, b in itertools.pairwise(xy):
+                seg = b - a
+                length = float(np.hypot(*seg))
+                if length == 0.0:
+                    continue
+                unit = seg / length
+                normal = np.array([-unit[1], unit[0]])
+                along = (targets - a) @ unit  # foot of each user on the edge's line
+                off = (targets - a) @ normal
+                ok = np.abs(off) <= R
+                h = np.sqrt(np.maximum(R**2 - off[ok] ** 2, 0.0))
+                for sign in (1.0, -1.0):
+                    s = along[ok] + sign * h
+                    on = (s >= 0) & (s <= length)
+                    base = a + s[on, None] * unit
+                    parts += [base + TOL * normal, base - TOL * normal]
+    return parts
 
 
 def site_feasible(problem: CellProblem, points: np.ndarray) -> np.ndarray:
@@ -248,6 +343,8 @@ def site_feasible(problem: CellProblem, points: np.ndarray) -> np.ndarray:
         xmin, xmax, ymin, ymax = problem.bounds
         ok &= (points[:, 0] >= xmin - TOL) & (points[:, 0] <= xmax + TOL)
         ok &= (points[:, 1] >= ymin - TOL) & (points[:, 1] <= ymax + TOL)
+    for i, _ in in_no_fly(problem, points):
+        ok[i] = False
     return ok
 
 

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from droneplan.core.validation import check_bool, check_int
+from droneplan.core.validation import check_bool, check_instance, check_int, check_time_limit
 from droneplan.formulations.cells._bnb import (
     BranchAndBoundSearch,
     _Timeout,
@@ -28,7 +28,8 @@ from droneplan.formulations.cells._bnb import (
     search,
 )
 from droneplan.formulations.cells._core import evaluate
-from droneplan.formulations.cells._milp import CONNECTIVITY, solve_model
+from droneplan.formulations.cells._milp import CONNECTIVITY, solve_prepared
+from droneplan.formulations.cells._open import BNB_VARIANTS, solve_variant
 from droneplan.formulations.cells._prepare import Prepared, _near_any, dropped_sites_text, prepare
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.registry import get_backend
@@ -45,6 +46,21 @@ workers, load 1-2): m = 6 seed 14 203 / 494 (494 with the subsolvers of
 ``_milp.FEW_WORKER_OPTIONS``, 484 and 463 with pseudo_costs or no_lp in place of max_lp, 464
 with default_lp alone; at load 3, 2 workers left it open at 88 / 99 after 600 s), seed 3 87.0 /
 87.8, seed 5 43.6 / 43.6, a Thomas-process m = 6 instance 344 / 350, m = 4 seed 5 14.5 / 13.8."""
+
+
+def _engine_for(problem: CellProblem, engine: str | None) -> str:
+    """The engine that runs: ``engine``, or for None the branch and bound on the thesis model and
+    the MILP on a variant; ValueError when the branch and bound is asked for a variant it cannot
+    solve."""
+    check_instance("problem", problem, CellProblem)
+    unsupported = [v for v in problem.variants if v not in BNB_VARIANTS]
+    if engine is None:
+        return "milp" if unsupported else "bnb"
+    if engine == "bnb" and unsupported:
+        raise ValueError(
+            f"engine 'bnb' cannot solve an instance with {', '.join(unsupported)}: use engine='milp'"
+        )
+    return engine
 
 
 def _check_common(
@@ -333,7 +349,7 @@ def _solve_bnb(prep: Prepared, workers: int) -> SolveResult:
 def solve_exact(
     problem: CellProblem,
     *,
-    engine: str = "bnb",
+    engine: str | None = None,
     backend: str = "cp-sat",
     time_limit: float | None = None,
     warm_start=None,
@@ -346,9 +362,12 @@ def solve_exact(
     """Solve the candidate problem exactly with either engine (module docstring).
 
     problem: the CellProblem (users, GBSs, m, radii in metres).
-    engine: "bnb" (default): the combinatorial branch and bound (no model; ``backend``,
+    engine: "bnb": the combinatorial branch and bound (no model; ``backend``,
         ``connectivity``, ``max_rounds`` and ``user_cliques`` unused); "milp": the candidate
-        model on ``backend``.
+        model on ``backend``; None (default): "bnb" for the thesis model, "milp" for an
+        instance with variants (weights, no-fly zones, capacity), which only the MILP solves:
+        the whole candidate model is solved once (``_open.solve_variant``; the warm start, the
+        rounds and the thesis model's reductions are not used). ``info["engine"]`` says which ran.
     backend: linear backend of the model and of the continuous bound's solve: "cp-sat"
         (default), "highs" or "scip".
     time_limit: wall-clock limit (s) for the whole call, candidate generation and model
@@ -398,9 +417,14 @@ def solve_exact(
     asked for: after the polish (which may raise the incumbent and so prune the model) and
     before the model, or the LP of its site fixing, is built.
     """
+    engine = _engine_for(problem, engine)
     _check_common(problem, engine, backend, connectivity, workers, max_rounds, user_cliques)
     check_bool("bnb_elimination", bnb_elimination)
     workers = DEFAULT_WORKERS[engine] if workers is None else workers
+    if problem.variants:
+        return solve_variant(
+            problem, backend=backend, time_limit=check_time_limit(time_limit), workers=workers
+        )
     prep = prepare(problem, warm_start=warm_start, time_limit=time_limit)
     done = _early_exit(prep, "bnb" if engine == "bnb" else backend, engine)
     if done is not None:
@@ -420,7 +444,7 @@ def solve_exact(
     done = _early_exit(prep, backend, engine)
     if done is not None:
         return done
-    return solve_model(
+    return solve_prepared(
         prep,
         backend=backend,
         workers=workers,

@@ -120,7 +120,7 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    light sites: Table 4.2 m = 4 seed 5, the full reduced model (4 518 sites), CP-SAT, 1
    worker, load 4.5: without them the bound stayed at 73 after 37 CPU s; with them (a first,
    stronger but inexact form of the pair rows) proven in 34-40 CPU s; with these exact rows,
-   in the whole solve, proven in 70 CPU s. ``solve_model`` writes
+   in the whole solve, proven in 70 CPU s. ``solve_prepared`` writes
    them on CP-SAT only (``LIGHT_ROWS``: HiGHS measured slower with them).
 
 10. **LP fixing (exact; ``lp_fixing``, CP-SAT only, ``LP_FIXING``).** CP-SAT with one
@@ -304,7 +304,7 @@ FEW_WORKER_OPTIONS: dict[str, dict[str, Any]] = {"cp-sat": {"subsolvers": ["defa
 """Backend options used when ``workers <= 2``, by registry name."""
 
 TARGET_START: dict[str, float] = {"cp-sat": 0.0}
-"""The first target of ``solve_model``'s descending scheme on the hop model, by backend
+"""The first target of ``solve_prepared``'s descending scheme on the hop model, by backend
 (others: 0.5; the lazy model always 0.5): incumbent + this share of the gap to the
 continuous bound (0: the full reduced model at once). On CP-SAT with the light-site rows
 (item 9) the scheme's rounds cost more than they save: Table 4.2 m = 4 seed 5, 1 worker,
@@ -313,7 +313,7 @@ after 62 CPU s; from 0 one round, proven in 52 CPU s. On HiGHS, seed 0: 72.5 CPU
 with the rows, not proven in 82 CPU s from 0.5 with them, 29 CPU s from 0.5 without."""
 
 LIGHT_ROWS: dict[str, bool] = {"cp-sat": True}
-"""Backends whose model gets the light-site rows of item 9 from ``solve_model`` (by registry
+"""Backends whose model gets the light-site rows of item 9 from ``solve_prepared`` (by registry
 name). HiGHS is left out: Table 4.2 m = 4 seed 0 (one worker, load 4-5) stayed open at bound
 65 after 82 CPU s with them and was proven in 29 CPU s without."""
 
@@ -444,7 +444,20 @@ class _SearchState:
 
 @dataclass
 class CellModel:
-    """A built candidate model (the output of :func:`build_milp`)."""
+    """The candidate model of a :class:`CellProblem` (the output of :func:`build_milp`), open to
+    the user's own rows and objective terms.
+
+    Decision variables: ``x[i]`` (0-1) chooses candidate site ``points[i]``; ``covered(u)`` is
+    the linear expression equal to 1 when active user u (an index into ``problem.targets``)
+    is covered (served, with a capacity) and 0 otherwise; ``levels[(i, l)]`` labels a
+    non-direct site with its hop count l >= 2 to a GBS (backhaul with relays); ``serve[(u, i)]``
+    (with a capacity) assigns user u to site i.
+
+    Add rows with ``model.add(expr <= rhs)`` (``model.sum`` builds sums) and objective terms
+    with :meth:`add_objective`, then solve with :func:`droneplan.cells.solve_prepared`.
+    Coefficients and right-hand sides must be integers on CP-SAT (the default backend);
+    HiGHS and SCIP take any numbers.
+    """
 
     problem: CellProblem
     """The instance."""
@@ -461,13 +474,62 @@ class CellModel:
     x: list
     """Site variables, one per row of ``points``."""
     y: dict
-    """User coverage variables keyed by active-user index."""
+    """User coverage variables keyed by a representative active-user index (users covered by
+    the same sites, in a lens, share one; see :meth:`covered`)."""
     levels: dict = field(default_factory=dict)
     """Hop-level variables z keyed by (site index, level) for non-direct sites (levels >= 2)."""
     squares: dict = field(default_factory=dict)
     """Square variables of the hop rows: (level, square) -> (variable, its sites)."""
     stats: dict = field(default_factory=dict)
     """Sizes: candidates, kept, users, cliques, pairs, level variables and terms."""
+    objective: Any = None
+    """The objective expression (covered or served weight, plus the user's terms)."""
+    group_of: dict = field(default_factory=dict)
+    """Active user with a coverage variable -> the key of its variable in ``y``."""
+    serve: dict = field(default_factory=dict)
+    """With a capacity: (active user, site index) -> 0-1 assignment variable."""
+    user_sites: dict = field(default_factory=dict)
+    """Active user -> indices of the sites covering it (users no site covers are absent)."""
+    cliques: dict = field(default_factory=dict)
+    """Active user -> its covering sites, when they pairwise overlap (at most one is chosen)."""
+
+    @property
+    def heights(self) -> None:
+        """Site altitudes: None, the thesis model places every drone-cell at one altitude."""
+        return None
+
+    def covered(self, user: int) -> Any:
+        """The linear expression that is 1 when active user ``user`` (an index into
+        ``problem.targets``) is covered (with a capacity: served) and 0 otherwise."""
+        u = check_int("user", user, min_value=0, max_value=len(self.problem.targets) - 1)
+        if self.problem.capacity is not None:
+            return self.model.sum(v for (w, _), v in self.serve.items() if w == u)
+        if u in self.group_of:
+            return self.y[self.group_of[u]]
+        return self.model.sum(self.x[i] for i in self.user_sites.get(u, []))
+
+    def sites_in(self, geometry: Any) -> np.ndarray:
+        """Indices of the sites inside or on a shapely ``geometry`` (e.g. a Polygon, in metres)."""
+        import shapely
+
+        if not isinstance(geometry, shapely.Geometry):
+            raise TypeError(f"geometry must be a shapely geometry, got {type(geometry).__name__}")
+        if not len(self.points):
+            return np.zeros(0, dtype=np.int64)
+        return np.flatnonzero(shapely.intersects(geometry, shapely.points(self.points)))
+
+    def add(self, constraint: Any) -> None:
+        """Add a linear row ``lhs <= rhs``, ``lhs >= rhs`` or ``lhs == rhs`` over the variables."""
+        self.model.add(constraint)
+
+    def sum(self, terms: Any) -> Any:
+        """The sum of ``terms`` as a backend expression (0 for none)."""
+        return self.model.sum(list(terms))
+
+    def add_objective(self, expr: Any) -> None:
+        """Add ``expr`` to the maximised objective."""
+        self.objective = self.objective + expr
+        self.model.maximize(self.objective)
 
 
 def _grid_cliques(points: np.ndarray, R_d: float) -> list[np.ndarray]:
@@ -830,43 +892,99 @@ def _user_clique_sites(
 
 def _coverage_objective(
     lin, x: list, pts: np.ndarray, cover: list, problem: CellProblem, user_cliques: bool
-) -> tuple[dict, Any, dict[int, list[int]], int]:
-    """The covered-user count as a linear expression over the site variables ``x``.
+) -> tuple[dict, Any, dict[int, list[int]], int, dict[int, int]]:
+    """The covered weight (covered users without ``weights``) as a linear expression over the
+    site variables ``x``.
 
-    Returns (y, objective, clique rows, users written without a variable):
+    Returns (y, objective, clique rows, users written without a variable, group of each user
+    with a variable):
 
     - **Substitution (exact).** A user u whose covering sites C_u pairwise overlap (item 5)
       is covered by at most one chosen site, so it is covered exactly when
-      ``sum_{c in C_u} x_c = 1``: it needs no variable, and each of its sites gains weight 1
-      in the objective (with the at-most-one row over C_u, which also tightens the LP).
+      ``sum_{c in C_u} x_c = 1``: it needs no variable, and each of its sites gains its weight
+      (1 without ``weights``) in the objective (with the at-most-one row over C_u, which also
+      tightens the LP).
     - **Aggregation (exact).** The other users (in a lens, or all of them without
       ``user_cliques``) with the same covering sites are covered together: one variable
-      y_g <= sum_{c in C_g} x_c counts all of them, with their number as its weight.
+      y_g <= sum_{c in C_g} x_c counts all of them, weighted by their total weight.
 
-    ``y`` maps a representative user of each aggregated group to its variable."""
-    by_user: dict[int, list[int]] = {}
-    for i, c in enumerate(cover):
-        for u in c.tolist():
-            by_user.setdefault(int(u), []).append(i)
+    ``y`` maps a representative user of each aggregated group to its variable; the last
+    mapping gives each aggregated user its representative."""
+    by_user = _sites_by_user(cover)
     cliques = (
         _user_clique_sites(pts, cover, problem.targets, problem.R_d) if user_cliques and len(pts) else {}
     )
-    site_w = np.zeros(len(pts), dtype=np.int64)
-    for sites in cliques.values():
-        site_w[sites] += 1
+    weight = (
+        problem.target_weights if problem.weights is not None else np.ones(len(problem.targets), np.int64)
+    )
+    site_w = np.zeros(len(pts), dtype=weight.dtype)
+    for u, sites in cliques.items():
+        site_w[sites] += weight[u]
         lin.add_at_most_one([x[i] for i in sites])
     groups: dict[tuple[int, ...], list[int]] = {}
     for u, sites in by_user.items():
         if u not in cliques:
             groups.setdefault(tuple(sites), []).append(u)
     y: dict[int, Any] = {}
-    terms = [int(site_w[i]) * x[i] for i in np.flatnonzero(site_w).tolist()]
+    group_of: dict[int, int] = {}
+    terms = [_coefficient(site_w[i]) * x[i] for i in np.flatnonzero(site_w).tolist()]
     for group, users in groups.items():
         v = lin.unit_var(f"y{users[0]}")
         y[users[0]] = v
+        group_of.update(dict.fromkeys(users, users[0]))
         lin.add_implies_any(v, [x[i] for i in group])  # (4.9): counted only if a chosen site covers it
-        terms.append(len(users) * v)
-    return y, lin.sum(terms), cliques, len(cliques)
+        terms.append(_coefficient(weight[users].sum()) * v)
+    return y, lin.sum(terms), cliques, len(cliques), group_of
+
+
+def _objective_part(lin, x: list, pts: np.ndarray, cover: list, problem: CellProblem, user_cliques: bool):
+    """The objective and its variables: (y, objective, clique rows, substituted users, group of
+    each user with a variable, assignment variables); the served weight with a capacity
+    (``_capacity_objective``), the covered weight otherwise (``_coverage_objective``)."""
+    if problem.capacity is None:
+        return (*_coverage_objective(lin, x, pts, cover, problem, user_cliques), {})
+    serve, objective = _capacity_objective(lin, x, cover, problem)
+    return {}, objective, {}, 0, {}, serve
+
+
+def _sites_by_user(cover: list) -> dict[int, list[int]]:
+    """Active-user index -> indices of the sites covering it (users no site covers left out)."""
+    by_user: dict[int, list[int]] = {}
+    for i, c in enumerate(cover):
+        for u in c.tolist():
+            by_user.setdefault(int(u), []).append(i)
+    return by_user
+
+
+def _capacity_objective(lin, x: list, cover: list, problem: CellProblem) -> tuple[dict, Any]:
+    """The served weight under ``problem.capacity`` as a linear expression: a 0-1 variable
+    s_{u,c} per user u and site c covering it, ``sum_c s_{u,c} <= 1`` (served once),
+    ``sum_u s_{u,c} <= C x_c`` (capacity, and only by a chosen site); returns ({(u, c): s_{u,c}},
+    objective sum_{u,c} w_u s_{u,c}). Users of weight 0 get no variable."""
+    capacity = int(problem.capacity or 0)
+    weight = problem.target_weights
+    serve: dict[tuple[int, int], Any] = {}
+    per_site: dict[int, list] = {}
+    terms = []
+    for u, sites in _sites_by_user(cover).items():
+        if weight[u] <= 0:
+            continue
+        arcs = []
+        for c in sites:
+            s_uc = lin.bool_var(f"s{u}_{c}")
+            serve[(u, c)] = s_uc
+            arcs.append(s_uc)
+            per_site.setdefault(c, []).append(s_uc)
+            terms.append(_coefficient(weight[u]) * s_uc)
+        lin.add_at_most_one(arcs)
+    for c, arcs in per_site.items():
+        lin.add(lin.sum(arcs) <= capacity * x[c])
+    return serve, lin.sum(terms)
+
+
+def _coefficient(w: float) -> float | int:
+    """An objective coefficient: an int when the weight is integral (CP-SAT keeps an integer objective)."""
+    return int(w) if float(w).is_integer() else float(w)
 
 
 def _light_site_rows(lin, x: list, weights: np.ndarray, lo: float, bounds: list[float]) -> int:
@@ -1048,7 +1166,9 @@ def build_milp(
     cover = [cand.cover[i] for i in idx]
     direct = cand.direct[idx]
     x = [lin.bool_var(f"x{i}") for i in range(len(pts))]
-    y, objective, user_clique_sites, n_subst = _coverage_objective(lin, x, pts, cover, problem, user_cliques)
+    y, objective, user_clique_sites, n_subst, group_of, serve = _objective_part(
+        lin, x, pts, cover, problem, user_cliques
+    )
     if x:
         lin.add(lin.sum(x) <= problem.n_cells)
     # (4.8) non-overlap: grid cliques, then every remaining conflicting pair
@@ -1103,6 +1223,11 @@ def build_milp(
         levels=z,
         squares=squares,
         stats=stats,
+        objective=objective,
+        group_of=group_of,
+        serve=serve,
+        user_sites=_sites_by_user(cover),
+        cliques=user_clique_sites,
     )
 
 
@@ -1517,7 +1642,7 @@ def lp_fixing(
 
 
 class _ModelSolve:
-    """One call of :func:`solve_model`: the prepared instance, the backend settings and the
+    """One call of :func:`solve_prepared`: the prepared instance, the backend settings and the
     search state shared by the rounds of the target scheme."""
 
     def __init__(
@@ -1530,7 +1655,7 @@ class _ModelSolve:
         max_rounds: int,
         user_cliques: bool,
     ) -> None:
-        """The arguments of :func:`solve_model`."""
+        """The arguments of :func:`solve_prepared`."""
         self.prep, self.backend, self.workers = prep, backend, workers
         self.connectivity, self.max_rounds, self.user_cliques = connectivity, max_rounds, user_cliques
         self.b_prev = _bound_m_minus_1(prep)
@@ -1779,7 +1904,7 @@ class _ModelSolve:
             g = state.inc_val + 0.5 * (g - state.inc_val) if g - state.inc_val > 2 else state.inc_val
 
 
-def solve_model(
+def solve_prepared(
     prep: Prepared,
     *,
     backend: str,

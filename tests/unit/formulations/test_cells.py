@@ -734,7 +734,7 @@ def test_default_workers_per_engine(monkeypatch, entry, engine, expected):
         return result
 
     monkeypatch.setattr(_exact, "_solve_bnb", bnb)
-    monkeypatch.setattr(_exact, "solve_model", model)
+    monkeypatch.setattr(_exact, "solve_prepared", model)
     monkeypatch.setattr(_exact, "_early_exit", lambda *a: None)
     p = random_small(0, 3, 1)
     kwargs = {} if expected == _exact.DEFAULT_WORKERS[engine] else {"workers": expected}

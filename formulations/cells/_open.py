@@ -1,0 +1,148 @@
+"""The open candidate model: solve a :class:`CellModel` as the user left it, and the engine of the
+model's variants (weights, no-fly zones, capacity).
+
+``build_milp(problem)`` writes the candidate model of the thesis problem and of its variants
+(see ``_milp``): the variants change the candidate set (no-fly zones remove sites and add the
+points where the users' R_d circles cross a zone's edge), the objective weights (the covered
+weight) or the objective itself (with a capacity, the served weight of a 0-1 assignment of
+users to chosen sites). The user adds rows and objective terms over the named variables;
+:func:`solve_model` solves the model once, with no reduction that assumes the objective (the
+incumbent pruning, light-site, dominance and LP-fixing rows of the thesis engine are not
+written), so its proof covers whatever the user added.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from droneplan.core.validation import check_bool, check_instance, check_int, check_time_limit
+from droneplan.formulations.cells._core import evaluate
+from droneplan.formulations.cells._milp import CellModel, build_milp
+from droneplan.scenarios.cells import CellProblem
+from droneplan.solvers.result import SolveResult, Status
+
+__all__ = ["solve_model", "solve_variant", "BNB_VARIANTS"]
+
+BNB_VARIANTS: tuple[str, ...] = ()
+"""Variants whose instances the branch and bound solves: none (its coverage bounds count users,
+its pruning assumes every site may be placed with any number of users). The MILP solves all."""
+
+
+def solve_model(
+    model: CellModel,
+    *,
+    time_limit: float | None = None,
+    workers: int | None = None,
+    verbose: bool = False,
+) -> SolveResult:
+    """Solve a :class:`CellModel` from :func:`build_milp`, with the rows and objective terms the
+    user added, and re-check its plan.
+
+    model: the built model (solved as it stands; it may be solved again after more rows).
+    time_limit: wall-clock limit (s), None: none. workers: backend threads / CP-SAT workers
+    (None: the backend's default). verbose: print the backend's log.
+
+    Returns a SolveResult: ``x`` the chosen sites ((k, 2) m), ``objective`` the model's
+    objective value (covered or served weight plus the user's terms), ``bound`` the backend's
+    proven bound on it; OPTIMAL when the backend proved it, INFEASIBLE when the rows admit no
+    plan (e.g. a user row no placement meets). ``info["evaluation"]`` is droneplan's
+    :func:`evaluate` of the plan (covered users, ``value``, violations); a plan that breaks the
+    problem's constraints is an ERROR result naming them. ``info["engine"]`` is "milp".
+    """
+    check_instance("model", model, CellModel)
+    limit = check_time_limit(time_limit)
+    if workers is not None:
+        workers = check_int("workers", workers, min_value=1)
+    verbose = check_bool("verbose", verbose)
+    t0 = time.perf_counter()
+    if not model.x:
+        return _empty_plan(model, t0)
+    raw = model.model.solve(variables=model.x, time_limit=limit, workers=workers, verbose=verbose)
+    return _checked(model, raw, t0)
+
+
+def _checked(model: CellModel, raw: SolveResult, t0: float) -> SolveResult:
+    """The backend's result with the chosen sites as the plan, checked by ``evaluate``."""
+    info: dict[str, Any] = {
+        "engine": "milp",
+        "model_stats": dict(model.stats),
+        "variants": model.problem.variants,
+    }
+    if not raw.has_solution:
+        return SolveResult(
+            raw.status,
+            bound=raw.bound,
+            backend=model.backend,
+            backend_status=raw.backend_status,
+            message=raw.message or f"the candidate model on {model.backend}: {raw.status.value}",
+            solve_time=time.perf_counter() - t0,
+            info=info,
+        )
+    chosen = np.asarray(raw.x, dtype=float) > 0.5
+    plan = model.points[chosen].reshape(-1, 2)
+    ev = evaluate(model.problem, plan)
+    info["evaluation"] = ev
+    status, message = raw.status, f"the candidate model on {model.backend} (engine 'milp')"
+    if not ev.feasible:
+        status = Status.ERROR
+        message += "; its plan breaks the problem's constraints: " + "; ".join(ev.violations[:3])
+    elif status is Status.OPTIMAL:
+        message += ": proven optimal over the candidate sites"
+    else:
+        message += f": stopped ({raw.backend_status or raw.status.value}), optimality not proven"
+    return SolveResult(
+        status,
+        objective=None if raw.objective is None else float(raw.objective),
+        bound=None if raw.bound is None else float(raw.bound),
+        x=plan,
+        backend=model.backend,
+        backend_status=raw.backend_status,
+        message=message,
+        solve_time=time.perf_counter() - t0,
+        iterations=raw.iterations,
+        info=info,
+    )
+
+
+def _empty_plan(model: CellModel, t0: float) -> SolveResult:
+    """No candidate site is left (every one forbidden, or no user to cover): the empty plan,
+    optimal (a user row on an empty model is checked by the backend as any other)."""
+    plan = np.zeros((0, 2))
+    raw = model.model.solve(variables=[], time_limit=None)
+    if not raw.has_solution:
+        return _checked(model, raw, t0)
+    ev = evaluate(model.problem, plan)
+    return SolveResult(
+        Status.OPTIMAL,
+        objective=0.0 if raw.objective is None else float(raw.objective),
+        bound=0.0 if raw.objective is None else float(raw.objective),
+        x=plan,
+        backend=model.backend,
+        backend_status=raw.backend_status,
+        message="no candidate site can be placed: the empty plan is optimal",
+        solve_time=time.perf_counter() - t0,
+        info={"engine": "milp", "evaluation": ev, "variants": model.problem.variants},
+    )
+
+
+def solve_variant(
+    problem: CellProblem, *, backend: str, time_limit: float | None, workers: int | None
+) -> SolveResult:
+    """The exact solve of a variant instance (``solve_exact``'s MILP path for it): the whole
+    candidate model, built and solved once within ``time_limit`` (s)."""
+    t0 = time.perf_counter()
+    model = build_milp(problem, backend=backend)
+    if model is None:  # only a deadline or a term cap stops a build, and neither is given
+        raise RuntimeError("the candidate model of a variant instance was not built")
+    left = None if time_limit is None else max(time_limit - (time.perf_counter() - t0), 0.0)
+    result = solve_model(model, time_limit=left, workers=workers)
+    return _with_total_time(result, t0)
+
+
+def _with_total_time(result: SolveResult, t0: float) -> SolveResult:
+    from dataclasses import replace
+
+    return replace(result, solve_time=time.perf_counter() - t0)

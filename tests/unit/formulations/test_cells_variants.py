@@ -1,0 +1,227 @@
+"""The cells variants (weights, no-fly zones, capacity) and the open model: the MILP against brute
+force over the candidate sites, evaluate's checks, the user's rows, bad input."""
+
+from __future__ import annotations
+
+import itertools
+import pickle
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from shapely.geometry import box
+
+import droneplan as dp
+from droneplan.formulations.cells import (
+    CellProblem,
+    build_milp,
+    candidate_sites,
+    evaluate,
+    solve_exact,
+    solve_model,
+)
+from droneplan.solvers.result import Status
+
+RADII = {"R_d": 1.0, "R_g": 1.0, "r1": 3.0, "r2": 2.5}
+
+
+def _best_value_by_enumeration(problem: CellProblem, extra_ok=None) -> float:
+    """The largest ``evaluate(...).value`` over every feasible set of 0..m candidate sites (that
+    also passes ``extra_ok(plan)`` when given); -inf when no set qualifies."""
+    cand = candidate_sites(problem)
+    best = -np.inf
+    for k in range(problem.n_cells + 1):
+        for combo in itertools.combinations(range(len(cand.points)), k):
+            plan = cand.points[list(combo)].reshape(-1, 2)
+            ev = evaluate(problem, plan)
+            if ev.feasible and (extra_ok is None or extra_ok(plan, ev)) and ev.value > best:
+                best = ev.value
+    return best
+
+
+def _users(seed: int, n: int) -> np.ndarray:
+    return np.random.default_rng(seed).uniform(-4.5, 4.5, size=(n, 2))
+
+
+SMALL = settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+@SMALL
+@given(seed=st.integers(0, 10_000), m=st.integers(1, 2), backend=st.sampled_from(["cp-sat", "highs"]))
+def test_weighted_milp_equals_brute_force(seed, m, backend):
+    rng = np.random.default_rng(seed)
+    users = _users(seed, 7)
+    weights = np.round(rng.uniform(0.0, 5.0, len(users)), 3)
+    p = CellProblem(users, [[0.0, 0.0]], m, **RADII, weights=weights)
+    res = solve_exact(p, backend=backend, time_limit=60)
+    assert res.status is Status.OPTIMAL and res.info["engine"] == "milp"
+    best = _best_value_by_enumeration(p)
+    assert res.objective == pytest.approx(best, abs=1e-3)
+    assert evaluate(p, res.x).feasible
+    assert evaluate(p, res.x).value == pytest.approx(best, abs=1e-3)
+    assert res.objective <= res.bound + 1e-3
+
+
+@SMALL
+@given(
+    seed=st.integers(0, 10_000),
+    m=st.integers(1, 2),
+    corner=st.tuples(st.floats(-4, 2), st.floats(-4, 2)),
+    size=st.floats(0.5, 3.0),
+)
+def test_no_fly_milp_equals_brute_force(seed, m, corner, size):
+    zone = box(corner[0], corner[1], corner[0] + size, corner[1] + size)
+    p = CellProblem(_users(seed, 7), [[0.0, 0.0]], m, **RADII, no_fly=[zone])
+    res = solve_exact(p, time_limit=60)
+    assert res.status is Status.OPTIMAL
+    assert res.objective == pytest.approx(_best_value_by_enumeration(p))
+    ev = evaluate(p, res.x)
+    assert ev.feasible
+    for site in res.x:
+        assert zone.exterior.distance(_point(site)) > 0 and not zone.contains(_point(site))
+
+
+def _point(xy):
+    from shapely.geometry import Point
+
+    return Point(float(xy[0]), float(xy[1]))
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), m=st.integers(1, 2), capacity=st.integers(1, 3), weighted=st.booleans())
+def test_capacity_milp_equals_brute_force(seed, m, capacity, weighted):
+    rng = np.random.default_rng(seed)
+    users = _users(seed, 6)
+    weights = rng.integers(0, 4, len(users)).astype(float) if weighted else None
+    p = CellProblem(users, [[0.0, 0.0]], m, **RADII, capacity=capacity, weights=weights)
+    res = solve_exact(p, time_limit=60)
+    assert res.status is Status.OPTIMAL
+    assert res.objective == pytest.approx(_best_value_by_enumeration(p))
+    assert evaluate(p, res.x).value == pytest.approx(res.objective)
+
+
+def test_served_weight_is_a_b_matching():
+    """Three users in one drone-cell of capacity 2: the two heaviest are served."""
+    p = CellProblem([[5.0, 0.0], [5.2, 0.0], [5.0, 0.2]], [[0.0, 0.0]], 1, **RADII, weights=[1.0, 4.0, 2.0])
+    site = [[5.1, 0.1]]
+    assert evaluate(p, site).value == pytest.approx(7.0)
+    capped = CellProblem(p.users, p.gbs, 1, **RADII, weights=p.weights, capacity=2)
+    assert evaluate(capped, site).value == pytest.approx(6.0)
+    assert evaluate(capped, site).covered == 3  # covered is still the count within R_d
+
+
+def test_evaluate_flags_a_site_in_or_on_a_no_fly_zone():
+    p = CellProblem([[2.5, 0.0]], [[0.0, 0.0]], 2, **RADII, no_fly=[box(2.2, -1.0, 2.8, 1.0)])
+    assert "no-fly" in " ".join(evaluate(p, [[2.5, 0.0]]).violations)
+    assert not evaluate(p, [[2.8, 0.5]]).feasible  # on the edge
+    assert evaluate(p, [[2.81, 0.0]]).feasible
+
+
+def test_the_default_problem_is_the_thesis_model():
+    p = CellProblem(_users(0, 10), [[0.0, 0.0]], 2, **RADII)
+    assert p.variants == ()
+    assert solve_exact(p, time_limit=60).info["engine"] == "bnb"
+    assert evaluate(p, [[2.5, 0.0]]).value == evaluate(p, [[2.5, 0.0]]).covered
+
+
+def test_variants_survive_pickling_and_with_cells():
+    zone = box(1.0, 1.0, 2.0, 2.0)
+    p = CellProblem(
+        _users(1, 5), [[0.0, 0.0]], 2, **RADII, weights=[1, 2, 3, 4, 5], no_fly=[zone], capacity=2
+    )
+    for q in (pickle.loads(pickle.dumps(p)), p.with_cells(3)):
+        assert q.variants == ("weights", "no_fly", "capacity")
+        assert np.array_equal(q.weights, p.weights) and q.capacity == 2 and q.no_fly[0].equals(zone)
+
+
+def test_the_branch_and_bound_refuses_a_variant_naming_the_engine_that_can():
+    p = CellProblem(_users(2, 5), [[0.0, 0.0]], 2, **RADII, capacity=1)
+    with pytest.raises(ValueError, match=r"engine 'bnb'.*capacity.*milp"):
+        solve_exact(p, engine="bnb")
+
+
+def test_a_no_fly_zone_over_every_site_gives_the_empty_plan_optimal():
+    p = CellProblem(_users(3, 6), [[0.0, 0.0]], 2, **RADII, no_fly=[box(-50, -50, 50, 50)])
+    res = solve_exact(p, time_limit=30)
+    assert res.status is Status.OPTIMAL
+    assert res.x.shape == (0, 2) and res.objective == 0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"weights": [1.0, -1.0, 1.0]}, "weights"),
+        ({"weights": [1.0, float("nan"), 1.0]}, "weights"),
+        ({"weights": [1.0, 1.0]}, "weights"),
+        ({"no_fly": [[[0, 0], [1, 0], [1, 1]]]}, "no_fly"),  # not closed
+        ({"no_fly": [[[0, 0], [1, 1], [1, 0], [0, 1], [0, 0]]]}, "no_fly"),  # self-intersecting
+        ({"no_fly": ["a square"]}, "no_fly"),
+        ({"capacity": 0}, "capacity"),
+        ({"capacity": 1.5}, "capacity"),
+    ],
+)
+def test_bad_variant_input_is_a_one_line_error_naming_the_field(kwargs, field):
+    with pytest.raises((ValueError, TypeError)) as err:
+        CellProblem([[3.0, 0.0], [4.0, 0.0], [5.0, 0.0]], [[0.0, 0.0]], 2, **RADII, **kwargs)
+    assert field in str(err.value) and "\n" not in str(err.value)
+
+
+# ------------------------------------------------------------------------ the open model
+def test_user_rows_forbidding_sites_and_covering_a_district_are_proven_by_brute_force():
+    """A polygon that forbids sites plus "cover at least half of the users inside a district"."""
+    users = _users(11, 8)
+    p = CellProblem(users, [[0.0, 0.0]], 2, **RADII)
+    forbidden = box(0.0, -5.0, 5.0, 0.0)
+    district = box(-5.0, 0.0, 0.0, 5.0)
+    inside = [u for u, xy in enumerate(p.targets) if district.contains(_point(xy))]
+    need = int(np.ceil(0.5 * len(inside)))
+    model = build_milp(p)
+    for i in model.sites_in(forbidden):
+        model.add(model.x[i] == 0)
+    model.add(model.sum(model.covered(u) for u in inside) >= need)
+    res = solve_model(model, time_limit=60)
+
+    def allowed(plan, ev):
+        in_district = sum(bool(ev.covered_mask[np.flatnonzero(p.active)[u]]) for u in inside)
+        return in_district >= need and not any(forbidden.intersects(_point(s)) for s in plan)
+
+    best = _best_value_by_enumeration(p, allowed)
+    if best == -np.inf:
+        assert res.status is Status.INFEASIBLE
+    else:
+        assert res.status is Status.OPTIMAL and res.objective == pytest.approx(best)
+        assert allowed(res.x, evaluate(p, res.x))
+
+
+def test_a_row_no_plan_meets_is_infeasible_not_an_error():
+    p = CellProblem(_users(5, 6), [[0.0, 0.0]], 1, **RADII)
+    model = build_milp(p)
+    model.add(model.sum(model.x) >= 2)  # one drone-cell at most
+    assert solve_model(model, time_limit=30).status is Status.INFEASIBLE
+
+
+def test_covered_expressions_match_the_plan_on_every_backend():
+    p = CellProblem(_users(7, 9), [[0.0, 0.0]], 2, **RADII, weights=np.arange(9.0))
+    for backend in ("cp-sat", "highs"):
+        model = build_milp(p, backend=backend)
+        res = solve_model(model, time_limit=60)
+        assert res.status is Status.OPTIMAL
+        ev = res.info["evaluation"]
+        assert res.objective == pytest.approx(ev.value)
+        assert res.objective == pytest.approx(_best_value_by_enumeration(p))
+
+
+def test_an_objective_term_changes_the_optimum():
+    """Maximise coverage minus a cost of 10 per drone-cell: on users far from the GBS, none pays."""
+    p = CellProblem([[3.0, 0.0], [3.5, 0.2]], [[0.0, 0.0]], 2, **RADII)
+    model = build_milp(p)
+    model.add_objective(-10 * model.sum(model.x))
+    res = solve_model(model, time_limit=30)
+    assert res.status is Status.OPTIMAL and res.objective == 0 and res.x.shape == (0, 2)
+
+
+def test_the_front_door_reaches_the_open_model():
+    assert dp.cells.solve_model is solve_model
+    p = dp.cells.CellProblem(_users(9, 4), [[0.0, 0.0]], 1, **RADII)
+    assert dp.cells.build_milp(p).heights is None
