@@ -31,6 +31,10 @@ BNB_VARIANTS: tuple[str, ...] = ()
 its pruning assumes every site may be placed with any number of users). The MILP solves all."""
 
 
+MAX_WORKERS = 1024
+"""Most backend threads / CP-SAT workers ``solve_model`` accepts."""
+
+
 def solve_model(
     model: CellModel,
     *,
@@ -42,8 +46,8 @@ def solve_model(
     user added, and re-check its plan.
 
     model: the built model (solved as it stands; it may be solved again after more rows).
-    time_limit: wall-clock limit (s), None: none. workers: backend threads / CP-SAT workers
-    (None: the backend's default). verbose: print the backend's log.
+    time_limit: wall-clock limit (s), None: none. workers: backend threads / CP-SAT workers,
+    1..``MAX_WORKERS`` (None: the backend's default). verbose: print the backend's log.
 
     Returns a SolveResult: ``x`` the chosen sites ((k, 2) m), ``objective`` the model's
     objective value (covered or served weight plus the user's terms), ``bound`` the backend's
@@ -55,7 +59,7 @@ def solve_model(
     check_instance("model", model, CellModel)
     limit = check_time_limit(time_limit)
     if workers is not None:
-        workers = check_int("workers", workers, min_value=1)
+        workers = check_int("workers", workers, min_value=1, max_value=MAX_WORKERS)
     verbose = check_bool("verbose", verbose)
     t0 = time.perf_counter()
     if not model.x:

@@ -231,6 +231,10 @@ SPECS: dict[str, Spec] = {
     ),
     "candidate_sites": Spec(lambda: ((P(),), {}), {"problem": "object"}),
     "build_milp": Spec(lambda: ((P(),), {}), {"problem": "object"}),
+    "solve_model": Spec(
+        lambda: ((dp.cells.build_milp(P()),), {"time_limit": 5.0}),
+        {"model": "object", "time_limit": "time_limit", "workers": "int>=1"},
+    ),
     "load_cells_csv": Spec(
         lambda: ((_data_file("points.csv"),), {"n_cells": 2}), {"n_cells": "int>=1", "params": "object?"}
     ),
