@@ -27,6 +27,7 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
         coverage_upper_bound,
         evaluate,
         greedy_placement,
+        min_fleet,
         solve_exact,
         solve_milp,
         solve_model,
@@ -86,6 +87,7 @@ __all__ = [
     "CellModel",
     "build_milp",
     "solve_model",
+    "min_fleet",
     "solve_milp",
     "solve_exact",
     "branch_and_bound",
@@ -132,6 +134,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "solve_exact",
         "solve_milp",
         "solve_model",
+        "min_fleet",
     ),
     "droneplan.planners.cells": (
         "GASettings",

@@ -16,6 +16,7 @@ from droneplan.formulations.cells._core import (
     raw_candidate_points,
 )
 from droneplan.formulations.cells._exact import ENGINES, branch_and_bound, solve_exact, solve_milp
+from droneplan.formulations.cells._fleet import min_fleet
 from droneplan.formulations.cells._milp import BACKENDS, CellModel, build_milp, reduce_candidates
 from droneplan.formulations.cells._open import BNB_VARIANTS, solve_model
 from droneplan.formulations.cells._prepare import coverage_upper_bound, greedy_placement
@@ -39,6 +40,7 @@ __all__ = [
     "reduce_candidates",
     "build_milp",
     "solve_model",
+    "min_fleet",
     "BNB_VARIANTS",
     "solve_milp",
     "solve_exact",

@@ -14,6 +14,7 @@ written), so its proof covers whatever the user added.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -147,6 +148,4 @@ def solve_variant(
 
 
 def _with_total_time(result: SolveResult, t0: float) -> SolveResult:
-    from dataclasses import replace
-
     return replace(result, solve_time=time.perf_counter() - t0)

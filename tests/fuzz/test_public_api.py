@@ -231,6 +231,10 @@ SPECS: dict[str, Spec] = {
     ),
     "candidate_sites": Spec(lambda: ((P(),), {}), {"problem": "object"}),
     "build_milp": Spec(lambda: ((P(),), {}), {"problem": "object"}),
+    "min_fleet": Spec(
+        lambda: ((P(),), {"coverage": 0.5, "time_limit": 5.0}),
+        {"problem": "object", "time_limit": "time_limit", "coverage": "positive"},
+    ),
     "solve_model": Spec(
         lambda: ((dp.cells.build_milp(P()),), {"time_limit": 5.0}),
         {"model": "object", "time_limit": "time_limit", "workers": "int>=1"},

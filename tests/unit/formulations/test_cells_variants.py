@@ -225,3 +225,41 @@ def test_the_front_door_reaches_the_open_model():
     assert dp.cells.solve_model is solve_model
     p = dp.cells.CellProblem(_users(9, 4), [[0.0, 0.0]], 1, **RADII)
     assert dp.cells.build_milp(p).heights is None
+
+
+# ------------------------------------------------------------------------ the smallest fleet
+def _fewest_by_enumeration(problem: CellProblem, need: float) -> int | None:
+    """The fewest candidate sites of a feasible placement worth at least ``need``; None if none is."""
+    cand = candidate_sites(problem)
+    for k in range(problem.n_cells + 1):
+        for combo in itertools.combinations(range(len(cand.points)), k):
+            ev = evaluate(problem, cand.points[list(combo)].reshape(-1, 2))
+            if ev.feasible and ev.value >= need - 1e-9:
+                return k
+    return None
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), share=st.sampled_from([0.2, 0.4, 0.6, 1.0]), weighted=st.booleans())
+def test_min_fleet_equals_brute_force(seed, share, weighted):
+    rng = np.random.default_rng(seed)
+    users = rng.uniform(-3.5, 3.5, size=(6, 2))
+    weights = rng.integers(1, 4, len(users)).astype(float) if weighted else None
+    p = CellProblem(users, [[0.0, 0.0]], 3, **RADII, weights=weights)
+    total = float(p.target_weights.sum())
+    res = dp.cells.min_fleet(p, coverage=share, time_limit=60)
+    fewest = _fewest_by_enumeration(p, np.ceil(share * total - 1e-9))
+    if fewest is None:
+        assert res.status is Status.INFEASIBLE
+        assert res.info["best_share"] == pytest.approx(_best_value_by_enumeration(p) / total)
+    else:
+        assert res.status is Status.OPTIMAL
+        assert res.objective == fewest == len(res.x) and res.bound == fewest
+        assert evaluate(p, res.x).feasible and res.info["covered_share"] >= share - 1e-9
+
+
+def test_min_fleet_refuses_a_share_outside_0_1():
+    p = CellProblem(_users(0, 5), [[0.0, 0.0]], 2, **RADII)
+    for bad in (0.0, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="coverage"):
+            dp.cells.min_fleet(p, coverage=bad)
