@@ -227,6 +227,7 @@ def fitness(problem: CellProblem, pop: ArrayLike, *, chunk: int = 2048) -> NDArr
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    problem.require_thesis_model("fitness")
     chunk = check_int("chunk", chunk, min_value=1)
     arr = check_array("pop", pop)
     if arr.ndim < 2 or arr.shape[-1] != 2:
@@ -404,6 +405,7 @@ def genetic(
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    problem.require_thesis_model("genetic")
     P0, N0 = thesis_ga_settings(problem.n_cells)
     P = P0 if pop_size is None else pop_size
     N = N0 if restarts is None else restarts
@@ -723,6 +725,7 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None, prune: 
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    problem.require_thesis_model("exhaustive")
     time_limit = check_time_limit(time_limit)
     if not isinstance(prune, bool):
         raise TypeError(f"prune must be a bool, got {type(prune).__name__}")
@@ -814,6 +817,7 @@ def polish(problem: CellProblem, positions: ArrayLike, *, max_passes: int = 10) 
     """
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
+    problem.require_thesis_model("polish")
     max_passes = check_int("max_passes", max_passes, min_value=0)
     pos = check_array("positions", positions, shape=(None, 2))
     if not evaluate(problem, pos).feasible:

@@ -447,6 +447,15 @@ class CellProblem:
         used = {"weights": self.weights is not None, "no_fly": bool(self.no_fly), "capacity": self.capacity}
         return tuple(name for name, on in used.items() if on)
 
+    def require_thesis_model(self, method: str) -> None:
+        """ValueError when this instance uses a variant, for a ``method`` written for the thesis
+        model only (its message names the variants and what solves them)."""
+        if self.variants:
+            raise ValueError(
+                f"{method} solves the thesis model only, not an instance with {', '.join(self.variants)}: "
+                "use greedy_placement or solve_exact"
+            )
+
     def _variant_kwargs(self) -> dict[str, Any]:
         return {"weights": self.weights, "no_fly": self.no_fly, "capacity": self.capacity}
 

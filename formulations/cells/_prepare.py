@@ -24,6 +24,7 @@ from droneplan.formulations.cells._core import (
     candidate_sites,
     coverage_lists,
     evaluate,
+    in_no_fly,
     merge_points,
     pair_intersections,
     pairwise_distances,
@@ -170,6 +171,10 @@ def greedy_placement(problem: CellProblem, cand: Candidates | None = None) -> np
     for pruning): repeatedly add the site covering most new users among those that
     keep the placement feasible (no overlap, linked to a GBS or a placed site).
 
+    Variants: with ``weights`` "most" is the most new weight; with a ``capacity`` C a site
+    gains (and serves) the C heaviest users it covers that no placed site serves yet; no-fly
+    zones hold no candidate.
+
     problem: the CellProblem (users, GBSs, m, radii in metres).
     cand: the Candidates of ``problem`` (default: ``candidate_sites(problem)``).
     """
@@ -183,18 +188,25 @@ def greedy_placement(problem: CellProblem, cand: Candidates | None = None) -> np
     member = np.zeros((len(pts), max(n, 1)), dtype=bool)
     for i, c in enumerate(cand.cover):
         member[i, c] = True
+    weight = np.zeros(member.shape[1])
+    weight[:n] = problem.target_weights
     covered = np.zeros(member.shape[1], dtype=bool)
     ok = np.ones(len(pts), dtype=bool)
     linked = cand.direct.copy()
     chosen: list[int] = []
     for _ in range(problem.n_cells):
-        gain = (member & ~covered).sum(1)
-        score = np.where(ok & linked, gain, -1)
+        new = np.where(member & ~covered, weight, 0.0)
+        if problem.capacity is not None and problem.capacity < new.shape[1]:
+            new = -np.partition(-new, problem.capacity - 1, axis=1)[:, : problem.capacity]
+        score = np.where(ok & linked, new.sum(1), -1.0)
         i = int(np.argmax(score))
         if score[i] <= 0:
             break
         chosen.append(i)
-        covered |= member[i]
+        served = np.flatnonzero(member[i] & ~covered)
+        if problem.capacity is not None:
+            served = served[np.argsort(-weight[served], kind="stable")[: problem.capacity]]
+        covered[served] = True
         d = np.hypot(*(pts - pts[i]).T)
         ok &= d >= 2 * problem.R_d - TOL
         linked |= d <= problem.r2 + TOL
@@ -214,6 +226,7 @@ def _feasible_subset(problem: CellProblem, pos: np.ndarray) -> np.ndarray:
             xmin, xmax, ymin, ymax = problem.bounds
             ok &= (pos[:, 0] >= xmin - TOL) & (pos[:, 0] <= xmax + TOL)
             ok &= (pos[:, 1] >= ymin - TOL) & (pos[:, 1] <= ymax + TOL)
+        ok[[i for i, _ in in_no_fly(problem, pos)]] = False
         pos = pos[ok]
     while len(pos):
         ev = evaluate(problem, pos)

@@ -263,3 +263,36 @@ def test_min_fleet_refuses_a_share_outside_0_1():
     for bad in (0.0, 1.5, float("nan")):
         with pytest.raises(ValueError, match="coverage"):
             dp.cells.min_fleet(p, coverage=bad)
+
+
+# ------------------------------------------------------------------------ heuristics
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), capacity=st.sampled_from([None, 1, 2]), zone=st.booleans())
+def test_greedy_on_a_variant_is_feasible_and_below_the_optimum(seed, capacity, zone):
+    rng = np.random.default_rng(seed)
+    users = _users(seed, 7)
+    no_fly = [box(0.5, 0.5, 2.5, 2.5)] if zone else ()
+    p = CellProblem(
+        users, [[0.0, 0.0]], 2, **RADII, weights=rng.uniform(0, 3, 7), capacity=capacity, no_fly=no_fly
+    )
+    plan = dp.cells.greedy_placement(p)
+    ev = evaluate(p, plan)
+    assert ev.feasible
+    assert ev.value <= _best_value_by_enumeration(p) + 1e-9
+
+
+def test_greedy_follows_the_weights_and_the_capacity():
+    """Two groups a relay apart from each other, one drone-cell: the heavier group wins; with a
+    capacity of one the single heaviest user decides."""
+    users = [[2.5, 0.0], [2.6, 0.1], [2.6, -0.1], [-2.5, 0.0]]
+    light_group = CellProblem(users, [[0.0, 0.0]], 1, **RADII, weights=[1.0, 1.0, 1.0, 5.0])
+    assert evaluate(light_group, dp.cells.greedy_placement(light_group)).value == pytest.approx(5.0)
+    capped = CellProblem(users, [[0.0, 0.0]], 1, **RADII, weights=[3.0, 3.0, 3.0, 4.0], capacity=1)
+    assert evaluate(capped, dp.cells.greedy_placement(capped)).value == pytest.approx(4.0)
+
+
+@pytest.mark.parametrize("method", ["genetic", "exhaustive"])
+def test_thesis_heuristics_refuse_a_variant_naming_what_solves_it(method):
+    p = CellProblem(_users(4, 5), [[0.0, 0.0]], 2, **RADII, weights=np.ones(5))
+    with pytest.raises(ValueError, match=r"thesis model only.*weights.*greedy_placement"):
+        getattr(dp.cells, method)(p)
