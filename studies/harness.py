@@ -254,9 +254,9 @@ def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scor
         more = f" (+{len(ev.violations) - 3} more)" if len(ev.violations) > 3 else ""
         scored.status = "infeasible"
         scored.message = "; ".join(ev.violations[:3]) + more
-        scored.extras["covered_if_feasible"] = ev.covered
+        scored.extras["covered_if_feasible"] = ev.value
         return scored
-    scored.objective = float(ev.covered)
+    scored.objective = float(ev.value)  # covered users; the covered (served) weight of a variant
     if method.trusted_bound and isinstance(returned, SolveResult):
         bound = _number(returned.bound)
         if bound is not None:

@@ -159,12 +159,48 @@ def _cells_to(p: CellProblem) -> dict:
         "r1": float(p.r1),
         "r2": float(p.r2),
         "bounds": None if p.bounds is None else [float(b) for b in p.bounds],
+        **_cells_variants_to(p),
     }
 
 
+def _cells_variants_to(p: CellProblem) -> dict:
+    """The variant fields of a cells instance (none for the thesis model, so its data, and so its
+    fingerprint, stay as they were): weights, no-fly zones as rings (exterior first, closed
+    vertex lists in metres) and the capacity."""
+    out: dict[str, Any] = {}
+    if p.weights is not None:
+        out["weights"] = _arr(p.weights)
+    if p.no_fly:
+        out["no_fly"] = [
+            [_arr(zone.exterior.coords), *(_arr(hole.coords) for hole in zone.interiors)] for zone in p.no_fly
+        ]
+    if p.capacity is not None:
+        out["capacity"] = int(p.capacity)
+    return out
+
+
 def _cells_from(d: Mapping[str, Any]) -> CellProblem:
+    from shapely.geometry import Polygon
+
     users = np.asarray(d["users"]).reshape(-1, 2)  # no float(): "1.5" or true stays refused
-    return CellProblem(users, d["gbs"], d["n_cells"], d["R_d"], d["R_g"], d["r1"], d["r2"], d.get("bounds"))
+    zones = []
+    for i, rings in enumerate(d.get("no_fly") or []):
+        if not isinstance(rings, list) or not rings:
+            raise ValueError(f"no_fly[{i}] must be a list of rings (closed vertex lists), exterior first")
+        zones.append(Polygon(rings[0], rings[1:]))
+    return CellProblem(
+        users,
+        d["gbs"],
+        d["n_cells"],
+        d["R_d"],
+        d["R_g"],
+        d["r1"],
+        d["r2"],
+        d.get("bounds"),
+        weights=d.get("weights"),
+        no_fly=zones,
+        capacity=d.get("capacity"),
+    )
 
 
 def _alloc_to(a: AllocationInstance) -> dict:
