@@ -44,6 +44,7 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
         polish,
         thesis_ga_settings,
     )
+    from droneplan.scenarios.air_to_ground import AirToGround
     from droneplan.scenarios.cells import (
         THESIS_GA_TABLE_4_1,
         THESIS_TABLE_4_2,
@@ -66,6 +67,7 @@ __all__ = [
     # scenarios and presets
     "CellParams",
     "CellProblem",
+    "AirToGround",
     "Instance",
     "THESIS_TABLE_4_2",
     "THESIS_TABLE_4_3",
@@ -161,6 +163,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "thesis_problem",
         "uniform_users",
     ),
+    "droneplan.scenarios.air_to_ground": ("AirToGround",),
     "droneplan.scenarios.loaders": (
         "ProjectedCells",
         "load_cells_csv",

@@ -31,6 +31,7 @@ from droneplan.core.validation import (
     check_positive,
     check_size,
 )
+from droneplan.scenarios.air_to_ground import AirToGround
 
 __all__ = [
     "CellParams",
@@ -324,6 +325,11 @@ class CellProblem:
     capacity: an int >= 1, the most users one drone-cell serves (None: no limit). A user is then
         counted once, served by one drone-cell within R_d, and the objective is the served
         weight (a b-matching of users to drone-cells).
+    altitudes, channel: altitude levels (m, > 0) and an :class:`AirToGround` channel, given
+        together. Each drone-cell flies at one level h, covers the users within R(h) on the
+        ground (the channel's coverage radius; ``R_d`` is then unused), and plans are (k, 3)
+        arrays (x, y, h). Non-overlap: ground distance >= R(h_i) + R(h_j); GBS keep-out: ground
+        distance >= R_g + R(h); backhaul in 3-D: drone-drone <= r2, drone-GBS (at height 0) <= r1.
 
     Instances are immutable (arrays are copied and made read-only).
     """
@@ -332,9 +338,12 @@ class CellProblem:
         "R_d",
         "R_g",
         "active",
+        "altitudes",
         "bounds",
         "capacity",
+        "channel",
         "gbs",
+        "level_radii",
         "n_cells",
         "no_fly",
         "r1",
@@ -356,6 +365,9 @@ class CellProblem:
     weights: NDArray[np.float64] | None
     no_fly: tuple[Any, ...]
     capacity: int | None
+    altitudes: tuple[float, ...] | None
+    channel: AirToGround | None
+    level_radii: NDArray[np.float64] | None
 
     def __init__(
         self,
@@ -371,6 +383,8 @@ class CellProblem:
         weights: ArrayLike | None = None,
         no_fly: Any = (),
         capacity: int | None = None,
+        altitudes: ArrayLike | None = None,
+        channel: AirToGround | None = None,
     ) -> None:
         pts = check_array("users", users, shape=(None, 2))
         stations = check_array("gbs", gbs, shape=(None, 2), min_rows=1)
@@ -411,6 +425,7 @@ class CellProblem:
         zones = _as_no_fly(no_fly)
         if capacity is not None:
             capacity = check_int("capacity", capacity, min_value=1)
+        levels, level_radii = _as_levels(altitudes, channel)
         pts.setflags(write=False)
         stations.setflags(write=False)
         active.setflags(write=False)
@@ -424,6 +439,9 @@ class CellProblem:
         object.__setattr__(self, "weights", demand)
         object.__setattr__(self, "no_fly", zones)
         object.__setattr__(self, "capacity", capacity)
+        object.__setattr__(self, "altitudes", levels)
+        object.__setattr__(self, "channel", channel)
+        object.__setattr__(self, "level_radii", level_radii)
 
     def __setattr__(self, name: str, value: object) -> None:  # immutable
         raise AttributeError("CellProblem is immutable; use with_cells() or build a new one")
@@ -443,8 +461,13 @@ class CellProblem:
     @property
     def variants(self) -> tuple[str, ...]:
         """The variants of the thesis model this instance uses ("weights", "no_fly",
-        "capacity"); empty for the thesis model."""
-        used = {"weights": self.weights is not None, "no_fly": bool(self.no_fly), "capacity": self.capacity}
+        "capacity", "altitudes"); empty for the thesis model."""
+        used = {
+            "weights": self.weights is not None,
+            "no_fly": bool(self.no_fly),
+            "capacity": self.capacity,
+            "altitudes": self.altitudes is not None,
+        }
         return tuple(name for name, on in used.items() if on)
 
     def require_thesis_model(self, method: str) -> None:
@@ -457,7 +480,18 @@ class CellProblem:
             )
 
     def _variant_kwargs(self) -> dict[str, Any]:
-        return {"weights": self.weights, "no_fly": self.no_fly, "capacity": self.capacity}
+        return {
+            "weights": self.weights,
+            "no_fly": self.no_fly,
+            "capacity": self.capacity,
+            "altitudes": self.altitudes,
+            "channel": self.channel,
+        }
+
+    @property
+    def plan_width(self) -> int:
+        """Columns of a plan: 3 (x, y, h) with altitude levels, 2 (x, y) without."""
+        return 2 if self.altitudes is None else 3
 
     def __reduce__(self) -> tuple:
         # pickled through the constructor (slots and the immutable __setattr__ defeat the default),
@@ -489,6 +523,36 @@ class CellProblem:
             f"n_cells={self.n_cells}, R_d={self.R_d}, R_g={self.R_g}, r1={self.r1}, r2={self.r2}, "
             f"bounds={self.bounds}" + "".join(f", {name}=..." for name in self.variants) + ")"
         )
+
+
+def _as_levels(
+    altitudes: ArrayLike | None, channel: AirToGround | None
+) -> tuple[tuple[float, ...] | None, NDArray[np.float64] | None]:
+    """The altitude levels (sorted, distinct, m) and the coverage radius R(h) of each (m)."""
+    if altitudes is None and channel is None:
+        return None, None
+    if altitudes is None or channel is None:
+        raise ValueError(
+            "altitudes and channel must be given together (the channel sets each level's radius)"
+        )
+    if not isinstance(channel, AirToGround):
+        raise TypeError(f"channel must be an AirToGround, got {type(channel).__name__}")
+    levels = check_array("altitudes", altitudes, shape=(None,))
+    if not len(levels):
+        raise ValueError("altitudes must hold at least one level")
+    if np.any(levels <= 0):
+        raise ValueError(f"altitudes must be > 0 m, got {float(levels.min())}")
+    levels = np.unique(levels)
+    radii = np.array([channel.coverage_radius(float(h)) for h in levels])
+    if np.any(radii <= 0):
+        h = float(levels[int(np.argmin(radii))])
+        raise ValueError(
+            f"channel covers no user at altitude {h} m: the path loss straight below, "
+            f"{float(channel.path_loss_db(0.0, h)):.1f} dB, exceeds "
+            f"max_path_loss_db = {channel.max_path_loss_db}"
+        )
+    radii.setflags(write=False)
+    return tuple(float(h) for h in levels), radii
 
 
 def _as_no_fly(no_fly: Any) -> tuple[Any, ...]:

@@ -231,13 +231,16 @@ def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scor
             extras=scored.extras,
         )
     pos = raw.astype(float)
+    width = instance.data.plan_width  # (x, y), or (x, y, h) with altitude levels
     if pos.size == 0:
-        pos = pos.reshape(0, 2)
-    if pos.ndim == 1 and pos.shape == (2,):
-        pos = pos.reshape(1, 2)
-    if pos.ndim != 2 or pos.shape[1] != 2:
+        pos = pos.reshape(0, width)
+    if pos.ndim == 1 and pos.shape == (width,):
+        pos = pos.reshape(1, width)
+    if pos.ndim != 2 or pos.shape[1] != width:
         return Scored(
-            "invalid", message=f"positions must have shape (k, 2), got {pos.shape}", extras=scored.extras
+            "invalid",
+            message=f"positions must have shape (k, {width}), got {pos.shape}",
+            extras=scored.extras,
         )
     if not np.all(np.isfinite(pos)):
         return Scored("invalid", message="positions contain NaN or inf", extras=scored.extras)

@@ -42,6 +42,7 @@ import numpy as np
 
 from droneplan.core.files import JsonFileError, read_json
 from droneplan.core.validation import check_array, check_int, check_positive, check_work
+from droneplan.scenarios.air_to_ground import AirToGround
 from droneplan.scenarios.cells import THESIS_TABLE_4_2, CellProblem, thesis_problem
 from droneplan.scenarios.herding import HerdingParams, HerdingScenario, thesis_scenario
 from droneplan.scenarios.shark.params import SharkParams
@@ -176,7 +177,13 @@ def _cells_variants_to(p: CellProblem) -> dict:
         ]
     if p.capacity is not None:
         out["capacity"] = int(p.capacity)
+    if p.altitudes is not None and p.channel is not None:
+        out["altitudes"] = [float(h) for h in p.altitudes]
+        out["channel"] = {name: float(getattr(p.channel, name)) for name in _CHANNEL_FIELDS}
     return out
+
+
+_CHANNEL_FIELDS = ("a", "b", "eta_los_db", "eta_nlos_db", "frequency_hz", "max_path_loss_db")
 
 
 def _cells_from(d: Mapping[str, Any]) -> CellProblem:
@@ -200,7 +207,17 @@ def _cells_from(d: Mapping[str, Any]) -> CellProblem:
         weights=d.get("weights"),
         no_fly=zones,
         capacity=d.get("capacity"),
+        altitudes=d.get("altitudes"),
+        channel=_channel_from(d.get("channel")),
     )
+
+
+def _channel_from(d: Any) -> AirToGround | None:
+    if d is None:
+        return None
+    if not isinstance(d, Mapping) or set(d) != set(_CHANNEL_FIELDS):
+        raise ValueError(f"channel must be an object with the fields {list(_CHANNEL_FIELDS)}")
+    return AirToGround(**d)
 
 
 def _alloc_to(a: AllocationInstance) -> dict:

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -39,15 +41,42 @@ class Evaluation:
 
 
 def as_positions(problem: CellProblem, positions, name: str = "positions") -> np.ndarray:
-    """Validate and return drone-cell positions as a float (k, 2) array (one point (2,) or an
-    empty array is accepted too); errors name the parameter ``name`` of the public entry."""
+    """Validate and return drone-cell positions as a float (k, w) array, w = 2 (x, y) or, with
+    altitude levels, 3 (x, y, h) (``problem.plan_width``; one point (w,) or an empty array is
+    accepted too); errors name the parameter ``name`` of the public entry."""
     check_instance("problem", problem, CellProblem)
+    width = problem.plan_width
     p = check_array(name, positions)
     if p.size == 0:
-        p = p.reshape(0, 2)
-    if p.ndim == 1 and p.shape[0] == 2:
-        p = p.reshape(1, 2)
-    return check_array(name, p, shape=(None, 2))
+        p = p.reshape(0, width)
+    if p.ndim == 1 and p.shape[0] == width:
+        p = p.reshape(1, width)
+    return check_array(name, p, shape=(None, width))
+
+
+def site_radii(problem: CellProblem, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(k,) coverage radius (m) of each drone-cell of ``positions`` ((k, plan_width) m) and (k,)
+    bool whether it flies at one of the problem's altitude levels (to ``TOL``): R_d and True
+    everywhere without levels; R(h) of its level with them (0 off the levels)."""
+    k = len(positions)
+    if problem.altitudes is None or problem.level_radii is None:
+        return np.full(k, problem.R_d), np.ones(k, dtype=bool)
+    gap = np.abs(positions[:, 2:3] - np.asarray(problem.altitudes)[None, :])
+    on_level = np.any(gap <= TOL, axis=1)
+    radius = np.where(on_level, problem.level_radii[np.argmin(gap, axis=1)] if k else 0.0, 0.0)
+    return radius, on_level
+
+
+def link_distances(problem: CellProblem, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Backhaul link lengths (m) of drone-cells at ``positions``: (k, g) to the GBSs and (k, k)
+    between drone-cells; in 3-D with altitude levels (a GBS at height 0), on the ground without."""
+    to_gbs = pairwise_distances(positions, problem.gbs)
+    between = pairwise_distances(positions, positions)
+    if positions.shape[1] == 3:
+        h = positions[:, 2]
+        to_gbs = np.hypot(to_gbs, h[:, None])
+        between = np.hypot(between, h[:, None] - h[None, :])
+    return to_gbs, between
 
 
 def pairwise_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -71,7 +100,8 @@ def connected_mask(
     (between drone-cells), relaying only through drone-cells flagged ``usable``.
 
     problem: the CellProblem (users, GBSs, m, radii in metres).
-    positions: (k, 2) drone-cell positions (m).
+    positions: (k, 2) drone-cell positions (m); (k, 3) (x, y, h) with altitude levels, whose
+        links are measured in 3-D.
     usable: (k,) bool, drone-cells allowed to relay (default: all); a bool array with one
         entry per drone-cell (ints and other dtypes are refused).
     """
@@ -81,8 +111,9 @@ def connected_mask(
     usable = np.ones(k, dtype=bool) if usable is None else _as_mask("usable", usable, k)
     if k == 0:
         return np.zeros(0, dtype=bool)
-    direct = np.any(pairwise_distances(positions, problem.gbs) <= problem.r1 + TOL, axis=1) & usable
-    adj = (pairwise_distances(positions, positions) <= problem.r2 + TOL) & usable[:, None] & usable[None, :]
+    to_gbs, between = link_distances(problem, positions)
+    direct = np.any(to_gbs <= problem.r1 + TOL, axis=1) & usable
+    adj = (between <= problem.r2 + TOL) & usable[:, None] & usable[None, :]
     reach = direct.copy()
     for _ in range(k):
         new = reach | np.any(adj & reach[None, :], axis=1)
@@ -93,7 +124,8 @@ def connected_mask(
 
 
 def evaluate(problem: CellProblem, positions) -> Evaluation:
-    """Covered users and feasibility of drone-cells at ``positions`` ((k, 2) m, k <= m allowed).
+    """Covered users and feasibility of drone-cells at ``positions`` ((k, 2) m, k <= m allowed;
+    (k, 3) (x, y, h) with altitude levels, see :class:`CellProblem`, each with its radius R(h)).
 
     Feasible (eqs. 4.7-4.8 with relays): |D_i - G_h| >= R_g + R_d for all i, h;
     |D_i - D_h| >= 2 R_d for i != h; every drone-cell reaches some GBS through
@@ -119,20 +151,17 @@ def evaluate(problem: CellProblem, positions) -> Evaluation:
             | (pos[:, 1] > ymax + TOL)
         )
         v += [f"drone-cell {i} outside bounds" for i in np.flatnonzero(out)]
+    radius, on_level = site_radii(problem, pos)
     if k:
-        dg = pairwise_distances(pos, problem.gbs)
-        for i, h in zip(*np.nonzero(dg < problem.R_g + problem.R_d - TOL), strict=True):
-            v.append(f"drone-cell {i} overlaps GBS {h} cell: distance {dg[i, h]:.3f} < R_g + R_d (4.7)")
-        dd = pairwise_distances(pos, pos)
-        for i, h in zip(*np.nonzero(np.triu(dd < 2 * problem.R_d - TOL, 1)), strict=True):
-            v.append(f"drone-cells {i} and {h} overlap: distance {dd[i, h]:.3f} < 2 R_d (4.8)")
+        v += _level_violations(problem, pos, on_level)
+        v += _overlap_violations(problem, pos, radius)
         v += [f"drone-cell {i} lies in no-fly zone {z}" for i, z in in_no_fly(problem, pos)]
     conn = connected_mask(problem, pos)
     v += [f"drone-cell {i} has no backhaul path to a GBS" for i in np.flatnonzero(~conn)]
     mask = np.zeros(len(problem.users), dtype=bool)
     within = np.zeros((len(problem.users), k), dtype=bool)
     if k and len(problem.users):
-        within = (pairwise_distances(problem.users, pos) <= problem.R_d + TOL) & problem.active[:, None]
+        within = (pairwise_distances(problem.users, pos) <= radius[None, :] + TOL) & problem.active[:, None]
         mask = np.any(within, axis=1)
     weights = np.ones(len(problem.users)) if problem.weights is None else problem.weights
     if problem.capacity is None:
@@ -149,6 +178,30 @@ def evaluate(problem: CellProblem, positions) -> Evaluation:
     )
 
 
+def _level_violations(problem: CellProblem, pos: np.ndarray, on_level: np.ndarray) -> list[str]:
+    """A drone-cell off the altitude levels (3-D plans only)."""
+    return [
+        f"drone-cell {i} flies at {pos[i, 2]:g} m, not at an altitude level {problem.altitudes}"
+        for i in np.flatnonzero(~on_level)
+    ]
+
+
+def _overlap_violations(problem: CellProblem, pos: np.ndarray, radius: np.ndarray) -> list[str]:
+    """(4.7) GBS keep-out and (4.8) non-overlap, on the ground, with each drone-cell's radius."""
+    v = []
+    flat = problem.altitudes is None
+    dg = pairwise_distances(pos, problem.gbs)
+    for i, h in zip(*np.nonzero(dg < problem.R_g + radius[:, None] - TOL), strict=True):
+        what = "R_g + R_d" if flat else f"R_g + R(h) = {problem.R_g + radius[i]:g}"
+        v.append(f"drone-cell {i} overlaps GBS {h} cell: distance {dg[i, h]:.3f} < {what} (4.7)")
+    dd = pairwise_distances(pos, pos)
+    reach = radius[:, None] + radius[None, :]
+    for i, h in zip(*np.nonzero(np.triu(dd < reach - TOL, 1)), strict=True):
+        what = "2 R_d" if flat else f"R(h_i) + R(h_j) = {reach[i, h]:g}"
+        v.append(f"drone-cells {i} and {h} overlap: distance {dd[i, h]:.3f} < {what} (4.8)")
+    return v
+
+
 def in_no_fly(problem: CellProblem, points: np.ndarray) -> list[tuple[int, int]]:
     """(point index, zone index) of every point of ``points`` ((k, 2) m) inside a no-fly zone
     of ``problem`` or within ``TOL / 2`` of its edge."""
@@ -158,7 +211,7 @@ def in_no_fly(problem: CellProblem, points: np.ndarray) -> list[tuple[int, int]]
 
     found = []
     for z, zone in enumerate(problem.no_fly):
-        near = shapely.dwithin(zone, shapely.points(points), TOL / 2)
+        near = shapely.dwithin(zone, shapely.points(points[:, :2]), TOL / 2)
         found += [(int(i), z) for i in np.flatnonzero(near)]
     return sorted(found)
 
@@ -256,6 +309,10 @@ class Candidates:
     """(c,) bool: site within r1 of some GBS (a direct backhaul link)."""
     n_generated: int
     """Number of distinct points generated before the feasibility filter."""
+    heights: np.ndarray | None = None
+    """(c,) altitude (m) of each site with altitude levels; None at one altitude."""
+    radius: np.ndarray | None = None
+    """(c,) coverage radius (m) of each site with altitude levels; None: R_d everywhere."""
 
     def subset(self, idx: np.ndarray) -> Candidates:
         """The sites ``idx`` (indices into these candidates, in that order) as candidates."""
@@ -264,21 +321,36 @@ class Candidates:
             cover=[self.cover[i] for i in np.asarray(idx).tolist()],
             direct=self.direct[idx],
             n_generated=self.n_generated,
+            heights=None if self.heights is None else self.heights[idx],
+            radius=None if self.radius is None else self.radius[idx],
         )
+
+    def plan(self, idx: Any) -> np.ndarray:
+        """The plan of the sites ``idx``: (k, 2) positions (m), or (k, 3) (x, y, h) with levels."""
+        if self.heights is None:
+            return self.points[idx].reshape(-1, 2)
+        return np.column_stack([self.points[idx], self.heights[idx]]).reshape(-1, 3)
 
 
 def raw_candidate_points(problem: CellProblem) -> np.ndarray:
     """Every active user location, the intersection points of the radius-R_d circles
     around pairs of active users, and the points where those circles meet each GBS's
-    r1 circle and (R_g + R_d) circle and the edges of ``bounds`` (duplicates merged)."""
+    r1 circle and (R_g + R_d) circle, the edges of ``bounds`` and the edges of the no-fly
+    zones (duplicates merged)."""
+    return raw_points_for_radius(problem, problem.R_d, problem.r1)
+
+
+def raw_points_for_radius(problem: CellProblem, R: float, direct_reach: float) -> np.ndarray:
+    """:func:`raw_candidate_points` for drone-cells of coverage radius ``R`` (m) whose direct
+    backhaul reaches ``direct_reach`` (m, on the ground; skipped when <= 0) around each GBS."""
     t = problem.targets
-    R = problem.R_d
     parts = [t, pair_intersections(t, R)]
     if len(t):
         for g in problem.gbs:
             parts.extend(
                 circle_intersections(t, R, np.broadcast_to(g, t.shape), rad)
-                for rad in (problem.r1, problem.R_g + problem.R_d)
+                for rad in (direct_reach, problem.R_g + R)
+                if rad > 0
             )
         if problem.bounds is not None:
             xmin, xmax, ymin, ymax = problem.bounds
@@ -330,14 +402,15 @@ def _no_fly_edge_points(targets: np.ndarray, R: float, zones: tuple) -> list[np.
     return parts
 
 
-def site_feasible(problem: CellProblem, points: np.ndarray) -> np.ndarray:
-    """(c,) bool: a single drone-cell may sit at each point: inside ``bounds``, at least
-    R_g + R_d from every GBS (4.7) and within r1 + (m - 1) r2 of some GBS (the
-    farthest a chain of m drone-cells can reach)."""
+def site_feasible(problem: CellProblem, points: np.ndarray, R: float | None = None) -> np.ndarray:
+    """(c,) bool: a single drone-cell of coverage radius ``R`` (m, default R_d) may sit at each
+    point: inside ``bounds``, outside the no-fly zones, at least R_g + R from every GBS (4.7)
+    and within r1 + (m - 1) r2 of some GBS (the farthest a chain of m drone-cells can reach)."""
     if len(points) == 0:
         return np.zeros(0, dtype=bool)
+    R = problem.R_d if R is None else R
     dg = pairwise_distances(points, problem.gbs)
-    ok = np.all(dg >= problem.R_g + problem.R_d - TOL, axis=1)
+    ok = np.all(dg >= problem.R_g + R - TOL, axis=1)
     ok &= np.any(dg <= problem.r1 + (problem.n_cells - 1) * problem.r2 + TOL, axis=1)
     if problem.bounds is not None:
         xmin, xmax, ymin, ymax = problem.bounds
@@ -350,11 +423,15 @@ def site_feasible(problem: CellProblem, points: np.ndarray) -> np.ndarray:
 
 def candidate_sites(problem: CellProblem, extra=None) -> Candidates:
     """The candidate set of :func:`raw_candidate_points` plus ``extra`` positions
-    ((q, 2) m, e.g. a heuristic's placement), restricted to feasible single sites.
+    ((q, 2) m, e.g. a heuristic's placement), restricted to feasible single sites. With altitude
+    levels, the same construction at each level with its radius R(h) (``extra`` then (q, 3),
+    each point added at its own level), sites tagged with ``heights`` and ``radius``.
 
     problem: the CellProblem (users, GBSs, m, radii in metres).
     """
     check_instance("problem", problem, CellProblem)
+    if problem.altitudes is not None:
+        return _level_candidates(problem, extra)
     pts = raw_candidate_points(problem)
     if extra is not None:
         ex = as_positions(problem, extra, "extra")
@@ -368,3 +445,31 @@ def candidate_sites(problem: CellProblem, extra=None) -> Candidates:
         else np.zeros(0, bool)
     )
     return Candidates(points=pts, cover=cover, direct=direct, n_generated=n_gen)
+
+
+def _level_candidates(problem: CellProblem, extra=None) -> Candidates:
+    """:func:`candidate_sites` with altitude levels: each level's sites with its radius R(h);
+    a site is direct when its 3-D distance to a GBS (at height 0) is within r1."""
+    if problem.altitudes is None or problem.level_radii is None:
+        raise ValueError("problem has no altitude levels")
+    ex = None if extra is None else as_positions(problem, extra, "extra")
+    parts, n_gen = [], 0
+    for h, R in zip(problem.altitudes, problem.level_radii.tolist(), strict=True):
+        reach = math.sqrt(max(problem.r1**2 - h**2, 0.0))
+        pts = raw_points_for_radius(problem, R, reach)
+        if ex is not None and len(ex):
+            mine = ex[np.abs(ex[:, 2] - h) <= TOL, :2]
+            pts = merge_points(np.concatenate([mine, pts], axis=0)) if len(pts) else merge_points(mine)
+        n_gen += len(pts)
+        parts.append((pts[site_feasible(problem, pts, R)], h, R))
+    pts = np.concatenate([p for p, _, _ in parts]).reshape(-1, 2)
+    heights = np.concatenate([np.full(len(p), h) for p, h, _ in parts])
+    radius = np.concatenate([np.full(len(p), R) for p, _, R in parts])
+    cover = [c for p, _, R in parts for c in coverage_lists(p, problem.targets, R)]
+    to_gbs = (
+        np.hypot(pairwise_distances(pts, problem.gbs), heights[:, None]) if len(pts) else np.zeros((0, 1))
+    )
+    direct = np.any(to_gbs <= problem.r1 + TOL, axis=1)
+    return Candidates(
+        points=pts, cover=cover, direct=direct, n_generated=n_gen, heights=heights, radius=radius
+    )

@@ -87,7 +87,7 @@ def _checked(model: CellModel, raw: SolveResult, t0: float) -> SolveResult:
             info=info,
         )
     chosen = np.asarray(raw.x, dtype=float) > 0.5
-    plan = model.points[chosen].reshape(-1, 2)
+    plan = model.plan(chosen)
     ev = evaluate(model.problem, plan)
     info["evaluation"] = ev
     status, message = raw.status, f"the candidate model on {model.backend} (engine 'milp')"
@@ -115,7 +115,7 @@ def _checked(model: CellModel, raw: SolveResult, t0: float) -> SolveResult:
 def _empty_plan(model: CellModel, t0: float) -> SolveResult:
     """No candidate site is left (every one forbidden, or no user to cover): the empty plan,
     optimal (a user row on an empty model is checked by the backend as any other)."""
-    plan = np.zeros((0, 2))
+    plan = model.plan(np.zeros(len(model.points), dtype=bool))
     raw = model.model.solve(variables=[], time_limit=None)
     if not raw.has_solution:
         return _checked(model, raw, t0)

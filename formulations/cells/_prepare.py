@@ -183,7 +183,9 @@ def greedy_placement(problem: CellProblem, cand: Candidates | None = None) -> np
         cand = candidate_sites(problem)
     pts = cand.points
     if len(pts) == 0:
-        return np.zeros((0, 2))
+        return cand.plan(np.zeros(0, dtype=np.int64))
+    radius = np.full(len(pts), problem.R_d) if cand.radius is None else cand.radius
+    heights = np.zeros(len(pts)) if cand.heights is None else cand.heights
     n = len(problem.targets)
     member = np.zeros((len(pts), max(n, 1)), dtype=bool)
     for i, c in enumerate(cand.cover):
@@ -208,9 +210,9 @@ def greedy_placement(problem: CellProblem, cand: Candidates | None = None) -> np
             served = served[np.argsort(-weight[served], kind="stable")[: problem.capacity]]
         covered[served] = True
         d = np.hypot(*(pts - pts[i]).T)
-        ok &= d >= 2 * problem.R_d - TOL
-        linked |= d <= problem.r2 + TOL
-    return pts[chosen]
+        ok &= d >= radius + radius[i] - TOL
+        linked |= np.hypot(d, heights - heights[i]) <= problem.r2 + TOL
+    return cand.plan(np.asarray(chosen, dtype=np.int64))
 
 
 def _feasible_subset(problem: CellProblem, pos: np.ndarray) -> np.ndarray:

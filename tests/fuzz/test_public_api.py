@@ -231,6 +231,10 @@ SPECS: dict[str, Spec] = {
     ),
     "candidate_sites": Spec(lambda: ((P(),), {}), {"problem": "object"}),
     "build_milp": Spec(lambda: ((P(),), {}), {"problem": "object"}),
+    "AirToGround": Spec(
+        lambda: ((), {}),
+        {"a": "positive", "b": "positive", "frequency_hz": "positive", "eta_los_db": "nonneg"},
+    ),
     "min_fleet": Spec(
         lambda: ((P(),), {"coverage": 0.5, "time_limit": 5.0}),
         {"problem": "object", "time_limit": "time_limit", "coverage": "positive"},

@@ -640,7 +640,7 @@ def test_user_clique_rows_are_cliques():
     # item 5 of the model: every at-most-one row over the sites covering a user must hold
     # only pairwise overlapping sites (a lens user, covered by two compatible sites, gets none)
     from droneplan.formulations.cells._core import TOL
-    from droneplan.formulations.cells._milp import _user_clique_sites
+    from droneplan.formulations.cells._model import _user_clique_sites
 
     for seed in range(3):
         p = random_small(seed, 14, 2)

@@ -296,3 +296,112 @@ def test_thesis_heuristics_refuse_a_variant_naming_what_solves_it(method):
     p = CellProblem(_users(4, 5), [[0.0, 0.0]], 2, **RADII, weights=np.ones(5))
     with pytest.raises(ValueError, match=r"thesis model only.*weights.*greedy_placement"):
         getattr(dp.cells, method)(p)
+
+
+# ------------------------------------------------------------------------ altitude levels
+from droneplan.scenarios.air_to_ground import URBAN, AirToGround  # noqa: E402
+
+LEVEL_RADII = {"R_d": 300.0, "R_g": 300.0, "r1": 1500.0, "r2": 1400.0}
+
+
+def test_air_to_ground_path_loss_is_the_published_formula():
+    ch = AirToGround()
+    assert (ch.a, ch.b, ch.eta_los_db, ch.eta_nlos_db, ch.frequency_hz) == (*URBAN, 2.0e9)
+    r, h = 400.0, 300.0
+    theta = np.degrees(np.arctan(h / r))
+    p_los = 1.0 / (1.0 + 9.61 * np.exp(-0.16 * (theta - 9.61)))
+    fspl = 20 * np.log10(4 * np.pi * 2.0e9 * 500.0 / 299_792_458.0)
+    assert float(ch.path_loss_db(r, h)) == pytest.approx(fspl + 1.0 * p_los + 20.0 * (1 - p_los))
+
+
+@given(h=st.floats(20.0, 1000.0), budget=st.floats(85.0, 120.0))
+@settings(max_examples=40, deadline=None)
+def test_coverage_radius_is_where_the_loss_meets_the_budget(h, budget):
+    ch = AirToGround(max_path_loss_db=budget)
+    radius = ch.coverage_radius(h)
+    if radius == 0.0:
+        assert float(ch.path_loss_db(0.0, h)) > budget
+        return
+    assert float(ch.path_loss_db(radius * (1 - 1e-6), h)) <= budget
+    assert float(ch.path_loss_db(radius * (1 + 1e-5) + 1e-3, h)) > budget
+
+
+def _level_problem(seed: int, m: int, levels=(100.0, 300.0), **extra) -> CellProblem:
+    users = np.random.default_rng(seed).uniform(-1500.0, 1500.0, size=(9, 2))
+    return CellProblem(
+        users, [[0.0, 0.0]], m, **LEVEL_RADII, altitudes=levels, channel=AirToGround(), **extra
+    )
+
+
+def _best_level_value(problem: CellProblem) -> float:
+    cand = candidate_sites(problem)
+    best = 0.0
+    for k in range(1, problem.n_cells + 1):
+        for combo in itertools.combinations(range(len(cand.points)), k):
+            ev = evaluate(problem, cand.plan(list(combo)))
+            if ev.feasible and ev.value > best:
+                best = ev.value
+    return best
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), m=st.integers(1, 2), weighted=st.booleans())
+def test_altitude_levels_milp_equals_brute_force(seed, m, weighted):
+    weights = np.random.default_rng(seed).integers(1, 4, 9).astype(float) if weighted else None
+    p = _level_problem(seed, m, weights=weights)
+    res = solve_exact(p, time_limit=60)
+    assert res.status is Status.OPTIMAL and res.x.shape[1] == 3
+    assert res.objective == pytest.approx(_best_level_value(p))
+    ev = evaluate(p, res.x)
+    assert ev.feasible and ev.value == pytest.approx(res.objective)
+    greedy = dp.cells.greedy_placement(p)
+    assert evaluate(p, greedy).feasible and evaluate(p, greedy).value <= res.objective + 1e-9
+
+
+def test_one_altitude_level_is_the_thesis_model_with_its_radius():
+    """At one level h, R_d = R(h) and a direct reach of sqrt(r1^2 - h^2) on the ground give the same
+    optimum as the thesis model with those radii (drone-drone links are level)."""
+    h = 200.0
+    for seed in range(3):
+        p3 = _level_problem(seed, 2, levels=(h,))
+        R = float(p3.level_radii[0])
+        flat = CellProblem(p3.users, p3.gbs, 2, R, 300.0, float(np.sqrt(1500.0**2 - h**2)), 1400.0)
+        assert solve_exact(p3, time_limit=60).objective == solve_exact(flat, time_limit=60).objective
+
+
+def test_evaluate_checks_levels_radii_and_3d_links():
+    p = _level_problem(0, 2)
+    R_low, R_high = (float(r) for r in p.level_radii)
+    assert not evaluate(p, [[800.0, 0.0, 150.0]]).feasible  # not a level
+    assert "altitude level" in evaluate(p, [[800.0, 0.0, 150.0]]).violations[0]
+    gap = R_low + R_high - 1.0  # ground distance just below the two radii
+    assert not evaluate(p, [[700.0, 0.0, 100.0], [700.0, gap, 300.0]]).feasible
+    assert evaluate(p, [[700.0, 0.0, 100.0], [700.0, gap + 2.0, 300.0]]).feasible
+    # a direct link in 3-D: ground 1480 m at 300 m is 1510 m > r1
+    assert not evaluate(p, [[1480.0, 0.0, 300.0]]).connected[0]
+    assert evaluate(p, [[1480.0, 0.0, 100.0]]).connected[0]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"altitudes": [100.0, -5.0], "channel": AirToGround()}, "altitudes"),
+        ({"altitudes": [100.0]}, "channel"),
+        ({"channel": AirToGround()}, "altitudes"),
+        ({"altitudes": [100.0], "channel": AirToGround(max_path_loss_db=60.0)}, "channel"),
+        ({"altitudes": [100.0], "channel": "urban"}, "channel"),
+    ],
+)
+def test_bad_altitude_input_is_a_one_line_error_naming_the_field(kwargs, field):
+    with pytest.raises((ValueError, TypeError)) as err:
+        CellProblem([[800.0, 0.0]], [[0.0, 0.0]], 2, **LEVEL_RADII, **kwargs)
+    assert field in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"a": -1.0}, {"b": 0.0}, {"eta_los_db": -1.0}, {"eta_los_db": 30.0}, {"frequency_hz": float("nan")}],
+)
+def test_bad_channel_parameters_are_refused_naming_them(kwargs):
+    with pytest.raises(ValueError, match=next(iter(kwargs)).split("_")[0]):
+        AirToGround(**kwargs)

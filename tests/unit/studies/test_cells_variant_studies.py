@@ -41,3 +41,25 @@ def test_a_variant_study_scores_the_weight_and_names_the_engine_that_can(tmp_pat
     assert rows.loc["greedy", "objective"] == pytest.approx(evaluate(p, greedy).value)
     assert rows.loc["greedy", "objective"] <= best + 1e-6
     assert rows.loc["bnb", "status"] == "error" and "engine='milp'" in rows.loc["bnb", "message"]
+
+
+def test_altitude_levels_travel_with_the_instance_and_plans_are_scored_in_3d(tmp_path):
+    users = np.random.default_rng(1).uniform(-1500.0, 1500.0, size=(10, 2))
+    p = dp.cells.CellProblem(
+        users,
+        [[0.0, 0.0]],
+        2,
+        300.0,
+        300.0,
+        1500.0,
+        1400.0,
+        altitudes=[100.0, 300.0],
+        channel=dp.cells.AirToGround(),
+    )
+    back = dp.load_instance(dp.save_instance(p, tmp_path / "levels.json")).data
+    assert back.altitudes == p.altitudes and back.channel == p.channel
+    dp.gap("cells", methods=["greedy", "milp"], instances=[p], out=tmp_path / "study", progress=False)
+    rows = dp.load_results(tmp_path / "study").set_index("method")
+    assert rows.loc["milp", "status"] == "optimal"
+    assert rows.loc["greedy", "objective"] == pytest.approx(evaluate(p, dp.cells.greedy_placement(p)).value)
+    assert rows.loc["greedy", "objective"] <= rows.loc["milp", "objective"]
