@@ -20,16 +20,21 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
         Candidates,
         CellModel,
         Evaluation,
+        MobileEvaluation,
+        MobileProblem,
         branch_and_bound,
         build_milp,
         candidate_sites,
         connected_mask,
         coverage_upper_bound,
         evaluate,
+        evaluate_mobile,
         greedy_placement,
         min_fleet,
+        myopic,
         solve_exact,
         solve_milp,
+        solve_mobile,
         solve_model,
     )
     from droneplan.planners.cells import (
@@ -58,7 +63,12 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
         thesis_problem,
         uniform_users,
     )
-    from droneplan.scenarios.loaders import ProjectedCells, load_cells_csv, load_cells_geojson
+    from droneplan.scenarios.loaders import (
+        ProjectedCells,
+        load_cells_csv,
+        load_cells_geojson,
+        read_user_tracks,
+    )
     from droneplan.solvers.result import SolveResult, Status
     from droneplan.studies.cells import GA_VARIANTS, ga_ablation, instance_features
     from droneplan.studies.plots import plot_deployment_region, plot_map
@@ -90,6 +100,12 @@ __all__ = [
     "build_milp",
     "solve_model",
     "min_fleet",
+    "MobileProblem",
+    "MobileEvaluation",
+    "evaluate_mobile",
+    "solve_mobile",
+    "myopic",
+    "read_user_tracks",
     "solve_milp",
     "solve_exact",
     "branch_and_bound",
@@ -137,6 +153,11 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "solve_milp",
         "solve_model",
         "min_fleet",
+        "MobileProblem",
+        "MobileEvaluation",
+        "evaluate_mobile",
+        "solve_mobile",
+        "myopic",
     ),
     "droneplan.planners.cells": (
         "GASettings",
@@ -168,6 +189,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "ProjectedCells",
         "load_cells_csv",
         "load_cells_geojson",
+        "read_user_tracks",
     ),
     "droneplan.solvers.result": (
         "SolveResult",

@@ -71,6 +71,7 @@ __all__ = [
     "load_herd_csv",
     "herding_scenario_from_csv",
     "load_shark_track_csv",
+    "read_user_tracks",
 ]
 
 EARTH_RADIUS = 6_371_008.8
@@ -680,3 +681,48 @@ def load_shark_track_csv(  # noqa: C901
             ps = pos.copy()
     vel = np.gradient(ps, ts, axis=0)
     return SharkTrajectory(ts, ps, vel, name=file.stem if name is None else name)
+
+
+def read_user_tracks(
+    path: PathLike, *, origin: ArrayLike | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """User tracks from a CSV file with the columns ``id, t, x, y`` (metres) or ``id, t, lon, lat``
+    (degrees, projected about ``origin`` = (lon0, lat0) by :func:`project_local`, the azimuthal
+    equidistant projection on the mean-Earth sphere; ``origin`` None: the tracks' spherical
+    centroid). Every id needs a row at every time.
+
+    Returns (times (T,) s, sorted; ids (n,), sorted; snapshots (T, n, 2) m), the snapshots of
+    :class:`droneplan.cells.MobileProblem`.
+    """
+    file = _as_path(path)
+    header = _csv_header(file)
+    geographic = "lon" in header and "lat" in header and not ("x" in header and "y" in header)
+    columns = ("id", "t", "lon", "lat") if geographic else ("id", "t", "x", "y")
+    table, _, _ = _read_table(file, columns)
+    ids, id_index = np.unique(table[:, 0], return_inverse=True)
+    times, t_index = np.unique(table[:, 1], return_inverse=True)
+    cell = t_index * len(ids) + id_index
+    if len(np.unique(cell)) != len(cell):
+        raise ValueError(f"{file}: an id appears twice at one time")
+    if len(cell) != len(ids) * len(times):
+        raise ValueError(
+            f"{file}: {len(cell)} rows for {len(ids)} ids at {len(times)} times: "
+            "every id needs a row at every time"
+        )
+    xy = table[:, 2:4]
+    if geographic:
+        lon, lat = xy[:, 0], xy[:, 1]
+        centre = _spherical_centroid(lon, lat) if origin is None else _check_origin(origin)
+        xy = project_local(lon, lat, centre)
+    snapshots = np.zeros((len(times), len(ids), 2))
+    snapshots[t_index, id_index] = xy
+    return times, ids, snapshots
+
+
+def _csv_header(file: Path) -> list[str]:
+    """The header row (first non-blank line) of a CSV file."""
+    reader = csv.reader(io.StringIO(_read_text(file, "CSV"), newline=""))
+    for row in reader:
+        if any(cell.strip() for cell in row):
+            return [cell.strip() for cell in row]
+    raise ValueError(f"{file}: empty CSV file")

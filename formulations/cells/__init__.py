@@ -18,6 +18,13 @@ from droneplan.formulations.cells._core import (
 from droneplan.formulations.cells._exact import ENGINES, branch_and_bound, solve_exact, solve_milp
 from droneplan.formulations.cells._fleet import min_fleet
 from droneplan.formulations.cells._milp import BACKENDS, CellModel, build_milp, reduce_candidates
+from droneplan.formulations.cells._mobile import (
+    MobileEvaluation,
+    MobileProblem,
+    evaluate_mobile,
+    myopic,
+    solve_mobile,
+)
 from droneplan.formulations.cells._open import BNB_VARIANTS, solve_model
 from droneplan.formulations.cells._prepare import coverage_upper_bound, greedy_placement
 from droneplan.scenarios.cells import CellProblem, problem_from_instance, thesis_problem
@@ -41,6 +48,11 @@ __all__ = [
     "build_milp",
     "solve_model",
     "min_fleet",
+    "MobileProblem",
+    "MobileEvaluation",
+    "evaluate_mobile",
+    "solve_mobile",
+    "myopic",
     "BNB_VARIANTS",
     "solve_milp",
     "solve_exact",

@@ -14,7 +14,8 @@ chosen with s); level 1 is the direct sites (3-D distance to a GBS at height 0 w
 z is x. The hop labelling is exact as for the thesis model (``_milp``, item 3b): a hop count on a
 shortest backhaul path meets the rows, and by induction on l every labelled site reaches a GBS.
 Non-overlap is written pair by pair (cKDTree), so the model grows with the conflicting pairs:
-meant for instances up to a few thousand sites.
+meant for instances up to a few thousand sites. :class:`SiteBlock` writes one such placement into
+a model, also at one altitude (the epochs of ``_mobile``).
 """
 
 from __future__ import annotations
@@ -24,51 +25,68 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from droneplan.formulations.cells._core import TOL, candidate_sites
+from droneplan.formulations.cells._core import TOL, Candidates, candidate_sites
 from droneplan.formulations.cells._model import CellModel, _new_model, _objective_part, _sites_by_user
 from droneplan.scenarios.cells import CellProblem
 
-__all__ = ["build_level_model"]
+__all__ = ["build_level_model", "SiteBlock"]
 
 
 def build_level_model(problem: CellProblem, *, backend: str = "cp-sat") -> CellModel:
     """The candidate model of a problem with altitude levels (module docstring) on ``backend``."""
     if problem.altitudes is None:
         raise ValueError("build_level_model needs a problem with altitude levels")
-    cand = candidate_sites(problem)
-    pts = cand.points
-    heights = np.zeros(len(pts)) if cand.heights is None else cand.heights
-    radius = np.full(len(pts), problem.R_d) if cand.radius is None else cand.radius
     lin = _new_model(backend)
-    x = [lin.bool_var(f"x{i}") for i in range(len(pts))]
-    y, objective, _, _, group_of, serve = _objective_part(lin, x, pts, cand.cover, problem, False)
-    stats: dict[str, Any] = {"candidates": len(pts), "kept": len(pts), "levels": len(problem.altitudes)}
-    z: dict[tuple[int, int], Any] = {}
-    if x:
-        lin.add(lin.sum(x) <= problem.n_cells)
-        overlap = _conflicting_pairs(pts, radius)
-        for i, j in overlap:
-            lin.add(x[i] + x[j] <= 1)
-        z, stats["connectivity_terms"] = _hop_rows(lin, x, pts, heights, radius, cand.direct, problem)
-        stats["pairs"] = len(overlap)
-        lin.maximize(objective)
+    block = SiteBlock(lin, problem)
+    if block.x:
+        lin.maximize(block.objective)
     return CellModel(
         problem=problem,
         backend=backend,
-        points=pts,
-        cover=cand.cover,
-        direct=cand.direct,
+        points=block.cand.points,
+        cover=block.cand.cover,
+        direct=block.cand.direct,
         model=lin,
-        x=x,
-        y=y,
-        levels=z,
-        stats=stats,
-        objective=objective,
-        group_of=group_of,
-        serve=serve,
-        user_sites=_sites_by_user(cand.cover),
-        site_heights=heights,
+        x=block.x,
+        y=block.y,
+        levels=block.z,
+        stats=block.stats,
+        objective=block.objective,
+        group_of=block.group_of,
+        serve=block.serve,
+        user_sites=_sites_by_user(block.cand.cover),
+        site_heights=block.heights,
     )
+
+
+class SiteBlock:
+    """One placement written into the linear model ``lin``: the candidate sites of ``problem``
+    (or ``cand``, candidates of ``problem`` built by the caller)
+    (any variant; at one altitude the heights are 0 and every radius is R_d), their variables
+    and rows (module docstring). Its objective is returned, not set, so that several blocks (the
+    epochs of moving users) share one model."""
+
+    def __init__(self, lin, problem: CellProblem, cand: Candidates | None = None) -> None:
+        self.cand = candidate_sites(problem) if cand is None else cand
+        pts = self.cand.points
+        self.heights = np.zeros(len(pts)) if self.cand.heights is None else self.cand.heights
+        self.radius = np.full(len(pts), problem.R_d) if self.cand.radius is None else self.cand.radius
+        self.x = [lin.bool_var(f"x{i}") for i in range(len(pts))]
+        self.y, self.objective, _, _, self.group_of, self.serve = _objective_part(
+            lin, self.x, pts, self.cand.cover, problem, False
+        )
+        levels = 1 if problem.altitudes is None else len(problem.altitudes)
+        self.stats: dict[str, Any] = {"candidates": len(pts), "kept": len(pts), "levels": levels}
+        self.z: dict[tuple[int, int], Any] = {}
+        if self.x:
+            lin.add(lin.sum(self.x) <= problem.n_cells)
+            overlap = _conflicting_pairs(pts, self.radius)
+            for i, j in overlap:
+                lin.add(self.x[i] + self.x[j] <= 1)
+            self.z, self.stats["connectivity_terms"] = _hop_rows(
+                lin, self.x, pts, self.heights, self.radius, self.cand.direct, problem
+            )
+            self.stats["pairs"] = len(overlap)
 
 
 def _conflicting_pairs(pts: np.ndarray, radius: np.ndarray) -> list[tuple[int, int]]:

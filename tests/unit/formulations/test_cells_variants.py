@@ -405,3 +405,96 @@ def test_bad_altitude_input_is_a_one_line_error_naming_the_field(kwargs, field):
 def test_bad_channel_parameters_are_refused_naming_them(kwargs):
     with pytest.raises(ValueError, match=next(iter(kwargs)).split("_")[0]):
         AirToGround(**kwargs)
+
+
+# ------------------------------------------------------------------------ moving users
+def _best_mobile_by_enumeration(mp) -> float:
+    """The best summed weight over every sequence of per-epoch candidate placements of one fleet
+    size whose drone-cells (in some order) move within max_move (tiny instances only)."""
+    per_epoch = []
+    for t, epoch in enumerate(mp.epochs):
+        cand = mp.candidates(t)
+        options = {}
+        for k in range(epoch.n_cells + 1):
+            for combo in itertools.combinations(range(len(cand.points)), k):
+                plan = cand.plan(list(combo))
+                ev = evaluate(epoch, plan)
+                if ev.feasible:
+                    options.setdefault(k, []).append((plan, ev.value))
+        per_epoch.append(options)
+    best = -np.inf
+    for k in set.intersection(*(set(o) for o in per_epoch)):
+        # dynamic programming over epochs: best value ending in each placement
+        layer = [(plan, value) for plan, value in per_epoch[0][k]]
+        for options in per_epoch[1:]:
+            nxt = []
+            for plan, value in options[k]:
+                reach = [
+                    v
+                    for p, v in layer
+                    if any(
+                        np.all(np.hypot(*(p[list(perm), :2] - plan[:, :2]).T) <= mp.max_move + 1e-6)
+                        for perm in itertools.permutations(range(k))
+                    )
+                ]
+                if reach:
+                    nxt.append((plan, max(reach) + value))
+            layer = nxt
+        if layer:
+            best = max(best, max(v for _, v in layer))
+    return best
+
+
+@settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), max_move=st.sampled_from([0.0, 0.5, 1.5, 10.0]))
+def test_joint_mobile_model_equals_brute_force_and_beats_myopic(seed, max_move):
+    rng = np.random.default_rng(seed)
+    start = rng.uniform(-3.0, 3.0, size=(3, 2))
+    drift = rng.normal(0.0, 0.8, size=(3, 2))
+    snapshots = np.stack([start, start + drift, start + 2 * drift])
+    base = CellProblem(start, [[0.0, 0.0]], 2, **RADII)
+    mp = dp.cells.MobileProblem(base, snapshots, max_move)
+    joint = dp.cells.solve_mobile(mp, time_limit=60)
+    assert joint.status is Status.OPTIMAL
+    assert joint.objective == pytest.approx(_best_mobile_by_enumeration(mp))
+    assert dp.cells.evaluate_mobile(mp, joint.x).feasible
+    baseline = dp.cells.myopic(mp, time_limit=60)
+    assert dp.cells.evaluate_mobile(mp, baseline.x).feasible
+    assert baseline.objective <= joint.objective + 1e-9
+
+
+def test_evaluate_mobile_flags_a_move_too_long():
+    base = CellProblem([[2.5, 0.0]], [[0.0, 0.0]], 1, **RADII)
+    mp = dp.cells.MobileProblem(base, [[[2.5, 0.0]], [[0.0, 2.5]]], max_move=1.0)
+    ev = dp.cells.evaluate_mobile(mp, [[[2.5, 0.0]], [[0.0, 2.5]]])
+    assert not ev.feasible and "moves" in ev.violations[0] and ev.value == 2.0
+
+
+@pytest.mark.parametrize(
+    ("snapshots", "max_move", "field"),
+    [
+        (np.zeros((2, 3)), 1.0, "snapshots"),
+        (np.zeros((2, 3, 2)), -1.0, "max_move"),
+        ([[[np.nan, 0.0]]], 1.0, "snapshots"),
+    ],
+)
+def test_bad_mobile_input_names_the_field(snapshots, max_move, field):
+    base = CellProblem([[2.5, 0.0]], [[0.0, 0.0]], 1, **RADII)
+    with pytest.raises(ValueError, match=field):
+        dp.cells.MobileProblem(base, snapshots, max_move)
+
+
+def test_read_user_tracks_from_metres_and_degrees(tmp_path):
+    metres = tmp_path / "tracks.csv"
+    metres.write_text("id,t,x,y\n2,0,10,0\n1,0,0,0\n1,60,5,0\n2,60,10,5\n")
+    times, ids, snaps = dp.cells.read_user_tracks(metres)
+    assert times.tolist() == [0, 60] and ids.tolist() == [1, 2]
+    assert snaps.tolist() == [[[0, 0], [10, 0]], [[5, 0], [10, 5]]]
+    degrees = tmp_path / "geo.csv"
+    degrees.write_text("id,t,lon,lat\n1,0,0.0,0.0\n1,1,0.001,0.0\n")
+    _, _, geo = dp.cells.read_user_tracks(degrees, origin=(0.0, 0.0))
+    assert geo[1, 0, 0] == pytest.approx(6_371_008.8 * np.radians(0.001), rel=1e-9)
+    gappy = tmp_path / "gappy.csv"
+    gappy.write_text("id,t,x,y\n1,0,0,0\n2,0,1,1\n1,1,0,0\n")
+    with pytest.raises(ValueError, match="every id needs a row at every time"):
+        dp.cells.read_user_tracks(gappy)
