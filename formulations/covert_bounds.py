@@ -24,6 +24,14 @@ set  |D - D_s| <= V_max min(t, T - t)  and  |D - F| <= L_u + V_max max(t_a - t, 
 max_j beta_j over that convex set (same slack program with the extra balls) at every
 control instant, maximised over the instants, is a lower bound on beta_max for any such
 controller, whatever it knows about the targets.
+
+As cvxpy models. :func:`build_instant_slack` writes the slack SOCP at one c for given targets
+(and extra balls), and :func:`build_mission_slack` the one of the whole-mission bound at one
+instant; both are parametrised (DPP), so a model compiles once and is re-solved with new data
+through :meth:`SlackModel.set_data` and ``model.c.value``. :func:`solve_slack` solves one with
+any cvxpy solver. ``backend="cvxpy"`` runs :func:`instant_minmax_bearing`,
+:func:`mission_lower_bound` and :func:`mission_front` on these models instead of the direct
+Clarabel layout (the default, which is faster: ``droneplan bench covert`` measures both).
 """
 
 from __future__ import annotations
@@ -31,7 +39,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -51,13 +59,24 @@ from droneplan.core.validation import (
 )
 from droneplan.solvers.result import SolveResult, Status
 
+if TYPE_CHECKING:
+    import cvxpy as cp
+
 __all__ = [
+    "BACKENDS",
     "InstantMinmaxProgram",
     "MissionBound",
+    "SlackModel",
+    "build_instant_slack",
+    "build_mission_slack",
     "instant_minmax_bearing",
     "mission_front",
     "mission_lower_bound",
+    "solve_slack",
 ]
+
+BACKENDS = ("clarabel", "cvxpy")
+"""How the per-instant programs are solved: the direct Clarabel layout, or the cvxpy models."""
 
 _C_WIDTH = 1e-9  # the search stops when the bracket on cos(theta*) is this narrow
 _DELTA_C = 1e-6  # certification: first step in cos(theta) above the bracket (about 1e-5 rad in theta)
@@ -243,14 +262,267 @@ class InstantMinmaxProgram:
         return require_set(r, "_point is called once a feasible angle (s > 0) was found")[2]
 
 
-_PROGRAMS: dict[tuple[int, int], InstantMinmaxProgram] = {}
+def _cvxpy_status(status: str | None) -> Status:
+    """The Status of a cvxpy problem status: only a solve the solver proved optimal is OPTIMAL."""
+    return {
+        "optimal": Status.OPTIMAL,
+        "optimal_inaccurate": Status.FEASIBLE,
+        "infeasible": Status.INFEASIBLE,
+        "unbounded": Status.UNBOUNDED,
+        "infeasible_inaccurate": Status.NO_SOLUTION,
+        "unbounded_inaccurate": Status.NO_SOLUTION,
+        "user_limit": Status.NO_SOLUTION,
+    }.get(str(status), Status.ERROR)
 
 
-def _program(n: int, n_balls: int) -> InstantMinmaxProgram:
-    key = (n, n_balls)
+@dataclass(frozen=True, eq=False)
+class SlackModel:
+    """The slack SOCP of the module docstring as a parametrised (DPP) cvxpy problem.
+
+    maximise s  s.t.  u_j.(y - q_j) - c t_j >= s,  |y - q_j| <= t_j,  |y| <= 1,  |y - p_i| <= r_i,
+    in units scaled by the radius L of the ball around F: y = (D - F) / L (D in m), q_j =
+    (A_j - F) / L for the targets A_j (m), (p_i, r_i) = (centre - F, radius) / L for the extra
+    balls. ``s`` and ``t`` are in units of L; ``c`` is cos(theta) (dimensionless). The data are
+    cvxpy Parameters, so the problem is compiled on its first solve and re-solved with new data
+    after :meth:`set_data` or a new ``c.value``. ``print(model.problem)`` shows it; a user adds
+    constraints with ``cp.Problem(model.problem.objective, model.problem.constraints + [...])``
+    (``D`` gives the position in metres) and solves with any cvxpy solver, or with
+    :func:`solve_slack`. The optimum s(c) is positive when some D of the set sees every target
+    within the angle arccos(c), and its root in c is cos of the min-max bearing change.
+    """
+
+    problem: cp.Problem
+    """The cvxpy problem (maximise s)."""
+    y: cp.Variable
+    """(3,) position scaled around F: (D - F) / L (dimensionless)."""
+    t: cp.Variable
+    """(n_targets,) scaled distances |y - q_j| (units of L)."""
+    s: cp.Variable
+    """The slack (units of L)."""
+    D: cp.Expression
+    """(3,) position F + L y (m)."""
+    c: cp.Parameter
+    """cos(theta), dimensionless, in [-1, 1]."""
+    rows: cp.Constraint
+    """The slack rows u_j.(y - q_j) - c t_j >= s; their duals give ds/dc = -sum_j lambda_j t_j."""
+    data: dict[str, cp.Parameter]
+    """The other Parameters: u (n, 3) unit vectors A_j -> R, uq (n,) u_j.q_j, q (n, 3), centre (3,)
+    = F (m), scale (L, m), and with extra balls ball_centre (n_balls, 3) and ball_radius (n_balls,)."""
+    n_targets: int
+    n_balls: int
+
+    def set_data(self, params: Any, targets: Any, *, balls: Any = None, radius: float | None = None) -> None:
+        """Fill in the data: targets (n_targets, 3) m, balls (n_balls, 4) rows (centre (3) m, radius
+        m), radius (m) of the ball around F (default params.L_u); params gives F, R and L_u (m)."""
+        F, R = params.F_arr, params.R_arr
+        L = check_positive("radius", params.L_u if radius is None else radius)
+        A = check_array("targets", np.asarray(targets, float).reshape(-1, 3), shape=(self.n_targets, 3))
+        u = R - A
+        nu = np.linalg.norm(u, axis=1, keepdims=True)
+        if np.any(nu < 1e-9):
+            raise ValueError("targets: a target coincides with the reference point R")
+        u = u / nu
+        q = (A - F) / L
+        d = self.data
+        d["u"].value, d["q"].value, d["uq"].value = u, q, np.sum(u * q, axis=1)
+        d["centre"].value, d["scale"].value = np.asarray(F, float), L
+        if self.n_balls:
+            if balls is None:
+                raise ValueError(f"balls: {self.n_balls} rows (centre (3) m, radius m) needed")
+            B = check_array("balls", np.asarray(balls, float).reshape(-1, 4), shape=(self.n_balls, 4))
+            d["ball_centre"].value = (B[:, :3] - F) / L
+            d["ball_radius"].value = np.maximum(B[:, 3], 0.0) / L
+
+
+def _slack_model(n_targets: int, n_balls: int) -> SlackModel:
+    """The parametrised slack SOCP for n_targets targets and n_balls extra balls (data unset)."""
+    import cvxpy as cp
+
+    n, nb = n_targets, n_balls
+    y, t, s = cp.Variable(3, name="y"), cp.Variable(n, name="t"), cp.Variable(name="s")
+    c = cp.Parameter(name="c")
+    d = {
+        "u": cp.Parameter((n, 3), name="u"),
+        "uq": cp.Parameter(n, name="uq"),
+        "q": cp.Parameter((n, 3), name="q"),
+        "centre": cp.Parameter(3, name="F"),
+        "scale": cp.Parameter(pos=True, name="L"),
+    }
+    Y = np.ones((n, 1)) @ cp.reshape(y, (1, 3), order="C")
+    rows = d["u"] @ y - d["uq"] - c * t >= s
+    cons = [rows, cp.SOC(t, Y - d["q"], axis=1), cp.SOC(cp.Constant(1.0), y)]
+    if nb:
+        d["ball_centre"] = cp.Parameter((nb, 3), name="ball_centre")
+        d["ball_radius"] = cp.Parameter(nb, nonneg=True, name="ball_radius")
+        Yb = np.ones((nb, 1)) @ cp.reshape(y, (1, 3), order="C")
+        cons.append(cp.SOC(d["ball_radius"], Yb - d["ball_centre"], axis=1))
+    problem = cp.Problem(cp.Maximize(s), cons)
+    D = d["centre"] + d["scale"] * y
+    return SlackModel(problem, y, t, s, D, c, rows, d, n, nb)
+
+
+def build_instant_slack(
+    params: Any, targets: Any, c: float, *, balls: Any = None, radius: float | None = None
+) -> SlackModel:
+    """The per-instant slack SOCP at c = cos(theta) as a cvxpy model (see :class:`SlackModel`).
+
+    params: CovertParams (F, R, L_u in m); targets: (n, 3) positions (m), n >= 1; c: cos(theta)
+    in [-1, 1]; balls: optional (n_balls, 4) rows (centre (3) m, radius m) the position must also
+    lie in; radius: radius (m) of the ball around F (default params.L_u, the observation ball).
+    The model keeps its shape (n targets, n_balls balls): re-solve it with other data of that
+    shape through ``model.set_data(...)`` and ``model.c.value = ...`` without recompiling.
+    """
+    A = check_array("targets", np.asarray(targets, dtype=float).reshape(-1, 3), min_rows=1)
+    _check_targets_work(A.shape[0])
+    c = check_in_range("c", c, -1.0, 1.0)
+    nb = 0 if balls is None else check_array("balls", np.asarray(balls, float).reshape(-1, 4)).shape[0]
+    model = _slack_model(A.shape[0], nb)
+    model.set_data(params, A, balls=balls, radius=radius)
+    model.c.value = c
+    return model
+
+
+def build_mission_slack(
+    scenario: Any,
+    t: float,
+    t_a: float,
+    c: float,
+    *,
+    t_f: float | None = None,
+    retreat: bool = True,
+    t_end: float | None = None,
+    sphere_tol: float = 1.0,
+) -> SlackModel:
+    """The slack SOCP of the whole-mission bound at instant t (s) and c = cos(theta), as a cvxpy model.
+
+    The targets are those observable at t; the position is restricted to the set a drone of
+    the class of :func:`mission_lower_bound` (arrival t_a (s), departure t_f (s), ``retreat``,
+    ``t_end`` (s), ``sphere_tol`` (m): same meanings and defaults) can occupy at t: a ball
+    around F of radius L_u + sphere_tol + V_max x (time off the sphere) (m) and the balls around
+    D_s of what is reachable from the start and, with ``retreat``, of what still gets home.
+    The root in c of the optimum s(c) is cos of that instant's bound. Raises ValueError when no
+    target is observable at t.
+    """
+    from droneplan.scenarios.covert import CovertScenario
+
+    check_instance("scenario", scenario, CovertScenario)
+    t = check_nonneg("t", t)
+    t_a = check_in_range("t_a", t_a, 0.0, MAX_COORDINATE)
+    retreat = check_bool("retreat", retreat)
+    sphere_tol = check_nonneg("sphere_tol", sphere_tol)
+    p = scenario.params
+    T = p.duration if t_end is None else check_positive("t_end", t_end)
+    back = (np.linalg.norm(p.D_s_arr - p.F_arr) - p.L_u) / p.V_max
+    tf = (T - back) if t_f is None else check_nonneg("t_f", t_f)
+    if not tf >= t_a:
+        raise ValueError(f"t_f must be >= t_a, got t_f={tf:.6g} and t_a={t_a:.6g}")
+    tt = np.array([t])
+    m = np.asarray(scenario.observable_at(tt))[0]
+    if not m.any():
+        raise ValueError(f"t: no target is observable at t={t:.6g} s")
+    A = np.asarray(scenario.targets_at(tt))[0][m]
+    radius, balls = _instant_balls(p, t, t_a, tf, T, retreat, sphere_tol)
+    return build_instant_slack(p, A, c, balls=np.array(balls), radius=radius)
+
+
+def solve_slack(model: SlackModel, *, solver: str | None = "CLARABEL", **solver_options: Any) -> SolveResult:
+    """Solve a :class:`SlackModel` (or its data as they stand) with a cvxpy solver.
+
+    solver: a cvxpy solver name (default CLARABEL; None lets cvxpy choose); solver_options go to
+    ``problem.solve``. Returns objective = s (units of L), x = D (3,) (m), info["ds_dc"] = ds/dc
+    from the duals of the slack rows (None when the solver gives no duals), info["y"] = the
+    scaled position; ``bound`` is None. Status: OPTIMAL only when
+    the solver reports ``optimal``; ``optimal_inaccurate`` is FEASIBLE, ``infeasible`` (the balls
+    do not meet) INFEASIBLE, an inaccurate infeasibility NO_SOLUTION, a solver failure ERROR.
+    """
+    import cvxpy as cp
+
+    check_instance("model", model, SlackModel)
+    backend = "cvxpy" if solver is None else f"cvxpy-{str(solver).lower()}"
+    t0 = time.perf_counter()
+    try:
+        model.problem.solve(solver=solver, **solver_options)
+    except cp.error.SolverError as exc:
+        return SolveResult(
+            Status.ERROR, backend=backend, solve_time=time.perf_counter() - t0, message=str(exc)
+        )
+    el = time.perf_counter() - t0
+    status = _cvxpy_status(model.problem.status)
+    if not status.has_solution:
+        return SolveResult(
+            status,
+            backend=backend,
+            backend_status=str(model.problem.status),
+            solve_time=el,
+            message="slack SOCP: no solution",
+        )
+    lam, tv = model.rows.dual_value, model.t.value
+    ds_dc = None if lam is None else -float(np.asarray(lam, float).reshape(-1) @ np.asarray(tv, float))
+    return SolveResult(
+        status,
+        objective=float(np.asarray(model.s.value, float)),
+        x=np.asarray(model.D.value, float),
+        backend=backend,
+        backend_status=str(model.problem.status),
+        solve_time=el,
+        message="slack SOCP at c = cos(theta): objective s in units of the ball radius L",
+        info={"ds_dc": ds_dc, "y": np.asarray(model.y.value, float)},
+    )
+
+
+class _CvxpyProgram(InstantMinmaxProgram):
+    """:class:`InstantMinmaxProgram` with each slack solve done on a :class:`SlackModel` (cvxpy,
+    Clarabel underneath), compiled once and re-solved with new parameter values."""
+
+    def __init__(self, n_targets: int, n_balls: int = 0):
+        if isinstance(n_targets, bool) or not isinstance(n_targets, (int, np.integer)) or n_targets < 1:
+            raise ValueError(f"n_targets must be an int >= 1, got {n_targets!r}")
+        if isinstance(n_balls, bool) or not isinstance(n_balls, (int, np.integer)) or n_balls < 0:
+            raise ValueError(f"n_balls must be an int >= 0, got {n_balls!r}")
+        self.n_targets, self.n_balls = int(n_targets), int(n_balls)
+        self.model = _slack_model(self.n_targets, self.n_balls)
+
+    def set_instance(self, params: Any, targets: Any, balls: Any = None, radius: float | None = None) -> None:
+        self.model.set_data(params, targets, balls=balls, radius=radius)
+
+    def _s(self, c: float) -> _Eval | None:
+        import cvxpy as cp
+
+        m = self.model
+        m.c.value = c
+        try:
+            m.problem.solve(solver=cp.CLARABEL)
+        except cp.error.SolverError:
+            self.last_accurate = False
+            return None
+        status = _cvxpy_status(m.problem.status)
+        self.last_accurate = status is Status.OPTIMAL
+        if status is Status.INFEASIBLE:
+            return -math.inf, 0.0, np.full(3, np.nan)
+        if not status.has_solution:
+            return None
+        lam = np.asarray(m.rows.dual_value, float).reshape(-1)
+        return (
+            float(np.asarray(m.s.value, float)),
+            -float(lam @ np.asarray(m.t.value, float)),
+            np.asarray(m.y.value, float).copy(),
+        )
+
+
+_PROGRAMS: dict[tuple[int, int, str], InstantMinmaxProgram] = {}
+
+
+def _program(n: int, n_balls: int, backend: str = "clarabel") -> InstantMinmaxProgram:
+    key = (n, n_balls, backend)
     if key not in _PROGRAMS:
-        _PROGRAMS[key] = InstantMinmaxProgram(n, n_balls)
+        _PROGRAMS[key] = (_CvxpyProgram if backend == "cvxpy" else InstantMinmaxProgram)(n, n_balls)
     return _PROGRAMS[key]
+
+
+def _check_backend(backend: Any) -> str:
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    return str(backend)
 
 
 def _to_sphere(params: Any, D: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -273,7 +545,9 @@ def _check_targets_work(n_targets: int) -> None:
     check_work("targets (target pairs of the convex program)", n_targets * (n_targets + 1) / 2, "evaluations")
 
 
-def instant_minmax_bearing(params: Any, targets: Any, *, c_start: float | None = None) -> SolveResult:
+def instant_minmax_bearing(
+    params: Any, targets: Any, *, c_start: float | None = None, backend: str = "clarabel"
+) -> SolveResult:
     """Exact min over the observation sphere of max_j beta_j (rad) for fixed targets, by the convex program.
 
     targets: (n, 3) positions (m), n >= 1. Returns OPTIMAL with objective = max_j beta_j at
@@ -283,25 +557,29 @@ def instant_minmax_bearing(params: Any, targets: Any, *, c_start: float | None =
     inside the observation ball, or an optimum of 90 deg or more (then the cones are not convex; use
     the branch and bound).
     c_start: cos of an angle believed to be below the optimum (speeds up a sequence of instants).
+    backend: "clarabel" (default: the program laid out directly for Clarabel) or "cvxpy" (the
+    :class:`SlackModel` of :func:`build_instant_slack`, solved by Clarabel through cvxpy; the same
+    optimum, slower); the result's ``backend`` names it.
     """
     from droneplan.scenarios.covert import bearing_changes
 
     t0 = time.perf_counter()
+    backend = _check_backend(backend)
     A = check_array("targets", np.asarray(targets, dtype=float).reshape(-1, 3), min_rows=1)
     _check_targets_work(A.shape[0])
     if np.linalg.norm(params.R_arr - params.F_arr) <= params.L_u:
         return SolveResult(
             Status.ERROR,
-            backend="clarabel",
+            backend=backend,
             solve_time=time.perf_counter() - t0,
             message="R lies inside the observation ball: the convex reformulation does not apply",
         )
-    c_lo, c_best, D, solves, note = _program(A.shape[0], 0).solve(params, A, c_start=c_start)
+    c_lo, c_best, D, solves, note = _program(A.shape[0], 0, backend).solve(params, A, c_start=c_start)
     el = time.perf_counter() - t0
     if c_lo is None or D is None:
         return SolveResult(
             Status.ERROR,
-            backend="clarabel",
+            backend=backend,
             solve_time=el,
             iterations=solves,
             message=f"convex per-instant program not applicable: {note}",
@@ -314,7 +592,7 @@ def instant_minmax_bearing(params: Any, targets: Any, *, c_start: float | None =
         objective=val,
         bound=bound,
         x=P,
-        backend="clarabel",
+        backend=backend,
         solve_time=el,
         iterations=solves,
         message=f"exact convex per-instant optimum (SOCP slack form, Newton on cos theta, "
@@ -371,6 +649,7 @@ def mission_lower_bound(
     retreat: bool = True,
     t_end: float | None = None,
     sphere_tol: float = 1.0,
+    backend: str = "clarabel",
 ) -> MissionBound:
     """Lower bound on beta_max (rad) on ``scenario`` for any controller that leaves D_s at t = 0 at
     speed <= V_max, is on the observation sphere (within ``sphere_tol`` m) from ``t_a`` (s) to
@@ -382,11 +661,19 @@ def mission_lower_bound(
     over the observable targets on that set bounds what any such controller records at that
     instant, so their maximum bounds beta_max (the recorded maximum over the run). Instants
     where the program does not apply (optimum >= 90 deg, or an empty set: the class cannot
-    reach the sphere by t_a) are NaN and left out.
+    reach the sphere by t_a) are NaN and left out. backend: as in :func:`instant_minmax_bearing`
+    (the cvxpy model of an instant is :func:`build_mission_slack`).
     """
     t_a = check_in_range("t_a", t_a, 0.0, MAX_COORDINATE)
     return mission_front(
-        scenario, [t_a], t_f, times=times, retreat=retreat, t_end=t_end, sphere_tol=sphere_tol
+        scenario,
+        [t_a],
+        t_f,
+        times=times,
+        retreat=retreat,
+        t_end=t_end,
+        sphere_tol=sphere_tol,
+        backend=backend,
     )[0]
 
 
@@ -399,11 +686,12 @@ def mission_front(  # noqa: C901, PLR0915
     retreat: bool = True,
     t_end: float | None = None,
     sphere_tol: float = 1.0,
+    backend: str = "clarabel",
 ) -> list[MissionBound]:
     """:func:`mission_lower_bound` for several arrival times (s), sharing the instants after arrival.
 
     scenario: the targets' paths and the parameters (no obstacles); arrival_times: the t_a (s) of
-    each class; t_f, times, retreat, t_end, sphere_tol: as in :func:`mission_lower_bound`.
+    each class; t_f, times, retreat, t_end, sphere_tol, backend: as in :func:`mission_lower_bound`.
     Every instant is one convex program per arrival time at worst: more than the solves budget
     (``core.validation.work_limits``) of instants times arrival times is refused up front.
     Returns one :class:`MissionBound` per arrival time. The bound is non-increasing in the
@@ -415,6 +703,7 @@ def mission_front(  # noqa: C901, PLR0915
     check_instance("scenario", scenario, CovertScenario)
     retreat = check_bool("retreat", retreat)
     sphere_tol = check_nonneg("sphere_tol", sphere_tol)
+    backend = _check_backend(backend)
     if t_end is not None:
         t_end = check_positive("t_end", t_end)
     if t_f is not None:
@@ -463,7 +752,7 @@ def mission_front(  # noqa: C901, PLR0915
             if not m.any():
                 continue
             radius, balls = _instant_balls(p, float(tt[k]), t_a, tf, T, retreat, sphere_tol)
-            res = _mission_instant(p, A_all[k][m], balls, radius, c_prev)
+            res = _mission_instant(p, A_all[k][m], balls, radius, c_prev, backend)
             if res is not None:
                 out[k] = res[0]
                 c_prev = max(res[1] - 1e-3, 0.0)
@@ -481,11 +770,16 @@ def mission_front(  # noqa: C901, PLR0915
 
 
 def _mission_instant(
-    p: Any, A: NDArray[np.float64], balls: list[NDArray[np.float64]], radius_F: float, c_start: float | None
+    p: Any,
+    A: NDArray[np.float64],
+    balls: list[NDArray[np.float64]],
+    radius_F: float,
+    c_start: float | None,
+    backend: str = "clarabel",
 ) -> tuple[float, float] | None:
     """Certified min max beta over {|D - F| <= radius_F} ∩ balls, as (bound rad, cos) or None."""
     extra = list(balls)
-    prog = _program(A.shape[0], len(extra))
+    prog = _program(A.shape[0], len(extra), backend)
     try:
         c_lo, c_best, _, _, _ = prog.solve(p, A, balls=np.array(extra), c_start=c_start, radius=radius_F)
     except ValueError:

@@ -736,8 +736,10 @@ def reproduce(*, quick: bool, out: Path, executor=None) -> None:
 
 
 # --------------------------------------------------------------------------- bench
-def bench(*, quick: bool, out: Path) -> None:
-    """MPC solve time per replan vs control period (IPOPT, OSQP-SQP) and MPC-vs-sliding margins."""
+def bench(*, quick: bool, out: Path) -> None:  # noqa: C901, PLR0915
+    """MPC solve time per replan vs control period (IPOPT, OSQP-SQP) and MPC-vs-sliding margins;
+    the convex per-instant and whole-mission programs, direct Clarabel against cvxpy (CPU and
+    wall-time ratios measured in one run, with the load; rows in ``bench_convex_rows.csv``)."""
     out = Path(out)
     tab = ComparisonTable("Covert MPC bench (one run)")
     rows = []
@@ -867,7 +869,88 @@ def bench(*, quick: bool, out: Path) -> None:
         run.cpu_s / tr.t.size / sc.params.dt,
         f"whole closed loop incl. simulation, case 2; {run.note}",
     )
+    # the convex programs: the direct Clarabel layout against the cvxpy models (DPP, compiled once
+    # per shape before the timed runs), on the same instances in this run
+    from droneplan.formulations.covert_bounds import instant_minmax_bearing, mission_lower_bound
+    from droneplan.scenarios.covert import THESIS_TABLE_3_2, random_case
+
+    rng = np.random.default_rng(0)
+    convex_rows = []
+    sizes = (3, 10) if quick else (3, 10, 30)
+    groups = {
+        n: [
+            np.column_stack([rng.uniform(80, 195, n), rng.uniform(80, 195, n), rng.uniform(0, 25, n)])
+            for _ in range(10 if quick else 30)
+        ]
+        for n in sizes
+    }
+    for n, group in groups.items():
+        runs, results = {}, {}
+        for backend in ("clarabel", "cvxpy"):
+            instant_minmax_bearing(THESIS_TABLE_3_2, group[0], backend=backend)  # compile / warm up
+            with measured() as run:
+                results[backend] = [
+                    instant_minmax_bearing(THESIS_TABLE_3_2, A, backend=backend) for A in group
+                ]
+            runs[backend] = run
+        diff = max(
+            math.nan if a.objective is None or b.objective is None else abs(a.objective - b.objective)
+            for a, b in zip(results["clarabel"], results["cvxpy"], strict=True)
+        )
+        fast, slow = runs["clarabel"], runs["cvxpy"]
+        tab.add(
+            f"per-instant optimum, {n} targets: cvxpy / direct Clarabel, CPU time",
+            None,
+            slow.cpu_s / fast.cpu_s,
+            f"{len(group)} random groups; wall ratio {slow.wall_s / fast.wall_s:.2f}; direct "
+            f"{fast.note}; cvxpy {slow.note}; max |optimum difference| {diff:.1e} rad",
+        )
+        for backend, run in runs.items():
+            convex_rows.append(
+                {
+                    "program": "instant",
+                    "size": n,
+                    "backend": backend,
+                    "instances": len(group),
+                    "wall_s": run.wall_s,
+                    "cpu_s": run.cpu_s,
+                    "load_1min": run.load,
+                    "max_abs_diff_rad": diff,
+                }
+            )
+    sc = random_case(3, 5)
+    times = np.arange(0.0, sc.params.duration + 1e-9, 2.0 if quick else 0.5)
+    mission_lower_bound(sc, 10.0, times=times[::8], backend="cvxpy")  # compile most shapes first
+    runs, values = {}, {}
+    for backend in ("clarabel", "cvxpy"):
+        with measured() as run:
+            values[backend] = mission_lower_bound(sc, 10.0, times=times, backend=backend).value
+        runs[backend] = run
+    diff = abs(values["clarabel"] - values["cvxpy"])
+    fast, slow = runs["clarabel"], runs["cvxpy"]
+    tab.add(
+        "whole-mission bound: cvxpy / direct Clarabel, CPU time",
+        None,
+        slow.cpu_s / fast.cpu_s,
+        f"random_case(3, 5), t_a = 10 s, {times.size} instants; wall ratio "
+        f"{slow.wall_s / fast.wall_s:.2f}; direct {fast.note}; cvxpy {slow.note}; "
+        f"|bound difference| {diff:.1e} rad",
+    )
+    for backend, run in runs.items():
+        convex_rows.append(
+            {
+                "program": "mission",
+                "size": times.size,
+                "backend": backend,
+                "instances": 1,
+                "wall_s": run.wall_s,
+                "cpu_s": run.cpu_s,
+                "load_1min": run.load,
+                "max_abs_diff_rad": diff,
+            }
+        )
     tab.emit(out, "bench")
     import pandas as pd
 
     pd.DataFrame(rows).to_csv(out / "bench_rows.csv", index=False)
+    pd.DataFrame(convex_rows).to_csv(out / "bench_convex_rows.csv", index=False)
