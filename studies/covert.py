@@ -736,7 +736,7 @@ def reproduce(*, quick: bool, out: Path, executor=None) -> None:
 
 
 # --------------------------------------------------------------------------- bench
-def bench(*, quick: bool, out: Path) -> None:  # noqa: C901, PLR0915
+def bench(*, quick: bool, out: Path) -> None:
     """MPC solve time per replan vs control period (IPOPT, OSQP-SQP) and MPC-vs-sliding margins;
     the convex per-instant and whole-mission programs, direct Clarabel against cvxpy (CPU and
     wall-time ratios measured in one run, with the load; rows in ``bench_convex_rows.csv``)."""
@@ -869,8 +869,18 @@ def bench(*, quick: bool, out: Path) -> None:  # noqa: C901, PLR0915
         run.cpu_s / tr.t.size / sc.params.dt,
         f"whole closed loop incl. simulation, case 2; {run.note}",
     )
-    # the convex programs: the direct Clarabel layout against the cvxpy models (DPP, compiled once
-    # per shape before the timed runs), on the same instances in this run
+    convex_rows = _bench_convex(tab, quick)
+    tab.emit(out, "bench")
+    import pandas as pd
+
+    pd.DataFrame(rows).to_csv(out / "bench_rows.csv", index=False)
+    pd.DataFrame(convex_rows).to_csv(out / "bench_convex_rows.csv", index=False)
+
+
+def _bench_convex(tab: ComparisonTable, quick: bool) -> list[dict]:
+    """The convex programs of :func:`bench`: the direct Clarabel layout against the cvxpy models
+    (DPP, compiled once per shape before the timed runs), on the same instances in one run; adds
+    the ratios to ``tab`` and returns the rows of ``bench_convex_rows.csv``."""
     from droneplan.formulations.covert_bounds import instant_minmax_bearing, mission_lower_bound
     from droneplan.scenarios.covert import THESIS_TABLE_3_2, random_case
 
@@ -949,8 +959,4 @@ def bench(*, quick: bool, out: Path) -> None:  # noqa: C901, PLR0915
                 "max_abs_diff_rad": diff,
             }
         )
-    tab.emit(out, "bench")
-    import pandas as pd
-
-    pd.DataFrame(rows).to_csv(out / "bench_rows.csv", index=False)
-    pd.DataFrame(convex_rows).to_csv(out / "bench_convex_rows.csv", index=False)
+    return convex_rows
