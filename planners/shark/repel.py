@@ -43,7 +43,9 @@ class RepellingOperator:
     follow_distance: stand-off while following (m); alert_radius: distance of the shark to a
     swimmer within which an approach triggers an interception (m); cover_distance: closer than
     this the operator covers the swimmer instead (m); closing_speed: approach speed that
-    counts as "approaching" (m/s); safety_distance: distance at which the shark has left (m);
+    counts as "approaching" (m/s); safety_distance: distance at which the shark has left (m;
+    300 m rather than the thesis's example 3 km: on the reproduction's episodes 3 km gave the
+    same attacks and interceptions and only added ~540 s of the shark swimming away at 5 m/s);
     base: (3,) return position (m); interceptor: "virtual-shark" or "ocp" (online OCP).
     Follows the closed-loop contract (``reset``, ``command(RepellingObservation) -> SharkCommand``);
     ``phase`` is a :class:`RepellingMode`; ``interceptions`` counts field contacts with its shark.
