@@ -87,6 +87,16 @@ _Eval = tuple[float, float, NDArray[np.float64]]
 """One solve of the slack SOCP at a given c: (s(c), ds/dc, y)."""
 
 
+def _directions(params: Any, targets: np.ndarray, L: float) -> tuple[np.ndarray, np.ndarray]:
+    """(u, q) of the slack programs: u the unit directions from each target to the reference
+    point R, q the targets' offsets from F in units of L (m); ValueError for a target at R."""
+    u = params.R_arr - targets
+    nu = np.linalg.norm(u, axis=1, keepdims=True)
+    if np.any(nu < 1e-9):
+        raise ValueError("targets: a target coincides with the reference point R")
+    return u / nu, (targets - params.F_arr) / L
+
+
 class InstantMinmaxProgram:
     """The slack SOCP  max s  s.t.  u_j.(y - q_j) - c t_j >= s,  |y - q_j| <= t_j,  |y| <= 1,
     |y - p_i| <= r_i  (extra balls),  in units scaled by L_u around F (y = (D - F) / L_u),
@@ -136,16 +146,10 @@ class InstantMinmaxProgram:
     def set_instance(self, params: Any, targets: Any, balls: Any = None, radius: float | None = None) -> None:
         """Fill in the data: targets (n, 3) m, balls (n_balls, 4) rows (centre (3) m, radius m),
         radius (m) of the ball around F (default params.L_u); params gives F, R and L_u."""
-        F, R = params.F_arr, params.R_arr
+        F = params.F_arr
         L = params.L_u if radius is None else float(radius)
         n = self.n_targets
-        A = np.asarray(targets, float).reshape(-1, 3)
-        u = R - A
-        nu = np.linalg.norm(u, axis=1, keepdims=True)
-        if np.any(nu < 1e-9):
-            raise ValueError("a target coincides with the reference point R")
-        u = u / nu
-        q = (A - F) / L
+        u, q = _directions(params, np.asarray(targets, float).reshape(-1, 3), L)
         self._A[:n, :3] = -u
         self._b[:n] = -np.sum(u * q, axis=1)
         cones = self._b[n:].reshape(-1, 4)  # a view: writes go to self._b
@@ -314,15 +318,10 @@ class SlackModel:
     def set_data(self, params: Any, targets: Any, *, balls: Any = None, radius: float | None = None) -> None:
         """Fill in the data: targets (n_targets, 3) m, balls (n_balls, 4) rows (centre (3) m, radius
         m), radius (m) of the ball around F (default params.L_u); params gives F, R and L_u (m)."""
-        F, R = params.F_arr, params.R_arr
+        F = params.F_arr
         L = check_positive("radius", params.L_u if radius is None else radius)
         A = check_array("targets", np.asarray(targets, float).reshape(-1, 3), shape=(self.n_targets, 3))
-        u = R - A
-        nu = np.linalg.norm(u, axis=1, keepdims=True)
-        if np.any(nu < 1e-9):
-            raise ValueError("targets: a target coincides with the reference point R")
-        u = u / nu
-        q = (A - F) / L
+        u, q = _directions(params, A, L)
         d = self.data
         d["u"].value, d["q"].value, d["uq"].value = u, q, np.sum(u * q, axis=1)
         d["centre"].value, d["scale"].value = np.asarray(F, float), L

@@ -505,17 +505,26 @@ class CellProblem:
 
     def with_cells(self, n_cells: int) -> CellProblem:
         """The same instance with another number of drone-cells."""
-        return CellProblem(
-            self.users,
-            self.gbs,
-            n_cells,
-            self.R_d,
-            self.R_g,
-            self.r1,
-            self.r2,
-            self.bounds,
+        return self._replace(n_cells=n_cells)
+
+    def with_users(self, users: ArrayLike) -> CellProblem:
+        """The same instance (GBSs, radii, variants) with other users ((n, 2) m; with ``weights``,
+        as many users as weights, in the same order)."""
+        return self._replace(users=users)
+
+    def _replace(self, **changes: Any) -> CellProblem:
+        fields = {
+            "users": self.users,
+            "gbs": self.gbs,
+            "n_cells": self.n_cells,
+            "R_d": self.R_d,
+            "R_g": self.R_g,
+            "r1": self.r1,
+            "r2": self.r2,
+            "bounds": self.bounds,
             **self._variant_kwargs(),
-        )
+        }
+        return CellProblem(**{**fields, **changes})
 
     def __repr__(self) -> str:
         return (

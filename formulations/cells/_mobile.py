@@ -67,7 +67,7 @@ class MobileProblem:
         self.problem = problem
         self.snapshots = arr
         self.max_move = check_nonneg("max_move", max_move)
-        self.epochs = tuple(_epoch_problem(problem, users) for users in arr)
+        self.epochs = tuple(problem.with_users(users) for users in arr)
         self._points: np.ndarray | None = None
 
     def candidates(self, epoch: int, extra: Any = None) -> Candidates:
@@ -89,24 +89,6 @@ class MobileProblem:
             f"MobileProblem(epochs={self.n_epochs}, users={self.snapshots.shape[1]}, "
             f"max_move={self.max_move}, problem={self.problem!r})"
         )
-
-
-def _epoch_problem(problem: CellProblem, users: np.ndarray) -> CellProblem:
-    return CellProblem(
-        users,
-        problem.gbs,
-        problem.n_cells,
-        problem.R_d,
-        problem.R_g,
-        problem.r1,
-        problem.r2,
-        problem.bounds,
-        weights=problem.weights,
-        no_fly=problem.no_fly,
-        capacity=problem.capacity,
-        altitudes=problem.altitudes,
-        channel=problem.channel,
-    )
 
 
 @dataclass(frozen=True)
