@@ -18,6 +18,7 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
         AllocationModel,
         build_allocation_model,
         check_allocation,
+        pad_steering_points,
         solve_allocation,
     )
     from droneplan.planners.herding import (
@@ -73,6 +74,7 @@ __all__ = [
     "build_allocation_model",
     "solve_allocation",
     "check_allocation",
+    "pad_steering_points",
     # thesis methods and herders
     "allocate_bruteforce",
     "allocate_collision_blind",
@@ -100,6 +102,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "AllocationModel",
         "build_allocation_model",
         "check_allocation",
+        "pad_steering_points",
         "solve_allocation",
     ),
     "droneplan.planners.herding": (

@@ -145,13 +145,25 @@ def validate_allocation_input(drone_s, steer_s, perimeter) -> tuple[np.ndarray, 
     return d, s, perimeter
 
 
+MAX_PADDED_POINTS = 100_000
+"""The most points :func:`pad_steering_points` pads to (its loop is quadratic in them)."""
+
+
 def pad_steering_points(steer_s, n: int, perimeter: float) -> np.ndarray:
     """Extend ``steer_s`` to ``n`` points by splitting the longest arc gap at its midpoint.
 
     The documented rule for hulls with fewer vertices than drones (see module
-    docstring). Returns the input points followed by the added ones (m).
+    docstring): the padding an allocation method's ``target`` indexes into when there are fewer
+    steering points than drones. steer_s: (m,) arc positions in [0, perimeter), m >= 1; n: the
+    number of points wanted (the drones); perimeter: the hull's perimeter M (m). Returns the
+    input points followed by the added ones (m).
     """
-    pts = [float(v) for v in np.asarray(steer_s, dtype=float)]
+    perimeter = check_positive("perimeter", perimeter)
+    steer = check_array("steer_s", steer_s, shape=(None,), min_rows=1)
+    if np.any((steer < 0) | (steer >= perimeter)):
+        raise ValueError(f"steer_s must lie in [0, perimeter) = [0, {perimeter}) (arc positions, m)")
+    n = check_int("n", n, min_value=0, max_value=MAX_PADDED_POINTS)
+    pts = [float(v) for v in steer]
     while len(pts) < n:
         order = sorted(pts)
         gaps = [(order[(i + 1) % len(order)] - order[i]) % perimeter or perimeter for i in range(len(order))]

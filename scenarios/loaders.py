@@ -695,6 +695,7 @@ def read_user_tracks(
     :class:`droneplan.cells.MobileProblem`.
     """
     file = _as_path(path)
+    given_origin = None if origin is None else _check_origin(origin)
     header = _csv_header(file)
     geographic = "lon" in header and "lat" in header and not ("x" in header and "y" in header)
     columns = ("id", "t", "lon", "lat") if geographic else ("id", "t", "x", "y")
@@ -712,7 +713,7 @@ def read_user_tracks(
     xy = table[:, 2:4]
     if geographic:
         lon, lat = xy[:, 0], xy[:, 1]
-        centre = _spherical_centroid(lon, lat) if origin is None else _check_origin(origin)
+        centre = _spherical_centroid(lon, lat) if given_origin is None else given_origin
         xy = project_local(lon, lat, centre)
     snapshots = np.zeros((len(times), len(ids), 2))
     snapshots[t_index, id_index] = xy

@@ -7,7 +7,8 @@ each is a :class:`Method` whose ``target`` follows the contract of the instance 
                  or a ``SolveResult`` whose ``x`` holds them
 ``allocation``   ``fn(drone_s, steer_s, perimeter, *, seed, time_limit) -> (target, direction)``
                  (``target[j]``: index of drone j's steering point in ``steer_s`` padded as by
-                 ``pad_steering_points``; ``direction[j]``: +1 or -1), or an ``Allocation``, or a
+                 ``droneplan.herding.pad_steering_points``; ``direction[j]``: +1 towards
+                 increasing arc length, counter-clockwise, or -1), or an ``Allocation``, or a
                  ``SolveResult`` whose ``x`` is one
 ``shark-fleet``  ``fn(operators, sharks_pos, sharks_vel, humans, *, seed, time_limit) -> (sharks,
                  operator)`` (``operator[k]``: index of the operator sent to shark ``sharks[k]``),

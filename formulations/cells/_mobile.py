@@ -33,11 +33,12 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import maximum_bipartite_matching
 from scipy.spatial import cKDTree
 
-from droneplan.core.validation import check_array, check_instance, check_nonneg, check_time_limit
+from droneplan.core.validation import check_array, check_instance, check_int, check_nonneg, check_time_limit
 from droneplan.formulations.cells._core import TOL, Candidates, candidate_sites, evaluate
 from droneplan.formulations.cells._exact import solve_exact
 from droneplan.formulations.cells._levels import SiteBlock
 from droneplan.formulations.cells._model import _new_model
+from droneplan.formulations.cells._open import MAX_WORKERS
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.result import SolveResult, Status
 
@@ -147,6 +148,7 @@ def solve_mobile(
     :func:`evaluate_mobile` of the plan, ``info["per_epoch"]`` each epoch's weight.
     """
     check_instance("mp", mp, MobileProblem)
+    workers = _check_workers(workers)
     return _joint(
         mp, fixed_first=None, time_limit=check_time_limit(time_limit), backend=backend, workers=workers
     )
@@ -276,6 +278,7 @@ def myopic(
     """
     check_instance("mp", mp, MobileProblem)
     limit = check_time_limit(time_limit)
+    workers = _check_workers(workers)
     t0 = time.perf_counter()
 
     def left() -> float | None:
@@ -308,6 +311,10 @@ def myopic(
         solve_time=time.perf_counter() - t0,
         info={"evaluation": ev, "per_epoch": ev.per_epoch, "repaired": tuple(repaired)},
     )
+
+
+def _check_workers(workers: Any) -> int | None:
+    return None if workers is None else check_int("workers", workers, min_value=1, max_value=MAX_WORKERS)
 
 
 def _match_within(previous: np.ndarray, current: np.ndarray, max_move: float) -> np.ndarray | None:

@@ -171,6 +171,16 @@ P = _cells_problem
 _DATA: dict[str, str] = {}
 
 
+def _snapshots() -> np.ndarray:
+    """Two epochs of the users of ``P()``, the second 100 m east."""
+    users = np.asarray(P().users)
+    return np.stack([users, users + np.array([100.0, 0.0])])
+
+
+def _mobile():
+    return dp.cells.MobileProblem(P(), _snapshots(), 150.0)
+
+
 def _data_file(name: str) -> str:
     """A small data file of the users' formats (written once per session) for the loaders."""
     if not _DATA:
@@ -180,6 +190,7 @@ def _data_file(name: str) -> str:
         d = Path(tempfile.mkdtemp(prefix="droneplan-fuzz-"))
         (d / "points.csv").write_text("x,y\n1500,0\n1600,100\n-1700,50\n")
         (d / "track.csv").write_text("t,x,y\n0,0,0\n1,1,0\n2,2,0.5\n3,3,1\n")
+        (d / "users.csv").write_text("id,t,x,y\n1,0,1500,0\n2,0,1600,100\n1,60,1550,0\n2,60,1600,150\n")
         (d / "points.geojson").write_text(
             '{"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {}, '
             '"geometry": {"type": "MultiPoint", "coordinates": [[10.0, 47.0], [10.01, 47.01]]}}]}'
@@ -235,6 +246,23 @@ SPECS: dict[str, Spec] = {
         lambda: ((), {}),
         {"a": "positive", "b": "positive", "frequency_hz": "positive", "eta_los_db": "nonneg"},
     ),
+    "pad_steering_points": Spec(
+        lambda: (([0.0, 40.0], 4, 100.0), {}),
+        {"steer_s": "arcs", "n": "int>=0", "perimeter": "positive"},
+    ),
+    "MobileProblem": Spec(
+        lambda: ((P(), _snapshots(), 100.0), {}), {"problem": "object", "max_move": "nonneg"}
+    ),
+    "evaluate_mobile": Spec(lambda: ((_mobile(), _snapshots()[:, :1]), {}), {"mp": "object"}),
+    "solve_mobile": Spec(
+        lambda: ((_mobile(),), {"time_limit": 5.0}),
+        {"mp": "object", "time_limit": "time_limit", "workers": "int>=1"},
+    ),
+    "myopic": Spec(
+        lambda: ((_mobile(),), {"time_limit": 5.0}),
+        {"mp": "object", "time_limit": "time_limit", "workers": "int>=1"},
+    ),
+    "read_user_tracks": Spec(lambda: ((_data_file("users.csv"),), {}), {"origin": "object?"}),
     "min_fleet": Spec(
         lambda: ((P(),), {"coverage": 0.5, "time_limit": 5.0}),
         {"problem": "object", "time_limit": "time_limit", "coverage": "positive"},
@@ -623,6 +651,7 @@ PLOTTING: set[str] = set()  # every plot helper and animation writer has a spec 
 
 RESULT_TYPES = {
     # returned to the user, not called with user data (their fields are produced by the library)
+    "MobileEvaluation",
     "ProjectedCells",
     "Instance",
     "Evaluation",
