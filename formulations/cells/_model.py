@@ -222,8 +222,9 @@ def _sites_by_user(cover: list) -> dict[int, list[int]]:
 def _capacity_objective(lin, x: list, cover: list, problem: CellProblem) -> tuple[dict, Any]:
     """The served weight under ``problem.capacity`` as a linear expression: a 0-1 variable
     s_{u,c} per user u and site c covering it, ``sum_c s_{u,c} <= 1`` (served once),
-    ``sum_u s_{u,c} <= C x_c`` (capacity, and only by a chosen site); returns ({(u, c): s_{u,c}},
-    objective sum_{u,c} w_u s_{u,c}). Users of weight 0 get no variable."""
+    ``sum_u s_{u,c} <= C x_c`` (capacity, and only by a chosen site), and the objective at most the
+    weight of the C m heaviest users (valid, and a bound the backend has without its LP); returns
+    ({(u, c): s_{u,c}}, objective sum_{u,c} w_u s_{u,c}). Users of weight 0 get no variable."""
     capacity = int(problem.capacity or 0)
     weight = problem.target_weights
     serve: dict[tuple[int, int], Any] = {}
@@ -242,7 +243,11 @@ def _capacity_objective(lin, x: list, cover: list, problem: CellProblem) -> tupl
         lin.add_at_most_one(arcs)
     for c, arcs in per_site.items():
         lin.add(lin.sum(arcs) <= capacity * x[c])
-    return serve, lin.sum(terms)
+    objective = lin.sum(terms)
+    if terms:  # at most n_cells drone-cells serve C users each: the C m heaviest users bound the objective
+        top = np.sort(weight[weight > 0])[::-1][: capacity * problem.n_cells]
+        lin.add(objective <= _coefficient(float(top.sum())))
+    return serve, objective
 
 
 def _coefficient(w: float) -> float | int:

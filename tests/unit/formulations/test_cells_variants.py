@@ -498,3 +498,12 @@ def test_read_user_tracks_from_metres_and_degrees(tmp_path):
     gappy.write_text("id,t,x,y\n1,0,0,0\n2,0,1,1\n1,1,0,0\n")
     with pytest.raises(ValueError, match="every id needs a row at every time"):
         dp.cells.read_user_tracks(gappy)
+
+
+def test_a_capacity_bounds_the_objective_by_the_heaviest_users_the_fleet_can_serve():
+    """Eight users in one spot, capacity 2, one drone-cell: the bound is the two heaviest at once."""
+    users = np.tile([[2.5, 0.0]], (8, 1)) + np.linspace(0.0, 0.1, 8)[:, None]
+    p = CellProblem(users, [[0.0, 0.0]], 1, **RADII, weights=np.arange(1.0, 9.0), capacity=2)
+    res = solve_exact(p, time_limit=30)
+    assert res.status is Status.OPTIMAL and res.objective == pytest.approx(15.0)
+    assert res.bound <= 15.0 + 1e-6
