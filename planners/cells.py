@@ -499,13 +499,21 @@ class Region:
             raise ValueError(f"quad_segs must be an int >= 1, got {quad_segs!r}")
         if not self.link:
             return Polygon()
-        geom = unary_union([Point(cx, cy).buffer(r, quad_segs=quad_segs) for cx, cy, r in self.link])
+        # coincident discs (drone-cells placed at one spot) are one disc
+        geom = unary_union(
+            [Point(cx, cy).buffer(r, quad_segs=quad_segs) for cx, cy, r in dict.fromkeys(self.link)]
+        )
         if self.box is not None:
             xmin, xmax, ymin, ymax = self.box
             geom = geom.intersection(box(xmin, ymin, xmax, ymax))
         if self.exclude:
             geom = geom.difference(
-                unary_union([Point(cx, cy).buffer(r, quad_segs=quad_segs) for cx, cy, r in self.exclude])
+                unary_union(
+                    [
+                        Point(cx, cy).buffer(r, quad_segs=quad_segs)
+                        for cx, cy, r in dict.fromkeys(self.exclude)
+                    ]
+                )
             )
         return geom
 

@@ -147,10 +147,10 @@ def plot_deployment_region(problem: CellProblem, placed: Any = (), *, ax: Any = 
         ax.fill(*poly.exterior.xy, color="0.8", label="deployment region" if k == 0 else None)
         for hole in poly.interiors:
             ax.fill(*hole.xy, color="white")
-    for cx, cy, r in region.exclude:
-        ax.add_patch(Circle((cx, cy), r, fill=False, color="k", lw=0.8))
-    for cx, cy, r in region.link:
-        ax.add_patch(Circle((cx, cy), r, fill=False, color="tab:red", ls="--", lw=0.8))
+    for discs, style in ((region.exclude, {"color": "k"}), (region.link, {"color": "tab:red", "ls": "--"})):
+        rings = [_circles(np.array([[cx, cy]]), r) for cx, cy, r in dict.fromkeys(discs)]
+        if rings:  # one artist per style, each distinct circle once
+            ax.plot(*_polyline(np.concatenate(rings)), lw=0.8, **style)
     ax.scatter(*problem.gbs.T, marker="^", s=60, c="tab:blue", zorder=3, label="GBS")
     pl = np.asarray(placed, dtype=float).reshape(-1, 2)
     if len(pl):

@@ -214,3 +214,16 @@ def test_warm_start_effect_rows(engine):
     assert all(r.warm_reason for r in df.itertuples())
     with pytest.raises(ValueError, match=r"^engine must be one of"):
         study.warm_start_effect(2, [0], engine="gurobi", progress=False)
+
+
+def test_the_deployment_region_of_coincident_drone_cells_is_drawn_once():
+    """A thousand drone-cells at one spot: two keep-out circles and two reach circles, and the region
+    of one placed drone-cell."""
+    p = CellProblem(users=[[2.5, 0.0]], gbs=[[0.0, 0.0]], n_cells=1001, R_d=1.0, R_g=1.0, r1=3.0, r2=2.5)
+    _, ax = plt.subplots()
+    study.plot_deployment_region(p, np.tile([[2.5, 0.0]], (1000, 1)), ax=ax)
+    circles = sum(int(np.isnan(line.get_xydata()[:, 0]).sum()) for line in ax.lines)
+    assert circles == 4
+    one = study.plot_deployment_region(p, [[2.5, 0.0]])
+    assert ax.get_title() == one.axes[0].get_title()  # the same region area
+    plt.close("all")
