@@ -221,12 +221,19 @@ def served_weight(within: np.ndarray, weights: np.ndarray, capacity: int) -> flo
     it lies within (``within``: (n, k) bool), and each drone-cell serves at most ``capacity``
     users: a maximum-weight b-matching. Its LP is a transportation problem (totally unimodular),
     so the LP optimum is the integer one."""
+    users, _ = served_pairs(within, weights, capacity)
+    return float(np.asarray(weights, float)[users].sum())
+
+
+def served_pairs(within: np.ndarray, weights: np.ndarray, capacity: int) -> tuple[np.ndarray, np.ndarray]:
+    """(users, drone-cells) of a maximum-weight b-matching of :func:`served_weight`: user
+    ``users[i]`` served by drone-cell ``cells[i]``."""
     from scipy.optimize import linprog
     from scipy.sparse import coo_matrix
 
     users, cells = np.nonzero(within & (np.asarray(weights)[:, None] > 0))
     if not len(users):
-        return 0.0
+        return users, cells
     n_arcs = len(users)
     arc = np.arange(n_arcs)
     user_ids, user_row = np.unique(users, return_inverse=True)
@@ -240,7 +247,7 @@ def served_weight(within: np.ndarray, weights: np.ndarray, capacity: int) -> flo
     if res.status != 0:
         raise RuntimeError(f"the b-matching LP of the served weight failed: {res.message}")
     chosen = res.x > 0.5  # an integral vertex (total unimodularity)
-    return float(np.asarray(weights, float)[users[chosen]].sum())
+    return users[chosen], cells[chosen]
 
 
 # --------------------------------------------------------------------------- geometry

@@ -20,8 +20,9 @@ from typing import Any
 import numpy as np
 
 from droneplan.core.validation import check_bool, check_instance, check_int, check_time_limit
-from droneplan.formulations.cells._core import evaluate
-from droneplan.formulations.cells._milp import CellModel, build_milp
+from droneplan.formulations.cells._core import as_positions, evaluate, served_pairs
+from droneplan.formulations.cells._milp import FEW_WORKER_OPTIONS, CellModel, build_milp
+from droneplan.formulations.cells._prepare import greedy_placement
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.result import SolveResult, Status
 
@@ -42,13 +43,18 @@ def solve_model(
     time_limit: float | None = None,
     workers: int | None = None,
     verbose: bool = False,
+    warm_start: Any = None,
 ) -> SolveResult:
     """Solve a :class:`CellModel` from :func:`build_milp`, with the rows and objective terms the
     user added, and re-check its plan.
 
     model: the built model (solved as it stands; it may be solved again after more rows).
     time_limit: wall-clock limit (s), None: none. workers: backend threads / CP-SAT workers,
-    1..``MAX_WORKERS`` (None: the backend's default). verbose: print the backend's log.
+    1..``MAX_WORKERS`` (None: one; with one or two, CP-SAT runs its LP-based workers,
+    ``FEW_WORKER_OPTIONS``, without which its bound on these models stays at the user count).
+    verbose: print the backend's log. warm_start: a plan ((k, 2) or (k, 3) m) whose drone-cells
+    are model sites, handed to the backend as a start (CP-SAT's hint; ``warm_started`` says
+    whether it was used).
 
     Returns a SolveResult: ``x`` the chosen sites ((k, 2) m), ``objective`` the model's
     objective value (covered or served weight plus the user's terms), ``bound`` the backend's
@@ -65,8 +71,41 @@ def solve_model(
     t0 = time.perf_counter()
     if not model.x:
         return _empty_plan(model, t0)
-    raw = model.model.solve(variables=model.x, time_limit=limit, workers=workers, verbose=verbose)
-    return _checked(model, raw, t0)
+    hint = None if warm_start is None else _site_hint(model, warm_start)
+    raw = model.model.solve(
+        variables=model.x,
+        time_limit=limit,
+        workers=workers,
+        verbose=verbose,
+        hint=hint,
+        options=FEW_WORKER_OPTIONS.get(model.backend) if (workers or 1) <= 2 else None,
+    )
+    return replace(_checked(model, raw, t0), warm_started=raw.warm_started)
+
+
+def _site_hint(model: CellModel, plan: Any) -> dict:
+    """{site variable: 0 or 1} choosing the model sites of ``plan``; ValueError naming a drone-cell
+    that is no model site."""
+    positions = as_positions(model.problem, plan, "warm_start")
+    sites = model.plan(np.ones(len(model.points), dtype=bool))
+    chosen = set()
+    for p in positions:
+        gap = np.abs(sites - p).max(axis=1) if len(sites) else np.zeros(0)
+        if not len(gap) or gap.min() > 1e-6:
+            raise ValueError(f"warm_start: the drone-cell at {p.tolist()} is no site of the model")
+        chosen.add(int(np.argmin(gap)))
+    hint = {var: int(i in chosen) for i, var in enumerate(model.x)}
+    if model.serve:  # a capacity: the plan's best assignment too, so the start is complete
+        site_of = sorted(chosen)
+        column = {c: k for k, c in enumerate(site_of)}
+        within = np.zeros((len(model.problem.targets), len(site_of)), dtype=bool)
+        for u, c in model.serve:
+            if c in column:
+                within[u, column[c]] = True
+        users, cells = served_pairs(within, model.problem.target_weights, int(model.problem.capacity or 0))
+        served = {(int(u), site_of[int(k)]) for u, k in zip(users, cells, strict=True)}
+        hint.update({var: int(key in served) for key, var in model.serve.items()})
+    return hint
 
 
 def _checked(model: CellModel, raw: SolveResult, t0: float) -> SolveResult:
@@ -137,15 +176,18 @@ def solve_variant(
     problem: CellProblem, *, backend: str, time_limit: float | None, workers: int | None
 ) -> SolveResult:
     """The exact solve of a variant instance (``solve_exact``'s MILP path for it): the whole
-    candidate model, built and solved once within ``time_limit`` (s)."""
+    candidate model, built and solved once within ``time_limit`` (s), from the greedy placement
+    as the backend's start."""
     t0 = time.perf_counter()
     model = build_milp(problem, backend=backend)
     if model is None:  # only a deadline or a term cap stops a build, and neither is given
         raise RuntimeError("the candidate model of a variant instance was not built")
     left = None if time_limit is None else max(time_limit - (time.perf_counter() - t0), 0.0)
-    result = solve_model(model, time_limit=left, workers=workers)
+    start = greedy_placement(problem)  # a start only: the model proves the bound
+    result = solve_model(model, time_limit=left, workers=workers, warm_start=start)
     return _with_total_time(result, t0)
 
 
 def _with_total_time(result: SolveResult, t0: float) -> SolveResult:
+    """``result`` with its solve time measured from ``t0`` (a ``time.perf_counter()`` value)."""
     return replace(result, solve_time=time.perf_counter() - t0)
