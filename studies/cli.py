@@ -33,6 +33,7 @@ from types import ModuleType
 from typing import TYPE_CHECKING
 
 from droneplan.core.files import JsonFileError
+from droneplan.core.validation import check_positive
 from droneplan.studies import common
 from droneplan.studies.common import StudyError, make_executor, render_frame
 from droneplan.studies.library import LibraryFileError
@@ -224,6 +225,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     bench.add_argument(
         "--summary-only", action="store_true", help="with 'all': only the summary table of the speed goals"
+    )
+    bench.add_argument(
+        "--variants",
+        action="store_true",
+        help="cells: the model's variants instead of the scale grid (time to proof, fleet size, moving "
+        "users; Table 4.2 m = 4 seeds 0-9, or m = 2 seed 0 with --quick)",
     )
     bench.add_argument(
         "--time-limit",
@@ -634,6 +641,29 @@ def _checked_counts(args) -> int | None:
     return workers
 
 
+def _run_bench_variants(args, problems: list[str]) -> int:
+    """``droneplan bench cells --variants``: the variant rows of ``studies.cells_variants``."""
+    if problems != ["cells"]:
+        raise SystemExit("droneplan: --variants goes with 'bench cells'")
+    from droneplan.studies.cells_variants import bench_variants
+
+    limit = args.time_limit if args.time_limit is not None else (60.0 if args.quick else 600.0)
+    seeds, m = ([0], 2) if args.quick else (list(range(10)), 4)
+    out = args.out / "cells"
+    try:
+        rows = bench_variants(seeds=seeds, m=m, time_limit=check_positive("--time-limit", limit), out=out)
+    except ValueError as exc:
+        raise SystemExit(f"droneplan: {exc}") from None
+    for row in rows:
+        print(
+            f"{row['variant']:>16} seed {row['seed']}: {row['status']:>10} "
+            f"{row['objective']} / {row['bound']}  {row['cpu_s']:.1f} CPU-s, "
+            f"{row['wall_s']:.1f} s wall, load {row['load_1min']:.2f}"
+        )
+    print(f"rows in {out / 'bench_variants.csv'}")
+    return 0
+
+
 def _run_bench(args, problems: list[str]) -> int:
     """``droneplan bench``: each problem's benchmark, then (for "all") the summary table."""
     if args.time_limit is not None and "cells" not in problems:
@@ -642,6 +672,8 @@ def _run_bench(args, problems: list[str]) -> int:
         raise SystemExit("droneplan: --summary-only goes with 'bench all'")
     if args.reproduce_times is not None and args.problem != "all":
         raise SystemExit("droneplan: --reproduce-times goes with 'bench all' (it feeds the summary)")
+    if args.variants:
+        return _run_bench_variants(args, problems)
     for problem in [] if args.summary_only else problems:
         out = args.out / problem
         out.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,43 @@
+"""The variant rows of ``bench cells --variants`` on the smallest sizes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from droneplan.formulations.cells import CellProblem, evaluate
+from droneplan.studies import cells_variants
+from droneplan.studies.cells_variants import VARIANTS, bench_variants, variant_problem
+
+
+def test_variant_problems_are_the_thesis_instance_with_one_variant_each():
+    fields = {"weighted": "weights", "nofly": "no_fly", "capacity": "capacity", "3d": "altitudes"}
+    for name in VARIANTS:
+        p = variant_problem(name, 2, 0)
+        assert p.variants == (fields[name],)
+        assert evaluate(p, []).value == 0.0 and p.n_cells == 2
+    with pytest.raises(ValueError, match="variant"):
+        variant_problem("heavy", 2, 0)
+
+
+def _small_thesis_problem(m, seed):
+    """A small clustered stand-in for the Table 4.2 instance (radii in units of R_d = 1)."""
+    rng = np.random.default_rng(seed)
+    users = np.concatenate([rng.normal(c, 0.3, size=(3, 2)) for c in ([2.5, 0.0], [-2.5, 1.0], [0.0, 4.0])])
+    return CellProblem(users, [[0.0, 0.0]], m, 1.0, 1.0, 3.0, 2.5)
+
+
+def test_bench_variants_writes_a_row_per_variant_seed(tmp_path, monkeypatch):
+    """The rows and their file, on a small stand-in instance (the bench itself runs Table 4.2)."""
+    monkeypatch.setattr(cells_variants, "thesis_problem", _small_thesis_problem)
+    rows = bench_variants(seeds=[0], m=2, time_limit=60.0, out=tmp_path, epochs=2)
+    df = pd.read_csv(tmp_path / "bench_variants.csv")
+    assert len(df) == len(rows) == len(VARIANTS) + 3 + 2
+    proven = df[df["variant"].isin(VARIANTS)]
+    assert (proven["status"] == "optimal").all()
+    assert (proven["objective"] <= proven["bound"] + 1e-6).all()
+    joint, greedy = (
+        df.loc[df["variant"] == name, "objective"].item() for name in ("mobile joint", "mobile myopic")
+    )
+    assert greedy <= joint + 1e-9
