@@ -691,6 +691,8 @@ def read_user_tracks(
     equidistant projection on the mean-Earth sphere; ``origin`` None: the tracks' spherical
     centroid). Every id needs a row at every time.
 
+    path: the CSV file. origin: (lon0, lat0) degrees, or None.
+
     Returns (times (T,) s, sorted; ids (n,), sorted; snapshots (T, n, 2) m), the snapshots of
     :class:`droneplan.cells.MobileProblem`.
     """

@@ -107,8 +107,10 @@ class MobileEvaluation:
 
 
 def evaluate_mobile(mp: MobileProblem, plan: Any) -> MobileEvaluation:
-    """Check a plan of moving drone-cells: ``plan`` is (T, k, w) (w = 2, or 3 with altitude levels),
-    drone-cell i at ``plan[t, i]`` in epoch t."""
+    """Check a plan of moving drone-cells.
+
+    mp: the :class:`MobileProblem`. plan: (T, k, w) positions (m; w = 2, or 3 with altitude
+    levels), drone-cell i at ``plan[t, i]`` in epoch t."""
     check_instance("mp", mp, MobileProblem)
     arr = check_array("plan", plan)
     width = mp.problem.plan_width
@@ -140,8 +142,8 @@ def solve_mobile(
 ) -> SolveResult:
     """The joint model of all epochs (module docstring), proven over each epoch's candidate sites.
 
-    time_limit: wall-clock limit (s), None: none. backend: "cp-sat", "highs" or "scip" (CP-SAT
-    takes integer weights only). workers: backend threads.
+    mp: the :class:`MobileProblem`. time_limit: wall-clock limit (s), None: none. backend:
+    "cp-sat", "highs" or "scip" (CP-SAT takes integer weights only). workers: backend threads.
 
     Returns a SolveResult: ``x`` the plan (T, k, w), ``objective`` the covered weight summed over
     the epochs, ``bound`` the backend's proven bound; ``info["evaluation"]`` is
@@ -271,7 +273,11 @@ def myopic(
     mp: MobileProblem, *, time_limit: float | None = None, backend: str = "cp-sat", workers: int | None = None
 ) -> SolveResult:
     """The myopic baseline (module docstring): each epoch's exact optimum, repaired where the
-    drone-cells cannot reach it within ``max_move``. ``time_limit`` (s) is shared by the epochs.
+    drone-cells cannot reach it within ``max_move``.
+
+    mp: the :class:`MobileProblem`. time_limit: wall-clock limit (s) shared by the epochs, None:
+    none. backend: the linear backend of the repairs ("cp-sat", "highs" or "scip"). workers:
+    backend threads of the repairs (None: the backend's default).
 
     Returns a SolveResult (FEASIBLE: a heuristic for the joint problem) with the (T, k, w) plan
     and ``info["repaired"]``, the epochs re-solved with their predecessor fixed.
