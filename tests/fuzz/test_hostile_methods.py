@@ -308,8 +308,11 @@ def test_each_job_has_a_memory_cap(tmp_path):
 
 _STUDY = textwrap.dedent(
     """
-    import os, sys, time
+    import os, signal, sys, time
     import droneplan
+
+    # a study started under nohup inherits an ignored SIGHUP; this one is to die of it
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
 
     def sleeper(problem, *, seed, time_limit):
         with open(sys.argv[1] + f".{os.getpid()}", "w") as fh:
