@@ -2,8 +2,10 @@
 
 An adapter is a :class:`BackendAdapter` subclass with a ``name``, an explicit
 ``status_map`` from the backend's native status codes to :class:`Status` (a code
-missing from it maps to ERROR) and one or more *capabilities*, each an abstract
-mixin below that fixes what a formulation may ask of it:
+missing from it maps to ERROR), the packages it ``requires`` (imported inside its
+methods, never at the top of its module) and one or more *capabilities*, each an
+abstract mixin below that fixes what a formulation may ask of it (the class attribute
+``kinds`` lists them):
 
 =============== ==================================== ==========================================
 kind            mixin                                what the formulation gets
@@ -25,6 +27,7 @@ reaches stdout only when the caller passes ``verbose=True``.
 from __future__ import annotations
 
 import abc
+import importlib.util
 import time
 from collections.abc import Callable, Hashable, Mapping
 from dataclasses import dataclass, field
@@ -57,15 +60,26 @@ class BackendAdapter(abc.ABC):
     """Native status code -> Status; a code not in it maps to ERROR."""
     description: ClassVar[str] = ""
     """One line for listings: library and algorithm."""
+    kinds: ClassVar[frozenset[str]] = frozenset()
+    """The capabilities (``KINDS``) this adapter implements: set on each subclass from the
+    capability mixins it inherits, so the class itself answers without an instance."""
+    requires: ClassVar[tuple[str, ...]] = ()
+    """The top-level Python packages the adapter needs (e.g. ``("ortools",)``). An adapter
+    imports them inside its methods, so its module and its listing load none of them."""
 
-    @property
-    def kinds(self) -> frozenset[str]:
-        """The capabilities (``KINDS``) this adapter implements."""
-        return frozenset(kind for kind, mixin in _MIXINS.items() if isinstance(self, mixin))
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls.kinds = frozenset(kind for kind, mixin in _MIXINS.items() if issubclass(cls, mixin))
+
+    @classmethod
+    def requires_installed(cls) -> bool:
+        """True when every package of ``requires`` is on the path (looked up, not imported)."""
+        return all(importlib.util.find_spec(package) is not None for package in cls.requires)
 
     def is_available(self) -> bool:
-        """True when the backend can run in this installation (library present, licensed)."""
-        return True
+        """True when the backend can run in this installation (library present, licensed);
+        by default, when the packages of ``requires`` are installed."""
+        return self.requires_installed()
 
     def map_status(self, code: Hashable) -> Status:
         """The Status of a native ``code`` through ``status_map`` (unknown: ERROR)."""

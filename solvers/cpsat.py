@@ -3,27 +3,31 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from ortools.sat.python import cp_model
 
 from droneplan.core.validation import check_time_limit
 from droneplan.solvers.base import BackendAdapter, CpBackend, LinearBackend, NativeReadout, run_native
 from droneplan.solvers.linear import LinearModel
 from droneplan.solvers.result import SolveResult, Status
 
+if TYPE_CHECKING:
+    from ortools.sat.python import cp_model
+
 __all__ = ["BACKEND", "STATUS_MAP", "CpSatAdapter", "CpSatLinearModel", "solve_cpsat"]
 
 BACKEND = "cp-sat"
 
-# CP-SAT's native statuses; FEASIBLE means a solution without a proof of optimality.
+# CP-SAT's native statuses (the CpSolverStatus codes of cp_model.proto, written as numbers so
+# that this module loads without OR-Tools; a test holds them against cp_model's constants);
+# FEASIBLE means a solution without a proof of optimality.
 STATUS_MAP: dict[Any, Status] = {
-    cp_model.OPTIMAL: Status.OPTIMAL,
-    cp_model.FEASIBLE: Status.FEASIBLE,
-    cp_model.INFEASIBLE: Status.INFEASIBLE,
-    cp_model.UNKNOWN: Status.NO_SOLUTION,
-    cp_model.MODEL_INVALID: Status.ERROR,
+    4: Status.OPTIMAL,  # cp_model.OPTIMAL
+    2: Status.FEASIBLE,  # cp_model.FEASIBLE
+    3: Status.INFEASIBLE,  # cp_model.INFEASIBLE
+    0: Status.NO_SOLUTION,  # cp_model.UNKNOWN
+    1: Status.ERROR,  # cp_model.MODEL_INVALID
 }
 
 
@@ -38,8 +42,11 @@ class CpSatAdapter(BackendAdapter, CpBackend, LinearBackend):
     name = BACKEND
     status_map = STATUS_MAP
     description = "OR-Tools CP-SAT: integer/Boolean models, proven bounds"
+    requires = ("ortools",)
 
     def status_name(self, code: Any) -> str:
+        from ortools.sat.python import cp_model
+
         try:
             return cp_model.CpSolver().status_name(code)
         except Exception:  # noqa: BLE001 - not a CP-SAT code: show it as it is
@@ -76,6 +83,8 @@ class CpSatAdapter(BackendAdapter, CpBackend, LinearBackend):
         (None without a solution), ``objective`` the objective value and ``bound`` CP-SAT's
         best objective bound (both None for a model without objective or solution).
         """
+        from ortools.sat.python import cp_model
+
         if not isinstance(model, cp_model.CpModel):
             raise TypeError(f"model must be a cp_model.CpModel, got {type(model).__name__}")
         check_time_limit(time_limit)
@@ -147,6 +156,8 @@ class CpSatLinearModel(LinearModel):
         return True
 
     def __init__(self) -> None:
+        from ortools.sat.python import cp_model
+
         self._model = cp_model.CpModel()
 
     @property
@@ -177,6 +188,8 @@ class CpSatLinearModel(LinearModel):
         self._model.add_bool_or([literal.Not(), *variables])
 
     def sum(self, terms: Any) -> Any:
+        from ortools.sat.python import cp_model
+
         return cp_model.LinearExpr.sum(list(terms))
 
     def maximize(self, expr: Any) -> None:

@@ -6,7 +6,7 @@ variables and constraints to it and hand it to :func:`solve_mip`.
 
 Another solver that pywraplp drives (Gurobi, CPLEX, Xpress, CBC ...) is a subclass of
 :class:`PywraplpAdapter` with its ``name``, pywraplp ``solver_id`` and ``takes_hint``,
-in its own file, plus one line in ``registry._BUILTIN``.
+in its own file, plus its registration (see :mod:`~droneplan.solvers.registry`).
 """
 
 from __future__ import annotations
@@ -15,15 +15,17 @@ import dataclasses
 import math
 import time
 from collections.abc import Mapping, Sequence
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
-from ortools.linear_solver import pywraplp
 
 from droneplan.core.validation import check_time_limit
 from droneplan.solvers.base import BackendAdapter, LinearBackend, NativeReadout, run_native
 from droneplan.solvers.linear import LinearModel
 from droneplan.solvers.result import SolveResult, Status
+
+if TYPE_CHECKING:
+    from ortools.linear_solver import pywraplp
 
 __all__ = [
     "STATUS_MAP",
@@ -35,26 +37,28 @@ __all__ = [
     "solve_mip",
 ]
 
+# pywraplp's ResultStatus codes (linear_solver.h), written as numbers so that this module loads
+# without OR-Tools; a test holds them against pywraplp.Solver's constants.
 STATUS_MAP: dict[Any, Status] = {
-    pywraplp.Solver.OPTIMAL: Status.OPTIMAL,
-    pywraplp.Solver.FEASIBLE: Status.FEASIBLE,
-    pywraplp.Solver.INFEASIBLE: Status.INFEASIBLE,
-    pywraplp.Solver.UNBOUNDED: Status.UNBOUNDED,
-    pywraplp.Solver.ABNORMAL: Status.ERROR,
-    pywraplp.Solver.MODEL_INVALID: Status.ERROR,
-    pywraplp.Solver.NOT_SOLVED: Status.NO_SOLUTION,
+    0: Status.OPTIMAL,  # pywraplp.Solver.OPTIMAL
+    1: Status.FEASIBLE,  # pywraplp.Solver.FEASIBLE
+    2: Status.INFEASIBLE,  # pywraplp.Solver.INFEASIBLE
+    3: Status.UNBOUNDED,  # pywraplp.Solver.UNBOUNDED
+    4: Status.ERROR,  # pywraplp.Solver.ABNORMAL
+    5: Status.ERROR,  # pywraplp.Solver.MODEL_INVALID
+    6: Status.NO_SOLUTION,  # pywraplp.Solver.NOT_SOLVED
 }
 
 _UNKNOWN_STATUS = 99  # MPSOLVER_UNKNOWN_STATUS in linear_solver.h
 
 _STATUS_NAME = {
-    pywraplp.Solver.OPTIMAL: "OPTIMAL",
-    pywraplp.Solver.FEASIBLE: "FEASIBLE",
-    pywraplp.Solver.INFEASIBLE: "INFEASIBLE",
-    pywraplp.Solver.UNBOUNDED: "UNBOUNDED",
-    pywraplp.Solver.ABNORMAL: "ABNORMAL",
-    pywraplp.Solver.MODEL_INVALID: "MODEL_INVALID",
-    pywraplp.Solver.NOT_SOLVED: "NOT_SOLVED",
+    0: "OPTIMAL",
+    1: "FEASIBLE",
+    2: "INFEASIBLE",
+    3: "UNBOUNDED",
+    4: "ABNORMAL",
+    5: "MODEL_INVALID",
+    6: "NOT_SOLVED",
 }
 
 
@@ -205,17 +209,24 @@ class PywraplpAdapter(BackendAdapter, LinearBackend):
     """Solver-specific parameter text that silences the solver (pywraplp's SuppressOutput
     does not silence every solver's banner)."""
     status_map = STATUS_MAP
+    requires: ClassVar[tuple[str, ...]] = ("ortools",)
 
     def status_name(self, code: Any) -> str:
         return _STATUS_NAME.get(code, str(code))
 
     def is_available(self) -> bool:
+        if not self.requires_installed():
+            return False
+        from ortools.linear_solver import pywraplp
+
         if self.solver_id not in _AVAILABLE:
             _AVAILABLE[self.solver_id] = pywraplp.Solver.CreateSolver(self.solver_id) is not None
         return _AVAILABLE[self.solver_id]
 
     def new_native(self) -> pywraplp.Solver:
         """An empty pywraplp model of this solver."""
+        from ortools.linear_solver import pywraplp
+
         solver = pywraplp.Solver.CreateSolver(self.solver_id)
         if solver is None:  # pragma: no cover - depends on the ortools build and licences
             raise RuntimeError(f"OR-Tools cannot create the {self.name} solver in this installation")
@@ -237,6 +248,8 @@ class PywraplpAdapter(BackendAdapter, LinearBackend):
         verbose: bool = False,
     ) -> SolveResult:
         """Solve a pywraplp model of this solver (see :func:`solve_mip`)."""
+        from ortools.linear_solver import pywraplp
+
         _check_settings(time_limit, threads, relative_gap)
         if time_limit is not None:
             solver.SetTimeLimit(max(1, round(time_limit * 1000)))
@@ -315,6 +328,7 @@ class HighsAdapter(PywraplpAdapter):
     quiet_parameters = "output_flag=false"
     description = "HiGHS MILP/LP (models built with OR-Tools pywraplp, solved by highspy)"
     status_map = _HIGHS_STATUS
+    requires = ("ortools", "highspy")
 
     def status_name(self, code: Any) -> str:
         return str(code)
@@ -471,6 +485,8 @@ def solve_mip(
     ``objective`` is the model's objective, ``bound`` the backend's best bound (the
     objective itself for a pure LP solved to optimality).
     """
+    from ortools.linear_solver import pywraplp
+
     from droneplan.solvers.registry import get_backend
 
     if not isinstance(solver, pywraplp.Solver):

@@ -9,14 +9,16 @@ controller needs.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import casadi as ca
 import numpy as np
 
 from droneplan.core.validation import check_time_limit, require_set
 from droneplan.solvers.base import BackendAdapter, NativeReadout, NlpBackend, run_native
 from droneplan.solvers.result import SolveResult, Status
+
+if TYPE_CHECKING:
+    import casadi as ca
 
 __all__ = ["BACKEND", "STATUS_MAP", "IpoptSolver", "IpoptAdapter"]
 
@@ -104,6 +106,8 @@ class IpoptSolver:
         self._solvers: dict[tuple[bool, float | None], ca.Function] = {}
 
     def _solver(self, warm: bool, time_limit: float | None) -> ca.Function:
+        import casadi as ca
+
         key = (warm, time_limit)
         if key not in self._solvers:
             # quiet unless asked: sb=yes drops IPOPT's banner, print_time=False CasADi's timing table
@@ -247,6 +251,7 @@ class IpoptAdapter(BackendAdapter, NlpBackend):
     description = "IPOPT through CasADi: local NLP solutions, warm start with duals"
     reuses_duals = True
     solves_to_local_optimum = True
+    requires = ("casadi",)
 
     def create_nlp(
         self,

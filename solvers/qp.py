@@ -12,8 +12,6 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-import osqp
-import scipy.sparse as sp
 
 from droneplan.core.validation import check_time_limit
 from droneplan.solvers.base import BackendAdapter, NativeReadout, NlpBackend, QpBackend, run_native
@@ -64,6 +62,9 @@ class OsqpSolver:
         time_limit: float | None = None,
         verbose: bool = False,
     ):
+        import osqp
+        import scipy.sparse as sp
+
         check_time_limit(time_limit)
         P = sp.csc_matrix(P, dtype=float)
         A = sp.csc_matrix(A, dtype=float)
@@ -171,6 +172,7 @@ class OsqpAdapter(BackendAdapter, QpBackend, NlpBackend):
     name = BACKEND
     status_map = STATUS_MAP
     description = "OSQP: convex QPs by ADMM, warm start with primal and duals"
+    requires = ("osqp", "scipy")
 
     def create_qp(
         self,

@@ -1,19 +1,21 @@
 """Backends by name: formulations ask the registry, never ``if backend == ...``.
 
-The built-in adapters are listed in ``_BUILTIN`` as ``name -> "module:Class"`` and
-imported on first use (so importing droneplan does not load every solver library).
-``_BUILTIN_KINDS`` and ``_BUILTIN_REQUIRES`` describe them without importing them:
-:func:`available_backends` lists a built-in backend whose library is installed without
-loading the library (a built-in backend is loaded only by :func:`get_backend`, which then
-makes the full check, e.g. that OR-Tools was built with SCIP). Adding a backend is one
-adapter file in ``solvers/`` plus one line in each of those tables (or, from user code,
-one :func:`register_backend` call).
+The built-in backends are one table, :func:`_builtin` (name -> adapter class, the name taken
+from the class). Each adapter class says on itself what the registry needs to list it: its
+``kinds`` (from the capability mixins it inherits) and the packages it ``requires``; it
+imports its solver library inside its methods, so the adapter modules are light and
+:func:`available_backends` lists a built-in backend whose packages are installed without
+loading any solver library. A built-in adapter is instantiated only by :func:`get_backend`,
+which then makes the full check (``is_available``, e.g. that OR-Tools was built with SCIP).
+The table is built on first use, so importing droneplan loads none of the adapter modules.
+
+Adding a backend is one adapter class plus one registration: its class in the table of
+:func:`_builtin` or, from user code, one :func:`register_backend` call with an instance.
 """
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
+import functools
 from typing import Any
 
 from droneplan.solvers.base import KINDS, BackendAdapter
@@ -26,31 +28,15 @@ __all__ = [
     "unregister_backend",
 ]
 
-_BUILTIN: dict[str, str] = {
-    "cp-sat": "droneplan.solvers.cpsat:CpSatAdapter",
-    "highs": "droneplan.solvers.mip:HighsAdapter",
-    "scip": "droneplan.solvers.mip:ScipAdapter",
-    "ipopt": "droneplan.solvers.nlp:IpoptAdapter",
-    "osqp": "droneplan.solvers.qp:OsqpAdapter",
-}
 
-_BUILTIN_KINDS: dict[str, frozenset[str]] = {
-    "cp-sat": frozenset({"cp", "linear"}),
-    "highs": frozenset({"linear"}),
-    "scip": frozenset({"linear"}),
-    "ipopt": frozenset({"nlp"}),
-    "osqp": frozenset({"nlp", "qp"}),
-}
-"""The capabilities of each built-in adapter (its ``kinds``; a test checks them against the adapters)."""
+@functools.cache
+def _builtin() -> dict[str, type[BackendAdapter]]:
+    """The built-in backends, name -> adapter class: the registry's one table."""
+    from droneplan.solvers import cpsat, mip, nlp, qp
 
-_BUILTIN_REQUIRES: dict[str, str] = {
-    "cp-sat": "ortools",
-    "highs": "ortools",
-    "scip": "ortools",
-    "ipopt": "casadi",
-    "osqp": "osqp",
-}
-"""The top-level package each built-in adapter needs (looked up, not imported, to list it)."""
+    adapters = (cpsat.CpSatAdapter, mip.HighsAdapter, mip.ScipAdapter, nlp.IpoptAdapter, qp.OsqpAdapter)
+    return {cls.name: cls for cls in adapters}
+
 
 _LOADED: dict[str, BackendAdapter] = {}
 _USER: dict[str, BackendAdapter] = {}
@@ -78,7 +64,7 @@ def register_backend(name: str, adapter: BackendAdapter, *, replace: bool = Fals
         raise ValueError(
             f"adapter {name!r} implements no capability (LinearBackend, CpBackend, NlpBackend, QpBackend)"
         )
-    if not replace and (name in _USER or name in _BUILTIN):
+    if not replace and (name in _USER or name in _builtin()):
         raise ValueError(f"a backend named {name!r} is already registered (pass replace=True)")
     _USER[name] = adapter
 
@@ -95,14 +81,13 @@ def _load(name: str) -> BackendAdapter:
     if name in _USER:
         return _USER[name]
     if name not in _LOADED:
-        module, cls = _BUILTIN[name].split(":")
-        _LOADED[name] = getattr(importlib.import_module(module), cls)()
+        _LOADED[name] = _builtin()[name]()
     return _LOADED[name]
 
 
 def registered_backends() -> list[str]:
     """Every registered name, available in this installation or not."""
-    return sorted(set(_BUILTIN) | set(_USER))
+    return sorted(set(_builtin()) | set(_USER))
 
 
 def get_backend(name: str, kind: str | None = None) -> Any:
@@ -116,7 +101,7 @@ def get_backend(name: str, kind: str | None = None) -> Any:
     if not isinstance(name, str):
         raise TypeError(f"backend must be a str, got {type(name).__name__}")
     key = name.lower()
-    if key not in _BUILTIN and key not in _USER:
+    if key not in _builtin() and key not in _USER:
         known = available_backends(kind) if kind else registered_backends()
         raise ValueError(f"unknown backend {name!r}; known{f' {kind}' if kind else ''} backends: {known}")
     adapter = _load(key)
@@ -135,20 +120,22 @@ def get_backend(name: str, kind: str | None = None) -> Any:
 
 def _listed(name: str, kind: str | None) -> bool:
     """Whether ``name`` offers ``kind`` and can run here; a built-in adapter not loaded yet is
-    judged from its tables, without importing it or its library."""
+    judged from its class (``kinds``, ``requires``), without instantiating it or importing its
+    library."""
     if name in _USER or name in _LOADED:
         adapter = _load(name)
         return (kind is None or kind in adapter.kinds) and adapter.is_available()
-    if kind is not None and kind not in _BUILTIN_KINDS[name]:
-        return False
-    return importlib.util.find_spec(_BUILTIN_REQUIRES[name]) is not None
+    cls = _builtin()[name]
+    return (kind is None or kind in cls.kinds) and cls.requires_installed()
 
 
 def available_backends(kind: str | None = None) -> list[str]:
     """Names of the backends usable here, optionally only those offering ``kind``.
 
-    Built-in backends are listed without importing them (their library is looked up on the
-    path); :func:`get_backend` loads one and checks it fully.
+    kind: if given, only the backends offering this capability ("linear", "cp", "nlp", "qp").
+
+    Built-in backends are listed from their classes without importing their solver library
+    (its packages are looked up on the path); :func:`get_backend` loads one and checks it fully.
     """
     _check_kind(kind)
     return [name for name in registered_backends() if _listed(name, kind)]

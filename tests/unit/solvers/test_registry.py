@@ -19,7 +19,7 @@ from droneplan.solvers import (
     run_native,
     unregister_backend,
 )
-from droneplan.solvers.base import KINDS, QpBackend
+from droneplan.solvers.base import KINDS, LinearBackend, QpBackend
 
 
 def test_unknown_name_lists_the_known_ones():
@@ -128,42 +128,127 @@ def test_run_native_turns_an_exception_into_error():
     assert res.backend_status == "exception" and res.warm_started and res.x is None
 
 
-def test_builtin_tables_match_the_adapters():
-    """The registry lists built-in backends from its tables; each table entry is the adapter's own."""
+def test_builtin_table_is_one_table_of_classes():
+    """The registry's one table maps each name to its adapter class; the class itself carries
+    what the registry lists it by (its kinds and the packages it requires)."""
     from droneplan.solvers import registry
 
-    assert set(registry._BUILTIN_KINDS) == set(registry._BUILTIN) == set(registry._BUILTIN_REQUIRES)
-    for name in registry._BUILTIN:
-        adapter = get_backend(name)
-        assert adapter.kinds == registry._BUILTIN_KINDS[name], name
-        module = type(adapter).__module__
-        assert registry._BUILTIN_REQUIRES[name] in _imported_by(module), name
+    table = registry._builtin()
+    assert sorted(table) == registered_backends()
+    for name, cls in table.items():
+        assert issubclass(cls, BackendAdapter) and cls.name == name
+        assert cls.kinds and cls.kinds <= set(KINDS), name
+        assert cls.requires and cls.requires_installed(), name
+        assert get_backend(name).kinds == cls.kinds, name
+    assert table["cp-sat"].kinds == {"cp", "linear"}
+    assert table["osqp"].kinds == {"nlp", "qp"}
+    assert table["highs"].requires == ("ortools", "highspy")
 
 
-def _imported_by(module: str) -> set[str]:
-    import sys
+def test_status_codes_written_as_numbers_are_the_libraries_own():
+    """The adapter modules load without their library, so their status maps spell the native
+    codes as numbers; they must be the library's constants."""
+    from ortools.linear_solver import pywraplp
+    from ortools.sat.python import cp_model
 
-    source = sys.modules[module]
-    return {v.__name__.split(".")[0] for v in vars(source).values() if hasattr(v, "__name__")} | {
-        getattr(v, "__module__", "").split(".")[0] for v in vars(source).values()
+    from droneplan.solvers import cpsat, mip
+
+    assert cpsat.STATUS_MAP == {
+        cp_model.OPTIMAL: Status.OPTIMAL,
+        cp_model.FEASIBLE: Status.FEASIBLE,
+        cp_model.INFEASIBLE: Status.INFEASIBLE,
+        cp_model.UNKNOWN: Status.NO_SOLUTION,
+        cp_model.MODEL_INVALID: Status.ERROR,
     }
+    assert get_backend("cp-sat").map_status(cp_model.OPTIMAL) is Status.OPTIMAL
+    codes = {n: getattr(pywraplp.Solver, n) for n in mip._STATUS_NAME.values()}
+    assert {code: name for name, code in codes.items()} == mip._STATUS_NAME
+    assert mip.STATUS_MAP[pywraplp.Solver.OPTIMAL] is Status.OPTIMAL
+    assert mip.STATUS_MAP[pywraplp.Solver.NOT_SOLVED] is Status.NO_SOLUTION
+    assert mip.STATUS_MAP[pywraplp.Solver.ABNORMAL] is Status.ERROR
+
+
+class _EchoModel:
+    """A stand-in linear model: it only remembers which backend made it."""
+
+    def __init__(self, backend: str) -> None:
+        self.backend = backend
+
+
+class FakeLinearAdapter(BackendAdapter, LinearBackend):
+    """A backend added the documented way: one class (kinds from its mixins, its requirements,
+    its library imported inside its methods) plus one registration."""
+
+    name = "fake-linear"
+    status_map: ClassVar[dict[str, Status]] = {"ok": Status.OPTIMAL}
+    requires = ("numpy",)
+
+    def new_model(self):
+        import numpy  # noqa: F401 - the library loads in the method, as the built-in adapters do
+
+        return _EchoModel(self.name)
+
+
+class FakeMissingLibraryAdapter(FakeLinearAdapter):
+    """The same backend on a library this installation does not have."""
+
+    name = "fake-missing"
+    requires = ("droneplan_no_such_solver_library",)
+
+
+@pytest.fixture
+def fake_backends():
+    register_backend("fake-linear", FakeLinearAdapter())
+    register_backend("fake-missing", FakeMissingLibraryAdapter())
+    try:
+        yield
+    finally:
+        unregister_backend("fake-linear")
+        unregister_backend("fake-missing")
+
+
+def test_a_fake_backend_is_one_class_plus_one_registration(fake_backends):
+    assert FakeLinearAdapter.kinds == {"linear"}  # on the class, no instance needed
+    assert "fake-linear" in available_backends("linear")
+    assert "fake-linear" in available_backends()
+    assert "fake-linear" not in available_backends("qp")
+    model = get_backend("fake-linear", kind="linear").new_model()
+    assert isinstance(model, _EchoModel) and model.backend == "fake-linear"
+    with pytest.raises(ValueError, match="does not offer 'nlp'"):
+        get_backend("fake-linear", kind="nlp")
+    # a missing requirement keeps a registered backend out of the listings and the lookup
+    assert "fake-missing" in registered_backends()
+    assert "fake-missing" not in available_backends("linear")
+    with pytest.raises(ValueError, match="not available in this installation"):
+        get_backend("fake-missing", kind="linear")
+
+
+def test_the_fake_backends_do_not_leak():
+    """The fixture above unregisters them: no other test sees them."""
+    assert not {"fake-linear", "fake-missing"} & set(registered_backends())
 
 
 def test_listing_backends_imports_no_solver_library():
-    """available_backends answers from the registry's tables: no adapter and no solver library loads."""
+    """available_backends answers from the adapter classes: the adapter modules load (they are
+    light), no solver library does."""
     import subprocess
     import sys
 
     code = (
         "import sys\n"
+        "import droneplan.solvers\n"
+        "print(sorted(m for m in sys.modules if m.startswith('droneplan.solvers.') and m.split('.')[-1]"
+        " in ('cpsat', 'mip', 'nlp', 'qp')))\n"
         "from droneplan.solvers.registry import available_backends\n"
         "print(available_backends('linear'), available_backends())\n"
-        "print(sorted(m for m in ('ortools', 'casadi', 'osqp', 'cvxpy', 'highspy') if m in sys.modules))\n"
+        "libraries = ('ortools', 'casadi', 'osqp', 'cvxpy', 'highspy', 'scipy')\n"
+        "print(sorted(m for m in libraries if m in sys.modules))\n"
         "print(sorted(m for m in sys.modules if m.startswith('droneplan.solvers.') and m.split('.')[-1]"
         " in ('cpsat', 'mip', 'nlp', 'qp')))\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    listed, libraries, adapters = out.strip().splitlines()
+    before, listed, libraries, adapters = out.strip().splitlines()
+    assert before == "[]"  # importing the package loads no adapter module
     assert listed == "['cp-sat', 'highs', 'scip'] ['cp-sat', 'highs', 'ipopt', 'osqp', 'scip']"
     assert libraries == "[]"
-    assert adapters == "[]"
+    assert adapters == str([f"droneplan.solvers.{m}" for m in ("cpsat", "mip", "nlp", "qp")])
