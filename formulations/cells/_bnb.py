@@ -8,7 +8,8 @@ ties by index), so each X is reached from exactly one branch; a branch is cut on
 a valid upper bound on everything below it is <= the incumbent value, so the search
 proves optimality when it ends.
 
-Why each element is exact:
+Why each element is exact (the measurements that chose between the options, per-seed
+timings and proof-search logs, are on the page ``docs/findings/cells-bnb.md``):
 
 1. **Additive bound.** Below a node holding sites P (last in the order: site i), every
    completion Q consists of sites after i that do not overlap P or each other, and
@@ -47,10 +48,9 @@ Why each element is exact:
    submodular, so |S(Q) - S(P)| <= f(G) + sum_{q in Q} gain(q | G) <= f(G) + the r
    largest gains (f, gains over the users outside S(P), Q among the candidates that pass
    item 3); G runs through the greedy sets G_0 = {}, G_1, ..., G_r, and item 6 applies to
-   the gains as well. Used at nodes with >= 3 free slots (at 2 it cost more than it cut:
-   m=4 seed 3 not proven in 59 s cpu, against 14 s without it), and only where the other
-   rules did not cut the node (it is the costliest: a node's bound is the least of all the
-   rules either way).
+   the gains as well. Used at nodes with >= 3 free slots (at 2 it cost more than it cut),
+   and only where the other rules did not cut the node (it is the costliest: a node's bound
+   is the least of all the rules either way).
 8. **Two relay slots.** If an unreached P site a has relay lower bound >= 2, its path
    to a GBS holds >= 2 completion sites; the one next to the GBS side (item 6) and the
    one next to a's group (item 5) are then distinct, so two slots are bounded by the
@@ -69,16 +69,10 @@ Why each element is exact:
    are cleared. A cleared site can join no better placement, so dropping it everywhere
    (also as a relay) keeps the search exact, and relay items 3, 5, 6 and 8 then see only
    the sites that can still be used. Each backhaul-free search of item 9 gets the
-   bounds of the smaller ones and eliminates sites in the same way. Measured with items
-   9-11 at m = 6 (Table 4.2, 300 s): seeds 0, 2, 4, 7, 8 and 9 proven (worst 17 s;
-   before: 2, 8 and 9); seeds 1, 3, 5 and 6 stayed open (incumbents 6-11 % below B_6)
-   until items 11-12 and the split (all 10 within 300 s, worst 175 s on seed 1).
+   bounds of the smaller ones and eliminates sites in the same way.
    The probes (``probe_sites``) leave item 7 out once it has cut under 1 % of the first
    ``_DUAL_TRIAL``, and a repeated round probes only the sites whose last bound came within
    ``_REPROBE_MARGIN`` of z (a probe only ever drops sites, so probing fewer keeps it exact).
-   At Table 4.2 density x 4 (m = 4, seed 0, 64k sites) the probes took 356 of 423 CPU-s
-   and the search was not proven in 600 s; with both changes and item 12's successor prefix
-   the whole solve is proven in 125 CPU-s (the probes of 19.5k sites clear 4.6k).
 
 11. **Sibling replacement.** At a node P, let a be a child searched before b (a earlier
    in the order). Suppose a is direct when b is, links to every P site that b links to,
@@ -104,12 +98,10 @@ Why each element is exact:
    Inside such a node (completions must meet a set M), a child b outside M is compared
    with its siblings too: each of M and E drops only completions that an earlier child's
    subtree holds, so b keeps the smaller of the two sets. The 16 latest siblings within
-   600 m are tried. Clusters give many near-identical sites: the 24-user cluster of m = 6
-   seed 3 has 8, and seed 6's 22-user clusters have more than 20. Otherwise each of them
-   repeats a nearly identical subtree (50-60 s each on seed 3). The sibling tests use the
-   link matrix (``link_matrix``) and, for the lens, the sites within 2 R_d + 2 m of a that
-   do not overlap it (``lens_sites``); with distances over every candidate, item 11 took
-   48 of 150 s on m = 6 seed 1.
+   600 m are tried. Clusters give many near-identical sites, and without this rule each of
+   them repeats a nearly identical subtree. The sibling tests
+   use the link matrix (``link_matrix``) and, for the lens, the sites within 2 R_d + 2 m of
+   a that do not overlap it (``lens_sites``).
 
 12. **Far-apart unreached groups.** Let the P sites without a link path to a GBS
    through P form k <= 3 groups (components of the link graph), pairwise more than
@@ -131,12 +123,10 @@ Why each element is exact:
    When every bridge lies outside L, v or another site is in L (item 6).
    ``_separated_groups`` takes the largest bound over the choices. The successor's
    link to a bridge candidate is tested exactly, on packed link rows (``LinkRows``:
-   each row built when first used, then kept). Testing it with coordinates took 140 of
-   241 s on m = 6 seed 1, so that version tested only at r = 3. Measured on m = 6
-   seed 1 (Table 4.2): the subtree of its first two sites took 82 s before item 12 and
-   4 s with it. The successor link test runs on the ``_SUCCESSOR_PREFIX`` heaviest sites
-   near a group and counts the lighter ones as linked (``_successor_sites``): item 12 reads
-   only heaviest weights, which a superset can only raise.
+   each row built when first used, then kept). The successor link test runs on the
+   ``_SUCCESSOR_PREFIX`` heaviest sites near a group and counts the lighter ones as linked
+   (``_successor_sites``): item 12 reads only heaviest weights, which a superset can only
+   raise.
 
 13. **Dominated sites.** After item 10, let A be the sites still alive. Site d dominates
    site c when d comes before c in the search order and
@@ -168,14 +158,7 @@ Why each element is exact:
    search ends without one, no feasible placement below P beats z and the node is cut.
    Its own rules are items 1-6 and 9-11 on the relaxed problem, exact there (item 11
    included: no earlier sibling's subtree held a placement above z, or the search would
-   have stopped). A search stopped at its node budget cuts nothing. Measured with a fixed
-   incumbent one below the optimum's bound, Table 4.2 m = 8 (CPU s to prove nothing
-   better): seed 1 (z = 89) 46 s without item 14, 18 s with it; seed 3 (z = 103) 44 s
-   without, 25 s with it. Item 7 inside the relaxed search doubled its cost (48 s on seed
-   3). At depth 1 (the root's children) it first cost more than it cut with z = 103 (34 s),
-   but from the incumbent the search reaches itself (z = 101) it cuts 552 of the 564 root
-   children it runs at, and m = 8 seed 3 is proven (101 in 165 CPU-s, 1 worker; from depth
-   2 it was still open at 101/104 after 487 CPU-s).
+   have stopped). A search stopped at its node budget cuts nothing.
 
 With ``workers`` > 1 the search is split over forked processes (``_split_root``): each
 takes its share of the children of every node at depth 1 (m >= 4), so one heavy root
@@ -193,8 +176,7 @@ The search stops at the time limit with the incumbent and a valid bound: every
 unexplored placement lies below the current or a later child of a node on the current
 path, so it is bounded by that node's bound and (children come in weight order, item 4)
 by |S(P)| + r |S(j)| for the current child j; the largest of these level bounds over the
-path is reported (with workers, the largest over the workers). Before, the bound was
-lost as the time-out unwound the path, and a stopped search reported ``upper``.
+path is reported (with workers, the largest over the workers).
 """
 
 from __future__ import annotations

@@ -13,7 +13,9 @@ Every candidate already satisfies |c - G_h| >= R_g + R_d (4.7) and the bounds, s
 those constraints are enforced by the candidate filter.
 
 Size engineering (thesis scale has ~5 000 candidates, ~10^6 pairs closer than 2 R_d
-and ~3*10^6 pairs within r2, far too many to write out):
+and ~3*10^6 pairs within r2, far too many to write out). Each item says what it does and
+why the model stays exact; the measurements that chose between the options (per-seed
+timings, LP bounds, rows tried and dropped) are on the page ``docs/findings/cells-milp.md``.
 
 1. **Incumbent pruning (exact).** Any solution containing site c covers at most
    |S(c)| + B_{m-1} users, where B_{m-1} is the optimum of the *unconstrained*
@@ -43,8 +45,7 @@ and ~3*10^6 pairs within r2, far too many to write out):
    bound is valid at any time), and the loop stops only at a connected optimum.
 
    b. **Hop levels** (default: no lazy rounds, and its LP charges the relays a far site
-   needs; Table 4.2 m = 4 seed 3, CP-SAT, 1 worker, from the optimum as incumbent:
-   proven in 78 s, while the lazy cuts stayed at bound 66 after 120 s). A site within r1 of a GBS
+   needs). A site within r1 of a GBS
    is *direct* (level 1). A non-direct site c used at level l (2 <= l <= m) needs a
    used site at level l - 1 within r2 of it: ``z_{c,l} <= sum_{d in N(c)} z_{d,l-1}``
    (the level-1 variables are the direct sites' x), and ``x_c = sum_l z_{c,l}``.
@@ -56,31 +57,21 @@ and ~3*10^6 pairs within r2, far too many to write out):
    cannot be l hops away). A row leaves out the sources closer to c than 2 R_d - TOL and
    the squares of 3b wholly inside that disc: they overlap c, so they are 0 whenever c is
    used (item 2), and the neighbour that labels c is elsewhere in the row. This also
-   stops the LP from feeding c from its own level-(l-1) variable through its own square:
-   LP bound of the final model of Table 4.2 m = 4 seed 5 72.84 -> 71.42, with fewer terms.
+   stops the LP from feeding c from its own level-(l-1) variable through its own square.
 4. **Objective cuts (exact).** ``sum_j y_j <= B_m`` (the continuous bound, from a
    relaxation) and ``sum_j y_j >= z`` for an incumbent of value z (no worse solution is
    of interest; the incumbent satisfies it and is the hint).
 5. **User cliques (exact).** For a user u, the sites covering it are within R_d + TOL of
    u; unless two of them are >= 2 R_d - TOL apart (u in a lens, both may be chosen), they
-   overlap pairwise and ``sum_{c covers u} x_c <= 1`` is a clique row. Measured on seed 3,
-   m=4: bound 66 instead of 69 after 120 s; not enough to prove.
+   overlap pairwise and ``sum_{c covers u} x_c <= 1`` is a clique row.
 
 6. **Coverage without user variables (exact).** A user of item 5 is covered exactly when
    ``sum_{c covers u} x_c = 1``, so it has no variable: its sites gain weight 1 in the
    objective. Lens users with the same covering sites share one weighted variable
-   (``_coverage_objective``). On Table 4.2 m = 4 this leaves 0-1 user variables instead of
-   200-360.
+   (``_coverage_objective``).
 7. **Incumbent.** ``solve_exact`` polishes the greedy start with the branch and bound's
    primal heuristics before the model is built (a start only: every value is checked with
    ``evaluate``, and the model alone proves the bound). Items 1 and 4 prune with it.
-
-Measured (Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s each, items 3b, 6, 7): 8 of
-10 proven (0.3-80 s), seeds 4 and 5 open (51 / 59, 61 / 73). With item 9 and one round
-(``TARGET_START``), load 5.5-6: 9 of 10 proven within 120 s (0.8-26 CPU s, seed 4 in 26),
-seed 5 proven in 69.7 CPU s (140 s wall; at 120 s wall, 64 CPU s, it stood at 61 / 65).
-m = 6, 600 s, load 5-6: seeds 0 and 2-9 proven (0.9-28 CPU s, seed 5 in 94 CPU s); seed 1 stays
-open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row terms).
 
 8. **Lifted hop rows (exact; HiGHS and SCIP only, ``LIFTED_HOPS``).** The hop rows of 3b let
    the LP feed a far site from itself: a square term a_Q at level l - 1 may hold c's own
@@ -89,22 +80,7 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    the second every user clique C_u of item 5 gets
    ``sum_{c in C_u} z_{c,l} <= its sources`` (``_clique_hop_rows``; at most one site of C_u
    is used), where the squares straddling the circle of radius R_d - 3 TOL around u are
-   written source by source. LP bound of the final model of Table 4.2 m = 4 seed 5 (all
-   4 518 sites): 71.42 -> 64.62 (optimum 61) at 0.80 M -> 0.93 M terms, LP 2 -> 24 CPU s
-   (HiGHS simplex). Splitting the site rows' straddling squares too (the first form) gave
-   the same 64.62 with 1.4 M terms and a 124 CPU s LP; clique rows without any split: 68.06;
-   rows over squares of side (2 R_d - 2 TOL) / sqrt(2) as cliques instead of user cliques:
-   70.97. Figures below are of the first form. HiGHS, 1 thread, 120 s,
-   load 3-4, CPU s with / without: seeds 0, 1, 9 proven in 23.5 / 35.1, 17.1 / 36.5,
-   8.0 / 7.1, seed 7 in 57.6 / 20.4 (slower); open seeds 5 and 6 end at bound 64 / 73 and
-   65 / 66.
-   CP-SAT, 1 worker: slower on every seed tried (seeds 0, 3, 6 proven in 12.7, 28.0, 19.9
-   CPU s instead of 5.0, 19.8, 10.5; seeds 4 and 5 still open), so it stays off there.
-   Tried and dropped: a level chain (e_l >= z_{c,l}, e_l <= e_{l-1}, the level-(l-1) sum
-   >= e_l; exact, LP 72.84 -> 72.76 only), an objective cut one above the incumbent
-   (CP-SAT then proves infeasibility without its LP bound: the restricted rounds that
-   proved in seconds stayed open), and CP-SAT ``linearization_level`` 2 with 1 worker
-   (final model of seed 5 open after 60 s either way, bound 70 vs 73).
+   written source by source. CP-SAT measured slower with them, so it stays off there.
 
 9. **Light-site rows (exact; ``_light_site_rows``).** With the objective cut
    ``sum_j y_j >= lo`` of item 4 and B_k the continuous bound of k discs (B_0 = 0, B_k
@@ -117,96 +93,26 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    sites of weight <= T - t the first rule allows (so the row cuts nothing else; two sites
    of the first sum are a pair too, 2 t <= T). Every placement worth >= lo satisfies them,
    and the incumbent (the hint) is worth lo. They stop the LP from paying relays with many
-   light sites: Table 4.2 m = 4 seed 5, the full reduced model (4 518 sites), CP-SAT, 1
-   worker, load 4.5: without them the bound stayed at 73 after 37 CPU s; with them (a first,
-   stronger but inexact form of the pair rows) proven in 34-40 CPU s; with these exact rows,
-   in the whole solve, proven in 70 CPU s. ``solve_prepared`` writes
-   them on CP-SAT only (``LIGHT_ROWS``: HiGHS measured slower with them).
+   light sites. ``solve_prepared`` writes them on CP-SAT only (``LIGHT_ROWS``: HiGHS
+   measured slower with them).
 
 10. **LP fixing (exact; ``lp_fixing``, CP-SAT only, ``LP_FIXING``).** CP-SAT with one
    worker does not bring its bound down to the LP bound of the lifted rows of item 8 on a
-   model this size (Table 4.2 m = 4 seed 5 with them: bound 73 after 77 CPU s), while
-   HiGHS's simplex solves that LP in about 25 CPU s. So before the final model, when item 1
-   keeps at least ``LP_FIXING_MIN_SITES`` sites, the lifted model's LP relaxation is solved
-   and its row duals y give, by weak duality over the 0/1 box (``solvers.lp_bound``: valid
-   for *any* y, so neither HiGHS's optimality nor its tolerances matter), a bound B on every
-   placement worth at least the incumbent value z (the model's objective cut), and a bound
-   B + min(d_c, 0) on those that hold site c (d_c the reduced cost of x_c). A site whose
-   bound is below z + 1 is in no better placement and is dropped (the incumbent's sites stay);
-   floor(B) caps the objective, and when it is <= z the incumbent is proven at once. Table
-   4.2 m = 4 seed 5 (all hop levels): 3 431 of 4 518 sites dropped, cap 73 -> 64, proven in
-   71.5 CPU s (the LP 37 s wall of it), where it was open at 61 / 71 after 75 CPU s. The LP is
-   built with hop levels 3..m merged when m <= 4 (``LP_FIXING_LEVELS``, a relaxation): LP
-   26 -> 2.8 CPU s, cap 65, 3 253 sites dropped, the whole solve 24 CPU s.
-   Table 4.2 m = 4, seeds 0-9, CP-SAT, 1 worker, 120 s, load 2.9-3.0: all 10 proven, CPU s
-   4.7, 2.4, 0.5, 5.6, 7.8, 23.1, 4.5, 2.6, 0.1, 1.7 (seed 5 34 s wall); with the CP-SAT
-   subsolvers of ``FEW_WORKER_OPTIONS`` now default: 3.8, 2.0, 0.5, 4.7, 6.4, 16.1, 4.9, 2.8,
-   0.1, 1.5 (seed 5 23 s wall); 2 workers, seed 5: 21.7 CPU s, 34 s wall. Before items 3b's
-   leaving out and 10, load 1-3.4: seed 5 open at 61 / 71 (74.9 CPU s), seeds 3 and 4 in 14.2
-   and 56.2 CPU s. On m = 6 seed 1 the LP (all levels, 1.75 M terms: not solved in 300 s;
-   levels merged from 3, 4 or 5: 75.0, the cap already) fixes nothing: it stays open
-   (66 / 75 after 497 CPU s, 607 s wall); by IPM it is solved in 47 s, and the solve still
-   ends open, at 66 / 73 (``LP_FIXING_MAX_TERMS``). m = 6 seed 5 (all levels): 2 007 of 3 410
-   sites dropped, proven in 83.6 CPU s (130 s wall, load 3.1; 94 CPU s without item 10).
+   model this size, while HiGHS's simplex solves that LP in a fraction of that time. So
+   before the final model, when item 1 keeps at least ``LP_FIXING_MIN_SITES`` sites, the
+   lifted model's LP relaxation is solved and its row duals y give, by weak duality over the
+   0/1 box (``solvers.lp_bound``: valid for *any* y, so neither HiGHS's optimality nor its
+   tolerances matter), a bound B on every placement worth at least the incumbent value z
+   (the model's objective cut), and a bound B + min(d_c, 0) on those that hold site c (d_c
+   the reduced cost of x_c). A site whose bound is below z + 1 is in no better placement and
+   is dropped (the incumbent's sites stay); floor(B) caps the objective, and when it is <= z
+   the incumbent is proven at once. The LP is built with hop levels 3..m merged when m <= 4
+   (``LP_FIXING_LEVELS``, a relaxation, so its bounds stay valid), and item 10 is skipped
+   above ``LP_FIXING_MAX_TERMS`` hop-row terms.
 
-11. **Why the LP bound of Table 4.2 m = 6 seed 1 stays high** (before item 12 the model stayed open at
-   66 / 73 after 600 s; the optimum is 66, which the model with item 12 proves).
-   Its optimum holds three far sites (14, 14, 15 users, two links from the GBS) fed by relays
-   of 7 and 3 users and a direct site of 13; six discs without backhaul cover 75, the cap of
-   item 4. The LP relaxation of the final model (all 4,387 sites, HiGHS IPM, 55 CPU s) reaches
-   that cap with one direct site at 1 and the far mass at hop levels 5 and 6: a square variable
-   at level l - 1 feeds many level-l sites at once, so the mass a level needs halves level by
-   level down to the direct site (at most 0.005 at levels 2-4). Relays cost the LP almost
-   nothing. Tried on that model and dropped, because none moved the bound:
-   - rows from BFS layers of the link graph. Every path from a GBS crosses each layer, so a
-     used site in layer k needs a used site in every layer below. LP 75.00 -> 75.00: there are
-     only three layers here, and one direct site serves them all;
-   - level-profile rows. When level l is used, at most m - l + 1 sites sit at levels >= l,
-     which gives ``sum_{l' >= l} z <= (m - l + 1) v_l`` with ``v_l <= sum z_{., l-1}``. LP 74.99;
-   - node-cut rows separated at the LP point: for an island W of far sites that the LP's
-     positive sites do not link to a direct site, ``x_e <= b <= sum of the sites next to W``
-     for every e in W (valid: a path from a GBS to e enters W through one of them). LP 75.00 ->
-     74.71 after four rounds, 33 rows, about 55 s an LP: each round the LP spreads its mass
-     thinly over another group of sites. A max-flow check of one island found at most 1e-4
-     of link capacity under a far site at 0.17: the LP feeds it through about a thousandfold
-     fan-out over four levels. The clique-lifted rows of item 8 limit that fan-out (LP 73.79);
-   - the branch and bound's site probes written as rows, ``obj + (ub - U_c) x_c <= ub``
-     (3,837 rows, U_c mostly 67-75). CP-SAT, 1 worker, 600 s: 66 / 73, as without them;
-   - HiGHS with 2 threads instead of CP-SAT: 66 / 73 after 600 s (452 CPU s);
-   - the lifted rows of item 8 on CP-SAT (1.75 M hop-row terms, 1 worker): 66 / 75 after 600 s;
-   - on the lifted LP of item 8 (73.79; HiGHS IPM, 50 s): regional packing rows, for grid squares
-     Q of side 1, 2 and 3 km on two shifted grids, ``sum_{c in Q} w_c x_c <= V_Q(k) + (slope)
-     (sum_{c in Q} x_c - k)`` along the concave envelope of V_Q(k), the most users k pairwise
-     non-overlapping sites of Q cover (exact by CP-SAT; valid since a placement's sites in Q
-     are such a set). 126-362 rows, LP 73.79 at every size: the LP's sites are nearly integral
-     within a square (one direct site at 1, the far clusters at 1 or split between two
-     overlapping sites). The level-profile rows above, for every pair of levels k < l
-     (``sum_{l' >= l} n_l' <= (m - l + 1) n_k``, n_l the mass at level l): LP 73.27, with about
-     one unit of mass at each of the six levels, a chain-like fractional mixture of trees.
-   - regional fan-in rows on that lifted LP: in a shortest-path tree of a placement a site at
-     level l - 1 has at most m - l + 1 children (a path of l - 1 sites leads to it), so for a
-     square R the level-l mass in R is at most m - l + 1 times the level-(l-1) mass within
-     r2 + TOL of R. 1 km squares on two shifted grids, levels 5 and 6 (350 rows, 0.27 M terms):
-     LP 73.79 unchanged. Its levels 1-6 hold 1.16, 0.52, 0.83, 1.06, 1.30 and 1.13 units, so
-     no level feeds more than the rows allow; the thin fan-out is gone once the rows of item 8
-     are in, and what remains is the mixture of chains;
-   - CP-SAT with the subsolvers max_lp and lb_tree_search (its best-bound tree search), 2
-     workers: 66 / 75 after 600 s.
-   - a split at the root on the hop depth (CP-SAT, 1 worker, 600 s a part). With the labels
-     of levels 4-6 set to 0 (placements of depth <= 3, the optimum's) the model proves 66 in
-     154 s; the other part (a site labelled 4) ends at 66 / 75, at 66 / 73 on HiGHS or after
-     item 10's LP (73.79, 256 sites fixed). That part still holds the optimum: its far sites
-     are linked, so one may be labelled 4 through another labelled 3. Rows that make the labels
-     the hop counts (a site labelled l >= 3 has no used site labelled <= l - 2 in the squares
-     wholly inside its link disc; 12,380 enforced clause sets, 0.54 M literals, exact for the
-     shortest-path labelling of item 3b) left both the whole model and that part at 66 / 75.
-   Held-out Table 4.2 seeds before item 12 (CP-SAT, 1 worker): m = 4 seeds 10-29 all proven within 120 s (the
-   slowest, seed 29, in 47 CPU s); m = 8 seeds 10-19 all proven, each within 14 CPU s; m = 6 seeds
-   10-28 and 31-34 proven within 600 s, most in 0.1-42 CPU s, seed 14 in 259 and seed 34 in 168
-   CPU s (298 s wall at load 2-4). Seeds 29 and 30 stay open, as seed 1 does (3 of 35 seeds):
-   seed 29 at 87 / 98 (optimum 88, by the branch and bound; HiGHS 88 / 92), seed 30 at 91 / 92
-   (optimum 91: a gap of one user that neither HiGHS nor CP-SAT closes, nor CP-SAT after item 10
-   with its term cap lifted and its LP by IPM, LP 92.45, 2,020 of 4,344 sites fixed).
+11. **Why the LP bound of Table 4.2 m = 6 seed 1 stays high**, and the rows tried on it and
+   dropped: a measurement, on the findings page (the model with item 12 proves that
+   instance's optimum, 66).
 
 12. **Dominance rows (exact for the optimum; ``dominance_rows``, CP-SAT, ``DOMINANCE_ROWS``).**
    Order the model's sites by weight |S(c)| descending, then index. Let K(a) be the users of a
@@ -236,23 +142,6 @@ open at 66 / 75 (400 CPU s, 589 s wall; all 4 387 sites kept, 1.57 M hop-row ter
    with E empty is simply 0 (the branch and bound's item 13 clears such sites too). Clusters
    hold many near-identical sites, and without these rows the search visits each of them in
    turn with the same completion.
-   Measured (CP-SAT, 1 worker, 600 s, one run per core on a 2-core machine, each plan confirmed
-   by ``evaluate``). In the first form (S(b) within S(a); load 1-2.8): Table 4.2 m = 6 seed 1,
-   open at 66 / 75 without rows, proven in 266 s (7,687 rows; 510 and 546 s with ties in |E|
-   broken otherwise, so the time depends on details of the rows); held-out seed 30, open at
-   91 / 92, proven in 201 s; seed 29 open at 88 / 98 (its LP fixing, item 10, skipped at the term
-   cap; with the cap lifted 88 / 92 or 87 / 92, and that LP is 92.76 with the rows as without
-   them: the rows work on the search, not on the LP). In this form (load 1.1-3.0): seed 29
-   proven 88 in 442 s (10,669 rows, built in 22 s), seed 1 in 145 s, seed 30 in 132 s, seed 34
-   in 70 s (146 before), seed 3 in 59 s (85); Table 4.2 m = 4 seeds 0-9 all within 12.1 s, m = 6
-   seeds 0-9 all (seed 1 the slowest), m = 8 seeds 0-9 all within 100 s (seed 4, most of it the
-   LP fixing), and the held-out m = 6 seeds 20-34 all 15 (seed 29 the slowest, the others within
-   132 s). Table 4.2 density x4 at m = 4 (19,545 sites; the rows of the first form cut short at
-   ``DOMINANCE_SHARE``, 29,873 rows in 57 s) was proven in 188 s at a 1.96 GiB peak, where it
-   took 469 s and 2.7 GiB without rows; in this form (28,981 rows, cut short at 54 s) in 190 s
-   wall, 125 CPU s, load 2.2, 1.96 GiB peak. (Before the sizes of E were range counts
-   (``_smallest_sets``) and the edge users were checked in blocks, the same instance made 7,457
-   rows in that time and took 368 s and 3.2 GiB.)
 
 ``solve_milp`` (``solve_exact(engine="milp")``) solves this model; ``branch_and_bound``
 (``solve_exact(engine="bnb")``) solves the same candidate problem by the combinatorial
