@@ -2,16 +2,11 @@
 against the coverage share, and the myopic-against-joint gap for moving users.
 
 ``droneplan bench cells --variants`` runs :func:`bench_variants` (``--quick``: one seed, m = 2,
-60 s a row). The variant instances are the Table 4.2 instance of each seed with:
-
-- ``weighted``: an integer demand of 1-5 per user, drawn with the seed + 1000;
-- ``nofly``: a 2 km x 3 km no-fly zone east of the GBS, [1.5, 3.5] x [-1.5, 1.5] km;
-- ``capacity``: 20 users per drone-cell;
-- ``3d``: altitude levels 200 and 400 m with the default :class:`AirToGround` channel
-  (R(h) = 402 and 605 m);
-- ``mobile``: T epochs, each user drifting by a velocity drawn per user (N(0, 1.5 m/s) per axis)
-  for 60 s an epoch, drone-cells moving at most 300 m between epochs;
-- ``min-fleet``: the fewest drone-cells (at most ``m``) covering 10 %, 20 % and 30 % of the users.
+60 s a row). The variant instances are those of the library families ``table4.2-<variant>``
+(:mod:`droneplan.scenarios.cell_variants`: demand weights, a no-fly zone, a capacity, altitude
+levels), moving users drifting over T epochs with drone-cells moving at most ``MAX_MOVE`` between
+epochs, and ``min-fleet``: the fewest drone-cells (at most ``m``) covering 10 %, 20 % and 30 % of
+the users.
 """
 
 from __future__ import annotations
@@ -19,50 +14,23 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-from shapely.geometry import box
-
 from droneplan.formulations.cells import MobileProblem, min_fleet, myopic, solve_exact, solve_mobile
-from droneplan.scenarios.air_to_ground import AirToGround
-from droneplan.scenarios.cells import CellProblem, thesis_problem
+from droneplan.scenarios.cell_variants import VARIANTS, drifting_snapshots, thesis_variant_problem
+from droneplan.scenarios.cells import thesis_problem
 from droneplan.studies.common import measured
 
-__all__ = ["VARIANTS", "variant_problem", "bench_variants"]
-
-VARIANTS = ("weighted", "nofly", "capacity", "3d")
-"""The single-epoch variants :func:`bench_variants` proves."""
-
-EPOCH_S = 60.0
-"""Seconds between the epochs of the moving-users rows."""
+__all__ = ["MAX_MOVE", "mobile_problem", "bench_variants"]
 
 MAX_MOVE = 300.0
 """Metres a drone-cell moves at most between epochs in the moving-users rows."""
 
 
-def variant_problem(name: str, m: int, seed: int) -> CellProblem:
-    """The Table 4.2 instance of ``seed`` with ``m`` drone-cells and the variant ``name`` (module
-    docstring)."""
-    base = thesis_problem(m, seed)
-    extra: dict[str, Any]
-    if name == "weighted":
-        extra = {"weights": np.random.default_rng(seed + 1000).integers(1, 6, len(base.users)).astype(float)}
-    elif name == "nofly":
-        extra = {"no_fly": [box(1500.0, -1500.0, 3500.0, 1500.0)]}
-    elif name == "capacity":
-        extra = {"capacity": 20}
-    elif name == "3d":
-        extra = {"altitudes": [200.0, 400.0], "channel": AirToGround()}
-    else:
-        raise ValueError(f"variant must be one of {VARIANTS}, got {name!r}")
-    return base.with_cells(m)._replace(**extra)
-
-
 def mobile_problem(m: int, seed: int, epochs: int) -> MobileProblem:
-    """The moving-users instance of ``seed`` (module docstring)."""
+    """The moving-users instance of ``seed``: Table 4.2's users drifting over ``epochs`` epochs
+    (:func:`~droneplan.scenarios.cell_variants.drifting_snapshots`), drone-cells moving at most
+    ``MAX_MOVE`` between epochs."""
     base = thesis_problem(m, seed)
-    velocity = np.random.default_rng(seed + 2000).normal(0.0, 1.5, size=base.users.shape)
-    snapshots = np.stack([base.users + velocity * EPOCH_S * t for t in range(epochs)])
-    return MobileProblem(base, snapshots, MAX_MOVE)
+    return MobileProblem(base, drifting_snapshots(base.users, seed, epochs), MAX_MOVE)
 
 
 def bench_variants(
@@ -75,7 +43,7 @@ def bench_variants(
     rows = []
     for seed in seeds:
         for name in VARIANTS:
-            problem = variant_problem(name, m, seed)
+            problem = thesis_variant_problem(name, m, seed)
             with measured() as run:
                 res = solve_exact(problem, time_limit=time_limit)
             rows.append(_result_row(name, seed, m, res, run))

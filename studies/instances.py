@@ -43,6 +43,7 @@ import numpy as np
 from droneplan.core.files import JsonFileError, read_json
 from droneplan.core.validation import check_array, check_int, check_positive, check_work
 from droneplan.scenarios.air_to_ground import AirToGround
+from droneplan.scenarios.cell_variants import CAPACITY, VARIANTS, thesis_variant_problem
 from droneplan.scenarios.cells import THESIS_TABLE_4_2, CellProblem, thesis_problem
 from droneplan.scenarios.herding import HerdingParams, HerdingScenario, thesis_scenario
 from droneplan.scenarios.shark.params import SharkParams
@@ -501,6 +502,21 @@ def _cells_family(scale: Mapping[str, float] | None = None, *, clustered_only: b
     return build
 
 
+def _cells_variant_family(variant: str):
+    def build(m: int, seed: int) -> CellProblem:
+        return thesis_variant_problem(variant, m, seed)
+
+    return build
+
+
+_VARIANT_DESCRIPTIONS = {
+    "weighted": "Table 4.2 with an integer demand weight of 1-5 per user (objective: covered weight)",
+    "nofly": "Table 4.2 with a 2 km x 3 km no-fly zone east of the GBS ([1.5, 3.5] x [-1.5, 1.5] km)",
+    "capacity": f"Table 4.2 with a capacity of {CAPACITY} users per drone-cell (objective: served users)",
+    "3d": "Table 4.2 with altitude levels 200 and 400 m and the urban air-to-ground channel",
+}
+
+
 def _allocation(n: int, seed: int) -> AllocationInstance:
     from droneplan.studies.herding import random_allocation_instance
 
@@ -593,6 +609,19 @@ FAMILIES: dict[str, Family] = {
             {"m": (7, 8, 10)},
             _cells_family(),
             "Table 4.2 users with more drone-cells than the thesis used (m >= 7)",
+        ),
+        *(
+            Family(
+                f"table4.2-{variant}",
+                "cells",
+                "cells",
+                1,
+                ("m",),
+                {"m": (1, 2, 3, 4)},
+                _cells_variant_family(variant),
+                _VARIANT_DESCRIPTIONS[variant],
+            )
+            for variant in VARIANTS
         ),
         Family(
             "allocation",

@@ -124,15 +124,17 @@ def _new_model(backend: str):
 
 
 def _user_clique_sites(
-    points: np.ndarray, cover: list, targets: np.ndarray, R_d: float
+    points: np.ndarray, cover: list, targets: np.ndarray, radius: float | np.ndarray
 ) -> dict[int, list[int]]:
     """For every active user u whose covering sites pairwise overlap, the indices of those
     sites (an at-most-one row, item 5 of the module docstring). Users in a lens (two
-    covering sites >= 2 R_d - TOL apart, so both may be chosen) are left out.
+    covering sites c, d with |c - d| >= R_c + R_d - TOL, so both may be chosen) are left out.
 
-    Exact: sites c, d both within R_d + TOL of u and >= 2 R_d - TOL apart are each
-    >= R_d - 2 TOL from u (triangle inequality), so only such "rim" sites need the
+    radius: the coverage radius (m) of every site (R_d), or one per site (altitude levels).
+    Exact: sites c, d both within R + TOL of u and >= R_c + R_d - TOL apart are each
+    >= R - 2 TOL from u (triangle inequality), so only such "rim" sites need the
     pairwise test."""
+    R = np.broadcast_to(np.asarray(radius, dtype=float), (len(points),))
     by_user: dict[int, list[int]] = {}
     for i, c in enumerate(cover):
         for u in c.tolist():
@@ -143,24 +145,30 @@ def _user_clique_sites(
             continue
         s = np.asarray(sites, dtype=np.int64)
         d = np.hypot(*(points[s] - targets[u]).T)
-        rim = s[d >= R_d - 3 * TOL]
+        rim = s[d >= R[s] - 3 * TOL]
         if len(rim) >= 2:
             q = points[rim]
             dd = pairwise_distances(q, q)
-            if np.any(dd >= 2 * R_d - TOL):
+            if np.any(dd >= R[rim][:, None] + R[rim][None, :] - TOL):
                 continue
         out[u] = sites
     return out
 
 
 def _coverage_objective(
-    lin, x: list, pts: np.ndarray, cover: list, problem: CellProblem, user_cliques: bool
+    lin,
+    x: list,
+    pts: np.ndarray,
+    cover: list,
+    problem: CellProblem,
+    user_cliques: bool,
+    radius: np.ndarray | None = None,
 ) -> tuple[dict, Any, dict[int, list[int]], int, dict[int, int]]:
     """The covered weight (covered users without ``weights``) as a linear expression over the
     site variables ``x``.
 
     Returns (y, objective, clique rows, users written without a variable, group of each user
-    with a variable):
+    with a variable). ``radius``: each site's coverage radius (m; None: R_d for all).
 
     - **Substitution (exact).** A user u whose covering sites C_u pairwise overlap (item 5)
       is covered by at most one chosen site, so it is covered exactly when
@@ -175,7 +183,9 @@ def _coverage_objective(
     mapping gives each aggregated user its representative."""
     by_user = _sites_by_user(cover)
     cliques = (
-        _user_clique_sites(pts, cover, problem.targets, problem.R_d) if user_cliques and len(pts) else {}
+        _user_clique_sites(pts, cover, problem.targets, problem.R_d if radius is None else radius)
+        if user_cliques and len(pts)
+        else {}
     )
     weight = (
         problem.target_weights if problem.weights is not None else np.ones(len(problem.targets), np.int64)
@@ -200,12 +210,21 @@ def _coverage_objective(
     return y, lin.sum(terms), cliques, len(cliques), group_of
 
 
-def _objective_part(lin, x: list, pts: np.ndarray, cover: list, problem: CellProblem, user_cliques: bool):
+def _objective_part(
+    lin,
+    x: list,
+    pts: np.ndarray,
+    cover: list,
+    problem: CellProblem,
+    user_cliques: bool,
+    radius: np.ndarray | None = None,
+):
     """The objective and its variables: (y, objective, clique rows, substituted users, group of
     each user with a variable, assignment variables); the served weight with a capacity
-    (``_capacity_objective``), the covered weight otherwise (``_coverage_objective``)."""
+    (``_capacity_objective``), the covered weight otherwise (``_coverage_objective``, sites of
+    coverage ``radius``, m, each; None: R_d)."""
     if problem.capacity is None:
-        return (*_coverage_objective(lin, x, pts, cover, problem, user_cliques), {})
+        return (*_coverage_objective(lin, x, pts, cover, problem, user_cliques, radius), {})
     serve, objective = _capacity_objective(lin, x, cover, problem)
     return {}, objective, {}, 0, {}, serve
 

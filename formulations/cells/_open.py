@@ -182,10 +182,28 @@ def solve_variant(
     model = build_milp(problem, backend=backend)
     if model is None:  # only a deadline or a term cap stops a build, and neither is given
         raise RuntimeError("the candidate model of a variant instance was not built")
-    left = None if time_limit is None else max(time_limit - (time.perf_counter() - t0), 0.0)
     start = greedy_placement(problem)  # a start only: the model proves the bound
+    left = None if time_limit is None else time_limit - (time.perf_counter() - t0)
+    if left is not None and left <= 0.0:
+        return _start_only(problem, start, model.backend, t0)
     result = solve_model(model, time_limit=left, workers=workers, warm_start=start)
     return _with_total_time(result, t0)
+
+
+def _start_only(problem: CellProblem, start: np.ndarray, backend: str, t0: float) -> SolveResult:
+    """The time limit ran out while the model was built: the greedy ``start`` as a FEASIBLE
+    result without a bound."""
+    ev = evaluate(problem, start)
+    return SolveResult(
+        Status.FEASIBLE,
+        objective=float(ev.value),
+        bound=None,
+        x=np.asarray(start, dtype=float),
+        backend=backend,
+        message="the time limit was reached while the model was built: the greedy plan, no bound",
+        solve_time=time.perf_counter() - t0,
+        info={"engine": "milp", "evaluation": ev, "variants": problem.variants},
+    )
 
 
 def _with_total_time(result: SolveResult, t0: float) -> SolveResult:

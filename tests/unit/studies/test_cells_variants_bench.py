@@ -7,18 +7,20 @@ import pandas as pd
 import pytest
 
 from droneplan.formulations.cells import CellProblem, evaluate
+from droneplan.scenarios import cell_variants
+from droneplan.scenarios.cell_variants import VARIANTS, thesis_variant_problem
 from droneplan.studies import cells_variants
-from droneplan.studies.cells_variants import VARIANTS, bench_variants, variant_problem
+from droneplan.studies.cells_variants import bench_variants
 
 
 def test_variant_problems_are_the_thesis_instance_with_one_variant_each():
     fields = {"weighted": "weights", "nofly": "no_fly", "capacity": "capacity", "3d": "altitudes"}
     for name in VARIANTS:
-        p = variant_problem(name, 2, 0)
+        p = thesis_variant_problem(name, 2, 0)
         assert p.variants == (fields[name],)
         assert evaluate(p, []).value == 0.0 and p.n_cells == 2
     with pytest.raises(ValueError, match="variant"):
-        variant_problem("heavy", 2, 0)
+        thesis_variant_problem("heavy", 2, 0)
 
 
 def _small_thesis_problem(m, seed):
@@ -31,6 +33,7 @@ def _small_thesis_problem(m, seed):
 def test_bench_variants_writes_a_row_per_variant_seed(tmp_path, monkeypatch):
     """The rows and their file, on a small stand-in instance (the bench itself runs Table 4.2)."""
     monkeypatch.setattr(cells_variants, "thesis_problem", _small_thesis_problem)
+    monkeypatch.setattr(cell_variants, "thesis_problem", _small_thesis_problem)
     rows = bench_variants(seeds=[0], m=2, time_limit=60.0, out=tmp_path, epochs=2)
     df = pd.read_csv(tmp_path / "bench_variants.csv")
     assert len(df) == len(rows) == len(VARIANTS) + 3 + 2
