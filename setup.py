@@ -3,12 +3,18 @@
 ``scenarios/``, ``formulations/``, ``solvers/``, ``planners/`` and ``studies/`` stay
 at the top of the repository (the project's layout) but install as
 ``droneplan.scenarios`` ... ``droneplan.studies``; ``droneplan/`` is the front door.
-Nothing else goes on the import path. Everything else is in pyproject.toml.
+Nothing else goes on the import path. Everything else is in pyproject.toml. The layer
+names are written once, in ``droneplan/_layers.py``, which is run here without importing
+droneplan.
 """
+
+import runpy
+from pathlib import Path
 
 from setuptools import find_packages, setup
 
-LAYERS = ("core", "solvers", "scenarios", "formulations", "planners", "studies")
+_LAYERS_FILE = Path(__file__).resolve().parent / "droneplan" / "_layers.py"
+LAYERS: tuple[str, ...] = runpy.run_path(str(_LAYERS_FILE))["LAYERS"]
 
 packages = ["droneplan", *(f"droneplan.{sub}" for sub in find_packages("droneplan"))]
 package_dir = {"droneplan": "droneplan"}

@@ -21,8 +21,12 @@ every study row of an ``--out`` directory as one long-format DataFrame.
 """
 
 import importlib
+import importlib.util
+import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
+
+from droneplan._layers import LAYERS as _LAYERS
 
 if TYPE_CHECKING:  # the names for type checkers; at run time __getattr__ imports them
     from droneplan import cells, covert, herding, shark
@@ -63,7 +67,40 @@ _STUDY_NAMES = (
 
 
 _FRONT_DOORS = ("cells", "covert", "herding", "shark")
-_LAYERS = ("core", "solvers", "scenarios", "formulations", "planners", "studies")
+
+
+def _check_one_tree() -> None:
+    """Refuse, in one line, layers that would load from another tree than the front doors.
+
+    An editable install maps each layer folder to ``droneplan.<layer>`` by absolute path. A
+    Python started in a copy of the repository finds this ``droneplan/`` in the copy first,
+    and then the layers of the installed checkout: two trees in one process. A layer belongs
+    to this tree when its folder sits beside ``droneplan/`` (a checkout) or inside it (a
+    wheel), as written or with symlinks resolved. Only the layers' specs are looked up;
+    nothing is imported.
+    """
+    front = os.path.dirname(os.path.abspath(__file__))
+    for layer in _LAYERS:
+        spec = importlib.util.find_spec(f"droneplan.{layer}")
+        if spec is None:  # not installed at all: the first import of the layer says so
+            continue
+        if spec.origin is not None:
+            folder = os.path.dirname(os.path.abspath(spec.origin))
+        elif spec.submodule_search_locations:
+            folder = os.path.abspath(next(iter(spec.submodule_search_locations)))
+        else:
+            continue
+        if not any(
+            os.path.dirname(f(folder)) in (f(front), os.path.dirname(f(front)))
+            for f in (os.path.abspath, os.path.realpath)
+        ):
+            raise ImportError(
+                f"droneplan: the front doors load from {front} but droneplan.{layer} from {folder}, "
+                f"another tree; install this tree with `pip install -e .` in {os.path.dirname(front)}"
+            )
+
+
+_check_one_tree()
 
 
 def __getattr__(name: str) -> Any:

@@ -10,8 +10,10 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from droneplan._layers import LAYERS
+
 ROOT = Path(__file__).resolve().parents[1]
-FOLDERS = ("droneplan", "core", "solvers", "scenarios", "formulations", "planners", "studies", "tests")
+FOLDERS = ("droneplan", *LAYERS, "tests")
 CEILING = {"C901": 26, "PLR0915": 11}
 MARK = re.compile(r"#\s*noqa:\s*([A-Z0-9, ]+)")
 

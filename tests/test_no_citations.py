@@ -11,9 +11,10 @@ from pathlib import Path
 
 import pytest
 
+from droneplan._layers import LAYERS
+
 ROOT = Path(__file__).resolve().parents[1]
-LAYERS = ("core", "solvers", "scenarios", "formulations", "planners", "studies", "droneplan")
-FOLDERS = (*LAYERS, "docs", "notebooks")
+FOLDERS = (*LAYERS, "droneplan", "docs", "notebooks")
 TOP_FILES = ("README.md", "CHANGELOG.md")
 SUFFIXES = {".py", ".md", ".ipynb", ".txt", ".yml", ".yaml", ".toml", ".cfg"}
 

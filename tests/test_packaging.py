@@ -13,8 +13,9 @@ from pathlib import Path
 
 import pytest
 
+from droneplan._layers import LAYERS
+
 ROOT = Path(__file__).resolve().parents[1]
-LAYERS = ("core", "solvers", "scenarios", "formulations", "planners", "studies")
 
 
 def _run(cmd: list[str], **kwargs) -> subprocess.CompletedProcess:

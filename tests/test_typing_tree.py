@@ -1,24 +1,18 @@
 """The symlink tree .typing/droneplan gives mypy (and the docs build) the installed view of the
-package: droneplan/*.py plus one link per layer folder, as setup.py maps them."""
+package: droneplan/*.py plus one link per layer folder, as setup.py maps them (droneplan/_layers.py)."""
 
-import ast
 import os
 from pathlib import Path
+
+from droneplan._layers import LAYERS
 
 ROOT = Path(__file__).resolve().parents[1]
 TREE = ROOT / ".typing" / "droneplan"
 
 
-def _layers() -> tuple[str, ...]:
-    for node in ast.parse((ROOT / "setup.py").read_text()).body:
-        if isinstance(node, ast.Assign) and getattr(node.targets[0], "id", None) == "LAYERS":
-            return tuple(ast.literal_eval(node.value))
-    raise AssertionError("setup.py defines no LAYERS")
-
-
 def test_typing_tree_mirrors_the_installed_package():
     expected = {p.name: p for p in (ROOT / "droneplan").glob("*.py")}
-    expected.update({layer: ROOT / layer for layer in _layers()})
+    expected.update({layer: ROOT / layer for layer in LAYERS})
     present = {p.name: p for p in TREE.iterdir()}
     missing = sorted(set(expected) - set(present))
     extra = sorted(set(present) - set(expected))

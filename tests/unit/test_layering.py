@@ -12,8 +12,9 @@ from pathlib import Path
 
 import pytest
 
+from droneplan._layers import LAYERS
+
 ROOT = Path(__file__).resolve().parents[2]
-LAYERS = ("core", "solvers", "scenarios", "formulations", "planners", "studies")
 ALLOWED = {
     "core": set(),
     "solvers": {"core"},

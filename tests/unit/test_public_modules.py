@@ -7,7 +7,7 @@ import pkgutil
 
 import pytest
 
-LAYERS = ("core", "solvers", "scenarios", "formulations", "planners", "studies")
+from droneplan._layers import LAYERS
 
 
 def _public_modules() -> list[str]:

@@ -1,0 +1,1 @@
+../../droneplan/_layers.py
