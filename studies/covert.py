@@ -370,14 +370,37 @@ def _front_section(case: int, scenario, traces: dict[str, CovertTrace], out: Pat
     tab.emit(out, f"case{case}_stealth_front")
 
 
-def _noise_errors(case: int, level: float, runs: int, base: CovertTrace) -> list[float]:
-    """|beta_max(noisy) - beta_max(exact)| (rad) of ``runs`` sliding-mode runs of case ``case``
-    at noise ``level`` (seeds 1000 case + r), against the noiseless run ``base``."""
+def _peak_from(tr: CovertTrace, start: float, n: int) -> float:
+    """Largest beta_m (rad) of ``tr`` over its first ``n`` instants from time ``start`` (s) on."""
+    bm = tr.beta_m[:n][tr.t[:n] >= start - 1e-9]
+    return float(np.nanmax(bm)) if np.isfinite(bm).any() else math.nan
+
+
+def _noise_errors(case: int, level: float, runs: int, base: CovertTrace) -> dict[str, Any]:
+    """``runs`` sliding-mode runs of case ``case`` at noise ``level`` (seeds 1000 case + r),
+    against the noiseless run ``base``: the signed errors ``err`` = beta_max(noisy) -
+    beta_max(exact) (rad, the thesis's error of beta_m is their magnitude), the noisy runs'
+    arrival times ``t_a`` (s, NaN: never on the sphere), ``err_on_sphere`` = the same difference
+    of the largest beta_m from the later of the two arrivals on (rad), and the exact run's
+    ``base_t_a`` and ``base_peak_t`` (the instant of its beta_max, s)."""
     sc = thesis_case(case, 0)
-    return [
-        abs(simulate(sc, SlidingModeObserver(), noise=level, seed=1000 * case + r).beta_max - base.beta_max)
-        for r in range(runs)
-    ]
+    err, t_a, on_sphere = [], [], []
+    for r in range(runs):
+        tr = simulate(sc, SlidingModeObserver(), noise=level, seed=1000 * case + r)
+        err.append(tr.beta_max - base.beta_max)
+        t_a.append(math.nan if tr.t_a is None else tr.t_a)
+        if tr.t_a is None or base.t_a is None:
+            on_sphere.append(math.nan)
+            continue
+        start, n = max(tr.t_a, base.t_a), min(tr.t.size, base.t.size)
+        on_sphere.append(_peak_from(tr, start, n) - _peak_from(base, start, n))
+    return {
+        "err": err,
+        "t_a": t_a,
+        "err_on_sphere": on_sphere,
+        "base_t_a": math.nan if base.t_a is None else base.t_a,
+        "base_peak_t": float(base.t[int(np.nanargmax(base.beta_m))]),
+    }
 
 
 def _mpc_noise_error(case: int, base: CovertTrace) -> float:
@@ -389,34 +412,88 @@ def _mpc_noise_error(case: int, base: CovertTrace) -> float:
     return max(errs)
 
 
+_NOISE_THESIS = {0.02: 0.3, 0.10: 2.0}
+"""Fig. 3.15's bounds on the error of beta_m (deg) at 2 % and 10 % noise (§3.5, both cases)."""
+
+
+def _noise_why(res: dict[str, Any]) -> str:
+    """The measured reason of a Fig. 3.15 row beyond the thesis's bound, from :func:`_noise_errors`."""
+    err, t_a = np.degrees(res["err"]), np.asarray(res["t_a"], float)
+    on = np.abs(np.degrees(res["err_on_sphere"]))
+    base_t_a = res["base_t_a"]
+    facts = (
+        f"measured: the exact run's beta_max is at t = {res['base_peak_t']:.1f} s (arrival t_a = "
+        f"{base_t_a:.1f} s); the noisy runs arrive at {np.nanmean(t_a):.1f} s on average "
+        f"({np.nanmin(t_a):.1f}-{np.nanmax(t_a):.1f} s), signed errors {err.min():+.2f} to "
+        f"{err.max():+.2f} deg; from the later arrival on, the error is at most {np.nanmax(on):.2f} deg"
+    )
+    if np.nanmin(t_a) > res["base_peak_t"] and err.max() < 0.0:
+        cause = (
+            "the noise slows the To-sphere leg (there the targets' bearing changes tie and their "
+            "steering vectors nearly cancel, so the noise turns their sum and the drone goes back and "
+            "forth), so the drone reaches the sphere after the instant where the exact run peaks, and "
+            "every noisy run peaks lower"
+        )
+        return f"{cause}; {facts}"
+    return facts
+
+
 def _noise_table(out: Path, levels: list[float], runs: int, **errors: Any) -> None:
     """Fig. 3.15 from the noise runs: ``errors`` maps ``e<case>_<i>`` (level index i) to the
-    errors of :func:`_noise_errors`, and ``mpc<case>`` to :func:`_mpc_noise_error`'s (full runs)."""
+    results of :func:`_noise_errors`, and ``mpc<case>`` to :func:`_mpc_noise_error`'s (full runs).
+
+    The thesis bounds the error (< 0.3 deg at 2 %, < 2 deg at 10 %): a value within the bound is
+    shown against the bound as a statement (no deviation); one beyond it is compared with the
+    bound as a number, so it is flagged past the threshold, with the measured reason of
+    :func:`_noise_why`."""
     import pandas as pd
 
     rows = []
     tab = ComparisonTable(f"Fig. 3.15: impact of measurement noise ({runs} runs per level, sliding mode)")
     for case in (1, 2):
         for i, lvl in enumerate(levels):
-            errs = errors[f"e{case}_{i}"]
+            res = errors[f"e{case}_{i}"]
+            errs = np.abs(res["err"])
             rows.append(
                 {
                     "case": case,
                     "noise": lvl,
                     "mean_err_deg": np.mean(errs) * DEG,
                     "max_err_deg": np.max(errs) * DEG,
+                    "mean_signed_err_deg": np.mean(res["err"]) * DEG,
+                    "max_err_on_sphere_deg": np.nanmax(np.abs(res["err_on_sphere"])) * DEG,
+                    "mean_t_a_s": np.nanmean(res["t_a"]),
+                    "exact_t_a_s": res["base_t_a"],
                 }
             )
-        e2 = next(r["max_err_deg"] for r in rows if r["case"] == case and r["noise"] == 0.02)
-        e10 = next(r["max_err_deg"] for r in rows if r["case"] == case and r["noise"] == 0.10)
+            bound = _NOISE_THESIS.get(lvl)
+            if bound is None:
+                continue
+            worst = rows[-1]["max_err_deg"]
+            tab.add(
+                f"case {case}: max error of beta_max at {lvl:.0%} (deg)",
+                bound if worst > bound else f"< {bound:g}",
+                worst,
+                f"|beta_max(noisy) - beta_max(exact)|, each component of a_j x (1 + {lvl:g} U(-1,1)) at "
+                f"every step; thesis: < {bound:g} (a value beyond it is compared with the bound)",
+                why=_noise_why(res),
+            )
+        at = {r["noise"]: r for r in rows if r["case"] == case}
         tab.add(
-            f"case {case}: max error of beta_max at 2% (deg)",
-            "< 0.3",
-            e2,
-            "|beta_max(noisy) - beta_max(exact)|",
+            f"case {case}: max error of beta_max from the later arrival on, "
+            + " / ".join(f"{lvl:.0%}" for lvl in levels)
+            + " (deg)",
+            None,
+            " / ".join(f"{at[lvl]['max_err_on_sphere_deg']:.2f}" for lvl in levels),
+            "largest beta_m from max(t_a noisy, t_a exact) on, noisy minus exact",
         )
         tab.add(
-            f"case {case}: max error of beta_max at 10% (deg)", "< 2", e10, "each component x (1 + a U(-1,1))"
+            f"case {case}: t_a exact / mean noisy at " + " / ".join(f"{lvl:.0%}" for lvl in levels) + " (s)",
+            None,
+            " / ".join(
+                [f"{rows[-1]['exact_t_a_s']:.1f}"] + [f"{at[lvl]['mean_t_a_s']:.1f}" for lvl in levels]
+            ),
+            "first time on the sphere",
         )
     for case in (1, 2):
         if f"mpc{case}" in errors:
