@@ -20,9 +20,9 @@ So no animal ever moves faster than ``V_animal`` (``graze_speed <= V_animal``).
 
 Drone model (6.3)-(6.6): ``d' = v a``, ``a' = u`` with ``|a| = 1``, ``(a, u) = 0``,
 ``|u| <= U_max``; we write ``u = omega a_perp`` and integrate the heading angle by
-rotation so ``|a| = 1`` exactly. ``U_max`` is the heading rate, rad/s: the thesis's
-tables give it in m/s^2, but in the model |a| = 1 and a' = u, so |u| <= U_max bounds
-the rate of turn, and we implement the model literally. The thesis's guidance laws
+rotation so ``|a| = 1`` exactly. ``U_max`` is the heading rate, rad/s: Table 6.2
+gives it in m/s^2, but in the model (6.3)-(6.6) |a| = 1 and a' = u, so |u| <= U_max
+bounds the rate of turn, and we implement the model literally. The thesis's guidance laws
 (6.13)/(6.16) command ``v = -V_max`` when the target is behind the drone, contradicting
 ``v in [0, V_max]`` of (6.5); the laws are implemented literally, so the simulator
 accepts ``|v| <= V_max``.
@@ -107,8 +107,8 @@ class HerdingParams:
     V_max: float = 25.0
     """Maximum drone speed, m/s."""
     U_max: float = 5.0
-    """Maximum heading rate |u| of (6.5), rad/s (the thesis's tables say m/s^2; with |a| = 1
-    and a' = u, |u| is the rate of turn)."""
+    """Maximum heading rate |u| of (6.5), rad/s (Table 6.2 says m/s^2; with |a| = 1 and
+    a' = u of (6.4), |u| is the rate of turn)."""
     V_animal: float = 4.0
     """Maximum animal speed (animals in a barking cone move at this speed), m/s."""
     beta: float = 2 * math.pi / 3

@@ -4,8 +4,9 @@ Commands are (v, omega): speed along the heading a (m/s) and heading rate
 (rad/s), with u = omega a_perp, |u| = |omega| (6.4)-(6.6).
 
 Discrete-time saturation (our addition, against the chattering of the sliding-mode
-laws in sampled time): the literal laws command |v| = V_max and |u| = U_max until the target is reached,
-which in a sampled simulation overshoots and chatters by V_max*dt around O*. We
+laws in sampled time, which §6.4 does not treat): the literal laws command
+|v| = V_max and |u| = U_max until the target is reached, which in a sampled simulation
+overshoots and chatters by V_max*dt around O*. We
 cap |v| at |(a, b)|/dt (the step along the heading never overshoots the
 projection of the target, so the distance to it never grows) and the turn at the
 angle to go divided by dt, so a drone stops on O* ("enables the drone to stay at
