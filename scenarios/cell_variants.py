@@ -12,10 +12,16 @@ one variant of the model added, with these parameters (our choice; the thesis ha
 
 Moving users (:func:`drifting_snapshots`): each user drifts at a constant velocity drawn per user,
 N(0, 1.5 m/s) per axis with the seed + 2000, observed every ``EPOCH_S`` seconds.
+:func:`mobile_instance` is the smaller world of the ``table4.2-mobile`` family
+(``MOBILE_PARAMS``: Table 4.2's densities, radii and ranges on a 4 km x 4 km area with 3 clusters,
+about 60 users; ``MOBILE_EPOCHS`` epochs; drone-cells move at most ``MOBILE_MAX_MOVE_M``
+between epochs): the joint model of all epochs has one placement per epoch and a transport
+between them, too large at the full Table 4.2 scale for a library of proofs.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -24,7 +30,7 @@ from shapely.geometry import box
 
 from droneplan.core.validation import check_array, check_int
 from droneplan.scenarios.air_to_ground import AirToGround
-from droneplan.scenarios.cells import CellProblem, thesis_problem
+from droneplan.scenarios.cells import THESIS_TABLE_4_2, CellProblem, thesis_problem
 
 __all__ = [
     "VARIANTS",
@@ -35,6 +41,10 @@ __all__ = [
     "DRIFT_SD_M_S",
     "thesis_variant_problem",
     "drifting_snapshots",
+    "MOBILE_PARAMS",
+    "MOBILE_EPOCHS",
+    "MOBILE_MAX_MOVE_M",
+    "mobile_instance",
 ]
 
 VARIANTS = ("weighted", "nofly", "capacity", "3d")
@@ -90,3 +100,25 @@ def drifting_snapshots(users: NDArray[np.float64], seed: int, epochs: int) -> ND
     users = check_array("users", users, shape=(None, 2))
     velocity = np.random.default_rng(seed + 2000).normal(0.0, DRIFT_SD_M_S, size=users.shape)
     return np.stack([users + velocity * EPOCH_S * t for t in range(epochs)])
+
+
+MOBILE_PARAMS = dataclasses.replace(THESIS_TABLE_4_2, half_width=2000.0, n_clusters=3)
+"""The world of :func:`mobile_instance`: Table 4.2 on a 4 km x 4 km area with 3 clusters."""
+
+MOBILE_EPOCHS = 3
+"""Epochs of :func:`mobile_instance`."""
+
+MOBILE_MAX_MOVE_M = 100.0
+"""The most a drone-cell of :func:`mobile_instance` moves between epochs (m)."""
+
+
+def mobile_instance(n_cells: int, seed: int) -> tuple[CellProblem, NDArray[np.float64]]:
+    """The moving-users instance of ``seed``: the problem (``MOBILE_PARAMS``, ``n_cells``
+    drone-cells) and its users' (``MOBILE_EPOCHS``, n, 2) drifting positions (m).
+
+    n_cells: drone-cells m (count >= 1). seed: the instance seed (int >= 0).
+    """
+    check_int("n_cells", n_cells, min_value=1)
+    seed = check_int("seed", seed, min_value=0)
+    base = thesis_problem(n_cells, seed, params=MOBILE_PARAMS)
+    return base, drifting_snapshots(base.users, seed, MOBILE_EPOCHS)

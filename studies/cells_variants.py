@@ -4,9 +4,8 @@ against the coverage share, and the myopic-against-joint gap for moving users.
 ``droneplan bench cells --variants`` runs :func:`bench_variants` (``--quick``: one seed, m = 2,
 60 s a row). The variant instances are those of the library families ``table4.2-<variant>``
 (:mod:`droneplan.scenarios.cell_variants`: demand weights, a no-fly zone, a capacity, altitude
-levels), moving users drifting over T epochs with drone-cells moving at most ``MAX_MOVE`` between
-epochs, and ``min-fleet``: the fewest drone-cells (at most ``m``) covering 10 %, 20 % and 30 % of
-the users.
+levels), moving users drifting over T epochs (the smaller world of ``table4.2-mobile``), and
+``min-fleet``: the fewest drone-cells (at most ``m``) covering 10 %, 20 % and 30 % of the users.
 """
 
 from __future__ import annotations
@@ -15,22 +14,25 @@ from pathlib import Path
 from typing import Any
 
 from droneplan.formulations.cells import MobileProblem, min_fleet, myopic, solve_exact, solve_mobile
-from droneplan.scenarios.cell_variants import VARIANTS, drifting_snapshots, thesis_variant_problem
+from droneplan.scenarios.cell_variants import (
+    MOBILE_MAX_MOVE_M,
+    MOBILE_PARAMS,
+    VARIANTS,
+    drifting_snapshots,
+    thesis_variant_problem,
+)
 from droneplan.scenarios.cells import thesis_problem
 from droneplan.studies.common import measured
 
-__all__ = ["MAX_MOVE", "mobile_problem", "bench_variants"]
-
-MAX_MOVE = 300.0
-"""Metres a drone-cell moves at most between epochs in the moving-users rows."""
+__all__ = ["mobile_problem", "bench_variants"]
 
 
 def mobile_problem(m: int, seed: int, epochs: int) -> MobileProblem:
-    """The moving-users instance of ``seed``: Table 4.2's users drifting over ``epochs`` epochs
-    (:func:`~droneplan.scenarios.cell_variants.drifting_snapshots`), drone-cells moving at most
-    ``MAX_MOVE`` between epochs."""
-    base = thesis_problem(m, seed)
-    return MobileProblem(base, drifting_snapshots(base.users, seed, epochs), MAX_MOVE)
+    """The moving-users instance of ``seed`` over ``epochs`` epochs: the world of the
+    ``table4.2-mobile`` family (:func:`~droneplan.scenarios.cell_variants.mobile_instance`;
+    the joint model is too large at the full Table 4.2 scale) with ``m`` drone-cells."""
+    base = thesis_problem(m, seed, params=MOBILE_PARAMS)
+    return MobileProblem(base, drifting_snapshots(base.users, seed, epochs), MOBILE_MAX_MOVE_M)
 
 
 def bench_variants(

@@ -7,6 +7,10 @@ the method's word:
 
 ``cells``         the positions go through ``formulations.cells.evaluate`` (overlap, GBS
                   overlap, backhaul, count, bounds); objective = covered users
+``cells-mobile``  the (T, k, w) plan goes through ``evaluate_mobile`` (every epoch's constraints and
+                  the moves); objective = covered weight summed over the epochs
+``cells-fleet``   the positions go through ``evaluate`` and must reach the coverage share;
+                  objective = the number of drone-cells placed
 ``allocation``    ``(target, direction)`` becomes an allocation whose travels droneplan computes
                   and ``check_allocation`` verifies against (6.20)-(6.23); objective = max travel (m)
 ``shark-fleet``   ``(sharks, operator)`` must serve exactly the sharks to serve (all, or the n
@@ -46,6 +50,8 @@ __all__ = ["Scored", "execute", "execute_plain", "score", "SENSE_OF_KIND", "HERD
 
 SENSE_OF_KIND = {
     "cells": "max",
+    "cells-mobile": "max",
+    "cells-fleet": "min",
     "allocation": "min",
     "shark-path": "min",
     "shark-fleet": "min",
@@ -86,8 +92,10 @@ def execute(instance: StudyInstance, method: Method, seed: int, time_limit: floa
     plain command gives ``{"controller_failed": message}``.
     """
     data = instance.data
-    if instance.kind == "cells":
+    if instance.kind in ("cells", "cells-mobile"):
         return method.call(data, seed=seed, time_limit=time_limit)
+    if instance.kind == "cells-fleet":
+        return method.call(data.problem, data.coverage, seed=seed, time_limit=time_limit)
     if instance.kind == "allocation":
         return method.call(
             data.drone_s.copy(), data.steer_s.copy(), data.perimeter, seed=seed, time_limit=time_limit
@@ -213,38 +221,41 @@ def _unwrap(returned: Any, method: Method, scored: Scored) -> tuple[Any, bool]:
     return returned, True
 
 
-def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scored:  # noqa: C901
+def _numeric_plan(plan: Any, tail: tuple[int, ...], lead: int | None = None) -> np.ndarray | str:
+    """``plan`` as a float array of shape (k, *tail), or (lead, k, *tail) when ``lead`` is given
+    (one placement per epoch); a one-line reason when it is not one."""
+    try:
+        raw = np.asarray(plan)
+    except (TypeError, ValueError):
+        raw = np.asarray(None)
+    if raw.dtype.kind not in "iuf" and raw.size:
+        return f"positions must be numbers (reals), got {_describe(plan)}"
+    pos = raw.astype(float)
+    head = () if lead is None else (lead,)
+    if pos.size == 0:
+        pos = pos.reshape(*head, 0, *tail)
+    if lead is None and pos.ndim == 1 and pos.shape == tail:
+        pos = pos.reshape(1, *tail)
+    shape = pos.shape[: len(head)] + pos.shape[len(head) + 1 :]
+    if pos.ndim != len(head) + 1 + len(tail) or shape != head + tail:
+        want = ", ".join(str(d) for d in (*head, "k", *tail))
+        return f"positions must have shape ({want}), got {pos.shape}"
+    if not np.all(np.isfinite(pos)):
+        return "positions contain NaN or inf"
+    return pos
+
+
+def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scored:
     from droneplan.formulations.cells import evaluate
 
     scored = Scored("feasible")
     plan, has = _unwrap(returned, method, scored)
     if not has:
         return scored
-    try:
-        raw = np.asarray(plan)
-    except (TypeError, ValueError):
-        raw = np.asarray(None)
-    if raw.dtype.kind not in "iuf" and raw.size:
-        return Scored(
-            "invalid",
-            message=f"positions must be numbers (reals), got {_describe(plan)}",
-            extras=scored.extras,
-        )
-    pos = raw.astype(float)
-    width = instance.data.plan_width  # (x, y), or (x, y, h) with altitude levels
-    if pos.size == 0:
-        pos = pos.reshape(0, width)
-    if pos.ndim == 1 and pos.shape == (width,):
-        pos = pos.reshape(1, width)
-    if pos.ndim != 2 or pos.shape[1] != width:
-        return Scored(
-            "invalid",
-            message=f"positions must have shape (k, {width}), got {pos.shape}",
-            extras=scored.extras,
-        )
-    if not np.all(np.isfinite(pos)):
-        return Scored("invalid", message="positions contain NaN or inf", extras=scored.extras)
     problem = instance.data
+    pos = _numeric_plan(plan, (problem.plan_width,))  # (x, y), or (x, y, h) with altitude levels
+    if isinstance(pos, str):
+        return Scored("invalid", message=pos, extras=scored.extras)
     if len(pos) > problem.n_cells:  # refused before any work that grows with the number of cells
         return Scored(
             "invalid",
@@ -254,12 +265,24 @@ def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scor
     ev = evaluate(problem, pos)
     scored.extras["n_placed"] = len(pos)
     if not ev.feasible:
-        more = f" (+{len(ev.violations) - 3} more)" if len(ev.violations) > 3 else ""
-        scored.status = "infeasible"
-        scored.message = "; ".join(ev.violations[:3]) + more
+        _infeasible(scored, ev.violations)
         scored.extras["covered_if_feasible"] = ev.value
         return scored
     scored.objective = float(ev.value)  # covered users; the covered (served) weight of a variant
+    _trusted(scored, returned, method)
+    return scored
+
+
+def _infeasible(scored: Scored, violations: Any) -> None:
+    """Mark ``scored`` infeasible with the first three ``violations`` in its message."""
+    more = f" (+{len(violations) - 3} more)" if len(violations) > 3 else ""
+    scored.status = "infeasible"
+    scored.message = "; ".join(violations[:3]) + more
+
+
+def _trusted(scored: Scored, returned: Any, method: Method) -> None:
+    """A cells engine's bound and status (only a trusted method's ``SolveResult``), then the claim
+    check."""
     if method.trusted_bound and isinstance(returned, SolveResult):
         bound = _number(returned.bound)
         if bound is not None:
@@ -269,7 +292,72 @@ def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scor
             scored.status = "optimal"
         scored.message = returned.message
     _check_claim(scored)
+
+
+def _score_cells_mobile(instance: StudyInstance, returned: Any, method: Method) -> Scored:
+    from droneplan.formulations.cells import evaluate_mobile
+
+    scored = Scored("feasible")
+    plan, has = _unwrap(returned, method, scored)
+    if not has:
+        return scored
+    mp = instance.data
+    pos = _numeric_plan(plan, (mp.problem.plan_width,), lead=mp.n_epochs)
+    if isinstance(pos, str):
+        return Scored("invalid", message=pos, extras=scored.extras)
+    if pos.shape[1] > mp.problem.n_cells:
+        return Scored(
+            "invalid",
+            message=f"the plan moves {pos.shape[1]} drone-cells; the instance has n_cells = "
+            f"{mp.problem.n_cells}",
+            extras=scored.extras,
+        )
+    ev = evaluate_mobile(mp, pos)
+    scored.extras["per_epoch"] = list(ev.per_epoch)
+    if not ev.feasible:
+        _infeasible(scored, ev.violations)
+        return scored
+    scored.objective = float(ev.value)  # covered weight summed over the epochs
+    _trusted(scored, returned, method)
     return scored
+
+
+def _score_cells_fleet(instance: StudyInstance, returned: Any, method: Method) -> Scored:
+    from droneplan.formulations.cells import evaluate
+
+    scored = Scored("feasible")
+    plan, has = _unwrap(returned, method, scored)
+    if not has:
+        return scored
+    problem, need = instance.data.problem, instance.data.required_value
+    pos = _numeric_plan(plan, (problem.plan_width,))
+    if isinstance(pos, str):
+        return Scored("invalid", message=pos, extras=scored.extras)
+    if len(pos) > problem.n_cells:
+        return Scored(
+            "invalid",
+            message=f"the plan places {len(pos)} drone-cells; the instance allows at most {problem.n_cells}",
+            extras=scored.extras,
+        )
+    ev = evaluate(problem, pos)
+    scored.extras["share"] = ev.value / max(float(problem.target_weights.sum()), 1e-300)
+    violations = list(ev.violations)
+    if ev.value < need - 1e-9 * max(1.0, need):
+        violations.append(f"the plan covers {ev.value:g} of the weight, short of the {need:g} required")
+    if violations:
+        _infeasible(scored, violations)
+        return scored
+    scored.objective = float(len(pos))  # drone-cells used
+    _trusted(scored, returned, method)
+    return scored
+
+
+_STATIC_CELLS = {
+    "cells": _score_cells,
+    "cells-mobile": _score_cells_mobile,
+    "cells-fleet": _score_cells_fleet,
+}
+"""The scorers of the cells kinds."""
 
 
 def _score_allocation(instance: StudyInstance, returned: Any, method: Method) -> Scored:  # noqa: C901
@@ -488,8 +576,8 @@ def score(instance: StudyInstance, method: Method, returned: Any) -> Scored:
             "methods return numbers, arrays, tuples, lists, dicts or droneplan's result types",
             extras={"returned_type": returned.type_name} if returned.type_name else {},
         )
-    if instance.kind == "cells":
-        return _score_cells(instance, returned, method)
+    if instance.kind in _STATIC_CELLS:
+        return _STATIC_CELLS[instance.kind](instance, returned, method)
     if instance.kind == "allocation":
         return _score_allocation(instance, returned, method)
     if instance.kind == "shark-fleet":

@@ -33,6 +33,7 @@ from __future__ import annotations
 import dataclasses
 import gzip
 import json
+import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,7 +44,15 @@ import numpy as np
 from droneplan.core.files import JsonFileError, read_json
 from droneplan.core.validation import check_array, check_int, check_positive, check_work
 from droneplan.scenarios.air_to_ground import AirToGround
-from droneplan.scenarios.cell_variants import CAPACITY, VARIANTS, thesis_variant_problem
+from droneplan.scenarios.cell_variants import (
+    CAPACITY,
+    EPOCH_S,
+    MOBILE_EPOCHS,
+    MOBILE_MAX_MOVE_M,
+    VARIANTS,
+    mobile_instance,
+    thesis_variant_problem,
+)
 from droneplan.scenarios.cells import THESIS_TABLE_4_2, CellProblem, thesis_problem
 from droneplan.scenarios.herding import HerdingParams, HerdingScenario, thesis_scenario
 from droneplan.scenarios.shark.params import SharkParams
@@ -56,6 +65,7 @@ __all__ = [
     "INSTANCE_FORMAT",
     "AllocationInstance",
     "FleetInstance",
+    "FleetSizeInstance",
     "StudyInstance",
     "Family",
     "FAMILIES",
@@ -68,9 +78,20 @@ __all__ = [
     "InstanceFileError",
 ]
 
-KINDS = ("cells", "allocation", "shark-path", "shark-fleet", "herding-run", "covert-run")
+KINDS = (
+    "cells",
+    "cells-mobile",
+    "cells-fleet",
+    "allocation",
+    "shark-path",
+    "shark-fleet",
+    "herding-run",
+    "covert-run",
+)
 PROBLEM_OF_KIND = {
     "cells": "cells",
+    "cells-mobile": "cells",
+    "cells-fleet": "cells",
     "allocation": "herding",
     "shark-path": "shark",
     "shark-fleet": "shark",
@@ -144,6 +165,40 @@ class FleetInstance:
     def n(self) -> int:
         """Number of operators."""
         return len(self.operators)
+
+
+@dataclass(frozen=True)
+class FleetSizeInstance:
+    """The smallest fleet of drone-cells that covers a share of the users' weight (with backhaul
+    and every constraint of the problem).
+
+    problem: the CellProblem; its ``n_cells`` is the largest fleet allowed. coverage: the share
+    of the active users' weight (served weight, with a capacity) to reach, in (0, 1].
+    """
+
+    problem: CellProblem
+    coverage: float
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.problem, CellProblem):
+            raise TypeError(f"problem must be a CellProblem, got {type(self.problem).__name__}")
+        share = check_positive("coverage", self.coverage)
+        if share > 1.0:
+            raise ValueError(f"coverage must be a share in (0, 1], got {share}")
+        object.__setattr__(self, "coverage", share)
+
+    @property
+    def n(self) -> int:
+        """The largest fleet allowed (``problem.n_cells``)."""
+        return int(self.problem.n_cells)
+
+    @property
+    def required_value(self) -> float:
+        """The covered (served) weight a plan must reach: ``coverage`` of the total, rounded up
+        when every weight is an integer (as ``min_fleet`` does)."""
+        weights = self.problem.target_weights
+        need = self.coverage * float(weights.sum())
+        return float(math.ceil(need - 1e-9)) if np.all(np.mod(weights, 1.0) == 0) else need
 
 
 # --------------------------------------------------------------------------- data <-> JSON
@@ -221,6 +276,24 @@ def _channel_from(d: Any) -> AirToGround | None:
     return AirToGround(**d)
 
 
+def _mobile_to(mp: Any) -> dict:
+    return {"problem": _cells_to(mp.problem), "snapshots": _arr(mp.snapshots), "max_move": float(mp.max_move)}
+
+
+def _mobile_from(d: Mapping[str, Any]) -> Any:
+    from droneplan.formulations.cells import MobileProblem
+
+    return MobileProblem(_cells_from(d["problem"]), np.asarray(d["snapshots"]), d["max_move"])
+
+
+def _fleet_size_to(f: FleetSizeInstance) -> dict:
+    return {"problem": _cells_to(f.problem), "coverage": float(f.coverage)}
+
+
+def _fleet_size_from(d: Mapping[str, Any]) -> FleetSizeInstance:
+    return FleetSizeInstance(_cells_from(d["problem"]), d["coverage"])
+
+
 def _alloc_to(a: AllocationInstance) -> dict:
     return {"drone_s": _arr(a.drone_s), "steer_s": _arr(a.steer_s), "perimeter": float(a.perimeter)}
 
@@ -295,6 +368,8 @@ def _covert_to(s: Any) -> dict | None:
 
 _CODECS: dict[str, tuple[Callable[[Any], dict | None], Callable[[Mapping[str, Any]], Any], type | None]] = {
     "cells": (_cells_to, _cells_from, CellProblem),
+    "cells-mobile": (_mobile_to, _mobile_from, None),
+    "cells-fleet": (_fleet_size_to, _fleet_size_from, FleetSizeInstance),
     "allocation": (_alloc_to, _alloc_from, AllocationInstance),
     "shark-path": (_shark_to, _shark_from, InterceptionScenario),
     "shark-fleet": (_fleet_to, _fleet_from, FleetInstance),
@@ -309,8 +384,11 @@ def _kind_of(data: Any) -> str:
             return kind
     if type(data).__name__ == "CovertScenario":
         return "covert-run"
+    if type(data).__name__ == "MobileProblem":  # not imported here: it lives in formulations
+        return "cells-mobile"
     raise TypeError(
-        "an instance must be a CellProblem, AllocationInstance, InterceptionScenario, FleetInstance, "
+        "an instance must be a CellProblem, MobileProblem, FleetSizeInstance, AllocationInstance, "
+        "InterceptionScenario, FleetInstance, "
         "HerdingScenario or "
         f"covert scenario (or a StudyInstance), got {type(data).__name__}"
     )
@@ -361,7 +439,9 @@ class StudyInstance:
         d = self.data
         if self.kind == "cells":
             return int(d.n_cells)
-        if self.kind in ("allocation", "shark-fleet"):
+        if self.kind == "cells-mobile":
+            return int(d.problem.n_cells)
+        if self.kind in ("allocation", "shark-fleet", "cells-fleet"):
             return d.n
         if self.kind == "herding-run":
             return int(d.params.n_drones)
@@ -517,6 +597,18 @@ _VARIANT_DESCRIPTIONS = {
 }
 
 
+def _cells_mobile(m: int, seed: int) -> Any:
+    from droneplan.formulations.cells import MobileProblem
+
+    base, snapshots = mobile_instance(m, seed)
+    return MobileProblem(base, snapshots, MOBILE_MAX_MOVE_M)
+
+
+def _cells_fleet_size(m: int, coverage: float, seed: int) -> FleetSizeInstance:
+    problem = thesis_problem(check_int("m", m, min_value=1), check_int("seed", seed, min_value=0))
+    return FleetSizeInstance(problem, coverage)
+
+
 def _allocation(n: int, seed: int) -> AllocationInstance:
     from droneplan.studies.herding import random_allocation_instance
 
@@ -622,6 +714,27 @@ FAMILIES: dict[str, Family] = {
                 _VARIANT_DESCRIPTIONS[variant],
             )
             for variant in VARIANTS
+        ),
+        Family(
+            "table4.2-mobile",
+            "cells",
+            "cells-mobile",
+            1,
+            ("m",),
+            {"m": (1, 2, 3, 4)},
+            _cells_mobile,
+            f"Table 4.2 on 4 km x 4 km (3 clusters), users drifting over {MOBILE_EPOCHS} epochs "
+            f"{EPOCH_S:g} s apart; drone-cells move at most {MOBILE_MAX_MOVE_M:g} m an epoch",
+        ),
+        Family(
+            "min-fleet",
+            "cells",
+            "cells-fleet",
+            1,
+            ("m", "coverage"),
+            {"m": (4,), "coverage": (0.05, 0.1)},
+            _cells_fleet_size,
+            "Table 4.2: the fewest of at most m drone-cells covering a share of the users",
         ),
         Family(
             "allocation",

@@ -5,6 +5,10 @@ each is a :class:`Method` whose ``target`` follows the contract of the instance 
 
 ``cells``        ``fn(problem: CellProblem, *, seed, time_limit) -> positions (k, 2)`` in metres,
                  or a ``SolveResult`` whose ``x`` holds them
+``cells-mobile`` ``fn(problem: MobileProblem, *, seed, time_limit) -> positions (T, k, w)``, drone-cell
+                 i at ``[t, i]`` in epoch t (w = 2, or 3 with altitude levels), or a ``SolveResult``
+``cells-fleet``  ``fn(problem: CellProblem, coverage, *, seed, time_limit) -> positions (k, 2)``: at
+                 most ``problem.n_cells`` drone-cells covering ``coverage`` of the users' weight
 ``allocation``   ``fn(drone_s, steer_s, perimeter, *, seed, time_limit) -> (target, direction)``
                  (``target[j]``: index of drone j's steering point in ``steer_s`` padded as by
                  ``droneplan.herding.pad_steering_points``; ``direction[j]``: +1 towards
@@ -158,6 +162,39 @@ def _cells_greedy(problem, *, seed, time_limit):
     return greedy_placement(problem)
 
 
+def _cells_joint(mp, *, seed, time_limit):
+    from droneplan.formulations.cells import solve_mobile
+
+    return solve_mobile(mp, time_limit=time_limit, workers=1)
+
+
+def _cells_myopic(mp, *, seed, time_limit):
+    from droneplan.formulations.cells import myopic
+
+    return myopic(mp, time_limit=time_limit, workers=1)
+
+
+def _cells_min_fleet(problem, coverage, *, seed, time_limit):
+    from droneplan.formulations.cells import min_fleet
+
+    return min_fleet(problem, coverage=coverage, time_limit=time_limit, workers=1)
+
+
+def _cells_greedy_fleet(problem, coverage, *, seed, time_limit):
+    """The greedy placement of 1, 2, ... drone-cells, the first that reaches the share (the
+    largest allowed when none does)."""
+    from droneplan.formulations.cells import evaluate, greedy_placement
+    from droneplan.studies.instances import FleetSizeInstance
+
+    need = FleetSizeInstance(problem, coverage).required_value
+    plan = None
+    for k in range(1, problem.n_cells + 1):
+        plan = greedy_placement(problem.with_cells(k))
+        if evaluate(problem, plan).value >= need - 1e-9 * max(1.0, need):
+            break
+    return plan
+
+
 def _alloc_exact(d, s, M, *, seed, time_limit):
     from droneplan.formulations.herding import solve_allocation
 
@@ -237,6 +274,8 @@ _CONTROLLERS = (
     ("benchmark", "herding", "BenchmarkHerder", "heuristic", "herding-run"),
 )
 _CELLS = ("cells",)
+_MOBILE = ("cells-mobile",)
+_FLEET_SIZE = ("cells-fleet",)
 _ALLOC = ("allocation",)
 _FLEET = ("shark-fleet",)
 
@@ -249,6 +288,10 @@ BUILTIN: dict[str, Method] = {
         Method("greedy", _cells_greedy, kinds=_CELLS, builtin=True),
         Method("bnb", _cells_engine("bnb"), "model", kinds=_CELLS, trusted_bound=True, builtin=True),
         Method("milp", _cells_engine("milp"), "model", kinds=_CELLS, trusted_bound=True, builtin=True),
+        Method("joint", _cells_joint, "model", kinds=_MOBILE, trusted_bound=True, builtin=True),
+        Method("myopic", _cells_myopic, kinds=_MOBILE, builtin=True),
+        Method("min-fleet", _cells_min_fleet, "model", kinds=_FLEET_SIZE, trusted_bound=True, builtin=True),
+        Method("greedy-fleet", _cells_greedy_fleet, kinds=_FLEET_SIZE, builtin=True),
         Method("exact", _alloc_exact, "model", kinds=_ALLOC, trusted_bound=True, builtin=True),
         Method("cp-sat", _alloc_cpsat, "model", kinds=_ALLOC, trusted_bound=True, builtin=True),
         Method("alg3", _alloc_alg3, kinds=_ALLOC, builtin=True),
@@ -278,11 +321,15 @@ BUILTIN: dict[str, Method] = {
     )
 }
 """The registered methods by name (``bnb`` is the cells branch and bound, ``milp`` the cells MILP;
+``joint`` the joint model of moving users and ``myopic`` its epoch-by-epoch baseline; ``min-fleet``
+the fewest drone-cells model and ``greedy-fleet`` the greedy placement grown until the share;
 ``exact`` the exact allocation algorithm; ``bottleneck`` the optimal operator-shark assignment
 (CP-SAT) and ``greedy-nearest`` the nearest-free-operator baseline; ``onsphere-optimum`` and
 ``interception-bound`` the bound engines of covert runs and shark paths)."""
 
 DEFAULT_METHODS: dict[str, tuple[str, ...]] = {
+    "cells-mobile": ("joint", "myopic"),
+    "cells-fleet": ("min-fleet", "greedy-fleet"),
     "covert-run": ("hover", "sliding", "mpc", "mpc-safeguarded", "onsphere-optimum"),
     "shark-path": ("virtual-shark", "ocp", "interception-bound"),
     "shark-fleet": ("bottleneck", "greedy-nearest"),

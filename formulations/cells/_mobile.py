@@ -174,7 +174,16 @@ def _joint(
     arcs = [_transport_rows(lin, a, b, mp.max_move) for a, b in itertools.pairwise(blocks)]
     lin.maximize(lin.sum([b.objective for b in blocks]))
     variables = [v for b in blocks for v in b.x]
-    raw = lin.solve(variables=variables, time_limit=time_limit, workers=workers)
+    left = None if time_limit is None else time_limit - (time.perf_counter() - t0)
+    if left is not None and left <= 0.0:
+        return SolveResult(
+            Status.NO_SOLUTION,
+            backend=backend,
+            message=f"the time limit was reached while the joint model of {mp.n_epochs} epochs was built",
+            solve_time=time.perf_counter() - t0,
+            info={"engine": "milp"},
+        )
+    raw = lin.solve(variables=variables, time_limit=left, workers=workers)
     if not raw.has_solution:
         return SolveResult(
             raw.status,

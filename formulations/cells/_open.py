@@ -185,22 +185,32 @@ def solve_variant(
     start = greedy_placement(problem)  # a start only: the model proves the bound
     left = None if time_limit is None else time_limit - (time.perf_counter() - t0)
     if left is not None and left <= 0.0:
-        return _start_only(problem, start, model.backend, t0)
+        why = "the time limit was reached while the model was built"
+        return _start_only(problem, start, model.backend, None, why, t0)
     result = solve_model(model, time_limit=left, workers=workers, warm_start=start)
+    if result.x is None and result.status is Status.NO_SOLUTION:
+        why = f"the backend found no plan in time ({result.backend_status or result.status.value})"
+        return _start_only(problem, start, model.backend, result.bound, why, t0)
+    ev = result.info.get("evaluation")
+    if ev is not None and ev.feasible and result.objective is not None:
+        # at a stop short of the optimum the model may not credit every user the plan covers
+        result = replace(result, objective=max(float(result.objective), float(ev.value)))
     return _with_total_time(result, t0)
 
 
-def _start_only(problem: CellProblem, start: np.ndarray, backend: str, t0: float) -> SolveResult:
-    """The time limit ran out while the model was built: the greedy ``start`` as a FEASIBLE
-    result without a bound."""
+def _start_only(
+    problem: CellProblem, start: np.ndarray, backend: str, bound: float | None, why: str, t0: float
+) -> SolveResult:
+    """The greedy ``start`` as a FEASIBLE result with the backend's ``bound`` (None: none), when
+    the model gave no plan: ``why``."""
     ev = evaluate(problem, start)
     return SolveResult(
         Status.FEASIBLE,
         objective=float(ev.value),
-        bound=None,
+        bound=bound,
         x=np.asarray(start, dtype=float),
         backend=backend,
-        message="the time limit was reached while the model was built: the greedy plan, no bound",
+        message=f"{why}: the greedy plan" + ("" if bound is None else ", the model's bound"),
         solve_time=time.perf_counter() - t0,
         info={"engine": "milp", "evaluation": ev, "variants": problem.variants},
     )

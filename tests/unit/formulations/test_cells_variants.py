@@ -507,3 +507,60 @@ def test_a_capacity_bounds_the_objective_by_the_heaviest_users_the_fleet_can_ser
     res = solve_exact(p, time_limit=30)
     assert res.status is Status.OPTIMAL and res.objective == pytest.approx(15.0)
     assert res.bound <= 15.0 + 1e-6
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    n=st.integers(2, 40),
+    radii=st.lists(st.floats(0.3, 2.0), min_size=1, max_size=3),
+)
+def test_overlap_cliques_are_cliques_and_hold_every_conflicting_pair(seed, n, radii):
+    """Sites of several radii: every pair inside one clique row conflicts, and every conflicting
+    pair sits in at least one row (so the rows say exactly what the pair rows said)."""
+    from droneplan.formulations.cells._levels import _conflicting_pairs, _overlap_cliques
+
+    rng = np.random.default_rng(seed)
+    pts = rng.uniform(-3.0, 3.0, (n, 2))
+    level = rng.integers(0, len(radii), n)
+    radius, heights = np.asarray(radii)[level], 100.0 * level
+    gap = np.hypot(*(pts[:, None, :] - pts[None, :, :]).transpose(2, 0, 1))
+    conflict = gap < radius[:, None] + radius[None, :] - 1e-6
+    np.fill_diagonal(conflict, False)
+    pairs = _conflicting_pairs(pts, radius)
+    expected = {(i, j) for i, j in zip(*np.nonzero(conflict), strict=True) if i < j}
+    assert {tuple(p) for p in pairs.tolist()} == expected
+    held = set()
+    for clique in _overlap_cliques(pts, radius, heights, pairs):
+        for i, j in itertools.combinations(clique.tolist(), 2):
+            assert conflict[i, j], (i, j)
+            held.add((min(i, j), max(i, j)))
+    assert {tuple(p) for p in pairs.tolist()} <= held
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(2, 25))
+def test_user_clique_rows_with_site_radii_hold_only_pairwise_overlapping_sites(seed, n):
+    """A user's at-most-one row over its covering sites is written only when those sites overlap
+    pairwise under their own radii; a user left out has two covering sites that may both stand."""
+    from droneplan.formulations.cells._core import coverage_lists
+    from droneplan.formulations.cells._model import _user_clique_sites
+
+    rng = np.random.default_rng(seed)
+    users = rng.uniform(-2.0, 2.0, (6, 2))
+    pts = rng.uniform(-3.0, 3.0, (n, 2))
+    radius = rng.choice([0.6, 1.4], n)
+    cover = [coverage_lists(pts[i : i + 1], users, float(radius[i]))[0] for i in range(n)]
+    rows = _user_clique_sites(pts, cover, users, radius)
+    for u in range(len(users)):
+        sites = [i for i in range(n) if u in cover[i].tolist()]
+        if len(sites) < 2:
+            assert u not in rows
+            continue
+        overlap = all(
+            np.hypot(*(pts[i] - pts[j])) < radius[i] + radius[j] - 1e-6
+            for i, j in itertools.combinations(sites, 2)
+        )
+        assert (u in rows) == overlap, u
+        if overlap:
+            assert sorted(rows[u]) == sites

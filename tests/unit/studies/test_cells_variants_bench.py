@@ -23,7 +23,7 @@ def test_variant_problems_are_the_thesis_instance_with_one_variant_each():
         thesis_variant_problem("heavy", 2, 0)
 
 
-def _small_thesis_problem(m, seed):
+def _small_thesis_problem(m, seed, params=None):
     """A small clustered stand-in for the Table 4.2 instance (radii in units of R_d = 1)."""
     rng = np.random.default_rng(seed)
     users = np.concatenate([rng.normal(c, 0.3, size=(3, 2)) for c in ([2.5, 0.0], [-2.5, 1.0], [0.0, 4.0])])

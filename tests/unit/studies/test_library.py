@@ -22,14 +22,41 @@ from droneplan.studies.library.certify import certify
 SHIPPED = [f for f in LIBRARY_FAMILIES if load_library(f)]
 
 
+VARIANT_FAMILIES = ("table4.2-weighted", "table4.2-nofly", "table4.2-capacity", "table4.2-3d")
+MODEL_FAMILIES = (*VARIANT_FAMILIES, "table4.2-mobile", "min-fleet")
+"""The cells families certified by a model on one worker (variants, moving users, fleet size)."""
+
+
 def test_the_package_ships_a_library():
-    assert {"table4.2", "allocation"} <= set(SHIPPED)
+    assert {"table4.2", "allocation", *MODEL_FAMILIES} <= set(SHIPPED)
+
+
+@pytest.mark.parametrize("family", MODEL_FAMILIES)
+def test_each_model_family_holds_every_instance_it_lists(family):
+    """Every size and seed ``LIBRARY_FAMILIES`` lists has an entry (proven or with its bound)."""
+    entries = load_library(family)
+    wanted = {inst.id for inst in library_instances(family)}
+    assert len(wanted) >= 40 and wanted <= set(entries)
 
 
 def _check_cells(inst, entry):
-    ev = evaluate(inst.data, np.asarray(entry.plan, dtype=float).reshape(-1, 2))
+    """The plan ((k, 2), or (k, 3) with altitude levels) is feasible and worth the entry's value
+    (covered users; a variant's covered or served weight)."""
+    ev = evaluate(inst.data, np.asarray(entry.plan, dtype=float).reshape(-1, inst.data.plan_width))
     assert ev.feasible, (entry.id, ev.violations)
-    assert ev.covered == entry.value, entry.id
+    assert ev.value == pytest.approx(entry.value, abs=1e-9), entry.id
+    if not inst.data.variants:
+        assert ev.covered == entry.value, entry.id
+
+
+def _check_by_the_harness(inst, entry):
+    """A moving-users or fleet-size plan, scored as a study scores a method's plan."""
+    from droneplan.studies.harness import score
+    from droneplan.studies.methods import Method
+
+    verdict = score(inst, Method("stored", lambda *a, **k: None), np.asarray(entry.plan, dtype=float))
+    assert verdict.status == "feasible", (entry.id, verdict.message)
+    assert verdict.objective == pytest.approx(entry.value, abs=1e-9), entry.id
 
 
 def _check_allocation(inst, entry):
@@ -63,6 +90,8 @@ def test_every_stored_plan_re_evaluates_to_its_value(family):
             assert (entry.status == "optimal") == (entry.gap is not None and abs(entry.gap) <= 1e-9)
         if inst.kind == "cells":
             _check_cells(inst, entry)
+        elif inst.kind in ("cells-mobile", "cells-fleet"):
+            _check_by_the_harness(inst, entry)
         elif inst.kind == "allocation":
             _check_allocation(inst, entry)
         checked += 1
@@ -97,8 +126,17 @@ def test_certify_resumes_and_records_provenance(tmp_path):
         certify("table6.2", directory=tmp_path)
 
 
-RE_PROVE_ALL_UP_TO = {"table4.2": ("m", 2), "allocation": ("n", 12)}
+RE_PROVE_ALL_UP_TO = {
+    "table4.2": ("m", 2),
+    "allocation": ("n", 12),
+}
 """Every entry up to this size is re-proven by the slow test; a rotating sample of the rest."""
+
+SAMPLED = {"table4.2": 6, "allocation": 6}
+"""Larger entries the slow test re-proves per family."""
+
+MODEL_SAMPLE = 2
+"""Entries with m <= 2 of each model family the slow test re-proves (a rotating draw)."""
 
 
 def _size_of(entry_id: str, key: str) -> int:
@@ -108,7 +146,7 @@ def _size_of(entry_id: str, key: str) -> int:
 @pytest.mark.slow
 @pytest.mark.parametrize("family", [f for f in RE_PROVE_ALL_UP_TO if f in SHIPPED])
 def test_entries_are_re_proven_all_small_and_a_rotating_sample(family):
-    """Re-certify every entry up to the size budget and 6 larger ones drawn with a seed that
+    """Re-certify every entry up to the size budget and ``SAMPLED`` larger ones drawn with a seed that
     changes every day (``DRONEPLAN_LIBRARY_SEED`` repeats a draw); a forged entry (a worse plan
     marked optimal) fails here, wherever it sits, within a few days."""
     import os
@@ -123,7 +161,8 @@ def test_entries_are_re_proven_all_small_and_a_rotating_sample(family):
     small = [i for i in library_instances(family) if i.id in entries and _size_of(i.id, key) <= budget]
     large = [i for i in library_instances(family) if i.id in entries and _size_of(i.id, key) > budget]
     rng = np.random.default_rng(seed)
-    sample = [large[k] for k in rng.choice(len(large), size=min(6, len(large)), replace=False)]
+    size = min(SAMPLED.get(family, 1), len(large))
+    sample = [large[k] for k in rng.choice(len(large), size=size, replace=False)]
     assert small
     for inst in [*small, *sample]:
         why = entry_disagrees(entries[inst.id], certify_instance(inst, time_limit=120))
@@ -147,3 +186,25 @@ def test_shark_entries_replay_to_their_contact_time(family):
         assert verdict.status == "feasible" and verdict.objective == pytest.approx(entry.value, abs=1e-9), (
             inst.id
         )
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("family", [f for f in MODEL_FAMILIES if f in SHIPPED])
+def test_model_family_entries_are_re_proven_in_a_rotating_sample(family):
+    """``MODEL_SAMPLE`` entries with m <= 2, drawn with a seed that changes every day
+    (``DRONEPLAN_LIBRARY_SEED`` repeats a draw), re-certified: a fresh plan never beats a stored
+    bound, and a proven optimum is the one stored."""
+    import os
+    import time
+
+    from droneplan.studies.library.certify import entry_disagrees
+
+    entries = load_library(family)
+    seed = int(os.environ.get("DRONEPLAN_LIBRARY_SEED", int(time.time() // 86400)))
+    small = [i for i in library_instances(family) if i.id in entries and _size_of(i.id, "m") <= 2]
+    assert small
+    rng = np.random.default_rng(seed)
+    for k in rng.choice(len(small), size=min(MODEL_SAMPLE, len(small)), replace=False):
+        inst = small[int(k)]
+        why = entry_disagrees(entries[inst.id], certify_instance(inst, time_limit=60))
+        assert not why, f"{inst.id}: {why} (sample seed {seed})"
