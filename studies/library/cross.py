@@ -140,6 +140,7 @@ def cross_check_instance(
     """
     if instance.kind != "cells":
         raise ValueError(f"instance must be a cells instance, got kind {instance.kind!r} ({instance.id})")
+    _require_thesis_model(instance)
     limits = {"bnb": time_limit, "milp": time_limit if milp_time_limit is None else milp_time_limit}
     out = {name: _run_engine(instance.data, name, limits[name], backend, workers) for name in ENGINE_NAMES}
     entry = lookup(instance, library_dir)
@@ -150,6 +151,15 @@ def cross_check_instance(
         "both_proven": all(r["proven"] for r in out.values()),
         "disagreements": _disagreements(out, entry),
     }
+
+
+def _require_thesis_model(instance: Any) -> None:
+    """ValueError for a variant instance: only the MILP solves it, so there is nothing to cross."""
+    if instance.data.variants:
+        raise ValueError(
+            f"{instance.id} uses the variant(s) {', '.join(instance.data.variants)}, which only the MILP "
+            "solves: cross-certification needs both engines (certify it with 'droneplan certify')"
+        )
 
 
 def cross_certify(
@@ -191,6 +201,8 @@ def cross_certify(
     instances = family_instances(
         family, m=list(m) if isinstance(m, Iterable) else m, seeds=seeds, first_seed=first_seed
     )
+    for inst in instances[:1]:
+        _require_thesis_model(inst)
     summary: dict[str, Any] = {
         "family": family,
         "instances": 0,
