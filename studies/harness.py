@@ -245,23 +245,37 @@ def _numeric_plan(plan: Any, tail: tuple[int, ...], lead: int | None = None) -> 
     return pos
 
 
-def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scored:
-    from droneplan.formulations.cells import evaluate
-
+def _cells_plan(
+    returned: Any, method: Method, tail: tuple[int, ...], n_cells: int, lead: int | None = None
+) -> tuple[Scored, np.ndarray | None]:
+    """The verdict so far and the plan of at most ``n_cells`` drone-cells in ``returned``
+    (:func:`_numeric_plan`'s shapes); the plan is None when the verdict is already final."""
     scored = Scored("feasible")
     plan, has = _unwrap(returned, method, scored)
     if not has:
-        return scored
-    problem = instance.data
-    pos = _numeric_plan(plan, (problem.plan_width,))  # (x, y), or (x, y, h) with altitude levels
+        return scored, None
+    pos = _numeric_plan(plan, tail, lead)
     if isinstance(pos, str):
-        return Scored("invalid", message=pos, extras=scored.extras)
-    if len(pos) > problem.n_cells:  # refused before any work that grows with the number of cells
-        return Scored(
-            "invalid",
-            message=f"the plan places {len(pos)} drone-cells; the instance has n_cells = {problem.n_cells}",
-            extras=scored.extras,
+        return Scored("invalid", message=pos, extras=scored.extras), None
+    if pos.shape[-2] > n_cells:  # refused before any work that grows with the number of cells
+        return (
+            Scored(
+                "invalid",
+                message=f"the plan places {pos.shape[-2]} drone-cells; the instance has n_cells = {n_cells}",
+                extras=scored.extras,
+            ),
+            None,
         )
+    return scored, pos
+
+
+def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scored:
+    from droneplan.formulations.cells import evaluate
+
+    problem = instance.data  # plans (x, y), or (x, y, h) with altitude levels
+    scored, pos = _cells_plan(returned, method, (problem.plan_width,), problem.n_cells)
+    if pos is None:
+        return scored
     ev = evaluate(problem, pos)
     scored.extras["n_placed"] = len(pos)
     if not ev.feasible:
@@ -297,21 +311,11 @@ def _trusted(scored: Scored, returned: Any, method: Method) -> None:
 def _score_cells_mobile(instance: StudyInstance, returned: Any, method: Method) -> Scored:
     from droneplan.formulations.cells import evaluate_mobile
 
-    scored = Scored("feasible")
-    plan, has = _unwrap(returned, method, scored)
-    if not has:
-        return scored
     mp = instance.data
-    pos = _numeric_plan(plan, (mp.problem.plan_width,), lead=mp.n_epochs)
-    if isinstance(pos, str):
-        return Scored("invalid", message=pos, extras=scored.extras)
-    if pos.shape[1] > mp.problem.n_cells:
-        return Scored(
-            "invalid",
-            message=f"the plan moves {pos.shape[1]} drone-cells; the instance has n_cells = "
-            f"{mp.problem.n_cells}",
-            extras=scored.extras,
-        )
+    width, n_cells = mp.problem.plan_width, mp.problem.n_cells
+    scored, pos = _cells_plan(returned, method, (width,), n_cells, lead=mp.n_epochs)
+    if pos is None:
+        return scored
     ev = evaluate_mobile(mp, pos)
     scored.extras["per_epoch"] = list(ev.per_epoch)
     if not ev.feasible:
@@ -325,20 +329,10 @@ def _score_cells_mobile(instance: StudyInstance, returned: Any, method: Method) 
 def _score_cells_fleet(instance: StudyInstance, returned: Any, method: Method) -> Scored:
     from droneplan.formulations.cells import evaluate
 
-    scored = Scored("feasible")
-    plan, has = _unwrap(returned, method, scored)
-    if not has:
-        return scored
     problem, need = instance.data.problem, instance.data.required_value
-    pos = _numeric_plan(plan, (problem.plan_width,))
-    if isinstance(pos, str):
-        return Scored("invalid", message=pos, extras=scored.extras)
-    if len(pos) > problem.n_cells:
-        return Scored(
-            "invalid",
-            message=f"the plan places {len(pos)} drone-cells; the instance allows at most {problem.n_cells}",
-            extras=scored.extras,
-        )
+    scored, pos = _cells_plan(returned, method, (problem.plan_width,), problem.n_cells)
+    if pos is None:
+        return scored
     ev = evaluate(problem, pos)
     scored.extras["share"] = ev.value / max(float(problem.target_weights.sum()), 1e-300)
     violations = list(ev.violations)

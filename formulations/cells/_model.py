@@ -155,15 +155,7 @@ def _user_clique_sites(
     return out
 
 
-def _coverage_objective(
-    lin,
-    x: list,
-    pts: np.ndarray,
-    cover: list,
-    problem: CellProblem,
-    user_cliques: bool,
-    radius: np.ndarray | None = None,
-) -> tuple[dict, Any, dict[int, list[int]], int, dict[int, int]]:
+def _coverage_objective(lin, x: list, pts, cover: list, problem: CellProblem, user_cliques: bool, radius):
     """The covered weight (covered users without ``weights``) as a linear expression over the
     site variables ``x``.
 
