@@ -23,6 +23,8 @@ a model, also at one altitude (the epochs of ``_mobile``).
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -35,12 +37,17 @@ from droneplan.scenarios.cells import CellProblem
 __all__ = ["build_level_model", "SiteBlock"]
 
 
-def build_level_model(problem: CellProblem, *, backend: str = "cp-sat") -> CellModel:
-    """The candidate model of a problem with altitude levels (module docstring) on ``backend``."""
+def build_level_model(
+    problem: CellProblem, *, backend: str = "cp-sat", deadline: float | None = None
+) -> CellModel | None:
+    """The candidate model of a problem with altitude levels (module docstring) on ``backend``;
+    None when ``deadline`` (a ``time.perf_counter()`` value; None: none) passes while it is built."""
     if problem.altitudes is None:
         raise ValueError("build_level_model needs a problem with altitude levels")
     lin = _new_model(backend)
-    block = SiteBlock(lin, problem)
+    block = SiteBlock(lin, problem, late=lambda: deadline is not None and time.perf_counter() > deadline)
+    if not block.complete:
+        return None
     if block.x:
         lin.maximize(block.objective)
     return CellModel(
@@ -67,9 +74,17 @@ class SiteBlock:
     (or ``cand``, candidates of ``problem`` built by the caller)
     (any variant; at one altitude the heights are 0 and every radius is R_d), their variables
     and rows (module docstring). Its objective is returned, not set, so that several blocks (the
-    epochs of moving users) share one model."""
+    epochs of moving users) share one model. ``late()`` (None: never) is asked while the rows
+    are written; once it is true the block stops and ``complete`` is False."""
 
-    def __init__(self, lin, problem: CellProblem, cand: Candidates | None = None) -> None:
+    def __init__(
+        self,
+        lin,
+        problem: CellProblem,
+        cand: Candidates | None = None,
+        late: Callable[[], bool] | None = None,
+    ) -> None:
+        self.complete = False
         self.cand = candidate_sites(problem) if cand is None else cand
         pts = self.cand.points
         self.heights = np.zeros(len(pts)) if self.cand.heights is None else self.cand.heights
@@ -87,11 +102,13 @@ class SiteBlock:
             cliques = _overlap_cliques(pts, self.radius, self.heights, overlap)
             for clique in cliques:
                 lin.add(lin.sum(self.x[i] for i in clique.tolist()) <= 1)
-            self.z, self.stats["connectivity_terms"] = _hop_rows(
-                lin, self.x, pts, self.heights, self.radius, self.cand.direct, problem
-            )
+            hops = _hop_rows(lin, self.x, pts, self.heights, self.radius, self.cand.direct, problem, late)
+            if hops is None:
+                return
+            self.z, self.stats["connectivity_terms"] = hops
             self.stats["pairs"] = len(overlap)
             self.stats["cliques"] = len(cliques)
+        self.complete = True
 
 
 def _conflicting_pairs(pts: np.ndarray, radius: np.ndarray) -> np.ndarray:
@@ -157,8 +174,10 @@ def _hop_rows(
     radius: np.ndarray,
     direct: np.ndarray,
     problem: CellProblem,
-) -> tuple[dict, int]:
-    """The hop-level rows (module docstring); returns (z by (site, level), terms written)."""
+    late: Callable[[], bool] | None = None,
+) -> tuple[dict, int] | None:
+    """The hop-level rows (module docstring); returns (z by (site, level), terms written), or
+    None once ``late()`` is true."""
     m = problem.n_cells
     far = np.flatnonzero(~direct)
     z: dict[tuple[int, int], Any] = {}
@@ -174,7 +193,9 @@ def _hop_rows(
             z[(s, level)] = lin.bool_var(f"z{s}_{level}")
         lin.add(x[s] == lin.sum(z[(s, level)] for level in range(2, m + 1)))
     terms = 0
-    for s in far.tolist():
+    for k, s in enumerate(far.tolist()):
+        if late is not None and k % 64 == 0 and late():
+            return None
         cand = np.asarray(tree.query_ball_point(pts[s], problem.r2 + TOL), dtype=np.int64)
         cand = cand[cand != s]
         ground = np.hypot(*(pts[cand] - pts[s]).T)

@@ -819,7 +819,7 @@ def build_milp(
     """
     check_instance("problem", problem, CellProblem)
     if problem.altitudes is not None:  # the model with altitude levels (``_levels``)
-        return build_level_model(problem, backend=backend)
+        return build_level_model(problem, backend=backend, deadline=deadline)
     max_terms = None if max_terms is None else check_int("max_terms", max_terms, min_value=0)
     project_terms = check_bool("project_terms", project_terms)
     max_level = _as_max_level(max_level)

@@ -179,14 +179,12 @@ def solve_variant(
     candidate model, built and solved once within ``time_limit`` (s), from the greedy placement
     as the backend's start."""
     t0 = time.perf_counter()
-    model = build_milp(problem, backend=backend)
-    if model is None:  # only a deadline or a term cap stops a build, and neither is given
-        raise RuntimeError("the candidate model of a variant instance was not built")
+    model = build_milp(problem, backend=backend, deadline=None if time_limit is None else t0 + time_limit)
     start = greedy_placement(problem)  # a start only: the model proves the bound
     left = None if time_limit is None else time_limit - (time.perf_counter() - t0)
-    if left is not None and left <= 0.0:
+    if model is None or (left is not None and left <= 0.0):
         why = "the time limit was reached while the model was built"
-        return _start_only(problem, start, model.backend, None, why, t0)
+        return _start_only(problem, start, backend, None, why, t0)
     result = solve_model(model, time_limit=left, workers=workers, warm_start=start)
     if result.x is None and result.status is Status.NO_SOLUTION:
         why = f"the backend found no plan in time ({result.backend_status or result.status.value})"

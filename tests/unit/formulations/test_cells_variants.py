@@ -564,3 +564,17 @@ def test_user_clique_rows_with_site_radii_hold_only_pairwise_overlapping_sites(s
         assert (u in rows) == overlap, u
         if overlap:
             assert sorted(rows[u]) == sites
+
+
+def test_a_variant_out_of_time_while_its_model_is_built_returns_the_greedy_plan():
+    """Table 4.2 with altitude levels (thousands of sites): a 0.5 s limit ends inside the model's
+    build, which stops there; the greedy plan comes back FEASIBLE, without a bound."""
+    from droneplan.scenarios.cell_variants import thesis_variant_problem
+
+    problem = thesis_variant_problem("3d", 2, 1)
+    res = solve_exact(problem, time_limit=0.5)
+    assert res.status is Status.FEASIBLE and res.bound is None
+    assert "while the model was built" in res.message
+    greedy = dp.cells.greedy_placement(problem)
+    assert np.array_equal(res.x, greedy)
+    assert res.objective == evaluate(problem, greedy).value
