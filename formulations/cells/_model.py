@@ -255,10 +255,17 @@ def _capacity_objective(lin, x: list, cover: list, problem: CellProblem) -> tupl
     for c, arcs in per_site.items():
         lin.add(lin.sum(arcs) <= capacity * x[c])
     objective = lin.sum(terms)
-    if terms:  # at most n_cells drone-cells serve C users each: the C m heaviest users bound the objective
-        top = np.sort(weight[weight > 0])[::-1][: capacity * problem.n_cells]
-        lin.add(objective <= _coefficient(float(top.sum())))
+    if terms:
+        lin.add(objective <= _coefficient(capacity_bound(problem)))
     return serve, objective
+
+
+def capacity_bound(problem: CellProblem) -> float:
+    """At most ``n_cells`` drone-cells serve C users each: the weight of the C m heaviest users
+    bounds the served weight (a problem with a capacity)."""
+    weight = problem.target_weights
+    top = np.sort(weight[weight > 0])[::-1][: int(problem.capacity or 0) * problem.n_cells]
+    return float(top.sum())
 
 
 def _coefficient(w: float) -> float | int:

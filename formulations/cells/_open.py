@@ -22,6 +22,7 @@ import numpy as np
 from droneplan.core.validation import check_bool, check_instance, check_int, check_time_limit
 from droneplan.formulations.cells._core import as_positions, evaluate, served_pairs
 from droneplan.formulations.cells._milp import FEW_WORKER_OPTIONS, CellModel, build_milp
+from droneplan.formulations.cells._model import capacity_bound
 from droneplan.formulations.cells._prepare import greedy_placement
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.result import SolveResult, Status
@@ -199,16 +200,22 @@ def solve_variant(
 def _start_only(
     problem: CellProblem, start: np.ndarray, backend: str, bound: float | None, why: str, t0: float
 ) -> SolveResult:
-    """The greedy ``start`` as a FEASIBLE result with the backend's ``bound`` (None: none), when
-    the model gave no plan: ``why``."""
+    """The greedy ``start`` with the backend's ``bound`` (None: none), when the model gave no
+    plan: ``why``. With a capacity the bound is at most :func:`capacity_bound`, and a start that
+    meets it is OPTIMAL (otherwise FEASIBLE)."""
     ev = evaluate(problem, start)
+    if problem.capacity is not None:
+        bound = capacity_bound(problem) if bound is None else min(float(bound), capacity_bound(problem))
+    proven = bound is not None and ev.value >= bound - 1e-9 * max(1.0, abs(bound))
     return SolveResult(
-        Status.FEASIBLE,
+        Status.OPTIMAL if proven else Status.FEASIBLE,
         objective=float(ev.value),
         bound=bound,
         x=np.asarray(start, dtype=float),
         backend=backend,
-        message=f"{why}: the greedy plan" + ("" if bound is None else ", the model's bound"),
+        message=f"{why}: the greedy plan"
+        + ("" if bound is None else f", bound {bound:g}")
+        + (", which it meets" if proven else ""),
         solve_time=time.perf_counter() - t0,
         info={"engine": "milp", "evaluation": ev, "variants": problem.variants},
     )

@@ -578,3 +578,14 @@ def test_a_variant_out_of_time_while_its_model_is_built_returns_the_greedy_plan(
     greedy = dp.cells.greedy_placement(problem)
     assert np.array_equal(res.x, greedy)
     assert res.objective == evaluate(problem, greedy).value
+
+
+def test_a_capacity_start_that_fills_every_cell_is_proven_by_the_capacity_bound():
+    """m = 1, C = 20 on Table 4.2 seed 0: the greedy cell serves 20 users, as many as one cell
+    may, so the plan is optimal whatever the time limit left to the model."""
+    from droneplan.scenarios.cell_variants import thesis_variant_problem
+
+    problem = thesis_variant_problem("capacity", 1, 0)
+    res = solve_exact(problem, time_limit=0.5)
+    assert res.objective == res.bound == 20.0 and res.status is Status.OPTIMAL
+    assert evaluate(problem, res.x).value == 20.0
