@@ -18,7 +18,8 @@ then chained epoch to epoch by a maximum bipartite matching on those arcs.
 
 Baseline (:func:`myopic`): each epoch solved exactly on its own (``solve_exact``), kept when it
 can be matched to the previous epoch's drone-cells within ``max_move``; otherwise repaired by
-the exact re-solve of that epoch with the previous one fixed (the joint model on two epochs).
+the exact re-solve of that epoch with the previous one fixed (the joint model on two epochs), or,
+when that finds no plan in the time left, the previous placement kept.
 """
 
 from __future__ import annotations
@@ -168,7 +169,15 @@ def _joint(
     t0 = time.perf_counter()
     lin = _new_model(backend)
     extra = None if fixed_first is None else np.asarray(fixed_first, float).reshape(-1, mp.problem.plan_width)
-    blocks = [SiteBlock(lin, epoch, mp.candidates(t, extra)) for t, epoch in enumerate(mp.epochs)]
+
+    def late() -> bool:
+        return time_limit is not None and time.perf_counter() - t0 > time_limit
+
+    blocks = []
+    for t, epoch in enumerate(mp.epochs):
+        blocks.append(SiteBlock(lin, epoch, mp.candidates(t, extra), late=late))
+        if not blocks[-1].complete:
+            return _built_too_late(mp, backend, t0)
     if fixed_first is not None:
         _fix(lin, blocks[0], fixed_first)
     arcs = [_transport_rows(lin, a, b, mp.max_move) for a, b in itertools.pairwise(blocks)]
@@ -176,13 +185,7 @@ def _joint(
     variables = [v for b in blocks for v in b.x]
     left = None if time_limit is None else time_limit - (time.perf_counter() - t0)
     if left is not None and left <= 0.0:
-        return SolveResult(
-            Status.NO_SOLUTION,
-            backend=backend,
-            message=f"the time limit was reached while the joint model of {mp.n_epochs} epochs was built",
-            solve_time=time.perf_counter() - t0,
-            info={"engine": "milp"},
-        )
+        return _built_too_late(mp, backend, t0)
     raw = lin.solve(variables=variables, time_limit=left, workers=workers)
     if not raw.has_solution:
         return SolveResult(
@@ -218,6 +221,17 @@ def _joint(
         message=message,
         solve_time=time.perf_counter() - t0,
         info={"engine": "milp", "evaluation": ev, "per_epoch": ev.per_epoch},
+    )
+
+
+def _built_too_late(mp: MobileProblem, backend: str, t0: float) -> SolveResult:
+    """NO_SOLUTION: the time limit passed while the joint model was built (its build stops)."""
+    return SolveResult(
+        Status.NO_SOLUTION,
+        backend=backend,
+        message=f"the time limit was reached while the joint model of {mp.n_epochs} epochs was built",
+        solve_time=time.perf_counter() - t0,
+        info={"engine": "milp"},
     )
 
 
@@ -289,7 +303,9 @@ def myopic(
     backend threads of the repairs (None: the backend's default).
 
     Returns a SolveResult (FEASIBLE: a heuristic for the joint problem) with the (T, k, w) plan
-    and ``info["repaired"]``, the epochs re-solved with their predecessor fixed.
+    and ``info["repaired"]``, the epochs re-solved with their predecessor fixed (``info["stayed"]``:
+    those whose repair found no plan in the time left, where the drone-cells stay put, feasible
+    since a placement's constraints do not involve the users).
     """
     check_instance("mp", mp, MobileProblem)
     limit = check_time_limit(time_limit)
@@ -301,17 +317,20 @@ def myopic(
 
     first = solve_exact(mp.epochs[0], time_limit=left())
     plans = [np.asarray(first.x, dtype=float).reshape(-1, mp.problem.plan_width)]
-    repaired = []
+    repaired: list[int] = []
+    stayed: list[int] = []
     for t in range(1, mp.n_epochs):
         alone = solve_exact(mp.epochs[t], time_limit=left())
         follow = _match_within(plans[-1], np.asarray(alone.x, dtype=float), mp.max_move)
         if follow is None:
             two = MobileProblem(mp.problem, mp.snapshots[t - 1 : t + 1], mp.max_move)
             step = _joint(two, fixed_first=plans[-1], time_limit=left(), backend=backend, workers=workers)
-            if not step.has_solution:
-                raise RuntimeError(f"myopic: epoch {t} could not be repaired ({step.status.value})")
-            follow = _match_within(plans[-1], step.x[1], mp.max_move)
-            repaired.append(t)
+            if step.has_solution:
+                follow = _match_within(plans[-1], step.x[1], mp.max_move)
+                repaired.append(t)
+            else:  # out of time: the drone-cells stay (a placement's constraints do not involve users)
+                follow = plans[-1].copy()
+                stayed.append(t)
         if follow is None:
             raise RuntimeError(f"myopic: epoch {t}'s repaired placement cannot follow epoch {t - 1}")
         plans.append(follow)
@@ -322,9 +341,15 @@ def myopic(
         objective=ev.value,
         x=plan,
         backend="myopic",
-        message=f"each epoch solved alone; {len(repaired)} repaired with the previous epoch fixed",
+        message=f"each epoch solved alone; {len(repaired)} repaired with the previous epoch fixed"
+        + (f", {len(stayed)} kept the previous placement (no repair in time)" if stayed else ""),
         solve_time=time.perf_counter() - t0,
-        info={"evaluation": ev, "per_epoch": ev.per_epoch, "repaired": tuple(repaired)},
+        info={
+            "evaluation": ev,
+            "per_epoch": ev.per_epoch,
+            "repaired": tuple(repaired),
+            "stayed": tuple(stayed),
+        },
     )
 
 

@@ -589,3 +589,16 @@ def test_a_capacity_start_that_fills_every_cell_is_proven_by_the_capacity_bound(
     res = solve_exact(problem, time_limit=0.5)
     assert res.objective == res.bound == 20.0 and res.status is Status.OPTIMAL
     assert evaluate(problem, res.x).value == 20.0
+
+
+def test_the_joint_model_out_of_time_while_built_says_so_and_myopic_still_answers():
+    """The moving-users world of the library, 3 epochs: a 0.2 s limit ends inside the joint
+    model's build (NO_SOLUTION, saying so); the baseline still returns a feasible plan."""
+    from droneplan.studies.cells_variants import mobile_problem
+
+    mp = mobile_problem(2, 0, 3)
+    joint = dp.cells.solve_mobile(mp, time_limit=0.2)
+    assert joint.status is Status.NO_SOLUTION and "while the joint model" in joint.message
+    base = dp.cells.myopic(mp, time_limit=0.2)
+    assert base.status is Status.FEASIBLE
+    assert dp.cells.evaluate_mobile(mp, base.x).feasible
