@@ -55,9 +55,15 @@ def min_fleet(
     backend = backend if backend is not None else ("cp-sat" if integral else "highs")
     need = share * total
     need = math.ceil(need - 1e-9) if integral else need
-    model = build_milp(problem, backend=backend)
-    if model is None:  # only a deadline or a term cap stops a build, and neither is given
-        raise RuntimeError("the candidate model was not built")
+    model = build_milp(problem, backend=backend, deadline=None if limit is None else t0 + limit)
+    if model is None:  # only the deadline stops this build
+        return SolveResult(
+            Status.NO_SOLUTION,
+            backend=backend,
+            message="the time limit was reached while the model was built",
+            solve_time=time.perf_counter() - t0,
+            info={"engine": "milp"},
+        )
     if need <= 0:
         return _with_total_time(_fleet_result(model, _empty_plan(model, t0), need, total), t0)
     model.add(model.objective >= need)

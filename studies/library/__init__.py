@@ -23,7 +23,8 @@ How each kind is certified:
                  for the candidate sites of every epoch (``candidate-set``); when it is not proven,
                  the better of its plan and the myopic baseline's
 ``cells-fleet``  the fewest-drone-cells model (``min_fleet``, one worker); value and bound are
-                 counts of drone-cells (``candidate-set``)
+                 counts of drone-cells (``candidate-set``); when it is not proven, the better of
+                 its plan and the greedy fleet's
 ``allocation``   the exact combinatorial algorithm, cross-checked by CP-SAT up to n = 16
                  (``proven-global``)
 ``shark-path``   the best frontal first-contact time of the built-in interceptors (virtual
@@ -289,6 +290,7 @@ def _certify_cells_model(instance: StudyInstance, time_limit: float | None) -> d
     """A moving-users instance by the joint model, a fleet-size instance by ``min_fleet``; the plan
     is scored by the study harness (droneplan's evaluator), so an entry holds what a study
     would score."""
+    from droneplan.solvers.result import SolveResult
     from droneplan.studies.harness import execute, score
     from droneplan.studies.methods import BUILTIN
 
@@ -296,12 +298,21 @@ def _certify_cells_model(instance: StudyInstance, time_limit: float | None) -> d
     res = execute(instance, method, 0, time_limit)
     verdict = score(instance, method, res)
     plan, engine = res.x, f"{method.name} ({res.backend}, workers=1)"
-    if instance.kind == "cells-mobile" and verdict.status != "optimal":  # the baseline may do better
-        base = execute(instance, BUILTIN["myopic"], 0, time_limit)
-        mine = score(instance, BUILTIN["myopic"], base)
-        if mine.objective is not None and (verdict.objective is None or mine.objective > verdict.objective):
-            verdict = dataclasses.replace(verdict, objective=mine.objective, status="feasible")
-            plan, engine = base.x, engine + "; plan from myopic"
+    if verdict.status != "optimal":  # the baseline may do better
+        baseline = BUILTIN["myopic" if instance.kind == "cells-mobile" else "greedy-fleet"]
+        base = execute(instance, baseline, 0, time_limit)
+        mine = score(instance, baseline, base)
+        sign = 1.0 if instance.kind == "cells-mobile" else -1.0
+        if mine.objective is not None and (
+            verdict.objective is None or sign * (mine.objective - verdict.objective) > 0
+        ):
+            bound = verdict.bound
+            proven = bound is not None and sign * (mine.objective - bound) >= -1e-9
+            verdict = dataclasses.replace(
+                verdict, objective=mine.objective, status="optimal" if proven else "feasible"
+            )
+            plan = base.x if isinstance(base, SolveResult) else base
+            engine += f"; plan from {baseline.name}"
     if verdict.objective is None or verdict.status not in ("optimal", "feasible"):
         raise RuntimeError(
             f"{instance.id}: {method.name} gave no verified plan ({verdict.status}: {verdict.message})"
