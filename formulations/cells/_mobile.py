@@ -176,7 +176,7 @@ def _joint(
     blocks = []
     for t, epoch in enumerate(mp.epochs):
         blocks.append(SiteBlock(lin, epoch, mp.candidates(t, extra), late=late))
-        if not blocks[-1].complete:
+        if not blocks[-1].complete or late():
             return _built_too_late(mp, backend, t0)
     if fixed_first is not None:
         _fix(lin, blocks[0], fixed_first)
