@@ -39,28 +39,71 @@ def bench_variants(
     *, seeds: list[int], m: int, time_limit: float, out: Path, epochs: int = 6
 ) -> list[dict[str, Any]]:
     """Run the variant rows (module docstring) and write them to ``out/bench_variants.csv``;
-    returns them. Each row: variant, seed, m, status, objective, bound, wall_s, cpu_s, load_1min."""
+    returns them. Each row: variant, seed, m, time_limit (s), status, objective, bound, wall_s,
+    cpu_s, load_1min.
+
+    The file is rewritten after every row, and a row already in it (same variant, seed, m, time
+    limit and epochs) is kept, not run again: an interrupted grid resumes where it stopped."""
     import pandas as pd
 
-    rows = []
+    path = Path(out) / "bench_variants.csv"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    rows = _previous_rows(path)
+    done = {_row_key(row) for row in rows}
+
+    def run(name: str, seed: int, solve: Any, extra: dict[str, Any]) -> None:
+        key = _row_key({"variant": name, "seed": seed, "m": m, "time_limit": time_limit, **extra})
+        if key in done:
+            return
+        with measured() as measure:
+            res = solve()
+        rows.append({**_result_row(name, seed, m, res, measure), "time_limit": time_limit, **extra})
+        done.add(key)
+        pd.DataFrame(rows).to_csv(path, index=False)
+
     for seed in seeds:
         for name in VARIANTS:
             problem = thesis_variant_problem(name, m, seed)
-            with measured() as run:
-                res = solve_exact(problem, time_limit=time_limit)
-            rows.append(_result_row(name, seed, m, res, run))
+            run(name, seed, lambda p=problem: solve_exact(p, time_limit=time_limit), {})
         for share in (0.1, 0.2, 0.3):
-            with measured() as run:
-                res = min_fleet(thesis_problem(m, seed), coverage=share, time_limit=time_limit)
-            rows.append({**_result_row(f"min-fleet {share:.0%}", seed, m, res, run), "share": share})
+            base = thesis_problem(m, seed)
+            run(
+                f"min-fleet {share:.0%}",
+                seed,
+                lambda b=base, c=share: min_fleet(b, coverage=c, time_limit=time_limit),
+                {"share": share},
+            )
         mp = mobile_problem(m, seed, epochs)
         for name, solve in (("mobile joint", solve_mobile), ("mobile myopic", myopic)):
-            with measured() as run:
-                res = solve(mp, time_limit=time_limit)
-            rows.append({**_result_row(name, seed, m, res, run), "epochs": epochs})
-    Path(out).mkdir(parents=True, exist_ok=True)
-    pd.DataFrame(rows).to_csv(Path(out) / "bench_variants.csv", index=False)
-    return rows
+            run(name, seed, lambda s=solve: s(mp, time_limit=time_limit), {"epochs": epochs})
+    if not path.exists():
+        pd.DataFrame(rows).to_csv(path, index=False)
+    wanted = set(seeds)
+    return [row for row in rows if row["seed"] in wanted and row["m"] == m]
+
+
+def _previous_rows(path: Path) -> list[dict[str, Any]]:
+    """The rows of an earlier (perhaps interrupted) run of the grid, or none."""
+    import pandas as pd
+
+    if not path.exists():
+        return []
+    frame = pd.read_csv(path)
+    if "time_limit" not in frame.columns:
+        return []
+    return [{k: None if pd.isna(v) else v for k, v in row.items()} for row in frame.to_dict("records")]
+
+
+def _row_key(row: dict[str, Any]) -> tuple:
+    """What identifies a row of the grid: a row with the same key is not run again."""
+    return (
+        str(row["variant"]),
+        int(row["seed"]),
+        int(row["m"]),
+        float(row["time_limit"]),
+        float(row.get("share") or 0.0),
+        int(row.get("epochs") or 0),
+    )
 
 
 def _result_row(name: str, seed: int, m: int, res: Any, run: Any) -> dict[str, Any]:

@@ -44,3 +44,21 @@ def test_bench_variants_writes_a_row_per_variant_seed(tmp_path, monkeypatch):
         df.loc[df["variant"] == name, "objective"].item() for name in ("mobile joint", "mobile myopic")
     )
     assert greedy <= joint + 1e-9
+
+
+def test_bench_variants_resumes_an_interrupted_grid(tmp_path, monkeypatch):
+    """A row already in the file is kept and not run again; a missing one is run."""
+    monkeypatch.setattr(cells_variants, "thesis_problem", _small_thesis_problem)
+    monkeypatch.setattr(cell_variants, "thesis_problem", _small_thesis_problem)
+    first = bench_variants(seeds=[0], m=2, time_limit=60.0, out=tmp_path, epochs=2)
+    path = tmp_path / "bench_variants.csv"
+    frame = pd.read_csv(path)
+    frame.iloc[:-2].to_csv(path, index=False)  # as if stopped before the moving-users rows
+    calls = []
+    original = cells_variants.solve_exact
+    monkeypatch.setattr(cells_variants, "solve_exact", lambda *a, **k: calls.append(1) or original(*a, **k))
+    again = bench_variants(seeds=[0], m=2, time_limit=60.0, out=tmp_path, epochs=2)
+    assert not calls
+    assert len(again) == len(first)
+    assert [row["variant"] for row in again] == [row["variant"] for row in first]
+    assert len(pd.read_csv(path)) == len(first)
