@@ -1,8 +1,8 @@
 """Adapters for LP/MILP through OR-Tools' linear-solver wrapper (pywraplp): HiGHS and SCIP.
 
-Both offer the "linear" capability (:class:`PywraplpLinearModel`). The older entry
-points stay: a builder may ask :func:`new_mip` for an empty pywraplp model, add
-variables and constraints to it and hand it to :func:`solve_mip`.
+Both offer the "linear" capability (:class:`PywraplpLinearModel`). A builder that writes
+pywraplp directly takes an empty model from :func:`droneplan.solvers.mip_models.new_mip` and
+solves it with :func:`~droneplan.solvers.mip_models.solve_mip`.
 
 Another solver that pywraplp drives (Gurobi, CPLEX, Xpress, CBC ...) is a subclass of
 :class:`PywraplpAdapter` with its ``name``, pywraplp ``solver_id`` and ``takes_hint``,
@@ -33,8 +33,6 @@ __all__ = [
     "HighsAdapter",
     "ScipAdapter",
     "PywraplpLinearModel",
-    "new_mip",
-    "solve_mip",
 ]
 
 # pywraplp's ResultStatus codes (linear_solver.h), written as numbers so that this module loads
@@ -449,58 +447,3 @@ class PywraplpLinearModel(LinearModel):
             relative_gap=relative_gap,
             verbose=verbose,
         )
-
-
-def new_mip(backend: str = "highs") -> pywraplp.Solver:
-    """An empty pywraplp model for ``backend`` (a registered pywraplp backend: "highs", "scip")."""
-    from droneplan.solvers.registry import available_backends, get_backend
-
-    mip = [n for n in available_backends("linear") if isinstance(get_backend(n), PywraplpAdapter)]
-    if not isinstance(backend, str) or backend.lower() not in mip:
-        raise ValueError(f"unknown MIP backend {backend!r}; choose from {mip}")
-    adapter = get_backend(backend, kind="linear")
-    return adapter.new_native()
-
-
-def solve_mip(
-    solver: pywraplp.Solver,
-    *,
-    variables: Sequence[Any] = (),
-    time_limit: float | None = None,
-    warm_start: Mapping[Any, float] | None = None,
-    threads: int | None = None,
-    relative_gap: float | None = None,
-    verbose: bool = False,
-) -> SolveResult:
-    """Solve a model built in a :func:`new_mip` container.
-
-    variables: variables whose solution values form ``x`` (float array, in order).
-    time_limit: wall-clock limit in seconds (None: no limit).
-    warm_start: a start solution {variable: value}; passed to backends that accept one
-        (SCIP); ``warm_started`` says whether it was used.
-    threads: solver threads (None: backend default).
-    relative_gap: stop when the relative MIP gap is below this (None: backend default).
-    verbose: let the solver print its log (default quiet).
-
-    ``objective`` is the model's objective, ``bound`` the backend's best bound (the
-    objective itself for a pure LP solved to optimality).
-    """
-    from ortools.linear_solver import pywraplp
-
-    from droneplan.solvers.registry import get_backend
-
-    if not isinstance(solver, pywraplp.Solver):
-        raise TypeError(f"solver must be a pywraplp.Solver from new_mip, got {type(solver).__name__}")
-    name = getattr(solver, "_droneplan_backend", None)
-    if name is None:
-        raise ValueError("solve_mip needs a model created by new_mip(backend)")
-    adapter: PywraplpAdapter = get_backend(name, kind="linear")
-    return adapter.solve_native(
-        solver,
-        variables=variables,
-        time_limit=time_limit,
-        warm_start=warm_start,
-        threads=threads,
-        relative_gap=relative_gap,
-        verbose=verbose,
-    )

@@ -43,6 +43,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from droneplan.core.validation import check_time_limit, require_set
+from droneplan.solvers.base import QpBackend
 from droneplan.solvers.result import SolveResult, Status
 
 __all__ = ["SqpStructure", "SqpSolver", "KKT_STEP_TOL", "KKT_VIOLATION_TOL"]
@@ -70,7 +71,7 @@ class SqpSolver:
     """An NLP solved by sequential QPs on a QP backend (see the module docstring).
 
     nlp: dict with CasADi SX expressions ``x``, ``f`` and optional ``g``, ``p``.
-    qp_backend: a registered "qp" backend name or adapter (default "osqp").
+    qp_backend: the QP backend's adapter, e.g. ``get_backend("osqp", kind="qp")``.
     iterations: QPs per solve (1: real-time iteration).
     structure: :class:`SqpStructure` (proximal weights, soft rows).
     qp_settings: settings of the QP backend (its own names).
@@ -83,7 +84,7 @@ class SqpSolver:
         self,
         nlp: Mapping[str, Any],
         *,
-        qp_backend: Any = "osqp",
+        qp_backend: QpBackend,
         iterations: int = 1,
         structure: SqpStructure | None = None,
         qp_settings: Mapping[str, Any] | None = None,
@@ -91,14 +92,16 @@ class SqpSolver:
         verbose: bool = False,
         name: str = "osqp-sqp",
     ):
-        from droneplan.solvers.registry import get_backend
-
         if not isinstance(nlp, Mapping) or "x" not in nlp or "f" not in nlp:
             raise ValueError("nlp must be a mapping with at least 'x' and 'f' CasADi expressions")
         if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
             raise ValueError(f"iterations must be an int >= 1, got {iterations!r}")
         check_time_limit(time_limit)
-        self._qp_adapter = get_backend(qp_backend, kind="qp") if isinstance(qp_backend, str) else qp_backend
+        if not isinstance(qp_backend, QpBackend):
+            raise TypeError(
+                f"qp_backend must be a QP backend adapter (get_backend(name, kind='qp')), got {qp_backend!r}"
+            )
+        self._qp_adapter = qp_backend
         st = structure or SqpStructure()
         x = nlp["x"]
         pv = nlp.get("p", ca.SX(0, 1))

@@ -12,7 +12,7 @@ import scipy.sparse as sp
 from ortools.sat.python import cp_model
 
 from droneplan.solvers.cpsat import solve_cpsat
-from droneplan.solvers.mip import new_mip, solve_mip
+from droneplan.solvers.mip_models import new_mip, solve_mip
 from droneplan.solvers.nlp import IpoptSolver
 from droneplan.solvers.qp import OsqpSolver
 from droneplan.solvers.result import SolveResult, Status

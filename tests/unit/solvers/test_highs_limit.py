@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from droneplan.solvers.mip import new_mip, solve_mip
+from droneplan.solvers.mip_models import new_mip, solve_mip
 from droneplan.solvers.result import Status
 
 

@@ -19,6 +19,8 @@ from droneplan.solvers.sqp import SqpSolver, SqpStructure
 
 LINEAR = ["cp-sat", "highs", "scip"]
 
+OSQP = get_backend("osqp", kind="qp")
+
 
 def _double_well():
     """min (x^2 - 1)^2 + 0.3 x: a global minimum near x = -1.04 (f = -0.31) and a local one near
@@ -60,6 +62,7 @@ def test_sqp_local_minimum_is_feasible_with_local_optimum():
     nlp = {"x": x, "f": (x - 0.5) ** 2, "g": x**2}
     sqp = SqpSolver(
         nlp,
+        qp_backend=OSQP,
         iterations=60,
         structure=SqpStructure(prox=[1.0]),
         qp_settings={"eps_abs": 1e-10, "eps_rel": 1e-10},
@@ -73,9 +76,9 @@ def test_sqp_local_minimum_is_feasible_with_local_optimum():
 def test_sqp_one_real_time_step_is_no_local_optimum():
     """One step from x = 2 on the same problem lands between 1 and 2, not at a KKT point."""
     x = ca.SX.sym("x")
-    res = SqpSolver({"x": x, "f": (x - 0.5) ** 2, "g": x**2}, structure=SqpStructure(prox=[1.0])).solve(
-        x0=[2.0], lbg=1.0, ubg=np.inf
-    )
+    res = SqpSolver(
+        {"x": x, "f": (x - 0.5) ** 2, "g": x**2}, structure=SqpStructure(prox=[1.0]), qp_backend=OSQP
+    ).solve(x0=[2.0], lbg=1.0, ubg=np.inf)
     assert res.status is Status.FEASIBLE
     assert res.info["last_step"] > 1e-3 and res.info["local_optimum"] is False and not res.converged
 

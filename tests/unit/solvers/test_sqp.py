@@ -11,6 +11,8 @@ import pytest
 from droneplan.solvers import Status, get_backend
 from droneplan.solvers.sqp import SqpSolver, SqpStructure
 
+OSQP = get_backend("osqp", kind="qp")
+
 
 def _nlp(constraint: str):
     x = ca.SX.sym("x", 2)
@@ -60,7 +62,7 @@ def test_projection_is_applied_after_every_step():
         seen.append(np.array(z))
         return np.clip(z, -0.25, 0.25)
 
-    solver = SqpSolver(_nlp("linear"), iterations=3)
+    solver = SqpSolver(_nlp("linear"), iterations=3, qp_backend=OSQP)
     res = solver.solve(x0=[3.0, 3.0], lbg=-np.inf, ubg=2.0, p=[1.0, 2.0], project=project)
     assert len(seen) == 4  # x0 and three steps
     np.testing.assert_allclose(res.x, [0.25, 0.25])
@@ -70,9 +72,9 @@ def test_soft_rows_keep_an_inconsistent_linearisation_solvable():
     # x0 + x1 = 3 and x0 + x1 = 1 cannot both hold; made soft, the QP splits the difference
     x = ca.SX.sym("x", 2)
     nlp = {"x": x, "f": 0.5 * ca.dot(x, x), "g": ca.vertcat(x[0] + x[1], x[0] + x[1])}
-    hard = SqpSolver(nlp).solve(x0=[0, 0], lbg=[3, 1], ubg=[3, 1])
+    hard = SqpSolver(nlp, qp_backend=OSQP).solve(x0=[0, 0], lbg=[3, 1], ubg=[3, 1])
     assert not hard.has_solution
-    soft = SqpSolver(nlp, structure=SqpStructure(soft_rows=[0, 1], soft_weight=1e3)).solve(
+    soft = SqpSolver(nlp, structure=SqpStructure(soft_rows=[0, 1], soft_weight=1e3), qp_backend=OSQP).solve(
         x0=[0, 0], lbg=[3, 1], ubg=[3, 1]
     )
     assert soft.status is Status.FEASIBLE
@@ -83,12 +85,12 @@ def test_soft_rows_keep_an_inconsistent_linearisation_solvable():
 def test_bad_input():
     x = ca.SX.sym("x")
     with pytest.raises(ValueError, match="quadratic"):
-        SqpSolver({"x": x, "f": x**4})
+        SqpSolver({"x": x, "f": x**4}, qp_backend=OSQP)
     with pytest.raises(ValueError, match="iterations"):
-        SqpSolver(_nlp("linear"), iterations=0)
+        SqpSolver(_nlp("linear"), iterations=0, qp_backend=OSQP)
     with pytest.raises(ValueError, match="soft_rows"):
-        SqpSolver(_nlp("linear"), structure=SqpStructure(soft_rows=[3]))
+        SqpSolver(_nlp("linear"), structure=SqpStructure(soft_rows=[3]), qp_backend=OSQP)
     with pytest.raises(ValueError, match="pass p"):
-        SqpSolver(_nlp("linear")).solve(x0=[0, 0])
+        SqpSolver(_nlp("linear"), qp_backend=OSQP).solve(x0=[0, 0])
     with pytest.raises(ValueError, match="unknown osqp NLP options"):
         get_backend("osqp", kind="nlp").create_nlp(_nlp("linear"), options={"max_iter": 3})
