@@ -177,9 +177,9 @@ def test_build_milp_rejects_backend():
         solve_milp(random_small(0, 3, 1), time_limit=-1)
 
 
-# ----------------------------------------------------------------- robustness (issues 12.1, 13.2, 13.3)
+# ----------------------------------------------------------------- robustness
 def test_infeasible_warm_start_returns_within_the_time_limit():
-    # issue 12.1: a warm start inside the GBS cell made solve_milp loop forever; run it in a
+    # a warm start inside the GBS cell once made solve_milp loop forever; run it in a
     # subprocess so that a regression fails here instead of hanging the suite
     import subprocess
     import sys
@@ -300,7 +300,7 @@ def test_time_limit_covers_model_building():
         )
 
 
-# ----------------------------------------------------------------- exact branch and bound (issue 13)
+# ----------------------------------------------------------------- exact branch and bound
 @settings(max_examples=25, deadline=None)
 @given(st.integers(0, 10_000), st.integers(3, 10), st.integers(1, 3))
 def test_bnb_equals_brute_force(brute_force, seed, n, m):
