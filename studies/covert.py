@@ -4,7 +4,7 @@
   the hover benchmark, the sliding-mode laws and the min-max bearing MPC, plus PNGs
   (3D trajectories, bearing changes, noise).
 - ``gap``: hover / sliding / MPC per random target group against the proven bounds; it lives in
-  :mod:`droneplan.studies.covert_gap` and is reachable here by name (``droneplan gap covert``).
+  :mod:`droneplan.studies.covert_gap` and is imported here, where ``droneplan gap covert`` finds it.
 - ``reproduce`` also draws the stealth-versus-arrival-time front (:func:`stealth_front`), and in
   full mode the optimised front beside it (:mod:`droneplan.studies.covert_front`).
 - ``bench``: MPC solve time per replan vs its control period (IPOPT and the OSQP
@@ -21,10 +21,8 @@ from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
-from numpy.typing import NDArray
 
-from droneplan.core.validation import require_set
-from droneplan.formulations.covert import MPCSettings, sphere_minmax_bearing
+from droneplan.formulations.covert import MPCSettings
 from droneplan.planners.covert import (
     HoverBenchmark,
     MPCObserver,
@@ -33,61 +31,20 @@ from droneplan.planners.covert import (
     SlidingModeObserver,
 )
 from droneplan.scenarios.covert import CovertTrace, simulate, thesis_case
+from droneplan.studies.bound_engines import DEG, _instant_optima, _on_sphere
 from droneplan.studies.common import ComparisonTable, measured
 from droneplan.studies.covert_front import optimised_front_section
+from droneplan.studies.covert_gap import GAP_THESIS, gap
 from droneplan.studies.jobs import Job, run_reproduction
 from droneplan.studies.plots.covert import animate, plot_bearing, plot_path, plot_stealth_front
 from droneplan.studies.report import flag_reasons
 
-__all__ = ["DEG", "stealth_front", "reproduce", "reproduce_jobs", "bench"]
-
-
-def __getattr__(name: str) -> Any:
-    """The gap study's public names (``gap``, ``GAP_THESIS`` ...), which live in
-    :mod:`droneplan.studies.covert_gap`, resolved on first use (that module imports this one)."""
-    from droneplan.studies import covert_gap
-
-    if name in covert_gap.__all__:
-        return getattr(covert_gap, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-DEG = 180.0 / math.pi
+__all__ = ["DEG", "stealth_front", "reproduce", "reproduce_jobs", "gap", "GAP_THESIS", "bench"]
 
 
 def _pct(a: float, b: float) -> float:
     """Relative change of a with respect to b (%)."""
     return 100.0 * (a - b) / b
-
-
-def _on_sphere(tr: CovertTrace) -> NDArray[np.bool_]:
-    if tr.t_a is None:
-        return np.zeros(tr.t.size, bool)
-    end = tr.t_f if tr.t_f is not None else tr.t[-1]
-    return (tr.t >= tr.t_a) & (tr.t <= end)
-
-
-def _instant_optima(
-    tr: CovertTrace, scenario, part: int = 0, parts: int = 1
-) -> tuple[NDArray[np.int_], NDArray[np.float64], NDArray[np.float64]]:
-    """(k, bound, best): at every control instant k of tr's time on the sphere, the certified lower
-    bound and the value of min over the sphere of max_j beta_j over the observable targets (rad).
-    part, parts: only the ``part``-th of ``parts`` consecutive slices of those instants (each slice
-    can run on its own core)."""
-    ks, lbs, best = [], [], []
-    c = None
-    for k in np.array_split(np.nonzero(_on_sphere(tr))[0], parts)[part]:
-        obs = scenario.observable_at(tr.t[k], tr.drone[k])  # the targets tr's drone could see
-        if not obs.any():
-            continue
-        r = sphere_minmax_bearing(scenario.params, tr.targets[k][obs], c_start=c)
-        if not r.has_solution:
-            continue
-        c = max(math.cos(require_set(r.objective, "a result with a solution has an optimum")) - 1e-3, 0.0)
-        ks.append(k)
-        lbs.append(r.bound)
-        best.append(r.objective)
-    return np.asarray(ks, int), np.asarray(lbs), np.asarray(best)
 
 
 def _oracle_on_sphere(tr: CovertTrace, scenario) -> tuple[float, float, float]:

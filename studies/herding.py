@@ -30,7 +30,6 @@ import pandas as pd
 from droneplan.formulations.herding import solve_allocation
 from droneplan.planners.herding import (
     BenchmarkHerder,
-    ExtendedHull,
     ProposedHerder,
     allocate_bruteforce,
 )
@@ -53,6 +52,7 @@ from droneplan.studies.common import (
     timed,
 )
 from droneplan.studies.common import open_store as _store
+from droneplan.studies.instances import random_allocation_instance
 from droneplan.studies.jobs import Job, run_reproduction
 from droneplan.studies.plots.herding import animate, plot_state
 from droneplan.studies.report import flag_reasons
@@ -726,20 +726,6 @@ def _animation_job(out: Path, run: tuple[dict, HerdingTrace]) -> None:
 
 
 # --------------------------------------------------------------------------- gap
-def random_allocation_instance(n: int, seed: int):
-    """Drones and steering points on the extended hull of a random herd (arc lengths, m)."""
-    rng = np.random.default_rng(seed)
-    herd = rng.uniform((0, 0), (1200, 600), size=(200, 2))
-    hull = ExtendedHull.from_points(herd, 30.0)
-    M = hull.perimeter
-    drones = np.sort(rng.uniform(0, M, n))
-    k = len(hull.vertex_s)
-    steer = rng.choice(hull.vertex_s, size=min(n, k), replace=False) if k >= n else hull.vertex_s
-    if len(steer) < n:
-        steer = np.concatenate([steer, rng.uniform(0, M, n - len(steer))])
-    return drones, np.mod(steer, M), M
-
-
 GAP_SIZES = (2, 4, 6, 7, 8, 16, 64)
 """Numbers of drones in the allocation gap study (Algorithm 3 up to 7, CP-SAT up to 16)."""
 

@@ -76,6 +76,7 @@ __all__ = [
     "load_instance",
     "load_instances",
     "InstanceFileError",
+    "random_allocation_instance",
 ]
 
 KINDS = (
@@ -609,9 +610,26 @@ def _cells_fleet_size(m: int, coverage: float, seed: int) -> FleetSizeInstance:
     return FleetSizeInstance(problem, coverage)
 
 
-def _allocation(n: int, seed: int) -> AllocationInstance:
-    from droneplan.studies.herding import random_allocation_instance
+def random_allocation_instance(n: int, seed: int):
+    """Drones and steering points on the extended hull of a random herd (arc lengths, m): the data
+    of the ``allocation`` family, ``(drone_s, steer_s, perimeter)``.
 
+    n: number of drones (and of steering points); seed: the herd's and the positions' seed."""
+    from droneplan.planners.herding.geometry import ExtendedHull
+
+    rng = np.random.default_rng(seed)
+    herd = rng.uniform((0, 0), (1200, 600), size=(200, 2))
+    hull = ExtendedHull.from_points(herd, 30.0)
+    M = hull.perimeter
+    drones = np.sort(rng.uniform(0, M, n))
+    k = len(hull.vertex_s)
+    steer = rng.choice(hull.vertex_s, size=min(n, k), replace=False) if k >= n else hull.vertex_s
+    if len(steer) < n:
+        steer = np.concatenate([steer, rng.uniform(0, M, n - len(steer))])
+    return drones, np.mod(steer, M), M
+
+
+def _allocation(n: int, seed: int) -> AllocationInstance:
     d, s, M = random_allocation_instance(check_int("n", n, min_value=1), check_int("seed", seed, min_value=0))
     return AllocationInstance(d, s, M)
 

@@ -238,13 +238,13 @@ def _fleet_greedy(operators, sharks_pos, sharks_vel, humans, *, seed, time_limit
 
 
 def _covert_onsphere(scenario, *, seed, time_limit):
-    from droneplan.studies.covert_gap import onsphere_bounds
+    from droneplan.studies.bound_engines import onsphere_bounds
 
     return onsphere_bounds(scenario, seed=seed)
 
 
 def _shark_interception_bound(scenario, *, seed, time_limit):
-    from droneplan.studies.shark import interception_bounds
+    from droneplan.studies.bound_engines import interception_bounds
 
     return interception_bounds(scenario, time_limit=time_limit)
 

@@ -12,7 +12,7 @@ assignment vs greedy nearest-operator on random fleets.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -37,6 +37,7 @@ from droneplan.scenarios.shark import (
     simulate_repelling,
     thesis_trajectories,
 )
+from droneplan.studies.bound_engines import BOUND_METRIC, interception_bounds
 from droneplan.studies.common import ComparisonTable, measured, report_study
 from droneplan.studies.jobs import Job, run_reproduction
 from droneplan.studies.plots.shark import animate, plot_time_series, plot_top_view
@@ -390,48 +391,6 @@ def _repelling(out: Path, table: ComparisonTable, rows: list[dict]) -> None:
 
 
 # --------------------------------------------------------------------------- gap
-def _finite_or_none(v):
-    return float(v) if v is not None and np.isfinite(v) else None
-
-
-BOUND_METRIC = (
-    "time to reach the frontal point G(T) within gamma (the offline OCP's T, the virtual shark's capture); "
-    "not a bound on the time of first contact"
-)
-"""What the shark bound engine's proven bound is a bound on (kept as an extra of its row)."""
-
-
-def interception_bounds(scenario: Any, *, time_limit: float | None = None) -> dict[str, Any]:
-    """The shark bound engine (registered as ``interception-bound``): the offline OCP on the known
-    path (:func:`planners.shark.optimal_interception`, N = 50) and its proven lower bound on T.
-
-    scenario: an ``InterceptionScenario``; time_limit: wall-clock limit per IPOPT solve (s).
-    Returns the engine result of :mod:`droneplan.studies.methods`. The bound is proven for the
-    time to reach the frontal point G(T) (within gamma), i.e. for the OCP's T and the virtual
-    shark's capture time, but a study scores the closed-loop time of first contact, which can come
-    earlier (the field touches the shark as soon as D_h <= eps(h) at any frontal point, before the
-    operator is at G(T)). So the row ranks no bound: ``capture_time_bound_s``, ``ocp_time_s`` and
-    the metric they are about (``bound_metric``) are extras.
-    """
-    tr = scenario.trajectory
-    res = optimal_interception(tr, scenario.operator, scenario.params, N=50, time_limit=time_limit)
-    extras = {
-        "ocp_time_s": _finite_or_none(res.objective),
-        "ocp_status": res.status.value,
-        "ocp_local_optimum": bool(res.info.get("local_optimum", False)),
-        "capture_time_bound_s": _finite_or_none(res.bound),
-        "bound_metric": BOUND_METRIC,
-        "start_won": res.info.get("start_won"),
-        "bearing_deg": float(scenario.bearing_deg),
-    }
-    return {
-        "status": "optimal" if res.bound is not None else "no_solution",
-        "bound": None,
-        "message": str(res.info.get("bound_message", "")),
-        "extras": extras,
-    }
-
-
 def gap(*, seeds: int, executor=None, out: Path, store=None, first_seed: int = 0):
     """Virtual shark vs the online OCP in closed loop on ``seeds`` random paths (with the offline OCP
     and its proven bound as extras), and greedy vs optimal assignment on ``seeds`` random fleets: two

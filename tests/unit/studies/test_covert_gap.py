@@ -5,20 +5,13 @@ from __future__ import annotations
 
 import pytest
 
-import droneplan.studies.covert as covert
 import droneplan.studies.covert_gap as cg
 from droneplan.planners.covert import HoverBenchmark, SlidingModeObserver
 from droneplan.scenarios.covert import random_case, simulate
+from droneplan.studies.bound_engines import DEG, _instant_optima
 from droneplan.studies.common import make_executor
-from droneplan.studies.covert import _instant_optima
 from droneplan.studies.methods import BUILTIN, DEFAULT_METHODS, Method, resolve_methods
 from droneplan.studies.store import load_results
-
-
-def test_gap_names_are_reachable_from_the_covert_study_module():
-    assert covert.gap is cg.gap and covert.GAP_THESIS is cg.GAP_THESIS
-    with pytest.raises(AttributeError, match="no_such_name"):
-        _ = covert.no_such_name
 
 
 def test_gap_instances_cycle_through_two_to_six_targets():
@@ -57,9 +50,9 @@ def test_gap_rows_match_the_task_function_and_resume(tmp_path):
     # the same runs and oracle made directly (the old task function's steps) on the same group
     sc = random_case(2, 0)
     for name, ctl in (("hover", HoverBenchmark()), ("sliding", SlidingModeObserver())):
-        assert new.loc[name, "objective"] == pytest.approx(simulate(sc, ctl).beta_max * cg.DEG, rel=1e-9)
+        assert new.loc[name, "objective"] == pytest.approx(simulate(sc, ctl).beta_max * DEG, rel=1e-9)
     _, lbs, _ = _instant_optima(simulate(sc, SlidingModeObserver()), sc)
-    assert new.loc["onsphere-optimum", "bound"] == pytest.approx(lbs.max() * cg.DEG, rel=1e-9)
+    assert new.loc["onsphere-optimum", "bound"] == pytest.approx(lbs.max() * DEG, rel=1e-9)
     # the proven on-sphere optimum is below what the sliding mode recorded on the sphere, which is
     # at most its whole-run maximum
     onsphere = new.loc["onsphere-optimum", "covert_sliding_onsphere_max_deg"]
