@@ -428,7 +428,8 @@ def test_backhaul_free_relaxation_is_exact(seed, n, k):
     # item 9's bounds come from searches on _without_backhaul(problem): every candidate
     # links to every GBS and to every other, so the search must return the best k
     # pairwise non-overlapping candidates with backhaul ignored
-    from droneplan.formulations.cells._bnb import _without_backhaul, search
+    from droneplan.formulations.cells._bnb import search
+    from droneplan.formulations.cells._bnb_relaxed import _without_backhaul
 
     p = random_small(seed, n, k)
     cand = candidate_sites(p)
@@ -443,7 +444,7 @@ def _far_groups_case(seed):
     directions beyond the GBS's reach, sites along their way in, between them and anywhere.
     Returns (item 12's bound, brute-force best weight of a completion), or None when the
     drawn placement is already reached or overlaps."""
-    from droneplan.formulations.cells._bnb import _separated_groups
+    from droneplan.formulations.cells._bnb_groups import _separated_groups
 
     rng = np.random.default_rng(seed)
     r1t, r2t, gap = 3.0, 2.5, 1.0  # link ranges; sites closer than ``gap`` overlap
@@ -666,7 +667,7 @@ def test_relay_bound_through_a_new_site_is_the_shortest_path(block):
 
 
 def _check_relay_bound(seed):
-    from droneplan.formulations.cells._bnb import _close, _relay_cost, _through
+    from droneplan.formulations.cells._bnb_relays import _close, _relay_cost, _through
 
     rng = np.random.default_rng(seed)
     r1, r2 = 3.0, 2.5

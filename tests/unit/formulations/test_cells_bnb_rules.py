@@ -1,5 +1,6 @@
 """The branch and bound's bound and pruning rules one at a time, on small hand-built states,
-against brute force over the same candidate sites (``_bnb.BranchAndBoundSearch``)."""
+against brute force over the same candidate sites (the rule functions of the ``_bnb_*`` modules,
+called on a ``_bnb.BranchAndBoundSearch``)."""
 
 import math
 
@@ -9,6 +10,18 @@ from hypothesis import strategies as st
 
 from droneplan.formulations.cells import CellProblem, candidate_sites, evaluate
 from droneplan.formulations.cells._bnb import BranchAndBoundSearch
+from droneplan.formulations.cells._bnb_bounds import (
+    clique_values,
+    linkable_weight,
+    node_bound,
+    unreached_bounds,
+)
+from droneplan.formulations.cells._bnb_dual import _lazy_gains, greedy_dual
+from droneplan.formulations.cells._bnb_elimination import drop_dominated, eliminate_sites, site_can_improve
+from droneplan.formulations.cells._bnb_groups import separated_bound
+from droneplan.formulations.cells._bnb_relaxed import free_completion
+from droneplan.formulations.cells._bnb_relays import relay_filter
+from droneplan.formulations.cells._bnb_siblings import replaced_by_sibling
 from droneplan.formulations.cells._core import TOL
 
 
@@ -98,10 +111,10 @@ def test_each_bound_rule_holds_for_every_completion(seed, n, m):
         feas = oracle.completions(P, node.cmask)
         weights = [int(s.w[list(Q)].sum()) for Q, _ in feas]
         # items 1, 2 (cliques) on every non-overlapping completion, feasible or not
-        tops_all = s.clique_values(C, r, 0)
+        tops_all = clique_values(s, C, r, 0)
         for Q, _ in oracle.completions(P, node.cmask, feasible=False):
             assert s.w[list(Q)].sum() <= sum(tops_all)
-        kids = s.relay_filter(node, C)
+        kids = relay_filter(s, node, C)
         if not feas:
             continue
         checked += 1
@@ -111,17 +124,17 @@ def test_each_bound_rule_holds_for_every_completion(seed, n, m):
         passed = set(kids.C[kids.ok].tolist())
         assert all(set(Q) <= passed for Q, _ in feas)
         # item 7: greedy dual of coverage
-        assert node.val + s.greedy_dual(list(P), C, node.dist, node.reach, r) >= best
+        assert node.val + greedy_dual(s, list(P), C, node.dist, node.reach, r) >= best
         # item 6: one slot holds a linkable site
-        tops = s.clique_values(kids.C[kids.ok], r, 0)
-        wg = s.linkable_weight(kids, 0)
+        tops = clique_values(s, kids.C[kids.ok], r, 0)
+        wg = linkable_weight(s, kids, 0)
         assert max(weights) <= wg + sum(tops[: r - 1])
         # items 5, 8, 12 when P has unreached sites
         if not node.reach.all():
-            b, b_sep = s.unreached_bounds(node, kids, tops, 0, wg, math.inf)
+            b, b_sep = unreached_bounds(s, node, kids, tops, 0, wg, math.inf)
             assert node.val + max(weights) <= min(b, b_sep)
         # every rule combined
-        combined = s.node_bound(node, math.inf)
+        combined = node_bound(s, node, math.inf)
         assert combined is not None and combined.bound >= best
     assert checked or not oracle.feasible
 
@@ -140,7 +153,7 @@ def test_site_elimination_keeps_every_site_of_a_better_placement(seed, n, m):
     cleared, found = 0, z
     for c in range(s.n):
         s.best_val = z  # a probe may raise the incumbent (to {c} itself): compare with it after
-        if not s.site_can_improve(c, alive):
+        if not site_can_improve(s, c, alive):
             cleared += 1
             assert all(v <= s.best_val for key, v in oracle.feasible.items() if c in key)
         found = max(found, s.best_val)
@@ -161,7 +174,7 @@ def test_sibling_replacement_drops_nothing_better_than_the_earlier_siblings(seed
     for j in range(s.n):
         cm = s.compatible([j])
         cm[: j + 1] = False
-        replace = s.replaced_by_sibling([], 0, j, cm, explored)
+        replace = replaced_by_sibling(s, [], 0, j, cm, explored)
         if replace is not None:
             used += 1
             avoid = np.zeros(s.n, dtype=bool) if replace is True else replace
@@ -180,12 +193,12 @@ def test_the_node_of_a_hand_built_relay_chain():
     far = int(np.argmin(np.hypot(*(s.pts - [5.0, 0.0]).T)))
     node = s.node([far])
     assert not node.reach.all() and node.dist[0] >= 1
-    kids = s.relay_filter(node, np.flatnonzero(node.cmask))
+    kids = relay_filter(s, node, np.flatnonzero(node.cmask))
     assert kids is not None
     oracle = _Oracle(p, s)
     feas = oracle.completions((far,), node.cmask)
     assert feas  # a relay between the GBS and the far site exists
-    combined = s.node_bound(node, math.inf)
+    combined = node_bound(s, node, math.inf)
     assert combined is not None and combined.bound >= max(v for _, v in feas)
     assert max(v for _, v in feas) == 3  # the relay over the near user completes it
     # item 5: the bridge slot holds a site within r2 of the far site
@@ -201,7 +214,7 @@ def test_dominated_sites_leave_the_optimum_unchanged():
             s = BranchAndBoundSearch(p, candidate_sites(p), -1)
             oracle = _Oracle(p, s)
             alive = np.ones(s.n, dtype=bool)
-            dropped = s.drop_dominated(alive)
+            dropped = drop_dominated(s, alive)
             assert dropped == s.n - int(alive.sum())
             dropped_total += dropped
             full = max(oracle.feasible.values(), default=0)
@@ -215,7 +228,8 @@ def test_dominated_sites_leave_the_optimum_unchanged():
 def test_links_to_many_bridges_found_by_tree_include_every_exact_link():
     # item 12's link test past _LINK_ROWS_MAX bridge candidates (a KD-tree, range widened by
     # 1e-6 m) returns every site the exact rows link, and here no other
-    from droneplan.formulations.cells._bnb import _LINK_ROWS_MAX, LinkRows, _linked_to
+    from droneplan.formulations.cells._bnb_groups import _LINK_ROWS_MAX, _linked_to
+    from droneplan.formulations.cells._bnb_sites import LinkRows
 
     rng = np.random.default_rng(5)
     pts = rng.uniform(0, 40, size=(400, 2))
@@ -241,11 +255,11 @@ def test_backhaul_free_completion_answers_like_brute_force(seed, n, m, clustered
     for P in _partial_placements(oracle, m):
         node = s.node(list(P))
         relaxed_sets = oracle.completions(P, node.cmask, feasible=False)
-        relaxed = max([node.val] + [s._bits_of([*P, *Q]).bit_count() for Q, _ in relaxed_sets])
+        relaxed = max([node.val] + [s.bits_of([*P, *Q]).bit_count() for Q, _ in relaxed_sets])
         feasible = max((v for _, v in oracle.completions(P, node.cmask)), default=0)
         for z in (relaxed - 1, relaxed):
             s.best_val = z
-            found = s.free_completion(node)
+            found = free_completion(s, node)
             answers.add(found)
             assert found is (relaxed > z)
             assert found or feasible <= z
@@ -255,7 +269,7 @@ def test_backhaul_free_completion_answers_like_brute_force(seed, n, m, clustered
 def test_lazy_greedy_gains_hold_every_value_of_the_full_scan():
     # item 7 reads the gains of a weight-ordered prefix only (``_lazy_gains``): its r largest
     # gains, its largest under each mask and its largest of all equal those of every site
-    from droneplan.formulations.cells._bnb import _popcount_rows
+    from droneplan.formulations.cells._bnb_sites import _popcount_rows
 
     p = _scattered(3, 60, 4)
     s = BranchAndBoundSearch(p, candidate_sites(p), 0)
@@ -267,7 +281,7 @@ def test_lazy_greedy_gains_hold_every_value_of_the_full_scan():
         covered = np.bitwise_or.reduce(s.packed[rng.choice(s.n, size=int(rng.integers(0, 4)))], axis=0)
         masks = [rng.random(s.n) < q for q in (0.5, 0.02)]
         r = int(rng.integers(1, 5))
-        gain, end = s._lazy_gains(C, covered, masks, r, 0)
+        gain, end = _lazy_gains(s, C, covered, masks, r, 0)
         full = _popcount_rows(s.packed & ~covered)
         assert np.array_equal(gain, full[:end])
         assert np.sort(gain)[-r:].sum() == np.sort(full)[-r:].sum()
@@ -283,10 +297,10 @@ def test_successor_sites_from_a_short_prefix_keep_item_12_valid():
     # later ones as linked: a superset of the exact successors, so its bound stays above every
     # feasible completion (checked here with a prefix of 1 site, against the oracle, on relay
     # chains)
-    from droneplan.formulations.cells import _bnb
+    from droneplan.formulations.cells import _bnb_groups
 
     checked = widened = 0
-    saved = _bnb._SUCCESSOR_PREFIX
+    saved = _bnb_groups._SUCCESSOR_PREFIX
     try:
         for seed in range(12):
             rng = np.random.default_rng(seed)
@@ -303,25 +317,25 @@ def test_successor_sites_from_a_short_prefix_keep_item_12_valid():
                 full = np.flatnonzero(node.cmask)
                 in_l = s.dg[full] <= s.r1t
                 d = np.hypot(*(s.pts[full] - s.pts[P[0]]).T)
-                _bnb._SUCCESSOR_PREFIX = 10**6
-                exact = _bnb._successor_sites(s.link_rows(), full, d, in_l, s.r2t)
-                _bnb._SUCCESSOR_PREFIX = 1
-                short = _bnb._successor_sites(s.link_rows(), full, d, in_l, s.r2t)
+                _bnb_groups._SUCCESSOR_PREFIX = 10**6
+                exact = _bnb_groups._successor_sites(s.link_rows(), full, d, in_l, s.r2t)
+                _bnb_groups._SUCCESSOR_PREFIX = 1
+                short = _bnb_groups._successor_sites(s.link_rows(), full, d, in_l, s.r2t)
                 assert np.all(short | ~exact)  # a superset
                 widened += int(np.any(short & ~exact))
                 feas = oracle.completions(P, node.cmask)
-                kids = s.relay_filter(node, np.flatnonzero(node.cmask))
+                kids = relay_filter(s, node, np.flatnonzero(node.cmask))
                 if not feas or kids is None:
                     continue
                 r = 4 - len(P)
-                tops = s.clique_values(kids.C[kids.ok], r, 0)
+                tops = clique_values(s, kids.C[kids.ok], r, 0)
                 best = max(int(s.w[list(Q)].sum()) for Q, _ in feas)
-                assert s.separated_bound(node, r, tops) >= best
-                b, b_sep = s.unreached_bounds(node, kids, tops, 0, s.linkable_weight(kids, 0), math.inf)
+                assert separated_bound(s, node, r, tops) >= best
+                b, b_sep = unreached_bounds(s, node, kids, tops, 0, linkable_weight(s, kids, 0), math.inf)
                 assert node.val + best <= min(b, b_sep)
                 checked += 1
     finally:
-        _bnb._SUCCESSOR_PREFIX = saved
+        _bnb_groups._SUCCESSOR_PREFIX = saved
     assert checked > 0 and widened > 0
 
 
@@ -339,7 +353,7 @@ def test_site_elimination_keeps_an_optimal_placement(brute_force, seed, n, m, no
         s.dual_from = math.inf
     oracle = _Oracle(p, s)
     alive = np.ones(s.n, dtype=bool)
-    s.eliminate_sites(alive)
+    eliminate_sites(s, alive)
     kept = max((v for key, v in oracle.feasible.items() if alive[list(key)].all()), default=0)
     assert kept == opt or s.best_val == opt
     assert s.best_val <= opt
@@ -348,7 +362,7 @@ def test_site_elimination_keeps_an_optimal_placement(brute_force, seed, n, m, no
 def test_kept_conflict_rows_match_the_packed_relation():
     # BitRows keeps unpacked rows (read-only) up to its byte budget; a kept row equals a fresh
     # unpack, and relating more sites drops the kept rows
-    from droneplan.formulations.cells._bnb import BitRows
+    from droneplan.formulations.cells._bnb_sites import BitRows
 
     rng = np.random.default_rng(1)
     n = 70
