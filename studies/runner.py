@@ -19,6 +19,12 @@ turns whatever happens into one :class:`JobOutcome`:
   ``os._exit`` in the job, the kernel's out-of-memory killer); ``error`` names the exit
   code or signal.
 
+A job may also be given a CPU-time limit (:attr:`Job.cpu_limit`, the child's ``RLIMIT_CPU``: a
+budget that does not shrink when other work shares the machine), and may send reports while it
+runs (:func:`send_report`, e.g. each new incumbent of an anytime method); the parent keeps a
+thinned list of them (:attr:`Job.max_reports`) and returns it with the outcome, whatever the
+outcome is.
+
 Why ``os.fork`` and not :mod:`multiprocessing` or :mod:`concurrent.futures`:
 
 - the child is a copy of this process, so ``fn`` and its arguments are never pickled:
@@ -61,6 +67,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import json
+import math
 import os
 import pickle
 import selectors
@@ -97,6 +104,7 @@ __all__ = [
     "die_with_parent",
     "run_isolated",
     "run_jobs",
+    "send_report",
 ]
 
 OUTCOME_STATUSES = ("ok", "error", "timeout", "crashed")
@@ -108,6 +116,7 @@ _TICK_S = 0.2  # longest wait between two looks at the children (s)
 _FAST_TICK_S = 0.01  # wait while a child has closed its pipe but not yet exited (s)
 _HEADER = struct.Struct(">Q")  # length prefix of a result message (bytes)
 _OK_PICKLE, _OK_BYTES, _ERROR = b"P", b"B", b"E"  # the first byte of a message: what follows
+_REPORT = b"R"  # a report (send_report): the job goes on; any number of them before the result
 _READ_CHUNK = 1 << 20  # bytes per read from a child's pipe
 _MESSAGE_CHARS = 300  # longest message kept in JobOutcome.error (characters)
 _END = object()  # end of the jobs
@@ -137,7 +146,16 @@ class Job:
         the parent hands them over untouched, never unpickling anything the child wrote: the
         mode for a child that runs code droneplan does not control.
     max_result_bytes: the largest result the parent reads (bytes); a child that announces or
-        sends more is killed and its outcome is ``"error"``. None: no cap.
+        sends more is killed and its outcome is ``"error"``. None: no cap. It applies to each
+        report as well.
+    cpu_limit: CPU time the child process may use (s, user + system, all its threads); None: no
+        limit. It is the child's ``RLIMIT_CPU``, ``grace`` seconds above the limit, so the kernel
+        stops a child that overran it; its outcome is then ``"timeout"``. Processes the job
+        starts get a limit of their own each (the rlimit is per process).
+    max_reports: how many of the job's reports (:func:`send_report`) the parent keeps (>= 2 when
+        reports are wanted): the first, the last, and between them every k-th, k doubling each
+        time the list fills up, so a job that reports a million times still costs a bounded
+        memory. 0: reports are not wanted, and a job that sends one gets an ``"error"`` outcome.
     """
 
     key: Hashable
@@ -147,6 +165,8 @@ class Job:
     time_limit: float | None = None
     returns: str = "pickle"
     max_result_bytes: int | None = None
+    cpu_limit: float | None = None
+    max_reports: int = 0
 
     def __post_init__(self) -> None:
         try:
@@ -164,6 +184,11 @@ class Job:
             object.__setattr__(
                 self, "max_result_bytes", check_int("max_result_bytes", self.max_result_bytes, min_value=1)
             )
+        object.__setattr__(self, "cpu_limit", check_time_limit(self.cpu_limit, "cpu_limit"))
+        max_reports = check_int("max_reports", self.max_reports, min_value=0)
+        if max_reports == 1:
+            raise ValueError("max_reports must be 0 (no reports) or >= 2 (the first and the last)")
+        object.__setattr__(self, "max_reports", max_reports)
 
 
 @dataclass(frozen=True)
@@ -179,6 +204,9 @@ class JobOutcome:
     traceback: the child's formatted traceback when ``status == "error"``, else ``""``.
     wall_s: wall time of the child from its start to its end (s).
     cpu_s: user + system CPU time of the child and of the processes it waited for (s).
+    reports: the reports the parent kept (:attr:`Job.max_reports`), in the order they were sent:
+        bytes for a job with ``returns="bytes"``, unpickled values otherwise.
+    n_reports: how many reports the job sent in all.
     """
 
     key: Hashable
@@ -188,6 +216,8 @@ class JobOutcome:
     traceback: str = ""
     wall_s: float = 0.0
     cpu_s: float = 0.0
+    reports: tuple[Any, ...] = ()
+    n_reports: int = 0
 
 
 def run_isolated(job: Job, *, grace: float = 2.0, memory_limit: int | None = None) -> JobOutcome:
@@ -267,7 +297,7 @@ def _run(  # noqa: C901
                         break
                     if not isinstance(job, Job):
                         raise TypeError(f"jobs[{index}] must be a Job, got {type(job).__name__}")
-                    _Child.start(job, memory_limit, running, selector)
+                    _Child.start(job, memory_limit, grace, running, selector)
                     index += 1
                 if not running:
                     return
@@ -317,10 +347,20 @@ class _Child:
         self.cpu_s = 0.0
         self.ended: float | None = None
         self.reaped = self.closed = self.watched = False
+        self.reports: list[bytes] = []  # payloads kept: every ``report_stride``-th from the first
+        self.report_stride = 1
+        self.n_reports = 0
+        self.last_report: bytes | None = None
+        self.unwanted_report = False
 
     @classmethod
     def start(
-        cls, job: Job, memory_limit: int | None, running: dict[int, _Child], selector: selectors.BaseSelector
+        cls,
+        job: Job,
+        memory_limit: int | None,
+        grace: float,
+        running: dict[int, _Child],
+        selector: selectors.BaseSelector,
     ) -> None:
         """Fork a child for ``job`` and add it to ``running`` (by its pipe) and ``selector``."""
         for stream in (sys.stdout, sys.stderr):  # else the child would print our buffered text again
@@ -332,7 +372,7 @@ class _Child:
             with _sigint_deferred():
                 pid = os.fork()
                 if pid == 0:  # pragma: no cover - runs in the child (coverage does not follow os._exit)
-                    _child_main(job, w, [r, *running], memory_limit, parent)
+                    _child_main(job, w, [r, *running], (memory_limit, grace), parent)
                 os.close(w)
                 w = -1
                 running[r] = cls(job, pid, r, started)
@@ -370,8 +410,40 @@ class _Child:
                 self.eof = True
                 return
             self.buffer += data
-            if self.oversized() is not None:  # read no further: poll() kills it
+            self._take_reports()
+            if self.oversized() is not None or self.unwanted_report:  # read no further: poll() kills it
                 return
+
+    def _take_reports(self) -> None:
+        """Move the complete report messages at the front of the buffer into ``reports``."""
+        while self.message_complete() and self.buffer[_HEADER.size : _HEADER.size + 1] == _REPORT:
+            if self.oversized() is not None:
+                return
+            (n,) = _HEADER.unpack_from(self.buffer)
+            payload = bytes(memoryview(self.buffer)[_HEADER.size + 1 : _HEADER.size + n])
+            del self.buffer[: _HEADER.size + n]
+            if self.job.max_reports == 0:
+                self.unwanted_report = True
+                return
+            self._keep_report(payload)
+
+    def _keep_report(self, payload: bytes) -> None:
+        """Keep the first report and every ``report_stride``-th after it; when the list is full,
+        drop every other one and double the stride. The last report is kept apart."""
+        if self.n_reports % self.report_stride == 0:
+            self.reports.append(payload)
+            if len(self.reports) > self.job.max_reports - 1:
+                self.reports = self.reports[::2]
+                self.report_stride *= 2
+        self.n_reports += 1
+        self.last_report = payload
+
+    def kept_reports(self) -> list[bytes]:
+        """The reports kept: at most ``max_reports``, the first and the last among them."""
+        kept = list(self.reports)
+        if self.n_reports and (self.n_reports - 1) % self.report_stride != 0:
+            kept.append(self.last_report)  # type: ignore[arg-type]
+        return kept
 
     def message_complete(self) -> bool:
         if len(self.buffer) < _HEADER.size:
@@ -435,6 +507,9 @@ class _Child:
     # ----------------------------------------------------------------- outcome
     def poll(self, grace: float) -> JobOutcome | None:
         """The outcome if the child is done (it is then reaped), else None."""
+        if self.unwanted_report:
+            self.kill_and_reap()
+            return self._outcome("error", error="the job sent a report; this job takes none (max_reports=0)")
         too_big = self.oversized()
         if too_big is not None:
             self.kill_and_reap()
@@ -466,7 +541,18 @@ class _Child:
         return (self.ended if self.ended is not None else time.monotonic()) - self.started
 
     def _outcome(self, status: str, **fields: Any) -> JobOutcome:
-        return JobOutcome(self.job.key, status, wall_s=self.wall_s, cpu_s=self.cpu_s, **fields)
+        reports: list[Any] = self.kept_reports()
+        if self.job.returns == "pickle":
+            reports = [_unpickled_report(r) for r in reports]
+        return JobOutcome(
+            self.job.key,
+            status,
+            wall_s=self.wall_s,
+            cpu_s=self.cpu_s,
+            reports=tuple(reports),
+            n_reports=self.n_reports,
+            **fields,
+        )
 
     def _from_message(self) -> JobOutcome:
         (n,) = _HEADER.unpack_from(self.buffer)
@@ -497,6 +583,13 @@ class _Child:
 
     def _crashed(self) -> JobOutcome:
         status = self.status
+        limit = self.job.cpu_limit
+        killed_by = os.WTERMSIG(status) if status is not None and os.WIFSIGNALED(status) else None
+        over_cpu = killed_by == signal.SIGXCPU or (limit is not None and self.cpu_s >= limit)
+        if limit is not None and killed_by is not None and over_cpu:
+            return self._outcome(
+                "timeout", error=f"stopped after {_secs(self.cpu_s)} CPU-s (CPU limit {_secs(limit)} s)"
+            )
         if status is None:
             why = "died: exit status unknown (reaped elsewhere)"
         elif os.WIFSIGNALED(status):
@@ -572,10 +665,64 @@ def die_with_parent(parent: int) -> None:  # pragma: no cover - runs in children
         os._exit(1)
 
 
+def send_report(value: Any) -> None:
+    """Send a report to the parent from inside a job (see :attr:`Job.max_reports`): ``bytes`` in a
+    job with ``returns="bytes"``, any picklable value otherwise. The job goes on; the parent
+    keeps a thinned list of the reports and hands it over in the job's :class:`JobOutcome`.
+
+    value: the report. Raises RuntimeError outside a job of :func:`run_jobs`.
+    """
+    if _CHILD is None or os.getpid() != _CHILD[0]:
+        raise RuntimeError("send_report is for a job running under droneplan's job runner")
+    _, w, returns = _CHILD
+    if returns == "bytes":
+        if not isinstance(value, (bytes, bytearray)):
+            raise TypeError(f"a report of a bytes job must be bytes, got {type(value).__name__}")
+        payload = bytes(value)
+    else:
+        payload = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+    _write_message(w, _REPORT + payload)
+
+
+_CHILD: tuple[int, int, str] | None = None  # in a child: (its pid, the pipe's write end, Job.returns)
+
+
+def _write_message(w: int, message: bytes) -> None:
+    """Write one length-prefixed message to the pipe ``w`` (blocking until it is all written)."""
+    data = memoryview(_HEADER.pack(len(message)) + message)
+    while data:
+        data = data[os.write(w, data) :]
+
+
+def _unpickled_report(payload: bytes) -> Any:
+    try:
+        return pickle.loads(payload)
+    except Exception as exc:  # noqa: BLE001 - a report the parent cannot read is kept as what it says
+        return f"unreadable report: {_one_line(exc)}"
+
+
+def _set_limits(job: Job, memory_limit: int | None, grace: float) -> None:  # pragma: no cover
+    """The child's resource limits: no core dumps, the address space, the CPU time."""
+    with contextlib.suppress(ValueError, OSError):
+        resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    if memory_limit is not None:
+        _, hard = resource.getrlimit(resource.RLIMIT_AS)
+        soft = memory_limit if hard == resource.RLIM_INFINITY else min(memory_limit, hard)
+        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+    if job.cpu_limit is not None:  # SIGXCPU at the soft limit, SIGKILL one second later
+        _, hard = resource.getrlimit(resource.RLIMIT_CPU)
+        soft = math.ceil(job.cpu_limit + grace)
+        if hard != resource.RLIM_INFINITY:
+            soft = min(soft, hard)
+        resource.setrlimit(resource.RLIMIT_CPU, (soft, soft + 1 if hard == resource.RLIM_INFINITY else hard))
+
+
 def _child_main(  # pragma: no cover
-    job: Job, w: int, close_fds: list[int], memory_limit: int | None, parent: int
+    job: Job, w: int, close_fds: list[int], limits: tuple[int | None, float], parent: int
 ) -> None:
-    """Everything the child does; it never returns (``os._exit`` in every path)."""
+    """Everything the child does; it never returns (``os._exit`` in every path). ``limits``:
+    the address-space limit (bytes or None) and the grace (s) over the job's CPU limit."""
+    global _CHILD
     code = 1
     try:
         os.setpgid(0, 0)
@@ -586,22 +733,16 @@ def _child_main(  # pragma: no cover
         for fd in close_fds:
             with contextlib.suppress(OSError):
                 os.close(fd)
-        with contextlib.suppress(ValueError, OSError):
-            resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-        if memory_limit is not None:
-            _, hard = resource.getrlimit(resource.RLIMIT_AS)
-            soft = memory_limit if hard == resource.RLIM_INFINITY else min(memory_limit, hard)
-            resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+        _set_limits(job, *limits)
         me = os.getpid()
+        _CHILD = (me, w, job.returns)
         payload = _call(job)
         if os.getpid() != me:  # a process that fn forked returned here: it has no result to send
             os._exit(0)
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(BaseException):
                 stream.flush()
-        data = memoryview(_HEADER.pack(len(payload)) + payload)
-        while data:
-            data = data[os.write(w, data) :]
+        _write_message(w, payload)
         code = 0
     except BaseException:  # noqa: BLE001 - nothing may escape into the parent's code
         code = 1  # the parent reports a child that ends without a result as crashed
