@@ -62,20 +62,20 @@ from droneplan.core.validation import check_work, machine_memory
 from droneplan.formulations.cells._bnb_bounds import node_bound
 from droneplan.formulations.cells._bnb_elimination import drop_dominated, eliminate_sites
 from droneplan.formulations.cells._bnb_heuristics import improve_start
+from droneplan.formulations.cells._bnb_leaves import last_pair, last_site
 from droneplan.formulations.cells._bnb_relaxed import free_completion
-from droneplan.formulations.cells._bnb_relays import _close, _relay_cost, pp_cost, relays_with
-from droneplan.formulations.cells._bnb_siblings import replaced_by_sibling, siblings_cut
+from droneplan.formulations.cells._bnb_relays import _close, _relay_cost
+from droneplan.formulations.cells._bnb_siblings import must_branch, replaced_by_sibling
 from droneplan.formulations.cells._bnb_sites import (
     Children,
     LinkRows,
     Node,
     SearchView,
+    Sites,
     _Timeout,
     _Witness,
     build_sites,
-    connecting,
     placed,
-    reach_of,
     shares_sites,
 )
 from droneplan.formulations.cells._core import TOL, Candidates, evaluate, pairwise_distances
@@ -171,8 +171,10 @@ class BranchAndBoundSearch:
         self.r2 = problem.r2
         self.r1t, self.r2t = problem.r1 + TOL, problem.r2 + TOL
         # the same sites in the same order: share the parent's structures (item 9's searches)
-        sites = parent.sites if parent is not None and shares_sites(parent, problem, cand) else None
-        self.sites = build_sites(problem, cand, self.out_of_time) if sites is None else sites
+        sites: Sites | None = (
+            parent.sites if parent is not None and shares_sites(parent, problem, cand) else None
+        )
+        self.sites: Sites = build_sites(problem, cand, self.out_of_time) if sites is None else sites
         self.order, self.pts, self.w = self.sites.order, self.sites.pts, self.sites.w
         self.bits, self.packed, self.tree = self.sites.bits, self.sites.packed, self.sites.tree
         self.clique, self.conflict = self.sites.clique, self.sites.conflict
@@ -222,15 +224,18 @@ class BranchAndBoundSearch:
     def relaxed_bound(self, problem: CellProblem, time_limit: float | None) -> float:
         """The bound of the whole search (:func:`search`, no incumbent) of the same sites for
         ``problem`` within ``time_limit`` s, with this one's ``conf_bound`` (item 9)."""
+        none = np.zeros((0, 2))
         return search(
-            problem,
-            self.cand,
-            np.zeros((0, 2)),
-            0,
-            time_limit=time_limit,
-            free_bounds=self.conf_bound,
-            parent=self,
+            problem, self.cand, none, 0, time_limit=time_limit, free_bounds=self.conf_bound, parent=self
         ).bound
+
+    def eliminate_sites(self, alive: np.ndarray) -> None:
+        """Items 9-10 (``_bnb_elimination.eliminate_sites``) on ``alive`` (bool over the sites)."""
+        eliminate_sites(self, alive)
+
+    def drop_dominated(self, alive: np.ndarray) -> int:
+        """Item 13 (``_bnb_elimination.drop_dominated``) on ``alive``; returns the sites cleared."""
+        return drop_dominated(self, alive)
 
     def expired(self) -> bool:
         """True once the node budget or the time limit is used up."""
@@ -261,7 +266,7 @@ class BranchAndBoundSearch:
                     self.best_val = int(self.shared[0].value)
         return self.expired()
 
-    def _tick(self) -> None:
+    def tick(self) -> None:
         """Count a search node; every ``_CHECK_EVERY`` nodes check the limits (and share the
         incumbent), and the clock at every node: a node's cost grows with m and the depth, so
         on a large m a few hundred nodes can take minutes."""
@@ -338,7 +343,7 @@ class BranchAndBoundSearch:
         With ``probe``, only bound it: the node bound, or None when no placement P + Q with
         Q from ``cmask`` covers more than the incumbent (item 10); nothing is searched.
         ``must`` (bool over the sites): only completions holding one of them (item 11)."""
-        self._tick()
+        self.tick()
         node = self._node(P, ubits, cmask, dist, must)
         if node.val > self.best_val and node.reach.all():
             self.offer(P)
@@ -349,7 +354,7 @@ class BranchAndBoundSearch:
             return None
         if r == 1:
             last = cmask if node.cmask_must is None else node.cmask_must
-            self.last_site(P, ubits, np.flatnonzero(last), node.reach, node.val)
+            last_site(self, P, ubits, np.flatnonzero(last), node.reach, node.val)
             return None
         kids = node_bound(self, node, nb)
         if kids is None:
@@ -364,7 +369,7 @@ class BranchAndBoundSearch:
             if node.cmask_must is not None and r >= 3 and int(node.cmask_must.sum()) <= _MUST_BRANCH:
                 # item 11 by branching: every completion holds a site e of ``must``; search
                 # P + e for each e in turn, its completions holding no earlier one
-                self.must_branch(node, node.cmask_must, kids.bound)
+                must_branch(self, node, node.cmask_must, kids.bound)
             else:
                 self.branch(node, kids)
         finally:
@@ -392,38 +397,10 @@ class BranchAndBoundSearch:
             mine = not dealt or pos % self.split[1] == self.split[0]
             if last_two is not None:
                 if mine:
-                    self.last_pair(node, j, last_two, explored)
+                    last_pair(self, node, j, last_two, explored)
             else:
                 self.child(node, kids, k, mine, explored)
             explored.append(j)
-
-    def last_pair(
-        self, node: Node, j: int, last_two: tuple[np.ndarray, np.ndarray], explored: list[int]
-    ) -> None:
-        """The child P + j of a node with two free slots, and its last sites (the tests of
-        a search node, vectorised over the candidates)."""
-        self._tick()
-        full, neg_w = last_two
-        z, must = self.best_val, node.must
-        ubj = node.ubits | self.bits[j]
-        valj = ubj.bit_count()
-        lo = int(np.searchsorted(full, j, side="right"))
-        hi = int(np.searchsorted(neg_w, valj - z, side="left"))  # w > z - valj
-        pj = [*node.P, j]
-        if valj > z and reach_of(self, pj).all():  # P + j alone
-            self.offer(pj)
-        if hi <= lo:
-            return
-        cq = full[lo:hi]
-        cq = cq[~self.conflict.at(j, cq)]
-        # item 11 (the lighter last sites are bounded); under ``must`` only for j outside
-        # it, whose last site is then in ``must`` in any case
-        if must is None or not must[j]:
-            if must is not None:
-                cq = cq[must[cq]]
-            if len(cq):
-                cq = siblings_cut(self, node, j, cq, explored)
-        self.last_site(pj, ubj, cq, reach_of(self, pj), valj)
 
     def child(self, node: Node, kids: Children, k: int, mine: bool, explored: list[int]) -> None:
         """The child P + j (j = ``kids.C[k]``) of a node with three or more free slots:
@@ -452,45 +429,6 @@ class BranchAndBoundSearch:
         self.dfs(
             pj, node.ubits | self.bits[j], cm, _close(self.pts[pj], nd, self.r2), kids.bound, must=child_must
         )
-
-    def must_branch(self, node: Node, cmask_must: np.ndarray, nb: float) -> None:
-        """Item 11 by branching: search the nodes P + e for the sites e of ``cmask_must``
-        (the sites of ``must`` left), each completed from ``cmask`` without the earlier
-        ones, so every completion holding a site of ``must`` is searched once. At the split
-        depth the e are dealt out like children (``_split_root``)."""
-        P, r = node.P, self.m - node.depth
-        rest = node.cmask.copy()
-        epp = pp_cost(self, P) if P else np.zeros((0, 0))
-        dealt = self.split[1] > 1 and len(P) == self.split[2]
-        for pos, e in enumerate(np.flatnonzero(cmask_must).tolist()):
-            rest[e] = False
-            if dealt and pos % self.split[1] != self.split[0]:
-                continue
-            nd = relays_with(self, P, node.dist, e, epp)
-            if float(nd.max()) > r - 1:  # item 3: P + e needs too many relays
-                continue
-            pe = [*P, e]
-            self.dfs(
-                pe,
-                node.ubits | self.bits[e],
-                rest & ~self.conflict.row(e),
-                _close(self.pts[pe], nd, self.r2),
-                nb,
-            )
-
-    def last_site(self, P: list[int], ubits: int, C: np.ndarray, reach: np.ndarray, val: int) -> None:
-        """The last free slot: every candidate q of C (sorted heaviest first, each keeping
-        P + q non-overlapping) that makes P + q connected (the exact link test of
-        ``evaluate``), while |S(P)| + |S(q)| can beat the incumbent."""
-        C = C[val + self.w[C] > self.best_val]
-        if len(C) == 0:
-            return
-        ok = connecting(self, P, C, reach)
-        for q in C[ok].tolist():
-            if val + int(self.w[q]) <= self.best_val:
-                break
-            if (ubits | self.bits[q]).bit_count() > self.best_val:
-                self.offer([*P, q])
 
     def _search_share(self, index: int, *, workers: int, root: np.ndarray) -> _Share:
         """One worker's share of the split search (``_split_root``)."""

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from droneplan.formulations.cells._bnb_relays import _close, pp_cost, relays_with
 from droneplan.formulations.cells._bnb_sites import Node, SearchView
 
 
@@ -117,6 +118,35 @@ def siblings_cut(s: SearchView, node: Node, j: int, cq: np.ndarray, explored: li
     if isinstance(replace, np.ndarray):
         return cq[replace[cq]]
     return cq
+
+
+def must_branch(s: SearchView, node: Node, cmask_must: np.ndarray, nb: float) -> None:
+    """Item 11 by branching: search the nodes P + e for the sites e of ``cmask_must``
+    (the sites of ``must`` left), each completed from ``cmask`` without the earlier
+    ones, so every completion holding a site of ``must`` is searched once. At the split
+    depth the e are dealt out like children (``_bnb._split_root``).
+
+    s: the search; node: the node; cmask_must: its completion sites of ``must``; nb: the
+    node's bound."""
+    P, r = node.P, s.m - node.depth
+    rest = node.cmask.copy()
+    epp = pp_cost(s, P) if P else np.zeros((0, 0))
+    dealt = s.split[1] > 1 and len(P) == s.split[2]
+    for pos, e in enumerate(np.flatnonzero(cmask_must).tolist()):
+        rest[e] = False
+        if dealt and pos % s.split[1] != s.split[0]:
+            continue
+        nd = relays_with(s, P, node.dist, e, epp)
+        if float(nd.max()) > r - 1:  # item 3: P + e needs too many relays
+            continue
+        pe = [*P, e]
+        s.dfs(
+            pe,
+            node.ubits | s.bits[e],
+            rest & ~s.conflict.row(e),
+            _close(s.pts[pe], nd, s.r2),
+            nb,
+        )
 
 
 _SIBLINGS = 16

@@ -410,9 +410,14 @@ class SearchView(Protocol):
     lens: dict[int, np.ndarray]
     free: SearchView | None
     exchange_sizes: tuple[int, ...]
+    split: tuple[int, int, int]
 
     def expired(self) -> bool:
         """True once the node budget or the time limit is used up."""
+        ...
+
+    def tick(self) -> None:
+        """Count a search node and check the limits."""
         ...
 
     def offer(self, P: list[int]) -> None:
