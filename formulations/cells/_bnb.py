@@ -199,7 +199,7 @@ class BranchAndBoundSearch:
         self.split: tuple[int, int, int] = (0, 1, 0)
         self.shared: list = []
         self._links: LinkRows | None = None
-        self.lens: dict[int, np.ndarray] = {}
+        self.lens: dict[int, np.ndarray] = {}  # item 11: the lens sites of each site asked for, kept
         self.witness = False  # stop at the first placement better than the incumbent (item 14)
         self.dual_from: float = 3  # item 7 at nodes with this many free slots or more
         self.dual_runs = 0  # nodes where item 7 ran, and where it cut (the other rules had not)

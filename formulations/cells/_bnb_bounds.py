@@ -1,4 +1,4 @@
-"""The node bound of the branch and bound (``_bnb``): items 1-6, 8 and 9 of its rules, one
+"""The node bound of the branch and bound (``_bnb``): items 1, 2, 4-6, 8 and 9 of its rules, one
 function each, and :func:`node_bound`, which combines them with item 7 (``_bnb_dual``), item 11's
 slot (``_bnb_siblings``) and item 12 (``_bnb_groups``). Each function's docstring gives the
 exactness argument of its item; item 3 (the relay lower bound) is in ``_bnb_relays``.
@@ -52,12 +52,14 @@ def clique_values(s: SearchView, Cok: np.ndarray, r: int, w_th: int) -> list[int
     makes this nearly tight: two chosen sites >= 2 R_d - TOL apart share only users in a
     lens of width ~TOL. The sum is never used as a value, only as a bound; values are
     exact unions (bitsets).
+
     2. **Clique partition.** The sites are partitioned once into cliques of the conflict
     graph: a site's clique holds the still unassigned sites within R_d - TOL of it, which
     are pairwise < 2 R_d - 2 TOL apart, so they overlap pairwise and at most one of them
     is chosen. Hence sum_{q in Q} |S(q)| <= the sum of the r largest per-clique maxima
     over the sites still compatible with P (r = free slots). Sites overlapping P are not
     compatible, so a cluster already covered by P does not count again.
+
     4. **Order cut.** Sites after i weigh at most |S(j)| for the next candidate j, so once
     |S(P)| + r |S(j)| <= incumbent no later candidate can lead above it. Sites cut this
     way weigh at most w_th = floor((z - |S(P)|) / r); they may still be the lighter
@@ -98,6 +100,7 @@ def unreached_bounds(
     tests of ``evaluate``), the first site off that group on a path to a GBS is a
     completion site within r2 + TOL of one of them; so one of the r slots holds at most
     the heaviest such candidate.
+
     8. **Two relay slots.** If an unreached P site a has relay lower bound >= 2, its path
     to a GBS holds >= 2 completion sites; the one next to the GBS side (item 6) and the
     one next to a's group (item 5) are then distinct, so two slots are bounded by the

@@ -49,7 +49,7 @@ def eliminate_sites(s: SearchView, alive: np.ndarray) -> None:
 
 
 def probe_sites(s: SearchView, sites: np.ndarray, alive: np.ndarray) -> np.ndarray:
-    """Item 10's probes (:meth:`site_bound`) of ``sites`` (indices) in turn, each cleared
+    """Item 10's probes (:func:`site_bound`) of ``sites`` (indices) in turn, each cleared
     site at once out of ``alive`` (so later probes see fewer sites); returns their bounds
     (-inf for the cleared ones). Item 7 is left out of the probes after the first
     ``_DUAL_TRIAL`` when it cut fewer than 1 % of the probes it ran in (its bound is only
@@ -89,7 +89,7 @@ def site_bound(s: SearchView, c: int, alive: np.ndarray) -> float | None:
 
 def site_can_improve(s: SearchView, c: int, alive: np.ndarray) -> bool:
     """Item 10: False when no placement holding site c and otherwise sites of ``alive``
-    can beat the incumbent (:meth:`site_bound`).
+    can beat the incumbent (:func:`site_bound`).
 
     s: the search; c: the site; alive: (n,) bool, the sites still usable.
     """

@@ -35,7 +35,7 @@ def local_search(s: SearchView, X: list[int]) -> None:
 
 
 def _swap(s: SearchView, X: list[int], cur: int) -> tuple[list[int], int] | None:
-    """One improving move of :meth:`local_search` (None when there is none)."""
+    """One improving move of :func:`local_search` (None when there is none)."""
     for i in range(len(X) + (len(X) < s.m)):
         R = X[:i] + X[i + 1 :]
         C = np.flatnonzero(s.compatible(R))
@@ -67,7 +67,7 @@ def exchange(s: SearchView, X: list[int]) -> None:
 
 
 def _exchange_pass(s: SearchView, X: list[int]) -> list[int] | None:
-    """One pass of :meth:`exchange`: the improved incumbent's sites, or None."""
+    """One pass of :func:`exchange`: the improved incumbent's sites, or None."""
     for k in s.exchange_sizes:
         for D in itertools.combinations(range(len(X)), k):
             R = sorted(X[i] for i in range(len(X)) if i not in D)

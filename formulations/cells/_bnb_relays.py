@@ -1,13 +1,5 @@
-"""Item 3 of the branch and bound (``_bnb``): the relay lower bound.
-
-In a connected placement the path from a GBS to a chosen site a passes through chosen
-sites; between consecutive P-sites s, t (or the GBS and the first one) on it lie at least
-ceil((|s - t| - r2 - TOL) / (r2 + TOL)) further sites (ceil((|a - G| - r1 - TOL) / (r2 + TOL))
-from the GBS), every link being at most r2 + TOL (r1 + TOL to a GBS). The shortest such path
-count over the complete graph on P and the GBSs is a lower bound on the relays outside P that
-P needs, so a branch with more needed relays than free slots holds no feasible placement.
-(Ceilings are taken of x - 1e-6 so rounding can only lower the bound.)
-"""
+"""Item 3 of the branch and bound (``_bnb``): the relay lower bound (:func:`relay_filter`, whose
+docstring gives the exactness argument) and the shortest relay counts it reads."""
 
 from __future__ import annotations
 
@@ -60,10 +52,20 @@ def _close(pp: np.ndarray, dist: np.ndarray, r2: float) -> np.ndarray:
 
 
 def relay_filter(s: SearchView, node: Node, C: np.ndarray) -> Children | None:
-    """Item 3 (module docstring): the candidates j of C for which P + j keeps its relay lower
+    """Item 3: the candidates j of C for which P + j keeps its relay lower
     bound within the free slots (``need <= r - 1``), with what the children need; None when none.
 
-    s: the search; node: the node of P; C: its candidate children (indices)."""
+    s: the search; node: the node of P; C: its candidate children (indices).
+
+    3. **Relay lower bound.** In a connected placement the path from a GBS to a chosen site
+    a passes through chosen sites; between consecutive P-sites s, t (or the GBS and the
+    first one) on it lie at least ceil((|s - t| - r2 - TOL) / (r2 + TOL)) further sites
+    (ceil((|a - G| - r1 - TOL) / (r2 + TOL)) from the GBS), every link being at most
+    r2 + TOL (r1 + TOL to a GBS). The shortest such path count over the complete graph
+    on P and the GBSs is a lower bound on the relays outside P that P needs, so a branch
+    with more needed relays than free slots holds no feasible placement. (Ceilings are
+    taken of x - 1e-6 so rounding can only lower the bound.)
+    """
     r = s.m - node.depth
     cgj = s.cg[C]
     if node.P:
