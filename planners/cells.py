@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -253,13 +254,48 @@ def _fitness(
     return out.reshape(lead)
 
 
+class _GaProgress:
+    """What a GA run has done so far: fitness evaluations against a budget, and the best
+    chromosome across the restarts, handed to ``on_best`` each time it improves."""
+
+    def __init__(self, max_evaluations: int | None, on_best: Callable[[NDArray[np.float64]], Any] | None):
+        self.max_evaluations, self.on_best = max_evaluations, on_best
+        self.evaluations = self.generations = 0
+        self.best = -1
+
+    def count(self, n: int) -> None:
+        self.evaluations += int(n)
+
+    def room_for(self, n: int) -> bool:
+        """Whether ``n`` more evaluations stay within the budget."""
+        return self.max_evaluations is None or self.evaluations + n <= self.max_evaluations
+
+    def look(self, pop: NDArray[np.float64], f: NDArray[np.int_]) -> None:
+        """Report the best chromosome of all runs if it beats the best seen (no random draw)."""
+        if self.on_best is None:
+            return
+        run, member = np.unravel_index(int(np.argmax(f)), f.shape)
+        if f[run, member] > self.best:
+            self.best = int(f[run, member])
+            self.on_best(pop[run, member].copy())
+
+
 def _run_batch(  # noqa: PLR0915
-    problem: CellProblem, N: int, P: int, iter_max: int, s: GASettings, rng: np.random.Generator
+    problem: CellProblem,
+    N: int,
+    P: int,
+    iter_max: int,
+    s: GASettings,
+    rng: np.random.Generator,
+    progress: _GaProgress | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.int_], NDArray[np.float64]]:
     """N independent GA runs (the restarts) advanced together: arrays are (N, P, m, 2).
     Every operator acts within its own run only, so this equals N sequential restarts.
     Returns each run's best chromosome, its fitness and the share of the final population
-    identical to it."""
+    identical to it. ``progress`` counts the fitness evaluations, stops before a generation
+    that could go beyond its budget (one evaluates at most 2 N P chromosomes), and reports
+    new best chromosomes."""
+    progress = progress or _GaProgress(None, None)
     m = problem.n_cells
     xmin, xmax, ymin, ymax = _area(problem)
     lo = np.array([xmin, ymin])
@@ -268,10 +304,14 @@ def _run_batch(  # noqa: PLR0915
     grid = _user_grid(problem) if len(problem.targets) else None
     pop = rng.uniform(lo, hi, size=(N, P, m, 2))
     f = _fitness(problem, pop, grid)
+    progress.count(N * P)
+    progress.look(pop, f)
     T = s.T
     n_rep = math.floor(s.replace_frac * P)
     runs = np.arange(N)[:, None]
     for _ in range(iter_max):
+        if not progress.room_for(2 * N * P):
+            break
         # --- mutation (4.10) with simulated-annealing acceptance (per run's f_best)
         fbest = f.max(axis=1, keepdims=True).astype(float)
         scale = np.where(fbest > 0, (1.0 - f / np.maximum(fbest, 1e-12)) ** 2, 1.0)
@@ -288,6 +328,7 @@ def _run_batch(  # noqa: PLR0915
         fc = f.copy()
         if changed.any():
             fc[changed] = _fitness(problem, cand[changed], grid)
+            progress.count(changed.sum())
         delta = fc - f
         accept = changed & ((delta >= 0) | (rng.random((N, P)) < np.exp(np.minimum(delta, 0) / T)))
         pop = np.where(accept[..., None, None], cand, pop)
@@ -317,6 +358,7 @@ def _run_batch(  # noqa: PLR0915
             crossed[rr, ia] = True
             crossed[rr, ib] = True
             f[crossed] = _fitness(problem, pop[crossed], grid)
+            progress.count(crossed.sum())
         # --- select: worst 20% of each run replaced by its best
         if n_rep:
             order = np.argsort(f, axis=1, kind="stable")
@@ -324,6 +366,8 @@ def _run_batch(  # noqa: PLR0915
             worst = order[:, :n_rep]
             pop[runs, worst] = pop[np.arange(N), best][:, None]
             f[runs, worst] = f[np.arange(N), best][:, None]
+        progress.look(pop, f)
+        progress.generations += 1
         T *= s.alpha
     i = np.argmax(f, axis=1)
     best_chrom = pop[np.arange(N), i]
@@ -379,6 +423,8 @@ def genetic(
     restarts: int | None = None,
     seed: int | np.random.Generator | None = None,
     settings: GASettings | None = None,
+    max_evaluations: int | None = None,
+    report: Callable[[NDArray[np.float64]], Any] | None = None,
 ) -> SolveResult:
     """Thesis GA with the restart strategy (§4.3.2, Tables 4.1 and 4.3).
 
@@ -387,6 +433,14 @@ def genetic(
     restarts: number of independent restarts N_start (default: Table 4.3 row for m).
     seed: int or Generator; the run is reproducible from it.
     settings: :class:`GASettings` (default Table 4.1).
+    max_evaluations: a budget of fitness evaluations (chromosomes evaluated, count); the run
+        stops before a generation that could exceed it (a generation evaluates at most
+        2 x pop_size x restarts chromosomes: the mutated and the crossed ones). None: the
+        thesis's iter_max generations. The count used is ``info["evaluations"]``.
+    report: called with each new best plan across the restarts, the contributing drone-cells
+        (k, 2) in metres, after the initial population and after every generation that
+        improves it (an anytime trace); it draws no random number, so the run is the same
+        with or without it.
 
     Returns a SolveResult with status FEASIBLE (no bound), ``x`` the contributing
     drone-cells (k, 2) of the best chromosome (m), ``objective`` their covered users,
@@ -418,7 +472,18 @@ def genetic(
     rng, drawn = resolve_seed(seed)
     seed = seed if drawn is None else drawn  # the seed drawn for seed=None is recorded
     t0 = time.perf_counter()
-    chromos, fvals, share = _run_batch(problem, int(N), int(P), int(iter_max), s, rng)
+    if max_evaluations is not None:
+        check_int("max_evaluations", max_evaluations, min_value=1)
+
+    on_best = None
+    if report is not None:
+        send = report
+
+        def on_best(chromosome: NDArray[np.float64]) -> None:
+            send(chromosome[_contributing(problem, chromosome[None])[0]])
+
+    progress = _GaProgress(max_evaluations, on_best)
+    chromos, fvals, share = _run_batch(problem, int(N), int(P), int(iter_max), s, rng, progress)
     bests = [int(v) for v in fvals]
     k = int(np.argmax(bests))
     chrom = chromos[k]
@@ -433,7 +498,7 @@ def genetic(
         backend="ga",
         message=f"thesis GA: {N} restarts x {iter_max} generations, population {P}",
         solve_time=time.perf_counter() - t0,
-        iterations=int(N * iter_max),
+        iterations=int(N * progress.generations),
         info={
             "restart_bests": bests,
             "final_best_share": [float(v) for v in share],
@@ -441,6 +506,7 @@ def genetic(
             "seed": seed if not isinstance(seed, np.random.Generator) else None,
             "pop_size": int(P),
             "restarts": int(N),
+            "evaluations": progress.evaluations,
         },
     )
 
@@ -678,6 +744,14 @@ class _SearchState:
     """Searches of the last drone-cell's region skipped by the bound (count)."""
     pruned: int = 0
     """Subtrees (a drone-cell 1..m-2 and everything after it) skipped by the bound (count)."""
+    report: Callable[[NDArray[np.float64]], Any] | None = None
+    """Called with each new best placement (k, 2), in metres."""
+
+    def improve(self, val: int, pos: NDArray[np.float64]) -> None:
+        """Keep ``pos`` (covering ``val`` users) as the best; report it."""
+        self.val, self.pos = val, pos
+        if self.report is not None:
+            self.report(pos.copy())
 
 
 class _DiscBound:
@@ -708,7 +782,14 @@ class _DiscBound:
         return ok
 
 
-def exhaustive(problem: CellProblem, *, time_limit: float | None = None, prune: bool = True) -> SolveResult:  # noqa: C901
+def exhaustive(  # noqa: C901
+    problem: CellProblem,
+    *,
+    time_limit: float | None = None,
+    prune: bool = True,
+    max_evaluations: int | None = None,
+    report: Callable[[NDArray[np.float64]], Any] | None = None,
+) -> SolveResult:
     """Algorithm 2 (thesis §4.3.1): drone-cells 1..m-1 visit every user location inside
     their deployment region (which depends on the GBSs and the cells placed before);
     the m-th is placed by :func:`max_coverage_in_region` in its region; the best
@@ -724,6 +805,10 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None, prune: 
         returned value and plan are those of the plain enumeration (``prune=False``), the
         Algorithm 2 of the thesis, which is only faster; ``solve_time`` is the honest wall
         time of the pruned search.
+    max_evaluations: stop, as at the time limit, once this many searches of the last drone-cell's
+        region were done (count; ``info["last_cell_searches"]``); None: no such budget.
+    report: called with each new best placement (k, 2), in metres, as the enumeration finds it
+        (an anytime trace).
 
     Returns a SolveResult (no bound): ``x`` positions (k, 2), ``objective`` covered users;
     ``info``: ``complete``, ``last_cell_searches`` (done), ``last_cell_skipped`` and
@@ -737,14 +822,17 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None, prune: 
     time_limit = check_time_limit(time_limit)
     if not isinstance(prune, bool):
         raise TypeError(f"prune must be a bool, got {type(prune).__name__}")
+    if max_evaluations is not None:
+        check_int("max_evaluations", max_evaluations, min_value=1)
     t0 = time.perf_counter()
     users = problem.targets
     m = problem.n_cells
-    best = _SearchState(val=0, pos=np.zeros((0, 2)))
+    best = _SearchState(val=0, pos=np.zeros((0, 2)), report=report)
     bound = _DiscBound(problem) if prune and len(users) else None
 
     def rec(placed: NDArray[np.float64], covered: NDArray[np.bool_]) -> None:  # noqa: C901
-        if time_limit is not None and time.perf_counter() - t0 > time_limit:
+        out_of_time = time_limit is not None and time.perf_counter() - t0 > time_limit
+        if out_of_time or (max_evaluations is not None and best.visited >= max_evaluations):
             best.complete = False
             return
         region = _region(problem, placed)
@@ -761,7 +849,7 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None, prune: 
             if p is not None:
                 val = int(covered.sum()) + c
                 if val > best.val:
-                    best.val, best.pos = val, np.vstack([placed, p[None]])
+                    best.improve(val, np.vstack([placed, p[None]]))
             return
         inside = np.flatnonzero(region.contains(users))
         for j in inside:
@@ -770,7 +858,7 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None, prune: 
             )
             pl = np.vstack([placed, users[j][None]])
             if int(newcov.sum()) > best.val:
-                best.val, best.pos = int(newcov.sum()), pl
+                best.improve(int(newcov.sum()), pl)
             # the cells after this one add at most (m - len(pl)) discs' worth of users
             if (
                 bound is not None
@@ -784,6 +872,20 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None, prune: 
                 return
 
     rec(np.zeros((0, 2)), np.zeros(len(users), dtype=bool))
+    return _exhaustive_result(problem, best, prune=prune, budgets=(time_limit, max_evaluations), t0=t0)
+
+
+def _exhaustive_result(
+    problem: CellProblem,
+    best: _SearchState,
+    *,
+    prune: bool,
+    budgets: tuple[float | None, int | None],
+    t0: float,
+) -> SolveResult:
+    """The result of :func:`exhaustive` from its final search state; ``budgets``: its time limit
+    (s) and its budget of last-cell searches."""
+    time_limit, max_evaluations = budgets
     ev = evaluate(problem, best.pos)
     if not ev.feasible:  # cannot happen by construction; never report an infeasible plan
         return SolveResult(
@@ -796,7 +898,10 @@ def exhaustive(problem: CellProblem, *, time_limit: float | None = None, prune: 
     if prune:
         msg += "; bound-pruned enumeration (same result as the plain one)"
     if not best.complete:
-        msg += f"; stopped at the time limit {time_limit} s before finishing the enumeration"
+        budget = f"the time limit {time_limit} s" if time_limit is not None else ""
+        if max_evaluations is not None and best.visited >= max_evaluations:
+            budget = f"the budget of {max_evaluations} last-cell searches"
+        msg += f"; stopped at {budget} before finishing the enumeration"
     return SolveResult(
         Status.FEASIBLE,
         objective=float(ev.covered),
