@@ -56,6 +56,7 @@ __all__ = [
     "require_set",
     "resolve_seed",
     "as_generator",
+    "run_seed",
 ]
 
 MAX_ELEMENTS = 50_000_000
@@ -388,3 +389,17 @@ def resolve_seed(seed: Any, name: str = "seed") -> tuple[np.random.Generator, in
 def as_generator(seed: Any, name: str = "seed") -> np.random.Generator:
     """The random generator for ``seed`` (int >= 0, Generator or None); see ``resolve_seed``."""
     return resolve_seed(seed, name)[0]
+
+
+def run_seed(seed: int, run: int) -> int:
+    """The seed of repetition ``run`` of a job whose own seed is ``seed`` (both ints >= 0).
+
+    seed: the job's seed; run: the repetition index (0, 1, ...). Run 0 gets ``seed`` itself, so
+    one run is the job as it always was; run r >= 1 gets a 32-bit seed drawn from
+    ``numpy.random.SeedSequence(seed, spawn_key=(r,))``, independent of the other runs' seeds.
+    """
+    seed = check_int("seed", seed, min_value=0)
+    run = check_int("run", run, min_value=0)
+    if run == 0:
+        return seed
+    return int(np.random.SeedSequence(seed, spawn_key=(run,)).generate_state(1, dtype=np.uint32)[0])
