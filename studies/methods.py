@@ -70,7 +70,10 @@ class Method:
     decided by its contract, i.e. any kind that fits). trusted_bound: the method is one of
     droneplan's exact engines, whose proven bound is recorded as a bound (a user method's claimed
     bound is kept only as a claim). builtin: registered by droneplan. time_limit: the method's own
-    wall-time limit in seconds, replacing the study's (None: the study's).
+    wall-time limit in seconds, replacing the study's (None: the study's). deterministic: True when
+    the same instance always gives the same plan whatever the seed (a study with ``runs > 1`` then
+    runs it once), False for a seeded stochastic method (run ``runs`` times), None: not known (a
+    study runs it twice and, when both plans agree, marks it deterministic and stops there).
     """
 
     name: str
@@ -81,6 +84,7 @@ class Method:
     trusted_bound: bool = False
     builtin: bool = False
     time_limit: float | None = None
+    deterministic: bool | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip() or "\n" in self.name:
@@ -99,6 +103,10 @@ class Method:
             )
         limit = check_time_limit(self.time_limit, f"method {self.name!r} time_limit")
         object.__setattr__(self, "time_limit", limit)
+        if self.deterministic is not None and not isinstance(self.deterministic, bool):
+            raise TypeError(
+                f"method {self.name!r}: deterministic must be True, False or None, got {self.deterministic!r}"
+            )
 
     @property
     def is_bound_engine(self) -> bool:
@@ -282,22 +290,72 @@ _FLEET = ("shark-fleet",)
 BUILTIN: dict[str, Method] = {
     m.name: m
     for m in (
-        Method("ga", _cells_ga, kinds=_CELLS, builtin=True),
-        Method("ga-polished", _cells_ga_polished, kinds=_CELLS, builtin=True),
-        Method("exhaustive", _cells_exhaustive, kinds=_CELLS, builtin=True),
-        Method("greedy", _cells_greedy, kinds=_CELLS, builtin=True),
-        Method("bnb", _cells_engine("bnb"), "model", kinds=_CELLS, trusted_bound=True, builtin=True),
-        Method("milp", _cells_engine("milp"), "model", kinds=_CELLS, trusted_bound=True, builtin=True),
-        Method("joint", _cells_joint, "model", kinds=_MOBILE, trusted_bound=True, builtin=True),
-        Method("myopic", _cells_myopic, kinds=_MOBILE, builtin=True),
-        Method("min-fleet", _cells_min_fleet, "model", kinds=_FLEET_SIZE, trusted_bound=True, builtin=True),
-        Method("greedy-fleet", _cells_greedy_fleet, kinds=_FLEET_SIZE, builtin=True),
-        Method("exact", _alloc_exact, "model", kinds=_ALLOC, trusted_bound=True, builtin=True),
-        Method("cp-sat", _alloc_cpsat, "model", kinds=_ALLOC, trusted_bound=True, builtin=True),
-        Method("alg3", _alloc_alg3, kinds=_ALLOC, builtin=True),
-        Method("collision-blind", _alloc_blind, kinds=_ALLOC, builtin=True),
-        Method("bottleneck", _fleet_bottleneck, "model", kinds=_FLEET, trusted_bound=True, builtin=True),
-        Method("greedy-nearest", _fleet_greedy, kinds=_FLEET, builtin=True),
+        Method("ga", _cells_ga, kinds=_CELLS, builtin=True, deterministic=False),
+        Method("ga-polished", _cells_ga_polished, kinds=_CELLS, builtin=True, deterministic=False),
+        Method("exhaustive", _cells_exhaustive, kinds=_CELLS, builtin=True, deterministic=True),
+        Method("greedy", _cells_greedy, kinds=_CELLS, builtin=True, deterministic=True),
+        Method(
+            "bnb",
+            _cells_engine("bnb"),
+            "model",
+            kinds=_CELLS,
+            trusted_bound=True,
+            builtin=True,
+            deterministic=True,
+        ),
+        Method(
+            "milp",
+            _cells_engine("milp"),
+            "model",
+            kinds=_CELLS,
+            trusted_bound=True,
+            builtin=True,
+            deterministic=True,
+        ),
+        Method(
+            "joint",
+            _cells_joint,
+            "model",
+            kinds=_MOBILE,
+            trusted_bound=True,
+            builtin=True,
+            deterministic=True,
+        ),
+        Method("myopic", _cells_myopic, kinds=_MOBILE, builtin=True, deterministic=True),
+        Method(
+            "min-fleet",
+            _cells_min_fleet,
+            "model",
+            kinds=_FLEET_SIZE,
+            trusted_bound=True,
+            builtin=True,
+            deterministic=True,
+        ),
+        Method("greedy-fleet", _cells_greedy_fleet, kinds=_FLEET_SIZE, builtin=True, deterministic=True),
+        Method(
+            "exact", _alloc_exact, "model", kinds=_ALLOC, trusted_bound=True, builtin=True, deterministic=True
+        ),
+        Method(
+            "cp-sat",
+            _alloc_cpsat,
+            "model",
+            kinds=_ALLOC,
+            trusted_bound=True,
+            builtin=True,
+            deterministic=True,
+        ),
+        Method("alg3", _alloc_alg3, kinds=_ALLOC, builtin=True, deterministic=True),
+        Method("collision-blind", _alloc_blind, kinds=_ALLOC, builtin=True, deterministic=True),
+        Method(
+            "bottleneck",
+            _fleet_bottleneck,
+            "model",
+            kinds=_FLEET,
+            trusted_bound=True,
+            builtin=True,
+            deterministic=True,
+        ),
+        Method("greedy-nearest", _fleet_greedy, kinds=_FLEET, builtin=True, deterministic=True),
         *(
             Method(name, _controller(f"droneplan.planners.{layer}", cls), role, kinds=(kind,), builtin=True)
             for name, layer, cls, role, kind in _CONTROLLERS
@@ -309,6 +367,7 @@ BUILTIN: dict[str, Method] = {
             kinds=("covert-run",),
             trusted_bound=True,
             builtin=True,
+            deterministic=True,
         ),
         Method(
             "interception-bound",
@@ -317,6 +376,7 @@ BUILTIN: dict[str, Method] = {
             kinds=("shark-path",),
             trusted_bound=True,
             builtin=True,
+            deterministic=True,
         ),
     )
 }
