@@ -19,6 +19,12 @@ Decisions where the thesis is not explicit:
 * Each restart is an independent run of ``iter_max`` generations from a fresh
   random population (temperature reset to T); the final population's best is the
   restart's result and the best over restarts is returned.
+
+Where the thesis text admits more than one reading (crossover row or column, mutation per gene
+or per chromosome, f_best per generation or over the run, the final or the best-ever result,
+fresh restarts or the best carried over, the fitness filter), :class:`GASettings` names each
+reading as a field whose default is the one above, and :data:`GA_READINGS` lists the
+alternatives with the sentence each reads differently.
 """
 
 from __future__ import annotations
@@ -50,6 +56,8 @@ from droneplan.solvers.result import SolveResult, Status
 
 __all__ = [
     "GASettings",
+    "GA_READINGS",
+    "ga_reading",
     "genetic",
     "genetic_polished",
     "polish",
@@ -63,12 +71,26 @@ __all__ = [
 
 
 # =========================================================================== GA
+_GA_CHOICES: dict[str, tuple[str, ...]] = {
+    "crossover": ("cell", "column"),
+    "mutation": ("gene", "chromosome"),
+    "f_best": ("generation", "run"),
+    "result": ("final", "best_ever"),
+    "fitness": ("contributing", "all_or_nothing", "unfiltered"),
+}
+"""The readings each string field of :class:`GASettings` admits, ours first."""
+
+
 @dataclass(frozen=True)
 class GASettings:
-    """GA parameters (thesis Table 4.1 defaults)."""
+    """GA parameters (thesis Table 4.1 defaults) and, for each rule the thesis text admits in more
+    than one way, the reading used (the default is droneplan's reading throughout;
+    :data:`GA_READINGS` names the alternatives)."""
 
     T: float = THESIS_GA_TABLE_4_1["T"]
-    """Initial simulated-annealing temperature (fitness units, users)."""
+    """Initial simulated-annealing temperature (fitness units, users). The thesis's T = 500 against
+    fitness differences of a few users accepts almost every worse mutation; a tiny T (1e-9)
+    reads SAM as "no worse move accepted" (annealing off)."""
     alpha: float = THESIS_GA_TABLE_4_1["alpha"]
     """Cooling factor of the temperature per generation, in (0, 1] (dimensionless)."""
     p_m: float = THESIS_GA_TABLE_4_1["p_m"]
@@ -85,7 +107,44 @@ class GASettings:
     by ``+- rnd * mutation_step * (1 - f/f_best)^2`` instead, a step independent of how far
     the drone-cell is from the GBS."""
 
+    crossover: str = "cell"
+    """Reading of crossover (4.11), which swaps y between ``[x_n, y_n]`` and ``[x_m, y_m]`` of two
+    chromosomes: "cell" (ours) takes each row as one drone-cell, so the y of one randomly chosen
+    drone-cell is swapped; "column" takes ``x``/``y`` as the chromosome's whole x and y columns,
+    so every drone-cell's y is swapped (the two readings agree at m = 1)."""
+    mutation: str = "gene"
+    """Reading of "applied with a mutation probability P_m to some genes g" (§4.3.2.1): "gene"
+    (ours) mutates each coordinate with probability P_m; "chromosome" picks each chromosome with
+    probability P_m and mutates all its genes (each with its own rnd and sign)."""
+    f_best: str = "generation"
+    """Reading of f_best in (4.10), "the current highest fitness achieved by the population":
+    "generation" (ours) is the highest fitness in the population now; "run" is the highest
+    fitness the restart has reached so far (the two differ when crossover or an accepted
+    annealing move lowers the population's best)."""
+    result: str = "final"
+    """Reading of "once reach ... iter_max, return the chromosome I* that has the highest fitness
+    in the population" (§4.3.2.3): "final" (ours) returns the final population's best;
+    "best_ever" returns the best chromosome the restart held at any point (never lower)."""
+    carry_best: bool = False
+    """Reading of the restart strategy ("restart the GA for a number of times N_start"):
+    False (ours) restarts from a fresh random population each time; True puts the best
+    chromosome of the restarts so far into each new restart's initial population (the restarts
+    then run one after another instead of side by side)."""
+    fitness: str = "contributing"
+    """Reading of "f(I) equals the number of users covered by the drone-cells with their
+    coordinates satisfy the backhaul constraints (4.7) (4.8)": "contributing" (ours) counts the
+    users of the drone-cells that satisfy them (module docstring); "all_or_nothing" counts the
+    users of the whole chromosome when every drone-cell satisfies them and 0 otherwise;
+    "unfiltered" counts every drone-cell's users as (4.9) alone would (not a reading of that
+    sentence; for comparison). The returned plan is always the best chromosome's contributing
+    drone-cells, so it stays feasible."""
+
     def __post_init__(self) -> None:
+        for name, choices in _GA_CHOICES.items():
+            if getattr(self, name) not in choices:
+                raise ValueError(f"{name} must be one of {choices}, got {getattr(self, name)!r}")
+        if not isinstance(self.carry_best, bool):
+            raise TypeError(f"carry_best must be a bool, got {type(self.carry_best).__name__}")
         check_positive("T", self.T)
         check_in_range("alpha", self.alpha, 0.0, 1.0, lo_open=True)
         for name in ("p_m", "p_c1", "p_c2"):
@@ -93,6 +152,77 @@ class GASettings:
         check_in_range("replace_frac", self.replace_frac, 0.0, 1.0, hi_open=True)
         if self.mutation_step is not None:
             check_positive("mutation_step", self.mutation_step)
+
+
+GA_READINGS: dict[str, dict[str, Any]] = {
+    "ours": {
+        "settings": {},
+        "label": "droneplan's reading (the GASettings defaults)",
+        "reads": "-",
+    },
+    "column-crossover": {
+        "settings": {"crossover": "column"},
+        "label": "crossover swaps the whole y column (every drone-cell's y)",
+        "reads": "(4.11): [x_n, y_n], [x_m, y_m] -> [x_n, y_m], [x_m, y_n]",
+    },
+    "chromosome-mutation": {
+        "settings": {"mutation": "chromosome"},
+        "label": "mutation picks a chromosome with P_m and mutates all its genes",
+        "reads": "§4.3.2.1: 'applied with a mutation probability P_m to some genes g'",
+    },
+    "f-best-run": {
+        "settings": {"f_best": "run"},
+        "label": "f_best of (4.10) is the restart's best so far",
+        "reads": "(4.10): 'f_best is the current highest fitness achieved by the population'",
+    },
+    "best-ever": {
+        "settings": {"result": "best_ever"},
+        "label": "each restart returns its best-ever chromosome",
+        "reads": "§4.3.2.3: 'return the chromosome I* that has the highest fitness in the population'",
+    },
+    "no-annealing": {
+        "settings": {"T": 1e-9},
+        "label": "no worse mutation accepted (annealing off)",
+        "reads": "§4.3.2.1 SAM: 'the annealing probability exp(delta_f/T)', T = 500 (Table 4.1)",
+    },
+    "carry-best": {
+        "settings": {"carry_best": True},
+        "label": "each restart starts with the best chromosome so far",
+        "reads": "restart strategy: 'restart the GA for a number of times N_start'",
+    },
+    "all-or-nothing-fitness": {
+        "settings": {"fitness": "all_or_nothing"},
+        "label": "fitness 0 unless every drone-cell satisfies (4.7)-(4.8)",
+        "reads": "§4.3.2: 'f(I) equals the number of users covered by the drone-cells with their "
+        "coordinates satisfy the backhaul constraints (4.7) (4.8)'",
+    },
+    "unfiltered-fitness": {
+        "settings": {"fitness": "unfiltered"},
+        "label": "fitness (4.9) alone, no (4.7)-(4.8) filter (not a reading of §4.3.2; comparison)",
+        "reads": "(4.9) without the sentence of §4.3.2 that filters by (4.7) (4.8)",
+    },
+    "favourable": {
+        "settings": {"crossover": "column", "f_best": "run", "result": "best_ever", "carry_best": True},
+        "label": "all favourable readings together (column crossover, f_best over the run, best-ever "
+        "result, best carried into each restart)",
+        "reads": "(4.10), (4.11), §4.3.2.3 and the restart strategy together",
+    },
+}
+"""Readings of the thesis GA, keyed by a short name: ``settings`` are the :class:`GASettings`
+overrides, ``label`` says what changes and ``reads`` which equation or sentence of §4.3.2 is read
+differently. "ours" is the default; "favourable" combines the alternatives that keep more of the
+search (more diverse crossover, larger mutation, nothing lost between or within restarts)."""
+
+
+def ga_reading(name: str, **overrides: Any) -> GASettings:
+    """The :class:`GASettings` of reading ``name`` (a key of :data:`GA_READINGS`).
+
+    name: the reading's key.
+    overrides: further GASettings fields (e.g. Table 4.1 values), applied after the reading's.
+    """
+    if name not in GA_READINGS:
+        raise ValueError(f"name must be a key of GA_READINGS {list(GA_READINGS)}, got {name!r}")
+    return GASettings(**{**GA_READINGS[name]["settings"], **overrides})
 
 
 def thesis_ga_settings(m: int) -> tuple[int, int]:
@@ -237,9 +367,14 @@ def fitness(problem: CellProblem, pop: ArrayLike, *, chunk: int = 2048) -> NDArr
 
 
 def _fitness(
-    problem: CellProblem, arr: NDArray[np.float64], grid: _UserGrid | None, chunk: int = 2048
+    problem: CellProblem,
+    arr: NDArray[np.float64],
+    grid: _UserGrid | None,
+    chunk: int = 2048,
+    mode: str = "contributing",
 ) -> NDArray[np.int64]:
-    """:func:`fitness` without argument checks; ``grid`` is the problem's user grid (built if None)."""
+    """:func:`fitness` without argument checks; ``grid`` is the problem's user grid (built if None);
+    ``mode`` is the reading :attr:`GASettings.fitness` (the public function's is "contributing")."""
     if arr.ndim == 2:
         arr = arr[None]
     lead = arr.shape[:-2]
@@ -250,7 +385,11 @@ def _fitness(
     grid = _user_grid(problem) if grid is None else grid
     for a in range(0, len(flat), chunk):
         blk = flat[a : a + chunk]
-        out[a : a + chunk] = _covered_counts(problem, grid, blk, _contributing(problem, blk))
+        counted = np.ones(blk.shape[:2], dtype=bool) if mode == "unfiltered" else _contributing(problem, blk)
+        vals = _covered_counts(problem, grid, blk, counted)
+        if mode == "all_or_nothing":
+            vals = np.where(counted.all(axis=1), vals, 0)
+        out[a : a + chunk] = vals
     return out.reshape(lead)
 
 
@@ -280,7 +419,98 @@ class _GaProgress:
             self.on_best(pop[run, member].copy())
 
 
-def _run_batch(  # noqa: PLR0915
+class _RunBests:
+    """The best chromosome each of N runs has held so far, and its fitness (for the "run"
+    reading of f_best and the "best_ever" reading of the result)."""
+
+    def __init__(self, pop: NDArray[np.float64], f: NDArray[np.int_]):
+        self.idx = np.arange(len(pop))
+        self.f = np.full(len(pop), -1, dtype=np.int64)
+        self.chrom = np.zeros((len(pop), *pop.shape[2:]))
+        self.look(pop, f)
+
+    def look(self, pop: NDArray[np.float64], f: NDArray[np.int_]) -> None:
+        """Keep each run's best of ``pop`` when it beats the best held (no random draw)."""
+        i = np.argmax(f, axis=1)
+        fi = f[self.idx, i]
+        up = fi > self.f
+        self.chrom[up] = pop[self.idx, i][up]
+        self.f[up] = fi[up]
+
+
+def _mutate(
+    problem: CellProblem,
+    pop: NDArray[np.float64],
+    f: NDArray[np.int_],
+    fbest: NDArray[np.float64],
+    box: tuple[NDArray[np.float64], NDArray[np.float64]],
+    s: GASettings,
+    rng: np.random.Generator,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Mutation (4.10) of every run's population: the candidate population and which
+    chromosomes changed. ``fbest`` (N, 1) is f_best of each run (its reading chosen by the caller)."""
+    N, P, m, _ = pop.shape
+    lo, hi = box
+    origin = problem.gbs[0]
+    scale = np.where(fbest > 0, (1.0 - f / np.maximum(fbest, 1e-12)) ** 2, 1.0)
+    if s.mutation == "gene":
+        mask = rng.random((N, P, m, 2)) < s.p_m
+    else:  # "chromosome": each chromosome with probability P_m, all its genes
+        mask = np.broadcast_to((rng.random((N, P)) < s.p_m)[..., None, None], (N, P, m, 2))
+    sign = rng.choice([-1.0, 1.0], size=(N, P, m, 2))
+    step = sign * rng.random((N, P, m, 2)) * scale[..., None, None]
+    if s.mutation_step is None:  # (4.10): g' = g (1 +- rnd (1 - f/f_best)^2), g relative to the GBS
+        moved = origin + (pop - origin) * (1.0 + step)
+    else:  # ablation variant: an absolute step
+        moved = pop + step * s.mutation_step
+    cand = np.clip(np.where(mask, moved, pop), lo, hi)
+    return cand, mask.any(axis=(2, 3))
+
+
+def _crossover(
+    pop: NDArray[np.float64], f: NDArray[np.int_], s: GASettings, rng: np.random.Generator
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
+    """Adaptive crossover (4.11)-(4.12) in place on ``pop`` (N, P, m, 2), pairs drawn within each
+    run; returns (run, first, second) of the crossed pairs."""
+    N, P, m, _ = pop.shape
+    perm = np.argsort(rng.random((N, P)), axis=1)
+    half = P // 2
+    a, b = perm[:, 0 : 2 * half : 2], perm[:, 1 : 2 * half : 2]
+    fmax = f.max(axis=1, keepdims=True).astype(float)
+    favg = f.mean(axis=1, keepdims=True)
+    fp = np.maximum(np.take_along_axis(f, a, 1), np.take_along_axis(f, b, 1))
+    spread = fmax - favg
+    ramp = s.p_c1 - (s.p_c1 - s.p_c2) * (fp - favg) / np.where(spread > 0, spread, 1.0)
+    pc = np.where(fp >= favg, ramp, s.p_c1)
+    pc = np.where(spread > 0, pc, s.p_c2)
+    do = rng.random((N, half)) < pc
+    rr, cc = np.nonzero(do)
+    ia, ib = a[rr, cc], b[rr, cc]
+    if s.crossover == "cell":  # one drone-cell's y
+        r = rng.integers(0, m, size=(N, half))[rr, cc]
+        ya = pop[rr, ia, r, 1].copy()
+        pop[rr, ia, r, 1] = pop[rr, ib, r, 1]
+        pop[rr, ib, r, 1] = ya
+    else:  # "column": every drone-cell's y
+        ya = pop[rr, ia, :, 1].copy()
+        pop[rr, ia, :, 1] = pop[rr, ib, :, 1]
+        pop[rr, ib, :, 1] = ya
+    return rr, ia, ib
+
+
+def _select(pop: NDArray[np.float64], f: NDArray[np.int_], n_rep: int) -> None:
+    """Selection (§4.3.2.3) in place: the worst ``n_rep`` of each run replaced by its best."""
+    if not n_rep:
+        return
+    N = len(pop)
+    order = np.argsort(f, axis=1, kind="stable")
+    best = order[:, -1]
+    worst = order[:, :n_rep]
+    pop[np.arange(N)[:, None], worst] = pop[np.arange(N), best][:, None]
+    f[np.arange(N)[:, None], worst] = f[np.arange(N), best][:, None]
+
+
+def _run_batch(
     problem: CellProblem,
     N: int,
     P: int,
@@ -288,84 +518,57 @@ def _run_batch(  # noqa: PLR0915
     s: GASettings,
     rng: np.random.Generator,
     progress: _GaProgress | None = None,
+    init_best: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.int_], NDArray[np.float64]]:
     """N independent GA runs (the restarts) advanced together: arrays are (N, P, m, 2).
     Every operator acts within its own run only, so this equals N sequential restarts.
-    Returns each run's best chromosome, its fitness and the share of the final population
-    identical to it. ``progress`` counts the fitness evaluations, stops before a generation
-    that could go beyond its budget (one evaluates at most 2 N P chromosomes), and reports
-    new best chromosomes."""
+    Returns each run's result chromosome (by ``s.result``), its fitness and the share of the
+    final population identical to the final population's best. ``progress`` counts the fitness
+    evaluations, stops before a generation that could go beyond its budget (one evaluates at
+    most 2 N P chromosomes), and reports new best chromosomes. ``init_best`` (m, 2), when
+    given, replaces the first chromosome of every run's initial population."""
     progress = progress or _GaProgress(None, None)
     m = problem.n_cells
     xmin, xmax, ymin, ymax = _area(problem)
-    lo = np.array([xmin, ymin])
-    hi = np.array([xmax, ymax])
-    origin = problem.gbs[0]
+    box = (np.array([xmin, ymin]), np.array([xmax, ymax]))
     grid = _user_grid(problem) if len(problem.targets) else None
-    pop = rng.uniform(lo, hi, size=(N, P, m, 2))
-    f = _fitness(problem, pop, grid)
+    pop = rng.uniform(box[0], box[1], size=(N, P, m, 2))
+    if init_best is not None:
+        pop[:, 0] = init_best
+    f = _fitness(problem, pop, grid, mode=s.fitness)
     progress.count(N * P)
     progress.look(pop, f)
+    track = s.f_best == "run" or s.result == "best_ever"
+    held = _RunBests(pop, f) if track else None
     T = s.T
     n_rep = math.floor(s.replace_frac * P)
-    runs = np.arange(N)[:, None]
     for _ in range(iter_max):
         if not progress.room_for(2 * N * P):
             break
         # --- mutation (4.10) with simulated-annealing acceptance (per run's f_best)
-        fbest = f.max(axis=1, keepdims=True).astype(float)
-        scale = np.where(fbest > 0, (1.0 - f / np.maximum(fbest, 1e-12)) ** 2, 1.0)
-        mask = rng.random((N, P, m, 2)) < s.p_m
-        sign = rng.choice([-1.0, 1.0], size=(N, P, m, 2))
-        step = sign * rng.random((N, P, m, 2)) * scale[..., None, None]
-        if s.mutation_step is None:  # (4.10): g' = g (1 +- rnd (1 - f/f_best)^2), g relative to the GBS
-            moved = origin + (pop - origin) * (1.0 + step)
-        else:  # ablation variant: an absolute step
-            moved = pop + step * s.mutation_step
-        cand = np.where(mask, moved, pop)
-        cand = np.clip(cand, lo, hi)
-        changed = mask.any(axis=(2, 3))
+        fbest = held.f[:, None] if held is not None and s.f_best == "run" else f.max(axis=1, keepdims=True)
+        cand, changed = _mutate(problem, pop, f, fbest, box, s, rng)
         fc = f.copy()
         if changed.any():
-            fc[changed] = _fitness(problem, cand[changed], grid)
+            fc[changed] = _fitness(problem, cand[changed], grid, mode=s.fitness)
             progress.count(changed.sum())
         delta = fc - f
         accept = changed & ((delta >= 0) | (rng.random((N, P)) < np.exp(np.minimum(delta, 0) / T)))
         pop = np.where(accept[..., None, None], cand, pop)
         f = np.where(accept, fc, f)
-        # --- adaptive crossover (4.11)-(4.12), pairs drawn within each run
-        perm = np.argsort(rng.random((N, P)), axis=1)
-        half = P // 2
-        a, b = perm[:, 0 : 2 * half : 2], perm[:, 1 : 2 * half : 2]
-        fmax = f.max(axis=1, keepdims=True).astype(float)
-        favg = f.mean(axis=1, keepdims=True)
-        fp = np.maximum(np.take_along_axis(f, a, 1), np.take_along_axis(f, b, 1))
-        spread = fmax - favg
-        pc = np.where(
-            fp >= favg, s.p_c1 - (s.p_c1 - s.p_c2) * (fp - favg) / np.where(spread > 0, spread, 1.0), s.p_c1
-        )
-        pc = np.where(spread > 0, pc, s.p_c2)
-        do = rng.random((N, half)) < pc
-        rows = rng.integers(0, m, size=(N, half))
-        rr, cc = np.nonzero(do)
-        ia, ib, r = a[rr, cc], b[rr, cc], rows[rr, cc]
-        ya = pop[rr, ia, r, 1].copy()
-        pop[rr, ia, r, 1] = pop[rr, ib, r, 1]
-        pop[rr, ib, r, 1] = ya
+        if held is not None:
+            held.look(pop, f)
+        # --- adaptive crossover (4.11)-(4.12)
+        rr, ia, ib = _crossover(pop, f, s, rng)
         # the fitness is a function of the chromosome alone: re-evaluate the crossed ones only
-        if len(rr):
-            crossed = np.zeros((N, P), dtype=bool)
-            crossed[rr, ia] = True
-            crossed[rr, ib] = True
-            f[crossed] = _fitness(problem, pop[crossed], grid)
-            progress.count(crossed.sum())
-        # --- select: worst 20% of each run replaced by its best
-        if n_rep:
-            order = np.argsort(f, axis=1, kind="stable")
-            best = order[:, -1]
-            worst = order[:, :n_rep]
-            pop[runs, worst] = pop[np.arange(N), best][:, None]
-            f[runs, worst] = f[np.arange(N), best][:, None]
+        crossed = np.zeros((N, P), dtype=bool)
+        crossed[rr, ia] = True
+        crossed[rr, ib] = True
+        f[crossed] = _fitness(problem, pop[crossed], grid, mode=s.fitness)
+        progress.count(crossed.sum())
+        if held is not None:
+            held.look(pop, f)
+        _select(pop, f, n_rep)
         progress.look(pop, f)
         progress.generations += 1
         T *= s.alpha
@@ -373,6 +576,8 @@ def _run_batch(  # noqa: PLR0915
     best_chrom = pop[np.arange(N), i]
     # how far each run's population has collapsed: the share of chromosomes equal to its best
     share = np.all(pop == best_chrom[:, None], axis=(2, 3)).mean(axis=1)
+    if held is not None and s.result == "best_ever":
+        return held.chrom.copy(), held.f.astype(int), share
     return best_chrom.copy(), f[np.arange(N), i].astype(int), share
 
 
@@ -483,7 +688,16 @@ def genetic(
             send(chromosome[_contributing(problem, chromosome[None])[0]])
 
     progress = _GaProgress(max_evaluations, on_best)
-    chromos, fvals, share = _run_batch(problem, int(N), int(P), int(iter_max), s, rng, progress)
+    if s.carry_best:  # restarts one after another, each seeded with the best so far
+        parts = []
+        for _ in range(int(N)):
+            carried = None if not parts else max(parts, key=lambda t: int(t[1][0]))[0][0]
+            parts.append(_run_batch(problem, 1, int(P), int(iter_max), s, rng, progress, carried))
+        chromos, fvals, share = (np.concatenate([t[j] for t in parts]) for j in range(3))
+        generations = progress.generations
+    else:
+        chromos, fvals, share = _run_batch(problem, int(N), int(P), int(iter_max), s, rng, progress)
+        generations = int(N * progress.generations)
     bests = [int(v) for v in fvals]
     k = int(np.argmax(bests))
     chrom = chromos[k]
@@ -498,7 +712,7 @@ def genetic(
         backend="ga",
         message=f"thesis GA: {N} restarts x {iter_max} generations, population {P}",
         solve_time=time.perf_counter() - t0,
-        iterations=int(N * progress.generations),
+        iterations=generations,
         info={
             "restart_bests": bests,
             "final_best_share": [float(v) for v in share],
