@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import functools
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -66,6 +67,7 @@ class CpSatAdapter(BackendAdapter, CpBackend, LinearBackend):
         verbose: bool = False,
         seed: int | None = None,
         parameters: Mapping[str, Any] | None = None,
+        on_solution: Callable[[np.ndarray, float | None, float | None], Any] | None = None,
     ) -> SolveResult:
         """Solve a CP-SAT model.
 
@@ -78,6 +80,9 @@ class CpSatAdapter(BackendAdapter, CpBackend, LinearBackend):
         seed: CP-SAT's random seed.
         parameters: further CP-SAT parameters by their SatParameters field name, e.g.
             ``{"subsolvers": ["max_lp", "core"]}`` (a list sets a repeated field).
+        on_solution: called as ``on_solution(x, objective, bound)`` with each solution CP-SAT
+            finds (``x`` the int64 values of ``variables``; objective and bound None without an
+            objective), from CP-SAT's solution callback while it runs.
 
         Returns a SolveResult: ``x`` is an int64 array of the values of ``variables``
         (None without a solution), ``objective`` the objective value and ``bound`` CP-SAT's
@@ -143,7 +148,41 @@ class CpSatAdapter(BackendAdapter, CpBackend, LinearBackend):
                 },
             )
 
-        return run_native(self, lambda: (solver.solve(model), None), read, warm_started=bool(hint))
+        callback = None
+        if on_solution is not None:
+            callback = _solution_callback_class()(variables, model.has_objective(), on_solution)
+        hinted = bool(hint)
+        result = run_native(self, lambda: (solver.solve(model, callback), None), read, warm_started=hinted)
+        if callback is not None and callback.error is not None:
+            raise callback.error
+        return result
+
+
+@functools.cache
+def _solution_callback_class() -> Any:
+    """CP-SAT's solution callback, subclassed once OR-Tools is imported (this module loads
+    without it)."""
+    from ortools.sat.python import cp_model
+
+    class SolutionCallback(cp_model.CpSolverSolutionCallback):
+        def __init__(self, variables: Sequence[Any], has_objective: bool, send: Callable[..., Any]):
+            super().__init__()
+            self._variables, self._has_objective, self._send = list(variables), has_objective, send
+            self.error: BaseException | None = None
+
+        def on_solution_callback(self) -> None:
+            if self.error is not None:
+                return
+            x = np.array([self.value(v) for v in self._variables], dtype=np.int64)
+            objective = float(self.objective_value) if self._has_objective else None
+            bound = float(self.best_objective_bound) if self._has_objective else None
+            try:
+                self._send(x, objective, bound)
+            except BaseException as exc:  # noqa: BLE001 - raised again once CP-SAT has stopped
+                self.error = exc
+                self.stop_search()
+
+    return SolutionCallback
 
 
 class CpSatLinearModel(LinearModel):
@@ -207,8 +246,10 @@ class CpSatLinearModel(LinearModel):
         hint: Mapping[Any, float] | None = None,
         verbose: bool = False,
         options: Mapping[str, Any] | None = None,
+        on_solution: Callable[[np.ndarray, float | None, float | None], Any] | None = None,
     ) -> SolveResult:
-        """Solve on CP-SAT; ``options`` are SatParameters fields (see CpSatAdapter.solve_cp)."""
+        """Solve on CP-SAT; ``options`` are SatParameters fields and ``on_solution`` is called from
+        CP-SAT's solution callback (see CpSatAdapter.solve_cp)."""
         int_hint = None if hint is None else {var: int(value) for var, value in hint.items()}
         return CpSatAdapter().solve_cp(
             self._model,
@@ -218,6 +259,7 @@ class CpSatLinearModel(LinearModel):
             hint=int_hint,
             verbose=verbose,
             parameters=options,
+            on_solution=on_solution,
         )
 
 

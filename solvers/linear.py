@@ -19,8 +19,10 @@ through this interface. Coefficients must be integers for CP-SAT.
 from __future__ import annotations
 
 import abc
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
+
+import numpy as np
 
 from droneplan.solvers.result import SolveResult
 
@@ -99,6 +101,7 @@ class LinearModel(abc.ABC):
         hint: Mapping[Any, float] | None = None,
         verbose: bool = False,
         options: Mapping[str, Any] | None = None,
+        on_solution: Callable[[np.ndarray, float | None, float | None], Any] | None = None,
     ) -> SolveResult:
         """Solve the model.
 
@@ -109,6 +112,10 @@ class LinearModel(abc.ABC):
             ``warm_started`` says whether it was.
         verbose: let the backend print its log (default quiet).
         options: backend-specific parameters by the backend's own names.
+        on_solution: called as ``on_solution(x, objective, bound)`` with each improving solution
+            (``x`` the values of ``variables``) while the backend runs, where it reports them
+            (CP-SAT); a backend that cannot calls it once, with the final solution. Its
+            exceptions propagate.
 
         Returns a SolveResult with ``objective``, the backend's proven ``bound`` and ``x``.
         """

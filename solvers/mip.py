@@ -14,7 +14,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -432,13 +432,15 @@ class PywraplpLinearModel(LinearModel):
         hint: Mapping[Any, float] | None = None,
         verbose: bool = False,
         options: Mapping[str, Any] | None = None,
+        on_solution: Callable[[np.ndarray, float | None, float | None], Any] | None = None,
     ) -> SolveResult:
-        """Solve; ``options`` may hold ``relative_gap`` (stop below this relative MIP gap)."""
+        """Solve; ``options`` may hold ``relative_gap`` (stop below this relative MIP gap).
+        pywraplp reports no solution while it runs: ``on_solution`` gets the final one."""
         opts = dict(options or {})
         relative_gap = opts.pop("relative_gap", None)
         if opts:
             raise ValueError(f"unknown {self.backend} options {sorted(opts)}; known: ['relative_gap']")
-        return self._adapter.solve_native(
+        result = self._adapter.solve_native(
             self._solver,
             variables=variables,
             time_limit=time_limit,
@@ -447,3 +449,6 @@ class PywraplpLinearModel(LinearModel):
             relative_gap=relative_gap,
             verbose=verbose,
         )
+        if on_solution is not None and result.has_solution:
+            on_solution(np.asarray(result.x), result.objective, result.bound)
+        return result
