@@ -63,6 +63,8 @@ __all__ = [
     "AT_BEST_TOL",
     "GAP_ZERO_TOL",
     "SUMMARY_COLUMNS",
+    "SUCCESS_TOL",
+    "instance_targets",
     "performance_ratios",
     "performance_profile",
     "shifted_geometric_mean",
@@ -262,15 +264,34 @@ SUMMARY_COLUMNS = (
     "p95_gap_to_best",
     "sgm_time_s",
     "flagged",
+    "runs",
+    "success_rate",
+    "target_kind",
+    "mean_objective",
+    "q1_objective",
+    "median_objective",
+    "q3_objective",
+    "ert_s",
 )
 """Columns of :func:`summary_table`, in order."""
 
+SUCCESS_TOL = 1e-6
+"""Default relative tolerance (dimensionless) within which a run's objective reaches the target of
+its instance (:func:`summary_table`'s ``success_rate`` and ``ert_s``)."""
 
-def summary_table(df: pd.DataFrame, *, time_shift: float = 1.0) -> pd.DataFrame:
+_STRICT_FLAGS = ("beats-bound", "library-suspect")
+
+
+def summary_table(
+    df: pd.DataFrame, *, time_shift: float = 1.0, success_tol: float = SUCCESS_TOL
+) -> pd.DataFrame:
     """One row per (problem, size, method): what happened to its runs and how good they were.
 
-    df: rows of the results schema (roles other than ``bound``; ``flag`` may be absent);
-    time_shift: shift (s) of the shifted geometric mean of the times.
+    df: rows of the results schema (roles other than ``bound``; ``flag`` may be absent; one row
+    per run when a study made several, column ``run``);
+    time_shift: shift (s) of the shifted geometric mean of the times; success_tol: relative
+    tolerance (dimensionless, default ``SUCCESS_TOL``, kept in ``table.attrs["success_tol"]``)
+    within which a run reaches its instance's target.
     Columns (``SUMMARY_COLUMNS``): ``n`` runs (count); ``solved`` (status optimal/feasible);
     one count per failure status of ``FAILURE_COLUMNS`` and ``other`` for any further
     status, so that ``solved + infeasible + invalid + timeout + error + no_solution + other
@@ -280,11 +301,22 @@ def summary_table(df: pd.DataFrame, *, time_shift: float = 1.0) -> pd.DataFrame:
     exactly 0); ``sgm_time_s`` the shifted
     geometric mean (s) of the times of all runs that recorded one, failures included (a
     timeout counts with the time at which it was stopped); ``flagged`` runs whose ``flag``
-    is non-empty. Sorted by problem, size, median gap to the bound, median gap to the best
-    (missing gaps last), then method.
+    is non-empty. Repeated runs and success: ``runs`` the number of distinct ``run`` indices
+    (1 without the column); ``success_rate`` the share of runs that are solved with an objective
+    within ``success_tol`` (relative, as ``gap_to_best``) of the target of their instance
+    (:func:`instance_targets`): the proven optimum, or the best known objective where none is
+    proven; ``target_kind`` says which (``proven``, ``best-known`` or ``mixed`` over the group's
+    instances); ``mean_objective``, ``q1_objective``, ``median_objective``, ``q3_objective``
+    over solved runs (the problem's units; quartiles by linear interpolation); ``ert_s`` the
+    expected running time to the target as IOHprofiler defines it (s): the sum over all runs of
+    the time used (``time_s``, a successful run's time being its time to success, since a method
+    returns once) divided by the number of successful runs, inf when none succeeded. Sorted by
+    problem, size, median gap to the bound, median gap to the best (missing gaps last), then
+    method.
     """
     _require(df, ["problem", "size", "method", "role", "status"])
     shift = check_nonneg("time_shift", time_shift)
+    tol = check_nonneg("success_tol", success_tol)
     rows = _labelled(df, _NOT_METHODS)
     status = rows["status"].astype(str)
     solved = _solved(rows)
@@ -295,8 +327,14 @@ def summary_table(df: pd.DataFrame, *, time_shift: float = 1.0) -> pd.DataFrame:
             if c in rows.columns
             else pd.Series(np.nan, index=rows.index)
         )
-        for c in ("gap_to_bound", "gap_to_best", "time_s")
+        for c in ("gap_to_bound", "gap_to_best", "time_s", "objective")
     }
+    reached, kind = _successes(df, rows, solved, num["objective"], tol)
+    run = (
+        pd.to_numeric(rows["run"], errors="coerce").fillna(0)
+        if "run" in rows.columns
+        else pd.Series(0, index=rows.index)
+    )
     out = []
     for (problem, size, method), g in rows.groupby(["problem", "size", "label"], sort=False, dropna=False):
         ix = g.index
@@ -316,8 +354,15 @@ def summary_table(df: pd.DataFrame, *, time_shift: float = 1.0) -> pd.DataFrame:
         t = t[np.isfinite(t) & (t >= 0)]
         rec["sgm_time_s"] = shifted_geometric_mean(t.to_numpy(), shift) if len(t) else math.nan
         rec["flagged"] = int((flags.loc[ix] != "").sum())
+        rec["runs"] = int(run.loc[ix].nunique())
+        rec.update(
+            _run_statistics(
+                reached.loc[ix], kind.loc[ix], num["objective"].loc[ix][sv], num["time_s"].loc[ix]
+            )
+        )
         out.append(rec)
     table = pd.DataFrame(out, columns=list(SUMMARY_COLUMNS))
+    table.attrs["success_tol"] = tol
     if not len(table):
         return table
     table = table.sort_values(
@@ -325,7 +370,81 @@ def summary_table(df: pd.DataFrame, *, time_shift: float = 1.0) -> pd.DataFrame:
         na_position="last",
         kind="stable",
     )
-    return table.reset_index(drop=True)
+    table = table.reset_index(drop=True)
+    table.attrs["success_tol"] = tol
+    return table
+
+
+def instance_targets(df: pd.DataFrame) -> pd.DataFrame:
+    """The target of every instance of ``df``: its proven optimum, else its best known objective.
+
+    df: rows of the results schema. The proven optimum is the objective of a row with status
+    ``optimal`` and ``bound_kind`` ``proven-global`` (a droneplan engine or the certified library;
+    rows flagged ``beats-bound`` or ``library-suspect`` excluded); without one, the best
+    objective of a solved run of a role other than ``bound`` (not flagged). Returns columns
+    problem, instance, sense, target (the problem's units; NaN when nothing was solved) and
+    target_kind (``proven``, ``best-known`` or ``none``).
+    """
+    _require(df, ["problem", "instance", "role", "status", "sense", "objective"])
+    obj = pd.to_numeric(df["objective"], errors="coerce").astype(float)
+    bound_kind = df["bound_kind"].astype(str) if "bound_kind" in df.columns else pd.Series("", index=df.index)
+    clean = ~_flags(df).str.split(";").apply(lambda fs: any(f in _STRICT_FLAGS for f in fs))
+    usable = clean & _solved(df) & (df["role"] != "bound") & np.isfinite(obj)
+    proven = usable & (df["status"] == "optimal") & (bound_kind == "proven-global")
+    out = []
+    for (problem, instance), g in df.groupby(["problem", "instance"], sort=False):
+        ix = g.index
+        sense = str(g["sense"].iloc[0])
+        pick = max if sense == "max" else min
+        if proven.loc[ix].any():
+            target, what = pick(obj.loc[ix][proven.loc[ix]]), "proven"
+        elif usable.loc[ix].any():
+            target, what = pick(obj.loc[ix][usable.loc[ix]]), "best-known"
+        else:
+            target, what = math.nan, "none"
+        out.append(
+            {"problem": problem, "instance": instance, "sense": sense, "target": target, "target_kind": what}
+        )
+    return pd.DataFrame(out, columns=["problem", "instance", "sense", "target", "target_kind"])
+
+
+def _successes(
+    df: pd.DataFrame, rows: pd.DataFrame, solved: pd.Series, objective: pd.Series, tol: float
+) -> tuple[pd.Series, pd.Series]:
+    """Per method row: whether it reached its instance's target (solved, within ``tol``), and the
+    kind of that target."""
+    if not {"instance", "sense", "objective"} <= set(df.columns) or not len(rows):
+        none = pd.Series("none", index=rows.index, dtype=object)
+        return pd.Series(False, index=rows.index), none
+    targets = instance_targets(df).set_index(["problem", "instance"])
+    keys = pd.MultiIndex.from_arrays([rows["problem"], rows["instance"]])
+    target = targets["target"].reindex(keys).to_numpy(dtype=float)
+    kind = pd.Series(targets["target_kind"].reindex(keys).to_numpy(), index=rows.index, dtype=object)
+    v = objective.to_numpy(dtype=float)
+    maxim = (rows["sense"].astype(str) == "max").to_numpy()
+    with np.errstate(invalid="ignore"):
+        gap = np.where(maxim, target - v, v - target) / np.maximum(np.abs(target), _GAP_FLOOR)
+        ok = solved.to_numpy() & np.isfinite(gap) & (gap <= tol)
+    return pd.Series(ok, index=rows.index), kind
+
+
+def _run_statistics(
+    reached: pd.Series, kind: pd.Series, objective: pd.Series, time_s: pd.Series
+) -> dict[str, Any]:
+    """``success_rate`` .. ``ert_s`` of one (problem, size, method) group (see :func:`summary_table`)."""
+    kinds = set(kind) - {"none"}
+    v = objective.dropna()
+    n_ok = int(reached.sum())
+    used = float(time_s.fillna(0.0).clip(lower=0.0).sum())
+    return {
+        "success_rate": n_ok / len(reached) if len(reached) else math.nan,
+        "target_kind": kinds.pop() if len(kinds) == 1 else ("mixed" if kinds else "none"),
+        "mean_objective": float(v.mean()) if len(v) else math.nan,
+        "q1_objective": float(v.quantile(0.25)) if len(v) else math.nan,
+        "median_objective": float(v.median()) if len(v) else math.nan,
+        "q3_objective": float(v.quantile(0.75)) if len(v) else math.nan,
+        "ert_s": used / n_ok if n_ok else math.inf,
+    }
 
 
 def _cell(v: Any) -> str:

@@ -1,8 +1,8 @@
 """One long-format results schema for every study, and the crash-safe store that holds it.
 
-Schema (version 2)
+Schema (version 3)
 ------------------
-One row per ``(problem, instance, method, config)``; the columns (``COLUMNS``) are the same
+One row per ``(problem, instance, method, config, run)``; the columns (``COLUMNS``) are the same
 for all four problems:
 
 ``study``         which study wrote the row (``"gap"``, ``"fig6.7"``, ``"table4.3"`` ...)
@@ -43,6 +43,12 @@ for all four problems:
 ``droneplan_version``, ``git_commit``, ``code_hash``, ``packages`` (JSON: name -> version),
 ``cpu``, ``cores``, ``finished_at`` (ISO 8601, UTC): provenance
 (:func:`~droneplan.studies.provenance.provenance_columns`)
+``run``           the repetition of the (instance, method) job, 0 .. R-1 (``droneplan.gap(runs=R)``);
+                  part of the key; 0 for a study that runs each job once
+``run_seed``      the seed the run was given (run 0: the instance's seed; run r:
+                  :func:`~droneplan.core.validation.run_seed`); None where no seed was passed
+``deterministic`` True when the method gives the same plan whatever the seed (declared, or seen
+                  on runs 0 and 1; it then runs once), False when it is stochastic, None unknown
 
 plus problem-specific extras as prefixed columns ``<problem>_<name>`` (kept as JSON in the
 store and expanded by :meth:`ResultStore.frame`).
@@ -94,7 +100,9 @@ either all of its rows or none, never a torn row; the primary key makes duplicat
 impossible. After each write the log is checkpointed into the main file, so a copy of the
 ``.sqlite`` file alone holds every finished row. A row whose ``(problem, instance, method)``
 is written again with another ``config`` moves to the ``superseded`` table (kept, not read
-by default). A store of schema version 1 is migrated in place when opened for writing; a
+by default), with every run of that config. A store of schema version 2 is migrated in place
+when opened for writing (its rows, current and superseded, become run 0), and one of version 1
+through version 2; a
 store of another version, or a file that is not a store, is refused with a
 :class:`StoreError` saying what to do, as is every failure of the file system or SQLite.
 Concurrent runs on one store avoid doing the same job twice with
@@ -153,8 +161,8 @@ __all__ = [
     "load_results",
 ]
 
-SCHEMA_VERSION = 2
-"""Bumped whenever ``COLUMNS`` or their meaning change; version 1 is migrated, others refused."""
+SCHEMA_VERSION = 3
+"""Bumped whenever ``COLUMNS`` or their meaning change; versions 1 and 2 are migrated, others refused."""
 
 STORE_NAME = "results.sqlite"
 """File name of the store inside an ``--out`` directory."""
@@ -180,7 +188,7 @@ _V1_COLUMNS = (
     "message",
 )
 
-COLUMNS = (
+_V2_COLUMNS = (
     *_V1_COLUMNS,
     "config",
     "flag",
@@ -197,9 +205,11 @@ COLUMNS = (
     "cores",
     "finished_at",
 )
+
+COLUMNS = (*_V2_COLUMNS, "run", "run_seed", "deterministic")
 """The schema's columns, in order (extras follow as ``<problem>_<name>``)."""
 
-KEY = ("problem", "instance", "method", "config")
+KEY = ("problem", "instance", "method", "config", "run")
 """The columns that identify a row."""
 
 ROLES = ("heuristic", "model", "bound")
@@ -619,10 +629,11 @@ def _store_error(path: Path, exc: BaseException, action: str) -> StoreError:
 
 # --------------------------------------------------------------------------- the store
 _CORE = list(COLUMNS)
+_COLUMN_TYPE = {"config": " TEXT NOT NULL DEFAULT ''", "run": " INTEGER NOT NULL DEFAULT 0"}
 
 
 def _table_ddl(name: str) -> str:
-    cols = ", ".join(f'"{c}"' + (" TEXT NOT NULL DEFAULT ''" if c == "config" else "") for c in _CORE)
+    cols = ", ".join(f'"{c}"' + _COLUMN_TYPE.get(c, "") for c in _CORE)
     return (
         f"CREATE TABLE IF NOT EXISTS {name} ({cols}, extras TEXT NOT NULL DEFAULT '{{}}', "
         f"PRIMARY KEY ({', '.join(KEY)}))"
@@ -631,14 +642,15 @@ def _table_ddl(name: str) -> str:
 
 _CLAIMS_DDL = (
     "CREATE TABLE IF NOT EXISTS claims (problem TEXT NOT NULL, instance TEXT NOT NULL, "
-    "method TEXT NOT NULL, config TEXT NOT NULL, host TEXT NOT NULL, pid INTEGER NOT NULL, "
-    "claimed_at REAL NOT NULL, PRIMARY KEY (problem, instance, method, config))"
+    "method TEXT NOT NULL, config TEXT NOT NULL, run INTEGER NOT NULL, host TEXT NOT NULL, "
+    "pid INTEGER NOT NULL, claimed_at REAL NOT NULL, PRIMARY KEY (problem, instance, method, config, run))"
 )
 _INSTANCE_DATA_DDL = (
     "CREATE TABLE IF NOT EXISTS instance_data (problem TEXT NOT NULL, instance TEXT NOT NULL, "
     "fingerprint TEXT NOT NULL, PRIMARY KEY (problem, instance))"
 )
 _KEY_WHERE = " AND ".join(f"{k} = ?" for k in KEY)
+_MIGRATED = (1, 2)  # the older schema versions a writable store is migrated from
 _TEXT_JSON = ("method_params", "packages")  # JSON text columns: a mapping given is encoded
 
 DEFAULT_STALE_AFTER_S = 6 * 3600.0
@@ -753,7 +765,7 @@ class ResultStore:
                 "check the path"
             )
         version = self._version_of(con)
-        if version not in (1, SCHEMA_VERSION):
+        if version not in _MIGRATED and version != SCHEMA_VERSION:
             raise self._other_version(version)
         return version
 
@@ -766,7 +778,7 @@ class ResultStore:
     def _other_version(self, found: Any) -> StoreError:
         return StoreError(
             f"{self.path} was written with results schema version {found}; this droneplan writes "
-            f"version {SCHEMA_VERSION} (and migrates version 1). Move it away (or choose another "
+            f"version {SCHEMA_VERSION} (and migrates versions 1 and 2). Move it away (or choose another "
             "--out) and rerun the study; rows of different schemas are not mixed"
         )
 
@@ -798,6 +810,8 @@ class ResultStore:
                 version = self._version_of(con)
                 if version == 1:
                     self._migrate_v1(con)
+                elif version == 2:
+                    self._migrate_v2(con)
                 elif version != SCHEMA_VERSION:
                     raise self._other_version(version)
             con.execute(_table_ddl("rows"))
@@ -810,7 +824,8 @@ class ResultStore:
             raise
 
     def _migrate_v1(self, con: sqlite3.Connection) -> None:
-        """Version 1 -> 2 inside the caller's transaction: the rows become current rows, config ''."""
+        """Version 1 -> 3 (through 2) inside the caller's transaction: the rows become current rows,
+        config '' (version 2), run 0 (version 3)."""
         have = [r[1] for r in con.execute("PRAGMA table_info(rows)")]
         cols = [c for c in _V1_COLUMNS if c in have] + ["extras"]
         if "problem" not in have or "method" not in have:
@@ -825,6 +840,27 @@ class ResultStore:
         con.execute(f"INSERT INTO rows_v2 ({names}, config, flag) SELECT {names}, '', '' FROM rows")
         con.execute("DROP TABLE rows")
         con.execute("ALTER TABLE rows_v2 RENAME TO rows")
+        con.execute("UPDATE meta SET value = ? WHERE key = 'schema_version'", (str(SCHEMA_VERSION),))
+
+    def _migrate_v2(self, con: sqlite3.Connection) -> None:
+        """Version 2 -> 3 inside the caller's transaction: every row, current or superseded, becomes
+        run 0 (``run_seed`` and ``deterministic`` None); open claims, keyed without a run, are dropped."""
+        tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        for table in ("rows", "superseded"):
+            if table not in tables:
+                continue
+            have = [r[1] for r in con.execute(f"PRAGMA table_info({table})")]
+            if "run" in have:
+                raise StoreError(
+                    f"{self.path} says schema version 2 but holds version-3 rows (was its version "
+                    "edited?); refusing to migrate it"
+                )
+            names = ", ".join(f'"{c}"' for c in [*(c for c in _V2_COLUMNS if c in have), "extras"])
+            con.execute(_table_ddl(f"{table}_v3"))
+            con.execute(f"INSERT INTO {table}_v3 ({names}, run) SELECT {names}, 0 FROM {table}")
+            con.execute(f"DROP TABLE {table}")
+            con.execute(f"ALTER TABLE {table}_v3 RENAME TO {table}")
+        con.execute("DROP TABLE IF EXISTS claims")
         con.execute("UPDATE meta SET value = ? WHERE key = 'schema_version'", (str(SCHEMA_VERSION),))
 
     def _connection(self) -> sqlite3.Connection:
@@ -870,8 +906,8 @@ class ResultStore:
         older rows were set aside.
 
         rows: mappings with at least ``problem``, ``instance``, ``method`` (``config``
-        missing means ``''``); other columns of ``COLUMNS`` may be missing (None), keys
-        outside ``COLUMNS`` are stored as extras. A row of the same ``(problem, instance,
+        missing means ``''``, ``run`` missing means 0); other columns of ``COLUMNS`` may be
+        missing (None), keys outside ``COLUMNS`` are stored as extras. A row of the same ``(problem, instance,
         method)`` but another ``config`` moves to the ``superseded`` table (counted in the
         return value); rows of other methods stay. An error row of method ``task``
         (:func:`error_row`) is removed when its instance gets rows of other methods.
@@ -893,6 +929,9 @@ class ResultStore:
                 raise TypeError(f"row config must be a str, got {type(config).__name__}")
             values = {c: _jsonable(r.get(c)) for c in _CORE}
             values["config"] = config
+            values["run"] = _run_of(r.get("run"))
+            if values["deterministic"] is not None:
+                values["deterministic"] = int(bool(values["deterministic"]))
             values["flag"] = _join_flags(_flags(values["flag"]))
             values["warm_started"] = int(bool(r.get("warm_started")))
             for c in _TEXT_JSON:
@@ -903,11 +942,11 @@ class ResultStore:
                 extras_json = json.dumps(extras, sort_keys=True, allow_nan=False)
             except (TypeError, ValueError) as exc:
                 raise TypeError(f"row extras must be JSON values: {exc}") from None
-            key = tuple(str(values[k]) for k in KEY)
+            key = (*(str(values[k]) for k in KEY[:4]), values["run"])
             records.append((key, (*(values[c] for c in _CORE), extras_json)))
         keys = [k for k, _ in records]
         if len(set(keys)) != len(keys):
-            raise ValueError("rows repeat a key (problem, instance, method, config)")
+            raise ValueError("rows repeat a key (problem, instance, method, config, run)")
         task_rows = {(k[0], k[1]) for k in keys if k[2] == _TASK_METHOD}
         solved = sorted({(k[0], k[1]) for k in keys if k[2] != _TASK_METHOD} - task_rows)
         insert = f"INSERT OR REPLACE INTO rows VALUES ({', '.join('?' * (len(_CORE) + 1))})"
@@ -916,10 +955,10 @@ class ResultStore:
         with self._transaction() as con:
             for key, record in records:
                 cur = con.execute(
-                    f"INSERT OR REPLACE INTO superseded SELECT * FROM rows WHERE {same_method}", key
+                    f"INSERT OR REPLACE INTO superseded SELECT * FROM rows WHERE {same_method}", key[:4]
                 )
                 set_aside += max(cur.rowcount, 0)
-                con.execute(f"DELETE FROM rows WHERE {same_method}", key)
+                con.execute(f"DELETE FROM rows WHERE {same_method}", key[:4])
                 con.execute(f"DELETE FROM superseded WHERE {_KEY_WHERE}", key)
                 con.execute(f"DELETE FROM claims WHERE {_KEY_WHERE}", key)
                 con.execute(insert, record)
@@ -971,18 +1010,22 @@ class ResultStore:
             raise
 
     # ------------------------------------------------------------------ claims
-    def _full_key(self, key: Sequence[str]) -> tuple[str, str, str, str]:
+    def _full_key(self, key: Sequence[Any]) -> tuple[str, str, str, str, int]:
         key = tuple(key)
         if len(key) == 3:
             key = (*key, "")
-        if len(key) != 4 or not all(isinstance(k, str) for k in key):
-            raise ValueError(f"key must be (problem, instance, method[, config]) strings, got {key!r}")
-        return key
+        if len(key) == 4:
+            key = (*key, 0)
+        if len(key) != 5 or not all(isinstance(k, str) for k in key[:4]):
+            raise ValueError(
+                f"key must be (problem, instance, method[, config[, run]]) with strings first, got {key!r}"
+            )
+        return (key[0], key[1], key[2], key[3], _run_of(key[4]))
 
     def try_claim(self, key: Sequence[str], *, stale_after: float = DEFAULT_STALE_AFTER_S) -> bool:
         """Claim the job ``key`` for this process; False when someone else is doing or did it.
 
-        key: ``(problem, instance, method, config)`` (config ``''`` when left out).
+        key: ``(problem, instance, method, config, run)`` (config ``''`` and run 0 when left out).
         stale_after: seconds after which another process's claim counts as abandoned.
         Atomic across processes: of several runs claiming one key, one gets True. A claim
         is taken over when its process has died (same host) or it is older than
@@ -1008,14 +1051,14 @@ class ResultStore:
             ok = free and done is None
             if ok:
                 con.execute(
-                    "INSERT OR REPLACE INTO claims VALUES (?, ?, ?, ?, ?, ?, ?)", (*full, host, pid, now)
+                    "INSERT OR REPLACE INTO claims VALUES (?, ?, ?, ?, ?, ?, ?, ?)", (*full, host, pid, now)
                 )
         return ok
 
     def release(self, key: Sequence[str]) -> None:
         """Give up this process's claim on ``key`` (a claim of another process stays).
 
-        key: ``(problem, instance, method, config)`` as given to :meth:`try_claim`.
+        key: ``(problem, instance, method, config, run)`` as given to :meth:`try_claim`.
         """
         full = self._full_key(key)
         con = self._writable()
@@ -1060,15 +1103,31 @@ class ResultStore:
         args = (ERROR_STATUS, problem) if problem else (ERROR_STATUS,)
         return {(p, i) for p, i, err in self._query(q, args) if not err}
 
-    def done_keys(self, problem: str | None = None) -> set[tuple[str, str, str, str]]:
-        """Full keys ``(problem, instance, method, config)`` of current rows whose status is not ``error``.
+    def done_keys(self, problem: str | None = None) -> set[tuple[str, str, str, str, int]]:
+        """Full keys ``(problem, instance, method, config, run)`` of current rows whose status is
+        not ``error``.
 
         problem: only this problem's (default all).
         """
         where = " AND problem = ?" if problem else ""
-        q = f"SELECT problem, instance, method, config FROM rows WHERE IFNULL(status, '') != ?{where}"
+        q = f"SELECT problem, instance, method, config, run FROM rows WHERE IFNULL(status, '') != ?{where}"
         args = (ERROR_STATUS, problem) if problem else (ERROR_STATUS,)
-        return {(p, i, m, c or "") for p, i, m, c in self._query(q, args)}
+        return {(p, i, m, c or "", int(r or 0)) for p, i, m, c, r in self._query(q, args)}
+
+    def mark_deterministic(self, keys: Iterable[Sequence[Any]], value: bool | None) -> None:
+        """Set ``deterministic`` of the current rows ``keys`` to ``value`` in one transaction.
+
+        keys: full keys ``(problem, instance, method, config, run)``; value: True, False or None.
+        """
+        if value is not None and not isinstance(value, bool):
+            raise TypeError(f"value must be True, False or None, got {value!r}")
+        flag = None if value is None else int(value)
+        with self._transaction() as con:
+            con.executemany(
+                f"UPDATE rows SET deterministic = ? WHERE {_KEY_WHERE}",
+                [(flag, *self._full_key(k)) for k in keys],
+            )
+        self._checkpoint()
 
     def runs(self, problem: str | None = None) -> list[dict[str, Any]]:
         """Who made the current rows: one dict per distinct (``droneplan_version``, ``git_commit``,
@@ -1164,6 +1223,19 @@ def _parquet_ready(df: pd.DataFrame) -> pd.DataFrame:
     return df
 
 
+def _missing(v: Any) -> bool:
+    return v is None or v is pd.NA or (isinstance(v, float) and math.isnan(v))
+
+
+def _run_of(v: Any) -> int:
+    """A row's ``run``: an int >= 0 (None means 0)."""
+    if v is None:
+        return 0
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Integral) or int(v) < 0:
+        raise ValueError(f"run must be an int >= 0, got {v!r}")
+    return int(v)
+
+
 def _to_frame(names: Sequence[str], data: Sequence[tuple]) -> pd.DataFrame:
     ix = names.index("extras")
     core = pd.DataFrame([r[:ix] + r[ix + 1 :] for r in data], columns=[n for n in names if n != "extras"])
@@ -1174,6 +1246,8 @@ def _to_frame(names: Sequence[str], data: Sequence[tuple]) -> pd.DataFrame:
 
 def _finish(df: pd.DataFrame, *, study: str | None, include_superseded: bool) -> pd.DataFrame:
     """Gaps over the current rows, the study filter, schema column order, types, key order."""
+    if "run" not in df.columns:  # a store of schema version 1 or 2 read as it is: one run
+        df = df.assign(run=0)
     if "superseded" not in df.columns:
         df = df.assign(superseded=False)
     df["superseded"] = df["superseded"].fillna(False).astype(bool)
@@ -1202,8 +1276,12 @@ def _typed(df: pd.DataFrame) -> pd.DataFrame:
         "time_limit_s",
     ):
         df[c] = pd.to_numeric(df[c], errors="coerce").astype(float)
-    for c in ("seed", "size", "family_version", "cores"):
+    for c in ("seed", "size", "family_version", "cores", "run_seed"):
         df[c] = pd.to_numeric(df[c], errors="coerce").astype("Int64")
+    df["run"] = pd.to_numeric(df["run"], errors="coerce").fillna(0).astype("int64")
+    df["deterministic"] = pd.Series(
+        [None if _missing(v) else bool(v) for v in df["deterministic"]], index=df.index, dtype=object
+    )
     df["warm_started"] = df["warm_started"].fillna(0).astype(bool)
     for c in ("config", "flag"):
         df[c] = df[c].astype(object).where(df[c].notna(), "").astype(object)

@@ -1,6 +1,7 @@
 """Open gap studies: the user's methods against droneplan's on families, library or own instances.
 
-:func:`gap` is the one way to run a study. For every (instance, method) pair it runs one job in
+:func:`gap` is the one way to run a study. For every (instance, method) pair it runs one job (or
+``runs`` jobs, each with its own seed: :func:`~droneplan.core.validation.run_seed`) in
 a child process with a time limit (:mod:`droneplan.studies.runner`), scores what came back with
 droneplan's own evaluator (:mod:`droneplan.studies.harness`) and writes one row to the store at
 ``out`` with provenance and a configuration hash (:mod:`droneplan.studies.provenance`). On
@@ -11,12 +12,21 @@ the store under the same configuration are not run again; a job whose configurat
 
 The gaps of every row (``gap_to_bound``, ``gap_to_best``) are computed when the store is read,
 over the current rows of each instance.
+
+Repeated runs: with ``runs=R`` run r of a pair gets the seed ``run_seed(instance seed, r)`` (run 0
+the instance's own seed, so ``R = 1`` is the study as it always was) and its row the key column
+``run``. A method declared deterministic (``Method.deterministic``) runs once; one that declares
+nothing runs twice first, and when both runs return the same plan it is marked deterministic
+(column ``deterministic``) and not run again. A rerun with a larger R runs only the missing runs.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+import hashlib
 import json
+import numbers
 import os
 import sys
 from collections.abc import Iterator
@@ -26,7 +36,8 @@ from typing import Any
 
 import pandas as pd
 
-from droneplan.core.validation import check_bool, check_instance, check_int
+from droneplan.core.validation import check_bool, check_instance, check_int, run_seed
+from droneplan.solvers.result import SolveResult
 from droneplan.studies import wire
 from droneplan.studies.harness import SENSE_OF_KIND, Scored, execute_plain, score
 from droneplan.studies.instances import StudyInstance, resolve_instances
@@ -38,6 +49,7 @@ from droneplan.studies.store import (
     LIBRARY_METHOD,
     LIBRARY_SUSPECT,
     PROBLEMS,
+    SOLVED_STATUSES,
     STORE_NAME,
     Outcome,
     ResultStore,
@@ -57,6 +69,8 @@ __all__ = [
     "SCORE_TIME_LIMIT",
     "JOB_MEMORY_HEADROOM",
     "address_space_limit",
+    "MAX_RUNS",
+    "check_runs",
 ]
 
 DEFAULT_TIME_LIMIT = 300.0
@@ -80,7 +94,25 @@ virtual size plus this."""
 SCORE_MEMORY_HEADROOM = 2 << 30
 """Address space droneplan's scoring of one plan may use beyond the study process's own (bytes)."""
 
+MAX_RUNS = 1000
+"""The most runs per (instance, method) pair a study agrees to (``gap(runs=...)``)."""
+
 STUDY = "gap"
+_PLAN_HASH = "plan_hash"  # the extra (``<problem>_plan_hash``) comparing the plans of runs 0 and 1
+
+
+def check_runs(runs: Any) -> int:
+    """``runs`` as an int from 1 to ``MAX_RUNS``; a one-line ValueError naming ``runs`` otherwise.
+
+    runs: the number of runs per (instance, method) pair.
+    """
+    ok = isinstance(runs, numbers.Integral) and not isinstance(runs, bool)
+    if not ok or not 1 <= int(runs) <= MAX_RUNS:
+        text = repr(runs) if len(repr(runs)) <= 40 else type(runs).__name__
+        raise ValueError(
+            f"runs must be an int from 1 to {MAX_RUNS} (runs per instance and method), got {text}"
+        )
+    return int(runs)
 
 
 @dataclass(frozen=True)
@@ -90,6 +122,9 @@ class _Task:
     config: str
     params: dict[str, Any]
     time_limit: float | None
+    run: int = 0
+    seed: int = 0
+    deterministic: bool | None = None
 
 
 @dataclass(frozen=True)
@@ -116,12 +151,20 @@ def _params_json(method: Method) -> Any:
 
 
 def plan_study(
-    problem: str, *, methods: Any = None, instances: Any = None, time_limit: float | None = None, **size: Any
+    problem: str,
+    *,
+    methods: Any = None,
+    instances: Any = None,
+    time_limit: float | None = None,
+    runs: int = 1,
+    **size: Any,
 ) -> StudyPlan:
     """Resolve a study's instances and methods and hash each job's configuration (runs nothing).
 
-    Arguments as in :func:`gap`.
+    problem, methods, instances, time_limit, runs, size: as in :func:`gap`. A deterministic method
+    gets one job per instance, any other ``runs`` jobs (run 0 .. runs - 1).
     """
+    runs = check_runs(runs)
     if problem not in PROBLEMS:
         raise ValueError(f"problem must be one of {', '.join(PROBLEMS)}, got {problem!r}")
     limit = DEFAULT_TIME_LIMIT if time_limit is None else check_study_time_limit(time_limit)
@@ -151,7 +194,9 @@ def plan_study(
                     "droneplan": code,
                 }
             )
-            tasks.append(_Task(inst, m, cfg, params, own_limit))
+            for r in range(1 if m.deterministic else runs):
+                seed = run_seed(inst.seed or 0, r)
+                tasks.append(_Task(inst, m, cfg, params, own_limit, r, seed, m.deterministic))
     return StudyPlan(problem, kind, insts, meths, limit, tasks)
 
 
@@ -188,6 +233,9 @@ def _row(
         family_version=inst.version,
         method_params=json.dumps(task.params, sort_keys=True),
         time_limit_s=time_limit,
+        run=task.run,
+        run_seed=task.seed,
+        deterministic=task.deterministic,
         **provenance_columns(),
     )
     return row
@@ -251,7 +299,10 @@ def _verdict(task: _Task, outcome: JobOutcome) -> tuple[Scored, float | None]:
             value = wire.decode(outcome.value, max_bytes=MAX_RESULT_BYTES)
         except (wire.WireError, TypeError) as exc:
             return Scored("invalid", message=f"the method's process sent an unreadable result: {exc}"), None
-        return _score_isolated(task, value)
+        scored, score_s = _score_isolated(task, value)
+        if task.deterministic is None and task.run <= 1:
+            scored.extras[_PLAN_HASH] = _plan_hash(value)
+        return scored, score_s
     if outcome.status == "timeout":
         return Scored("timeout", message=outcome.error), None
     if outcome.status == "crashed":
@@ -260,6 +311,16 @@ def _verdict(task: _Task, outcome: JobOutcome) -> tuple[Scored, float | None]:
         return Scored("invalid", message=outcome.error), None
     # the method's own traceback (its last frames) helps its author; the row keeps the one-line cause
     return Scored("error", message=outcome.error, extras={"traceback": outcome.traceback[-2000:]}), None
+
+
+def _plan_hash(value: Any) -> str | None:
+    """A digest (16 hex) of the plan a method returned (a ``SolveResult``'s ``x``, else the value:
+    positions, an assignment, a closed-loop run's metrics), to tell whether two runs agree."""
+    plan = value.x if isinstance(value, SolveResult) else value
+    try:
+        return hashlib.sha256(wire.encode(plan)).hexdigest()[:16]
+    except (wire.NotPlainError, TypeError, ValueError):
+        return None
 
 
 def _score_isolated(task: _Task, value: Any) -> tuple[Scored, float]:
@@ -347,6 +408,7 @@ def gap(
     store: ResultStore | None = None,
     executor: Any = None,
     memory_limit: int | None = None,
+    runs: int = 1,
     **size: Any,
 ) -> pd.DataFrame:
     """Run a gap study of ``methods`` on ``instances`` and return its rows (long format).
@@ -376,6 +438,9 @@ def gap(
     memory_limit: address space each job may use beyond the study process's own (bytes; default
         ``JOB_MEMORY_HEADROOM``, 8 GiB), applied as ``RLIMIT_AS`` of its process: an allocation past
         it fails in the method (an ``error`` row naming MemoryError) instead of exhausting the machine.
+    runs: runs per (instance, method) pair, 1 to ``MAX_RUNS`` (default 1); run r gets the seed
+        :func:`~droneplan.core.validation.run_seed` ``(instance seed, r)`` (run 0 the instance's own)
+        and the row's ``run``/``run_seed``; a deterministic method runs once (module docstring).
     size: the family's size parameters (``m=4``, ``n=[8, 16]``) and ``seeds``, ``first_seed``.
 
     Returns the current rows of these instances for these methods and the library reference, with
@@ -385,8 +450,10 @@ def gap(
     headroom = (
         JOB_MEMORY_HEADROOM if memory_limit is None else check_int("memory_limit", memory_limit, min_value=1)
     )
-    plan = plan_study(problem, methods=methods, instances=instances, time_limit=time_limit, **size)
+    runs = check_runs(runs)
+    plan = plan_study(problem, methods=methods, instances=instances, time_limit=time_limit, runs=runs, **size)
     out = Path(out)
+    execution = _Execution(n_workers, dask, dask_executor, headroom, f"{problem} gap" if progress else None)
     with contextlib.ExitStack() as stack:
         if store is None:
             store = stack.enter_context(ResultStore(out / STORE_NAME))
@@ -394,20 +461,59 @@ def gap(
         done = store.done_keys(problem)
         lib_rows = [r for r in (_library_row(i) for i in plan.instances) if r is not None]
         set_aside = store.write([r for r in lib_rows if _key(r) not in done]) if lib_rows else 0
-        todo = [t for t in plan.tasks if (problem, t.instance.id, t.method.name, t.config) not in done]
-        jobs = _ClaimedJobs(store, problem, todo)
-        desc = f"{problem} gap" if progress else None
+        todo = [t for t in plan.tasks if _task_key(problem, t) not in done]
+        first = [t for t in todo if _first_batch(t)]
+        jobs = execution.run(store, problem, first)
+        pruned = 0
+        if runs > 1:
+            same = _settle_determinism(store, plan)
+            later = [t for t in todo if not _first_batch(t)]
+            kept = [
+                dataclasses.replace(t, deterministic=False) if t.deterministic is None else t
+                for t in later
+                if (t.instance.id, t.method.name) not in same
+            ]
+            pruned = len(later) - len(kept)
+            jobs.add(execution.run(store, problem, kept))
+        _report_counts(len(plan.tasks) - pruned, jobs.ran, jobs.busy, set_aside + jobs.set_aside)
+        df = store.frame(problem=problem)
+        out.mkdir(parents=True, exist_ok=True)
+        for suffix in ("csv", "parquet"):
+            store.export(out / f"results.{suffix}")
+    wanted_ids = {i.id for i in plan.instances}
+    wanted_methods = {m.name for m in plan.methods} | {LIBRARY_METHOD}
+    mask = df["instance"].isin(wanted_ids) & df["method"].isin(wanted_methods) & (df["run"] < runs)
+    found = df[mask].reset_index(drop=True)
+    _report_suspect_library(found)
+    return found
+
+
+@dataclass
+class _Execution:
+    """Where and how a study's jobs run (the options of :func:`gap`)."""
+
+    workers: int
+    dask: str | None
+    dask_executor: Any
+    headroom: int
+    progress: str | None
+
+    def run(self, store: ResultStore, problem: str, tasks: list[_Task]) -> _ClaimedJobs:
+        """Run ``tasks`` (each claimed in ``store`` just before it starts) and write one row per job."""
+        jobs = _ClaimedJobs(store, problem, tasks)
+        if not tasks:
+            return jobs
         try:
             with (
-                _dask_outcomes(dask, list(jobs), GRACE_S, headroom, dask_executor)
-                if dask or dask_executor is not None
+                _dask_outcomes(self.dask, list(jobs), GRACE_S, self.headroom, self.dask_executor)
+                if self.dask or self.dask_executor is not None
                 else contextlib.nullcontext(
                     run_jobs(
                         jobs,
-                        workers=n_workers,
+                        workers=self.workers,
                         grace=GRACE_S,
-                        progress=desc,
-                        memory_limit=address_space_limit(headroom),
+                        progress=self.progress,
+                        memory_limit=address_space_limit(self.headroom),
                     )
                 )
             ) as outcomes:
@@ -416,21 +522,43 @@ def gap(
                     verdict, score_s = _verdict(task, oc)
                     verdict.extras["score_time_s"] = score_s
                     row = _row(task, verdict, time_s=oc.wall_s, cpu_s=oc.cpu_s, time_limit=task.time_limit)
-                    set_aside += store.write([row])  # writing a row ends its claim
+                    jobs.set_aside += store.write([row])  # writing a row ends its claim
                     jobs.in_flight.discard(oc.key)
         finally:
             jobs.release_unfinished()
-        _report_counts(len(plan.tasks), jobs.ran, jobs.busy, set_aside)
-        df = store.frame(problem=problem)
-        out.mkdir(parents=True, exist_ok=True)
-        for suffix in ("csv", "parquet"):
-            store.export(out / f"results.{suffix}")
-    wanted_ids = {i.id for i in plan.instances}
-    wanted_methods = {m.name for m in plan.methods} | {LIBRARY_METHOD}
-    mask = df["instance"].isin(wanted_ids) & df["method"].isin(wanted_methods)
-    found = df[mask].reset_index(drop=True)
-    _report_suspect_library(found)
-    return found
+        return jobs
+
+
+def _first_batch(t: _Task) -> bool:
+    """Whether a task runs before the determinism of its method is settled: run 0, and run 1 of a
+    method that declares none."""
+    return t.run == 0 or (t.run == 1 and t.deterministic is None)
+
+
+def _settle_determinism(store: ResultStore, plan: StudyPlan) -> set[tuple[str, str]]:
+    """The (instance id, method) pairs of methods declaring no determinism whose runs 0 and 1 both
+    solved the instance with the same plan: their two rows are marked deterministic (the others'
+    rows, stochastic) and no further run is made of them."""
+    undecided = {
+        (t.instance.id, t.method.name): t for t in plan.tasks if t.deterministic is None and t.run == 1
+    }
+    if not undecided:
+        return set()
+    df = store.frame(problem=plan.problem)
+    column = f"{plan.problem}_{_PLAN_HASH}"
+    same, keys = set(), {True: [], False: []}  # type: ignore[var-annotated]
+    for pair, task in undecided.items():
+        rows = df[(df["instance"] == pair[0]) & (df["method"] == pair[1]) & (df["config"] == task.config)]
+        hashes = {int(r["run"]): r.get(column) for _, r in rows.iterrows() if r["status"] in SOLVED_STATUSES}
+        h0, h1 = hashes.get(0), hashes.get(1)
+        agree = isinstance(h0, str) and h0 == h1
+        if agree:
+            same.add(pair)
+        keys[agree] += [(plan.problem, pair[0], pair[1], task.config, r) for r in (0, 1)]
+    for value, marked in keys.items():
+        if marked:
+            store.mark_deterministic(marked, value)
+    return same
 
 
 def _report_suspect_library(df: pd.DataFrame) -> None:
@@ -455,15 +583,20 @@ class _ClaimedJobs:
 
     def __init__(self, store: ResultStore, problem: str, todo: list[_Task]) -> None:
         self.store, self.problem, self.todo = store, problem, todo
-        self.by_key = {(t.instance.id, t.method.name): t for t in todo}
-        self.in_flight: set[tuple[str, str]] = set()
-        self.ran = self.busy = 0
+        self.by_key = {(t.instance.id, t.method.name, t.run): t for t in todo}
+        self.in_flight: set[tuple[str, str, int]] = set()
+        self.ran = self.busy = self.set_aside = 0
+
+    def add(self, other: _ClaimedJobs) -> None:
+        """Count the jobs of ``other`` (a later batch of the same study) with these."""
+        self.ran, self.busy = self.ran + other.ran, self.busy + other.busy
+        self.set_aside += other.set_aside
 
     def __len__(self) -> int:
         return len(self.todo)
 
     def _store_key(self, t: _Task) -> tuple:
-        return (self.problem, t.instance.id, t.method.name, t.config)
+        return _task_key(self.problem, t)
 
     def __iter__(self) -> Iterator[Job]:
         for t in self.todo:
@@ -471,12 +604,12 @@ class _ClaimedJobs:
                 self.busy += 1
                 continue
             self.ran += 1
-            key = (t.instance.id, t.method.name)
+            key = (t.instance.id, t.method.name, t.run)
             self.in_flight.add(key)
             yield Job(
                 key,
                 execute_plain,
-                (t.instance, t.method, t.instance.seed or 0, t.time_limit),
+                (t.instance, t.method, t.seed, t.time_limit),
                 time_limit=t.time_limit,
                 returns="bytes",
                 max_result_bytes=MAX_RESULT_BYTES,
@@ -491,7 +624,12 @@ class _ClaimedJobs:
 
 
 def _key(row: dict) -> tuple:
-    return (row["problem"], row["instance"], row["method"], row["config"])
+    return (row["problem"], row["instance"], row["method"], row["config"], int(row.get("run") or 0))
+
+
+def _task_key(problem: str, t: _Task) -> tuple[str, str, str, str, int]:
+    """The store key of a task's row."""
+    return (problem, t.instance.id, t.method.name, t.config, t.run)
 
 
 def _report_counts(total: int, ran: int, busy: int, set_aside: int) -> None:

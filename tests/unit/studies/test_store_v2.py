@@ -85,9 +85,9 @@ def _v1_store(path: Path) -> None:
     con.close()
 
 
-def test_columns_and_key_of_schema_2():
-    assert SCHEMA_VERSION == 2
-    assert KEY == ("problem", "instance", "method", "config")
+def test_columns_and_key_of_schema_3():
+    assert SCHEMA_VERSION == 3
+    assert KEY == ("problem", "instance", "method", "config", "run")
     assert COLUMNS[COLUMNS.index("message") + 1 :] == (
         "config",
         "flag",
@@ -103,6 +103,9 @@ def test_columns_and_key_of_schema_2():
         "cpu",
         "cores",
         "finished_at",
+        "run",
+        "run_seed",
+        "deterministic",
     )
 
 
@@ -114,13 +117,13 @@ def test_v1_store_is_migrated_in_place(tmp_path):
         df = ro.frame()
         assert list(df["config"]) == ["", ""] and list(df["gap_to_best"]) == [0.0, 1 / 3]
     with ResultStore(path) as store:
-        assert store._con.execute("SELECT value FROM meta").fetchone()[0] == "2"
+        assert store._con.execute("SELECT value FROM meta").fetchone()[0] == "3"
         df = store.frame()
         assert list(df["method"]) == ["a", "b"] and list(df["config"]) == ["", ""]
         assert list(df["herding_k"]) == [0, 1] and list(df["gap_to_best"]) == [0.0, 1 / 3]
         assert store.done_instances() == {("herding", "t:seed=0")}
         assert store.write([_row("a", 2.0, config="c1")]) == 1  # the migrated row is superseded
-    with ResultStore(path) as again:  # opening a v2 store changes nothing
+    with ResultStore(path) as again:  # opening a current store changes nothing
         assert again.count() == 2 and len(again.frame(include_superseded=True)) == 3
 
 
@@ -128,11 +131,11 @@ def test_newer_or_foreign_stores_are_refused_in_one_line(tmp_path):
     newer = tmp_path / "newer.sqlite"
     con = sqlite3.connect(newer)
     con.execute("CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT)")
-    con.execute("INSERT INTO meta VALUES ('schema_version', '3')")
+    con.execute("INSERT INTO meta VALUES ('schema_version', '4')")
     con.commit()
     con.close()
     for readonly in (False, True):
-        with pytest.raises(StoreError, match=r"schema version 3.*Move it away") as info:
+        with pytest.raises(StoreError, match=r"schema version 4.*Move it away") as info:
             ResultStore(newer, readonly=readonly)
         assert "\n" not in str(info.value) and str(newer) in str(info.value)
     other = tmp_path / "other.sqlite"
@@ -190,9 +193,9 @@ def test_write_keeps_other_methods_and_sets_aside_other_configs(tmp_path):
         ]
         assert len(full) == 4 and full["superseded"].sum() == 1
         assert store.done_keys() == {
-            ("herding", "t:seed=0", "a", "c1"),
-            ("herding", "t:seed=0", "b", "c1"),
-            ("herding", "t:seed=0", "c", "c2"),
+            ("herding", "t:seed=0", "a", "c1", 0),
+            ("herding", "t:seed=0", "b", "c1", 0),
+            ("herding", "t:seed=0", "c", "c2", 0),
         }
     df = load_results(tmp_path, include_superseded=True)
     assert df["superseded"].sum() == 1 and len(load_results(tmp_path)) == 3
@@ -213,7 +216,7 @@ def test_error_row_goes_when_the_instance_gets_rows_and_done_by_config(tmp_path)
         assert store.done_instances(config="c1") == {("herding", "t:seed=0")}
         assert store.done_configs() == {("herding", "t:seed=0", "c1")}
         store.write([_row("x", 1.0, instance="t:seed=1")])  # missing config means ''
-        assert ("herding", "t:seed=1", "x", "") in store.done_keys()
+        assert ("herding", "t:seed=1", "x", "", 0) in store.done_keys()
         with pytest.raises(ValueError, match="repeat a key"):
             store.write([_row("a", 1.0), _row("a", 2.0)])
         with pytest.raises(ValueError, match="key columns"):
