@@ -73,6 +73,13 @@ __all__ = [
     "ablation_correlations",
     "ablation_finding",
     "ga_ablation",
+    "READINGS_FAMILY",
+    "readings_task",
+    "readings_tasks",
+    "proven_optimum",
+    "readings_frame",
+    "readings_markdown",
+    "ga_readings",
     "exact_seed_distribution",
     "warm_start_effect",
     "GAP_THESIS",
@@ -1085,6 +1092,212 @@ def ga_ablation(
     abl.attrs["finding"] = ablation_finding(abl)
     abl.attrs["summary"] = ablation_summary(abl)
     return abl
+
+
+READINGS_FAMILY = "table4.2"
+"""The instance family of the readings study (the Table 4.2 process, certified library)."""
+
+
+def readings_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """One run of the GA readings study in the results schema (objective = covered users): the
+    GA read as ``GA_READINGS[task["reading"]]`` (Table 4.3 population and restarts, 50
+    generations) on the Table 4.2 instance of ``task["seed"]`` with ``task["m"]`` drone-cells,
+    seeded by ``task["run_seed"]``."""
+    from droneplan.planners.cells import ga_reading
+    from droneplan.studies.instances import family_instances
+
+    m, seed = int(task["m"]), int(task["seed"])
+    p = family_instances(READINGS_FAMILY, m=m, seeds=[seed])[0].data
+    ga = genetic(p, seed=int(task["run_seed"]), settings=ga_reading(str(task["reading"])))
+    extras = {
+        "reading": task["reading"],
+        "run_seed": int(task["run_seed"]),
+        "best_share": float(np.mean(ga.info["final_best_share"])),
+    }
+    outcomes = [Outcome.of("ga", "heuristic", ga, extras=extras)]
+    return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
+
+
+def readings_tasks(*, seeds, ms, runs: int, readings=None) -> list[dict[str, Any]]:
+    """The tasks of the readings study: per (seed, m, reading) ``runs`` runs; run r of every
+    reading uses the same seed (paired runs).
+
+    seeds: Table 4.2 instance seeds; ms: numbers of drone-cells (1-4); runs: GA runs per
+    instance and reading; readings: keys of :data:`~droneplan.planners.cells.GA_READINGS`
+    (default all). Every run counts as one solver call against the ``solves`` work budget."""
+    from droneplan.core.validation import check_sequence, check_work
+    from droneplan.planners.cells import GA_READINGS
+
+    seeds = [check_int("seeds", v, min_value=0) for v in check_sequence("seeds", seeds)]
+    ms = [check_int("ms", v, min_value=1, max_value=4) for v in check_sequence("ms", ms)]
+    runs = check_int("runs", runs, min_value=1)
+    readings = list(GA_READINGS) if readings is None else check_sequence("readings", readings)
+    unknown = [r for r in readings if r not in GA_READINGS]
+    if unknown:
+        raise ValueError(f"readings must be keys of GA_READINGS {list(GA_READINGS)}, got {unknown}")
+    check_work("runs", float(len(seeds)) * len(ms) * len(readings) * runs, "solves")
+    return [
+        {
+            "problem": "cells",
+            "instance": instance_id("ga-readings", m=m, seed=seed, reading=name, run=r),
+            "kind": "reading",
+            "m": m,
+            "seed": seed,
+            "size": m,
+            "reading": name,
+            "run_seed": 10_000 * seed + 100 * m + r,
+        }
+        for m in ms
+        for seed in seeds
+        for name in readings
+        for r in range(runs)
+    ]
+
+
+def proven_optimum(m: int, seed: int, exact_limit: float = 120.0) -> float | None:
+    """The proven optimum (covered users) of the Table 4.2 instance ``seed`` with ``m``
+    drone-cells: the certified library's value when it is proven optimal, else the branch and
+    bound's when it proves it within ``exact_limit`` s, else None.
+
+    m: drone-cells (count); seed: the instance seed; exact_limit: time limit of the fallback solve (s).
+    """
+    from droneplan.studies.instances import family_instances
+    from droneplan.studies.library import lookup
+
+    inst = family_instances(READINGS_FAMILY, m=int(m), seeds=[int(seed)])[0]
+    entry = lookup(inst)
+    if entry is not None and entry.status == "optimal":
+        return float(entry.value)
+    r = solve_exact(inst.data, engine=EXACT_ENGINE, backend=MILP_BACKEND, time_limit=float(exact_limit))
+    return float(_covered(r)) if r.status.name == "OPTIMAL" else None
+
+
+def readings_frame(
+    df: pd.DataFrame, tasks: list[dict[str, Any]], optima: Mapping[tuple[int, int], Any]
+) -> pd.DataFrame:
+    """Per (m, reading), pooled over seeds: ``seeds``, ``runs`` (in all), ``p_global`` (the
+    fraction of runs reaching the proven optimum, over the seeds where it is proven),
+    ``mean_gap`` (mean relative gap to it), ``best_share`` (mean share of a final population
+    equal to its best), ``mean_time_s``, with the reading's label and the thesis sentence it reads.
+
+    df: the rows of :func:`readings_task`; tasks: :func:`readings_tasks`'s list; optima: the
+    proven optimum per (m, seed) (None when unproven)."""
+    from droneplan.planners.cells import GA_READINGS
+
+    ga = df[df["method"] == "ga"].set_index("instance")
+    recs = []
+    for t in tasks:
+        opt = optima.get((t["m"], t["seed"]))
+        if t["instance"] not in ga.index or opt is None:
+            continue
+        row = ga.loc[t["instance"]]
+        obj = float(row["objective"])
+        recs.append(
+            {
+                "m": t["m"],
+                "seed": t["seed"],
+                "reading": t["reading"],
+                "hit": obj >= opt,
+                "gap": (opt - obj) / max(opt, 1.0),
+                "share": float(row["cells_best_share"]),
+                "time_s": float(row["time_s"]),
+            }
+        )
+    runs = pd.DataFrame(recs, columns=["m", "seed", "reading", "hit", "gap", "share", "time_s"])
+    out = []
+    for (m, name), g in runs.groupby(["m", "reading"], sort=False):
+        out.append(
+            {
+                "m": int(m),
+                "reading": name,
+                "label": GA_READINGS[name]["label"],
+                "reads": GA_READINGS[name]["reads"],
+                "seeds": int(g["seed"].nunique()),
+                "runs": len(g),
+                "p_global": float(g["hit"].mean()),
+                "mean_gap": float(g["gap"].mean()),
+                "best_share": float(g["share"].mean()),
+                "mean_time_s": float(g["time_s"].mean()),
+            }
+        )
+    return pd.DataFrame(out)
+
+
+def readings_markdown(frame: pd.DataFrame) -> str:
+    """The readings study as a markdown table: one row per reading, P_Global per m (each with
+    the runs and seeds behind it), the label and the sentence it reads.
+
+    frame: :func:`readings_frame`'s table."""
+    if frame.empty:
+        return "(no runs)\n"
+    ms = sorted(frame["m"].unique())
+    head = [f"P_Global m={m} (runs / seeds)" for m in ms]
+    lines = [
+        "| reading | " + " | ".join(head) + " | what changes | reads |",
+        "|---|" + "---|" * len(ms) + "---|---|",
+    ]
+    for name in dict.fromkeys(frame["reading"]):
+        g = frame[frame["reading"] == name].set_index("m")
+        cells = [
+            f"{g.loc[m, 'p_global']:.0%} ({int(g.loc[m, 'runs'])} / {int(g.loc[m, 'seeds'])})"
+            if m in g.index
+            else "-"
+            for m in ms
+        ]
+        first = g.iloc[0]
+        lines.append(f"| {name} | " + " | ".join(cells) + f" | {first['label']} | {first['reads']} |")
+    return "\n".join(lines) + "\n"
+
+
+def ga_readings(
+    *,
+    seeds,
+    ms,
+    runs: int,
+    readings=None,
+    exact_limit: float = 120.0,
+    executor=None,
+    store=None,
+    out: Path | None = None,
+) -> pd.DataFrame:
+    """P_Global of the thesis GA under each reading of :data:`~droneplan.planners.cells.GA_READINGS`
+    on Table 4.2 instances, the success criterion being the instance's proven optimum
+    (:func:`proven_optimum`). Every run is a task of :func:`readings_task` in the results store
+    (default ``out/results.sqlite``; a temporary directory when ``out`` is None too), so an
+    interrupted study resumes. With ``out``, writes ``ga_readings.csv`` and ``ga_readings.md``.
+
+    seeds, ms, runs, readings: see :func:`readings_tasks`; exact_limit: time limit of a fallback
+    exact solve when the library holds no proven optimum (s); executor: a
+    :class:`~droneplan.studies.common.StudyExecutor` or None; store: a ``ResultStore`` or None;
+    out: a directory path or None.
+
+    Returns :func:`readings_frame`'s table; ``attrs["markdown"]`` holds
+    :func:`readings_markdown`'s text.
+    """
+    from droneplan.core.validation import check_instance
+    from droneplan.studies.common import StudyExecutor
+    from droneplan.studies.store import ResultStore
+
+    check_instance("executor", executor, StudyExecutor, optional=True)
+    check_instance("store", store, ResultStore, optional=True)
+    check_instance("out", out, (str, os.PathLike), optional=True)
+    exact_limit = check_positive("exact_limit", exact_limit)
+    tasks = readings_tasks(seeds=seeds, ms=ms, runs=runs, readings=readings)
+    optima = {(t["m"], t["seed"]): None for t in tasks}
+    for m, seed in optima:
+        optima[(m, seed)] = proven_optimum(m, seed, exact_limit)
+    with contextlib.ExitStack() as stack:
+        ex = executor or stack.enter_context(make_executor(1))
+        if store is None and out is None:
+            out = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="droneplan-readings-")))
+        st = stack.enter_context(open_store(store, out if out is not None else "."))
+        df = map_rows(readings_task, tasks, executor=ex, store=st, desc="GA readings")
+        frame = readings_frame(df, tasks, optima)
+        frame.attrs["markdown"] = readings_markdown(frame)
+        if out is not None:
+            frame.to_csv(Path(out) / "ga_readings.csv", index=False)
+            (Path(out) / "ga_readings.md").write_text(frame.attrs["markdown"])
+    return frame
 
 
 def exact_seed_distribution(
