@@ -1,4 +1,8 @@
-"""What researchers read off a study's rows: performance profiles, a summary table, figures, files.
+"""What researchers read off a study's rows: performance profiles and a summary table.
+
+The figures and the files of a study (:func:`~droneplan.studies.plots.profiles.write_study_outputs`)
+are drawn from these in :mod:`droneplan.studies.plots.profiles`, which imports this module (never
+the reverse).
 
 Every function takes the long-format rows of :mod:`droneplan.studies.store` (one row per
 ``(problem, instance, method[, config])``) as a pandas DataFrame.
@@ -43,13 +47,8 @@ was run (the others do not count for it) with ``r <= tau``.
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
-import json
 import math
-import os
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
@@ -71,7 +70,8 @@ __all__ = [
     "snap_gap",
     "summary_table",
     "summary_markdown",
-    "write_study_outputs",
+    "labelled_rows",
+    "solved_mask",
 ]
 
 SOLVED_STATUSES = ("optimal", "feasible")
@@ -108,14 +108,21 @@ def _require(df: Any, columns: Sequence[str], name: str = "df") -> pd.DataFrame:
     return df
 
 
-def _labelled(df: pd.DataFrame, exclude_roles: Sequence[str]) -> pd.DataFrame:
-    """The method rows with a ``label`` column (the method's name)."""
+def labelled_rows(df: pd.DataFrame, exclude_roles: Sequence[str]) -> pd.DataFrame:
+    """The method rows of ``df`` with a ``label`` column (the method's name).
+
+    df: rows of the results schema; exclude_roles: the roles left out (e.g. ``("bound",)``).
+    """
     rows = df[~df["role"].isin(exclude_roles)].copy()
     rows["label"] = rows["method"].astype(str).astype(object)
     return rows
 
 
-def _solved(rows: pd.DataFrame) -> pd.Series:
+def solved_mask(rows: pd.DataFrame) -> pd.Series:
+    """Per row of ``rows`` (results schema), whether its run is solved (``SOLVED_STATUSES``).
+
+    rows: rows with a ``status`` column.
+    """
     return rows["status"].astype(str).isin(SOLVED_STATUSES)
 
 
@@ -142,7 +149,7 @@ def performance_ratios(
     needed = ["problem", "instance", "method", "role", "status", value_col]
     if measure == "objective":
         needed.append("sense")
-    rows = _labelled(_require(df, needed), _NOT_PROFILED)
+    rows = labelled_rows(_require(df, needed), _NOT_PROFILED)
     dup = rows.duplicated(["problem", "instance", "label"], keep=False)
     if dup.any():
         first = rows[dup].iloc[0]
@@ -151,7 +158,7 @@ def performance_ratios(
             "a profile needs one run per (instance, method): filter the rows first"
         )
     value = pd.to_numeric(rows[value_col], errors="coerce").astype(float).to_numpy()
-    ok = _solved(rows).to_numpy() & np.isfinite(value)
+    ok = solved_mask(rows).to_numpy() & np.isfinite(value)
     ratio = np.full(len(rows), np.inf)
     if measure == "time":
         value = np.maximum(value, floor)
@@ -317,9 +324,9 @@ def summary_table(
     _require(df, ["problem", "size", "method", "role", "status"])
     shift = check_nonneg("time_shift", time_shift)
     tol = check_nonneg("success_tol", success_tol)
-    rows = _labelled(df, _NOT_METHODS)
+    rows = labelled_rows(df, _NOT_METHODS)
     status = rows["status"].astype(str)
-    solved = _solved(rows)
+    solved = solved_mask(rows)
     flags = _flags(rows)
     num = {
         c: (
@@ -389,7 +396,7 @@ def instance_targets(df: pd.DataFrame) -> pd.DataFrame:
     obj = pd.to_numeric(df["objective"], errors="coerce").astype(float)
     bound_kind = df["bound_kind"].astype(str) if "bound_kind" in df.columns else pd.Series("", index=df.index)
     clean = ~_flags(df).str.split(";").apply(lambda fs: any(f in _STRICT_FLAGS for f in fs))
-    usable = clean & _solved(df) & (df["role"] != "bound") & np.isfinite(obj)
+    usable = clean & solved_mask(df) & (df["role"] != "bound") & np.isfinite(obj)
     proven = usable & (df["status"] == "optimal") & (bound_kind == "proven-global")
     out = []
     for (problem, instance), g in df.groupby(["problem", "instance"], sort=False):
@@ -455,18 +462,21 @@ def _cell(v: Any) -> str:
     return str(v).replace("|", "\\|")
 
 
-def summary_markdown(df: pd.DataFrame, *, time_shift: float = 1.0) -> str:
+def summary_markdown(df: pd.DataFrame, *, time_shift: float = 1.0, success_tol: float = SUCCESS_TOL) -> str:
     """:func:`summary_table` of ``df`` as GitHub Markdown: one section and table per problem.
 
     df: rows of the results schema; time_shift: shift (s) of the mean time (see
+    :func:`summary_table`); success_tol: relative tolerance of a successful run (dimensionless, see
     :func:`summary_table`). Missing values show as ``—``; gaps are relative (dimensionless).
     """
-    table = summary_table(df, time_shift=time_shift)
+    table = summary_table(df, time_shift=time_shift, success_tol=success_tol)
     head = (
         "Runs per (problem, size, method). solved: status optimal or feasible; at best: solved "
         f"with gap to the best <= {AT_BEST_TOL:g}; gaps are relative, over solved runs; "
         f"time: shifted geometric mean (shift {time_shift:g} s) over runs that recorded one; "
-        "flagged: rows with a non-empty flag."
+        "flagged: rows with a non-empty flag. success rate: share of runs within a relative "
+        f"{success_tol:g} of the target (target kind: the proven optimum or the best known value); "
+        "ert: expected running time to the target (s), IOHprofiler's (inf: no run reached it)."
     )
     if not len(table):
         return head + "\n\n(no method rows)\n"
@@ -484,100 +494,3 @@ def summary_markdown(df: pd.DataFrame, *, time_shift: float = 1.0) -> str:
             *("| " + " | ".join(_cell(v) for v in r) + " |" for r in g[cols].itertuples(index=False)),
         ]
     return "\n".join(parts) + "\n"
-
-
-# --------------------------------------------------------------------------- files
-def _arrow_accepts(pa: Any, column: pd.Series) -> bool:
-    """True when pyarrow stores ``column`` as one typed column (else it goes as JSON text)."""
-    try:
-        pa.array(column, from_pandas=True)
-    except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
-        return False
-    return True
-
-
-def _missing(v: Any) -> bool:
-    return v is None or v is pd.NA or (isinstance(v, float) and math.isnan(v))
-
-
-def _json_text(v: Any) -> str | None:
-    if _missing(v):
-        return None
-    if hasattr(v, "tolist"):  # numpy arrays and scalars
-        v = v.tolist()
-    return json.dumps(v, default=str)
-
-
-def _parquet_ready(df: pd.DataFrame) -> pd.DataFrame:
-    """``df`` with object columns of lists, dicts or mixed scalars written as JSON text.
-
-    Such columns (problem extras such as a list of sites) would otherwise come back from
-    Parquet as arrays, or not be written at all; every other column round-trips unchanged.
-    """
-    pa = importlib.import_module("pyarrow")  # typed as Any: pyarrow ships no type information
-    out = df
-    for c in df.columns:
-        if df[c].dtype != object:
-            continue
-        present = [v for v in df[c] if not _missing(v)]
-        nested = any(isinstance(v, (list, tuple, dict, set, np.ndarray)) for v in present)
-        if not nested and _arrow_accepts(pa, df[c]):
-            continue
-        if out is df:
-            out = df.copy()
-        out[c] = pd.Series([_json_text(v) for v in df[c]], index=df.index, dtype=object)
-    return out
-
-
-def write_study_outputs(df: pd.DataFrame, out: str | os.PathLike, *, stem: str = "study") -> dict[str, Path]:
-    """Write a study's summary, profiles, gap figure and rows into the folder ``out``.
-
-    df: rows of the results schema; out: folder (created with its parents); stem: prefix of
-    the file names (no path separators). Files: ``<stem>_summary.csv`` and
-    ``<stem>_summary.md`` (:func:`summary_table`), ``<stem>_profile_objective.png`` and
-    ``<stem>_profile_time.png`` (performance profiles), ``<stem>_gaps.png`` (distribution of
-    the gaps to the bound and to the best per method and size) and ``<stem>_rows.parquet``
-    (the rows; a column of lists, dicts or mixed types is stored as JSON text, every other
-    column reads back unchanged with ``pandas.read_parquet``). Needs pyarrow for
-    the Parquet file: an ImportError saying so is raised before anything is written.
-    Returns ``{"summary_csv", "summary_md", "profile_objective", "profile_time", "gaps",
-    "rows"}`` mapped to the paths written.
-    """
-    _require(df, ["problem", "instance", "size", "method", "role", "sense", "status", "objective", "time_s"])
-    check_instance("stem", stem, str)
-    if not stem or any(sep in stem for sep in ("/", "\\", os.sep)):
-        raise ValueError(f"stem must be a non-empty file-name prefix without path separators, got {stem!r}")
-    check_instance("out", out, (str, os.PathLike))
-    if importlib.util.find_spec("pyarrow") is None:  # checked up front: no half-written output folder
-        raise ImportError(
-            "write_study_outputs writes the rows as Parquet, which needs pyarrow: pip install pyarrow"
-        )
-    import matplotlib.pyplot as plt
-
-    from droneplan.studies.plots.profiles import plot_gap_distribution, plot_performance_profile
-
-    folder = Path(out)
-    folder.mkdir(parents=True, exist_ok=True)
-    paths = {
-        "summary_csv": folder / f"{stem}_summary.csv",
-        "summary_md": folder / f"{stem}_summary.md",
-        "profile_objective": folder / f"{stem}_profile_objective.png",
-        "profile_time": folder / f"{stem}_profile_time.png",
-        "gaps": folder / f"{stem}_gaps.png",
-        "rows": folder / f"{stem}_rows.parquet",
-    }
-    summary_table(df).to_csv(paths["summary_csv"], index=False)
-    paths["summary_md"].write_text(summary_markdown(df))
-    measures: tuple[Literal["objective", "time"], ...] = ("objective", "time")
-    for measure in measures:
-        fig = plot_performance_profile(df, measure=measure)
-        fig.savefig(paths[f"profile_{measure}"], dpi=110)
-        plt.close(fig)
-    fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.2))
-    for ax, col in zip(axes, ("gap_to_bound", "gap_to_best"), strict=True):
-        plot_gap_distribution(df, column=col, ax=ax)
-    fig.tight_layout()
-    fig.savefig(paths["gaps"], dpi=110)
-    plt.close(fig)
-    _parquet_ready(df).to_parquet(paths["rows"], index=False)
-    return paths

@@ -189,6 +189,13 @@ def _parser() -> argparse.ArgumentParser:
         "an allocation past it fails in the method (an error row)",
     )
     gap.add_argument(
+        "--runs",
+        default=None,
+        metavar="R",
+        help="open study: runs per instance and method, each with its own seed (default 1, at most "
+        "1000); a deterministic method runs once",
+    )
+    gap.add_argument(
         "--out",
         type=Path,
         default=Path("results"),
@@ -430,10 +437,25 @@ def _gib(value: float | None) -> int | None:
     return int(value * (1 << 30))
 
 
+def _runs(value: str | None) -> int:
+    """``--runs`` as a number of runs (1 when not given); a one-line SystemExit when it is not one."""
+    from droneplan.studies.study import MAX_RUNS, check_runs
+
+    if value is None:
+        return 1
+    try:
+        return check_runs(int(value))
+    except ValueError:
+        shown = value if len(value) <= 40 and value.isprintable() else "that"
+        raise SystemExit(f"droneplan: --runs must be an int from 1 to {MAX_RUNS}, got {shown}") from None
+
+
 def _run_open_gap(args) -> int:
-    from droneplan.studies.analysis import summary_markdown, write_study_outputs
+    from droneplan.studies.analysis import summary_markdown
+    from droneplan.studies.plots.profiles import write_study_outputs
     from droneplan.studies.study import gap as open_gap
 
+    runs = _runs(args.runs)
     if args.problem == "all":
         raise SystemExit("droneplan: --method/--instances need one problem (cells, herding, shark or covert)")
     if not args.methods:
@@ -451,6 +473,7 @@ def _run_open_gap(args) -> int:
             dask=args.dask,
             time_limit=args.time_limit,
             memory_limit=_gib(args.memory_limit),
+            runs=runs,
             **size,
         )
     except (ValueError, TypeError, FileNotFoundError) as exc:
@@ -597,6 +620,8 @@ def _run(args) -> int:
     if args.command == "gap" and (args.methods or args.instances):
         _writable_out(args.out)
         return _run_open_gap(args)
+    if args.command == "gap" and args.runs is not None:
+        raise SystemExit("droneplan: --runs goes with an open study (--method or --instances)")
     problems = _resolve(args.problem)
     workers = _checked_counts(args)
     _writable_out(args.out)

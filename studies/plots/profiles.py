@@ -5,19 +5,32 @@ Both take the long-format rows of :mod:`droneplan.studies.store`, an optional ma
 imported inside the functions. Empty data, a single method and studies where every run
 failed give a figure that says so instead of an exception. The ratios, the solved/failed
 rule and the treatment of ``bound``/``task`` rows are those of :mod:`droneplan.studies.analysis`.
+:func:`write_study_outputs` writes a study's summary, these figures and its rows into a folder.
 """
 
 from __future__ import annotations
 
+import importlib
+import importlib.util
+import json
+import math
+import os
+from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
 
 from droneplan.core.validation import check_instance
-from droneplan.studies.analysis import _labelled, _solved, performance_profile
+from droneplan.studies.analysis import (
+    labelled_rows,
+    performance_profile,
+    solved_mask,
+    summary_markdown,
+    summary_table,
+)
 
-__all__ = ["plot_performance_profile", "plot_gap_distribution"]
+__all__ = ["plot_performance_profile", "plot_gap_distribution", "write_study_outputs"]
 
 _STYLES = ("-", "--", ":", "-.")
 _XLABEL = {
@@ -105,8 +118,8 @@ def plot_gap_distribution(df: pd.DataFrame, column: str = "gap_to_bound", ax: An
         return fig
     if "size" not in df.columns:
         df = df.assign(size=pd.NA)
-    rows = _labelled(df, ("bound", "task"))
-    vals = pd.to_numeric(rows[column], errors="coerce").astype(float).where(_solved(rows))
+    rows = labelled_rows(df, ("bound", "task"))
+    vals = pd.to_numeric(rows[column], errors="coerce").astype(float).where(solved_mask(rows))
     rows = rows.assign(_v=vals, _size=rows["size"].map(lambda s: "?" if pd.isna(s) else str(s)))
     finite = vals[np.isfinite(vals)]
     if not len(finite):
@@ -137,3 +150,104 @@ def plot_gap_distribution(df: pd.DataFrame, column: str = "gap_to_bound", ax: An
     ax.set_xlim(left, right)
     ax.legend(fontsize=8, loc="best")
     return fig
+
+
+# --------------------------------------------------------------------------- files
+def _arrow_accepts(pa: Any, column: pd.Series) -> bool:
+    """True when pyarrow stores ``column`` as one typed column (else it goes as JSON text)."""
+    try:
+        pa.array(column, from_pandas=True)
+    except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
+        return False
+    return True
+
+
+def _missing(v: Any) -> bool:
+    return v is None or v is pd.NA or (isinstance(v, float) and math.isnan(v))
+
+
+def _json_text(v: Any) -> str | None:
+    if _missing(v):
+        return None
+    if hasattr(v, "tolist"):  # numpy arrays and scalars
+        v = v.tolist()
+    return json.dumps(v, default=str)
+
+
+def _parquet_ready(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` with object columns of lists, dicts or mixed scalars written as JSON text.
+
+    Such columns (problem extras such as a list of sites) would otherwise come back from
+    Parquet as arrays, or not be written at all; every other column round-trips unchanged.
+    """
+    pa = importlib.import_module("pyarrow")  # typed as Any: pyarrow ships no type information
+    out = df
+    for c in df.columns:
+        if df[c].dtype != object:
+            continue
+        present = [v for v in df[c] if not _missing(v)]
+        nested = any(isinstance(v, (list, tuple, dict, set, np.ndarray)) for v in present)
+        if not nested and _arrow_accepts(pa, df[c]):
+            continue
+        if out is df:
+            out = df.copy()
+        out[c] = pd.Series([_json_text(v) for v in df[c]], index=df.index, dtype=object)
+    return out
+
+
+def write_study_outputs(df: pd.DataFrame, out: str | os.PathLike, *, stem: str = "study") -> dict[str, Path]:
+    """Write a study's summary, profiles, gap figure and rows into the folder ``out``.
+
+    df: rows of the results schema; out: folder (created with its parents); stem: prefix of
+    the file names (no path separators). Files: ``<stem>_summary.csv`` and
+    ``<stem>_summary.md`` (:func:`summary_table`), ``<stem>_profile_objective.png`` and
+    ``<stem>_profile_time.png`` (performance profiles, of run 0 when the study repeated its
+    runs: the instance's own seed), ``<stem>_gaps.png`` (distribution of
+    the gaps to the bound and to the best per method and size) and ``<stem>_rows.parquet``
+    (the rows; a column of lists, dicts or mixed types is stored as JSON text, every other
+    column reads back unchanged with ``pandas.read_parquet``). Needs pyarrow for
+    the Parquet file: an ImportError saying so is raised before anything is written.
+    Returns ``{"summary_csv", "summary_md", "profile_objective", "profile_time", "gaps",
+    "rows"}`` mapped to the paths written.
+    """
+    check_instance("df", df, pd.DataFrame)
+    needed = ("problem", "instance", "size", "method", "role", "sense", "status", "objective", "time_s")
+    missing = [c for c in needed if c not in df.columns]
+    if missing:
+        raise ValueError(f"df lacks the column(s) {missing} of the results schema")
+    check_instance("stem", stem, str)
+    if not stem or any(sep in stem for sep in ("/", "\\", os.sep)):
+        raise ValueError(f"stem must be a non-empty file-name prefix without path separators, got {stem!r}")
+    check_instance("out", out, (str, os.PathLike))
+    if importlib.util.find_spec("pyarrow") is None:  # checked up front: no half-written output folder
+        raise ImportError(
+            "write_study_outputs writes the rows as Parquet, which needs pyarrow: pip install pyarrow"
+        )
+    import matplotlib.pyplot as plt
+
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = {
+        "summary_csv": folder / f"{stem}_summary.csv",
+        "summary_md": folder / f"{stem}_summary.md",
+        "profile_objective": folder / f"{stem}_profile_objective.png",
+        "profile_time": folder / f"{stem}_profile_time.png",
+        "gaps": folder / f"{stem}_gaps.png",
+        "rows": folder / f"{stem}_rows.parquet",
+    }
+    summary_table(df).to_csv(paths["summary_csv"], index=False)
+    paths["summary_md"].write_text(summary_markdown(df))
+    measures: tuple[Literal["objective", "time"], ...] = ("objective", "time")
+    first_runs = df[df["run"] == 0] if "run" in df.columns else df  # a profile takes one run per pair
+    for measure in measures:
+        fig = plot_performance_profile(first_runs, measure=measure)
+        fig.savefig(paths[f"profile_{measure}"], dpi=110)
+        plt.close(fig)
+    fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.2))
+    for ax, col in zip(axes, ("gap_to_bound", "gap_to_best"), strict=True):
+        plot_gap_distribution(df, column=col, ax=ax)
+    fig.tight_layout()
+    fig.savefig(paths["gaps"], dpi=110)
+    plt.close(fig)
+    _parquet_ready(df).to_parquet(paths["rows"], index=False)
+    return paths

@@ -129,12 +129,8 @@ def test_the_graph_sees_function_level_and_package_imports():
     assert _cycles({"a": {"b"}, "b": set()}) == []
 
 
-# being removed: the results analysis and its performance-profile plots import each other
-BEING_REMOVED = {("droneplan.studies.analysis", "droneplan.studies.plots.profiles")}
-
-
 @pytest.mark.parametrize("layer", ["solvers", "studies"])
 def test_no_import_circle(layer):
     graph = _graph(f"droneplan.{layer}")
-    cycles = [c for c in _cycles(graph) if tuple(c) not in BEING_REMOVED]
+    cycles = _cycles(graph)
     assert not cycles, f"import circles in {layer}/: {_report(graph, cycles)}"

@@ -25,9 +25,12 @@ from droneplan.studies.analysis import (
     snap_gap,
     summary_markdown,
     summary_table,
+)
+from droneplan.studies.plots.profiles import (
+    plot_gap_distribution,
+    plot_performance_profile,
     write_study_outputs,
 )
-from droneplan.studies.plots.profiles import plot_gap_distribution, plot_performance_profile
 
 
 def _row(instance, method, status, objective, time_s, *, sense="min", role="heuristic", size=3, **extra):
