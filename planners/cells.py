@@ -442,7 +442,7 @@ def _mutate(
     problem: CellProblem,
     pop: NDArray[np.float64],
     f: NDArray[np.int_],
-    fbest: NDArray[np.float64],
+    fbest: NDArray[Any],
     box: tuple[NDArray[np.float64], NDArray[np.float64]],
     s: GASettings,
     rng: np.random.Generator,
@@ -463,8 +463,9 @@ def _mutate(
         moved = origin + (pop - origin) * (1.0 + step)
     else:  # ablation variant: an absolute step
         moved = pop + step * s.mutation_step
-    cand = np.clip(np.where(mask, moved, pop), lo, hi)
-    return cand, mask.any(axis=(2, 3))
+    cand: NDArray[np.float64] = np.clip(np.where(mask, moved, pop), lo, hi)
+    changed: NDArray[np.bool_] = np.asarray(mask.any(axis=(2, 3)))
+    return cand, changed
 
 
 def _crossover(
@@ -689,7 +690,7 @@ def genetic(
 
     progress = _GaProgress(max_evaluations, on_best)
     if s.carry_best:  # restarts one after another, each seeded with the best so far
-        parts = []
+        parts: list[tuple[NDArray[np.float64], NDArray[np.int_], NDArray[np.float64]]] = []
         for _ in range(int(N)):
             carried = None if not parts else max(parts, key=lambda t: int(t[1][0]))[0][0]
             parts.append(_run_batch(problem, 1, int(P), int(iter_max), s, rng, progress, carried))

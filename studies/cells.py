@@ -1320,9 +1320,10 @@ def ga_readings(
     check_instance("out", out, (str, os.PathLike), optional=True)
     exact_limit = check_positive("exact_limit", exact_limit)
     tasks = readings_tasks(seeds=seeds, ms=ms, runs=runs, readings=readings)
-    optima = {(t["m"], t["seed"]): None for t in tasks}
-    for m, seed in optima:
-        optima[(m, seed)] = proven_optimum(m, seed, exact_limit)
+    optima: dict[tuple[int, int], float | None] = {}
+    for t in tasks:
+        if (t["m"], t["seed"]) not in optima:
+            optima[(t["m"], t["seed"])] = proven_optimum(t["m"], t["seed"], exact_limit)
     with contextlib.ExitStack() as stack:
         ex = executor or stack.enter_context(make_executor(1))
         if store is None and out is None:
