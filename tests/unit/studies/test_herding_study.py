@@ -113,6 +113,30 @@ def test_bench_speed_rows_record_cpu_wall_and_load(monkeypatch):
     assert [r["thesis"] for r in table.rows] == ["—", "target >= 200", "target >= 50", "target <= 0.5"]
 
 
+def test_bench_whole_run_rows_record_cpu_wall_and_load(monkeypatch):
+    """The bench's whole-run rows (1000 and 10^5 animals): sim s per CPU s with the CPU time, the
+    wall time and the load average; a small herd in a small field stands in for both here."""
+    from droneplan.studies.common import ComparisonTable
+
+    real = study.thesis_scenario
+    monkeypatch.setattr(
+        study, "thesis_scenario", lambda n, seed=0: real(min(n, 40), seed=seed, field_size=(200.0, 100.0))
+    )
+    monkeypatch.setattr(study, "WHOLE_RUN_HORIZONS", {1000: (30.0, 30.0), 100_000: (2.0, 2.0)})
+    table = ComparisonTable("speed")
+    study._bench_whole_runs(table, quick=True)
+    assert [r["quantity"] for r in table.rows] == [
+        "simulation, 1000 animals + 4 drones, whole run (sim s / CPU s)",
+        "simulation, 100000 animals + 4 drones, whole run (sim s / CPU s)",
+    ]
+    for row in table.rows:
+        assert np.isfinite(float(row["this run"])) and float(row["this run"]) > 0
+        note = row["how measured"]
+        assert "CPU-s" in note and "wall" in note and "load average" in note
+    r = study.whole_run_rate(40, 2.0)
+    assert r["sim_s"] == 2.0 and r["cpu_s"] > 0 and r["rate"] == r["sim_s"] / r["cpu_s"]
+
+
 def _scenario_of(task):
     """The scenario a sweep task's run simulates (as studies.herding._run_traced builds it)."""
     from droneplan.scenarios.herding import thesis_scenario
