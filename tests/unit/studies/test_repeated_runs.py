@@ -206,3 +206,31 @@ def test_v2_store_is_migrated_with_its_rows_as_run_zero(tmp_path):
         assert sorted(store.frame()["run"]) == [0, 0, 1]
         assert store.try_claim(("herding", "t:seed=0", "a", "c2", 2))
         assert not store.try_claim(("herding", "t:seed=0", "a", "c2", 1))  # done
+
+
+@pytest.mark.parametrize("value", ["0", "1001", "2.5", "many"])
+def test_cli_refuses_bad_runs_in_one_line(tmp_path, value):
+    from droneplan.studies import cli
+
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as info:
+        cli.main(
+            [
+                "gap",
+                "cells",
+                "--method",
+                "greedy",
+                "--m",
+                "1",
+                "--seeds",
+                "1",
+                "--runs",
+                value,
+                "--out",
+                str(out),
+            ]
+        )
+    text = str(info.value.code)
+    assert text.startswith("droneplan: --runs must be an int from 1 to 1000") and "\n" not in text
+    with pytest.raises(SystemExit, match=r"^droneplan: --runs goes with an open study"):
+        cli.main(["gap", "cells", "--seeds", "1", "--runs", "3", "--out", str(out)])

@@ -120,6 +120,7 @@ def test_v1_store_is_migrated_in_place(tmp_path):
         assert store._con.execute("SELECT value FROM meta").fetchone()[0] == "3"
         df = store.frame()
         assert list(df["method"]) == ["a", "b"] and list(df["config"]) == ["", ""]
+        assert list(df["run"]) == [0, 0]  # version 1 -> 3 through 2: one run each
         assert list(df["herding_k"]) == [0, 1] and list(df["gap_to_best"]) == [0.0, 1 / 3]
         assert store.done_instances() == {("herding", "t:seed=0")}
         assert store.write([_row("a", 2.0, config="c1")]) == 1  # the migrated row is superseded
