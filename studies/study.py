@@ -49,7 +49,6 @@ from droneplan.studies.store import (
     LIBRARY_METHOD,
     LIBRARY_SUSPECT,
     PROBLEMS,
-    SOLVED_STATUSES,
     STORE_NAME,
     Outcome,
     ResultStore,
@@ -536,9 +535,10 @@ def _first_batch(t: _Task) -> bool:
 
 
 def _settle_determinism(store: ResultStore, plan: StudyPlan) -> set[tuple[str, str]]:
-    """The (instance id, method) pairs of methods declaring no determinism whose runs 0 and 1 both
-    solved the instance with the same plan: their two rows are marked deterministic (the others'
-    rows, stochastic) and no further run is made of them."""
+    """The (instance id, method) pairs of methods declaring no determinism whose runs 0 and 1
+    returned the same plan (equal ``plan_hash``; a run that returned nothing readable has none):
+    their two rows are marked deterministic (the others' rows, stochastic) and no further run is
+    made of them."""
     undecided = {
         (t.instance.id, t.method.name): t for t in plan.tasks if t.deterministic is None and t.run == 1
     }
@@ -546,10 +546,11 @@ def _settle_determinism(store: ResultStore, plan: StudyPlan) -> set[tuple[str, s
         return set()
     df = store.frame(problem=plan.problem)
     column = f"{plan.problem}_{_PLAN_HASH}"
-    same, keys = set(), {True: [], False: []}  # type: ignore[var-annotated]
+    same: set[tuple[str, str]] = set()
+    keys: dict[bool, list[tuple[str, str, str, str, int]]] = {True: [], False: []}
     for pair, task in undecided.items():
         rows = df[(df["instance"] == pair[0]) & (df["method"] == pair[1]) & (df["config"] == task.config)]
-        hashes = {int(r["run"]): r.get(column) for _, r in rows.iterrows() if r["status"] in SOLVED_STATUSES}
+        hashes = {int(r["run"]): r.get(column) for _, r in rows.iterrows()}
         h0, h1 = hashes.get(0), hashes.get(1)
         agree = isinstance(h0, str) and h0 == h1
         if agree:
