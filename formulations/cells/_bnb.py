@@ -52,9 +52,12 @@ from __future__ import annotations
 import functools
 import math
 import multiprocessing
+import os
 import queue
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -206,6 +209,10 @@ class BranchAndBoundSearch:
         self.dual_cuts = 0
         self.free: SearchView | None = None  # item 14's relaxed search, built on first use
         self.free_cuts = 0
+        # called with each new incumbent's positions (k, 2), in this process only (forked
+        # workers' incumbents reach the caller with the result)
+        self.on_incumbent: Callable[[np.ndarray], Any] | None = None
+        self.owner = os.getpid()
 
     def link_rows(self) -> LinkRows:
         """The sites within r2 + TOL of each other (:class:`LinkRows`: a row is built when
@@ -287,6 +294,8 @@ class BranchAndBoundSearch:
         ev = evaluate(self.problem, self.pts[P])
         if ev.feasible and ev.covered > self.best_val:
             self.best_val, self.best = int(ev.covered), list(P)
+            if self.on_incumbent is not None and os.getpid() == self.owner:
+                self.on_incumbent(self.pts[P])
             if self.witness:
                 raise _Witness
 
@@ -517,6 +526,7 @@ def search(
     main: bool = True,
     parent: BranchAndBoundSearch | None = None,
     exchange_sizes: tuple[int, ...] | None = None,
+    on_incumbent: Callable[[np.ndarray], Any] | None = None,
 ) -> BnbResult:
     """Exact search of the candidate problem (module docstring; the state lives on a
     :class:`BranchAndBoundSearch`).
@@ -538,6 +548,8 @@ def search(
     engine a start. parent: a search over the same ``cand`` whose site structures this one
     shares (item 9's searches). exchange_sizes: the sizes of the site sets the exchange
     heuristic takes out of the incumbent (None: ``BranchAndBoundSearch.exchange_sizes``).
+    on_incumbent: called with the positions ((k, 2) m) of each new incumbent the search finds in
+    this process (an anytime trace; those of forked workers come back with the result).
     """
     t0 = time.perf_counter()
     n = len(cand.points)
@@ -564,6 +576,7 @@ def search(
         return BnbResult(best_pos, best_val, float(upper), False, 0, built=False)
     if exchange_sizes is not None:
         bb.exchange_sizes = tuple(exchange_sizes)
+    bb.on_incumbent = on_incumbent
     return bb.run(best_pos, eliminate=eliminate, heuristics=heuristics, workers=workers, main=main)
 
 

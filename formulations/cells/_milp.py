@@ -155,6 +155,7 @@ import itertools
 import math
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -1461,6 +1462,7 @@ class _ModelSolve:
             workers=self.workers,
             hint={v: int(b) for v, b in hint.items()},
             options=FEW_WORKER_OPTIONS.get(backend) if self.workers <= 2 else None,
+            on_solution=None if prep.report is None else self._reporter(mdl.points),
         )
         state.raw = res.backend_status
         if res.bound is not None:
@@ -1474,7 +1476,16 @@ class _ModelSolve:
         cv = evaluate(problem, feas).covered
         if cv > state.inc_val:
             state.inc, state.inc_val = feas, cv
+            prep.offer_report(feas)
         return dataclasses.replace(res, x=(keep[chosen], pos, ev), objective=float(ev.covered))
+
+    def _reporter(self, points: np.ndarray) -> Callable[[np.ndarray, float | None, float | None], None]:
+        """The backend's ``on_solution``: each solution's chosen sites offered as a report."""
+
+        def offer(x: np.ndarray, _objective: float | None, _bound: float | None) -> None:
+            self.prep.offer_report(points[np.flatnonzero(np.asarray(x) > 0.5)])
+
+        return offer
 
     def separate(self, res: SolveResult) -> list:
         """The cuts violated by a round's placement (none when it is feasible)."""

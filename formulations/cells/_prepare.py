@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -285,6 +286,21 @@ class Prepared:
     heuristic, so a longer limit may still raise the incumbent."""
     _b_prev: float | None = None
     """:meth:`bound_m_minus_1` once computed."""
+    report: Callable[..., Any] | None = None
+    """Called as ``report(positions, bound=...)`` with each better placement the engines find
+    (``solve_exact(report=...)``); the bound is ``ub``, valid for the continuous problem."""
+    reported_val: int = -1
+    """Users covered by the last placement reported."""
+
+    def offer_report(self, positions: np.ndarray) -> None:
+        """Report ``positions`` when they are feasible and cover more users than the last report
+        (nothing else changes: the engines keep their own incumbents)."""
+        if self.report is None:
+            return
+        ev = evaluate(self.problem, positions)
+        if ev.feasible and int(ev.covered) > self.reported_val:
+            self.reported_val = int(ev.covered)
+            self.report(np.array(positions, dtype=float).reshape(-1, 2), bound=float(self.ub))
 
     def bound_m_minus_1(self) -> float:
         """An upper bound on the users any m - 1 drone-cells cover: the continuous bound of
