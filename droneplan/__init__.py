@@ -32,6 +32,7 @@ if TYPE_CHECKING:  # the names for type checkers; at run time __getattr__ import
     from droneplan import cells, covert, herding, shark
     from droneplan.solvers.result import SolveResult, Status
     from droneplan.studies.store import load_results
+    from droneplan.studies.trace_store import load_traces
 
 __version__ = "0.1.0"
 
@@ -43,6 +44,7 @@ __all__ = [
     "SolveResult",
     "Status",
     "load_results",
+    "load_traces",
     "run_gap",
     "gap",
     "summary_table",
@@ -56,6 +58,7 @@ __all__ = [
 
 _STUDY_NAMES = (
     "gap",
+    "load_traces",
     "summary_table",
     "performance_profile",
     "plot_performance_profile",
@@ -128,6 +131,7 @@ def __getattr__(name: str) -> Any:
         from droneplan.studies.instances import family_instances, load_instance, save_instance  # noqa: F401
         from droneplan.studies.plots.profiles import plot_performance_profile  # noqa: F401
         from droneplan.studies.study import gap  # noqa: F401
+        from droneplan.studies.trace_store import load_traces  # noqa: F401
 
         value = locals()[name]
     else:

@@ -75,7 +75,7 @@ def bench_variants(
             )
         mp = mobile_problem(m, seed, epochs)
         for name, solve in (("mobile joint", solve_mobile), ("mobile myopic", myopic)):
-            run(name, seed, lambda s=solve: s(mp, time_limit=time_limit), {"epochs": epochs})
+            run(name, seed, lambda s=solve, p=mp: s(p, time_limit=time_limit), {"epochs": epochs})
     if not path.exists():
         pd.DataFrame(rows).to_csv(path, index=False)
     wanted = set(seeds)

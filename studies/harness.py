@@ -46,7 +46,16 @@ from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.instances import StudyInstance
 from droneplan.studies.methods import CLOSED_LOOP_KINDS, Method
 
-__all__ = ["Scored", "execute", "execute_plain", "score", "SENSE_OF_KIND", "HERDING_T_MAX"]
+__all__ = [
+    "Scored",
+    "execute",
+    "execute_plain",
+    "score",
+    "SENSE_OF_KIND",
+    "HERDING_T_MAX",
+    "STATIC_KINDS",
+    "BUDGET_KEYWORDS",
+]
 
 SENSE_OF_KIND = {
     "cells": "max",
@@ -82,27 +91,40 @@ class Scored:
 
 
 # --------------------------------------------------------------------------- in the child
-def execute(instance: StudyInstance, method: Method, seed: int, time_limit: float | None) -> Any:
+BUDGET_KEYWORDS = ("cpu_limit", "max_evaluations")
+"""The study's optional budgets a method receives when it names them among its parameters."""
+
+
+def execute(
+    instance: StudyInstance,
+    method: Method,
+    seed: int,
+    time_limit: float | None,
+    budgets: Mapping[str, Any] | None = None,
+) -> Any:
     """Run ``method`` on ``instance`` (in the job's child process) and return what is to be scored.
 
-    Static kinds return the method's raw return value. Closed-loop kinds return droneplan's
+    Static kinds return the method's raw return value; ``budgets`` (``cpu_limit`` in CPU-s,
+    ``max_evaluations``, and ``report``: True to hand the method a
+    :class:`~droneplan.studies.traces.Reporter`) reach the method as keywords when it names them
+    (:meth:`~droneplan.studies.methods.Method.accepts`). Closed-loop kinds return droneplan's
     simulator's metrics (a dict): the simulator runs here, in a process the method never runs in,
     and the controller in a process of its own (:class:`~droneplan.studies.sandbox.ControllerProcess`)
     that only answers commands; a controller that fails or answers with something other than a
     plain command gives ``{"controller_failed": message}``.
     """
     data = instance.data
-    if instance.kind in ("cells", "cells-mobile"):
-        return method.call(data, seed=seed, time_limit=time_limit)
-    if instance.kind == "cells-fleet":
-        return method.call(data.problem, data.coverage, seed=seed, time_limit=time_limit)
-    if instance.kind == "allocation":
-        return method.call(
-            data.drone_s.copy(), data.steer_s.copy(), data.perimeter, seed=seed, time_limit=time_limit
-        )
-    if instance.kind == "shark-fleet":
-        arrays = (data.operators, data.sharks_pos, data.sharks_vel, data.humans)
-        return method.call(*(a.copy() for a in arrays), seed=seed, time_limit=time_limit)
+    if instance.kind in STATIC_KINDS:
+        extra = _method_keywords(method, budgets or {})
+        if instance.kind in ("cells", "cells-mobile"):
+            return method.call(data, seed=seed, time_limit=time_limit, **extra)
+        if instance.kind == "cells-fleet":
+            return method.call(data.problem, data.coverage, seed=seed, time_limit=time_limit, **extra)
+        if instance.kind == "allocation":
+            steering = (data.drone_s.copy(), data.steer_s.copy())
+            return method.call(*steering, data.perimeter, seed=seed, time_limit=time_limit, **extra)
+        fleet = (data.operators, data.sharks_pos, data.sharks_vel, data.humans)
+        return method.call(*(a.copy() for a in fleet), seed=seed, time_limit=time_limit, **extra)
     if method.is_bound_engine:
         return method.call(data, seed=seed, time_limit=time_limit)
     from droneplan.studies.sandbox import ControllerFailed, ControllerProcess
@@ -118,12 +140,33 @@ def execute(instance: StudyInstance, method: Method, seed: int, time_limit: floa
     return metrics
 
 
-def execute_plain(instance: StudyInstance, method: Method, seed: int, time_limit: float | None) -> bytes:
+STATIC_KINDS = ("cells", "cells-mobile", "cells-fleet", "allocation", "shark-fleet")
+"""The kinds whose methods return a plan (the others run a controller in a simulator)."""
+
+
+def _method_keywords(method: Method, budgets: Mapping[str, Any]) -> dict[str, Any]:
+    """The study's budgets the method names, and a reporter when it takes one and one is wanted."""
+    extra = {k: budgets[k] for k in BUDGET_KEYWORDS if budgets.get(k) is not None and method.accepts(k)}
+    if budgets.get("report") and method.accepts("report"):
+        from droneplan.studies.reporter import Reporter
+        from droneplan.studies.runner import send_report
+
+        extra["report"] = Reporter(send_report)
+    return extra
+
+
+def execute_plain(
+    instance: StudyInstance,
+    method: Method,
+    seed: int,
+    time_limit: float | None,
+    budgets: Mapping[str, Any] | None = None,
+) -> bytes:
     """:func:`execute`, with its result as a :mod:`~droneplan.studies.wire` message (in the job's
     child process): a return value that is not plain data becomes a refusal, scored ``invalid``."""
     from droneplan.studies import wire
 
-    value = execute(instance, method, seed, time_limit)
+    value = execute(instance, method, seed, time_limit, budgets)
     try:
         return wire.encode(value)
     except wire.NotPlainError as exc:
@@ -194,6 +237,10 @@ def _claims(scored: Scored, result: SolveResult, method: Method) -> None:
     if not isinstance(status, Status):
         scored.flags.append("claim-invalid")
     scored.warm_started = bool(getattr(result, "warm_started", False))
+    info = result.info if isinstance(result.info, Mapping) else {}
+    evaluations = _number(info.get("evaluations"))
+    if evaluations is not None:
+        scored.extras["evaluations"] = evaluations
     if result.bound is not None and not method.trusted_bound:
         scored.extras["claimed_bound"] = _number(result.bound)
 

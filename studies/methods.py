@@ -36,6 +36,7 @@ configuration hash of every row. A method is given as a registered name (``BUILT
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import inspect
 from collections.abc import Callable, Iterable, Mapping
@@ -126,9 +127,22 @@ class Method:
 
         return code_fingerprint(self.target)
 
-    def call(self, *args: Any, seed: int, time_limit: float | None) -> Any:
-        """Run the method's target with the contract's keywords plus ``params``."""
-        return self.target(*args, seed=seed, time_limit=time_limit, **self.params)
+    def call(self, *args: Any, seed: int, time_limit: float | None, **extra: Any) -> Any:
+        """Run the method's target with the contract's keywords, the study's ``extra`` keywords
+        (``report``, ``cpu_limit``, ``max_evaluations``: only those it :meth:`accepts`) and
+        ``params``."""
+        return self.target(*args, seed=seed, time_limit=time_limit, **extra, **self.params)
+
+    def accepts(self, keyword: str) -> bool:
+        """Whether the target names ``keyword`` among its parameters (a ``**kwargs`` catch-all
+        does not count: a method says which of the study's optional keywords it takes)."""
+        try:
+            parameters = inspect.signature(self.target).parameters
+        except (TypeError, ValueError):
+            return False
+        found = parameters.get(keyword)
+        named = (inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+        return found is not None and found.kind in named
 
     def controller(self) -> Any:
         """A new controller instance (closed-loop methods)."""
@@ -136,10 +150,10 @@ class Method:
 
 
 # --------------------------------------------------------------------------- built-ins
-def _cells_ga(problem, *, seed, time_limit):
+def _cells_ga(problem, *, seed, time_limit, max_evaluations=None, report=None):
     from droneplan.planners.cells import genetic
 
-    return genetic(problem, seed=seed)
+    return genetic(problem, seed=seed, max_evaluations=max_evaluations, report=report)
 
 
 def _cells_ga_polished(problem, *, seed, time_limit):
@@ -148,17 +162,18 @@ def _cells_ga_polished(problem, *, seed, time_limit):
     return genetic_polished(problem, seed=seed)
 
 
-def _cells_exhaustive(problem, *, seed, time_limit):
+def _cells_exhaustive(problem, *, seed, time_limit, max_evaluations=None, report=None):
     from droneplan.planners.cells import exhaustive
 
-    return exhaustive(problem, time_limit=time_limit)
+    res = exhaustive(problem, time_limit=time_limit, max_evaluations=max_evaluations, report=report)
+    return dataclasses.replace(res, info={**res.info, "evaluations": res.info["last_cell_searches"]})
 
 
 def _cells_engine(engine: str) -> Callable[..., Any]:
-    def run(problem, *, seed, time_limit):
+    def run(problem, *, seed, time_limit, report=None):
         from droneplan.formulations.cells import solve_exact
 
-        return solve_exact(problem, engine=engine, time_limit=time_limit, workers=1)
+        return solve_exact(problem, engine=engine, time_limit=time_limit, workers=1, report=report)
 
     run.__name__ = run.__qualname__ = f"cells_{engine}"
     return run

@@ -18,6 +18,16 @@ the instance's own seed, so ``R = 1`` is the study as it always was) and its row
 ``run``. A method declared deterministic (``Method.deterministic``) runs once; one that declares
 nothing runs twice first, and when both runs return the same plan it is marked deterministic
 (column ``deterministic``) and not run again. A rerun with a larger R runs only the missing runs.
+
+Budgets and traces: ``cpu_limit`` (CPU-s) is each job's ``RLIMIT_CPU`` (with ``GRACE_S``), and
+reaches a method that names a ``cpu_limit`` parameter; a method that does not gets it as its
+``time_limit`` (single-threaded, it then uses at most that much CPU), and the job's wall limit
+is ``CPU_WALL_FACTOR`` times it unless ``time_limit`` says otherwise. ``max_evaluations``
+reaches the methods that name it (the GA, exhaustive search). A method that names a ``report``
+parameter gets a :class:`~droneplan.studies.traces.Reporter`; its reports, thinned to
+``MAX_TRACE_POINTS`` per run, are scored like final plans and stored in ``out/traces.sqlite``
+(:func:`~droneplan.studies.trace_store.load_traces`). Each row records wall time (``time_s``),
+CPU time (extra ``cpu_s``) and the evaluations the method says it used (extra ``evaluations``).
 """
 
 from __future__ import annotations
@@ -39,7 +49,7 @@ import pandas as pd
 from droneplan.core.validation import check_bool, check_instance, check_int, run_seed
 from droneplan.solvers.result import SolveResult
 from droneplan.studies import wire
-from droneplan.studies.harness import SENSE_OF_KIND, Scored, execute_plain, score
+from droneplan.studies.harness import SENSE_OF_KIND, STATIC_KINDS, Scored, execute_plain, score
 from droneplan.studies.instances import StudyInstance, resolve_instances
 from droneplan.studies.library import lookup
 from droneplan.studies.methods import Method, check_study_time_limit, resolve_methods
@@ -54,6 +64,8 @@ from droneplan.studies.store import (
     ResultStore,
     build_rows,
 )
+from droneplan.studies.trace_store import TRACES_NAME, TraceStore
+from droneplan.studies.traces import MAX_TRACE_POINTS, score_reports, takes_report
 
 __all__ = [
     "gap",
@@ -69,7 +81,9 @@ __all__ = [
     "JOB_MEMORY_HEADROOM",
     "address_space_limit",
     "MAX_RUNS",
+    "CPU_WALL_FACTOR",
     "check_runs",
+    "check_budgets",
 ]
 
 DEFAULT_TIME_LIMIT = 300.0
@@ -96,8 +110,34 @@ SCORE_MEMORY_HEADROOM = 2 << 30
 MAX_RUNS = 1000
 """The most runs per (instance, method) pair a study agrees to (``gap(runs=...)``)."""
 
+CPU_WALL_FACTOR = 10.0
+"""In a study declared in CPU seconds (``cpu_limit``) without a ``time_limit``, each job's wall
+limit is this many times its CPU limit: a backstop against a method that waits without
+computing, far enough that load on a shared machine does not reach it."""
+
 STUDY = "gap"
 _PLAN_HASH = "plan_hash"  # the extra (``<problem>_plan_hash``) comparing the plans of runs 0 and 1
+
+
+def check_budgets(cpu_limit: Any, max_evaluations: Any) -> tuple[float | None, int | None]:
+    """(cpu_limit, max_evaluations) checked: a finite number of CPU-s > 0 and an int >= 1, or
+    None; a one-line ValueError naming the field otherwise.
+
+    cpu_limit: CPU seconds per job, or None.
+    max_evaluations: evaluations per job (for methods that take it), or None.
+    """
+    from droneplan.core.validation import check_time_limit
+
+    try:
+        cpu = check_time_limit(cpu_limit, "cpu_limit")
+    except TypeError as exc:
+        raise ValueError(str(exc)) from None
+    if max_evaluations is not None:
+        ok = isinstance(max_evaluations, numbers.Integral) and not isinstance(max_evaluations, bool)
+        if not ok or int(max_evaluations) < 1:
+            raise ValueError(f"max_evaluations must be an int >= 1 or None, got {max_evaluations!r}")
+        max_evaluations = int(max_evaluations)
+    return cpu, max_evaluations
 
 
 def check_runs(runs: Any) -> int:
@@ -124,6 +164,29 @@ class _Task:
     run: int = 0
     seed: int = 0
     deterministic: bool | None = None
+    budgets: tuple[float | None, int | None] = (None, None)
+    """(cpu_limit in CPU-s, max_evaluations)."""
+
+    def job(self, key: Any) -> Job:
+        """The runner's job of this task: the method in a child, under its wall and CPU limits,
+        reporting when it takes a ``report`` (static kinds)."""
+        cpu_limit, max_evaluations = self.budgets
+        reports = self.instance.kind in STATIC_KINDS and takes_report(self.method)
+        wall = self.time_limit
+        method_limit = wall
+        if cpu_limit is not None and not self.method.accepts("cpu_limit"):
+            method_limit = cpu_limit if wall is None else min(wall, cpu_limit)
+        budgets = {"cpu_limit": cpu_limit, "max_evaluations": max_evaluations, "report": reports}
+        return Job(
+            key,
+            execute_plain,
+            (self.instance, self.method, self.seed, method_limit, budgets),
+            time_limit=wall,
+            returns="bytes",
+            max_result_bytes=MAX_RESULT_BYTES,
+            cpu_limit=cpu_limit,
+            max_reports=MAX_TRACE_POINTS if reports else 0,
+        )
 
 
 @dataclass(frozen=True)
@@ -156,17 +219,26 @@ def plan_study(
     instances: Any = None,
     time_limit: float | None = None,
     runs: int = 1,
+    cpu_limit: float | None = None,
+    max_evaluations: int | None = None,
     **size: Any,
 ) -> StudyPlan:
     """Resolve a study's instances and methods and hash each job's configuration (runs nothing).
 
-    problem, methods, instances, time_limit, runs, size: as in :func:`gap`. A deterministic method
-    gets one job per instance, any other ``runs`` jobs (run 0 .. runs - 1).
+    problem, methods, instances, time_limit, runs, cpu_limit, max_evaluations, size: as in
+    :func:`gap`. A deterministic method gets one job per instance, any other ``runs`` jobs
+    (run 0 .. runs - 1).
     """
     runs = check_runs(runs)
+    budgets = check_budgets(cpu_limit, max_evaluations)
     if problem not in PROBLEMS:
         raise ValueError(f"problem must be one of {', '.join(PROBLEMS)}, got {problem!r}")
-    limit = DEFAULT_TIME_LIMIT if time_limit is None else check_study_time_limit(time_limit)
+    if time_limit is not None:
+        limit = check_study_time_limit(time_limit)
+    elif budgets[0] is not None:
+        limit = CPU_WALL_FACTOR * budgets[0]
+    else:
+        limit = DEFAULT_TIME_LIMIT
     insts = resolve_instances(problem, instances, **size)
     kinds = sorted({i.kind for i in insts})
     if len(kinds) != 1:
@@ -182,20 +254,22 @@ def plan_study(
         for m in meths:
             params = _params_json(m)
             own_limit = limit if m.time_limit is None else m.time_limit
-            cfg = config_hash(
-                {
-                    "method": m.name,
-                    "code": m.fingerprint(),
-                    "params": params,
-                    "time_limit": own_limit,
-                    "instance": fp,
-                    "family_version": inst.version,
-                    "droneplan": code,
-                }
-            )
+            setting = {
+                "method": m.name,
+                "code": m.fingerprint(),
+                "params": params,
+                "time_limit": own_limit,
+                "instance": fp,
+                "family_version": inst.version,
+                "droneplan": code,
+            }
+            # a budget is part of the configuration only when set (older rows keep their hash)
+            names = ("cpu_limit", "max_evaluations")
+            setting.update({k: v for k, v in zip(names, budgets, strict=True) if v is not None})
+            cfg = config_hash(setting)
             for r in range(1 if m.deterministic else runs):
                 seed = run_seed(inst.seed or 0, r)
-                tasks.append(_Task(inst, m, cfg, params, own_limit, r, seed, m.deterministic))
+                tasks.append(_Task(inst, m, cfg, params, own_limit, r, seed, m.deterministic, budgets))
     return StudyPlan(problem, kind, insts, meths, limit, tasks)
 
 
@@ -408,6 +482,8 @@ def gap(
     executor: Any = None,
     memory_limit: int | None = None,
     runs: int = 1,
+    cpu_limit: float | None = None,
+    max_evaluations: int | None = None,
     **size: Any,
 ) -> pd.DataFrame:
     """Run a gap study of ``methods`` on ``instances`` and return its rows (long format).
@@ -440,6 +516,13 @@ def gap(
     runs: runs per (instance, method) pair, 1 to ``MAX_RUNS`` (default 1); run r gets the seed
         :func:`~droneplan.core.validation.run_seed` ``(instance seed, r)`` (run 0 the instance's own)
         and the row's ``run``/``run_seed``; a deterministic method runs once (module docstring).
+    cpu_limit: CPU seconds per job (None: none): the job's ``RLIMIT_CPU`` (with ``GRACE_S``), a
+        budget that does not shrink with the load; passed to methods that name a ``cpu_limit``
+        parameter, and the ``time_limit`` of those that do not (module docstring). Without a
+        ``time_limit`` the wall limit is ``CPU_WALL_FACTOR`` times it.
+    max_evaluations: an evaluation budget per job for the methods that name a
+        ``max_evaluations`` parameter (the GA: fitness evaluations; exhaustive search: last-cell
+        searches); None: none.
     size: the family's size parameters (``m=4``, ``n=[8, 16]``) and ``seeds``, ``first_seed``.
 
     Returns the current rows of these instances for these methods and the library reference, with
@@ -450,12 +533,23 @@ def gap(
         JOB_MEMORY_HEADROOM if memory_limit is None else check_int("memory_limit", memory_limit, min_value=1)
     )
     runs = check_runs(runs)
-    plan = plan_study(problem, methods=methods, instances=instances, time_limit=time_limit, runs=runs, **size)
+    plan = plan_study(
+        problem,
+        methods=methods,
+        instances=instances,
+        time_limit=time_limit,
+        runs=runs,
+        cpu_limit=cpu_limit,
+        max_evaluations=max_evaluations,
+        **size,
+    )
     out = Path(out)
     execution = _Execution(n_workers, dask, dask_executor, headroom, f"{problem} gap" if progress else None)
     with contextlib.ExitStack() as stack:
         if store is None:
             store = stack.enter_context(ResultStore(out / STORE_NAME))
+        if any(t.instance.kind in STATIC_KINDS and takes_report(t.method) for t in plan.tasks):
+            execution.traces = stack.enter_context(TraceStore(Path(store.path).parent / TRACES_NAME))
         store.bind_instances(problem, {i.id: i.fingerprint() for i in plan.instances})
         done = store.done_keys(problem)
         lib_rows = [r for r in (_library_row(i) for i in plan.instances) if r is not None]
@@ -496,6 +590,7 @@ class _Execution:
     dask_executor: Any
     headroom: int
     progress: str | None
+    traces: TraceStore | None = None
 
     def run(self, store: ResultStore, problem: str, tasks: list[_Task]) -> _ClaimedJobs:
         """Run ``tasks`` (each claimed in ``store`` just before it starts) and write one row per job."""
@@ -520,12 +615,30 @@ class _Execution:
                     task = jobs.by_key[oc.key]  # type: ignore[index]
                     verdict, score_s = _verdict(task, oc)
                     verdict.extras["score_time_s"] = score_s
+                    if oc.n_reports and self.traces is not None:
+                        _record_trace(self.traces, _task_key(problem, task), task, oc, verdict)
                     row = _row(task, verdict, time_s=oc.wall_s, cpu_s=oc.cpu_s, time_limit=task.time_limit)
                     jobs.set_aside += store.write([row])  # writing a row ends its claim
                     jobs.in_flight.discard(oc.key)
         finally:
             jobs.release_unfinished()
         return jobs
+
+
+def _record_trace(traces: TraceStore, key: tuple, task: _Task, oc: JobOutcome, verdict: Scored) -> None:
+    """Score the reports of one run (in a child, like a final plan), store them as its trace and
+    note them on the row: ``reports`` (how many the method made), ``trace_points`` (kept), and
+    the flag ``trace-claim-mismatch`` when a report's claim differs from droneplan's score."""
+    job = Job("trace", score_reports, (task.instance, task.method, oc.reports), time_limit=SCORE_TIME_LIMIT)
+    scored = run_isolated(job, grace=1.0, memory_limit=address_space_limit(SCORE_MEMORY_HEADROOM))
+    verdict.extras["reports"] = oc.n_reports
+    if scored.status != "ok" or not isinstance(scored.value, list):
+        verdict.extras["trace_error"] = scored.error or f"scoring the reports gave {scored.status}"
+        return
+    points = scored.value
+    verdict.extras["trace_points"] = traces.write(key, points)
+    if any("claim-mismatch" in (p.get("flag") or "") for p in points):
+        verdict.flags.append("trace-claim-mismatch")
 
 
 def _first_batch(t: _Task) -> bool:
@@ -607,14 +720,7 @@ class _ClaimedJobs:
             self.ran += 1
             key = (t.instance.id, t.method.name, t.run)
             self.in_flight.add(key)
-            yield Job(
-                key,
-                execute_plain,
-                (t.instance, t.method, t.seed, t.time_limit),
-                time_limit=t.time_limit,
-                returns="bytes",
-                max_result_bytes=MAX_RESULT_BYTES,
-            )
+            yield t.job(key)
 
     def release_unfinished(self) -> None:
         """Give back the claims of jobs that started but wrote no row (an interrupt, an error)."""

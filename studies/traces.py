@@ -1,7 +1,7 @@
 """Anytime traces: the incumbents a method reports while it runs, scored like its final plan.
 
 A method of a static kind (cells, allocation, shark fleets) may take a keyword ``report``. It is
-then called with a :class:`Reporter`, which the method calls with each new incumbent::
+then called with a :class:`~droneplan.studies.reporter.Reporter`, which the method calls with each new incumbent::
 
     def my_method(problem, *, seed, time_limit, report=None):
         ...
@@ -31,19 +31,17 @@ From scored traces and a reference value per instance (the proven optimum, or th
 
 from __future__ import annotations
 
-import inspect
 import math
-import time
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.harness import score
 from droneplan.studies.instances import StudyInstance
 from droneplan.studies.methods import Method
+from droneplan.studies.reporter import MAX_REPORT_CALLS, Reporter
 
 __all__ = [
     "MAX_REPORT_CALLS",
@@ -52,14 +50,13 @@ __all__ = [
     "Reporter",
     "takes_report",
     "score_trace",
+    "score_reports",
+    "MAX_REPORT_BYTES",
     "trace_gaps",
     "primal_integral",
     "ecdf",
 ]
 
-MAX_REPORT_CALLS = 1_000_000
-"""Reports a method may make in one run; a call beyond it is dropped, and the trace gets one
-``invalid`` entry saying so."""
 MAX_TRACE_POINTS = 200
 """Reports kept per run (the first, the last and evenly thinned ones between them)."""
 TRACE_COLUMNS = ("t", "objective", "claimed_objective", "bound", "status", "message", "flag")
@@ -70,59 +67,9 @@ said it was), ``bound`` (an exact engine's proven bound at that time), ``status`
 
 
 def takes_report(method: Method) -> bool:
-    """Whether ``method``'s target has a keyword parameter named ``report`` (a ``**kwargs``
-    catch-all does not count: the method must say that it reports)."""
-    try:
-        parameters = inspect.signature(method.target).parameters
-    except (TypeError, ValueError):
-        return False
-    found = parameters.get("report")
-    return found is not None and found.kind in (
-        inspect.Parameter.KEYWORD_ONLY,
-        inspect.Parameter.POSITIONAL_OR_KEYWORD,
-    )
-
-
-class Reporter:
-    """The ``report`` callable a method receives (it runs in the job's child process).
-
-    send: where each report goes, as plain-data bytes (the runner's
-    :func:`~droneplan.studies.runner.send_report`).
-    """
-
-    def __init__(self, send: Any) -> None:
-        self._send = send
-        self.started = time.perf_counter()
-        self.calls = 0
-
-    def __call__(self, plan: Any, *, objective: Any = None, bound: Any = None) -> None:
-        """Report an incumbent.
-
-        plan: the plan, in the form the method returns (or a SolveResult).
-        objective: what the method claims the plan is worth (optional).
-        bound: the best bound the method knows at this moment (optional; recorded as a bound
-            only for droneplan's exact engines).
-        """
-        from droneplan.studies import wire
-
-        self.calls += 1
-        if self.calls > MAX_REPORT_CALLS:
-            if self.calls == MAX_REPORT_CALLS + 1:
-                self._send(
-                    wire.encode({"t": self._now(), "invalid": f"more than {MAX_REPORT_CALLS} reports"})
-                )
-            return
-        entry: dict[str, Any] = {"t": self._now(), "plan": plan}
-        if objective is not None or bound is not None:
-            entry["plan"] = SolveResult(Status.FEASIBLE, objective=objective, bound=bound, x=plan)
-        try:
-            payload = wire.encode(entry)
-        except wire.NotPlainError as exc:
-            payload = wire.encode({"t": entry["t"], "invalid": f"a report that is not plain data: {exc}"})
-        self._send(payload)
-
-    def _now(self) -> float:
-        return time.perf_counter() - self.started
+    """Whether ``method`` takes a ``report`` keyword (:meth:`Method.accepts`) on a kind whose
+    methods return plans (a closed-loop controller does not report)."""
+    return not method.is_class and method.accepts("report")
 
 
 def score_trace(instance: StudyInstance, method: Method, reports: Iterable[Any]) -> list[dict[str, Any]]:
@@ -157,6 +104,27 @@ def score_trace(instance: StudyInstance, method: Method, reports: Iterable[Any])
                 }
             )
     return points
+
+
+def score_reports(instance: StudyInstance, method: Method, reports: Sequence[bytes]) -> list[dict[str, Any]]:
+    """:func:`score_trace` of a run's reports as the runner returned them (plain-data messages,
+    decoded here; one that cannot be read is an ``invalid`` point).
+
+    instance: the study instance. method: the method that reported. reports: the kept reports.
+    """
+    from droneplan.studies import wire
+
+    decoded: list[Any] = []
+    for raw in reports:
+        try:
+            decoded.append(wire.decode(raw, max_bytes=MAX_REPORT_BYTES))
+        except (wire.WireError, TypeError) as exc:
+            decoded.append({"t": 0.0, "invalid": f"an unreadable report: {exc}"})
+    return score_trace(instance, method, decoded)
+
+
+MAX_REPORT_BYTES = 16 << 20
+"""The largest report decoded (bytes of its plain-data message)."""
 
 
 def _invalid(t: float | None, why: str) -> dict[str, Any]:

@@ -14,10 +14,9 @@ from droneplan.formulations.cells import evaluate
 from droneplan.studies import wire
 from droneplan.studies.instances import family_instances
 from droneplan.studies.methods import BUILTIN, Method
+from droneplan.studies.reporter import MAX_REPORT_CALLS, Reporter
 from droneplan.studies.runner import Job, run_isolated, send_report
 from droneplan.studies.traces import (
-    MAX_REPORT_CALLS,
-    Reporter,
     ecdf,
     primal_integral,
     score_trace,
