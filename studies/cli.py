@@ -196,6 +196,20 @@ def _parser() -> argparse.ArgumentParser:
         "1000); a deterministic method runs once",
     )
     gap.add_argument(
+        "--cpu-limit",
+        default=None,
+        metavar="S",
+        help="open study: CPU seconds per method and instance (a budget that does not shrink with "
+        "the machine's load; a method past it is stopped and recorded as timeout)",
+    )
+    gap.add_argument(
+        "--max-evaluations",
+        default=None,
+        metavar="N",
+        help="open study: an evaluation budget per method and instance, for the methods that take "
+        "one (the GA: fitness evaluations; exhaustive search: last-cell searches)",
+    )
+    gap.add_argument(
         "--out",
         type=Path,
         default=Path("results"),
@@ -450,12 +464,44 @@ def _runs(value: str | None) -> int:
         raise SystemExit(f"droneplan: --runs must be an int from 1 to {MAX_RUNS}, got {shown}") from None
 
 
+def _refuse_open_study_flags(args) -> None:
+    """A one-line SystemExit for a flag of an open study given to a built-in one."""
+    for flag, given in (
+        ("--runs", args.runs),
+        ("--cpu-limit", args.cpu_limit),
+        ("--max-evaluations", args.max_evaluations),
+    ):
+        if given is not None:
+            raise SystemExit(f"droneplan: {flag} goes with an open study (--method or --instances)")
+
+
+def _budgets(args) -> tuple[float | None, int | None]:
+    """``--cpu-limit`` and ``--max-evaluations`` as numbers; a one-line SystemExit naming the flag."""
+    from droneplan.studies.study import check_budgets
+
+    parsed: list[float | int | None] = []
+    for flag, raw, kind in (
+        ("--cpu-limit", args.cpu_limit, float),
+        ("--max-evaluations", args.max_evaluations, int),
+    ):
+        try:
+            parsed.append(None if raw is None else kind(raw))
+        except ValueError:
+            raise SystemExit(f"droneplan: {flag} must be a number, got {raw[:40]}") from None
+    try:
+        return check_budgets(*parsed)
+    except ValueError as exc:
+        flag = "--cpu-limit" if str(exc).startswith("cpu_limit") else "--max-evaluations"
+        raise SystemExit(f"droneplan: {flag}: {exc}") from None
+
+
 def _run_open_gap(args) -> int:
     from droneplan.studies.analysis import summary_markdown
     from droneplan.studies.plots.profiles import write_study_outputs
     from droneplan.studies.study import gap as open_gap
 
     runs = _runs(args.runs)
+    cpu_limit, max_evaluations = _budgets(args)
     if args.problem == "all":
         raise SystemExit("droneplan: --method/--instances need one problem (cells, herding, shark or covert)")
     if not args.methods:
@@ -474,6 +520,8 @@ def _run_open_gap(args) -> int:
             time_limit=args.time_limit,
             memory_limit=_gib(args.memory_limit),
             runs=runs,
+            cpu_limit=cpu_limit,
+            max_evaluations=max_evaluations,
             **size,
         )
     except (ValueError, TypeError, FileNotFoundError) as exc:
@@ -620,8 +668,8 @@ def _run(args) -> int:
     if args.command == "gap" and (args.methods or args.instances):
         _writable_out(args.out)
         return _run_open_gap(args)
-    if args.command == "gap" and args.runs is not None:
-        raise SystemExit("droneplan: --runs goes with an open study (--method or --instances)")
+    if args.command == "gap":
+        _refuse_open_study_flags(args)
     problems = _resolve(args.problem)
     workers = _checked_counts(args)
     _writable_out(args.out)

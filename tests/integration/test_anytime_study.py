@@ -119,3 +119,37 @@ def test_bad_budgets_are_refused_in_one_line(tmp_path, instances, field, value):
             progress=False,
             **{field: value},
         )
+
+
+@pytest.mark.parametrize(
+    ("flag", "value", "words"),
+    [
+        ("--cpu-limit", "abc", "must be a number"),
+        ("--cpu-limit", "0", "cpu_limit must be"),
+        ("--max-evaluations", "1.5", "must be a number"),
+        ("--max-evaluations", "0", "max_evaluations must be"),
+    ],
+)
+def test_cli_refuses_bad_budgets_in_one_line(tmp_path, flag, value, words):
+    from droneplan.studies import cli
+
+    args = [
+        "gap",
+        "cells",
+        "--method",
+        "greedy",
+        "--m",
+        "1",
+        "--seeds",
+        "1",
+        flag,
+        value,
+        "--out",
+        str(tmp_path),
+    ]
+    with pytest.raises(SystemExit) as info:
+        cli.main(args)
+    text = str(info.value.code)
+    assert text.startswith(f"droneplan: {flag}") and words in text and "\n" not in text
+    with pytest.raises(SystemExit, match=f"^droneplan: {flag} goes with an open study"):
+        cli.main(["gap", "cells", "--seeds", "1", flag, "3", "--out", str(tmp_path)])
