@@ -50,6 +50,9 @@ __all__ = [
     "summary_table",
     "performance_profile",
     "plot_performance_profile",
+    "plot_anytime",
+    "plot_anytime_ecdf",
+    "anytime_summary",
     "family_instances",
     "save_instance",
     "load_instance",
@@ -62,6 +65,9 @@ _STUDY_NAMES = (
     "summary_table",
     "performance_profile",
     "plot_performance_profile",
+    "plot_anytime",
+    "plot_anytime_ecdf",
+    "anytime_summary",
     "family_instances",
     "save_instance",
     "load_instance",
@@ -129,9 +135,11 @@ def __getattr__(name: str) -> Any:
     elif name in _STUDY_NAMES:
         from droneplan.studies.analysis import performance_profile, summary_table  # noqa: F401
         from droneplan.studies.instances import family_instances, load_instance, save_instance  # noqa: F401
+        from droneplan.studies.plots.anytime import plot_anytime, plot_anytime_ecdf  # noqa: F401
         from droneplan.studies.plots.profiles import plot_performance_profile  # noqa: F401
         from droneplan.studies.study import gap  # noqa: F401
         from droneplan.studies.trace_store import load_traces  # noqa: F401
+        from droneplan.studies.traces import anytime_summary  # noqa: F401
 
         value = locals()[name]
     else:

@@ -464,6 +464,30 @@ def _runs(value: str | None) -> int:
         raise SystemExit(f"droneplan: --runs must be an int from 1 to {MAX_RUNS}, got {shown}") from None
 
 
+def _write_anytime_outputs(df, out: Path, folder: Path) -> dict[str, Path]:
+    """The anytime figures and table of a study whose methods reported incumbents (none else)."""
+    from droneplan.studies.trace_store import load_traces
+
+    traces = load_traces(out)
+    traces = traces[traces["instance"].isin(set(df["instance"])) & traces["method"].isin(set(df["method"]))]
+    if traces.empty:
+        return {}
+    import matplotlib.pyplot as plt
+
+    from droneplan.studies.plots.anytime import plot_anytime, plot_anytime_ecdf
+    from droneplan.studies.traces import anytime_summary
+
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = {"anytime_table": folder / "gap_anytime.csv"}
+    anytime_summary(df, traces).to_csv(paths["anytime_table"], index=False)
+    for name, plot in (("anytime", plot_anytime), ("anytime_ecdf", plot_anytime_ecdf)):
+        fig = plot(df, traces)
+        paths[name] = folder / f"gap_{name}.png"
+        fig.savefig(paths[name], dpi=120, bbox_inches="tight")
+        plt.close(fig)
+    return paths
+
+
 def _refuse_open_study_flags(args) -> None:
     """A one-line SystemExit for a flag of an open study given to a built-in one."""
     for flag, given in (
@@ -527,6 +551,7 @@ def _run_open_gap(args) -> int:
     except (ValueError, TypeError, FileNotFoundError) as exc:
         raise StudyError(str(exc).splitlines()[0]) from None
     paths = write_study_outputs(df, args.out / args.problem, stem="gap")
+    paths.update(_write_anytime_outputs(df, args.out, args.out / args.problem))
     print(summary_markdown(df), flush=True)
     print(
         f"rows: {args.out / STORE_NAME} (results.csv, results.parquet); summary and figures: "

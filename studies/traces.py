@@ -1,7 +1,8 @@
 """Anytime traces: the incumbents a method reports while it runs, scored like its final plan.
 
 A method of a static kind (cells, allocation, shark fleets) may take a keyword ``report``. It is
-then called with a :class:`~droneplan.studies.reporter.Reporter`, which the method calls with each new incumbent::
+then called with a :class:`~droneplan.studies.reporter.Reporter`, which the method calls with
+each new incumbent::
 
     def my_method(problem, *, seed, time_limit, report=None):
         ...
@@ -55,6 +56,9 @@ __all__ = [
     "trace_gaps",
     "primal_integral",
     "ecdf",
+    "anytime_gaps",
+    "anytime_summary",
+    "gap_over_time",
 ]
 
 MAX_TRACE_POINTS = 200
@@ -232,3 +236,97 @@ def ecdf(
                     {"method": method, "target": float(tau), "t": float(t), "fraction": count / max(total, 1)}
                 )
     return pd.DataFrame(rows, columns=["method", "target", "t", "fraction"])
+
+
+# --------------------------------------------------------------------------- a study's anytime view
+def anytime_gaps(rows: pd.DataFrame, traces: pd.DataFrame) -> pd.DataFrame:
+    """The trace points of a study with their ``gap`` to each instance's target (its proven
+    optimum, else the best known objective: :func:`~droneplan.studies.analysis.instance_targets`)
+    and the run's ``horizon`` (s: its row's wall time, or its last report when the row has none).
+
+    rows: the study's rows (``load_results``). traces: its traces (``load_traces``).
+    """
+    from droneplan.studies.analysis import instance_targets
+
+    if traces.empty:
+        return traces.assign(gap=pd.Series(dtype=float), horizon=pd.Series(dtype=float))
+    targets = instance_targets(rows).set_index("instance")
+    gaps = trace_gaps(traces, targets["target"].to_dict(), targets["sense"].to_dict())
+    keys = ["instance", "method", "run"]
+    wall = rows.assign(run=rows["run"].astype(int)).groupby(keys)["time_s"].max()
+    last = gaps.groupby(keys)["t"].max()
+    horizon = wall.reindex(last.index).fillna(last).clip(lower=last)
+    return gaps.merge(horizon.rename("horizon").reset_index(), on=keys, how="left")
+
+
+def anytime_summary(rows: pd.DataFrame, traces: pd.DataFrame) -> pd.DataFrame:
+    """Per method: ``runs`` with a trace, the median and mean ``primal_integral`` (s, over each
+    run's horizon), the ``final_gap`` median, and ``time_to_best`` median (s until the run's
+    incumbent reached its final value; NaN when it never had one).
+
+    rows: the study's rows (``load_results``). traces: its traces (``load_traces``).
+    """
+    gaps = anytime_gaps(rows, traces)
+    out = []
+    for method, part in gaps.groupby("method", sort=True):
+        integrals, finals, reached = [], [], []
+        for _, run in part.groupby(["instance", "run"]):
+            run = run.sort_values("t")
+            integrals.append(primal_integral(run["t"], run["gap"], float(run["horizon"].iloc[0])))
+            gap = run["gap"].to_numpy(float)
+            finals.append(gap[-1])
+            settled = (
+                np.flatnonzero(gap <= np.nanmin(gap) + 1e-12) if np.isfinite(gap).any() else np.array([], int)
+            )
+            reached.append(float(run["t"].iloc[settled[0]]) if len(settled) else math.nan)
+        out.append(
+            {
+                "method": method,
+                "runs": len(integrals),
+                "primal_integral_median": float(np.median(integrals)),
+                "primal_integral_mean": float(np.mean(integrals)),
+                "final_gap_median": _nanmedian(finals),
+                "time_to_best_median": _nanmedian(reached),
+            }
+        )
+    columns = [
+        "method",
+        "runs",
+        "primal_integral_median",
+        "primal_integral_mean",
+        "final_gap_median",
+        "time_to_best_median",
+    ]
+    return pd.DataFrame(out, columns=columns)
+
+
+def gap_over_time(gaps: pd.DataFrame, times: Sequence[float]) -> pd.DataFrame:
+    """The incumbent's gap of every run at each of ``times`` (1 before its first plan, capped at
+    1), and per method its median and quartiles: columns ``method``, ``t``, ``q1``, ``median``,
+    ``q3``.
+
+    gaps: the output of :func:`anytime_gaps`. times: time points (s).
+    """
+    grid = np.asarray(times, float)
+    out = []
+    for method, part in gaps.groupby("method", sort=True):
+        curves = []
+        for _, run in part.groupby(["instance", "run"]):
+            run = run.sort_values("t")
+            t = run["t"].to_numpy(float)
+            g = np.minimum(np.nan_to_num(run["gap"].to_numpy(float), nan=1.0), 1.0)
+            at = np.searchsorted(t, grid, side="right") - 1
+            curves.append(np.where(at >= 0, g[np.maximum(at, 0)], 1.0))
+        q1, med, q3 = np.percentile(np.array(curves), [25, 50, 75], axis=0)
+        out += [
+            {"method": method, "t": float(x), "q1": a, "median": b, "q3": c}
+            for x, a, b, c in zip(grid, q1, med, q3, strict=True)
+        ]
+    return pd.DataFrame(out, columns=["method", "t", "q1", "median", "q3"])
+
+
+def _nanmedian(values: Sequence[float]) -> float:
+    """The median of the finite values, NaN when there is none."""
+    finite = np.asarray(values, float)
+    finite = finite[np.isfinite(finite)]
+    return float(np.median(finite)) if len(finite) else math.nan

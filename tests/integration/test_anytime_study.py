@@ -153,3 +153,34 @@ def test_cli_refuses_bad_budgets_in_one_line(tmp_path, flag, value, words):
     assert text.startswith(f"droneplan: {flag}") and words in text and "\n" not in text
     with pytest.raises(SystemExit, match=f"^droneplan: {flag} goes with an open study"):
         cli.main(["gap", "cells", "--seeds", "1", flag, "3", "--out", str(tmp_path)])
+
+
+def test_anytime_summary_and_figures_of_a_study(tmp_path, instances):
+    import matplotlib.pyplot as plt
+
+    rows = dp.gap(
+        "cells", methods=[("climb", climbing), "greedy"], instances=instances, out=tmp_path, progress=False
+    )
+    traces = dp.load_traces(tmp_path)
+    table = dp.anytime_summary(rows, traces).set_index("method")
+    assert list(table.index) == ["climb"] and table.loc["climb", "runs"] == 2
+    # the climb ends at the greedy plan: its final gap is the greedy's gap to the best known plan
+    assert 0 <= table.loc["climb", "final_gap_median"] <= 1
+    assert table.loc["climb", "primal_integral_median"] > 0
+    for plot in (dp.plot_anytime, dp.plot_anytime_ecdf):
+        fig = plot(rows, traces)
+        assert fig.axes[0].get_lines()
+        plt.close(fig)
+    empty = dp.plot_anytime(rows, traces.iloc[0:0])
+    assert "no method reported" in empty.axes[0].texts[0].get_text()
+    plt.close(empty)
+
+
+def test_the_cli_writes_the_anytime_figures(tmp_path):
+    from droneplan.studies import cli
+
+    args = ["gap", "cells", "--method", "ga", "--m", "1", "--seeds", "1", "--max-evaluations", "2000"]
+    code = cli.main([*args, "--out", str(tmp_path)])
+    assert code == 0
+    for name in ("gap_anytime.png", "gap_anytime_ecdf.png", "gap_anytime.csv"):
+        assert (tmp_path / "cells" / name).stat().st_size > 0
