@@ -435,10 +435,13 @@ def _scale_to_length(xy: NDArray[np.float64], terrain: Terrain, length: float) -
         # and leave the path shorter than the mission, so the target would stop early)
         keep = path.points[path._s < length]
         return TargetPath(np.vstack([keep, path.at(length)[None, :]]))
-    # extend along the last direction on the ground
-    d = xy[-1] - xy[-2]
-    d = d / np.linalg.norm(d)
-    extra = length - path.length
+    # extend along the last direction on the ground: that of the last segment of non-zero length
+    # (a curve may end in repeated points), along x when the curve is a single point
+    steps = np.diff(xy, axis=0)
+    norms = np.linalg.norm(steps, axis=1)
+    moving = np.flatnonzero(norms > 0)
+    d = steps[moving[-1]] / norms[moving[-1]] if len(moving) else np.array([1.0, 0.0])
+    extra = max(length - path.length, 1e-6 * max(length, 1.0))  # a rounding-size shortfall extends too
     ext = xy[-1] + np.outer(np.linspace(0.0, 1.5 * extra, 200)[1:], d)
     return _scale_to_length(np.vstack([xy, ext]), terrain, length)
 
