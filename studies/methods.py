@@ -150,6 +150,11 @@ class Method:
 
 
 # --------------------------------------------------------------------------- built-ins
+def _engine(name: str, target: Callable[..., Any], kinds: tuple[str, ...]) -> Method:
+    """A built-in exact engine: role ``model``, its bound trusted, deterministic."""
+    return Method(name, target, "model", kinds=kinds, trusted_bound=True, builtin=True, deterministic=True)
+
+
 def _cells_ga(problem, *, seed, time_limit, max_evaluations=None, report=None):
     from droneplan.planners.cells import genetic
 
@@ -309,67 +314,17 @@ BUILTIN: dict[str, Method] = {
         Method("ga-polished", _cells_ga_polished, kinds=_CELLS, builtin=True, deterministic=False),
         Method("exhaustive", _cells_exhaustive, kinds=_CELLS, builtin=True, deterministic=True),
         Method("greedy", _cells_greedy, kinds=_CELLS, builtin=True, deterministic=True),
-        Method(
-            "bnb",
-            _cells_engine("bnb"),
-            "model",
-            kinds=_CELLS,
-            trusted_bound=True,
-            builtin=True,
-            deterministic=True,
-        ),
-        Method(
-            "milp",
-            _cells_engine("milp"),
-            "model",
-            kinds=_CELLS,
-            trusted_bound=True,
-            builtin=True,
-            deterministic=True,
-        ),
-        Method(
-            "joint",
-            _cells_joint,
-            "model",
-            kinds=_MOBILE,
-            trusted_bound=True,
-            builtin=True,
-            deterministic=True,
-        ),
+        _engine("bnb", _cells_engine("bnb"), _CELLS),
+        _engine("milp", _cells_engine("milp"), _CELLS),
+        _engine("joint", _cells_joint, _MOBILE),
         Method("myopic", _cells_myopic, kinds=_MOBILE, builtin=True, deterministic=True),
-        Method(
-            "min-fleet",
-            _cells_min_fleet,
-            "model",
-            kinds=_FLEET_SIZE,
-            trusted_bound=True,
-            builtin=True,
-            deterministic=True,
-        ),
+        _engine("min-fleet", _cells_min_fleet, _FLEET_SIZE),
         Method("greedy-fleet", _cells_greedy_fleet, kinds=_FLEET_SIZE, builtin=True, deterministic=True),
-        Method(
-            "exact", _alloc_exact, "model", kinds=_ALLOC, trusted_bound=True, builtin=True, deterministic=True
-        ),
-        Method(
-            "cp-sat",
-            _alloc_cpsat,
-            "model",
-            kinds=_ALLOC,
-            trusted_bound=True,
-            builtin=True,
-            deterministic=True,
-        ),
+        _engine("exact", _alloc_exact, _ALLOC),
+        _engine("cp-sat", _alloc_cpsat, _ALLOC),
         Method("alg3", _alloc_alg3, kinds=_ALLOC, builtin=True, deterministic=True),
         Method("collision-blind", _alloc_blind, kinds=_ALLOC, builtin=True, deterministic=True),
-        Method(
-            "bottleneck",
-            _fleet_bottleneck,
-            "model",
-            kinds=_FLEET,
-            trusted_bound=True,
-            builtin=True,
-            deterministic=True,
-        ),
+        _engine("bottleneck", _fleet_bottleneck, _FLEET),
         Method("greedy-nearest", _fleet_greedy, kinds=_FLEET, builtin=True, deterministic=True),
         *(
             Method(name, _controller(f"droneplan.planners.{layer}", cls), role, kinds=(kind,), builtin=True)

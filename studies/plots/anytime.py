@@ -29,6 +29,23 @@ def _time_grid(gaps: pd.DataFrame, points: int = 120) -> np.ndarray:
     return np.geomspace(lo, hi, points)
 
 
+def _anytime_axes(rows: pd.DataFrame, traces: pd.DataFrame, ax: Any, ylabel: str) -> tuple[Any, Any, Any]:
+    """(figure, axes, gaps) with the time axis, ``ylabel`` and grid set; gaps None (and the axes
+    saying so) when no method reported."""
+    from droneplan.studies.plots._common import figure_axes
+
+    fig, ax = figure_axes(ax, figsize=(6.4, 4.2))
+    ax.set_xlabel("time since the method started (s, log scale)")
+    ax.set_ylabel(ylabel)
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(alpha=0.3)
+    gaps = anytime_gaps(rows, traces)
+    if gaps.empty:
+        ax.text(0.5, 0.5, "no method reported incumbents", ha="center", va="center", transform=ax.transAxes)
+        return fig, ax, None
+    return fig, ax, gaps
+
+
 def plot_anytime(rows: pd.DataFrame, traces: pd.DataFrame, ax: Any = None):
     """Gap to the target against time, one line per method: the median over instances and runs,
     with the band between the quartiles; time on a log axis.
@@ -36,16 +53,8 @@ def plot_anytime(rows: pd.DataFrame, traces: pd.DataFrame, ax: Any = None):
     rows: the study's rows; traces: its traces; ax: matplotlib Axes to draw on, or None.
     Returns the Figure.
     """
-    from droneplan.studies.plots._common import figure_axes
-
-    fig, ax = figure_axes(ax, figsize=(6.4, 4.2))
-    ax.set_xlabel("time since the method started (s, log scale)")
-    ax.set_ylabel("relative gap of the incumbent to the target")
-    ax.set_ylim(-0.02, 1.02)
-    ax.grid(alpha=0.3)
-    gaps = anytime_gaps(rows, traces)
-    if gaps.empty:
-        ax.text(0.5, 0.5, "no method reported incumbents", ha="center", va="center", transform=ax.transAxes)
+    fig, ax, gaps = _anytime_axes(rows, traces, ax, "relative gap of the incumbent to the target")
+    if gaps is None:
         return fig
     grid = _time_grid(gaps)
     curves = gap_over_time(gaps, grid.tolist())
@@ -68,16 +77,8 @@ def plot_anytime_ecdf(
     rows: the study's rows; traces: its traces; ax: matplotlib Axes to draw on, or None;
     targets: the gap targets tau (relative). Returns the Figure.
     """
-    from droneplan.studies.plots._common import figure_axes
-
-    fig, ax = figure_axes(ax, figsize=(6.4, 4.2))
-    ax.set_xlabel("time since the method started (s, log scale)")
-    ax.set_ylabel("fraction of instance-runs with gap ≤ τ")
-    ax.set_ylim(-0.02, 1.02)
-    ax.grid(alpha=0.3)
-    gaps = anytime_gaps(rows, traces)
-    if gaps.empty:
-        ax.text(0.5, 0.5, "no method reported incumbents", ha="center", va="center", transform=ax.transAxes)
+    fig, ax, gaps = _anytime_axes(rows, traces, ax, "fraction of instance-runs with gap ≤ τ")
+    if gaps is None:
         return fig
     grid = _time_grid(gaps)
     table = ecdf(gaps, targets=targets, times=grid.tolist())
