@@ -680,7 +680,8 @@ def genetic(
     t0 = time.perf_counter()
     if max_evaluations is not None:
         check_int("max_evaluations", max_evaluations, min_value=1)
-
+    if report is not None and not callable(report):
+        raise TypeError(f"report must be callable or None, got {type(report).__name__}")
     on_best = None
     if report is not None:
         send = report
@@ -1039,6 +1040,8 @@ def exhaustive(  # noqa: C901
         raise TypeError(f"prune must be a bool, got {type(prune).__name__}")
     if max_evaluations is not None:
         check_int("max_evaluations", max_evaluations, min_value=1)
+    if report is not None and not callable(report):
+        raise TypeError(f"report must be callable or None, got {type(report).__name__}")
     t0 = time.perf_counter()
     users = problem.targets
     m = problem.n_cells

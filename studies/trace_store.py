@@ -131,8 +131,10 @@ def load_traces(out: str | os.PathLike, *, include_superseded: bool = False) -> 
     out: the study's directory (the ``out`` of ``gap``).
     include_superseded: also the traces of rows since rerun under another configuration.
     """
+    from droneplan.core.validation import check_bool
     from droneplan.studies.store import load_results
 
+    check_bool("include_superseded", include_superseded)
     path = Path(out) / TRACES_NAME
     if not path.exists():
         return pd.DataFrame(columns=list(_COLUMNS))

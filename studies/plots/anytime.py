@@ -77,6 +77,12 @@ def plot_anytime_ecdf(
     rows: the study's rows; traces: its traces; ax: matplotlib Axes to draw on, or None;
     targets: the gap targets tau (relative). Returns the Figure.
     """
+    from droneplan.core.validation import check_array
+
+    taus = check_array("targets", targets, ndim=1)
+    if np.any(taus < 0):
+        raise ValueError(f"targets must be gaps >= 0, got {taus.min()}")
+    targets = taus.tolist()
     fig, ax, gaps = _anytime_axes(rows, traces, ax, "fraction of instance-runs with gap ≤ τ")
     if gaps is None:
         return fig

@@ -102,6 +102,10 @@ TOP_SPECS: dict[str, Any] = {
     "family_instances": lambda: (("table4.2",), {"seeds": 1, "m": 1}),
     "save_instance": lambda: ((_study()["inst"], Path(_fresh_dir()) / "i.json"), {}),
     "load_instance": lambda: ((_study()["file"],), {}),
+    "load_traces": lambda: ((_study()["out"],), {}),
+    "anytime_summary": lambda: ((_study()["df"], dp.load_traces(_study()["out"])), {}),
+    "plot_anytime": lambda: ((_study()["df"], dp.load_traces(_study()["out"])), {}),
+    "plot_anytime_ecdf": lambda: ((_study()["df"], dp.load_traces(_study()["out"])), {}),
     "run_gap": lambda: (("cells",), {"seeds": 1, "out": _fresh_dir()}),
 }
 TOP_EXTRA = {"gap": {"seeds": 1, "m": 1}, "family_instances": {"seeds": 1, "m": 1}, "run_gap": {"seeds": 1}}
