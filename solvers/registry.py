@@ -32,9 +32,12 @@ __all__ = [
 @functools.cache
 def _builtin() -> dict[str, type[BackendAdapter]]:
     """The built-in backends, name -> adapter class: the registry's one table."""
-    from droneplan.solvers import cpsat, mip, nlp, qp
+    from droneplan.solvers.cpsat import CpSatAdapter
+    from droneplan.solvers.mip import HighsAdapter, ScipAdapter
+    from droneplan.solvers.nlp import IpoptAdapter
+    from droneplan.solvers.qp import OsqpAdapter
 
-    adapters = (cpsat.CpSatAdapter, mip.HighsAdapter, mip.ScipAdapter, nlp.IpoptAdapter, qp.OsqpAdapter)
+    adapters = (CpSatAdapter, HighsAdapter, ScipAdapter, IpoptAdapter, OsqpAdapter)
     return {cls.name: cls for cls in adapters}
 
 
