@@ -55,6 +55,7 @@ import numpy as np
 import pandas as pd
 
 from droneplan.core.validation import check_array, check_instance, check_nonneg, check_positive
+from droneplan.studies.store import REFERENCE_METHOD
 
 __all__ = [
     "SOLVED_STATUSES",
@@ -388,7 +389,9 @@ def instance_targets(df: pd.DataFrame) -> pd.DataFrame:
     df: rows of the results schema. The proven optimum is the objective of a row with status
     ``optimal`` and ``bound_kind`` ``proven-global`` (a droneplan engine or the certified library;
     rows flagged ``beats-bound`` or ``library-suspect`` excluded); without one, the best
-    objective of a solved run of a role other than ``bound`` (not flagged). Returns columns
+    objective of a solved run of a role other than ``bound`` (not flagged). A reference solved
+    for the study (method ``reference``, role ``bound``) is a proven optimum like the library's,
+    never a best-known value. Returns columns
     problem, instance, sense, target (the problem's units; NaN when nothing was solved) and
     target_kind (``proven``, ``best-known`` or ``none``).
     """
@@ -396,8 +399,10 @@ def instance_targets(df: pd.DataFrame) -> pd.DataFrame:
     obj = pd.to_numeric(df["objective"], errors="coerce").astype(float)
     bound_kind = df["bound_kind"].astype(str) if "bound_kind" in df.columns else pd.Series("", index=df.index)
     clean = ~_flags(df).str.split(";").apply(lambda fs: any(f in _STRICT_FLAGS for f in fs))
-    usable = clean & solved_mask(df) & (df["role"] != "bound") & np.isfinite(obj)
-    proven = usable & (df["status"] == "optimal") & (bound_kind == "proven-global")
+    solved = clean & solved_mask(df) & np.isfinite(obj)
+    usable = solved & (df["role"] != "bound")
+    reference = solved & (df["method"] == REFERENCE_METHOD) if "method" in df.columns else False
+    proven = (usable | reference) & (df["status"] == "optimal") & (bound_kind == "proven-global")
     out = []
     for (problem, instance), g in df.groupby(["problem", "instance"], sort=False):
         ix = g.index

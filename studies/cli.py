@@ -210,6 +210,21 @@ def _parser() -> argparse.ArgumentParser:
         "one (the GA: fitness evaluations; exhaustive search: last-cell searches)",
     )
     gap.add_argument(
+        "--reference",
+        choices=("auto", "none"),
+        default=None,
+        help="open study: 'auto' (default) solves the reference of every instance the certified "
+        "library lacks by its kind's exact engine (kept under --out/library, a row 'reference'); "
+        "'none' solves none and says how many instances have no proven reference",
+    )
+    gap.add_argument(
+        "--reference-time-limit",
+        type=float,
+        default=None,
+        metavar="S",
+        help="open study: wall seconds per reference solve (default 300)",
+    )
+    gap.add_argument(
         "--out",
         type=Path,
         default=Path("results"),
@@ -494,6 +509,8 @@ def _refuse_open_study_flags(args) -> None:
         ("--runs", args.runs),
         ("--cpu-limit", args.cpu_limit),
         ("--max-evaluations", args.max_evaluations),
+        ("--reference", args.reference),
+        ("--reference-time-limit", args.reference_time_limit),
     ):
         if given is not None:
             raise SystemExit(f"droneplan: {flag} goes with an open study (--method or --instances)")
@@ -546,6 +563,8 @@ def _run_open_gap(args) -> int:
             runs=runs,
             cpu_limit=cpu_limit,
             max_evaluations=max_evaluations,
+            reference=args.reference or "auto",
+            reference_time_limit=args.reference_time_limit,
             **size,
         )
     except (ValueError, TypeError, FileNotFoundError) as exc:

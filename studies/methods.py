@@ -463,8 +463,9 @@ def resolve_methods(kind: str, methods: Any) -> list[Method]:
     return out
 
 
-RESERVED_NAMES = ("library", "task")
-"""Method names droneplan's own rows use (the certified reference row, a built-in study's error row)."""
+RESERVED_NAMES = ("library", "reference", "task")
+"""Method names droneplan's own rows use (the certified reference row, a reference solved for a
+study, a built-in study's error row)."""
 
 
 def _check_not_forged(m: Method) -> None:

@@ -147,6 +147,7 @@ __all__ = [
     "SOLVED_STATUSES",
     "BEATS_BOUND",
     "LIBRARY_METHOD",
+    "REFERENCE_METHOD",
     "LIBRARY_SUSPECT",
     "SIZE_MEANING",
     "OBJECTIVE_UNITS",
@@ -223,6 +224,9 @@ BEATS_BOUND = "beats-bound"
 """Flag of a row whose objective is better than a proven-global or candidate-set bound."""
 LIBRARY_METHOD = "library"
 """The ``method`` of the reference row a study reads from the certified library."""
+REFERENCE_METHOD = "reference"
+"""The ``method`` of the row holding a reference solved for a study (role ``bound``:
+:mod:`droneplan.studies.references`)."""
 LIBRARY_SUSPECT = "library-suspect"
 """The flag of a library row whose proven bound a verified plan of the same instance beats."""
 _STRICT_KINDS = ("proven-global", "candidate-set")

@@ -6,7 +6,9 @@ a child process with a time limit (:mod:`droneplan.studies.runner`), scores what
 droneplan's own evaluator (:mod:`droneplan.studies.harness`) and writes one row to the store at
 ``out`` with provenance and a configuration hash (:mod:`droneplan.studies.provenance`). On
 instances of the certified library (:mod:`droneplan.studies.library`) it adds a ``library`` row
-with the certified value and bound instead of re-solving. A rerun resumes: jobs whose row is in
+with the certified value and bound instead of re-solving; on other instances of a kind with an
+exact engine, a ``reference`` row solved for the study (:mod:`droneplan.studies.references`). A
+rerun resumes: jobs whose row is in
 the store under the same configuration are not run again; a job whose configuration changed
 (code, method, parameters, time limit, instance data) is run again and its old row is set aside.
 
@@ -54,6 +56,7 @@ from droneplan.studies.instances import StudyInstance, resolve_instances
 from droneplan.studies.library import lookup
 from droneplan.studies.methods import Method, check_study_time_limit, resolve_methods
 from droneplan.studies.provenance import config_hash, provenance, provenance_columns
+from droneplan.studies.references import REFERENCE_METHOD, check_reference, entry_row, reference_rows
 from droneplan.studies.runner import Job, JobOutcome, run_isolated, run_jobs
 from droneplan.studies.store import (
     LIBRARY_METHOD,
@@ -245,8 +248,9 @@ def plan_study(
         raise ValueError(f"a study runs on one kind of instance; these mix {', '.join(kinds)}")
     kind = kinds[0]
     meths = resolve_methods(kind, methods)
-    if any(m.name == LIBRARY_METHOD for m in meths):
-        raise ValueError(f"method name {LIBRARY_METHOD!r} is reserved for the certified reference row")
+    reserved = [m.name for m in meths if m.name in (LIBRARY_METHOD, REFERENCE_METHOD)]
+    if reserved:
+        raise ValueError(f"method name {reserved[0]!r} is reserved for the instance's reference row")
     code = provenance()["code_hash"]
     tasks = []
     for inst in insts:
@@ -318,46 +322,7 @@ def _library_row(inst: StudyInstance) -> dict | None:
     entry = lookup(inst)
     if entry is None:
         return None
-    outcome = Outcome(
-        method=LIBRARY_METHOD,
-        role="model",
-        status=entry.status,
-        objective=entry.value,
-        bound=entry.bound,
-        bound_kind=entry.bound_kind if entry.bound is not None else "none",
-        time_s=entry.time_s,
-        message=f"certified library: {entry.engine}, {entry.certified_at}, "
-        f"droneplan {entry.droneplan_version}",
-        extras={"library_gap": entry.gap},
-    )
-    (row,) = build_rows(
-        inst.problem,
-        inst.id,
-        seed=inst.seed,
-        size=inst.size,
-        sense=entry.sense,
-        outcomes=[outcome],
-        study=STUDY,
-    )
-    row.update(
-        config=config_hash(
-            {"library": entry.fingerprint, "certified_at": entry.certified_at, "value": entry.value}
-        ),
-        flag="",
-        claimed_objective=None,
-        family=inst.family,
-        family_version=inst.version,
-        method_params="{}",
-        time_limit_s=entry.time_limit_s,
-        droneplan_version=entry.droneplan_version,
-        git_commit=entry.git_commit,
-        code_hash=entry.code_hash,
-        packages=None if entry.packages is None else json.dumps(dict(entry.packages), sort_keys=True),
-        cpu=entry.cpu,
-        cores=entry.cores,
-        finished_at=entry.certified_at,
-    )
-    return row
+    return entry_row(inst, entry, method=LIBRARY_METHOD, role="model", source="certified library")
 
 
 def _verdict(task: _Task, outcome: JobOutcome) -> tuple[Scored, float | None]:
@@ -484,6 +449,8 @@ def gap(
     runs: int = 1,
     cpu_limit: float | None = None,
     max_evaluations: int | None = None,
+    reference: str = "auto",
+    reference_time_limit: float | None = None,
     **size: Any,
 ) -> pd.DataFrame:
     """Run a gap study of ``methods`` on ``instances`` and return its rows (long format).
@@ -523,16 +490,27 @@ def gap(
     max_evaluations: an evaluation budget per job for the methods that name a
         ``max_evaluations`` parameter (the GA: fitness evaluations; exhaustive search: last-cell
         searches); None: none.
+    reference: ``"auto"`` (default): an instance the certified library does not hold, of a kind
+        with an exact engine (cells, moving users, fleet size, allocation, shark fleets), gets its
+        reference solved by that engine (unless the study runs it), kept in a local library under
+        ``out`` and reported as a row of method ``reference``, role ``bound``
+        (:mod:`droneplan.studies.references`); ``"none"``: no solve, one line says how many
+        instances have no proven reference.
+    reference_time_limit: wall time per reference solve (s; default
+        ``references.DEFAULT_REFERENCE_TIME_LIMIT``, 300 s); past it the engine's best plan and
+        bound are the (unproven) reference.
     size: the family's size parameters (``m=4``, ``n=[8, 16]``) and ``seeds``, ``first_seed``.
 
-    Returns the current rows of these instances for these methods and the library reference, with
-    gaps filled in; rows already in the store under the same configuration are reused, not rerun.
+    Returns the current rows of these instances for these methods and their references (library
+    or solved), with gaps filled in; rows already in the store under the same configuration are
+    reused, not rerun.
     """
     n_workers, dask_executor = _run_options(workers, dask, progress, store, executor)
     headroom = (
         JOB_MEMORY_HEADROOM if memory_limit is None else check_int("memory_limit", memory_limit, min_value=1)
     )
     runs = check_runs(runs)
+    reference, reference_limit = check_reference(reference, reference_time_limit)
     plan = plan_study(
         problem,
         methods=methods,
@@ -553,6 +531,15 @@ def gap(
         store.bind_instances(problem, {i.id: i.fingerprint() for i in plan.instances})
         done = store.done_keys(problem)
         lib_rows = [r for r in (_library_row(i) for i in plan.instances) if r is not None]
+        lib_rows += reference_rows(
+            plan.instances,
+            plan.methods,
+            out=out,
+            reference=reference,
+            time_limit=reference_limit,
+            workers=n_workers,
+            progress=progress,
+        )
         set_aside = store.write([r for r in lib_rows if _key(r) not in done]) if lib_rows else 0
         todo = [t for t in plan.tasks if _task_key(problem, t) not in done]
         first = [t for t in todo if _first_batch(t)]
@@ -574,7 +561,7 @@ def gap(
         for suffix in ("csv", "parquet"):
             store.export(out / f"results.{suffix}")
     wanted_ids = {i.id for i in plan.instances}
-    wanted_methods = {m.name for m in plan.methods} | {LIBRARY_METHOD}
+    wanted_methods = {m.name for m in plan.methods} | {LIBRARY_METHOD, REFERENCE_METHOD}
     mask = df["instance"].isin(wanted_ids) & df["method"].isin(wanted_methods) & (df["run"] < runs)
     found = df[mask].reset_index(drop=True)
     _report_suspect_library(found)

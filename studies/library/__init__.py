@@ -25,6 +25,8 @@ How each kind is certified:
 ``cells-fleet``  the fewest-drone-cells model (``min_fleet``, one worker); value and bound are
                  counts of drone-cells (``candidate-set``); when it is not proven, the better of
                  its plan and the greedy fleet's
+``shark-fleet``  the bottleneck operator-to-shark assignment (CP-SAT); when it is not proven, the
+                 better of its plan and the nearest-free-operator baseline's
 ``allocation``   the exact combinatorial algorithm, cross-checked by CP-SAT up to n = 16
                  (``proven-global``)
 ``shark-path``   the best frontal first-contact time of the built-in interceptors (virtual
@@ -176,7 +178,7 @@ def load_library(family: str, directory: str | os.PathLike | None = None) -> dic
 
 def lookup(instance: StudyInstance, directory: str | os.PathLike | None = None) -> LibraryEntry | None:
     """The library entry of ``instance``, or None (no library, no entry, or other data under that id)."""
-    if instance.family not in FAMILIES:
+    if instance.family not in FAMILIES and instance.family != "user":
         return None
     entry = load_library(instance.family, directory).get(instance.id)
     if entry is None or entry.fingerprint != instance.fingerprint():
@@ -210,11 +212,11 @@ def save_library(
 
 
 def _write(family: str, path: Path, entries: Mapping[str, LibraryEntry]) -> Path:
-    fam = FAMILIES[family]
+    fam = FAMILIES.get(family)
     doc = {
         "format": LIBRARY_FORMAT,
         "family": family,
-        "family_version": fam.version,
+        "family_version": None if fam is None else fam.version,
         "entries": [asdict(entries[k]) for k in sorted(entries)],
     }
     data = gzip.compress(json.dumps(doc, allow_nan=False, separators=(",", ":")).encode(), mtime=0)
@@ -243,8 +245,8 @@ def certify_instance(instance: StudyInstance, *, time_limit: float | None) -> di
     kind = instance.kind
     if kind == "cells":
         return _certify_cells(instance, time_limit)
-    if kind in ("cells-mobile", "cells-fleet"):
-        return _certify_cells_model(instance, time_limit)
+    if kind in _MODEL_ENGINES:
+        return _certify_by_engine(instance, time_limit)
     if kind == "allocation":
         return _certify_allocation(instance, time_limit)
     if kind == "shark-path":
@@ -286,23 +288,33 @@ def _certify_cells(instance: StudyInstance, time_limit: float | None) -> dict[st
     }
 
 
-def _certify_cells_model(instance: StudyInstance, time_limit: float | None) -> dict[str, Any]:
-    """A moving-users instance by the joint model, a fleet-size instance by ``min_fleet``; the plan
-    is scored by the study harness (droneplan's evaluator), so an entry holds what a study
-    would score."""
+_MODEL_ENGINES = {
+    # kind: (exact engine, baseline, sense), all registered methods (studies.methods.BUILTIN)
+    "cells-mobile": ("joint", "myopic", "max"),
+    "cells-fleet": ("min-fleet", "greedy-fleet", "min"),
+    "shark-fleet": ("bottleneck", "greedy-nearest", "min"),
+}
+
+
+def _certify_by_engine(instance: StudyInstance, time_limit: float | None) -> dict[str, Any]:
+    """An instance by its kind's registered exact engine (``_MODEL_ENGINES``: the joint model of
+    moving users, ``min_fleet``, the bottleneck assignment of a shark fleet), its plan scored by
+    the study harness (droneplan's evaluator), so an entry holds what a study would score; when
+    the engine does not prove its plan, the better of it and the baseline's."""
     from droneplan.solvers.result import SolveResult
     from droneplan.studies.harness import execute, score
     from droneplan.studies.methods import BUILTIN
 
-    method = BUILTIN["joint" if instance.kind == "cells-mobile" else "min-fleet"]
+    engine_name, baseline_name, sense = _MODEL_ENGINES[instance.kind]
+    method = BUILTIN[engine_name]
     res = execute(instance, method, 0, time_limit)
     verdict = score(instance, method, res)
     plan, engine = res.x, f"{method.name} ({res.backend}, workers=1)"
     if verdict.status != "optimal":  # the baseline may do better
-        baseline = BUILTIN["myopic" if instance.kind == "cells-mobile" else "greedy-fleet"]
+        baseline = BUILTIN[baseline_name]
         base = execute(instance, baseline, 0, time_limit)
         mine = score(instance, baseline, base)
-        sign = 1.0 if instance.kind == "cells-mobile" else -1.0
+        sign = 1.0 if sense == "max" else -1.0
         if mine.objective is not None and (
             verdict.objective is None or sign * (mine.objective - verdict.objective) > 0
         ):
@@ -322,12 +334,22 @@ def _certify_cells_model(instance: StudyInstance, time_limit: float | None) -> d
         "bound": verdict.bound,
         "bound_kind": verdict.bound_kind if verdict.bound is not None else "none",
         "status": "optimal" if verdict.status == "optimal" else "feasible",
-        "sense": "max" if instance.kind == "cells-mobile" else "min",
-        "plan": np.asarray(plan, dtype=float).tolist(),
+        "sense": sense,
+        "plan": _plain(plan),
         "engine": engine,
         "time_s": float(res.solve_time),
         "message": res.message,
     }
+
+
+def _plain(plan: Any) -> Any:
+    """A plan as JSON values: an array's nested lists, a dataclass (a fleet's ``Assignment``) as
+    a dict of its fields' values."""
+    if dataclasses.is_dataclass(plan) and not isinstance(plan, type):
+        return {f.name: _plain(getattr(plan, f.name)) for f in dataclasses.fields(plan)}
+    if isinstance(plan, (str, bool, type(None))):
+        return plan
+    return np.asarray(plan, dtype=float).tolist()
 
 
 def _certify_allocation(instance: StudyInstance, time_limit: float | None) -> dict[str, Any]:

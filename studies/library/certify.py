@@ -25,7 +25,7 @@ from droneplan.studies.library import (
 from droneplan.studies.provenance import provenance
 from droneplan.studies.runner import Job, JobOutcome, run_jobs
 
-__all__ = ["certify", "verify", "CERTIFY_GRACE_S"]
+__all__ = ["certify", "verify", "certifications", "CERTIFY_GRACE_S"]
 
 CERTIFY_GRACE_S = 30.0
 """How long a certification may overrun its time limit before its process is killed (s): the
@@ -65,7 +65,7 @@ def certify(
     prov = provenance()
     failed: list[str] = []
     path = None
-    for outcome in _certifications(todo, time_limit, workers, f"certify {family}" if progress else None):
+    for outcome in certifications(todo, time_limit, workers, f"certify {family}" if progress else None):
         inst = by_id[str(outcome.key)]
         if outcome.status != "ok":
             failed.append(f"{inst.id}: {outcome.status}: {outcome.error}")
@@ -93,10 +93,16 @@ def certify(
     }
 
 
-def _certifications(
+def certifications(
     instances: list[Any], time_limit: float | None, workers: int, progress: str | None
 ) -> Iterator[JobOutcome]:
-    """The outcomes of certifying each instance in its own time-limited child process."""
+    """The outcomes of certifying each instance in its own time-limited child process.
+
+    instances: the StudyInstances. time_limit: per instance (s; None: none; the child is killed
+    ``CERTIFY_GRACE_S`` after it). workers: children at once. progress: a progress bar's
+    description, or None for none. Yields one ``JobOutcome`` per instance (key: its id; value:
+    :func:`~droneplan.studies.library.certify_instance`'s fields) as each finishes.
+    """
     jobs = [
         Job(inst.id, certify_instance, (inst,), {"time_limit": time_limit}, time_limit=time_limit)
         for inst in instances
@@ -149,7 +155,7 @@ def verify(
     if sample is not None and check_int("sample", sample, min_value=1) < len(instances):
         instances = random.Random(seed).sample(instances, sample)
     failed = []
-    for outcome in _certifications(instances, time_limit, workers, f"verify {family}" if progress else None):
+    for outcome in certifications(instances, time_limit, workers, f"verify {family}" if progress else None):
         entry = entries[str(outcome.key)]
         if outcome.status != "ok":
             failed.append(f"{entry.id}: not re-proven ({outcome.status}: {outcome.error})")
