@@ -57,7 +57,7 @@ import queue
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -83,6 +83,18 @@ from droneplan.formulations.cells._bnb_sites import (
 )
 from droneplan.formulations.cells._core import TOL, Candidates, evaluate, pairwise_distances
 from droneplan.scenarios.cells import CellProblem
+
+
+class Peer(Protocol):
+    """Another engine solving the same candidate problem beside the search (``_portfolio``)."""
+
+    def best_value(self) -> int:
+        """Users covered by the best feasible placement the peer has found so far."""
+        ...
+
+    def finished(self) -> bool:
+        """True once the peer has proved its placement optimal."""
+        ...
 
 
 @dataclass
@@ -213,6 +225,9 @@ class BranchAndBoundSearch:
         # workers' incumbents reach the caller with the result)
         self.on_incumbent: Callable[[np.ndarray], Any] | None = None
         self.owner = os.getpid()
+        # another engine solving the same candidate problem beside this search (``_portfolio``):
+        # its incumbent value raises ours, and its proof ends the search
+        self.peer: Peer | None = None
 
     def link_rows(self) -> LinkRows:
         """The sites within r2 + TOL of each other (:class:`LinkRows`: a row is built when
@@ -245,8 +260,10 @@ class BranchAndBoundSearch:
         return drop_dominated(self, alive)
 
     def expired(self) -> bool:
-        """True once the node budget or the time limit is used up."""
+        """True once the node budget or the time limit is used up, or the peer engine has proved."""
         if self.node_limit is not None and self.nodes >= self.node_limit:
+            return True
+        if self.peer is not None and self.peer.finished():
             return True
         return self.out_of_time()
 
@@ -264,7 +281,10 @@ class BranchAndBoundSearch:
 
     def checkpoint(self) -> bool:
         """Every ``_CHECK_EVERY`` nodes: share the incumbent value with the other workers (a
-        value only: each worker keeps the placements it found), then test the time limit."""
+        value only: each worker keeps the placements it found) and take the peer engine's, then
+        test the limits."""
+        if self.peer is not None:
+            self.best_val = max(self.best_val, self.peer.best_value())
         if self.shared:
             with self.shared[0].get_lock():
                 if self.best_val > self.shared[0].value:
@@ -527,6 +547,7 @@ def search(
     parent: BranchAndBoundSearch | None = None,
     exchange_sizes: tuple[int, ...] | None = None,
     on_incumbent: Callable[[np.ndarray], Any] | None = None,
+    peer: Peer | None = None,
 ) -> BnbResult:
     """Exact search of the candidate problem (module docstring; the state lives on a
     :class:`BranchAndBoundSearch`).
@@ -550,6 +571,10 @@ def search(
     heuristic takes out of the incumbent (None: ``BranchAndBoundSearch.exchange_sizes``).
     on_incumbent: called with the positions ((k, 2) m) of each new incumbent the search finds in
     this process (an anytime trace; those of forked workers come back with the result).
+    peer: another engine on the same candidate problem (``_portfolio``): every ``_CHECK_EVERY``
+    nodes the search takes its incumbent value (exact: a value some feasible placement covers, so
+    pruning what cannot beat it loses no better placement; the placement itself is the peer's)
+    and stops, unproven, once the peer has proved.
     """
     t0 = time.perf_counter()
     n = len(cand.points)
@@ -577,6 +602,7 @@ def search(
     if exchange_sizes is not None:
         bb.exchange_sizes = tuple(exchange_sizes)
     bb.on_incumbent = on_incumbent
+    bb.peer = peer
     return bb.run(best_pos, eliminate=eliminate, heuristics=heuristics, workers=workers, main=main)
 
 

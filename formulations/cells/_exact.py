@@ -13,6 +13,7 @@ optimum value (the tests check both against brute force).
 
 from __future__ import annotations
 
+import os
 import time
 import warnings
 from collections.abc import Callable
@@ -23,6 +24,7 @@ import numpy as np
 from droneplan.core.validation import check_bool, check_instance, check_int, check_time_limit
 from droneplan.formulations.cells._bnb import (
     BranchAndBoundSearch,
+    _can_fork,
     _Timeout,
     relation_bytes,
     relations_fit,
@@ -31,6 +33,7 @@ from droneplan.formulations.cells._bnb import (
 from droneplan.formulations.cells._core import evaluate
 from droneplan.formulations.cells._milp import CONNECTIVITY, solve_prepared
 from droneplan.formulations.cells._open import BNB_VARIANTS, solve_variant
+from droneplan.formulations.cells._portfolio import ModelPeer, solve_portfolio
 from droneplan.formulations.cells._prepare import Prepared, _near_any, dropped_sites_text, prepare
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.registry import get_backend
@@ -39,7 +42,17 @@ from droneplan.solvers.result import SolveResult, Status
 ENGINES = ("bnb", "milp")
 """Exact engines of :func:`solve_exact`: the combinatorial branch and bound or the model."""
 
-DEFAULT_WORKERS: dict[str, int] = {"bnb": 2, "milp": 1}
+ENGINE_CHOICES = ("auto", *ENGINES)
+"""What ``solve_exact(engine=...)`` accepts: ``"auto"`` (the default) runs both engines as a
+portfolio on two cores or more, else ``ONE_CORE_ENGINE``."""
+
+ONE_CORE_ENGINE = "bnb"
+"""The engine ``engine="auto"`` runs when one worker is all it has. Measured (Table 4.2 m = 4
+seeds 0-9, one worker each, time limit 300 s, load 6.4-7.6): both engines prove every seed; the
+branch and bound takes 58.2 CPU-s in all against the MILP's 115.0, and no more than the MILP on
+any seed (seed 8: 0.15 both), so a single core goes to it."""
+
+DEFAULT_WORKERS: dict[str, int] = {"bnb": 2, "milp": 1, "auto": 2}
 """Workers of :func:`solve_exact` per engine when ``workers`` is None: the branch and bound's
 forked processes, the model's CP-SAT workers (or MIP threads). A second CP-SAT worker slowed the
 model's proof on a 2-core machine and did not speed it up (Table 4.2, CP-SAT, wall s with 1 / 2
@@ -55,8 +68,8 @@ def _engine_for(problem: CellProblem, engine: str | None) -> str:
     solve."""
     check_instance("problem", problem, CellProblem)
     unsupported = [v for v in problem.variants if v not in BNB_VARIANTS]
-    if engine is None:
-        return "milp" if unsupported else "bnb"
+    if engine is None or (engine == "auto" and unsupported):
+        return "milp" if unsupported else "auto"
     if engine == "bnb" and unsupported:
         raise ValueError(
             f"engine 'bnb' cannot solve an instance with {', '.join(unsupported)}: use engine='milp'"
@@ -77,8 +90,8 @@ def _check_common(
     warm start is checked by ``prepare`` under its own name)."""
     if not isinstance(problem, CellProblem):
         raise TypeError(f"problem must be a CellProblem, got {type(problem).__name__}")
-    if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
+    if engine not in ENGINE_CHOICES:
+        raise ValueError(f"engine must be one of {ENGINE_CHOICES}, got {engine!r}")
     get_backend(backend, kind="linear")  # an unknown or unavailable backend raises ValueError here
     if connectivity not in CONNECTIVITY:
         raise ValueError(f"connectivity must be one of {CONNECTIVITY}, got {connectivity!r}")
@@ -308,8 +321,10 @@ def _eliminate_for_model(prep: Prepared) -> None:
     }
 
 
-def _solve_bnb(prep: Prepared, workers: int) -> SolveResult:
-    """The combinatorial branch and bound (``_bnb.search``) from the prepared incumbent."""
+def _solve_bnb(prep: Prepared, workers: int, peer: ModelPeer | None = None) -> SolveResult:
+    """The combinatorial branch and bound (``_bnb.search``) from the prepared incumbent; beside
+    the model (``peer``, ``_portfolio``) it prunes against the model's incumbents too, and its
+    placement is the better of its own and the model's."""
     problem = prep.problem
     bb = search(
         problem,
@@ -320,11 +335,14 @@ def _solve_bnb(prep: Prepared, workers: int) -> SolveResult:
         time_limit=prep.left(),
         workers=workers,
         on_incumbent=None if prep.report is None else prep.offer_report,
+        peer=peer,
     )
-    prep.offer_report(bb.positions)
-    obj = float(evaluate(problem, bb.positions).covered)
+    positions = bb.positions if peer is None else peer.better(bb.positions)
+    prep.offer_report(positions)
+    obj = float(evaluate(problem, positions).covered)
     bnd = float(max(min(bb.bound, prep.ub), obj))
-    proven = bb.proven or obj >= bnd
+    # proven: nothing beats bb.value, the value searched against (the model's, beside it)
+    proven = (bb.proven and obj >= bb.value) or obj >= bnd
     msg = prep.bound_text(bnd, "the exact combinatorial branch and bound (engine 'bnb')")
     if not proven:
         msg += f"; time limit reached after {bb.nodes} search nodes, optimality not proven"
@@ -332,7 +350,7 @@ def _solve_bnb(prep: Prepared, workers: int) -> SolveResult:
         Status.OPTIMAL if proven else Status.FEASIBLE,
         objective=obj,
         bound=obj if proven else bnd,
-        x=bb.positions,
+        x=positions,
         backend="bnb",
         message=msg,
         engine="bnb",
@@ -346,6 +364,68 @@ def _solve_bnb(prep: Prepared, workers: int) -> SolveResult:
             "dominated": bb.dominated,
             "elimination_time": bb.elimination_time,
         },
+    )
+
+
+def available_cores() -> int:
+    """Cores this process may run on (its CPU affinity; ``os.cpu_count()`` where unknown)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def _run_bnb(prep: Prepared, workers: int, peer: ModelPeer | None = None) -> SolveResult:
+    """The branch and bound from the preparation: the search polishes its incumbent itself; a
+    warm start is polished here too, so it is always tried, and the better of the two lines
+    starts the search. The sites that cannot beat the incumbent go first
+    (``Prepared.prune_candidates``), and again once the polish has raised it."""
+    prep.prune_candidates()
+    _polish(prep, greedy=False)
+    prep.offer_report(prep.inc)
+    prep.prune_candidates()
+    return _solve_bnb(prep, workers, peer)
+
+
+def _run_model(
+    prep: Prepared,
+    backend: str,
+    workers: int,
+    connectivity: str,
+    max_rounds: int,
+    user_cliques: bool,
+    bnb_elimination: bool,
+) -> SolveResult:
+    """The candidate model from the preparation, after the polish (and the branch and bound's
+    root elimination when ``bnb_elimination``)."""
+    _polish(prep)
+    if bnb_elimination:
+        _eliminate_for_model(prep)
+    prep.offer_report(prep.inc)
+    done = _early_exit(prep, backend, "milp")
+    if done is not None:
+        return done
+    return solve_prepared(
+        prep,
+        backend=backend,
+        workers=workers,
+        connectivity=connectivity,
+        max_rounds=max_rounds,
+        user_cliques=user_cliques,
+    )
+
+
+def _solve_portfolio(
+    prep: Prepared, workers: int, backend: str, connectivity: str, max_rounds: int, user_cliques: bool
+) -> SolveResult:
+    """Both engines side by side (``_portfolio``): the model on one worker in a child, the
+    branch and bound with the other ``workers - 1`` here."""
+
+    def run_model(p: Prepared) -> SolveResult:
+        return _run_model(p, backend, 1, connectivity, max_rounds, user_cliques, False)
+
+    return solve_portfolio(
+        prep, run_model=run_model, run_search=lambda p, peer: _run_bnb(p, max(1, workers - 1), peer)
     )
 
 
@@ -368,10 +448,15 @@ def solve_exact(
     problem: the CellProblem (users, GBSs, m, radii in metres).
     engine: "bnb": the combinatorial branch and bound (no model; ``backend``,
         ``connectivity``, ``max_rounds`` and ``user_cliques`` unused); "milp": the candidate
-        model on ``backend``; None (default): "bnb" for the thesis model, "milp" for an
-        instance with variants (weights, no-fly zones, capacity), which only the MILP solves:
-        the whole candidate model is solved once (``_open.solve_variant``; the warm start, the
-        rounds and the thesis model's reductions are not used). ``info["engine"]`` says which ran.
+        model on ``backend``; "auto" or None (default): on the thesis model with ``workers`` >= 2
+        and two cores, both side by side (``_portfolio``: the model on one worker in a forked
+        child, its incumbents pruning the branch and bound, which gets the other workers; the
+        first proof ends both; ``info["portfolio"]`` says which engine proved it, with each
+        one's status, bound and wall time), with one worker ``ONE_CORE_ENGINE`` (the branch
+        and bound, measured faster alone); on an instance with variants (weights, no-fly zones,
+        capacity), which only the MILP solves, the whole candidate model solved once
+        (``_open.solve_variant``; the warm start, the rounds and the thesis model's reductions
+        are not used). ``info["engine"]`` says which ran ("auto" for the portfolio).
     backend: linear backend of the model and of the continuous bound's solve: "cp-sat"
         (default), "highs" or "scip".
     time_limit: wall-clock limit (s) for the whole call, candidate generation and model
@@ -388,8 +473,9 @@ def solve_exact(
         says what happened (``used``, ``value``, ``polished_value``, ``greedy_value``,
         ``reason``), ``info["incumbent"]`` which line won and its value.
     workers: for engine "milp", CP-SAT workers / MIP threads; for "bnb", processes that
-        share the search on thesis-scale instances (forked; 1: this process alone). None
-        (default): per engine, ``DEFAULT_WORKERS`` (2 for "bnb", 1 for "milp": a second CP-SAT
+        share the search on thesis-scale instances (forked; 1: this process alone); for "auto",
+        processes in all (the model's one and the branch and bound's others). None (default):
+        per engine, ``DEFAULT_WORKERS`` (2 for "bnb" and "auto", 1 for "milp": a second CP-SAT
         worker slowed the model's proofs measured on 2 cores).
     connectivity: "hops" (default) or "lazy", the model's exact backhaul formulation (hop
         levels measured faster: Table 4.2 m = 4 seed 3, CP-SAT, 1 worker, from the optimum
@@ -447,31 +533,13 @@ def solve_exact(
     done = _early_exit(prep, "bnb" if engine == "bnb" else backend, engine)
     if done is not None:
         return done
+    if engine == "auto":
+        if workers >= 2 and available_cores() >= 2 and _can_fork():
+            return _solve_portfolio(prep, workers, backend, connectivity, max_rounds, user_cliques)
+        engine = ONE_CORE_ENGINE
     if engine == "bnb":
-        # the search polishes its incumbent itself; a warm start is polished here too, so it
-        # is always tried, and the better of the two lines starts the search. The sites that
-        # cannot beat the incumbent go first (``Prepared.prune_candidates``), and again once
-        # the polish has raised it.
-        prep.prune_candidates()
-        _polish(prep, greedy=False)
-        prep.offer_report(prep.inc)
-        prep.prune_candidates()
-        return _solve_bnb(prep, workers)
-    _polish(prep)
-    if bnb_elimination:
-        _eliminate_for_model(prep)
-    prep.offer_report(prep.inc)
-    done = _early_exit(prep, backend, engine)
-    if done is not None:
-        return done
-    return solve_prepared(
-        prep,
-        backend=backend,
-        workers=workers,
-        connectivity=connectivity,
-        max_rounds=max_rounds,
-        user_cliques=user_cliques,
-    )
+        return _run_bnb(prep, workers)
+    return _run_model(prep, backend, workers, connectivity, max_rounds, user_cliques, bnb_elimination)
 
 
 def branch_and_bound(

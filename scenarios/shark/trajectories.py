@@ -120,11 +120,11 @@ def make_trajectory(
     duration, dt, n = _samples(duration, dt, per_sample=10 * 9)
     start = check_array("start", start, shape=(2,))
     profiles = []
-    for name, f in (("heading", heading), ("speed", speed), ("depth", depth)):
+    for profile, f in (("heading", heading), ("speed", speed), ("depth", depth)):
         if callable(f):
             profiles.append(f)
         else:
-            value = check_array(name, f, shape=())  # a number: held constant
+            value = check_array(profile, f, shape=())  # a number: held constant
             profiles.append(lambda t, value=float(value): np.full(np.shape(t), value))
     heading, speed, depth = profiles
     t = np.arange(n, dtype=np.float64) * dt

@@ -70,6 +70,7 @@ def test_touch_equals_horizontal_radius_test(z_s, dxy, z_o):
 def test_thesis_trajectories_family():
     tr = thesis_trajectories()
     assert set(tr) == {"a", "b", "c", "d"}
+    assert all(v.name == k for k, v in tr.items())  # each path keeps its label
     for k, v in tr.items():
         sp = np.hypot(v.vel[:, 0], v.vel[:, 1])
         assert sp.max() <= P.VsMxy and np.abs(v.vel[:, 2]).max() <= P.VsMz and v.pos[:, 2].max() < 0
