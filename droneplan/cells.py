@@ -36,6 +36,7 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
         solve_milp,
         solve_mobile,
         solve_model,
+        write_model,
     )
     from droneplan.planners.cells import (
         GASettings,
@@ -99,6 +100,7 @@ __all__ = [
     "CellModel",
     "build_milp",
     "solve_model",
+    "write_model",
     "min_fleet",
     "MobileProblem",
     "MobileEvaluation",
@@ -152,6 +154,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "solve_exact",
         "solve_milp",
         "solve_model",
+        "write_model",
         "min_fleet",
         "MobileProblem",
         "MobileEvaluation",

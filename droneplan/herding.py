@@ -20,6 +20,7 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
         check_allocation,
         pad_steering_points,
         solve_allocation,
+        write_allocation_model,
     )
     from droneplan.planners.herding import (
         BenchmarkHerder,
@@ -75,6 +76,7 @@ __all__ = [
     "solve_allocation",
     "check_allocation",
     "pad_steering_points",
+    "write_allocation_model",
     # thesis methods and herders
     "allocate_bruteforce",
     "allocate_collision_blind",
@@ -104,6 +106,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "check_allocation",
         "pad_steering_points",
         "solve_allocation",
+        "write_allocation_model",
     ),
     "droneplan.planners.herding": (
         "BenchmarkHerder",

@@ -69,8 +69,10 @@ drones is a ValueError (the caller chooses which n steering points to use).
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 from ortools.sat.python import cp_model
@@ -91,6 +93,7 @@ __all__ = [
     "AllocationModel",
     "build_allocation_model",
     "solve_allocation",
+    "write_allocation_model",
 ]
 
 METHODS = ("exact", "cp-sat")
@@ -411,7 +414,8 @@ def build_allocation_model(drone_s, steer_s, perimeter) -> AllocationModel:  # n
     trank = np.searchsorted(travel_values, np.array([c[4] for c in choices]))
 
     model = cp_model.CpModel()
-    x = [model.new_bool_var(f"x_{c[0]}_{c[1]}_{c[2]:+d}") for c in choices]
+    way = {1: "inc", -1: "dec"}  # the direction of arc positions; LP files take no sign in a name
+    x = [model.new_bool_var(f"drone{order[c[0]]}_point{c[1]}_{way[c[2]]}") for c in choices]
     by_drone: list[list[int]] = [[] for _ in range(n)]
     by_point: list[list[int]] = [[] for _ in range(n)]
     for idx, c in enumerate(choices):
@@ -427,13 +431,34 @@ def build_allocation_model(drone_s, steer_s, perimeter) -> AllocationModel:  # n
     if n > 1:  # (6.22): z*_n < z*_1 + M
         first_plus = sum(int(zrank_plus[i]) * x[i] for i in by_drone[0])
         model.add(zr[n - 1] + 1 <= first_plus)
-    T = model.new_int_var(0, len(travel_values) - 1, "T")
+    T = model.new_int_var(0, len(travel_values) - 1, "max_travel_rank")
     for lst in by_drone:  # (6.21)
         model.add(sum(int(trank[i]) * x[i] for i in lst) <= T)
     model.minimize(T)
     # report choices in the caller's drone indexing
     choices = [(int(order[c[0]]), c[1], c[2], c[3], c[4]) for c in choices]
     return AllocationModel(model, choices, x, travel_values, pts)
+
+
+def write_allocation_model(drone_s, steer_s, perimeter: float, path: str | os.PathLike[str]) -> Path:
+    """Write the assignment model of (6.21)-(6.23) (:func:`build_allocation_model`) as an MPS or
+    LP file that any MIP solver reads.
+
+    drone_s, steer_s: drone and steering-point arc positions on the extended hull (m), in
+    [0, perimeter); perimeter: the extended-hull perimeter M (m). path: the file, ``.mps`` (free
+    MPS) or ``.lp`` (CPLEX LP), in an existing writable folder (written through a temporary file).
+
+    Variables: ``drone{j}_point{i}_inc`` / ``_dec`` (0-1: drone j, in the caller's order, flies
+    to steering point i, padded as :func:`pad_steering_points` pads them, in direction +1, that
+    of increasing arc position, or -1) and ``max_travel_rank``, the minimised objective:
+    the rank of the largest travel among the sorted distinct travels (rank k means
+    ``build_allocation_model(...).travel_values[k]`` metres; ranks keep the model integral and
+    exact). Returns the path (a ``pathlib.Path``).
+    """
+    from droneplan.solvers.model_files import check_model_path, write_cp_model
+
+    target = check_model_path(path)
+    return write_cp_model(build_allocation_model(drone_s, steer_s, perimeter).model, target)
 
 
 def _decode(am: AllocationModel, values: np.ndarray, n: int) -> Allocation:

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import functools
+import os
 from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -236,6 +238,12 @@ class CpSatLinearModel(LinearModel):
 
     def minimize(self, expr: Any) -> None:
         self._model.minimize(expr)
+
+    def write(self, path: str | os.PathLike[str]) -> Path:
+        """Write the model as an MPS or LP file (:func:`~droneplan.solvers.model_files.write_cp_model`)."""
+        from droneplan.solvers.model_files import write_cp_model
+
+        return write_cp_model(self._model, path)
 
     def solve(
         self,

@@ -19,7 +19,9 @@ through this interface. Coefficients must be integers for CP-SAT.
 from __future__ import annotations
 
 import abc
+import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -90,6 +92,14 @@ class LinearModel(abc.ABC):
     @abc.abstractmethod
     def minimize(self, expr: Any) -> None:
         """Set the objective to minimise ``expr``."""
+
+    def write(self, path: str | os.PathLike[str]) -> Path:
+        """Write the model as it stands to ``path`` (``.mps``: free MPS; ``.lp``: CPLEX LP),
+        through a temporary file renamed into place; returns the path. A backend whose models
+        cannot be written raises NotImplementedError naming the backends that can."""
+        raise NotImplementedError(
+            f"{self.backend} models cannot be written to a file; build the model on cp-sat, highs or scip"
+        )
 
     @abc.abstractmethod
     def solve(

@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import time
 from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -124,6 +126,8 @@ def _highs_model(solver: pywraplp.Solver) -> Any:
     lp.a_matrix_.start_ = np.cumsum([0] + [len(c.var_index) for c in proto.constraint]).astype(np.int32)
     lp.a_matrix_.index_ = np.array([i for c in proto.constraint for i in c.var_index], dtype=np.int32)
     lp.a_matrix_.value_ = np.array([a for c in proto.constraint for a in c.coefficient], dtype=float)
+    lp.col_names_ = [v.name or f"v{i}" for i, v in enumerate(proto.variable)]
+    lp.row_names_ = [c.name or f"r{i}" for i, c in enumerate(proto.constraint)]
     highs = highspy.Highs()
     highs.setOptionValue("output_flag", False)
     highs.passModel(lp)
@@ -422,6 +426,12 @@ class PywraplpLinearModel(LinearModel):
 
     def minimize(self, expr: Any) -> None:
         self._solver.Minimize(expr)
+
+    def write(self, path: str | os.PathLike[str]) -> Path:
+        """Write the model as free MPS or CPLEX LP (through HiGHS, :func:`_highs_model`)."""
+        from droneplan.solvers.model_files import write_highs
+
+        return write_highs(_highs_model(self._solver), path)
 
     def solve(
         self,

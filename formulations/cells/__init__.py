@@ -25,7 +25,7 @@ from droneplan.formulations.cells._mobile import (
     myopic,
     solve_mobile,
 )
-from droneplan.formulations.cells._open import BNB_VARIANTS, solve_model
+from droneplan.formulations.cells._open import BNB_VARIANTS, solve_model, write_model
 from droneplan.formulations.cells._prepare import coverage_upper_bound, greedy_placement
 from droneplan.scenarios.cells import CellProblem, problem_from_instance, thesis_problem
 
@@ -47,6 +47,7 @@ __all__ = [
     "reduce_candidates",
     "build_milp",
     "solve_model",
+    "write_model",
     "min_fleet",
     "MobileProblem",
     "MobileEvaluation",

@@ -389,7 +389,7 @@ class _LevelSources:
         self.agg = np.array([len(g) >= 2 for g in members])
         self.sq_var: dict[int, Any] = {}
         for q in np.flatnonzero(self.agg).tolist():
-            v = lin.unit_var(f"a{lev - 1}_{q}")
+            v = lin.unit_var(f"square_any{lev - 1}_{q}")
             lin.add_implies_any(v, [var[d] for d in members[q].tolist()])
             self.sq_var[q] = v
             squares[lev - 1, tuple(keys[q].tolist())] = (v, members[q])
@@ -463,7 +463,7 @@ def _source_vars(lin, z: dict, nd: np.ndarray, lev: int, merged: bool) -> tuple[
     for d in nd.tolist():
         own = [z[d, lv] for lv in (lev - 1, lev) if (d, lv) in z]
         if own:
-            var[d] = lin.unit_var(f"u{d}_{lev}")
+            var[d] = lin.unit_var(f"hop_le{d}_{lev}")
             lin.add_implies_any(var[d], own)
     return np.array(sorted(var), dtype=np.int64), var
 
@@ -522,7 +522,7 @@ def _hop_levels(
     z: dict[tuple[int, int], Any] = {}
     for k, c in enumerate(nd.tolist()):
         for lev in range(int(lowest[k]), top + 1):
-            z[c, lev] = lin.bool_var(f"z{c}_{lev}")
+            z[c, lev] = lin.bool_var(f"hop{c}_{lev}")
     for k, c in enumerate(nd.tolist()):
         lin.add(lin.sum([z[c, lev] for lev in range(int(lowest[k]), top + 1)]) == x[c])
     squares: dict = {}
@@ -593,7 +593,7 @@ def _projected_model_terms(
     if len(rows) == 0:
         return 0.0, 0.0
     lin = _new_model(backend)
-    var = {d: lin.bool_var(f"x{d}") for d in src.tolist()}
+    var = {d: lin.bool_var(f"site{d}") for d in src.tolist()}
     sources = _LevelSources(pts, src, var, problem, lin, {}, 2)
     level2 = _projected_terms(sources, rows, 2 * problem.R_d - 2 * TOL)
     return level2 * (m - 1), level2
@@ -841,7 +841,7 @@ def build_milp(
     pts = cand.points[idx]
     cover = [cand.cover[i] for i in idx]
     direct = cand.direct[idx]
-    x = [lin.bool_var(f"x{i}") for i in range(len(pts))]
+    x = [lin.bool_var(f"site{i}") for i in range(len(pts))]
     y, objective, user_clique_sites, n_subst, group_of, serve = _objective_part(
         lin, x, pts, cover, problem, user_cliques
     )

@@ -194,7 +194,7 @@ def _coverage_objective(lin, x: list, pts, cover: list, problem: CellProblem, us
     group_of: dict[int, int] = {}
     terms = [_coefficient(site_w[i]) * x[i] for i in np.flatnonzero(site_w).tolist()]
     for group, users in groups.items():
-        v = lin.unit_var(f"y{users[0]}")
+        v = lin.unit_var(f"covered{users[0]}")
         y[users[0]] = v
         group_of.update(dict.fromkeys(users, users[0]))
         lin.add_implies_any(v, [x[i] for i in group])  # (4.9): counted only if a chosen site covers it
@@ -246,7 +246,7 @@ def _capacity_objective(lin, x: list, cover: list, problem: CellProblem) -> tupl
             continue
         arcs = []
         for c in sites:
-            s_uc = lin.bool_var(f"s{u}_{c}")
+            s_uc = lin.bool_var(f"serve{u}_{c}")
             serve[(u, c)] = s_uc
             arcs.append(s_uc)
             per_site.setdefault(c, []).append(s_uc)

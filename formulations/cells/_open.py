@@ -13,8 +13,10 @@ written), so its proof covers whatever the user added.
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -27,7 +29,7 @@ from droneplan.formulations.cells._prepare import greedy_placement
 from droneplan.scenarios.cells import CellProblem
 from droneplan.solvers.result import SolveResult, Status
 
-__all__ = ["solve_model", "solve_variant", "BNB_VARIANTS"]
+__all__ = ["solve_model", "solve_variant", "write_model", "BNB_VARIANTS"]
 
 BNB_VARIANTS: tuple[str, ...] = ()
 """Variants whose instances the branch and bound solves: none (its coverage bounds count users,
@@ -224,3 +226,38 @@ def _start_only(
 def _with_total_time(result: SolveResult, t0: float) -> SolveResult:
     """``result`` with its solve time measured from ``t0`` (a ``time.perf_counter()`` value)."""
     return replace(result, solve_time=time.perf_counter() - t0)
+
+
+def write_model(
+    problem_or_model: CellProblem | CellModel, path: str | os.PathLike[str], *, backend: str = "cp-sat"
+) -> Path:
+    """Write the candidate model as an MPS or LP file that any MIP solver reads.
+
+    problem_or_model: a :class:`CellProblem` (its candidate model is built with
+    :func:`build_milp` on ``backend``; variants included) or a :class:`CellModel` with the
+    user's own rows and objective terms, written as it stands. path: the file, ``.mps`` (free
+    MPS) or ``.lp`` (CPLEX LP); its folder must exist and be writable; it is written through a
+    temporary file, so a failure leaves no partial file. backend: the linear backend the model is
+    built on when given a problem ("cp-sat", "highs" or "scip").
+
+    Variables are named by what they are: ``site{i}`` (candidate site i chosen, 0-1; its position
+    is ``build_milp(problem).points[i]``), ``covered{u}`` (active user u covered; users covered by
+    the same sites share one), ``serve{u}_{i}`` (with a capacity: user u served by site i),
+    ``hop{i}_{l}`` (site i is l hops from a ground station, l >= 2), ``hop_le{i}_{l}`` and
+    ``square_any{l}_{q}`` (auxiliary hop-row indicators), ``cut{k}`` (a connectivity cut's
+    indicator). The objective is maximised: covered users (or the variant's weight).
+
+    Returns the path (a ``pathlib.Path``). An empty model (no candidate site) is refused.
+    """
+    from droneplan.solvers.model_files import check_model_path
+
+    target = check_model_path(path)
+    if isinstance(problem_or_model, CellProblem):
+        model = build_milp(problem_or_model, backend=backend)
+        if model is None:
+            raise ValueError("the candidate model could not be built for this problem")
+    else:
+        model = check_instance("problem_or_model", problem_or_model, CellModel)
+    if not model.x:
+        raise ValueError("problem_or_model: the model has no candidate site to write")
+    return model.model.write(target)

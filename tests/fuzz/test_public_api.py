@@ -68,6 +68,14 @@ class Spec:
     checked: dict[str, str] = field(default_factory=dict)
 
 
+def _model_file(suffix: str) -> str:
+    """A model file's path (``suffix`` .mps or .lp) in a fresh temporary folder."""
+    import tempfile
+    from pathlib import Path
+
+    return str(Path(tempfile.mkdtemp(prefix="droneplan-fuzz-model-")) / f"model{suffix}")
+
+
 def _cells_problem():
     return dp.cells.CellProblem(
         [[1500.0, 0.0], [1600.0, 100.0], [-1700.0, 50.0]],
@@ -270,6 +278,9 @@ SPECS: dict[str, Spec] = {
     "solve_model": Spec(
         lambda: ((dp.cells.build_milp(P()),), {"time_limit": 5.0}),
         {"model": "object", "time_limit": "time_limit", "workers": "int>=1"},
+    ),
+    "write_model": Spec(
+        lambda: ((P(), _model_file(".mps")), {}), {"problem_or_model": "object", "path": "object"}
     ),
     "load_cells_csv": Spec(
         lambda: ((_data_file("points.csv"),), {"n_cells": 2}), {"n_cells": "int>=1", "params": "object?"}
@@ -569,6 +580,10 @@ SPECS: dict[str, Spec] = {
     "build_allocation_model": Spec(
         lambda: (([1.0, 5.0], [2.0], 10.0), {}),
         {"drone_s": "arcs", "steer_s": "arcs", "perimeter": "positive"},
+    ),
+    "write_allocation_model": Spec(
+        lambda: (([1.0, 5.0], [2.0], 10.0, _model_file(".lp")), {}),
+        {"drone_s": "arcs", "steer_s": "arcs", "perimeter": "positive", "path": "object"},
     ),
     "solve_allocation": Spec(
         lambda: (([1.0, 5.0], [2.0], 10.0), {}),
