@@ -494,21 +494,32 @@ def _inside(circle: _Circle, p: np.ndarray) -> bool:
     return _norm(p - circle[0]) <= circle[1] * (1 + 1e-12) + 1e-9
 
 
+_SCALAR_SCAN = 32
+"""The first points of a scan tested one at a time, the rest by one vectorised test (on the
+herders' hulls of a few dozen vertices, a scan mostly stops or ends within these)."""
+
+
 def _first_outside(arr: np.ndarray, P: list[np.ndarray], circle: _Circle, lo: int, hi: int) -> int:
     """Smallest index in [lo, hi) of a point (rows of arr, P the same rows) not ``_inside`` circle
     (hi if none)."""
-    head = min(hi, lo + 4)  # short scans (the common case on ordered hulls): scalar
+    centre = circle[0]
+    bound = circle[1] * (1 + 1e-12) + 1e-9  # _inside's test, its bound computed once
+    head = min(hi, lo + _SCALAR_SCAN)  # short scans (the common case on ordered hulls): scalar
     for q in range(lo, head):
-        if not _inside(circle, P[q]):
+        v = P[q] - centre
+        if not math.sqrt(v.dot(v)) <= bound:  # not _inside(circle, P[q])
             return q
     if head >= hi:
         return hi
-    rel = arr[head:hi] - circle[0]
-    dist = np.sqrt(rel[:, 0] * rel[:, 0] + rel[:, 1] * rel[:, 1])
+    rel = arr[head:hi] - centre
+    rx, ry = rel[:, 0], rel[:, 1]
     # surely inside, whatever the rounding of the scalar norm (a few ulps); NaN is not
-    sure = dist <= (circle[1] * (1 + 1e-12) + 1e-9) * (1 - 1e-13)
+    sure = np.sqrt(rx * rx + ry * ry) <= bound * (1 - 1e-13)
+    if sure.all():
+        return hi
     for off in np.flatnonzero(~sure).tolist():
-        if not _inside(circle, P[head + off]):
+        v = P[head + off] - centre
+        if not math.sqrt(v.dot(v)) <= bound:
             return head + off
     return hi
 

@@ -78,6 +78,7 @@ def test_the_size_dependent_paths_give_the_saved_trajectories_too(
     from droneplan.scenarios import herding
 
     monkeypatch.setattr(herding, "_SPLIT_MIN", 2)
+    monkeypatch.setattr(herding, "_BALL_MIN", 2)
     if hull == "prefilter":
         monkeypatch.setattr(geometry, "_PREFILTER_MIN", 3)
     else:

@@ -180,6 +180,7 @@ def test_animal_step_bit_identical_to_einsum_and_mean_formulation(n, split, monk
     import droneplan.scenarios.herding as herding_module
 
     monkeypatch.setattr(herding_module, "_SPLIT_MIN", 2 if split else 10**9)
+    monkeypatch.setattr(herding_module, "_BALL_MIN", 2 if split else 10**9)
     rng = np.random.default_rng(n)
     p = HerdingParams(graze_prob=0.5)
     side = 3 * math.sqrt(n) + 1  # dense: many neighbours closer than r_a
