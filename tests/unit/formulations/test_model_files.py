@@ -59,7 +59,7 @@ def test_a_written_allocation_model_has_the_exact_allocations_optimum(tmp_path, 
     drone_s, steer_s, perimeter = random_allocation_instance(n, seed)
     path = write_allocation_model(drone_s, steer_s, perimeter, tmp_path / "alloc.lp")
     rank, status, names = _highs_optimum(path)
-    travel = build_allocation_model(drone_s, steer_s, perimeter).travel_values[int(round(rank))]
+    travel = build_allocation_model(drone_s, steer_s, perimeter).travel_values[round(rank)]
     assert status == "Optimal"
     assert travel == pytest.approx(solve_allocation(drone_s, steer_s, perimeter).objective)
     assert "max_travel_rank" in names and any(n.startswith("drone") for n in names)
