@@ -2,15 +2,19 @@
 GA/exhaustive-vs-optimum gap study and the bench targets (thesis-scale instances proven by each
 exact engine within 120 s and 300 s, the GA/exact time ratio, the GA success rate at m=3).
 
-The reference optima of the reproduction come from the combinatorial branch and bound
-(``solve_exact(engine="bnb")``; its rows are named ``bnb``), the faster of the two exact engines;
-the MILP (``solve_milp``, CP-SAT by default, HiGHS beside it) certifies the same optima in
+The GA runs and exhaustive searches of the reproduction (Table 4.3, Figs 4.3 and 4.5, the
+ablation) are rows of :func:`droneplan.gap` studies with repeated runs
+(:mod:`droneplan.studies.cells_ga`), measured against the certified library's proven optima. The
+exact times and bounds of Table 4.3 and the optima of Fig. 4.6 come from the combinatorial branch
+and bound (``solve_exact(engine="bnb")``; its rows are named ``bnb``), the faster of the two exact
+engines; the MILP (``solve_milp``, CP-SAT by default, HiGHS beside it) certifies the same optima in
 ``droneplan cross-certify`` and is timed in ``bench``.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import os
 import tempfile
@@ -26,8 +30,6 @@ import pandas as pd
 from droneplan.core.validation import check_bool, check_int, check_positive, check_time_limit
 from droneplan.formulations.cells import ENGINES, evaluate, solve_exact, solve_milp
 from droneplan.planners.cells import (
-    GASettings,
-    exhaustive,
     genetic,
     genetic_polished,
     polish,
@@ -37,11 +39,34 @@ from droneplan.scenarios.cells import (
     THESIS_TABLE_4_2,
     THESIS_TABLE_4_3,
     CellParams,
-    problem_from_instance,
-    thesis_instance,
     thesis_problem,
 )
 from droneplan.solvers.result import SolveResult
+from droneplan.studies.cells_ga import (
+    GA_TIME_LIMIT,
+    GA_VARIANTS,
+    INSTANCE_VARIANTS,
+    READINGS_FAMILY,
+    GapPart,
+    ablation_correlations,
+    ablation_finding,
+    ablation_parts,
+    ablation_plan,
+    ablation_summary,
+    ablation_table,
+    es_is_complete,
+    es_method,
+    ga_ablation,
+    ga_method,
+    ga_readings,
+    gap_rows,
+    instance_features,
+    readings_markdown,
+    reference_row,
+    run_seconds,
+    share_text,
+    stored_rows,
+)
 from droneplan.studies.common import (
     ComparisonTable,
     make_executor,
@@ -51,6 +76,7 @@ from droneplan.studies.common import (
     report_study,
 )
 from droneplan.studies.jobs import Job, row_jobs, run_reproduction
+from droneplan.studies.methods import BUILTIN
 from droneplan.studies.plots.cells import plot_deployment_region, plot_map
 from droneplan.studies.report import flag_reasons
 from droneplan.studies.store import Outcome, build_rows, instance_id
@@ -60,24 +86,20 @@ __all__ = [
     "MILP_BACKEND",
     "EXACT_ENGINE",
     "ENGINE_NAMES",
+    "THESIS_FAMILY",
     "reproduce_task",
     "reproduce",
     "reproduce_jobs",
     "GA_VARIANTS",
     "INSTANCE_VARIANTS",
     "instance_features",
-    "ablation_task",
-    "ablation_tasks",
-    "ablation_frame",
+    "ablation_parts",
     "ablation_summary",
     "ablation_correlations",
     "ablation_finding",
     "ga_ablation",
     "READINGS_FAMILY",
-    "readings_task",
-    "readings_tasks",
     "proven_optimum",
-    "readings_frame",
     "readings_markdown",
     "ga_readings",
     "exact_seed_distribution",
@@ -106,61 +128,31 @@ EXACT_ENGINE = "bnb"
 
 
 def reproduce_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
-    """One reproduce instance of ch. 4 in the results schema (objective = covered users, maximised).
+    """One exact solve of the ch. 4 reproduction in the results schema (objective = covered users,
+    maximised): the exact optimum (branch and bound) and the continuous problem's upper bound on
+    ``thesis_problem(m, seed)`` (kind ``exact``, Table 4.3's exact time and bounds on this
+    machine) or on the non-clustered snapshot (kind ``exact-nc``, Fig. 4.6).
 
-    kind ``exact``: the exact optimum (branch and bound) and exhaustive search (Alg. 2) on
-    ``thesis_problem(m, seed)``;
-    ``ga``: one GA run (pop_size/restarts/iter_max as given, ``run`` seeds it), also scored
-    after polishing; ``exact-nc``: the exact optimum on the non-clustered snapshot (Fig. 4.6).
+    The GA runs and exhaustive searches of the reproduction are rows of :func:`droneplan.gap`
+    (:mod:`droneplan.studies.cells_ga`), not tasks of this function.
     """
     m, seed = int(task["m"]), int(task["seed"])
     kind = task["kind"]
+    if kind not in ("exact", "exact-nc"):
+        raise ValueError(f"task kind must be 'exact' or 'exact-nc', got {kind!r}")
     p = thesis_problem(m, seed, clustered=kind != "exact-nc")
-    outcomes = []
-    if kind in ("exact", "exact-nc"):
-        exact = solve_exact(
-            p, engine=EXACT_ENGINE, backend=MILP_BACKEND, time_limit=float(task["exact_limit"])
-        )
-        outcomes.append(Outcome.of(EXACT_ENGINE, "model", exact, bound_kind="candidate-set"))
-        cont = exact.info.get("continuous_bound")
-        if cont is not None:
-            outcomes.append(
-                Outcome(
-                    "continuous-bound",
-                    "bound",
-                    exact.status.value,
-                    bound=float(cont),
-                    bound_kind="proven-global",
-                    message="upper bound of the continuous problem",
-                )
-            )
-        if kind == "exact":
-            es = exhaustive(p, time_limit=float(task["es_limit"]))
-            outcomes.append(
-                Outcome.of("exhaustive", "heuristic", es, extras={"es_complete": bool(es.info["complete"])})
-            )
-            # Algorithm 2 as written (no bound pruning): the thesis's T_ES
-            plain = exhaustive(p, prune=False, time_limit=float(task["es_limit"]))
-            outcomes.append(
-                Outcome.of(
-                    "exhaustive-plain",
-                    "heuristic",
-                    plain,
-                    extras={"es_complete": bool(plain.info["complete"])},
-                )
-            )
-    else:
-        ga = genetic(
-            p,
-            pop_size=task.get("pop_size"),
-            restarts=task.get("restarts"),
-            iter_max=int(task.get("iter_max", 50)),
-            seed=int(task["run_seed"]),
-        )
-        polished = evaluate(p, polish(p, ga.x)).covered
+    exact = solve_exact(p, engine=EXACT_ENGINE, backend=MILP_BACKEND, time_limit=float(task["exact_limit"]))
+    outcomes = [Outcome.of(EXACT_ENGINE, "model", exact, bound_kind="candidate-set")]
+    cont = exact.info.get("continuous_bound")
+    if cont is not None:
         outcomes.append(
-            Outcome.of(
-                "ga", "heuristic", ga, extras={"polished": int(polished), "run_seed": int(task["run_seed"])}
+            Outcome(
+                "continuous-bound",
+                "bound",
+                exact.status.value,
+                bound=float(cont),
+                bound_kind="proven-global",
+                message="upper bound of the continuous problem",
             )
         )
     return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
@@ -190,8 +182,9 @@ def _objective(df: pd.DataFrame, instance: object, method: str) -> pd.Series:
 def reproduce(*, quick: bool, out: Path, executor=None, store=None) -> None:
     """Table 4.3 and Figs 4.3-4.6 analogues (thesis value beside ours); CSV + PNG in ``out``.
 
-    Every solve and GA run is a task of the results store (default ``out/results.sqlite``),
-    run through ``executor`` (default: serial), so an interrupted reproduction resumes.
+    Every solve and GA run is a row of the results store (default ``out/results.sqlite``),
+    the exact solves as tasks run through ``executor`` (default: serial), the GA runs and
+    exhaustive searches as :func:`droneplan.gap` studies, so an interrupted reproduction resumes.
     quick: see :func:`reproduce_jobs`.
     """
     out = Path(out)
@@ -202,14 +195,20 @@ def reproduce(*, quick: bool, out: Path, executor=None, store=None) -> None:
         run_reproduction(jobs, executor=executor, store=st)
 
 
+_THESIS_GA = dataclasses.replace(BUILTIN["ga"], time_limit=GA_TIME_LIMIT)
+_THESIS_GA_POLISHED = dataclasses.replace(BUILTIN["ga-polished"], time_limit=GA_TIME_LIMIT)
+
+
 def _plan(quick: bool) -> dict[str, Any]:
-    """The sizes, limits and store tasks of the cells reproduction (quick or full)."""
+    """The sizes, limits, exact-solve tasks and gap studies (:class:`GapPart`) of the cells
+    reproduction (quick or full)."""
     ms = (1, 2, 3) if quick else (1, 2, 3, 4)
     runs = 3 if quick else 20
     seed = INSTANCE_SEED
     tag = "quick" if quick else "full"
     plan: dict[str, Any] = {
         "ms": ms,
+        "runs": runs,
         "es_limit": 2.0 if quick else 600.0,  # quick: m = 3 holds the same best, 48, at 1, 2, 5 and 20 s
         "exact_limit": 120.0 if quick else 600.0,
         "n43": 3 if quick else 50,
@@ -217,17 +216,6 @@ def _plan(quick: bool) -> dict[str, Any]:
         "Ns": (10, 30) if quick else (20, 40, 60, 80),
         "n45": 2 if quick else 20,
     }
-
-    def ga_task(study, run_seed, m, **kw):
-        return {
-            "problem": "cells",
-            "instance": instance_id(study, m=m, seed=seed, run=run_seed, **kw),
-            "kind": "ga",
-            "m": m,
-            "seed": seed,
-            "run_seed": run_seed,
-            **kw,
-        }
 
     def exact_task(study: str, kind: str, m: int, **limits: float) -> dict[str, Any]:
         return {
@@ -239,60 +227,117 @@ def _plan(quick: bool) -> dict[str, Any]:
             **limits,
         }
 
-    plan["exact"] = [
-        exact_task("table4.3", "exact", m, exact_limit=plan["exact_limit"], es_limit=plan["es_limit"])
-        for m in ms
+    plan["exact"] = [exact_task("table4.3", "exact", m, exact_limit=plan["exact_limit"]) for m in ms]
+    es, plain = es_method(plan["es_limit"]), es_method(plan["es_limit"], prune=False)
+    plan["es"], plan["plain"] = es.name, plain.name
+    # per m one study: the GA and the same runs polished, R times; the two searches, once each
+    plan["table"] = [
+        GapPart(THESIS_FAMILY, m, (seed,), (_THESIS_GA, _THESIS_GA_POLISHED, es, plain), runs) for m in ms
     ]
-    plan["ga43"] = [ga_task("table4.3-ga", 100 * m + r, m) for m in ms for r in range(runs)]
     n43 = plan["n43"]
     plan["fig43"] = [
-        ga_task("fig4.3", 5000 + r, 2, pop_size=100, restarts=1, iter_max=2000) for r in range(n43)
-    ] + [ga_task("fig4.3", 6000 + r, 2, pop_size=100, restarts=40, iter_max=50) for r in range(n43)]
-    plan["fig45"] = [
-        ga_task("fig4.5", 7000 + 100 * i + j * 1000 + r, 3, pop_size=P, restarts=N)
-        for i, P in enumerate(plan["Ps"])
-        for j, N in enumerate(plan["Ns"])
-        for r in range(plan["n45"])
+        GapPart(THESIS_FAMILY, 2, (seed,), (ga_method(name, pop_size=100, restarts=n, iter_max=it),), n43)
+        for name, n, it in (("ga-P100-N1-I2000", 1, 2000), ("ga-P100-N40-I50", 40, 50))
     ]
+    grid = tuple(ga_method(f"ga-P{P}-N{N}", pop_size=P, restarts=N) for P in plan["Ps"] for N in plan["Ns"])
+    plan["fig45"] = [GapPart(THESIS_FAMILY, 3, (seed,), grid, plan["n45"])]
     plan["nc"] = [exact_task("fig4.6", "exact-nc", m, exact_limit=30.0 if quick else 300.0) for m in ms]
     return plan
 
 
+THESIS_FAMILY = "table4.2"
+"""The instance family of the reproduction's gap studies (Table 4.2; seed ``INSTANCE_SEED`` is the
+thesis-scale snapshot, and the certified library proves its optima)."""
+
+
 def _rows(store_path: Path, tasks: list[dict[str, Any]]) -> pd.DataFrame:
-    """The store rows of ``tasks`` (running, in this process, any task the store lacks)."""
+    """The store rows of the exact-solve ``tasks`` (running, in this process, any the store lacks)."""
     from droneplan.studies.store import ResultStore
 
     with make_executor(1) as ex, ResultStore(store_path) as st:
         return map_rows(reproduce_task, tasks, executor=ex, store=st)
 
 
-def _table_4_3_row(tab: ComparisonTable, m: int, df: pd.DataFrame, task, ga43, es_limit: float) -> dict:
-    """Add the rows of ``m`` to Table 4.3; returns its raw CSV row."""
+def _studies(quick: bool) -> dict[str, list[GapPart]]:
+    """The reproduction's gap studies by name (Table 4.3, Figs 4.3 and 4.5, the ablation)."""
+    plan = _plan(quick)
+    return {
+        "table": plan["table"],
+        "fig4.3": plan["fig43"],
+        "fig4.5": plan["fig45"],
+        "ablation": ablation_parts(**_ablation_settings(quick)),
+    }
+
+
+def _gap_part(store_path: Path, quick: bool, study: str, index: int) -> None:
+    """Run gap study ``index`` of ``study`` (:func:`_studies`) into the store at ``store_path``
+    (a job; the study is rebuilt where the job runs, as a method need not pickle)."""
+    from droneplan.studies.store import ResultStore
+
+    with ResultStore(store_path) as st:
+        gap_rows([_studies(quick)[study][index]], store=st)
+
+
+def _study_rows(store_path: Path, parts: list[GapPart]) -> pd.DataFrame:
+    """The gap rows of ``parts`` read from the store at ``store_path`` (their jobs ran before)."""
+    from droneplan.studies.store import ResultStore
+
+    with ResultStore(store_path) as st:
+        return stored_rows(st, parts)
+
+
+def _reference(rows: pd.DataFrame, what: str) -> pd.Series:
+    """The exact reference among ``rows`` (one instance); LookupError naming ``what`` if none."""
+    ref = reference_row(rows)
+    if ref is None:
+        raise LookupError(f"no exact reference (library or bnb row) for {what} in the results store")
+    return ref
+
+
+def _es_time(row: pd.Series, complete: bool, es_limit: float) -> float | str:
+    t = float(run_seconds(row.to_frame().T)[0].iloc[0])
+    return t if complete else f"{t:.3g} (stopped at {es_limit:g} s)"
+
+
+def _table_4_3_row(
+    tab: ComparisonTable, m: int, rows: pd.DataFrame, exact_rows: pd.DataFrame, es_limit: float
+) -> dict:
+    """Add the rows of ``m`` to Table 4.3 from the gap rows of its instance (``rows``: the thesis
+    GA ``ga``, ``ga-polished``, the exhaustive searches, the library reference) and the exact
+    task's rows (``exact_rows``: ``bnb`` and ``continuous-bound`` on this machine); returns its raw
+    CSV row."""
     t_es, t_ga_th, p_save_th, P, N, pg = THESIS_TABLE_4_3[m]
-    exact, es = _objective(df, task["instance"], EXACT_ENGINE), _objective(df, task["instance"], "exhaustive")
-    plain = _find_row(df, task["instance"], "exhaustive-plain")
-    cont = _find_row(df, task["instance"], "continuous-bound")
-    ga = df[df["instance"].isin([t["instance"] for t in ga43 if t["m"] == m]) & (df["method"] == "ga")]
-    opt = exact["objective"] if exact["status"] == "optimal" else None
-    succ = None if opt is None else float((ga["objective"] == opt).mean())
-    succ_pol = None if opt is None else float((ga["cells_polished"] == opt).mean())
-    es_time = (
-        float(es["time_s"]) if es["cells_es_complete"] else f"{es['time_s']:.3g} (stopped at {es_limit:g} s)"
-    )
-    t_ga = float(ga["time_s"].mean())
+    es_name, plain_name = es_method(es_limit).name, es_method(es_limit, prune=False).name
+    es = rows[rows["method"] == es_name].iloc[0]
+    plain_found = rows[rows["method"] == plain_name]
+    plain = plain_found.iloc[0] if len(plain_found) else None
+    ref = _reference(rows, f"m={m}")
+    exact = exact_rows[exact_rows["method"] == EXACT_ENGINE].iloc[0]
+    cont_found = exact_rows[exact_rows["method"] == "continuous-bound"]
+    cont = cont_found.iloc[0] if len(cont_found) else None
+    ga = rows[rows["method"] == "ga"]
+    pol = rows[rows["method"] == "ga-polished"]
+    opt = float(ref["objective"]) if ref["status"] == "optimal" else None
+    succ = None if opt is None else float((ga["objective"] >= opt).mean())
+    succ_pol = None if opt is None or not len(pol) else float((pol["objective"] >= opt).mean())
+    es_done = es_is_complete(es, es_limit)
+    es_time = _es_time(es, es_done, es_limit)
+    ga_s, clock = run_seconds(ga)
+    t_ga = float(ga_s.mean())
     plain_time: float | str | None = None
     p_save: float | str | None = None
+    plain_done = None
     if plain is not None:
-        t_plain = float(plain["time_s"])
-        done = bool(plain["cells_es_complete"])
-        plain_time = t_plain if done else f"{t_plain:.3g} (stopped at {es_limit:g} s)"
+        t_plain = float(run_seconds(plain.to_frame().T)[0].iloc[0])
+        plain_done = es_is_complete(plain, es_limit)
+        plain_time = _es_time(plain, plain_done, es_limit)
         # P_save = 1 - T_GA / T_ES (Table 4.3); a stopped search gives a lower bound
-        p_save = 1.0 - t_ga / t_plain if done else f">= {1.0 - t_ga / t_plain:.3g} (ES stopped)"
+        p_save = 1.0 - t_ga / t_plain if plain_done else f">= {1.0 - t_ga / t_plain:.3g} (ES stopped)"
     tab.add(
         f"m={m} T_ES, Algorithm 2 as written (s)",
         t_es,
         plain_time,
-        "exhaustive(prune=False): the plain enumeration, wall time on this machine",
+        f"exhaustive(prune=False): the plain enumeration, {clock} on this machine",
         kind="speed",
     )
     tab.add(
@@ -306,7 +351,7 @@ def _table_4_3_row(tab: ComparisonTable, m: int, df: pd.DataFrame, task, ga43, e
         f"m={m} T_GA (s)",
         t_ga_th,
         t_ga,
-        f"mean over {len(ga)} GA runs, P={P}, N_start={N}, iter_max=50",
+        f"mean over {len(ga)} GA runs ({clock}), P={P}, N_start={N}, iter_max=50",
         kind="speed",
     )
     tab.add(
@@ -322,22 +367,22 @@ def _table_4_3_row(tab: ComparisonTable, m: int, df: pd.DataFrame, task, ga43, e
         f"m={m} P_Global vs ES (thesis criterion)",
         pg,
         succ_es,
-        f"fraction of {len(ga)} GA runs reaching the exhaustive-search value {es['objective']:g}"
-        + ("" if es["cells_es_complete"] else " (ES stopped at its limit: best found)"),
+        f"fraction of {len(ga)} GA runs (droneplan.gap, runs={len(ga)}) reaching the exhaustive-search "
+        f"value {es['objective']:g}" + ("" if es_done else " (ES stopped at its limit: best found)"),
         why=f"{ga_best}, ES {es['objective']:g}",
     )
     tab.add(
         f"m={m} P_Global vs exact optimum",
         pg,
         succ,
-        f"fraction of {len(ga)} GA runs reaching the exact optimum (branch and bound)",
-        why=f"{ga_best}, the exact optimum {exact['objective']:g}",
+        f"fraction of {len(ga)} GA runs reaching the proven optimum ({ref['method']} row)",
+        why=f"{ga_best}, the exact optimum {ref['objective']:g}",
     )
     tab.add(
         f"m={m} P_Global GA+polish (ours)",
         None,
         succ_pol,
-        "same GA runs, then coordinate ascent with the sweep (not in the thesis)",
+        "the same GA runs (same run seeds), then coordinate ascent with the sweep (not in the thesis)",
     )
     tab.add(
         f"m={m} exact time, branch and bound (s)",
@@ -348,7 +393,7 @@ def _table_4_3_row(tab: ComparisonTable, m: int, df: pd.DataFrame, task, ga43, e
     tab.add(
         f"m={m} objectives ES / GA best / exact",
         None,
-        f"{es['objective']:g} / {ga['objective'].max():g} / {exact['objective']:g}",
+        f"{es['objective']:g} / {ga['objective'].max():g} / {ref['objective']:g}",
         "covered users (evaluate)",
     )
     tab.add(
@@ -360,17 +405,17 @@ def _table_4_3_row(tab: ComparisonTable, m: int, df: pd.DataFrame, task, ga43, e
     return {
         "m": m,
         "es_obj": es["objective"],
-        "es_time": es["time_s"],
-        "es_complete": es["cells_es_complete"],
-        "es_plain_time": None if plain is None else plain["time_s"],
-        "es_plain_complete": None if plain is None else plain["cells_es_complete"],
+        "es_time": float(run_seconds(es.to_frame().T)[0].iloc[0]),
+        "es_complete": es_done,
+        "es_plain_time": None if plain is None else float(run_seconds(plain.to_frame().T)[0].iloc[0]),
+        "es_plain_complete": plain_done,
         "p_save": p_save,
         "ga_best": ga["objective"].max(),
-        "ga_mean_time": ga["time_s"].mean(),
+        "ga_mean_time": t_ga,
         "ga_success": succ,
         "ga_success_vs_es": succ_es,
         "ga_polish_success": succ_pol,
-        "exact_obj": exact["objective"],
+        "exact_obj": ref["objective"],
         "exact_bound": exact["bound"],
         "exact_status": exact["status"],
         "exact_time": exact["time_s"],
@@ -379,16 +424,24 @@ def _table_4_3_row(tab: ComparisonTable, m: int, df: pd.DataFrame, task, ga43, e
 
 
 def _table_4_3(out: Path, quick: bool, store_path: Path) -> dict[int, float]:
-    """Table 4.3 from the store; returns the exact objective (covered users) per m."""
+    """Table 4.3 from the store; returns the proven optimum (covered users) per m."""
     plan = _plan(quick)
-    df = _rows(store_path, plan["exact"] + plan["ga43"])
+    exact_df = _rows(store_path, plan["exact"])
+    df = _study_rows(store_path, plan["table"])
     tab = ComparisonTable(
         "Table 4.3 - computing time and GA success (thesis instance vs ours, seed "
-        f"{INSTANCE_SEED}; exact optimum by the branch and bound)",
+        f"{INSTANCE_SEED}; GA and exhaustive search through droneplan.gap, exact optimum from the "
+        "certified library, exact time by the branch and bound)",
         explain=flag_reasons("cells"),
     )
     rows = [
-        _table_4_3_row(tab, m, df, task, plan["ga43"], plan["es_limit"])
+        _table_4_3_row(
+            tab,
+            m,
+            df[df["size"] == m],
+            exact_df[exact_df["instance"] == task["instance"]],
+            plan["es_limit"],
+        )
         for m, task in zip(plan["ms"], plan["exact"], strict=True)
     ]
     tab.emit(out, "table_4_3")
@@ -404,7 +457,7 @@ def _reference_plan(m: int, exact_limit: float):
     from droneplan.studies.library import lookup
 
     p = thesis_problem(m, INSTANCE_SEED)
-    entry = lookup(family_instances("table4.2", m=m, seeds=[INSTANCE_SEED])[0])
+    entry = lookup(family_instances(THESIS_FAMILY, m=m, seeds=[INSTANCE_SEED])[0])
     if entry is not None:
         x = np.asarray(entry.plan, float).reshape(-1, 2)
         ev = evaluate(p, x)
@@ -426,15 +479,14 @@ def _fig_4_4(out: Path, quick: bool) -> None:
     plt.close(fig)
 
 
-def _fig_4_3(out: Path, quick: bool, store_path: Path, optima: dict[int, float]) -> None:
-    """Fig. 4.3: GA success without / with restarts at m = 2 against the exact optimum."""
+def _fig_4_3(out: Path, quick: bool, store_path: Path) -> None:
+    """Fig. 4.3: GA success without / with restarts at m = 2 against the proven optimum."""
     plan = _plan(quick)
-    fig43, n43 = plan["fig43"], plan["n43"]
-    df = _rows(store_path, fig43)
-    opt2 = optima[2]
-    obj = df.set_index("instance")["objective"]
-    no_restart = obj[[t["instance"] for t in fig43 if t["restarts"] == 1]]
-    restart = obj[[t["instance"] for t in fig43 if t["restarts"] == 40]]
+    parts, n43 = plan["fig43"], plan["n43"]
+    df = _study_rows(store_path, parts)
+    ref = _reference(df, "Fig. 4.3 (m=2)")
+    opt2 = float(ref["objective"])
+    no_restart, restart = (df[df["method"] == p.methods[0].name]["objective"].astype(float) for p in parts)
     t43 = ComparisonTable(
         "Fig. 4.3 - GA success without / with restarts (m=2, P=100)", explain=flag_reasons("cells")
     )
@@ -442,8 +494,8 @@ def _fig_4_3(out: Path, quick: bool, store_path: Path, optima: dict[int, float])
         t43.add(
             f"success {label} iterations",
             thesis,
-            float((runs == opt2).mean()),
-            f"{n43} runs; exact optimum (branch and bound) {opt2:g}",
+            float((runs >= opt2).mean()),
+            f"{len(runs)} runs (droneplan.gap); proven optimum ({ref['method']} row) {opt2:g}",
             why=f"best run {runs.max():g} users; {n43} runs, the fraction moves in steps of {1 / n43:.2g}",
         )
     t43.emit(out, "fig_4_3")
@@ -457,19 +509,19 @@ def _fig_4_3(out: Path, quick: bool, store_path: Path, optima: dict[int, float])
     plt.close(fig)
 
 
-def _fig_4_5(out: Path, quick: bool, store_path: Path, optima: dict[int, float]) -> None:
+def _fig_4_5(out: Path, quick: bool, store_path: Path) -> None:
     """Fig. 4.5: GA success against population and restarts at m = 3."""
     plan = _plan(quick)
-    fig45, Ps, Ns = plan["fig45"], plan["Ps"], plan["Ns"]
-    obj = _rows(store_path, fig45).set_index("instance")["objective"]
-    opt3 = optima[3]
+    Ps, Ns = plan["Ps"], plan["Ns"]
+    df = _study_rows(store_path, plan["fig45"])
+    opt3 = float(_reference(df, "Fig. 4.5 (m=3)")["objective"])
     t45 = ComparisonTable("Fig. 4.5 - GA success vs population and restarts (m=3)")
     grid = np.zeros((len(Ps), len(Ns)))
     for i, P in enumerate(Ps):
         for j, N in enumerate(Ns):
-            ids = [t["instance"] for t in fig45 if t["pop_size"] == P and t["restarts"] == N]
-            grid[i, j] = float((obj[ids] == opt3).mean())
-            t45.add(f"P={P}, N_start={N}", "rises with N_start, flat in P", grid[i, j], f"{len(ids)} runs")
+            obj = df[df["method"] == f"ga-P{P}-N{N}"]["objective"].astype(float)
+            grid[i, j] = float((obj >= opt3).mean())
+            t45.add(f"P={P}, N_start={N}", "rises with N_start, flat in P", grid[i, j], f"{len(obj)} runs")
     t45.emit(out, "fig_4_5")
     fig, ax = plt.subplots(figsize=(5, 3))
     for i, P in enumerate(Ps):
@@ -520,8 +572,8 @@ def _ablation_job(out: Path, quick: bool, store_path: Path) -> None:
     """The GA ablation table and figure from the store."""
     from droneplan.studies.store import ResultStore
 
-    with make_executor(1) as ex, ResultStore(store_path) as st:
-        _reproduce_ablation(quick, out, ex, st)
+    with ResultStore(store_path) as st:
+        _reproduce_ablation(quick, out, st)
 
 
 def _ablation_settings(quick: bool) -> dict[str, Any]:
@@ -530,70 +582,113 @@ def _ablation_settings(quick: bool) -> dict[str, Any]:
 
 
 def _task_cost(task: Mapping[str, Any]) -> float:
-    """Estimated CPU seconds of a reproduce or ablation task (the scheduler starts long ones first)."""
-    kind = task["kind"]
-    if kind in ("exact", "ref"):
-        return 2.0 + 3.0 * int(task["m"]) ** 2
-    if kind == "exact-nc":
+    """Estimated CPU seconds of a reproduce exact-solve task (the scheduler starts long ones first)."""
+    if task["kind"] == "exact-nc":
         return 1.0 + int(task["m"]) ** 2
-    return 0.5 + 0.4 * int(task["m"])
+    return 2.0 + 3.0 * int(task["m"]) ** 2
+
+
+def _part_cost(part: GapPart) -> float:
+    """Estimated CPU seconds of one gap study of the reproduction (longest first)."""
+    n = len(part.seeds)
+    cost = 0.0
+    for method in part.methods:
+        p = method.params
+        if "stop_after" in p:  # exhaustive search: at most its limit
+            cost += n * min(float(p["stop_after"]), 0.5 + 0.5 * part.m**3)
+        elif method.name == "bnb":
+            cost += n * (2.0 + 3.0 * part.m**2)
+        else:  # a GA run, scaled by its population, restarts and generations against Table 4.3's
+            pop, restarts = thesis_ga_settings(part.m)
+            scale = (p.get("pop_size") or pop) / pop * (p.get("restarts") or restarts) / restarts
+            scale *= p.get("iter_max", 50) / 50 * p.get("restarts_factor", 1)
+            cost += n * part.runs * (0.2 + 0.3 * part.m) * scale
+    return cost
 
 
 def reproduce_jobs(*, quick: bool, out: Path, store_path: Path) -> list[Job]:
-    """The cells reproduction as jobs (:mod:`droneplan.studies.jobs`): every solve and GA run a
-    store task, then one job per table or figure reading its rows from the store at
-    ``store_path``; Fig. 4.4 draws the certified library's plans (solving only instances the
-    library lacks).
+    """The cells reproduction as jobs (:mod:`droneplan.studies.jobs`): every exact solve a store
+    task, every set of GA runs and exhaustive searches one :func:`droneplan.gap` study (a job per
+    study, so the studies share the executor's slots), then one job per table or figure reading
+    its rows from the store at ``store_path``; Fig. 4.4 draws the certified library's plans
+    (solving only instances the library lacks).
 
     quick: m = 1-3 (full 1-4), 3 GA runs per m (20), 3 runs per Fig. 4.3 strategy (50), 2 runs per
-    Fig. 4.5 point on a 2 x 2 grid (20 on 4 x 4), limits ES 20 s and exact 120 s (600 s each), and a
+    Fig. 4.5 point on a 2 x 2 grid (20 on 4 x 4), limits ES 2 s and exact 120 s (600 s each), and a
     2-seed ablation at m = 1-2; out: directory for the CSV and PNG files.
     """
     out, plan = Path(out), _plan(quick)
     kw = {"out": out, "quick": quick}
     kws = {**kw, "store_path": Path(store_path)}
-    tasks = {
-        "table": plan["exact"] + plan["ga43"],
-        "fig4.3": plan["fig43"],
-        "fig4.5": plan["fig45"],
-        "fig4.6": plan["nc"],
-    }
     jobs: list[Job] = []
     keys: dict[str, tuple[str, ...]] = {}
-    for name, ts in tasks.items():
-        section = "cells table 4.3" if name == "table" else f"cells fig {name[3:]}"
-        made = row_jobs(reproduce_task, ts, section=section, cost=_task_cost)
+    studies = _studies(quick)
+    for name, parts in studies.items():
+        section = {"table": "cells table 4.3", "ablation": "cells ablation"}.get(
+            name, f"cells fig {name[3:]}"
+        )
+        made = [
+            Job(
+                f"cells/gap/{name}/{i}",
+                section,
+                _gap_part,
+                {"store_path": Path(store_path), "quick": quick, "study": name, "index": i},
+                cost=_part_cost(part),
+                local=True,
+            )
+            for i, part in enumerate(parts)
+        ]
         jobs += made
         keys[name] = tuple(j.key for j in made)
+    exact = row_jobs(reproduce_task, plan["exact"], section="cells table 4.3", cost=_task_cost)
+    nc = row_jobs(reproduce_task, plan["nc"], section="cells fig 4.6", cost=_task_cost)
+    jobs += exact + nc
     optima = "cells/table4.3"
-    jobs.append(Job(optima, "cells table 4.3", _table_4_3, kws, after=keys["table"], cost=1.0, local=True))
-    for name, fn in (("fig4.3", _fig_4_3), ("fig4.5", _fig_4_5), ("fig4.6", _fig_4_6)):
-        section = f"cells fig {name[3:]}"
+    after = keys["table"] + tuple(j.key for j in exact)
+    jobs.append(Job(optima, "cells table 4.3", _table_4_3, kws, after=after, cost=1.0, local=True))
+    for name, fn in (("fig4.3", _fig_4_3), ("fig4.5", _fig_4_5)):
         jobs.append(
-            Job(f"cells/{name}", section, fn, kws, {"optima": optima}, after=keys[name], cost=1.0, local=True)
+            Job(f"cells/{name}", f"cells fig {name[3:]}", fn, kws, after=keys[name], cost=1.0, local=True)
         )
+    nc_keys = tuple(j.key for j in nc)
+    jobs.append(
+        Job(
+            "cells/fig4.6",
+            "cells fig 4.6",
+            _fig_4_6,
+            kws,
+            {"optima": optima},
+            after=nc_keys,
+            cost=1.0,
+            local=True,
+        )
+    )
     jobs.append(Job("cells/fig4.4", "cells fig 4.4", _fig_4_4, kw, cost=2.0, local=True))
     jobs.append(Job("cells/fig4.2", "cells fig 4.2", _fig_4_2, {"out": out}, cost=1.0, local=True))
-    abl = row_jobs(
-        ablation_task, ablation_tasks(**_ablation_settings(quick)), section="cells ablation", cost=_task_cost
-    )
-    jobs += abl
-    after = tuple(j.key for j in abl)
     jobs.append(
-        Job("cells/ablation", "cells ablation", _ablation_job, kws, after=after, cost=2.0, local=True)
+        Job(
+            "cells/ablation",
+            "cells ablation",
+            _ablation_job,
+            kws,
+            after=keys["ablation"],
+            cost=2.0,
+            local=True,
+        )
     )
     return jobs
 
 
 ABLATION_FULL: dict[str, Any] = {"seeds": range(10), "ms": (1, 2, 3), "runs": 20, "ablation_runs": 10}
 """Size of the ablation in the full ``reproduce cells``: thesis GA 10 seeds x 20 runs, each other
-variant 10 runs per seed (paired with the thesis GA's first 10 run seeds)."""
+variant 10 runs per seed (paired with the thesis GA's first 10 runs)."""
 ABLATION_QUICK: dict[str, Any] = {"seeds": range(2), "ms": (1, 2), "runs": 3, "ablation_runs": 2}
 """Size of the ablation under ``--quick``."""
 
 
-def _reproduce_ablation(quick: bool, out: Path, ex, st) -> pd.DataFrame:
-    abl = ga_ablation(**_ablation_settings(quick), executor=ex, store=st)
+def _reproduce_ablation(quick: bool, out: Path, st) -> pd.DataFrame:
+    plan = ablation_plan(**_ablation_settings(quick))
+    abl = ablation_table(stored_rows(st, plan["parts"]), plan)  # the rows of its gap studies (jobs)
     summ, corr = ablation_summary(abl), ablation_correlations(abl)
     abl.to_csv(out / "ga_ablation_seeds.csv", index=False)  # ga_ablation.csv is the table below
     summ.to_csv(out / "ga_ablation_summary.csv", index=False)
@@ -605,13 +700,15 @@ def _reproduce_ablation(quick: bool, out: Path, ex, st) -> pd.DataFrame:
     )
     for r in summ.itertuples():
         pm = "n/a" if r.p_global_exact is None or pd.isna(r.p_global_exact) else f"{r.p_global_exact:.2f}"
+        share = share_text(r.best_share)
         tab.add(
             f"m={r.m} {r.label}: P_Global vs ES",
             THESIS_TABLE_4_3[r.m][5] if r.variant == "thesis" else None,
             float(r.p_global_es),
-            f"{r.seeds} seeds x {r.runs_per_seed} runs; vs exact optimum {pm}; mean covered {r.mean_obj:.1f} "
-            f"(gap to it {r.mean_gap_to_exact:.1%}); final population {r.best_share:.0%} copies of its best",
-            why=f"final populations here are {r.best_share:.0%} copies of their best",
+            f"{r.seeds} seeds x {r.runs_per_seed} runs (droneplan.gap); vs exact optimum {pm}; mean "
+            f"covered {r.mean_obj:.1f} (gap to it {r.mean_gap_to_exact:.1%}); final population {share} "
+            "copies of its best",
+            why=f"final populations here are {share} copies of their best",
         )
     for r in corr.itertuples():
         if r.spearman is not None and not pd.isna(r.spearman):
@@ -667,530 +764,6 @@ def _ablation_figure(abl: pd.DataFrame, summ: pd.DataFrame, path: Path) -> None:
     plt.close(fig)
 
 
-GA_VARIANTS: dict[str, dict[str, Any]] = {
-    "thesis": {"label": "thesis GA (Tables 4.1, 4.3)"},
-    "T5": {"label": "SA at T=5 (scaled to the fitness)", "settings": {"T": 5.0}},
-    "noSA": {"label": "no SA (improvements only)", "settings": {"T": 1e-9}},
-    "abs-step": {"label": "absolute mutation step R_d", "settings": {"mutation_step": 500.0}},
-    "repl50": {"label": "replace worst 50%", "settings": {"replace_frac": 0.5}},
-    "no-restarts": {"label": "no restarts (1 run, same generations)", "no_restarts": True},
-    "restarts-x4": {"label": "4 x N_start restarts (4 x the budget)", "restarts_factor": 4},
-}
-"""GA ablation variants, keyed by a short name: the faithful thesis GA and one
-change each, as :class:`GASettings` fields (``settings``) or run shape (``no_restarts``: one
-run of N_start x 50 generations; ``restarts_factor``: that many times N_start restarts, to see
-whether the budget closes the gap); ``label`` says what changes. Only "thesis" is the thesis
-method. Every variant's run r uses the same seed as the thesis GA's run r (paired runs)."""
-
-
-INSTANCE_VARIANTS: dict[str, dict[str, Any]] = {
-    "thesis": {"label": "Table 4.2 users", "params": {}},
-    "clusters-only": {
-        "label": "thesis GA, clusters only (Table 4.2 without background users, lambda_nc = 0)",
-        "params": {"lambda_nc": 0.0},
-    },
-}
-"""Instance side of the ablation: the Table 4.2 snapshot of a seed, and the same snapshot without
-its uniform background users (the clustered users are drawn first, so they are the same
-users). The thesis GA and both references run on each."""
-
-
-def instance_features(problem, centres=None) -> dict:
-    """Descriptors of ``problem`` used to explain GA success (m, lengths in metres): active users,
-    users within r1 + R_d of a GBS (coverable by a direct drone-cell), users within
-    r1 + (m - 1) r2 + R_d (coverable at all), and, given the cluster ``centres`` ((c, 2) m,
-    from :func:`~droneplan.scenarios.cells.thesis_instance`), the clusters whose centre lies
-    within that reach and within direct reach."""
-    from droneplan.core.validation import check_array, check_instance, check_size
-    from droneplan.formulations.cells import CellProblem
-
-    check_instance("problem", problem, CellProblem)
-    if centres is not None:
-        centres = check_array("centres", centres, shape=(None, 2))
-        check_size("centres", float(len(centres)) * len(problem.gbs))
-
-    def gbs_dist(pts):
-        pts = np.asarray(pts, float).reshape(-1, 2)
-        if not len(pts):
-            return np.zeros(0)
-        return np.min(
-            np.hypot(pts[:, None, 0] - problem.gbs[None, :, 0], pts[:, None, 1] - problem.gbs[None, :, 1]),
-            axis=1,
-        )
-
-    dg = gbs_dist(problem.targets)
-    direct = problem.r1 + problem.R_d
-    reach = problem.r1 + (problem.n_cells - 1) * problem.r2 + problem.R_d
-    out = {
-        "active_users": len(problem.targets),
-        "users_direct_reach": int((dg <= direct).sum()),
-        "users_in_reach": int((dg <= reach).sum()),
-    }
-    if centres is not None:
-        dc = gbs_dist(centres)
-        out["clusters_direct_reach"] = int((dc <= direct).sum())
-        out["clusters_in_reach"] = int((dc <= reach).sum())
-    return out
-
-
-def ablation_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
-    """One task of the GA ablation in the results schema (objective = covered users).
-
-    kind ``ref``: exhaustive search (Alg. 2, ``es_limit`` s) and the exact optimum (branch and
-    bound, ``exact_limit`` s) on
-    ``thesis_problem(m, seed)`` (with the users of ``users``, a key of :data:`INSTANCE_VARIANTS`,
-    default "thesis"), with the instance features as extras; kind ``run``: one GA run of variant
-    ``variant`` (a key of :data:`GA_VARIANTS`) seeded by ``run_seed`` on that instance.
-    """
-    m, seed = int(task["m"]), int(task["seed"])
-    params = replace(THESIS_TABLE_4_2, **INSTANCE_VARIANTS[task.get("users", "thesis")]["params"])
-    inst = thesis_instance(seed, params)
-    p = problem_from_instance(inst, m)
-    if task["kind"] == "ref":
-        feats = instance_features(p, inst.cluster_centres)
-        es = exhaustive(p, time_limit=float(task["es_limit"]))
-        exact = solve_exact(
-            p, engine=EXACT_ENGINE, backend=MILP_BACKEND, time_limit=float(task["exact_limit"])
-        )
-        outcomes = [
-            Outcome.of(
-                "exhaustive",
-                "heuristic",
-                es,
-                extras={**feats, "es_complete": bool(es.info["complete"])},
-            ),
-            Outcome.of(EXACT_ENGINE, "model", exact, bound_kind="candidate-set", extras=feats),
-        ]
-    else:
-        spec = GA_VARIANTS[task["variant"]]
-        kw: dict[str, Any] = {}
-        n_start = thesis_ga_settings(m)[1]
-        if spec.get("no_restarts"):
-            kw = {"restarts": 1, "iter_max": 50 * n_start}
-        elif "restarts_factor" in spec:
-            kw = {"restarts": int(spec["restarts_factor"]) * n_start}
-        ga = genetic(p, seed=int(task["run_seed"]), settings=GASettings(**spec.get("settings", {})), **kw)
-        share = float(np.mean(ga.info["final_best_share"]))
-        outcomes = [
-            Outcome.of(
-                "ga",
-                "heuristic",
-                ga,
-                extras={
-                    "variant": task["variant"],
-                    "users": task.get("users", "thesis"),
-                    "run_seed": int(task["run_seed"]),
-                    "best_share": share,
-                },
-            )
-        ]
-    return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
-
-
-def _ga_run_cost(variant: str) -> int:
-    """Solver calls one GA run of ``variant`` counts as in the ablation's work budget."""
-    return int(GA_VARIANTS[variant].get("restarts_factor", 1))
-
-
-def _check_ablation_work(
-    n_instances: int,
-    runs: int,
-    ablation_runs: int,
-    variants: list[str],
-    instances: list[str],
-    ablation_name: str = "ablation_runs",
-) -> None:
-    """Refuse, before any task is built, an ablation whose runs exceed the solves budget: the
-    thesis runs (``runs``), then the other variants' and instance variants' runs
-    (``ablation_runs``), then everything with the references."""
-    from droneplan.core.validation import check_work
-
-    thesis = float(n_instances) * runs * _ga_run_cost("thesis") if "thesis" in variants else 0.0
-    check_work("runs", thesis, "solves")
-    per_instance = sum(_ga_run_cost(v) for v in variants if v != "thesis") + (len(instances) - 1)
-    other = float(n_instances) * ablation_runs * per_instance
-    check_work(ablation_name, other, "solves")
-    refs = 2.0 * n_instances * len(instances)
-    check_work("runs and ablation_runs", thesis + other + refs, "solves")
-
-
-def ablation_tasks(
-    *,
-    seeds,
-    ms,
-    runs: int,
-    ablation_runs: int | None = None,
-    variants=None,
-    instances=None,
-    es_limit: float,
-    exact_limit: float,
-) -> list[dict[str, Any]]:
-    """The tasks of the GA ablation: per (seed, m, instance variant) one ``ref`` task; on the
-    Table 4.2 users one ``run`` task per (GA variant, run), ``runs`` runs of the thesis GA and
-    ``ablation_runs`` (default ``runs``) of each other GA variant; on each other instance variant
-    (keys of :data:`INSTANCE_VARIANTS`, default all) ``ablation_runs`` runs of the thesis GA.
-    Instance ids carry the limits, so other limits are new tasks.
-
-    Work budget: every GA run counts as one solver call (the "restarts-x4" variant as four) and
-    every reference as two (exhaustive search and exact); ``runs`` and ``ablation_runs`` are
-    refused up front (``check_work``, kind "solves") when the runs they ask for exceed the budget
-    in force (``work_limits(solves=...)`` raises it)."""
-    from droneplan.core.validation import check_int, check_positive, check_sequence
-
-    seeds = check_sequence("seeds", seeds)
-    ms = check_sequence("ms", ms)
-    variants = list(GA_VARIANTS) if variants is None else check_sequence("variants", variants)
-    unknown = [v for v in variants if v not in GA_VARIANTS]
-    if unknown:
-        raise ValueError(f"variants must be keys of GA_VARIANTS {list(GA_VARIANTS)}, got {unknown}")
-    instances = list(INSTANCE_VARIANTS) if instances is None else check_sequence("instances", instances)
-    unknown = [v for v in instances if v not in INSTANCE_VARIANTS]
-    if unknown:
-        raise ValueError(
-            f"instances must be keys of INSTANCE_VARIANTS {list(INSTANCE_VARIANTS)}, got {unknown}"
-        )
-    runs = check_int("runs", runs, min_value=1)
-    given_ablation = ablation_runs is not None
-    ablation_runs = runs if ablation_runs is None else check_int("ablation_runs", ablation_runs, min_value=1)
-    seeds = [check_int("seeds", s, min_value=0) for s in seeds]
-    ms = [check_int("ms", m, min_value=1, max_value=4) for m in ms]
-    es_limit, exact_limit = check_positive("es_limit", es_limit), check_positive("exact_limit", exact_limit)
-    _check_ablation_work(
-        len(seeds) * len(ms),
-        runs,
-        ablation_runs,
-        variants,
-        instances,
-        "ablation_runs" if given_ablation else "runs (the default ablation_runs)",
-    )
-    tasks: list[dict[str, Any]] = []
-    for seed in seeds:
-        for m in ms:
-            for users in instances:
-                tag = {} if users == "thesis" else {"users": users}  # thesis ids stay as they were
-                tasks.append(
-                    {
-                        "problem": "cells",
-                        "instance": instance_id(
-                            "ablation-ref", m=m, seed=seed, es=es_limit, exact=exact_limit, **tag
-                        ),
-                        "kind": "ref",
-                        "m": m,
-                        "seed": seed,
-                        "size": m,
-                        "users": users,
-                        "es_limit": es_limit,
-                        "exact_limit": exact_limit,
-                    }
-                )
-                plan = (
-                    [(v, runs if v == "thesis" else ablation_runs) for v in variants]
-                    if users == "thesis"
-                    else [("thesis", ablation_runs)]
-                )
-                tasks.extend(
-                    {
-                        "problem": "cells",
-                        "instance": instance_id("ablation-ga", m=m, seed=seed, variant=v, run=r, **tag),
-                        "kind": "run",
-                        "m": m,
-                        "seed": seed,
-                        "size": m,
-                        "users": users,
-                        "variant": v,
-                        "run_seed": 10_000 * seed + 100 * m + r,
-                    }
-                    for v, n in plan
-                    for r in range(n)
-                )
-    return tasks
-
-
-def ablation_frame(df: pd.DataFrame, tasks: list[dict[str, Any]]) -> pd.DataFrame:
-    """Per (seed, m, variant): ``runs``, ``p_es`` (fraction of runs reaching the exhaustive-search
-    value, the thesis's criterion), ``p_exact`` (reaching the exact optimum; None unless proven),
-    ``mean_obj``, ``best_obj``, ``best_share`` (mean share of a final population equal to its
-    best), the references and the instance features, from the rows of :func:`ablation_task`."""
-    by_id = df.set_index(["instance", "method"])
-    rows = []
-    refs = [t for t in tasks if t["kind"] == "ref"]
-    for ref in refs:
-        if any((ref["instance"], method) not in by_id.index for method in ("exhaustive", EXACT_ENGINE)):
-            continue  # the reference task failed (an error row): rerun to retry it
-        es = by_id.loc[(ref["instance"], "exhaustive")]
-        exact = by_id.loc[(ref["instance"], EXACT_ENGINE)]
-        feats = {
-            k[len("cells_") :]: es[k]
-            for k in es.index
-            if k.startswith("cells_")
-            and k[len("cells_") :].split("_")[0] in ("active", "users", "clusters")
-            and pd.notna(es[k])
-        }
-        proven = exact["status"] == "optimal"
-        users = ref.get("users", "thesis")
-        runs = [
-            t
-            for t in tasks
-            if t["kind"] == "run"
-            and t["seed"] == ref["seed"]
-            and t["m"] == ref["m"]
-            and t.get("users", "thesis") == users
-        ]
-        for v in dict.fromkeys(t["variant"] for t in runs):
-            ids = [
-                (t["instance"], "ga")
-                for t in runs
-                if t["variant"] == v and (t["instance"], "ga") in by_id.index
-            ]
-            if not ids:
-                continue
-            ga = by_id.loc[ids]
-            obj = ga["objective"].astype(float).to_numpy()
-            rows.append(
-                {
-                    "seed": ref["seed"],
-                    "m": ref["m"],
-                    "variant": v if users == "thesis" else users,
-                    "users": users,
-                    "label": GA_VARIANTS[v]["label"]
-                    if users == "thesis"
-                    else INSTANCE_VARIANTS[users]["label"],
-                    "runs": len(obj),
-                    "p_es": float(np.mean(obj >= es["objective"])),
-                    "p_exact": float(np.mean(obj >= exact["objective"])) if proven else None,
-                    "mean_obj": float(obj.mean()),
-                    "best_obj": float(obj.max()),
-                    "best_share": float(ga["cells_best_share"].astype(float).mean()),
-                    "mean_time_s": float(ga["time_s"].astype(float).mean()),
-                    "es_obj": float(es["objective"]),
-                    "es_complete": bool(es["cells_es_complete"]),
-                    "es_time_s": float(es["time_s"]),
-                    "exact_obj": float(exact["objective"]),
-                    "exact_status": str(exact["status"]).upper(),
-                    "exact_bound": None if pd.isna(exact["bound"]) else float(exact["bound"]),
-                    **{k: int(v_) for k, v_ in feats.items()},
-                }
-            )
-    return pd.DataFrame(rows)
-
-
-def ablation_summary(abl: pd.DataFrame) -> pd.DataFrame:
-    """Per (m, variant) over seeds: seeds, runs per seed, P_Global vs ES and vs the exact optimum
-    (pooled over runs; vs the exact optimum over the seeds where it is proven), mean covered users,
-    mean relative gap to the exact optimum, mean final-population share of the best chromosome."""
-    out = []
-    for (m, v), g in abl.groupby(["m", "variant"], sort=False):
-        pm = g["p_exact"].dropna()
-        out.append(
-            {
-                "m": m,
-                "variant": v,
-                "label": g["label"].iloc[0],
-                "seeds": len(g),
-                "runs_per_seed": int(g["runs"].iloc[0]),
-                "p_global_es": float(g["p_es"].mean()),
-                "p_global_exact": float(pm.mean()) if len(pm) else None,
-                "mean_obj": float(g["mean_obj"].mean()),
-                "mean_gap_to_exact": float(
-                    ((g["exact_obj"] - g["mean_obj"]) / g["exact_obj"].clip(lower=1)).mean()
-                ),
-                "best_share": float(g["best_share"].mean()),
-                "mean_time_s": float(g["mean_time_s"].mean()),
-            }
-        )
-    return pd.DataFrame(out)
-
-
-def _spearman(a, b) -> float | None:
-    a, b = pd.Series(np.asarray(a, float)), pd.Series(np.asarray(b, float))
-    if len(a) < 3 or a.std() == 0 or b.std() == 0:
-        return None
-    return float(a.rank().corr(b.rank()))
-
-
-def ablation_correlations(abl: pd.DataFrame) -> pd.DataFrame:
-    """Per m: Spearman rank correlation over seeds of the thesis GA's P_Global (vs ES) with each
-    instance feature (None when a column is constant or there are fewer than 3 seeds)."""
-    th = abl[abl["variant"] == "thesis"]
-    feats = [
-        c for c in ("users_in_reach", "users_direct_reach", "clusters_in_reach", "active_users") if c in th
-    ]
-    rows = [
-        {"m": m, "feature": f, "spearman": _spearman(g["p_es"], g[f]), "seeds": len(g)}
-        for m, g in th.groupby("m")
-        for f in feats
-    ]
-    return pd.DataFrame(rows)
-
-
-def ablation_finding(abl: pd.DataFrame) -> str:
-    """A short reading of the ablation, written from its numbers (the text of the reproduce
-    output and notebook 02): per m, the faithful GA against both references, every variant's
-    P_Global and mean covered users, and the rank correlations with the instance features."""
-    summ = ablation_summary(abl)
-    corr = ablation_correlations(abl)
-    lines = []
-    for m, g in summ.groupby("m", sort=True):
-        th = g[g["variant"] == "thesis"].iloc[0]
-        inst = abl[(abl["m"] == m) & (abl["variant"] == "thesis")]
-        pm = th["p_global_exact"]
-        pm_txt = "n/a (optimum not proven)" if pm is None or pd.isna(pm) else f"{pm:.0%}"
-        below = int((inst["es_obj"] < inst["exact_obj"]).sum())
-        line = (
-            f"m={m}: the faithful GA reaches the exhaustive-search value in {th['p_global_es']:.0%} of "
-            f"{th['seeds']} seeds x {th['runs_per_seed']} runs (thesis: {THESIS_TABLE_4_3[m][5]:.0%}) "
-            f"and the exact optimum in {pm_txt}; it covers {th['mean_obj']:.1f} users on average against "
-            f"{inst['es_obj'].mean():.1f} (ES) and {inst['exact_obj'].mean():.1f} (exact; ES is below it "
-            f"on {below} of {len(inst)} seeds); its final populations are {th['best_share']:.0%} copies "
-            "of their best chromosome."
-        )
-        others = g[g["variant"] != "thesis"].sort_values(["p_global_es", "mean_obj"], ascending=False)
-        if len(others):
-            line += " One change at a time (P_Global vs ES, mean covered): " + "; ".join(
-                f"{r['label']} {r['p_global_es']:.0%}, {r['mean_obj']:.1f}" for _, r in others.iterrows()
-            )
-            top = others.iloc[0]
-            if top["p_global_es"] >= 0.9:
-                line += f". {top['label']} alone brings P_Global to the thesis's level."
-            elif top["p_global_es"] > th["p_global_es"]:
-                line += f". No single change reaches the thesis's level; the largest rise is {top['label']}."
-            else:
-                line += ". No single change raises P_Global above the faithful GA's."
-        cm = corr[(corr["m"] == m) & corr["spearman"].notna()]
-        if len(cm):
-            line += (
-                " Rank correlation of the faithful GA's P_Global with instance features over seeds: "
-                + ", ".join(f"{r['feature']} {r['spearman']:+.2f}" for _, r in cm.iterrows())
-            )
-            line += "."
-        lines.append(line)
-    return "\n".join(lines)
-
-
-def ga_ablation(
-    *,
-    seeds,
-    ms,
-    runs: int,
-    variants=None,
-    instances=None,
-    es_limit: float = 600.0,
-    exact_limit: float = 300.0,
-    ablation_runs: int | None = None,
-    executor=None,
-    store=None,
-    out: Path | None = None,
-) -> pd.DataFrame:
-    """P_Global of the thesis GA and of the ablation variants, through the results
-    store: every (seed, m) reference and every GA run is a task of :func:`ablation_task`, run by
-    ``executor`` (default: serial) into ``store`` (default ``out/results.sqlite``; a temporary
-    directory when ``out`` is None too), so an interrupted ablation resumes.
-
-    seeds: thesis-scale instance seeds (non-empty); ms: numbers of drone-cells (1-4, non-empty);
-    runs: GA runs of the
-    thesis variant per instance; ablation_runs: runs of each other variant (default ``runs``);
-    variants: keys of :data:`GA_VARIANTS` (default all); instances: keys of
-    :data:`INSTANCE_VARIANTS` (default all; :func:`ablation_tasks` says what runs on each);
-    es_limit, exact_limit: time limits (s) of the exhaustive search (a stopped search still
-    gives its best value, flagged ``es_complete``) and of the exact solve (``p_exact`` is None unless
-    it is proven optimal). Runs beyond the solves budget are refused up front, naming ``runs`` or
-    ``ablation_runs`` (see :func:`ablation_tasks`); executor: a
-    :class:`~droneplan.studies.common.StudyExecutor` or None; store: a ``ResultStore`` or None;
-    out: a directory path or None.
-
-    Returns :func:`ablation_frame`'s table (one row per seed, m, variant); its
-    ``attrs["finding"]`` holds :func:`ablation_finding`'s text and ``attrs["summary"]``
-    :func:`ablation_summary`'s table (per m and variant).
-    """
-    from droneplan.core.validation import check_instance
-    from droneplan.studies.common import StudyExecutor
-    from droneplan.studies.store import ResultStore
-
-    check_instance("executor", executor, StudyExecutor, optional=True)
-    check_instance("store", store, ResultStore, optional=True)
-    check_instance("out", out, (str, os.PathLike), optional=True)
-    tasks = ablation_tasks(
-        seeds=seeds,
-        ms=ms,
-        runs=runs,
-        ablation_runs=ablation_runs,
-        variants=variants,
-        instances=instances,
-        es_limit=es_limit,
-        exact_limit=exact_limit,
-    )
-    with contextlib.ExitStack() as stack:
-        ex = executor or stack.enter_context(make_executor(1))
-        if store is None and out is None:
-            out = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="droneplan-ablation-")))
-        st = stack.enter_context(open_store(store, out if out is not None else "."))
-        df = map_rows(ablation_task, tasks, executor=ex, store=st, desc="GA ablation")
-    abl = ablation_frame(df, tasks)
-    abl.attrs["finding"] = ablation_finding(abl)
-    abl.attrs["summary"] = ablation_summary(abl)
-    return abl
-
-
-READINGS_FAMILY = "table4.2"
-"""The instance family of the readings study (the Table 4.2 process, certified library)."""
-
-
-def readings_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
-    """One run of the GA readings study in the results schema (objective = covered users): the
-    GA read as ``GA_READINGS[task["reading"]]`` (Table 4.3 population and restarts, 50
-    generations) on the Table 4.2 instance of ``task["seed"]`` with ``task["m"]`` drone-cells,
-    seeded by ``task["run_seed"]``."""
-    from droneplan.planners.cells import ga_reading
-    from droneplan.studies.instances import family_instances
-
-    m, seed = int(task["m"]), int(task["seed"])
-    p = family_instances(READINGS_FAMILY, m=m, seeds=[seed])[0].data
-    ga = genetic(p, seed=int(task["run_seed"]), settings=ga_reading(str(task["reading"])))
-    extras = {
-        "reading": task["reading"],
-        "run_seed": int(task["run_seed"]),
-        "best_share": float(np.mean(ga.info["final_best_share"])),
-    }
-    outcomes = [Outcome.of("ga", "heuristic", ga, extras=extras)]
-    return build_rows("cells", task["instance"], seed=seed, size=m, sense="max", outcomes=outcomes)
-
-
-def readings_tasks(*, seeds, ms, runs: int, readings=None) -> list[dict[str, Any]]:
-    """The tasks of the readings study: per (seed, m, reading) ``runs`` runs; run r of every
-    reading uses the same seed (paired runs).
-
-    seeds: Table 4.2 instance seeds; ms: numbers of drone-cells (1-4); runs: GA runs per
-    instance and reading; readings: keys of :data:`~droneplan.planners.cells.GA_READINGS`
-    (default all). Every run counts as one solver call against the ``solves`` work budget."""
-    from droneplan.core.validation import check_sequence, check_work
-    from droneplan.planners.cells import GA_READINGS
-
-    seeds = [check_int("seeds", v, min_value=0) for v in check_sequence("seeds", seeds)]
-    ms = [check_int("ms", v, min_value=1, max_value=4) for v in check_sequence("ms", ms)]
-    runs = check_int("runs", runs, min_value=1)
-    readings = list(GA_READINGS) if readings is None else check_sequence("readings", readings)
-    unknown = [r for r in readings if r not in GA_READINGS]
-    if unknown:
-        raise ValueError(f"readings must be keys of GA_READINGS {list(GA_READINGS)}, got {unknown}")
-    check_work("runs", float(len(seeds)) * len(ms) * len(readings) * runs, "solves")
-    return [
-        {
-            "problem": "cells",
-            "instance": instance_id("ga-readings", m=m, seed=seed, reading=name, run=r),
-            "kind": "reading",
-            "m": m,
-            "seed": seed,
-            "size": m,
-            "reading": name,
-            "run_seed": 10_000 * seed + 100 * m + r,
-        }
-        for m in ms
-        for seed in seeds
-        for name in readings
-        for r in range(runs)
-    ]
-
-
 def proven_optimum(m: int, seed: int, exact_limit: float = 120.0) -> float | None:
     """The proven optimum (covered users) of the Table 4.2 instance ``seed`` with ``m``
     drone-cells: the certified library's value when it is proven optimal, else the branch and
@@ -1207,135 +780,6 @@ def proven_optimum(m: int, seed: int, exact_limit: float = 120.0) -> float | Non
         return float(entry.value)
     r = solve_exact(inst.data, engine=EXACT_ENGINE, backend=MILP_BACKEND, time_limit=float(exact_limit))
     return float(_covered(r)) if r.status.name == "OPTIMAL" else None
-
-
-def readings_frame(
-    df: pd.DataFrame, tasks: list[dict[str, Any]], optima: Mapping[tuple[int, int], Any]
-) -> pd.DataFrame:
-    """Per (m, reading), pooled over seeds: ``seeds``, ``runs`` (in all), ``p_global`` (the
-    fraction of runs reaching the proven optimum, over the seeds where it is proven),
-    ``mean_gap`` (mean relative gap to it), ``best_share`` (mean share of a final population
-    equal to its best), ``mean_time_s``, with the reading's label and the thesis sentence it reads.
-
-    df: the rows of :func:`readings_task`; tasks: :func:`readings_tasks`'s list; optima: the
-    proven optimum per (m, seed) (None when unproven)."""
-    from droneplan.planners.cells import GA_READINGS
-
-    ga = df[df["method"] == "ga"].set_index("instance")
-    recs = []
-    for t in tasks:
-        opt = optima.get((t["m"], t["seed"]))
-        if t["instance"] not in ga.index or opt is None:
-            continue
-        row = ga.loc[t["instance"]]
-        obj = float(row["objective"])
-        recs.append(
-            {
-                "m": t["m"],
-                "seed": t["seed"],
-                "reading": t["reading"],
-                "hit": obj >= opt,
-                "gap": (opt - obj) / max(opt, 1.0),
-                "share": float(row["cells_best_share"]),
-                "time_s": float(row["time_s"]),
-            }
-        )
-    runs = pd.DataFrame(recs, columns=["m", "seed", "reading", "hit", "gap", "share", "time_s"])
-    out = []
-    for (m, name), g in runs.groupby(["m", "reading"], sort=False):
-        out.append(
-            {
-                "m": int(m),
-                "reading": name,
-                "label": GA_READINGS[name]["label"],
-                "reads": GA_READINGS[name]["reads"],
-                "seeds": int(g["seed"].nunique()),
-                "runs": len(g),
-                "p_global": float(g["hit"].mean()),
-                "mean_gap": float(g["gap"].mean()),
-                "best_share": float(g["share"].mean()),
-                "mean_time_s": float(g["time_s"].mean()),
-            }
-        )
-    return pd.DataFrame(out)
-
-
-def readings_markdown(frame: pd.DataFrame) -> str:
-    """The readings study as a markdown table: one row per reading, P_Global per m (each with
-    the runs and seeds behind it), the label and the sentence it reads.
-
-    frame: :func:`readings_frame`'s table."""
-    if frame.empty:
-        return "(no runs)\n"
-    ms = sorted(frame["m"].unique())
-    head = [f"P_Global m={m} (runs / seeds)" for m in ms]
-    lines = [
-        "| reading | " + " | ".join(head) + " | what changes | reads |",
-        "|---|" + "---|" * len(ms) + "---|---|",
-    ]
-    for name in dict.fromkeys(frame["reading"]):
-        g = frame[frame["reading"] == name].set_index("m")
-        cells = [
-            f"{g.loc[m, 'p_global']:.0%} ({int(g.loc[m, 'runs'])} / {int(g.loc[m, 'seeds'])})"
-            if m in g.index
-            else "-"
-            for m in ms
-        ]
-        first = g.iloc[0]
-        lines.append(f"| {name} | " + " | ".join(cells) + f" | {first['label']} | {first['reads']} |")
-    return "\n".join(lines) + "\n"
-
-
-def ga_readings(
-    *,
-    seeds,
-    ms,
-    runs: int,
-    readings=None,
-    exact_limit: float = 120.0,
-    executor=None,
-    store=None,
-    out: Path | None = None,
-) -> pd.DataFrame:
-    """P_Global of the thesis GA under each reading of :data:`~droneplan.planners.cells.GA_READINGS`
-    on Table 4.2 instances, the success criterion being the instance's proven optimum
-    (:func:`proven_optimum`). Every run is a task of :func:`readings_task` in the results store
-    (default ``out/results.sqlite``; a temporary directory when ``out`` is None too), so an
-    interrupted study resumes. With ``out``, writes ``ga_readings.csv`` and ``ga_readings.md``.
-
-    seeds, ms, runs, readings: see :func:`readings_tasks`; exact_limit: time limit of a fallback
-    exact solve when the library holds no proven optimum (s); executor: a
-    :class:`~droneplan.studies.common.StudyExecutor` or None; store: a ``ResultStore`` or None;
-    out: a directory path or None.
-
-    Returns :func:`readings_frame`'s table; ``attrs["markdown"]`` holds
-    :func:`readings_markdown`'s text.
-    """
-    from droneplan.core.validation import check_instance
-    from droneplan.studies.common import StudyExecutor
-    from droneplan.studies.store import ResultStore
-
-    check_instance("executor", executor, StudyExecutor, optional=True)
-    check_instance("store", store, ResultStore, optional=True)
-    check_instance("out", out, (str, os.PathLike), optional=True)
-    exact_limit = check_positive("exact_limit", exact_limit)
-    tasks = readings_tasks(seeds=seeds, ms=ms, runs=runs, readings=readings)
-    optima: dict[tuple[int, int], float | None] = {}
-    for t in tasks:
-        if (t["m"], t["seed"]) not in optima:
-            optima[(t["m"], t["seed"])] = proven_optimum(t["m"], t["seed"], exact_limit)
-    with contextlib.ExitStack() as stack:
-        ex = executor or stack.enter_context(make_executor(1))
-        if store is None and out is None:
-            out = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="droneplan-readings-")))
-        st = stack.enter_context(open_store(store, out if out is not None else "."))
-        df = map_rows(readings_task, tasks, executor=ex, store=st, desc="GA readings")
-        frame = readings_frame(df, tasks, optima)
-        frame.attrs["markdown"] = readings_markdown(frame)
-        if out is not None:
-            frame.to_csv(Path(out) / "ga_readings.csv", index=False)
-            (Path(out) / "ga_readings.md").write_text(frame.attrs["markdown"])
-    return frame
 
 
 def exact_seed_distribution(
@@ -1881,7 +1325,6 @@ def bench(*, quick: bool, out: Path, time_limit: float | None = None) -> None:
         float(np.mean([v == m3.objective for v in pol3])),
         f"same {runs} GA runs polished by coordinate ascent (improved variant, not the thesis GA)",
     )
-    import tempfile
 
     from droneplan.studies.study import bench_library_study
 

@@ -30,7 +30,7 @@ import threading
 import time
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from droneplan.core.files import JsonFileError
 from droneplan.core.validation import check_positive
@@ -223,6 +223,13 @@ def _parser() -> argparse.ArgumentParser:
         default=None,
         metavar="S",
         help="open study: wall seconds per reference solve (default 300)",
+    )
+    gap.add_argument(
+        "--warm-starts",
+        action="store_true",
+        help="cells or herding: run each exact engine that takes a start cold and warm-started from each "
+        "heuristic (ENGINE<HEURISTIC; --method picks engines and heuristics), to proof (--time-limit, "
+        "default 120) and at a 5 s limit, and write the paired table OUT/PROBLEM/warm_starts.csv/.md",
     )
     gap.add_argument(
         "--out",
@@ -589,6 +596,43 @@ def _run_open_gap(args) -> int:
     return 0
 
 
+def _run_warm_starts(args) -> int:
+    """``droneplan gap cells|herding --warm-starts``: the paired table of warm starts
+    (:func:`~droneplan.studies.warm_starts.warm_start_study`)."""
+    from droneplan.studies.warm_starts import warm_start_markdown, warm_start_study
+
+    if args.problem not in ("cells", "herding"):
+        raise SystemExit("droneplan: --warm-starts goes with 'gap cells' or 'gap herding'")
+    runs = _runs(args.runs)
+    cpu_limit, max_evaluations = _budgets(args)
+    size = _sizes(args)
+    if args.instances is None or args.instances in _families():
+        size.update(seeds=args.seeds, first_seed=args.first_seed)
+    try:
+        given = {name: getattr(args, name) for name in ("instances", "workers", "dask", "time_limit")}
+        budgets: dict[str, Any] = {
+            "runs": runs,
+            "cpu_limit": cpu_limit,
+            "max_evaluations": max_evaluations,
+            "reference": args.reference or "auto",
+            "reference_time_limit": args.reference_time_limit,
+        }
+        _, table = warm_start_study(
+            args.problem,
+            out=args.out,
+            methods=args.methods or None,
+            memory_limit=_gib(args.memory_limit),
+            **given,
+            **budgets,
+            **size,
+        )
+    except (ValueError, TypeError, FileNotFoundError) as exc:
+        raise StudyError(str(exc).splitlines()[0]) from None
+    print(warm_start_markdown(table), flush=True)
+    print(f"paired table: {args.out / args.problem / 'warm_starts.csv'} (and warm_starts.md)", flush=True)
+    return 0
+
+
 def _families() -> set[str]:
     from droneplan.studies.instances import FAMILIES
 
@@ -709,9 +753,9 @@ def _run(args) -> int:
             return run_cross_certify(args)
         except ValueError as exc:
             raise StudyError(str(exc)) from None
-    if args.command == "gap" and (args.methods or args.instances):
+    if args.command == "gap" and (args.warm_starts or args.methods or args.instances):
         _writable_out(args.out)
-        return _run_open_gap(args)
+        return _run_warm_starts(args) if args.warm_starts else _run_open_gap(args)
     if args.command == "gap":
         _refuse_open_study_flags(args)
     problems = _resolve(args.problem)

@@ -24,6 +24,11 @@ bound engines     droneplan's registered bound engines of closed-loop kinds
                   their row has role ``bound``, no objective, and the bound only if its kind is
                   one the store ranks (``BOUND_KINDS``)
 
+A warm-started composite ``"ENGINE<HEURISTIC"`` (:class:`~droneplan.studies.methods.WarmStarted`)
+runs as :func:`run_warm_started` says: its heuristic in a process of its own, whose plan is scored
+here like any method's, then droneplan's engine in the job's process, warm-started with a verified
+plan; its row is scored as the engine's, with both parts' times and the start's fate as extras.
+
 Statuses of a row: ``optimal``/``feasible`` (a verified plan), ``infeasible`` (the plan violates a
 constraint, named in ``message``), ``invalid`` (a return value of the wrong type or shape, NaN or
 inf), ``no_solution`` (the method returned nothing), ``timeout``, ``error`` (the method raised; the
@@ -34,6 +39,7 @@ differs from droneplan's the row is flagged ``claim-mismatch``. Only droneplan's
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping
@@ -44,7 +50,7 @@ import numpy as np
 
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.instances import StudyInstance
-from droneplan.studies.methods import CLOSED_LOOP_KINDS, Method
+from droneplan.studies.methods import CLOSED_LOOP_KINDS, Method, WarmStarted
 
 __all__ = [
     "Scored",
@@ -55,7 +61,18 @@ __all__ = [
     "HERDING_T_MAX",
     "STATIC_KINDS",
     "BUDGET_KEYWORDS",
+    "COMPOSITE_INFO",
+    "HEURISTIC_SHARE",
+    "HEURISTIC_GRACE_S",
+    "MIN_ENGINE_S",
+    "allocation_of",
+    "run_warm_started",
+    "method_arguments",
 ]
+
+COMPOSITE_INFO = "composite"
+"""The entry of a warm-started composite's ``SolveResult.info`` that holds its row's extras (both
+parts' times, the heuristic's verified objective, the warm start's fate)."""
 
 SENSE_OF_KIND = {
     "cells": "max",
@@ -115,16 +132,10 @@ def execute(
     """
     data = instance.data
     if instance.kind in STATIC_KINDS:
+        if isinstance(method, WarmStarted):
+            return run_warm_started(instance, method, seed, time_limit, budgets)
         extra = _method_keywords(method, budgets or {})
-        if instance.kind in ("cells", "cells-mobile"):
-            return method.call(data, seed=seed, time_limit=time_limit, **extra)
-        if instance.kind == "cells-fleet":
-            return method.call(data.problem, data.coverage, seed=seed, time_limit=time_limit, **extra)
-        if instance.kind == "allocation":
-            steering = (data.drone_s.copy(), data.steer_s.copy())
-            return method.call(*steering, data.perimeter, seed=seed, time_limit=time_limit, **extra)
-        fleet = (data.operators, data.sharks_pos, data.sharks_vel, data.humans)
-        return method.call(*(a.copy() for a in fleet), seed=seed, time_limit=time_limit, **extra)
+        return method.call(*method_arguments(instance), seed=seed, time_limit=time_limit, **extra)
     if method.is_bound_engine:
         return method.call(data, seed=seed, time_limit=time_limit)
     from droneplan.studies.sandbox import ControllerFailed, ControllerProcess
@@ -142,6 +153,24 @@ def execute(
 
 STATIC_KINDS = ("cells", "cells-mobile", "cells-fleet", "allocation", "shark-fleet")
 """The kinds whose methods return a plan (the others run a controller in a simulator)."""
+
+
+def method_arguments(instance: StudyInstance) -> tuple[Any, ...]:
+    """The positional arguments a method of a static kind is called with (module docstring of
+    :mod:`~droneplan.studies.methods`: the contract per kind); arrays are copies.
+
+    instance: an instance of one of ``STATIC_KINDS``.
+    """
+    data = instance.data
+    if instance.kind in ("cells", "cells-mobile"):
+        return (data,)
+    if instance.kind == "cells-fleet":
+        return (data.problem, data.coverage)
+    if instance.kind == "allocation":
+        return (data.drone_s.copy(), data.steer_s.copy(), data.perimeter)
+    if instance.kind == "shark-fleet":
+        return tuple(a.copy() for a in (data.operators, data.sharks_pos, data.sharks_vel, data.humans))
+    raise ValueError(f"instance kind {instance.kind!r} is not one of {', '.join(STATIC_KINDS)}")
 
 
 def _method_keywords(method: Method, budgets: Mapping[str, Any]) -> dict[str, Any]:
@@ -217,9 +246,22 @@ def _number(v: Any) -> float | None:
     return None
 
 
+def _scalar(v: Any) -> bool:
+    """Whether ``v`` is a value a row's extra column holds (None, a bool, a finite number, a str)."""
+    return v is None or isinstance(v, (bool, str)) or _number(v) is not None
+
+
 def _describe(v: Any) -> str:
     text = repr(v)
     return text if len(text) <= 60 else text[:57] + "..."
+
+
+SAID = "said_"
+"""The prefix of the row extras a method reports about its own run (``SolveResult.info["extras"]``
+and its ``solve_time``): claims, recorded as such."""
+
+MAX_SAID = 32
+"""The most ``info["extras"]`` entries of one result kept on its row."""
 
 
 def _claims(scored: Scored, result: SolveResult, method: Method) -> None:
@@ -243,6 +285,24 @@ def _claims(scored: Scored, result: SolveResult, method: Method) -> None:
         scored.extras["evaluations"] = evaluations
     if result.bound is not None and not method.trusted_bound:
         scored.extras["claimed_bound"] = _number(result.bound)
+    if method.trusted_bound:  # droneplan's engines: their own solve time and search nodes
+        scored.extras["solve_time_s"] = _number(result.solve_time)
+        stats = info.get("model_stats")
+        places = (info, stats if isinstance(stats, Mapping) else {})
+        found = (_number(d.get(k)) for d in places for k in ("nodes", "num_branches"))
+        nodes = next((n for n in found if n is not None), None)
+        if nodes is not None:  # the branch and bound's search nodes, CP-SAT's branches
+            scored.extras["nodes"] = nodes
+        composite = info.get(COMPOSITE_INFO) if isinstance(method, WarmStarted) else None
+        if isinstance(composite, Mapping):
+            scored.extras.update({str(k): v for k, v in composite.items() if _scalar(v)})
+    # what a method says about its run (``info["extras"]``, its own clock) is kept under ``said_``
+    # names beside droneplan's numbers, never in their place
+    said = info.get("extras")
+    if isinstance(said, Mapping):
+        kept = list(said.items())[:MAX_SAID]
+        scored.extras.update({f"{SAID}{str(k)[:40]}": v for k, v in kept if _scalar(v)})
+    scored.extras.setdefault(f"{SAID}solve_time_s", _number(result.solve_time))
 
 
 def _check_claim(scored: Scored) -> None:
@@ -402,7 +462,7 @@ _STATIC_CELLS = {
 
 
 def _score_allocation(instance: StudyInstance, returned: Any, method: Method) -> Scored:  # noqa: C901
-    from droneplan.formulations.herding import Allocation, check_allocation, pad_steering_points
+    from droneplan.formulations.herding import Allocation, check_allocation
 
     scored = Scored("feasible")
     plan, has = _unwrap(returned, method, scored)
@@ -447,16 +507,13 @@ def _score_allocation(instance: StudyInstance, returned: Any, method: Method) ->
     t_int, d_int = t_arr.astype(int), d_arr.astype(int)
     if np.any(t_int < 0) or np.any(t_int >= n):
         return Scored("invalid", message=f"target indexes must lie in 0..{n - 1}", extras=scored.extras)
-    points = pad_steering_points(data.steer_s, n, M)
-    dest = points[t_int]
-    travel = np.where(d_int > 0, np.mod(dest - data.drone_s, M), np.mod(data.drone_s - dest, M))
-    alloc = Allocation(target=t_int, direction=d_int, travel=travel, points=points)
+    alloc = allocation_of(data, t_int, d_int)
     try:
         value = check_allocation(data.drone_s, data.steer_s, M, alloc)
     except ValueError as exc:
         scored.status = "infeasible"
         scored.message = str(exc)
-        scored.extras["max_travel_if_feasible"] = float(np.max(travel))
+        scored.extras["max_travel_if_feasible"] = float(np.max(alloc.travel))
         return scored
     scored.objective = value
     if method.trusted_bound and isinstance(returned, SolveResult) and returned.status is Status.OPTIMAL:
@@ -465,6 +522,23 @@ def _score_allocation(instance: StudyInstance, returned: Any, method: Method) ->
         scored.message = returned.message
     _check_claim(scored)
     return scored
+
+
+def allocation_of(data: Any, target: np.ndarray, direction: np.ndarray) -> Any:
+    """The herding :class:`~droneplan.formulations.herding.Allocation` of ``(target, direction)`` on an
+    allocation instance, with the travels droneplan computes (not checked: ``check_allocation`` does).
+
+    data: the allocation instance's data (``drone_s``, ``steer_s``, ``perimeter``, ``n``).
+    target: (n,) int, each drone's index into the steering points padded by ``pad_steering_points``.
+    direction: (n,) int, +1 (increasing arc length) or -1 for each drone.
+    """
+    from droneplan.formulations.herding import Allocation, pad_steering_points
+
+    M = data.perimeter
+    points = pad_steering_points(data.steer_s, data.n, M)
+    dest = points[target]
+    travel = np.where(direction > 0, np.mod(dest - data.drone_s, M), np.mod(data.drone_s - dest, M))
+    return Allocation(target=target, direction=direction, travel=travel, points=points)
 
 
 _FLEET_COSTS: dict[str, np.ndarray] = {}  # interception-time matrices by instance fingerprint
@@ -630,3 +704,182 @@ def score(instance: StudyInstance, method: Method, returned: Any) -> Scored:
             return _score_bound_engine(returned)
         return _score_closed_loop(instance, returned)
     raise ValueError(f"unknown instance kind {instance.kind!r}")
+
+
+HEURISTIC_SHARE = 0.5
+"""The share of a warm-started composite's time limit its heuristic may use (the engine gets the rest)."""
+
+HEURISTIC_GRACE_S = 1.0
+"""How long a composite's heuristic may overrun its share before its process is killed (s)."""
+
+MIN_ENGINE_S = 0.05
+"""The least time limit the engine of a composite is given (s), however long the heuristic took."""
+
+HEURISTIC_RESULT_BYTES = 64 << 20
+"""The largest plan a composite's heuristic may send back (bytes; as a study's method)."""
+
+_OK = ("optimal", "feasible")
+_TIE_TOL = 1e-9  # relative: values closer than this are the same
+
+
+# --------------------------------------------------------------------------- warm-started composites
+def run_warm_started(
+    instance: StudyInstance,
+    method: WarmStarted,
+    seed: int,
+    time_limit: float | None,
+    budgets: Mapping[str, Any] | None = None,
+) -> SolveResult:
+    """Run a warm-started composite ``"ENGINE<HEURISTIC"`` on ``instance`` (in the job's process).
+
+    1. The heuristic runs in a process of its own (:func:`~droneplan.studies.runner.run_isolated`):
+       it may be the user's code, so it never runs in the process whose engine result the row
+       trusts. Its plan comes back as a plain-data message (:mod:`~droneplan.studies.wire`).
+    2. :func:`score` checks that plan as it checks any method's; only a verified plan
+       (``optimal``/``feasible``) becomes the start. A heuristic that raised, crashed, timed out
+       or returned an invalid or infeasible plan leaves the engine to run cold.
+    3. The engine (droneplan's registered exact engine, its bound trusted) runs warm-started: the
+       cells engines' ``warm_start`` (``solve_exact``), the allocation's CP-SAT ``hint``.
+
+    The time limit ``T`` is split: the heuristic gets at most ``HEURISTIC_SHARE * T`` (its process
+    is killed ``HEURISTIC_GRACE_S`` later), the engine the rest, ``T`` minus the heuristic's wall
+    time (at least ``MIN_ENGINE_S``), so a composite competes with a study's other methods on the
+    same wall budget. ``info[COMPOSITE_INFO]`` (the row's extras) holds: ``heuristic``, ``engine``
+    (the parts' names); ``heuristic_status`` (droneplan's verdict on its plan, or its process's
+    fate: ``timeout``, ``error``, ``crashed``); ``heuristic_objective`` (droneplan's value of its
+    plan; None without a verified plan); ``heuristic_time_s``, ``heuristic_cpu_s``;
+    ``heuristic_time_limit_s``, ``engine_time_limit_s`` (the split); ``engine_time_s`` (the
+    engine's solve time); ``warm_start`` (``used``: the plan, or its polished feasible part, was
+    the engine's incumbent or hint; ``not used``: the engine's own start was better; ``cold``),
+    ``warm_start_reason`` (why, in a sentence), ``warm_start_value``,
+    ``warm_start_polished_value`` (cells: after the engines' polish); ``kept`` (``engine``, or
+    ``heuristic`` when the engine stopped with a plan worse than the start, which the row then
+    reports with the engine's bound).
+
+    instance: an instance of the composite's kind.
+    method: the composite (:func:`~droneplan.studies.methods.warm_started`).
+    seed: the run's seed, handed to the heuristic (the engine is deterministic).
+    time_limit: the composite's wall-time limit (s), None: none (the heuristic then has none either).
+    budgets: the study's budgets (``cpu_limit``, ``max_evaluations``); they reach the heuristic
+        when it names them.
+
+    Returns the engine's SolveResult (or the start, with the engine's bound, when the engine's plan
+    is worse: extra ``kept``), its ``info[COMPOSITE_INFO]`` the row's extras.
+    """
+    if not isinstance(method, WarmStarted) or method.engine is None or method.heuristic is None:
+        raise TypeError(f"method must be a warm-started composite, got {type(method).__name__}")
+    from droneplan.studies.runner import Job, run_isolated
+
+    t0 = time.perf_counter()
+    h_limit = None if time_limit is None else HEURISTIC_SHARE * time_limit
+    h_budgets = {k: v for k, v in (budgets or {}).items() if k in BUDGET_KEYWORDS}
+    job = Job(
+        "heuristic",
+        execute_plain,
+        (instance, method.heuristic, seed, h_limit, h_budgets),
+        time_limit=h_limit,
+        returns="bytes",
+        max_result_bytes=HEURISTIC_RESULT_BYTES,
+    )
+    outcome = run_isolated(job, grace=HEURISTIC_GRACE_S)
+    facts: dict[str, Any] = {
+        "heuristic": method.heuristic.name,
+        "engine": method.engine.name,
+        "heuristic_time_s": outcome.wall_s,
+        "heuristic_cpu_s": outcome.cpu_s,
+        "heuristic_time_limit_s": h_limit,
+    }
+    start, verdict = _verified_start(instance, method, outcome, facts, HEURISTIC_RESULT_BYTES)
+    left = None if time_limit is None else max(time_limit - (time.perf_counter() - t0), MIN_ENGINE_S)
+    facts["engine_time_limit_s"] = left
+    t1 = time.perf_counter()
+    result = method.engine.call(*method_arguments(instance), seed=seed, time_limit=left, warm_start=start)
+    facts["engine_time_s"] = result.solve_time if result.solve_time else time.perf_counter() - t1
+    if start is not None and verdict is not None:
+        _fate(instance.kind, result, verdict, facts)
+        result = _better_of(instance.kind, result, start, verdict, facts)
+    return dataclasses.replace(result, info={**result.info, COMPOSITE_INFO: facts})
+
+
+def _verified_start(
+    instance: StudyInstance, method: WarmStarted, outcome: Any, facts: dict[str, Any], max_bytes: int
+) -> tuple[Any, Scored | None]:
+    """The heuristic's plan as the engine's start (cells: positions; allocation: an Allocation) and
+    droneplan's verdict on it, or (None, None) with the reason in ``facts``."""
+    from droneplan.studies import wire
+
+    def cold(status: str, why: str) -> tuple[None, None]:
+        facts.update(
+            heuristic_status=status, heuristic_objective=None, warm_start="cold", warm_start_reason=why
+        )
+        return None, None
+
+    if outcome.status != "ok":
+        return cold(outcome.status, f"the heuristic's process ended with {outcome.status}: {outcome.error}")
+    try:
+        value = wire.decode(outcome.value, max_bytes=max_bytes)
+    except (wire.WireError, TypeError) as exc:
+        return cold("invalid", f"the heuristic's process sent an unreadable result: {exc}")
+    heuristic = method.heuristic
+    if heuristic is None:  # refused by WarmStarted; kept for the type checker
+        return cold("error", "the composite has no heuristic")
+    try:
+        verdict = score(instance, heuristic, value)
+    except Exception as exc:  # noqa: BLE001 - a plan the evaluator cannot read is no start
+        return cold("invalid", f"droneplan could not score the heuristic's plan: {type(exc).__name__}: {exc}")
+    if verdict.status not in _OK or verdict.objective is None:
+        why = verdict.message or "no plan"
+        return cold(verdict.status, f"the heuristic's plan is {verdict.status} ({why}); the engine ran cold")
+    facts.update(heuristic_status=verdict.status, heuristic_objective=verdict.objective)
+    plan = value.x if isinstance(value, SolveResult) else value
+    if instance.kind == "allocation":
+        if hasattr(plan, "target") and hasattr(plan, "direction"):
+            plan = (plan.target, plan.direction)
+        target, direction = (np.asarray(a).astype(int) for a in plan)
+        return allocation_of(instance.data, target, direction), verdict
+    return np.asarray(plan, dtype=float), verdict
+
+
+def _fate(kind: str, result: SolveResult, verdict: Scored, facts: dict[str, Any]) -> None:
+    """What became of a verified start: the cells engines' ``info["warm_start"]``, or the hint's
+    fate on CP-SAT."""
+    facts["warm_start_value"] = verdict.objective
+    ws = result.info.get("warm_start") if isinstance(result.info, Mapping) else None
+    if kind == "cells" and isinstance(ws, Mapping):
+        facts["warm_start"] = "used" if ws.get("used") else "not used"
+        facts["warm_start_reason"] = str(ws.get("reason", ""))
+        facts["warm_start_polished_value"] = ws.get("polished_value")
+        return
+    reached = bool(result.warm_started)
+    facts["warm_start"] = "used" if reached else "not used"
+    answer = f"; the engine's answer {result.objective:g}" if result.objective is not None else ""
+    facts["warm_start_reason"] = (
+        f"handed to {result.backend or 'the engine'} as a hint (value {verdict.objective:g}){answer}"
+        if reached
+        else f"the engine did not take the start (value {verdict.objective:g}){answer}"
+    )
+
+
+def _better_of(
+    kind: str, result: SolveResult, start: Any, verdict: Scored, facts: dict[str, Any]
+) -> SolveResult:
+    """The engine's result, or the start with the engine's bound when the engine's plan is worse
+    (or missing): the composite never returns less than its verified start."""
+    facts["kept"] = "engine"
+    h = verdict.objective
+    if h is None:
+        return result
+    tol = _TIE_TOL * max(1.0, abs(h))  # the engine's and droneplan's arithmetic may differ in the last bits
+    worse = result.objective is None or (
+        result.objective < h - tol if SENSE_OF_KIND[kind] == "max" else result.objective > h + tol
+    )
+    if result.has_solution and not worse:
+        return result
+    facts["kept"] = "heuristic"
+    return dataclasses.replace(
+        result,
+        status=Status.FEASIBLE,
+        objective=h,
+        x=start,
+        message=f"the engine's plan was worse than its start; the start is kept ({result.message})",
+    )

@@ -26,6 +26,13 @@ paths) are the exception on closed-loop kinds: they are droneplan's own function
 ``fn(scenario, *, seed, time_limit) -> {"status", "bound", "bound_kind", "message", "extras"}``
 with role ``bound`` and ``trusted_bound``, whose row carries a proven bound and no objective.
 
+A *warm-started composite* is spelled ``"ENGINE<HEURISTIC"`` (``"milp<ga"``, ``"bnb<mymod:fn"``,
+``"cp-sat<alg3"``): ENGINE is one of droneplan's exact engines of the kind that takes a start
+(:func:`warm_start_engines`: its registered target names a ``warm_start`` parameter), HEURISTIC any
+method spelling but a composite. It resolves to a :class:`WarmStarted` method, which the study runs
+as :func:`droneplan.studies.harness.run_warm_started` describes: the heuristic in a process of
+its own, its plan verified by droneplan's evaluator, then the engine warm-started with it.
+
 ``seed`` is the instance's seed (0 when it has none) and ``time_limit`` the study's limit in
 seconds; a function may ignore them but must accept them as keywords. ``Method.params`` are
 passed on as further keywords (functions) or constructor arguments (classes) and are part of the
@@ -54,7 +61,14 @@ __all__ = [
     "resolve_methods",
     "CLOSED_LOOP_KINDS",
     "RESERVED_NAMES",
+    "WarmStarted",
+    "COMPOSITE_SEPARATOR",
+    "warm_start_engines",
+    "warm_started",
 ]
+
+COMPOSITE_SEPARATOR = "<"
+"""What joins the engine and the heuristic of a warm-started composite (``"milp<ga"``)."""
 
 CLOSED_LOOP_KINDS = ("shark-path", "covert-run", "herding-run")
 """Instance kinds whose methods are controller classes run by the problem's simulator."""
@@ -175,10 +189,12 @@ def _cells_exhaustive(problem, *, seed, time_limit, max_evaluations=None, report
 
 
 def _cells_engine(engine: str) -> Callable[..., Any]:
-    def run(problem, *, seed, time_limit, report=None):
+    def run(problem, *, seed, time_limit, report=None, warm_start=None):
         from droneplan.formulations.cells import solve_exact
 
-        return solve_exact(problem, engine=engine, time_limit=time_limit, workers=1, report=report)
+        return solve_exact(
+            problem, engine=engine, time_limit=time_limit, workers=1, report=report, warm_start=warm_start
+        )
 
     run.__name__ = run.__qualname__ = f"cells_{engine}"
     return run
@@ -229,10 +245,10 @@ def _alloc_exact(d, s, M, *, seed, time_limit):
     return solve_allocation(d, s, M)
 
 
-def _alloc_cpsat(d, s, M, *, seed, time_limit):
+def _alloc_cpsat(d, s, M, *, seed, time_limit, warm_start=None):
     from droneplan.formulations.herding import solve_allocation
 
-    return solve_allocation(d, s, M, method="cp-sat", time_limit=time_limit)
+    return solve_allocation(d, s, M, method="cp-sat", time_limit=time_limit, hint=warm_start)
 
 
 def _alloc_alg3(d, s, M, *, seed, time_limit):
@@ -384,6 +400,111 @@ def builtin_methods(kind: str) -> list[str]:
     return [n for n, m in BUILTIN.items() if kind in m.kinds]
 
 
+# --------------------------------------------------------------------------- warm-started composites
+def _composite_target(*args: Any, seed: int, time_limit: float | None) -> Any:
+    """What a :class:`WarmStarted` method's ``target`` is: the study runs a composite through
+    :func:`droneplan.studies.warm_starts.run_warm_started` (which needs the instance), never this."""
+    raise TypeError(
+        "a warm-started composite runs inside a study (droneplan.gap), which runs its heuristic "
+        "in a process of its own and then its engine"
+    )
+
+
+@dataclass(frozen=True)
+class WarmStarted(Method):
+    """A composite ``"ENGINE<HEURISTIC"``: the heuristic's verified plan warm-starts the engine.
+
+    engine: the registered exact engine (a :class:`Method` of :data:`BUILTIN` whose target names a
+    ``warm_start`` parameter). heuristic: the method whose plan is the start (any method of the
+    kind but a composite). The other fields are set by :func:`warm_started`: the name
+    ``"ENGINE<HEURISTIC"``, role ``model``, the engine's trusted bound, ``builtin`` when the
+    heuristic is droneplan's, and the heuristic's ``deterministic``.
+    """
+
+    engine: Method | None = None
+    heuristic: Method | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        for part in ("engine", "heuristic"):
+            if not isinstance(getattr(self, part), Method):
+                raise TypeError(f"method {self.name!r}: {part} must be a Method")
+        if isinstance(self.heuristic, WarmStarted):
+            raise ValueError(f"method {self.name!r}: a composite's heuristic cannot be a composite")
+
+    def fingerprint(self) -> str:
+        """Both parts' code fingerprints, ``"ENGINE<HEURISTIC"`` (a change to either part gives the
+        rows a new configuration; the code joining them is droneplan's, in every row's hash)."""
+        if self.engine is None or self.heuristic is None:  # refused by __post_init__
+            raise ValueError(f"method {self.name!r}: a composite needs an engine and a heuristic")
+        return COMPOSITE_SEPARATOR.join((self.engine.fingerprint(), self.heuristic.fingerprint()))
+
+
+def warm_start_engines(kind: str) -> list[str]:
+    """Names of the registered exact engines of ``kind`` that take a warm start (their target names a
+    ``warm_start`` parameter): ``bnb`` and ``milp`` on cells, ``cp-sat`` on the herding allocation.
+
+    kind: an instance kind (a kind without such an engine gives an empty list).
+    """
+    return [n for n, m in BUILTIN.items() if kind in m.kinds and m.trusted_bound and m.accepts("warm_start")]
+
+
+def warm_started(spec: str, kind: str) -> WarmStarted:
+    """The composite method spelled ``spec`` (``"ENGINE<HEURISTIC"``) for instances of ``kind``.
+
+    spec: the engine's registered name, ``<``, then the heuristic (a registered name or
+        ``"module:function"``); e.g. ``"milp<ga"``, ``"bnb<mymod:fn"``, ``"cp-sat<alg3"``.
+    kind: the instance kind the study runs on.
+
+    An unknown or unsuitable part raises a one-line ValueError naming it and the valid choices.
+    """
+    if not isinstance(spec, str):
+        raise TypeError(f"a composite method is a string 'ENGINE<HEURISTIC', got {type(spec).__name__}")
+    engine_name, _, heuristic_spec = (p.strip() for p in spec.partition(COMPOSITE_SEPARATOR))
+    engines = warm_start_engines(kind)
+    choices = ", ".join(engines) or f"none (no engine of {kind} instances takes a warm start)"
+    if engine_name not in engines:
+        raise ValueError(
+            f"method {spec!r}: {engine_name!r} is not an exact engine of {kind} instances that takes "
+            f"a warm start; engines: {choices}"
+        )
+    heuristics = [n for n in builtin_methods(kind) if not BUILTIN[n].trusted_bound]
+    if not heuristic_spec or COMPOSITE_SEPARATOR in heuristic_spec:
+        raise ValueError(
+            f"method {spec!r}: write 'ENGINE<HEURISTIC' with one heuristic (a registered name or "
+            f"'module:function'); heuristics of {kind}: {', '.join(heuristics) or 'none'}"
+        )
+    if heuristic_spec in BUILTIN:
+        heuristic = BUILTIN[heuristic_spec]
+        if heuristic.kinds and kind not in heuristic.kinds:
+            raise ValueError(
+                f"method {spec!r}: heuristic {heuristic_spec!r} runs on {', '.join(heuristic.kinds)} "
+                f"instances, not on {kind}; heuristics of {kind}: {', '.join(heuristics) or 'none'}"
+            )
+    elif ":" in heuristic_spec:
+        heuristic = Method(heuristic_spec, _import_target(heuristic_spec))
+    else:
+        raise ValueError(
+            f"method {spec!r}: unknown heuristic {heuristic_spec!r}; heuristics of {kind}: "
+            f"{', '.join(heuristics) or 'none'} (or 'module:function')"
+        )
+    return _composite(BUILTIN[engine_name], heuristic)
+
+
+def _composite(engine: Method, heuristic: Method) -> WarmStarted:
+    return WarmStarted(
+        f"{engine.name}{COMPOSITE_SEPARATOR}{heuristic.name}",
+        _composite_target,
+        "model",
+        kinds=engine.kinds,
+        trusted_bound=True,
+        builtin=heuristic.builtin,
+        deterministic=heuristic.deterministic,
+        engine=engine,
+        heuristic=heuristic,
+    )
+
+
 def _import_target(spec: str) -> Any:
     mod, _, attr = spec.partition(":")
     if not mod or not attr:
@@ -415,6 +536,8 @@ def _one(entry: Any, kind: str, position: int) -> Method:
     if isinstance(entry, str):
         if entry in BUILTIN:
             return BUILTIN[entry]
+        if COMPOSITE_SEPARATOR in entry:
+            return warm_started(entry, kind)
         if ":" in entry:
             return Method(entry, _import_target(entry))
         raise ValueError(
@@ -471,6 +594,9 @@ study, a built-in study's error row)."""
 def _check_not_forged(m: Method) -> None:
     """Only droneplan's registered methods carry a built-in name, ``builtin``, ``trusted_bound`` or
     role ``bound``: a user's method states no proof and takes no name of droneplan's."""
+    if isinstance(m, WarmStarted):
+        _check_composite(m)
+        return
     registered = BUILTIN.get(m.name)
     if registered is not None:
         same = (m.target, m.role, m.kinds, m.trusted_bound, m.builtin) == (
@@ -492,6 +618,26 @@ def _check_not_forged(m: Method) -> None:
         raise ValueError(
             f"method {m.name!r}: builtin, trusted_bound and role 'bound' are droneplan's registered "
             "engines' alone; a user's method states no proof (a bound it returns is kept as a claim)"
+        )
+
+
+def _check_composite(m: WarmStarted) -> None:
+    """A composite is trusted for its engine's bound only when it is what :func:`warm_started` builds:
+    a registered engine that takes a start, and a heuristic that itself forges nothing."""
+    engine, heuristic = m.engine, m.heuristic
+    if engine is None or heuristic is None:  # refused by WarmStarted itself; kept for the type checker
+        raise ValueError(f"method {m.name!r}: a composite needs an engine and a heuristic")
+    registered = BUILTIN.get(engine.name)
+    if registered is None or registered != engine or not engine.accepts("warm_start"):
+        raise ValueError(
+            f"method {m.name!r}: a composite's engine must be one of droneplan's registered engines "
+            "that take a warm start"
+        )
+    _check_not_forged(heuristic)
+    if m != _composite(engine, heuristic):
+        raise ValueError(
+            f"method {m.name!r}: build a composite with warm_started('ENGINE<HEURISTIC', kind) or spell "
+            "it so in the methods list"
         )
 
 

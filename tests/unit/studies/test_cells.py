@@ -59,37 +59,13 @@ def test_plot_map_draws_coincident_drone_cells_once():
 
 
 def test_reproduce_tasks_emit_schema_rows_within_the_bounds():
-    exact = {
-        r["method"]: r
-        for r in study.reproduce_task(
-            {
-                "problem": "cells",
-                "instance": "table4.3:m=1,seed=0",
-                "kind": "exact",
-                "m": 1,
-                "seed": 0,
-                "exact_limit": 60.0,
-                "es_limit": 20.0,
-            }
-        )
-    }
-    ga = study.reproduce_task(
-        {
-            "problem": "cells",
-            "instance": "table4.3-ga:m=1,run=3,seed=0",
-            "kind": "ga",
-            "m": 1,
-            "seed": 0,
-            "run_seed": 3,
-            "pop_size": 20,
-            "restarts": 3,
-        }
-    )[0]
+    task = {"problem": "cells", "instance": "table4.3:m=1,seed=0", "kind": "exact", "m": 1, "seed": 0}
+    exact = {r["method"]: r for r in study.reproduce_task({**task, "exact_limit": 60.0})}
     bnb = exact["bnb"]  # the row is named after the engine that made it
     assert bnb["bound_kind"] == "candidate-set" and bnb["objective"] <= bnb["bound"]
-    assert exact["exhaustive"]["objective"] <= exact["continuous-bound"]["bound"]
-    assert ga["objective"] <= exact["continuous-bound"]["bound"]
-    assert ga["objective"] <= ga["cells_polished"]  # polishing never loses users
+    assert bnb["objective"] <= exact["continuous-bound"]["bound"]
+    with pytest.raises(ValueError, match="kind"):  # GA runs are gap rows now, not tasks
+        study.reproduce_task({**task, "kind": "ga", "exact_limit": 60.0})
 
 
 def test_ga_ablation_rows_respect_the_exact_optimum(tmp_path):
@@ -108,44 +84,49 @@ def test_ga_ablation_rows_respect_the_exact_optimum(tmp_path):
     # every GA plan and the exhaustive-search plan are feasible placements: never above the optimum
     assert (df["best_obj"] <= df["exact_obj"]).all() and (df["es_obj"] <= df["exact_obj"]).all()
     assert df["p_es"].between(0, 1).all() and df["p_exact"].between(0, 1).all()
-    assert df["best_share"].between(0, 1).all()
+    assert (df["best_share"].isna() | df["best_share"].between(0, 1)).all()
     assert (df["users_direct_reach"] <= df["users_in_reach"]).all()
     assert (df["users_in_reach"] <= df["active_users"]).all()
     assert (df["clusters_direct_reach"] <= df["clusters_in_reach"]).all()
     assert "m=1: the faithful GA" in df.attrs["finding"]
-    # one task per (seed, m) reference and per GA run, all in the store: a rerun computes nothing
+    # every run and reference is a row of droneplan.gap in the store: a rerun computes nothing
     with ResultStore(tmp_path / "results.sqlite") as st:
         rows = st.frame()
-        # per instance variant: ES + MILP rows; thesis users: 3 variants x 2 runs; clusters only: 2 runs
-        assert set(rows["study"]) == {"ablation-ref", "ablation-ga"} and len(rows) == (2 + 3 * 2) + (2 + 2)
+        assert set(rows["study"]) == {"gap"}
+        by = rows.groupby("family")["method"].agg(list)
+        # Table 4.2 users: the certified library row, exhaustive search, 3 variants x 2 runs
+        assert sorted(by["table4.2"]) == sorted(
+            ["library", "exhaustive@60s"] + [f"ga-{v}" for v in variants for _ in range(2)]
+        )
+        # clusters only (no library entry): the branch and bound, exhaustive search, 2 thesis GA runs
+        assert sorted(by["table4.2-clusters"]) == sorted(["bnb", "exhaustive@60s", "ga-thesis", "ga-thesis"])
+        # run r of every variant on an instance has one seed (paired runs)
+        ga = rows[rows["method"].str.startswith("ga-") & (rows["family"] == "table4.2")]
+        assert (ga.groupby("run")["run_seed"].nunique() == 1).all()
         with make_executor(1) as ex:
             again = study.ga_ablation(**kw, executor=ex, store=st)
         assert len(st.frame()) == len(rows)
     pd.testing.assert_frame_equal(again, df)
 
 
-def test_ablation_tasks_pair_the_variants_runs_with_the_thesis_runs():
-    tasks = study.ablation_tasks(seeds=[0, 1], ms=(1, 2), runs=3, ablation_runs=2, es_limit=5, exact_limit=5)
-    refs = [t for t in tasks if t["kind"] == "ref"]
-    runs = [t for t in tasks if t["kind"] == "run"]
-    n_other = len(study.INSTANCE_VARIANTS) - 1
-    assert len(refs) == 4 * (1 + n_other)
-    assert len(runs) == 4 * (3 + 2 * (len(study.GA_VARIANTS) - 1)) + 4 * n_other * 2
-    assert len({t["instance"] for t in tasks}) == len(tasks)
-    for t in runs:
-        if t["variant"] != "thesis" and t["users"] == "thesis":
-            twin = [
-                u
-                for u in runs
-                if u["variant"] == "thesis"
-                and u["instance"].replace("variant=thesis", "")
-                == t["instance"].replace(f"variant={t['variant']}", "")
-            ]
-            assert len(twin) == 1 and twin[0]["run_seed"] == t["run_seed"]
+def test_ablation_parts_run_each_variant_as_a_method():
+    parts = study.ablation_parts(seeds=[0, 1], ms=(1, 2), runs=3, ablation_runs=2, es_limit=5, exact_limit=5)
+    methods = {(p.family, p.m, m.name): (p.runs, p.seeds, m.deterministic) for p in parts for m in p.methods}
+    for m in (1, 2):
+        assert methods[("table4.2", m, "ga-thesis")] == (3, (0, 1), False)
+        for v in study.GA_VARIANTS:
+            if v != "thesis":
+                assert methods[("table4.2", m, f"ga-{v}")] == (2, (0, 1), False)
+        assert methods[("table4.2-clusters", m, "ga-thesis")] == (2, (0, 1), False)
+        for family in ("table4.2", "table4.2-clusters"):  # deterministic: one run whatever the part's runs
+            assert methods[(family, m, "exhaustive@5s")][1:] == ((0, 1), True)
+        # the library proves the Table 4.2 optima; the clusters-only instances get the branch and bound
+        assert ("table4.2", m, "bnb") not in methods
+        assert methods[("table4.2-clusters", m, "bnb")][1:] == ((0, 1), True)
     with pytest.raises(ValueError, match="instances"):
-        study.ablation_tasks(seeds=[0], ms=(1,), runs=1, instances=["nope"], es_limit=5, exact_limit=5)
+        study.ablation_parts(seeds=[0], ms=(1,), runs=1, instances=["nope"], es_limit=5, exact_limit=5)
     with pytest.raises(ValueError, match="variants"):
-        study.ablation_tasks(seeds=[0], ms=(1,), runs=1, variants=["nope"], es_limit=5, exact_limit=5)
+        study.ablation_parts(seeds=[0], ms=(1,), runs=1, variants=["nope"], es_limit=5, exact_limit=5)
 
 
 def test_instance_features_checks_the_centres_and_counts_them_against_the_reach():
@@ -182,16 +163,18 @@ def test_ga_ablation_refuses_runs_beyond_the_solves_budget_up_front(kw, name, tm
     assert not list(tmp_path.iterdir())  # refused before any store was opened
 
 
-def test_ablation_budget_counts_every_run_and_reference_as_tasks_do():
+def test_ablation_budget_counts_every_run_and_reference():
     from droneplan.core.validation import work_limits
 
     kw = {"seeds": [0, 1], "ms": (1, 2), "runs": 3, "ablation_runs": 2, "es_limit": 5, "exact_limit": 5}
-    tasks = study.ablation_tasks(**kw)
-    cost = sum(2 if t["kind"] == "ref" else study._ga_run_cost(t["variant"]) for t in tasks)
+    n = 4  # (seed, m) pairs
+    others = sum(4 if v == "restarts-x4" else 1 for v in study.GA_VARIANTS if v != "thesis")
+    # thesis GA runs, the other variants' runs and the clusters-only runs, two references per instance
+    cost = n * 3 + n * 2 * (others + 1) + 2 * n * 2
     with work_limits(solves=cost):
-        assert len(study.ablation_tasks(**kw)) == len(tasks)
+        assert study.ablation_parts(**kw)
     with work_limits(solves=cost - 1), pytest.raises(ValueError, match="solver calls"):
-        study.ablation_tasks(**kw)
+        study.ablation_parts(**kw)
 
 
 @pytest.mark.parametrize("param", ["executor", "store", "out"])

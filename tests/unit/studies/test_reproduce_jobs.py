@@ -68,7 +68,7 @@ def test_bad_graphs_are_refused(jobs, message):
 
 
 def test_store_tasks_need_a_store():
-    task = {"problem": "cells", "instance": "t", "kind": "ga", "m": 1, "seed": 0, "run_seed": 1}
+    task = {"problem": "cells", "instance": "t", "kind": "exact", "m": 1, "seed": 0, "exact_limit": 5.0}
     with make_executor(1) as ex, pytest.raises(ValueError, match="need a store"):
         run_jobs(row_jobs(_task_rows, [task], section="s", cost=1.0), executor=ex, progress=False)
 
@@ -87,20 +87,17 @@ def test_time_table_sums_the_jobs():
 
 
 def _tiny_jobs(store_path) -> list[Job]:
-    """A tiny reproduction: cells GA runs and an exact solve at m = 1, herding pairs on 30 animals."""
-    ga = [
+    """A tiny reproduction: cells exact solves at m = 1 (clustered and not), herding pairs on 30 animals."""
+    nc = [
         {
             "problem": "cells",
-            "instance": instance_id("tiny-ga", m=1, run=r),
-            "kind": "ga",
+            "instance": instance_id("tiny-nc", m=1, seed=s),
+            "kind": "exact-nc",
             "m": 1,
-            "seed": 0,
-            "run_seed": r,
-            "pop_size": 10,
-            "restarts": 2,
-            "iter_max": 5,
+            "seed": s,
+            "exact_limit": 30.0,
         }
-        for r in range(3)
+        for s in range(3)
     ]
     exact = [
         {
@@ -110,7 +107,6 @@ def _tiny_jobs(store_path) -> list[Job]:
             "m": 1,
             "seed": 0,
             "exact_limit": 30.0,
-            "es_limit": 5.0,
         }
     ]
     herd = [
@@ -125,7 +121,7 @@ def _tiny_jobs(store_path) -> list[Job]:
         for s in range(2)
     ]
     return [
-        *row_jobs(cells.reproduce_task, ga + exact, section="cells", cost=cells._task_cost),
+        *row_jobs(cells.reproduce_task, nc + exact, section="cells", cost=cells._task_cost),
         *herding._pair_jobs(herd, "herding"),
     ]
 
@@ -148,15 +144,15 @@ def test_serial_and_parallel_runs_write_the_same_rows(tmp_path):
             run_jobs(_tiny_jobs(path), executor=ex, store=st, progress=False)
         frames.append(_rows(path))
     serial, parallel = frames
-    # GA runs; milp, bound, exhaustive pruned and as written; two herders per herd
-    assert len(serial) == 3 + 4 + 2 * 2
+    # branch and bound and continuous bound per exact solve; two herders per herd
+    assert len(serial) == 3 * 2 + 2 + 2 * 2
     assert (serial["status"] != "error").all()
     pd.testing.assert_frame_equal(serial, parallel)
 
 
 def test_a_rerun_resumes_from_the_store(tmp_path):
     path = tmp_path / "results.sqlite"
-    jobs = _tiny_jobs(path)[:3]  # the GA runs
+    jobs = _tiny_jobs(path)[:3]  # the non-clustered solves
     with make_executor(1) as ex, ResultStore(path) as st:
         first = run_jobs(jobs, executor=ex, store=st, progress=False)
         again = run_jobs(jobs, executor=ex, store=st, progress=False)
