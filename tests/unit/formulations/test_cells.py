@@ -723,10 +723,10 @@ def test_default_workers_per_engine(monkeypatch, entry, engine, expected):
     """workers=None resolves per engine (DEFAULT_WORKERS); an explicit count is passed on."""
     from droneplan.formulations.cells import _exact
 
-    assert _exact.DEFAULT_WORKERS == {"bnb": 2, "milp": 1}
+    assert _exact.DEFAULT_WORKERS == {"bnb": 2, "milp": 1, "auto": 2}
     seen, result = [], object()
 
-    def bnb(prep, workers):
+    def bnb(prep, workers, peer=None):
         seen.append(workers)
         return result
 
