@@ -60,12 +60,13 @@ def test_max_terms_stops_the_build(m4):
 def test_time_limit_covers_the_whole_call(limit):
     # Table 4.2 m = 6 seed 1: its models (1.5 M hop-row terms) take seconds to build, so
     # both limits expire while a model is built or solved; the tolerance is generous (a
-    # correctness check that the limit is respected, not a timing)
+    # correctness check that the limit is respected, not a timing: the build checks the clock
+    # between blocks of rows, and a quiet 2-core machine returned after 5.3-6.0 s at limit 4)
     p = thesis_problem(6, 1)
     t0 = time.perf_counter()
     res = solve_exact(p, engine="milp", time_limit=limit, workers=1)
     wall = time.perf_counter() - t0
-    assert wall <= limit + 2.0, wall
+    assert wall <= limit + 3.0, wall
     assert res.status in (Status.FEASIBLE, Status.OPTIMAL)
     assert res.x is not None and len(res.x) >= 1
 
