@@ -93,13 +93,10 @@ class LinearModel(abc.ABC):
     def minimize(self, expr: Any) -> None:
         """Set the objective to minimise ``expr``."""
 
+    @abc.abstractmethod
     def write(self, path: str | os.PathLike[str]) -> Path:
         """Write the model as it stands to ``path`` (``.mps``: free MPS; ``.lp``: CPLEX LP),
-        through a temporary file renamed into place; returns the path. A backend whose models
-        cannot be written raises NotImplementedError naming the backends that can."""
-        raise NotImplementedError(
-            f"{self.backend} models cannot be written to a file; build the model on cp-sat, highs or scip"
-        )
+        through a temporary file renamed into place; returns the path."""
 
     @abc.abstractmethod
     def solve(
