@@ -40,17 +40,35 @@ differs from droneplan's the row is flagged ``claim-mismatch``. Only droneplan's
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from typing import Any
-
-import numpy as np
 
 from droneplan.solvers.result import SolveResult, Status
 from droneplan.studies.instances import StudyInstance
-from droneplan.studies.methods import CLOSED_LOOP_KINDS, Method, WarmStarted
+from droneplan.studies.kinds import KINDS
+from droneplan.studies.kinds.herding import HERDING_T_MAX, allocation_of
+from droneplan.studies.methods import Method, WarmStarted
+from droneplan.studies.scoring import COMPOSITE_INFO, Scored, describe, number
+
+SENSE_OF_KIND = {name: kind.sense for name, kind in KINDS.items()}
+"""The direction in which each kind's objective is better (a view of the kind classes)."""
+
+STATIC_KINDS = tuple(name for name, kind in KINDS.items() if not kind.closed_loop)
+"""The kinds whose methods return a plan (the others run a controller in a simulator)."""
+
+
+def method_arguments(instance: StudyInstance) -> tuple[Any, ...]:
+    """The positional arguments a method of a static kind is called with (its kind's
+    :meth:`~droneplan.studies.kinds.base.Kind.arguments`); arrays are copies.
+
+    instance: an instance of one of ``STATIC_KINDS``.
+    """
+    kind = instance.kind_class
+    if kind.closed_loop:
+        raise ValueError(f"instance kind {instance.kind!r} is not one of {', '.join(STATIC_KINDS)}")
+    return kind.arguments(instance.data)
+
 
 __all__ = [
     "Scored",
@@ -69,42 +87,6 @@ __all__ = [
     "run_warm_started",
     "method_arguments",
 ]
-
-COMPOSITE_INFO = "composite"
-"""The entry of a warm-started composite's ``SolveResult.info`` that holds its row's extras (both
-parts' times, the heuristic's verified objective, the warm start's fate)."""
-
-SENSE_OF_KIND = {
-    "cells": "max",
-    "cells-mobile": "max",
-    "cells-fleet": "min",
-    "allocation": "min",
-    "shark-path": "min",
-    "shark-fleet": "min",
-    "covert-run": "min",
-    "herding-run": "min",
-}
-"""The direction in which each kind's objective is better."""
-
-HERDING_T_MAX = 1800.0
-"""Simulated horizon of a herding run (s), as the simulator's default."""
-
-_CLAIM_TOL = 1e-6
-
-
-@dataclass
-class Scored:
-    """Droneplan's verdict on one job (the method-independent part of its row)."""
-
-    status: str
-    objective: float | None = None
-    bound: float | None = None
-    bound_kind: str = "none"
-    claimed_objective: float | None = None
-    flags: list[str] = field(default_factory=list)
-    message: str = ""
-    warm_started: bool = False
-    extras: dict[str, Any] = field(default_factory=dict)
 
 
 # --------------------------------------------------------------------------- in the child
@@ -130,47 +112,25 @@ def execute(
     that only answers commands; a controller that fails or answers with something other than a
     plain command gives ``{"controller_failed": message}``.
     """
-    data = instance.data
-    if instance.kind in STATIC_KINDS:
+    kind = instance.kind_class
+    if not kind.closed_loop:
         if isinstance(method, WarmStarted):
             return run_warm_started(instance, method, seed, time_limit, budgets)
         extra = _method_keywords(method, budgets or {})
-        return method.call(*method_arguments(instance), seed=seed, time_limit=time_limit, **extra)
+        return kind.execute(instance.data, method, seed=seed, time_limit=time_limit, **extra)
     if method.is_bound_engine:
-        return method.call(data, seed=seed, time_limit=time_limit)
+        return method.call(instance.data, seed=seed, time_limit=time_limit)
     from droneplan.studies.sandbox import ControllerFailed, ControllerProcess
 
     t0 = time.perf_counter()
     with ControllerProcess(method.controller) as ctl:
         try:
-            metrics = _simulate(instance, ctl, seed)
+            metrics = kind.simulate(instance.data, ctl, seed)
         except ControllerFailed as exc:
             metrics = {"controller_failed": str(exc), "failure_status": exc.status}
         metrics["method_time_s"] = ctl.method_time_s
     metrics["simulation_time_s"] = max(0.0, time.perf_counter() - t0 - metrics["method_time_s"])
     return metrics
-
-
-STATIC_KINDS = ("cells", "cells-mobile", "cells-fleet", "allocation", "shark-fleet")
-"""The kinds whose methods return a plan (the others run a controller in a simulator)."""
-
-
-def method_arguments(instance: StudyInstance) -> tuple[Any, ...]:
-    """The positional arguments a method of a static kind is called with (module docstring of
-    :mod:`~droneplan.studies.methods`: the contract per kind); arrays are copies.
-
-    instance: an instance of one of ``STATIC_KINDS``.
-    """
-    data = instance.data
-    if instance.kind in ("cells", "cells-mobile"):
-        return (data,)
-    if instance.kind == "cells-fleet":
-        return (data.problem, data.coverage)
-    if instance.kind == "allocation":
-        return (data.drone_s.copy(), data.steer_s.copy(), data.perimeter)
-    if instance.kind == "shark-fleet":
-        return tuple(a.copy() for a in (data.operators, data.sharks_pos, data.sharks_vel, data.humans))
-    raise ValueError(f"instance kind {instance.kind!r} is not one of {', '.join(STATIC_KINDS)}")
 
 
 def _method_keywords(method: Method, budgets: Mapping[str, Any]) -> dict[str, Any]:
@@ -202,465 +162,7 @@ def execute_plain(
         return wire.refusal(exc, value)
 
 
-def _simulate(instance: StudyInstance, ctl: Any, seed: int) -> dict[str, Any]:
-    """The simulator's metrics of one closed-loop run of ``ctl`` on ``instance`` (droneplan's own run)."""
-    data = instance.data
-    if instance.kind == "shark-path":
-        from droneplan.scenarios.shark import simulate
-
-        shark = simulate(data, ctl, seed=seed)
-        return {
-            "intercept_time": shark.intercept_time,
-            "frontal": bool(shark.frontal),
-            "touched_early": bool(shark.touched_early),
-            "interception_distance": shark.interception_distance,
-            "fallbacks": int(shark.fallbacks),
-            "capture_time": _number(getattr(ctl, "capture_time", None)),
-        }
-    if instance.kind == "covert-run":
-        from droneplan.scenarios.covert import simulate as simulate_covert
-
-        covert = simulate_covert(data, ctl, seed=seed)
-        return {
-            "beta_max_deg": math.degrees(covert.beta_max) if covert.beta_max is not None else None,
-            "sphere_error": covert.sphere_error,
-            "t_a": covert.t_a,
-            "fallbacks": int(covert.fallbacks),
-        }
-    from droneplan.scenarios.herding import simulate as simulate_herding
-
-    herd = simulate_herding(data, ctl, t_max=HERDING_T_MAX, seed=seed)
-    return {"total_time": herd.total_time, "gather_time": herd.gather_time, "fallbacks": int(herd.fallbacks)}
-
-
 # --------------------------------------------------------------------------- in the parent
-def _number(v: Any) -> float | None:
-    """A finite float from a Python or numpy number; None otherwise."""
-    if isinstance(v, (bool, np.bool_)) or v is None:
-        return None
-    if isinstance(v, (int, float, np.integer, np.floating)):
-        f = float(v)
-        return f if math.isfinite(f) else None
-    if isinstance(v, np.ndarray) and v.shape == () and v.dtype.kind in "iuf":
-        return _number(v.item())
-    return None
-
-
-def _scalar(v: Any) -> bool:
-    """Whether ``v`` is a value a row's extra column holds (None, a bool, a finite number, a str)."""
-    return v is None or isinstance(v, (bool, str)) or _number(v) is not None
-
-
-def _describe(v: Any) -> str:
-    text = repr(v)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-SAID = "said_"
-"""The prefix of the row extras a method reports about its own run (``SolveResult.info["extras"]``
-and its ``solve_time``): claims, recorded as such."""
-
-MAX_SAID = 32
-"""The most ``info["extras"]`` entries of one result kept on its row."""
-
-
-def _claims(scored: Scored, result: SolveResult, method: Method) -> None:
-    """Record what a SolveResult claims beside droneplan's own numbers."""
-    claimed = result.objective
-    if claimed is not None:
-        num = _number(claimed)
-        if num is None:
-            scored.flags.append("claim-invalid")
-            scored.extras["claimed_objective_text"] = _describe(claimed)
-        else:
-            scored.claimed_objective = num
-    status = result.status
-    scored.extras["claimed_status"] = status.value if isinstance(status, Status) else _describe(status)
-    if not isinstance(status, Status):
-        scored.flags.append("claim-invalid")
-    scored.warm_started = bool(getattr(result, "warm_started", False))
-    info = result.info if isinstance(result.info, Mapping) else {}
-    evaluations = _number(info.get("evaluations"))
-    if evaluations is not None:
-        scored.extras["evaluations"] = evaluations
-    if result.bound is not None and not method.trusted_bound:
-        scored.extras["claimed_bound"] = _number(result.bound)
-    if method.trusted_bound:  # droneplan's engines: their own solve time and search nodes
-        scored.extras["solve_time_s"] = _number(result.solve_time)
-        stats = info.get("model_stats")
-        places = (info, stats if isinstance(stats, Mapping) else {})
-        found = (_number(d.get(k)) for d in places for k in ("nodes", "num_branches"))
-        nodes = next((n for n in found if n is not None), None)
-        if nodes is not None:  # the branch and bound's search nodes, CP-SAT's branches
-            scored.extras["nodes"] = nodes
-        composite = info.get(COMPOSITE_INFO) if isinstance(method, WarmStarted) else None
-        if isinstance(composite, Mapping):
-            scored.extras.update({str(k): v for k, v in composite.items() if _scalar(v)})
-    # what a method says about its run (``info["extras"]``, its own clock) is kept under ``said_``
-    # names beside droneplan's numbers, never in their place
-    said = info.get("extras")
-    if isinstance(said, Mapping):
-        kept = list(said.items())[:MAX_SAID]
-        scored.extras.update({f"{SAID}{str(k)[:40]}": v for k, v in kept if _scalar(v)})
-    scored.extras.setdefault(f"{SAID}solve_time_s", _number(result.solve_time))
-
-
-def _check_claim(scored: Scored) -> None:
-    if scored.claimed_objective is None or scored.objective is None:
-        return
-    if abs(scored.claimed_objective - scored.objective) > _CLAIM_TOL * max(1.0, abs(scored.objective)):
-        scored.flags.append("claim-mismatch")
-        scored.message = (
-            f"the method claims {scored.claimed_objective:g}, droneplan measures {scored.objective:g}; "
-            + scored.message
-        ).rstrip("; ")
-
-
-def _unwrap(returned: Any, method: Method, scored: Scored) -> tuple[Any, bool]:
-    """The plan inside ``returned`` and whether there is one (a SolveResult may carry none)."""
-    if isinstance(returned, SolveResult):
-        _claims(scored, returned, method)
-        if returned.x is None:
-            scored.status = "no_solution"
-            scored.message = f"the method returned no plan (its status: {scored.extras['claimed_status']})"
-            return None, False
-        return returned.x, True
-    return returned, True
-
-
-def _numeric_plan(plan: Any, tail: tuple[int, ...], lead: int | None = None) -> np.ndarray | str:
-    """``plan`` as a float array of shape (k, *tail), or (lead, k, *tail) when ``lead`` is given
-    (one placement per epoch); a one-line reason when it is not one."""
-    try:
-        raw = np.asarray(plan)
-    except (TypeError, ValueError):
-        raw = np.asarray(None)
-    if raw.dtype.kind not in "iuf" and raw.size:
-        return f"positions must be numbers (reals), got {_describe(plan)}"
-    pos = raw.astype(float)
-    head = () if lead is None else (lead,)
-    if pos.size == 0:
-        pos = pos.reshape(*head, 0, *tail)
-    if lead is None and pos.ndim == 1 and pos.shape == tail:
-        pos = pos.reshape(1, *tail)
-    shape = pos.shape[: len(head)] + pos.shape[len(head) + 1 :]
-    if pos.ndim != len(head) + 1 + len(tail) or shape != head + tail:
-        want = ", ".join(str(d) for d in (*head, "k", *tail))
-        return f"positions must have shape ({want}), got {pos.shape}"
-    if not np.all(np.isfinite(pos)):
-        return "positions contain NaN or inf"
-    return pos
-
-
-def _cells_plan(
-    returned: Any, method: Method, tail: tuple[int, ...], n_cells: int, lead: int | None = None
-) -> tuple[Scored, np.ndarray | None]:
-    """The verdict so far and the plan of at most ``n_cells`` drone-cells in ``returned``
-    (:func:`_numeric_plan`'s shapes); the plan is None when the verdict is already final."""
-    scored = Scored("feasible")
-    plan, has = _unwrap(returned, method, scored)
-    if not has:
-        return scored, None
-    pos = _numeric_plan(plan, tail, lead)
-    if isinstance(pos, str):
-        return Scored("invalid", message=pos, extras=scored.extras), None
-    if pos.shape[-2] > n_cells:  # refused before any work that grows with the number of cells
-        return (
-            Scored(
-                "invalid",
-                message=f"the plan places {pos.shape[-2]} drone-cells; the instance has n_cells = {n_cells}",
-                extras=scored.extras,
-            ),
-            None,
-        )
-    return scored, pos
-
-
-def _score_cells(instance: StudyInstance, returned: Any, method: Method) -> Scored:
-    from droneplan.formulations.cells import evaluate
-
-    problem = instance.data  # plans (x, y), or (x, y, h) with altitude levels
-    scored, pos = _cells_plan(returned, method, (problem.plan_width,), problem.n_cells)
-    if pos is None:
-        return scored
-    ev = evaluate(problem, pos)
-    scored.extras["n_placed"] = len(pos)
-    if not ev.feasible:
-        _infeasible(scored, ev.violations)
-        scored.extras["covered_if_feasible"] = ev.value
-        return scored
-    scored.objective = float(ev.value)  # covered users; the covered (served) weight of a variant
-    _trusted(scored, returned, method)
-    return scored
-
-
-def _infeasible(scored: Scored, violations: Any) -> None:
-    """Mark ``scored`` infeasible with the first three ``violations`` in its message."""
-    more = f" (+{len(violations) - 3} more)" if len(violations) > 3 else ""
-    scored.status = "infeasible"
-    scored.message = "; ".join(violations[:3]) + more
-
-
-def _trusted(scored: Scored, returned: Any, method: Method) -> None:
-    """A cells engine's bound and status (only a trusted method's ``SolveResult``), then the claim
-    check."""
-    if method.trusted_bound and isinstance(returned, SolveResult):
-        bound = _number(returned.bound)
-        if bound is not None:
-            scored.bound = bound
-            scored.bound_kind = "proven-global" if returned.info.get("global_optimal") else "candidate-set"
-        if returned.status is Status.OPTIMAL:
-            scored.status = "optimal"
-        scored.message = returned.message
-    _check_claim(scored)
-
-
-def _score_cells_mobile(instance: StudyInstance, returned: Any, method: Method) -> Scored:
-    from droneplan.formulations.cells import evaluate_mobile
-
-    mp = instance.data
-    width, n_cells = mp.problem.plan_width, mp.problem.n_cells
-    scored, pos = _cells_plan(returned, method, (width,), n_cells, lead=mp.n_epochs)
-    if pos is None:
-        return scored
-    ev = evaluate_mobile(mp, pos)
-    scored.extras["per_epoch"] = list(ev.per_epoch)
-    if not ev.feasible:
-        _infeasible(scored, ev.violations)
-        return scored
-    scored.objective = float(ev.value)  # covered weight summed over the epochs
-    _trusted(scored, returned, method)
-    return scored
-
-
-def _score_cells_fleet(instance: StudyInstance, returned: Any, method: Method) -> Scored:
-    from droneplan.formulations.cells import evaluate
-
-    problem, need = instance.data.problem, instance.data.required_value
-    scored, pos = _cells_plan(returned, method, (problem.plan_width,), problem.n_cells)
-    if pos is None:
-        return scored
-    ev = evaluate(problem, pos)
-    scored.extras["share"] = ev.value / max(float(problem.target_weights.sum()), 1e-300)
-    violations = list(ev.violations)
-    if ev.value < need - 1e-9 * max(1.0, need):
-        violations.append(f"the plan covers {ev.value:g} of the weight, short of the {need:g} required")
-    if violations:
-        _infeasible(scored, violations)
-        return scored
-    scored.objective = float(len(pos))  # drone-cells used
-    _trusted(scored, returned, method)
-    return scored
-
-
-_STATIC_CELLS = {
-    "cells": _score_cells,
-    "cells-mobile": _score_cells_mobile,
-    "cells-fleet": _score_cells_fleet,
-}
-"""The scorers of the cells kinds."""
-
-
-def _score_allocation(instance: StudyInstance, returned: Any, method: Method) -> Scored:  # noqa: C901
-    from droneplan.formulations.herding import Allocation, check_allocation
-
-    scored = Scored("feasible")
-    plan, has = _unwrap(returned, method, scored)
-    if not has:
-        return scored
-    data = instance.data
-    n, M = data.n, data.perimeter
-    if isinstance(plan, Allocation):
-        claimed_travel = _number(np.max(plan.travel)) if np.size(plan.travel) else None
-        if scored.claimed_objective is None and claimed_travel is not None:
-            scored.claimed_objective = claimed_travel
-        target, direction = plan.target, plan.direction
-    elif isinstance(plan, (tuple, list)) and len(plan) == 2:
-        target, direction = plan
-    else:
-        return Scored(
-            "invalid",
-            message="an allocation method returns (target, direction) or an Allocation, got "
-            + _describe(plan),
-            extras=scored.extras,
-        )
-    try:
-        t_arr = np.asarray(target)
-        d_arr = np.asarray(direction)
-    except (TypeError, ValueError):
-        return Scored(
-            "invalid", message="target and direction must be arrays of integers", extras=scored.extras
-        )
-    for name, arr in (("target", t_arr), ("direction", d_arr)):
-        if arr.shape != (n,):
-            return Scored(
-                "invalid", message=f"{name} must have shape ({n},), got {arr.shape}", extras=scored.extras
-            )
-        if arr.dtype.kind not in "iuf" or (arr.dtype.kind == "f" and not np.all(np.isfinite(arr))):
-            return Scored(
-                "invalid", message=f"{name} must hold finite integers, got {arr.dtype}", extras=scored.extras
-            )
-        if not np.all(arr == np.round(arr)):
-            return Scored(
-                "invalid", message=f"{name} must hold integers, got {_describe(arr)}", extras=scored.extras
-            )
-    t_int, d_int = t_arr.astype(int), d_arr.astype(int)
-    if np.any(t_int < 0) or np.any(t_int >= n):
-        return Scored("invalid", message=f"target indexes must lie in 0..{n - 1}", extras=scored.extras)
-    alloc = allocation_of(data, t_int, d_int)
-    try:
-        value = check_allocation(data.drone_s, data.steer_s, M, alloc)
-    except ValueError as exc:
-        scored.status = "infeasible"
-        scored.message = str(exc)
-        scored.extras["max_travel_if_feasible"] = float(np.max(alloc.travel))
-        return scored
-    scored.objective = value
-    if method.trusted_bound and isinstance(returned, SolveResult) and returned.status is Status.OPTIMAL:
-        scored.status = "optimal"
-        scored.bound, scored.bound_kind = value, "proven-global"
-        scored.message = returned.message
-    _check_claim(scored)
-    return scored
-
-
-def allocation_of(data: Any, target: np.ndarray, direction: np.ndarray) -> Any:
-    """The herding :class:`~droneplan.formulations.herding.Allocation` of ``(target, direction)`` on an
-    allocation instance, with the travels droneplan computes (not checked: ``check_allocation`` does).
-
-    data: the allocation instance's data (``drone_s``, ``steer_s``, ``perimeter``, ``n``).
-    target: (n,) int, each drone's index into the steering points padded by ``pad_steering_points``.
-    direction: (n,) int, +1 (increasing arc length) or -1 for each drone.
-    """
-    from droneplan.formulations.herding import Allocation, pad_steering_points
-
-    M = data.perimeter
-    points = pad_steering_points(data.steer_s, data.n, M)
-    dest = points[target]
-    travel = np.where(direction > 0, np.mod(dest - data.drone_s, M), np.mod(data.drone_s - dest, M))
-    return Allocation(target=target, direction=direction, travel=travel, points=points)
-
-
-_FLEET_COSTS: dict[str, np.ndarray] = {}  # interception-time matrices by instance fingerprint
-
-
-def _fleet_costs(instance: StudyInstance) -> tuple[np.ndarray, np.ndarray]:
-    """(interception-time matrix (n, s) in s, indices of the sharks to serve) of a fleet instance."""
-    from droneplan.formulations.shark import select_sharks
-    from droneplan.planners.shark import interception_time_matrix
-
-    d = instance.data
-    key = instance.fingerprint()
-    if key not in _FLEET_COSTS:
-        if len(_FLEET_COSTS) > 64:
-            _FLEET_COSTS.clear()
-        _FLEET_COSTS[key] = interception_time_matrix(d.operators, d.sharks_pos, d.sharks_vel)
-    near = np.min(np.linalg.norm(d.sharks_pos[:, None, :2] - d.humans[None, :, :2], axis=2), axis=1)
-    n, s = len(d.operators), len(d.sharks_pos)
-    return _FLEET_COSTS[key], select_sharks(near, n) if s > n else np.arange(s)
-
-
-def _fleet_plan(plan: Any, n: int) -> tuple[np.ndarray, np.ndarray] | str:
-    """(sharks, operator) as integer arrays, or why they are not an assignment."""
-    if hasattr(plan, "sharks") and hasattr(plan, "operator"):
-        plan = (plan.sharks, plan.operator)
-    if not (isinstance(plan, (tuple, list)) and len(plan) == 2):
-        return "a fleet method returns (sharks, operator) or an Assignment, got " + _describe(plan)
-    try:
-        arrs = [np.asarray(a) for a in plan]
-    except (TypeError, ValueError):
-        return "sharks and operator must be arrays of integers"
-    for name, arr in zip(("sharks", "operator"), arrs, strict=True):
-        if arr.ndim != 1 or arr.dtype.kind not in "iu":
-            return f"{name} must be a 1-D array of integers, got {_describe(arr)}"
-    if arrs[0].shape != arrs[1].shape:
-        return f"sharks and operator must have the same length, got {arrs[0].shape} and {arrs[1].shape}"
-    if np.any(arrs[1] < 0) or np.any(arrs[1] >= n):
-        return f"operator indexes must lie in 0..{n - 1}"
-    return arrs[0].astype(int), arrs[1].astype(int)
-
-
-def _score_fleet(instance: StudyInstance, returned: Any, method: Method) -> Scored:
-    scored = Scored("feasible")
-    plan, has = _unwrap(returned, method, scored)
-    if not has:
-        return scored
-    cost, serve = _fleet_costs(instance)
-    found = _fleet_plan(plan, len(cost))
-    if isinstance(found, str):
-        return Scored("invalid", message=found, extras=scored.extras)
-    sharks, operator = found
-    if sorted(sharks.tolist()) != serve.tolist():
-        scored.status = "infeasible"
-        scored.message = (
-            f"the sharks to serve are {serve.tolist()}, the plan serves {sorted(sharks.tolist())}"
-        )
-        return scored
-    if len(set(operator.tolist())) != len(operator):
-        scored.status = "infeasible"
-        scored.message = "an operator is sent to two sharks"
-        return scored
-    times = cost[operator, sharks]
-    if not np.all(np.isfinite(times)):
-        k = int(np.argmax(~np.isfinite(times)))
-        scored.status = "infeasible"
-        scored.message = (
-            f"operator {operator[k]} cannot reach shark {sharks[k]} within the prediction horizon"
-        )
-        return scored
-    scored.objective = float(times.max())
-    scored.extras["n_sharks"] = len(instance.data.sharks_pos)
-    if method.trusted_bound and isinstance(returned, SolveResult) and returned.status is Status.OPTIMAL:
-        scored.status = "optimal"
-        bound = _number(returned.bound)
-        if bound is not None:
-            scored.bound, scored.bound_kind = bound, "proven-global"
-        scored.message = returned.message
-    _check_claim(scored)
-    return scored
-
-
-def _score_closed_loop(instance: StudyInstance, metrics: Mapping[str, Any]) -> Scored:
-    extras = {
-        k: v
-        for k, v in metrics.items()
-        if k not in ("intercept_time", "beta_max_deg", "total_time", "controller_failed", "failure_status")
-    }
-    if "controller_failed" in metrics:
-        status = "invalid" if metrics.get("failure_status") == "invalid" else "error"
-        return Scored(status, message=str(metrics["controller_failed"]), extras=extras)
-    if instance.kind == "shark-path":
-        t = _number(metrics.get("intercept_time"))
-        if metrics.get("touched_early"):
-            return Scored(
-                "infeasible", message="the field touched the shark before the frontal contact", extras=extras
-            )
-        if t is None:
-            return Scored("no_solution", message="no contact within the shark path's horizon", extras=extras)
-        if not metrics.get("frontal"):
-            return Scored(
-                "infeasible",
-                message="first contact not frontal (the shark's heading does not point at the operator)",
-                extras={**extras, "contact_time_if_frontal": t},
-            )
-        return Scored("feasible", objective=t, message="time of first (frontal) contact, s", extras=extras)
-    if instance.kind == "covert-run":
-        b = _number(metrics.get("beta_max_deg"))
-        if b is None:
-            return Scored(
-                "no_solution", message="no bearing change recorded (no target observed)", extras=extras
-            )
-        return Scored(
-            "feasible", objective=b, message="max recorded bearing change beta_max, deg", extras=extras
-        )
-    total = _number(metrics.get("total_time"))
-    if total is None:
-        return Scored(
-            "no_solution",
-            message=f"the herd was not gathered and driven within {HERDING_T_MAX:g} s",
-            extras=extras,
-        )
-    return Scored("feasible", objective=total, message="gathering + driving time, s", extras=extras)
 
 
 def _score_bound_engine(returned: Mapping[str, Any]) -> Scored:
@@ -669,11 +171,11 @@ def _score_bound_engine(returned: Mapping[str, Any]) -> Scored:
 
     status = str(returned.get("status", ""))
     if status not in ("optimal", "no_solution"):
-        return Scored("error", message=f"internal: a bound engine returned status {_describe(status)}")
-    bound = _number(returned.get("bound"))
+        return Scored("error", message=f"internal: a bound engine returned status {describe(status)}")
+    bound = number(returned.get("bound"))
     kind = str(returned.get("bound_kind", "none"))
     if bound is not None and (kind not in BOUND_KINDS or kind == "none"):
-        return Scored("error", message=f"internal: a bound engine returned bound kind {_describe(kind)}")
+        return Scored("error", message=f"internal: a bound engine returned bound kind {describe(kind)}")
     extras = dict(returned.get("extras") or {})
     return Scored(
         status, bound=bound, bound_kind=kind, message=str(returned.get("message", "")), extras=extras
@@ -691,19 +193,13 @@ def score(instance: StudyInstance, method: Method, returned: Any) -> Scored:
             "methods return numbers, arrays, tuples, lists, dicts or droneplan's result types",
             extras={"returned_type": returned.type_name} if returned.type_name else {},
         )
-    if instance.kind in _STATIC_CELLS:
-        return _STATIC_CELLS[instance.kind](instance, returned, method)
-    if instance.kind == "allocation":
-        return _score_allocation(instance, returned, method)
-    if instance.kind == "shark-fleet":
-        return _score_fleet(instance, returned, method)
-    if instance.kind in CLOSED_LOOP_KINDS:
+    kind = instance.kind_class
+    if kind.closed_loop:
         if not isinstance(returned, Mapping):
-            return Scored("error", message=f"internal: the simulation returned {_describe(returned)}")
+            return Scored("error", message=f"internal: the simulation returned {describe(returned)}")
         if method.is_bound_engine:
             return _score_bound_engine(returned)
-        return _score_closed_loop(instance, returned)
-    raise ValueError(f"unknown instance kind {instance.kind!r}")
+    return kind.score(instance, returned, method)
 
 
 HEURISTIC_SHARE = 0.5
@@ -796,7 +292,7 @@ def run_warm_started(
     result = method.engine.call(*method_arguments(instance), seed=seed, time_limit=left, warm_start=start)
     facts["engine_time_s"] = result.solve_time if result.solve_time else time.perf_counter() - t1
     if start is not None and verdict is not None:
-        _fate(instance.kind, result, verdict, facts)
+        _fate(result, verdict, facts)
         result = _better_of(instance.kind, result, start, verdict, facts)
     return dataclasses.replace(result, info={**result.info, COMPOSITE_INFO: facts})
 
@@ -832,20 +328,15 @@ def _verified_start(
         return cold(verdict.status, f"the heuristic's plan is {verdict.status} ({why}); the engine ran cold")
     facts.update(heuristic_status=verdict.status, heuristic_objective=verdict.objective)
     plan = value.x if isinstance(value, SolveResult) else value
-    if instance.kind == "allocation":
-        if hasattr(plan, "target") and hasattr(plan, "direction"):
-            plan = (plan.target, plan.direction)
-        target, direction = (np.asarray(a).astype(int) for a in plan)
-        return allocation_of(instance.data, target, direction), verdict
-    return np.asarray(plan, dtype=float), verdict
+    return instance.kind_class.warm_start(instance.data, plan), verdict
 
 
-def _fate(kind: str, result: SolveResult, verdict: Scored, facts: dict[str, Any]) -> None:
-    """What became of a verified start: the cells engines' ``info["warm_start"]``, or the hint's
-    fate on CP-SAT."""
+def _fate(result: SolveResult, verdict: Scored, facts: dict[str, Any]) -> None:
+    """What became of a verified start: the engine's own account (``info["warm_start"]``, as the
+    cells engines give it), or the hint's fate on CP-SAT."""
     facts["warm_start_value"] = verdict.objective
     ws = result.info.get("warm_start") if isinstance(result.info, Mapping) else None
-    if kind == "cells" and isinstance(ws, Mapping):
+    if isinstance(ws, Mapping):  # the cells engines say what became of their start
         facts["warm_start"] = "used" if ws.get("used") else "not used"
         facts["warm_start_reason"] = str(ws.get("reason", ""))
         facts["warm_start_polished_value"] = ws.get("polished_value")

@@ -51,6 +51,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from droneplan.core.validation import check_time_limit
+from droneplan.studies.kinds import KINDS
 
 __all__ = [
     "Method",
@@ -70,8 +71,9 @@ __all__ = [
 COMPOSITE_SEPARATOR = "<"
 """What joins the engine and the heuristic of a warm-started composite (``"milp<ga"``)."""
 
-CLOSED_LOOP_KINDS = ("shark-path", "covert-run", "herding-run")
-"""Instance kinds whose methods are controller classes run by the problem's simulator."""
+CLOSED_LOOP_KINDS = tuple(name for name, kind in KINDS.items() if kind.closed_loop)
+"""Instance kinds whose methods are controller classes run by the problem's simulator (a view of
+the kind classes)."""
 
 
 @dataclass(frozen=True)
@@ -228,7 +230,7 @@ def _cells_greedy_fleet(problem, coverage, *, seed, time_limit):
     """The greedy placement of 1, 2, ... drone-cells, the first that reaches the share (the
     largest allowed when none does)."""
     from droneplan.formulations.cells import evaluate, greedy_placement
-    from droneplan.studies.instances import FleetSizeInstance
+    from droneplan.studies.kinds.cells import FleetSizeInstance
 
     need = FleetSizeInstance(problem, coverage).required_value
     plan = None
@@ -374,11 +376,7 @@ the fewest drone-cells model and ``greedy-fleet`` the greedy placement grown unt
 ``interception-bound`` the bound engines of covert runs and shark paths)."""
 
 DEFAULT_METHODS: dict[str, tuple[str, ...]] = {
-    "cells-mobile": ("joint", "myopic"),
-    "cells-fleet": ("min-fleet", "greedy-fleet"),
-    "covert-run": ("hover", "sliding", "mpc", "mpc-safeguarded", "onsphere-optimum"),
-    "shark-path": ("virtual-shark", "ocp", "interception-bound"),
-    "shark-fleet": ("bottleneck", "greedy-nearest"),
+    name: kind.default_methods for name, kind in KINDS.items() if kind.default_methods
 }
 """The registered methods a study of these kinds runs when it is given none (the built-in gap studies)."""
 
@@ -388,11 +386,12 @@ def default_methods(kind: str) -> list[str]:
 
     kind: an instance kind; one without defaults raises ValueError listing its registered methods.
     """
-    if kind not in DEFAULT_METHODS:
+    defaults = KINDS[kind].default_methods if kind in KINDS else ()
+    if not defaults:
         raise ValueError(
             f"methods: name at least one method; registered for {kind}: {', '.join(builtin_methods(kind))}"
         )
-    return list(DEFAULT_METHODS[kind])
+    return list(defaults)
 
 
 def builtin_methods(kind: str) -> list[str]:
@@ -575,7 +574,7 @@ def resolve_methods(kind: str, methods: Any) -> list[Method]:
             raise ValueError(
                 f"method {m.name!r} runs on {', '.join(m.kinds)} instances, not on {kind!r} instances"
             )
-        closed = kind in CLOSED_LOOP_KINDS
+        closed = kind in KINDS and KINDS[kind].closed_loop
         lazy = hasattr(m.target, "lazy_class")
         if closed and not (m.is_class or lazy or m.is_bound_engine):
             raise TypeError(f"method {m.name!r}: {kind} instances take a controller class, got {m.target!r}")

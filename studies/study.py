@@ -51,7 +51,7 @@ import pandas as pd
 from droneplan.core.validation import check_bool, check_instance, check_int, run_seed
 from droneplan.solvers.result import SolveResult
 from droneplan.studies import wire
-from droneplan.studies.harness import SENSE_OF_KIND, STATIC_KINDS, Scored, execute_plain, score
+from droneplan.studies.harness import Scored, execute_plain, score
 from droneplan.studies.instances import StudyInstance, resolve_instances
 from droneplan.studies.library import lookup
 from droneplan.studies.methods import Method, check_study_time_limit, resolve_methods
@@ -174,7 +174,7 @@ class _Task:
         """The runner's job of this task: the method in a child, under its wall and CPU limits,
         reporting when it takes a ``report`` (static kinds)."""
         cpu_limit, max_evaluations = self.budgets
-        reports = self.instance.kind in STATIC_KINDS and takes_report(self.method)
+        reports = not self.instance.kind_class.closed_loop and takes_report(self.method)
         wall = self.time_limit
         method_limit = wall
         if cpu_limit is not None and not self.method.accepts("cpu_limit"):
@@ -298,7 +298,7 @@ def _row(
         inst.id,
         seed=inst.seed,
         size=inst.size,
-        sense=SENSE_OF_KIND[inst.kind],
+        sense=inst.kind_class.sense,
         outcomes=[outcome],
         study=STUDY,
     )
@@ -526,7 +526,7 @@ def gap(
     with contextlib.ExitStack() as stack:
         if store is None:
             store = stack.enter_context(ResultStore(out / STORE_NAME))
-        if any(t.instance.kind in STATIC_KINDS and takes_report(t.method) for t in plan.tasks):
+        if any(not t.instance.kind_class.closed_loop and takes_report(t.method) for t in plan.tasks):
             execution.traces = stack.enter_context(TraceStore(Path(store.path).parent / TRACES_NAME))
         store.bind_instances(problem, {i.id: i.fingerprint() for i in plan.instances})
         done = store.done_keys(problem)

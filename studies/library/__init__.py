@@ -49,8 +49,6 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from droneplan.core.files import JsonFileError, read_json
 from droneplan.scenarios.cell_variants import VARIANTS
 from droneplan.studies.instances import FAMILIES, StudyInstance, family_instances
@@ -237,190 +235,21 @@ def _now() -> str:
 
 
 def certify_instance(instance: StudyInstance, *, time_limit: float | None) -> dict[str, Any]:
-    """Find and prove the best plan of one instance (runs in a job's child process).
+    """Find and prove the best plan of one instance (runs in a job's child process), by its kind's
+    certification procedure (:meth:`~droneplan.studies.kinds.base.Kind.certify`).
 
     Returns the entry's fields except provenance (a dict); raises when the engine's plan does not
     verify, so a wrong entry is never written.
     """
-    kind = instance.kind
-    if kind == "cells":
-        return _certify_cells(instance, time_limit)
-    if kind in _MODEL_ENGINES:
-        return _certify_by_engine(instance, time_limit)
-    if kind == "allocation":
-        return _certify_allocation(instance, time_limit)
-    if kind == "shark-path":
-        return _certify_shark(instance)
-    raise ValueError(f"no certification procedure for {kind!r} instances")
-
-
-def _certify_cells(instance: StudyInstance, time_limit: float | None) -> dict[str, Any]:
-    from droneplan.formulations import cells
-
-    problem = instance.data
-    engine = "milp" if problem.variants else "bnb"
-    res = cells.solve_exact(problem, engine=engine, time_limit=time_limit, workers=1)
-    if res.x is None or res.objective is None:
-        raise RuntimeError(f"{instance.id}: the {engine} found no plan ({res.status.name}: {res.message})")
-    ev = cells.evaluate(problem, res.x)
-    if not ev.feasible or abs(ev.value - float(res.objective)) > 1e-6 * max(1.0, ev.value):
-        raise RuntimeError(
-            f"{instance.id}: the engine's plan does not verify (value {ev.value:g}, claims {res.objective}; "
-            f"{'; '.join(ev.violations)})"
-        )
-    bound = None if res.bound is None else float(res.bound)
-    kind = "proven-global" if res.info.get("global_optimal") else "candidate-set"
-    described = (
-        "cells branch and bound (engine='bnb', workers=1)"
-        if engine == "bnb"
-        else f"cells MILP (engine='milp', {res.backend}, workers=1)"
-    )
-    return {
-        "value": float(ev.value),
-        "bound": bound,
-        "bound_kind": kind if bound is not None else "none",
-        "status": "optimal" if bound is not None and bound <= ev.value + 1e-9 else "feasible",
-        "sense": "max",
-        "plan": np.asarray(res.x, dtype=float).reshape(-1, problem.plan_width).tolist(),
-        "engine": described,
-        "time_s": float(res.solve_time),
-        "message": res.message,
-    }
-
-
-_MODEL_ENGINES = {
-    # kind: (exact engine, baseline, sense), all registered methods (studies.methods.BUILTIN)
-    "cells-mobile": ("joint", "myopic", "max"),
-    "cells-fleet": ("min-fleet", "greedy-fleet", "min"),
-    "shark-fleet": ("bottleneck", "greedy-nearest", "min"),
-}
-
-
-def _certify_by_engine(instance: StudyInstance, time_limit: float | None) -> dict[str, Any]:
-    """An instance by its kind's registered exact engine (``_MODEL_ENGINES``: the joint model of
-    moving users, ``min_fleet``, the bottleneck assignment of a shark fleet), its plan scored by
-    the study harness (droneplan's evaluator), so an entry holds what a study would score; when
-    the engine does not prove its plan, the better of it and the baseline's."""
-    from droneplan.solvers.result import SolveResult
     from droneplan.studies.harness import execute, score
     from droneplan.studies.methods import BUILTIN
 
-    engine_name, baseline_name, sense = _MODEL_ENGINES[instance.kind]
-    method = BUILTIN[engine_name]
-    res = execute(instance, method, 0, time_limit)
-    verdict = score(instance, method, res)
-    plan, engine = res.x, f"{method.name} ({res.backend}, workers=1)"
-    if verdict.status != "optimal":  # the baseline may do better
-        baseline = BUILTIN[baseline_name]
-        base = execute(instance, baseline, 0, time_limit)
-        mine = score(instance, baseline, base)
-        sign = 1.0 if sense == "max" else -1.0
-        if mine.objective is not None and (
-            verdict.objective is None or sign * (mine.objective - verdict.objective) > 0
-        ):
-            bound = verdict.bound
-            proven = bound is not None and sign * (mine.objective - bound) >= -1e-9
-            verdict = dataclasses.replace(
-                verdict, objective=mine.objective, status="optimal" if proven else "feasible"
-            )
-            plan = base.x if isinstance(base, SolveResult) else base
-            engine += f"; plan from {baseline.name}"
-    if verdict.objective is None or verdict.status not in ("optimal", "feasible"):
-        raise RuntimeError(
-            f"{instance.id}: {method.name} gave no verified plan ({verdict.status}: {verdict.message})"
-        )
-    return {
-        "value": float(verdict.objective),
-        "bound": verdict.bound,
-        "bound_kind": verdict.bound_kind if verdict.bound is not None else "none",
-        "status": "optimal" if verdict.status == "optimal" else "feasible",
-        "sense": sense,
-        "plan": _plain(plan),
-        "engine": engine,
-        "time_s": float(res.solve_time),
-        "message": res.message,
-    }
-
-
-def _plain(plan: Any) -> Any:
-    """A plan as JSON values: an array's nested lists, a dataclass (a fleet's ``Assignment``) as
-    a dict of its fields' values."""
-    if dataclasses.is_dataclass(plan) and not isinstance(plan, type):
-        return {f.name: _plain(getattr(plan, f.name)) for f in dataclasses.fields(plan)}
-    if isinstance(plan, (str, bool, type(None))):
-        return plan
-    return np.asarray(plan, dtype=float).tolist()
-
-
-def _certify_allocation(instance: StudyInstance, time_limit: float | None) -> dict[str, Any]:
-    from droneplan.formulations.herding import check_allocation, solve_allocation
-
-    d = instance.data
-    res = solve_allocation(d.drone_s, d.steer_s, d.perimeter)
-    value = check_allocation(d.drone_s, d.steer_s, d.perimeter, res.x)
-    engine = "exact combinatorial allocation"
-    if d.n <= 16:
-        cp = solve_allocation(d.drone_s, d.steer_s, d.perimeter, method="cp-sat", time_limit=time_limit)
-        if (
-            cp.status.value != "optimal"
-            or cp.objective is None
-            or abs(float(cp.objective) - value) > 1e-6 * max(1.0, d.perimeter)
-        ):
-            raise RuntimeError(
-                f"{instance.id}: CP-SAT ({cp.status.name}, {cp.objective}) disagrees with exact {value}"
-            )
-        engine += " = CP-SAT assignment model"
-    return {
-        "value": value,
-        "bound": value,
-        "bound_kind": "proven-global",
-        "status": "optimal",
-        "sense": "min",
-        "plan": {
-            "target": np.asarray(res.x.target).tolist(),
-            "direction": np.asarray(res.x.direction).tolist(),
-        },
-        "engine": engine,
-        "time_s": float(res.solve_time),
-        "message": res.message,
-    }
-
-
-_SHARK_CONTROLLERS = ("virtual-shark", "classical-pursuit", "ocp")
-
-
-def _certify_shark(instance: StudyInstance) -> dict[str, Any]:
-    import time
-
-    from droneplan.studies.harness import execute, score
-    from droneplan.studies.methods import BUILTIN
-
-    best: tuple[float, str] | None = None
-    t0 = time.perf_counter()
-    tried = []
-    for name in _SHARK_CONTROLLERS:
+    def run(name: str, limit: float | None) -> tuple[Any, Any]:
         method = BUILTIN[name]
-        verdict = score(instance, method, execute(instance, method, 0, None))
-        tried.append(
-            f"{name}: {verdict.status}" + (f" {verdict.objective:.3f} s" if verdict.objective else "")
-        )
-        if verdict.objective is not None and (best is None or verdict.objective < best[0]):
-            best = (verdict.objective, name)
-    if best is None:
-        raise RuntimeError(
-            f"{instance.id}: no built-in interceptor made a valid frontal contact ({'; '.join(tried)})"
-        )
-    return {
-        "value": best[0],
-        "bound": None,
-        "bound_kind": "none",
-        "status": "feasible",
-        "sense": "min",
-        "plan": {"controller": best[1]},
-        "engine": "best closed-loop frontal contact of " + ", ".join(_SHARK_CONTROLLERS),
-        "time_s": time.perf_counter() - t0,
-        "message": "; ".join(tried),
-    }
+        returned = execute(instance, method, 0, limit)
+        return returned, score(instance, method, returned)
+
+    return instance.kind_class.certify(instance, time_limit=time_limit, run=run)
 
 
 def library_instances(family: str, **size: Any) -> list[StudyInstance]:
