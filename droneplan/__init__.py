@@ -18,6 +18,9 @@ open gap study of registered and the user's own methods on instance families, th
 library or the user's data (``droneplan gap --method``), ``run_gap(problem, seeds=..., out=...)``
 the built-in gap study of a problem like ``droneplan gap``, and ``load_results(out)`` reads
 every study row of an ``--out`` directory as one long-format DataFrame.
+``export_mission(plan_or_trace, path, origin=(lat, lon, alt))`` writes autopilot mission files
+(MAVLink ``.wpl``, QGroundControl ``.plan``, KML); ``to_geojson``/``to_geodataframe`` give a
+plan or trace in WGS 84 (``droneplan.scenarios.geo.LocalFrame`` maps local metres to lat/lon).
 """
 
 import importlib
@@ -30,6 +33,8 @@ from droneplan._layers import LAYERS as _LAYERS
 
 if TYPE_CHECKING:  # the names for type checkers; at run time __getattr__ imports them
     from droneplan import cells, covert, herding, shark
+    from droneplan.scenarios.geo_export import to_geodataframe, to_geojson
+    from droneplan.scenarios.missions import export_mission
     from droneplan.solvers.result import SolveResult, Status
     from droneplan.studies.store import load_results
     from droneplan.studies.trace_store import load_traces
@@ -56,6 +61,9 @@ __all__ = [
     "family_instances",
     "save_instance",
     "load_instance",
+    "export_mission",
+    "to_geojson",
+    "to_geodataframe",
     "__version__",
 ]
 
@@ -118,14 +126,20 @@ def __getattr__(name: str) -> Any:
     value: Any
     if name in _FRONT_DOORS or name in _LAYERS:
         value = importlib.import_module(f"droneplan.{name}")
-    # run_gap lives in the CLI module; importing it lazily keeps `python -m droneplan.studies.cli`
-    # free of runpy's "found in sys.modules" warning
     elif name == "run_gap":
-        from droneplan.studies.cli import run_gap
+        from droneplan.studies.problem_studies import run_gap
 
         value = run_gap
     elif name in ("SolveResult", "Status"):
         from droneplan.solvers.result import SolveResult, Status  # noqa: F401
+
+        value = locals()[name]
+    elif name == "export_mission":
+        from droneplan.scenarios.missions import export_mission
+
+        value = export_mission
+    elif name in ("to_geojson", "to_geodataframe"):
+        from droneplan.scenarios.geo_export import to_geodataframe, to_geojson  # noqa: F401
 
         value = locals()[name]
     elif name == "load_results":
@@ -144,8 +158,7 @@ def __getattr__(name: str) -> Any:
         value = locals()[name]
     else:
         raise AttributeError(f"module 'droneplan' has no attribute {name!r}")
-    if name != "run_gap":
-        globals()[name] = value  # later lookups skip __getattr__
+    globals()[name] = value  # later lookups skip __getattr__
     return value
 
 
@@ -154,18 +167,28 @@ def __dir__() -> list[str]:
 
 
 def _lazy_names(
-    namespace: dict[str, Any], sources: dict[str, tuple[str, ...]]
+    namespace: dict[str, Any],
+    sources: dict[str, tuple[str, ...]],
+    deprecated: dict[str, str] | None = None,
 ) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
     """A module ``__getattr__`` and ``__dir__`` for a front door whose public names load on first use.
 
     namespace: the front door's ``globals()`` (it holds ``__name__`` and ``__all__``; each name,
     once imported, is stored there so later lookups skip ``__getattr__``).
     sources: module -> the names the front door takes from it.
+    deprecated: old name -> new name, answered with the new name's value and a
+        ``DeprecationWarning`` for one release (not listed by ``__dir__``).
     """
     module = namespace["__name__"]
     where = {name: source for source, names in sources.items() for name in names}
+    renamed = dict(deprecated or {})
 
     def __getattr__(name: str) -> Any:
+        if name in renamed:
+            from droneplan.core.deprecation import warn_renamed
+
+            warn_renamed(name, renamed[name], where=module)
+            return __getattr__(renamed[name])
         source = where.get(name)
         if source is None:
             raise AttributeError(f"module {module!r} has no attribute {name!r}")

@@ -73,6 +73,7 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
     from droneplan.solvers.result import SolveResult, Status
     from droneplan.studies.cells import GA_VARIANTS, ga_ablation, instance_features
     from droneplan.studies.plots import plot_deployment_region, plot_map
+    from droneplan.studies.plots.maps.cells import map
 
 __all__ = [
     # scenarios and presets
@@ -131,6 +132,7 @@ __all__ = [
     "Status",
     "plot_map",
     "plot_deployment_region",
+    "map",
     # studies
     "ga_ablation",
     "GA_VARIANTS",
@@ -207,6 +209,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "plot_deployment_region",
         "plot_map",
     ),
+    "droneplan.studies.plots.maps.cells": ("map",),
 }
 
 """The module each public name comes from; a name is imported on first use, so importing this

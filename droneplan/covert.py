@@ -56,11 +56,13 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
         simulate,
         thesis_case,
     )
+    from droneplan.scenarios.envs.covert import CovertEnv, policy_controller
     from droneplan.solvers.result import SolveResult, Status
     from droneplan.studies.covert import stealth_front
     from droneplan.studies.covert_front import optimised_front
     from droneplan.studies.plots import plot_bearing, plot_path, plot_stealth_front
     from droneplan.studies.plots.covert import animate, plot_optimised_front
+    from droneplan.studies.plots.maps.covert import map
 
 __all__ = [
     # world, presets, simulator
@@ -82,6 +84,9 @@ __all__ = [
     "Controller",
     "CovertTrace",
     "simulate",
+    # learned controllers: the Gymnasium environment and a policy as a controller
+    "CovertEnv",
+    "policy_controller",
     # the model
     "MPCSettings",
     "MPCData",
@@ -114,6 +119,7 @@ __all__ = [
     "plot_optimised_front",
     "plot_stealth_front",
     "animate",
+    "map",
 ]
 
 _SOURCES: dict[str, tuple[str, ...]] = {
@@ -163,6 +169,10 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "simulate",
         "thesis_case",
     ),
+    "droneplan.scenarios.envs.covert": (
+        "CovertEnv",
+        "policy_controller",
+    ),
     "droneplan.solvers.result": (
         "SolveResult",
         "Status",
@@ -175,6 +185,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "plot_stealth_front",
     ),
     "droneplan.studies.plots.covert": ("animate", "plot_optimised_front"),
+    "droneplan.studies.plots.maps.covert": ("map",),
 }
 
 """The module each public name comes from; a name is imported on first use, so importing this

@@ -33,6 +33,7 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
         min_enclosing_circle,
         steering_points,
     )
+    from droneplan.scenarios.envs.herding import HerdingEnv, policy_controller
     from droneplan.scenarios.herding import (
         THESIS_TABLE_6_2,
         HerdingCommand,
@@ -49,9 +50,10 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
     )
     from droneplan.scenarios.loaders import herding_scenario_from_csv, load_herd_csv
     from droneplan.solvers.result import SolveResult, Status
-    from droneplan.studies.herding import summary_table, write_gif
+    from droneplan.studies.herding import run_times_table, write_gif
     from droneplan.studies.plots import plot_final, plot_footprint, plot_state
     from droneplan.studies.plots.herding import animate
+    from droneplan.studies.plots.maps.herding import map
 
 __all__ = [
     # world, presets, simulator
@@ -69,6 +71,9 @@ __all__ = [
     "HerdingFrame",
     "simulate",
     "footprint_radius",
+    # learned controllers: the Gymnasium environment and a policy as a herder
+    "HerdingEnv",
+    "policy_controller",
     # the allocation model
     "Allocation",
     "AllocationModel",
@@ -94,8 +99,9 @@ __all__ = [
     "plot_final",
     "plot_footprint",
     "animate",
+    "map",
     "write_gif",
-    "summary_table",
+    "run_times_table",
 ]
 
 _SOURCES: dict[str, tuple[str, ...]] = {
@@ -118,6 +124,10 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "convex_hull",
         "min_enclosing_circle",
         "steering_points",
+    ),
+    "droneplan.scenarios.envs.herding": (
+        "HerdingEnv",
+        "policy_controller",
     ),
     "droneplan.scenarios.herding": (
         "THESIS_TABLE_6_2",
@@ -142,7 +152,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "Status",
     ),
     "droneplan.studies.herding": (
-        "summary_table",
+        "run_times_table",
         "write_gif",
     ),
     "droneplan.studies.plots": (
@@ -151,10 +161,11 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "plot_state",
     ),
     "droneplan.studies.plots.herding": ("animate",),
+    "droneplan.studies.plots.maps.herding": ("map",),
 }
 
 """The module each public name comes from; a name is imported on first use, so importing this
 front door loads no solver library, cvxpy, matplotlib or pandas."""
 
 if not TYPE_CHECKING:  # type checkers see the imports above (and flag a misspelt name)
-    __getattr__, __dir__ = _lazy_names(globals(), _SOURCES)
+    __getattr__, __dir__ = _lazy_names(globals(), _SOURCES, deprecated={"summary_table": "run_times_table"})

@@ -37,6 +37,7 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
         thesis_altitude,
         virtual_shark_plan,
     )
+    from droneplan.scenarios.envs.shark import InterceptionEnv, policy_controller
     from droneplan.scenarios.loaders import load_shark_track_csv
     from droneplan.scenarios.shark import (
         THESIS_TABLE_5_1,
@@ -71,6 +72,7 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
     )
     from droneplan.solvers.result import SolveResult, Status
     from droneplan.studies.plots import plot_time_series, plot_top_view
+    from droneplan.studies.plots.maps.shark import map
     from droneplan.studies.plots.shark import animate
 
 __all__ = [
@@ -105,6 +107,9 @@ __all__ = [
     "AlarmLevel",
     "alarm_level",
     "sharks_to_repel",
+    # learned controllers: the Gymnasium environment and a policy as a controller
+    "InterceptionEnv",
+    "policy_controller",
     # models
     "optimal_altitude",
     "InterceptionOCP",
@@ -132,6 +137,7 @@ __all__ = [
     "plot_top_view",
     "plot_time_series",
     "animate",
+    "map",
 ]
 
 _SOURCES: dict[str, tuple[str, ...]] = {
@@ -157,6 +163,10 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "optimal_interception",
         "thesis_altitude",
         "virtual_shark_plan",
+    ),
+    "droneplan.scenarios.envs.shark": (
+        "InterceptionEnv",
+        "policy_controller",
     ),
     "droneplan.scenarios.loaders": ("load_shark_track_csv",),
     "droneplan.scenarios.shark": (
@@ -198,6 +208,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "plot_time_series",
         "plot_top_view",
     ),
+    "droneplan.studies.plots.maps.shark": ("map",),
     "droneplan.studies.plots.shark": ("animate",),
 }
 

@@ -77,6 +77,7 @@ from pathlib import Path
 import numpy as np
 from ortools.sat.python import cp_model
 
+from droneplan.core.deprecation import renamed_keywords
 from droneplan.core.validation import check_array, check_instance, check_int, check_nonneg, check_positive
 from droneplan.solvers.registry import available_backends, get_backend
 from droneplan.solvers.result import SolveResult, Status
@@ -483,7 +484,7 @@ def _hint(am: AllocationModel, hint: Allocation) -> dict:
 
 # --------------------------------------------------------------------------- public solve
 def solve_checked_exact(d: np.ndarray, s: np.ndarray, M: float) -> SolveResult:
-    """:func:`solve_allocation` with ``method="exact"`` on inputs already as
+    """:func:`solve_allocation` with ``engine="exact"`` on inputs already as
     :func:`validate_allocation_input` returns them (float arrays, 1 <= len(s) <= len(d), every
     position in [0, M), M > 0): the herders' own, whose arc positions hold that by construction,
     so the check is not repeated at each re-allocation. d, s: drone and steering-point arc
@@ -516,15 +517,16 @@ def solve_checked_exact(d: np.ndarray, s: np.ndarray, M: float) -> SolveResult:
     )
 
 
+@renamed_keywords(method="engine", hint="warm_start")
 def solve_allocation(
     drone_s,
     steer_s,
     perimeter: float,
     *,
-    method: str = "exact",
+    engine: str = "exact",
     time_limit: float | None = None,
     workers: int = 1,
-    hint: Allocation | None = None,
+    warm_start: Allocation | None = None,
 ) -> SolveResult:
     """Optimal collision-free allocation of steering points (6.21)-(6.23).
 
@@ -532,29 +534,31 @@ def solve_allocation(
     steer_s: (m,) steering-point arc positions, m, in [0, perimeter), 1 <= m <= n;
         m < n is padded by :func:`pad_steering_points`.
     perimeter: extended-hull perimeter M, m (> 0).
-    method: "exact" (O(n^2) combinatorial algorithm) or "cp-sat" (explicit model, solved by
+    engine: "exact" (O(n^2) combinatorial algorithm) or "cp-sat" (explicit model, solved by
         that registered "cp" backend).
-    time_limit, workers, hint: CP-SAT only (seconds; search workers; a warm-start Allocation).
+    time_limit, workers, warm_start: CP-SAT only (seconds; search workers; an Allocation handed
+        to CP-SAT as its hint). ``method`` and ``hint`` are the deprecated names of ``engine`` and
+        ``warm_start``.
 
     Returns a SolveResult with ``x`` an :class:`Allocation`, ``objective`` the
     maximum travel (m), ``bound`` a proven lower bound (= objective when OPTIMAL).
     Coincident steering points make the problem INFEASIBLE (a returned status).
     """
-    if method != "exact" and (not isinstance(method, str) or method not in available_backends("cp")):
-        raise ValueError(f"method must be 'exact' or a cp backend {available_backends('cp')}, got {method!r}")
+    if engine != "exact" and (not isinstance(engine, str) or engine not in available_backends("cp")):
+        raise ValueError(f"engine must be 'exact' or a cp backend {available_backends('cp')}, got {engine!r}")
     workers = check_int("workers", workers, min_value=1)
     d, s, M = validate_allocation_input(drone_s, steer_s, perimeter)
-    if method == "exact":
+    if engine == "exact":
         return solve_checked_exact(d, s, M)
     n = d.size
     padded = s.size < n
     am = build_allocation_model(d, s, M)
-    res = get_backend(method, kind="cp").solve_cp(
+    res = get_backend(engine, kind="cp").solve_cp(
         am.model,
         variables=am.variables,
         time_limit=time_limit,
         workers=workers,
-        hint=_hint(am, hint) if hint is not None else None,
+        hint=_hint(am, warm_start) if warm_start is not None else None,
     )
     if not res.has_solution:
         return res

@@ -81,6 +81,8 @@ __all__ = [
     "HerdingFrame",
     "HerdingTrace",
     "footprint_radius",
+    "herd_measures",
+    "next_phase",
     "simulate",
     "with_params",
 ]
@@ -686,6 +688,39 @@ def _delivered(
     return float(np.mean(_sq_dist(animals, goal) <= goal_radius**2))
 
 
+def herd_measures(
+    animals: np.ndarray, goal: np.ndarray, goal_radius: float
+) -> tuple[np.ndarray, float, float]:
+    """(centroid (2,) m, footprint radius m, fraction of the animals within ``goal_radius`` m of
+    ``goal``) of (n, 2) animal positions (m): what :func:`simulate` measures at every animal step."""
+    c = _centroid(animals)
+    r = float(np.sqrt(np.max(_sq_dist(animals, c))))
+    return c, r, _delivered(animals, c, r, goal, goal_radius)
+
+
+def next_phase(
+    phase: HerdingPhase, radius: float, share: float, params: HerdingParams, stop_after_gathering: bool
+) -> tuple[HerdingPhase, bool, bool, bool]:
+    """The run's phase after an animal step (the rules of :func:`simulate`).
+
+    phase: the phase before; radius: footprint radius (m); share: fraction of the animals in the
+    goal region; params: the run's HerdingParams; stop_after_gathering: the run ends when gathering
+    finishes. Returns (phase, the herd was sent back to gathering, gathering finished now, the run
+    stops after gathering).
+    """
+    regrouped = gathered = stop = False
+    if phase == HerdingPhase.DRIVING and radius > params.regroup_factor * params.R_c:
+        phase = HerdingPhase.GATHERING  # the herd split or spread: regroup it first
+        regrouped = True
+    if phase == HerdingPhase.GATHERING and radius <= params.R_c:
+        gathered = True
+        phase = HerdingPhase.DRIVING
+        stop = stop_after_gathering
+    if not stop and phase == HerdingPhase.DRIVING and share == 1.0:
+        phase = HerdingPhase.DONE
+    return phase, regrouped, gathered, stop
+
+
 def simulate(  # noqa: C901, PLR0915
     scenario: HerdingScenario,
     controller,
@@ -742,25 +777,18 @@ def simulate(  # noqa: C901, PLR0915
     t0 = time.perf_counter()
     for step in range(n_steps + 1):
         t = step * dt
-        c = _centroid(animals)
-        r = float(np.sqrt(np.max(_sq_dist(animals, c))))
+        c, r, share = herd_measures(animals, scenario.goal, p.goal_radius)
         ts.append(t)
         radii.append(r)
         cents.append(c)
         dpos.append(drones.copy())
-        share = _delivered(animals, c, r, scenario.goal, p.goal_radius)
         delivered.append(share)
-        stop = False
-        if phase == HerdingPhase.DRIVING and r > p.regroup_factor * p.R_c:
-            phase = HerdingPhase.GATHERING  # the herd split or spread: regroup it first
-            regroupings += 1
-        if phase == HerdingPhase.GATHERING and r <= p.R_c:
+        phase, regrouped, gathered, stop = next_phase(phase, r, share, p, stop_after_gathering)
+        regroupings += regrouped
+        if gathered:
             gather_time = t if gather_time is None else gather_time
-            phase = HerdingPhase.DRIVING
-            stop = stop_after_gathering
-        if not stop and phase == HerdingPhase.DRIVING and share == 1.0:
+        if phase == HerdingPhase.DONE:
             total_time = t
-            phase = HerdingPhase.DONE
         phases.append(phase)
         while snaps_todo and t >= snaps_todo[0] - 1e-9:
             snapshots[snaps_todo.pop(0)] = HerdingFrame(

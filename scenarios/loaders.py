@@ -14,11 +14,14 @@ File formats:
   Positions are ``[longitude, latitude]`` in decimal degrees (WGS 84); a third value (height)
   is ignored.
 
-Geographic positions become metres through :func:`project_local`, an azimuthal equidistant
-projection on a sphere of radius :data:`EARTH_RADIUS` (the IUGG mean Earth radius) about a
-stated origin: distances and bearings from the origin are exact on that sphere, and other
-distances within a few tens of kilometres of it agree with great-circle distances to better
-than 0.01 %.
+Geographic positions become metres through :func:`project_local`: pyproj's azimuthal
+equidistant projection on the WGS 84 ellipsoid (``+proj=aeqd +datum=WGS84``) about a stated
+origin, through :class:`droneplan.scenarios.geo.LocalFrame`. Distances and azimuths from the
+origin are the geodesic ones; other distances within a few tens of kilometres of it agree with
+geodesic distances to better than 0.01 %. Points farther than 1000 km from the origin are refused.
+:func:`load_cells_geojson` also takes GeoDataFrames (geopandas, optional: ``pip install -e
+".[geo]"``) in any CRS: points for users and stations, polygons for no-fly zones; they are
+reprojected to WGS 84 (EPSG:4326) and then to the local frame.
 
 Every error on bad input is a one-line ``ValueError`` (``TypeError`` for an argument of the
 wrong type) that starts with the file's path and says where the problem is (line number as in
@@ -32,6 +35,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import importlib
 import io
 import json
 import math
@@ -53,6 +57,7 @@ from droneplan.core.validation import (
     check_size,
 )
 from droneplan.scenarios.cells import THESIS_TABLE_4_2, CellParams, CellProblem
+from droneplan.scenarios.geo import LocalFrame, spherical_centroid
 from droneplan.scenarios.herding import HerdingParams, HerdingScenario, thesis_scenario
 from droneplan.scenarios.shark.params import THESIS_TABLE_5_1
 from droneplan.scenarios.shark.trajectories import SharkTrajectory
@@ -75,7 +80,8 @@ __all__ = [
 ]
 
 EARTH_RADIUS = 6_371_008.8
-"""Radius of the sphere of :func:`project_local` (m): the IUGG mean Earth radius R1."""
+"""The IUGG mean Earth radius R1 (m), for spherical estimates such as great-circle distances;
+:func:`project_local` projects on the WGS 84 ellipsoid through pyproj."""
 
 DEFAULT_SHARK_DEPTH = -3.0
 """Depth of a shark track without a z column (m, below the surface): the constant depth of the
@@ -393,13 +399,9 @@ def _check_origin(origin: Any) -> tuple[float, float]:
     return lon0, lat0
 
 
-def _frame(lon0: float, lat0: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Unit vectors (origin, east, north) in Earth-centred coordinates at (lon0, lat0) degrees."""
-    lam, phi = math.radians(lon0), math.radians(lat0)
-    o = np.array([math.cos(phi) * math.cos(lam), math.cos(phi) * math.sin(lam), math.sin(phi)])
-    e = np.array([-math.sin(lam), math.cos(lam), 0.0])
-    n = np.array([-math.sin(phi) * math.cos(lam), -math.sin(phi) * math.sin(lam), math.cos(phi)])
-    return o, e, n
+def _local_frame(lon0: float, lat0: float) -> LocalFrame:
+    """The :class:`LocalFrame` (azimuthal equidistant on WGS 84) about (lon0, lat0) degrees."""
+    return LocalFrame.from_origin(lat0, lon0)
 
 
 def project_local(lon: ArrayLike, lat: ArrayLike, origin: ArrayLike) -> NDArray[np.float64]:
@@ -409,77 +411,48 @@ def project_local(lon: ArrayLike, lat: ArrayLike, origin: ArrayLike) -> NDArray[
     lat: (n,) latitudes in degrees, in [-90, 90].
     origin: (lon0, lat0) in degrees, the point that maps to (0, 0).
 
-    Returns (n, 2) metres, east = +x, north = +y. The projection is the azimuthal equidistant
-    one on a sphere of radius ``EARTH_RADIUS`` = 6 371 008.8 m (mean Earth radius, IUGG): a
-    point at great-circle distance ``d`` (m) and bearing ``b`` (clockwise from north) from the
-    origin maps to ``(d sin b, d cos b)``. Distances from the origin are exact on the sphere;
-    between two points within 10 km of the origin the planar distance differs from the
-    great-circle one by less than 0.001 %. (Distances on the sphere differ from those on the WGS 84
-    ellipsoid by up to about 0.6 %, depending on latitude and direction: 3 m over 500 m.) The point
-    antipodal to the origin has no image and raises ValueError. Inverse: :func:`unproject_local`.
+    Returns (n, 2) metres, east = +x, north = +y. The projection is pyproj's azimuthal
+    equidistant one on the WGS 84 ellipsoid (``+proj=aeqd +datum=WGS84`` about the origin,
+    through :class:`droneplan.scenarios.geo.LocalFrame`): a point at geodesic distance ``d`` (m)
+    and azimuth ``b`` (clockwise from north) from the origin maps to ``(d sin b, d cos b)``.
+    Distances from the origin are the geodesic ones on the ellipsoid; between two points within
+    10 km of the origin the planar distance differs from the geodesic one by less than 0.001 %.
+    Points farther than ``AEQD_MAX_DISTANCE`` (1000 km) from the origin are refused
+    (ValueError). Inverse: :func:`unproject_local`.
     """
     lon0, lat0 = _check_origin(origin)
     lo = check_array("lon", lon, ndim=1)
     la = check_array("lat", lat, ndim=1)
     if lo.shape != la.shape:
         raise ValueError(f"lon and lat must have the same length, got {lo.shape[0]} and {la.shape[0]}")
-    if np.any(np.abs(lo) > 180.0):
-        raise ValueError(f"lon must be in [-180, 180] degrees, got {lo[np.abs(lo) > 180.0][0]}")
-    if np.any(np.abs(la) > 90.0):
-        raise ValueError(f"lat must be in [-90, 90] degrees, got {la[np.abs(la) > 90.0][0]}")
-    o, e, n = _frame(lon0, lat0)
-    lam, phi = np.radians(lo), np.radians(la)
-    p = np.stack([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)], axis=1)
-    east, north, along = p @ e, p @ n, p @ o
-    s = np.hypot(east, north)  # sin of the central angle
-    c = np.arctan2(s, along)  # the central angle (rad), accurate near 0 and pi
-    if np.any((s < 1e-12) & (along < 0)):
-        raise ValueError("lon, lat: a point antipodal to the origin has no azimuthal equidistant image")
-    scale = np.divide(c, s, out=np.ones_like(s), where=s > 0)  # c / sin c -> 1 at the origin
-    return EARTH_RADIUS * np.column_stack([scale * east, scale * north])
+    x, y = _local_frame(lon0, lat0).to_local(la, lo)
+    return np.column_stack([x, y])
 
 
 def unproject_local(xy: ArrayLike, origin: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Geographic coordinates (degrees) of local planar points: the inverse of :func:`project_local`.
 
     xy: (n, 2) metres, east = +x, north = +y, from the origin; each at most
-        pi * EARTH_RADIUS (about 20 015 km) from (0, 0).
+        ``AEQD_MAX_DISTANCE`` (1000 km) from (0, 0).
     origin: (lon0, lat0) in degrees, the point (0, 0) stands for.
 
-    Returns (lon, lat): two (n,) arrays in degrees, lon in [-180, 180], lat in [-90, 90]
-    (at a pole the longitude is whatever the formula gives; any value names the pole).
+    Returns (lon, lat): two (n,) arrays in degrees, lon in [-180, 180], lat in [-90, 90].
     """
     lon0, lat0 = _check_origin(origin)
     pts = check_array("xy", xy, shape=(None, 2))
-    rho = np.hypot(pts[:, 0], pts[:, 1])
-    if np.any(rho > math.pi * EARTH_RADIUS * (1 + 1e-12)):
-        raise ValueError(
-            f"xy: a point is {rho.max():.6g} m from the origin, more than pi * EARTH_RADIUS "
-            f"({math.pi * EARTH_RADIUS:.6g} m), outside the projection"
-        )
-    o, e, n = _frame(lon0, lat0)
-    c = rho / EARTH_RADIUS
-    sinc_over_rho = np.divide(np.sin(c), rho, out=np.full_like(rho, 1.0 / EARTH_RADIUS), where=rho > 0)
-    p = (
-        np.cos(c)[:, None] * o[None, :]
-        + (sinc_over_rho * pts[:, 0])[:, None] * e[None, :]
-        + (sinc_over_rho * pts[:, 1])[:, None] * n[None, :]
-    )
-    lat = np.degrees(np.arctan2(p[:, 2], np.hypot(p[:, 0], p[:, 1])))
-    lon = np.degrees(np.arctan2(p[:, 1], p[:, 0]))
+    lat, lon = _local_frame(lon0, lat0).to_wgs84(pts[:, 0], pts[:, 1])
     return lon, lat
 
 
 def _spherical_centroid(lon: NDArray[np.float64], lat: NDArray[np.float64]) -> tuple[float, float]:
-    lam, phi = np.radians(lon), np.radians(lat)
-    v = np.stack([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)], axis=1).mean(axis=0)
-    norm = float(np.linalg.norm(v))
-    if norm < 1e-9:
-        raise ValueError("users: the points are spread over the globe and have no centroid; pass origin")
-    return (
-        math.degrees(math.atan2(v[1], v[0])),
-        math.degrees(math.atan2(v[2], math.hypot(v[0], v[1]))),
-    )
+    """(lon, lat) degrees of the points' centroid on the sphere (:func:`spherical_centroid`)."""
+    try:
+        c_lat, c_lon = spherical_centroid(lat, lon)
+    except ValueError:
+        raise ValueError(
+            "users: the points are spread over the globe and have no centroid; pass origin"
+        ) from None
+    return c_lon, c_lat
 
 
 @dataclass(frozen=True)
@@ -493,24 +466,34 @@ class ProjectedCells:
     problem: CellProblem
     origin: tuple[float, float]
 
+    @property
+    def frame(self) -> LocalFrame:
+        """The :class:`LocalFrame` of the problem (origin given as (lat, lon, 0 m)), for
+        ``to_geojson`` and ``export_mission``."""
+        return _local_frame(*self.origin)
+
     def to_lonlat(self, xy: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(lon, lat) in degrees of local points ``xy`` (n, 2) in metres (e.g. drone-cell positions)."""
         return unproject_local(xy, self.origin)
 
 
 def load_cells_geojson(
-    users: PathLike,
-    gbs: PathLike | None = None,
+    users: PathLike | Any,
+    gbs: PathLike | Any | None = None,
     *,
     n_cells: int,
     origin: ArrayLike | None = None,
     params: CellParams = THESIS_TABLE_4_2,
+    no_fly: Any = None,
 ) -> ProjectedCells:
-    """A drone-cell placement problem (thesis ch. 4) from GeoJSON files of lon/lat points.
+    """A drone-cell placement problem (thesis ch. 4) from GeoJSON files or GeoDataFrames of points.
 
-    users: GeoJSON file of user positions (format: :func:`read_geojson_points`; degrees).
-    gbs: GeoJSON file of ground base station positions (degrees); None: ``params.gbs`` taken
-        as metres in the local frame (Table 4.2: one GBS at the origin).
+    users: GeoJSON file of user positions (format: :func:`read_geojson_points`; degrees), or a
+        geopandas GeoDataFrame/GeoSeries of Point/MultiPoint geometries in any CRS (reprojected
+        to WGS 84; it must have a CRS).
+    gbs: ground base station positions, a GeoJSON file (degrees) or a GeoDataFrame of points as
+        for ``users``; None: ``params.gbs`` taken as metres in the local frame (Table 4.2: one
+        GBS at the origin).
     n_cells: number m of drone-cells available (count, >= 1).
     origin: (lon0, lat0) in degrees, the centre of the local projection. Default: the first
         GBS of the ``gbs`` file when one is given, else the centroid of the users (the mean of
@@ -518,17 +501,21 @@ def load_cells_geojson(
         also works across the antimeridian).
     params: the radii (R_d, R_g in metres) and backhaul ranges (r1, r2 in metres) (default:
         THESIS_TABLE_4_2).
+    no_fly: None, or a GeoDataFrame/GeoSeries of Polygon/MultiPolygon no-fly zones in any CRS
+        (reprojected to WGS 84, then to the local frame in metres); no drone-cell centre may lie
+        in one (:class:`CellProblem`'s ``no_fly``).
 
     Every position is projected with :func:`project_local` about the origin (metres, east = +x,
     north = +y). Returns a :class:`ProjectedCells` holding the :class:`CellProblem`
     (``bounds=None``) and the origin used, whose ``to_lonlat`` maps planned positions back.
+    geopandas is needed only for GeoDataFrame inputs.
     """
     check_instance("params", params, CellParams)
     n_cells = check_int("n_cells", n_cells, min_value=1)
-    users = _as_path(users, "users")
-    gbs = None if gbs is None else _as_path(gbs, "gbs")
-    u_lon, u_lat = read_geojson_points(users)
-    g_lonlat = None if gbs is None else read_geojson_points(gbs)
+    users = users if _is_geodata(users) else _as_path(users, "users")
+    gbs = gbs if gbs is None or _is_geodata(gbs) else _as_path(gbs, "gbs")
+    u_lon, u_lat = _points_lonlat(users, "users")
+    g_lonlat = None if gbs is None else _points_lonlat(gbs, "gbs")
     if origin is not None:
         lon0, lat0 = _check_origin(origin)
     elif g_lonlat is not None:
@@ -538,7 +525,84 @@ def load_cells_geojson(
     o = (lon0, lat0)
     pts = project_local(u_lon, u_lat, o)
     stations = np.asarray(params.gbs, dtype=float) if g_lonlat is None else project_local(*g_lonlat, o)
-    return ProjectedCells(_cell_problem(pts, stations, n_cells, params), o)
+    problem = _cell_problem(pts, stations, n_cells, params)
+    if no_fly is not None:
+        zones = _polygons_local(no_fly, _local_frame(*o))
+        problem = CellProblem(
+            pts, stations, n_cells, params.R_d, params.R_g, params.r1, params.r2, bounds=None, no_fly=zones
+        )
+    return ProjectedCells(problem, o)
+
+
+def _is_geodata(value: Any) -> bool:
+    """Whether ``value`` is a geopandas GeoDataFrame or GeoSeries (without importing geopandas)."""
+    return type(value).__module__.split(".")[0] == "geopandas"
+
+
+def _geometries_wgs84(value: Any, name: str) -> list[Any]:
+    """The shapely geometries of a GeoDataFrame/GeoSeries, reprojected to WGS 84 (EPSG:4326)."""
+    try:
+        importlib.import_module("geopandas")  # optional; the GeoDataFrame's own methods need it
+    except ImportError:
+        raise ImportError(
+            f'{name}: reading a GeoDataFrame needs geopandas: pip install -e ".[geo]"'
+        ) from None
+    if value.crs is None:
+        raise ValueError(f"{name}: the GeoDataFrame has no CRS; set one with .set_crs(...)")
+    series = value.geometry if hasattr(value, "geometry") else value
+    geoms = list(series.to_crs(4326))
+    if not geoms:
+        raise ValueError(f"{name}: the GeoDataFrame has no rows")
+    return geoms
+
+
+def _points_lonlat(value: Any, name: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(lon, lat) degrees of the points of a GeoJSON file or a GeoDataFrame of points."""
+    if not _is_geodata(value):
+        return read_geojson_points(_as_path(value, name))
+    lon: list[float] = []
+    lat: list[float] = []
+    for i, geom in enumerate(_geometries_wgs84(value, name)):
+        kind = None if geom is None else geom.geom_type
+        if kind == "Point":
+            parts = [geom]
+        elif kind == "MultiPoint":
+            parts = list(geom.geoms)
+        else:
+            raise ValueError(
+                f"{name}: row {i}: geometry type {kind!r} is not supported (only Point, MultiPoint)"
+            )
+        for p in parts:
+            lon.append(float(p.x))
+            lat.append(float(p.y))
+    check_size(f"{name} (points)", 2 * len(lon))
+    return np.array(lon, dtype=np.float64), np.array(lat, dtype=np.float64)
+
+
+def _polygons_local(value: Any, frame: LocalFrame) -> list[Any]:
+    """Shapely polygons in local metres from a GeoDataFrame/GeoSeries of (Multi)Polygons."""
+    from shapely.geometry import Polygon
+
+    if not _is_geodata(value):
+        raise TypeError(
+            f"no_fly must be a geopandas GeoDataFrame or GeoSeries of polygons, got {type(value).__name__}"
+        )
+
+    def ring(coords: Any) -> NDArray[np.float64]:
+        lonlat = np.asarray(coords, dtype=np.float64)[:, :2]
+        x, y = frame.to_local(lonlat[:, 1], lonlat[:, 0])
+        return np.column_stack([x, y])
+
+    zones: list[Any] = []
+    for i, geom in enumerate(_geometries_wgs84(value, "no_fly")):
+        kind = None if geom is None else geom.geom_type
+        if kind not in ("Polygon", "MultiPolygon"):
+            raise ValueError(
+                f"no_fly: row {i}: geometry type {kind!r} is not supported (only Polygon, MultiPolygon)"
+            )
+        parts = [geom] if kind == "Polygon" else list(geom.geoms)
+        zones.extend(Polygon(ring(p.exterior.coords), [ring(r.coords) for r in p.interiors]) for p in parts)
+    return zones
 
 
 # --------------------------------------------------------------------------- herding
@@ -687,8 +751,8 @@ def read_user_tracks(
     path: PathLike, *, origin: ArrayLike | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """User tracks from a CSV file with the columns ``id, t, x, y`` (metres) or ``id, t, lon, lat``
-    (degrees, projected about ``origin`` = (lon0, lat0) by :func:`project_local`, the azimuthal
-    equidistant projection on the mean-Earth sphere; ``origin`` None: the tracks' spherical
+    (degrees, projected about ``origin`` = (lon0, lat0) by :func:`project_local`, pyproj's azimuthal
+    equidistant projection on the WGS 84 ellipsoid; ``origin`` None: the tracks' spherical
     centroid). Every id needs a row at every time.
 
     path: the CSV file. origin: (lon0, lat0) degrees, or None.

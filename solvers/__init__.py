@@ -6,8 +6,9 @@
   builds the ``SolveResult``.
 - :mod:`~droneplan.solvers.registry`: ``get_backend``, ``register_backend``, ``available_backends``.
 - :mod:`~droneplan.solvers.linear`: ``LinearModel``, one builder for CP-SAT and MIP backends.
-- adapters: ``cpsat`` (CP-SAT), ``mip`` (HiGHS, SCIP via pywraplp), ``nlp`` (IPOPT via CasADi),
-  ``qp`` (OSQP).
+- adapters: ``cpsat`` (CP-SAT), ``mip`` (HiGHS, SCIP via pywraplp), ``scip`` (SCIP via pyscipopt,
+  extra ``scip``), ``gurobi`` (Gurobi via gurobipy, extra ``gurobi``), ``nlp`` (IPOPT via CasADi),
+  ``qp`` (OSQP); ``native_mip`` holds the status rules of the two optional MIP adapters.
 """
 
 from droneplan.solvers.base import BackendAdapter, NativeReadout, run_native
@@ -17,6 +18,7 @@ from droneplan.solvers.registry import (
     get_backend,
     register_backend,
     registered_backends,
+    unavailable_backends,
     unregister_backend,
 )
 from droneplan.solvers.result import SolveResult, Status, map_status
@@ -33,5 +35,6 @@ __all__ = [
     "register_backend",
     "registered_backends",
     "run_native",
+    "unavailable_backends",
     "unregister_backend",
 ]

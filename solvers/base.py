@@ -45,6 +45,7 @@ __all__ = [
     "NativeReadout",
     "run_native",
     "KINDS",
+    "missing_packages_reason",
 ]
 
 KINDS = ("linear", "cp", "nlp", "qp")
@@ -71,15 +72,30 @@ class BackendAdapter(abc.ABC):
         super().__init_subclass__(**kwargs)
         cls.kinds = frozenset(kind for kind, mixin in _MIXINS.items() if issubclass(cls, mixin))
 
+    install_hint: ClassVar[str] = ""
+    """How to install what ``requires`` lists, for the reason a missing backend is not listed
+    (e.g. ``pip install "droneplan[scip]"``; empty: the packages are core dependencies)."""
+
+    @classmethod
+    def missing_requirements(cls) -> list[str]:
+        """The packages of ``requires`` that are not on the path (looked up, not imported)."""
+        return [package for package in cls.requires if importlib.util.find_spec(package) is None]
+
     @classmethod
     def requires_installed(cls) -> bool:
         """True when every package of ``requires`` is on the path (looked up, not imported)."""
-        return all(importlib.util.find_spec(package) is not None for package in cls.requires)
+        return not cls.missing_requirements()
 
     def is_available(self) -> bool:
         """True when the backend can run in this installation (library present, licensed);
         by default, when the packages of ``requires`` are installed."""
         return self.requires_installed()
+
+    def unavailable_reason(self) -> str:
+        """Why the backend cannot run here, in one line ("" when it can). By default it names
+        the missing packages of ``requires``; an adapter with a further check (a licence)
+        overrides it."""
+        return missing_packages_reason(type(self)) if not self.is_available() else ""
 
     def map_status(self, code: Hashable) -> Status:
         """The Status of a native ``code`` through ``status_map`` (unknown: ERROR)."""
@@ -94,6 +110,16 @@ class BackendAdapter(abc.ABC):
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.name!r} kinds={sorted(self.kinds)}>"
+
+
+def missing_packages_reason(cls: type[BackendAdapter]) -> str:
+    """The reason the adapter class ``cls`` cannot run when packages of its ``requires`` are
+    missing ("" when none is, though a further check of ``is_available`` may still fail)."""
+    missing = cls.missing_requirements()
+    if not missing:
+        return ""
+    how = f" (install: {cls.install_hint})" if cls.install_hint else ""
+    return f"needs the Python package{'s' if len(missing) > 1 else ''} {', '.join(missing)}{how}"
 
 
 class LinearBackend(abc.ABC):

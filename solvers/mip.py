@@ -4,7 +4,7 @@ Both offer the "linear" capability (:class:`PywraplpLinearModel`). A builder tha
 pywraplp directly takes an empty model from :func:`droneplan.solvers.mip_models.new_mip` and
 solves it with :func:`~droneplan.solvers.mip_models.solve_mip`.
 
-Another solver that pywraplp drives (Gurobi, CPLEX, Xpress, CBC ...) is a subclass of
+Another solver that pywraplp drives (CPLEX, Xpress, CBC ...) is a subclass of
 :class:`PywraplpAdapter` with its ``name``, pywraplp ``solver_id`` and ``takes_hint``,
 in its own file, plus its registration (see :mod:`~droneplan.solvers.registry`).
 """

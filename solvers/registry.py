@@ -6,7 +6,9 @@ from the class). Each adapter class says on itself what the registry needs to li
 imports its solver library inside its methods, so the adapter modules are light and
 :func:`available_backends` lists a built-in backend whose packages are installed without
 loading any solver library. A built-in adapter is instantiated only by :func:`get_backend`,
-which then makes the full check (``is_available``, e.g. that OR-Tools was built with SCIP).
+which then makes the full check (``is_available``, e.g. that OR-Tools was built with SCIP), and by
+:func:`unavailable_backends` for a backend whose packages are installed (to ask it, e.g., whether
+Gurobi's licence lets it start); a backend that cannot run is named with the reason.
 The table is built on first use, so importing droneplan loads none of the adapter modules.
 
 Adding a backend is one adapter class plus one registration: its class in the table of
@@ -18,13 +20,14 @@ from __future__ import annotations
 import functools
 from typing import Any
 
-from droneplan.solvers.base import KINDS, BackendAdapter
+from droneplan.solvers.base import KINDS, BackendAdapter, missing_packages_reason
 
 __all__ = [
     "available_backends",
     "get_backend",
     "register_backend",
     "registered_backends",
+    "unavailable_backends",
     "unregister_backend",
 ]
 
@@ -33,11 +36,21 @@ __all__ = [
 def _builtin() -> dict[str, type[BackendAdapter]]:
     """The built-in backends, name -> adapter class: the registry's one table."""
     from droneplan.solvers.cpsat import CpSatAdapter
+    from droneplan.solvers.gurobi import GurobiAdapter
     from droneplan.solvers.mip import HighsAdapter, ScipAdapter
     from droneplan.solvers.nlp import IpoptAdapter
     from droneplan.solvers.qp import OsqpAdapter
+    from droneplan.solvers.scip import PyScipOptAdapter
 
-    adapters = (CpSatAdapter, HighsAdapter, ScipAdapter, IpoptAdapter, OsqpAdapter)
+    adapters = (
+        CpSatAdapter,
+        HighsAdapter,
+        ScipAdapter,
+        PyScipOptAdapter,
+        GurobiAdapter,
+        IpoptAdapter,
+        OsqpAdapter,
+    )
     return {cls.name: cls for cls in adapters}
 
 
@@ -115,7 +128,7 @@ def get_backend(name: str, kind: str | None = None) -> Any:
         )
     if not adapter.is_available():
         raise ValueError(
-            f"backend {name!r} is not available in this installation; "
+            f"backend {name!r} is not available in this installation ({adapter.unavailable_reason()}); "
             f"available{f' {kind}' if kind else ''} backends: {available_backends(kind)}"
         )
     return adapter
@@ -142,3 +155,30 @@ def available_backends(kind: str | None = None) -> list[str]:
     """
     _check_kind(kind)
     return [name for name in registered_backends() if _listed(name, kind)]
+
+
+def unavailable_backends(kind: str | None = None) -> dict[str, str]:
+    """The registered backends that cannot run here, each with the reason in one line (the
+    packages it needs and how to install them, or a licence its library refused).
+
+    kind: if given, only the backends offering this capability ("linear", "cp", "nlp", "qp").
+
+    A built-in backend whose packages are missing is judged from its class, without importing
+    anything; one whose packages are present is loaded and asked (``is_available``), so a
+    library that is installed but refuses to start (no licence) is listed too.
+    """
+    _check_kind(kind)
+    out: dict[str, str] = {}
+    for name in registered_backends():
+        if name not in _USER and name not in _LOADED:
+            cls = _builtin()[name]
+            if kind is not None and kind not in cls.kinds:
+                continue
+            reason = missing_packages_reason(cls)
+            if reason:
+                out[name] = reason
+                continue
+        adapter = _load(name)
+        if (kind is None or kind in adapter.kinds) and not adapter.is_available():
+            out[name] = adapter.unavailable_reason() or "its adapter reports it unavailable"
+    return out

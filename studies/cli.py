@@ -1,11 +1,11 @@
 """The ``droneplan`` command line: ``reproduce``, ``gap`` and ``bench``.
 
 A problem is available when its study module ``droneplan.studies.<problem>`` exists; such
-a module defines ``reproduce(*, quick, out)`` (optionally taking ``executor`` and ``store``),
-``reproduce_jobs(*, quick, out)`` (optionally taking ``store_path``; ``droneplan reproduce``
-runs the jobs of every problem asked for together, see :func:`run_reproduce`),
-``gap(*, seeds, executor, out, store)`` and ``bench(*, quick, out)``. Problems whose
-module has not landed are listed as unavailable rather than answered with placeholder output.
+a module follows :class:`~droneplan.studies.problem_studies.ProblemStudies`:
+``reproduce_jobs(*, quick, out, store_path)`` (``droneplan reproduce`` runs the jobs of every
+problem asked for together, see :func:`run_reproduce`), ``gap(*, seeds, executor, out, store,
+first_seed)`` and ``bench(*, quick, out)``. This module only parses and dispatches; the gap study
+of a problem is :func:`~droneplan.studies.problem_studies.run_gap`.
 
 Every study writes its rows to one store, ``<--out>/results.sqlite`` (schema and store:
 :mod:`droneplan.studies.store`), exported to ``<--out>/results.csv`` after each problem;
@@ -19,9 +19,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import importlib
-import importlib.util
-import inspect
 import os
 import signal
 import sys
@@ -29,7 +26,6 @@ import tempfile
 import threading
 import time
 from pathlib import Path
-from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 from droneplan.core.files import JsonFileError
@@ -37,40 +33,29 @@ from droneplan.core.validation import check_positive
 from droneplan.studies import common
 from droneplan.studies.common import StudyError, make_executor, render_frame
 from droneplan.studies.library import LibraryFileError
+from droneplan.studies.problem_studies import CHAPTER as _CHAPTER
+from droneplan.studies.problem_studies import ProblemStudies, available_problems, resolve_problems, run_gap
+from droneplan.studies.problem_studies import problem_studies as _load
+from droneplan.studies.problem_studies import writable_out as _writable_out
 from droneplan.studies.problems import PROBLEMS
 from droneplan.studies.store import STORE_NAME, ResultStore, StoreError
 
 if TYPE_CHECKING:
     import pandas as pd
 
+    from droneplan.studies import cells, covert, herding, shark
+
+    # mypy checks that the four study modules follow the one protocol
+    _STUDY_MODULES: tuple[ProblemStudies, ...] = (covert, cells, shark, herding)
+
 __all__ = ["PROBLEMS", "available_problems", "run_gap", "run_reproduce", "main"]
-
-_CHAPTER = {"covert": 3, "cells": 4, "shark": 5, "herding": 6}
-
-
-def available_problems() -> list[str]:
-    """Problems whose study module is installed, in chapter order."""
-    return [p for p in PROBLEMS if importlib.util.find_spec(f"droneplan.studies.{p}") is not None]
-
-
-def _load(problem: str) -> ModuleType:
-    return importlib.import_module(f"droneplan.studies.{problem}")
 
 
 def _resolve(problem: str) -> list[str]:
-    avail = available_problems()
-    if problem == "all":
-        if not avail:
-            raise SystemExit("droneplan: no problem is available yet")
-        return avail
-    if problem not in PROBLEMS:
-        raise SystemExit(f"droneplan: unknown problem {problem!r}; choose from {', '.join(PROBLEMS)} or all")
-    if problem not in avail:
-        raise SystemExit(
-            f"droneplan: problem {problem!r} (thesis ch. {_CHAPTER[problem]}) is not implemented yet; "
-            f"available: {', '.join(avail) or 'none'}"
-        )
-    return [problem]
+    try:
+        return resolve_problems(problem)
+    except ValueError as exc:
+        raise SystemExit(f"droneplan: {exc}") from None
 
 
 def _certify_arguments(cert: argparse.ArgumentParser) -> None:
@@ -83,7 +68,15 @@ def _certify_arguments(cert: argparse.ArgumentParser) -> None:
     cert.add_argument(
         "--time-limit", type=float, default=300.0, metavar="S", help="per instance (default 300 s)"
     )
-    cert.add_argument("--workers", type=int, default=None, help="instances at once (default: cores)")
+    where = cert.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, default=None, help="instances at once (default: cores)")
+    where.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        default=None,
+        help="address of a running Dask scheduler to certify on, e.g. tcp://10.0.0.1:8786 (the library "
+        "file is written here)",
+    )
     cert.add_argument("--force", action="store_true", help="recertify every entry")
     cert.add_argument("--improve", action="store_true", help="recertify the entries not proven optimal")
     cert.add_argument(
@@ -285,42 +278,6 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def run_gap(
-    problem: str = "all",
-    *,
-    seeds: int,
-    out: str | os.PathLike,
-    workers: int | None = 1,
-    dask_address: str | None = None,
-    first_seed: int = 0,
-):
-    """Run the gap study of ``problem`` (or ``"all"``) from Python, like ``droneplan gap``.
-
-    seeds: number of instances per problem (per size for herding); out: the ``--out``
-    directory (store ``out/results.sqlite``, per-problem summaries and figures); workers:
-    local processes (1: serial in this process; None: one per core; at most
-    ``common.WORKERS_PER_CORE`` per core); dask_address: a Dask scheduler address (a string such
-    as ``"tcp://host:8786"``) instead; first_seed: seed of the first instance. Resumes like the CLI.
-    Returns the rows of the problems run (:func:`droneplan.load_results` of ``out``).
-    """
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
-        raise ValueError(f"seeds must be an int >= 1, got {seeds!r}")
-    if isinstance(first_seed, bool) or not isinstance(first_seed, int) or first_seed < 0:
-        raise ValueError(f"first_seed must be an int >= 0, got {first_seed!r}")
-    common.check_executor_options(workers, dask_address)
-    out = Path(out)
-    problems = _resolve(problem)
-    _writable_out(out)
-    with ResultStore(out / STORE_NAME) as store, make_executor(workers, dask_address) as executor:
-        for name in problems:
-            _load(name).gap(
-                seeds=seeds, executor=executor, out=out / name, store=store, first_seed=first_seed
-            )
-        store.export(out / "results.csv")
-        df = store.frame()
-    return df[df["problem"].isin(problems)].reset_index(drop=True)
-
-
 def _executor_options(parser: argparse.ArgumentParser) -> None:
     grp = parser.add_mutually_exclusive_group()
     grp.add_argument(
@@ -335,15 +292,6 @@ def _executor_options(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="address of a running Dask scheduler, e.g. tcp://10.0.0.1:8786",
     )
-
-
-def _writable_out(out: Path) -> None:
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise StudyError(f"cannot create --out {out}: {exc.strerror or exc}") from None
-    if not os.access(out, os.W_OK | os.X_OK):
-        raise StudyError(f"cannot write to --out {out}: permission denied")
 
 
 def _library_families() -> list[str]:
@@ -393,7 +341,7 @@ def _run_list() -> int:
 
 
 def _run_verify(args) -> int:
-    from droneplan.studies.library.certify import verify
+    from droneplan.studies.library.certify import option_message, verify
 
     try:
         summary = verify(
@@ -404,9 +352,10 @@ def _run_verify(args) -> int:
             ids=args.ids,
             sample=args.sample,
             seed=args.sample_seed,
+            dask=args.dask,
         )
-    except ValueError as exc:
-        raise StudyError(str(exc)) from None
+    except (ValueError, StudyError) as exc:
+        raise StudyError(option_message(exc)) from None
     print(
         f"verify {summary['family']}: {summary['checked']} entries re-proven (sample seed "
         f"{summary['seed']}), {len(summary['failed'])} do not hold",
@@ -431,7 +380,7 @@ def _usable_library_dir(directory: Path | None) -> None:
 
 
 def _run_certify(args) -> int:
-    from droneplan.studies.library.certify import certify
+    from droneplan.studies.library.certify import certify, option_message
 
     if args.verify:
         return _run_verify(args)
@@ -450,10 +399,11 @@ def _run_certify(args) -> int:
             directory=args.library_dir,
             force=args.force,
             improve=args.improve,
+            dask=args.dask,
             **size,
         )
-    except (ValueError, TypeError) as exc:
-        raise StudyError(str(exc)) from None
+    except (ValueError, TypeError, StudyError) as exc:
+        raise StudyError(option_message(exc)) from None
     print(
         f"certify {summary['family']}: {summary['certified']} certified now, {summary['entries']} entries "
         f"({summary['proven']} proven optimal) in {summary['path'] or 'the library (unchanged)'}",
@@ -685,18 +635,11 @@ def run_reproduce(
     store. Returns the time table (:func:`droneplan.studies.jobs.time_table`)."""
     from droneplan.studies.jobs import JobsFailed, run_jobs
 
-    jobs, legacy = [], []
+    jobs = []
     for problem in problems:
-        module = _load(problem)
         sub = out / problem
         sub.mkdir(parents=True, exist_ok=True)
-        if not hasattr(module, "reproduce_jobs"):  # a module with reproduce only runs on its own, after
-            legacy.append((problem, module))
-            continue
-        kwargs: dict = {"quick": quick, "out": sub}
-        if "store_path" in inspect.signature(module.reproduce_jobs).parameters:
-            kwargs["store_path"] = store.path
-        jobs += module.reproduce_jobs(**kwargs)
+        jobs += _load(problem).reproduce_jobs(quick=quick, out=sub, store_path=store.path)
     print(
         f"### reproduce {', '.join(problems)}: {len(jobs)} jobs on {executor.slots} {executor.kind} slot(s) "
         f"-> {out}",
@@ -711,11 +654,6 @@ def run_reproduce(
     table = _report_times(jobs, timings, time.perf_counter() - w0, time.process_time() - c0, executor, out)
     if failure is not None:
         raise failure
-    for problem, module in legacy:
-        print(f"### reproduce {problem} (thesis ch. {_CHAPTER[problem]}) -> {out / problem}", flush=True)
-        accepted = inspect.signature(module.reproduce).parameters
-        extra = {k: v for k, v in (("executor", executor), ("store", store)) if k in accepted}
-        module.reproduce(quick=quick, out=out / problem, **extra)
     return table
 
 

@@ -694,7 +694,7 @@ def _case_jobs(case: int, out: Path, quick: bool, jobs: list[Job]) -> str:
     return table
 
 
-def reproduce_jobs(*, quick: bool, out: Path) -> list[Job]:
+def reproduce_jobs(*, quick: bool, out: Path, store_path: Path | None = None) -> list[Job]:
     """The covert reproduction as jobs (:mod:`droneplan.studies.jobs`): every closed-loop run,
     the per-instant oracle and each table or figure, so they share one executor with the
     other problems; each run is made once and handed to every table that shows it.
@@ -703,7 +703,8 @@ def reproduce_jobs(*, quick: bool, out: Path) -> list[Job]:
     hover, sliding mode and MPC, see :func:`_case_runs`), the stealth front of case 1 only, at 1 s
     instants (full: both cases at 0.2 s, two more MPC approach speeds, and the optimised front of
     :mod:`droneplan.studies.covert_front` for both cases); out: directory for the CSV, PNG and GIF
-    files.
+    files; store_path: not used (the covert jobs write their tables, no store rows), taken so that
+    every problem's ``reproduce_jobs`` has one signature.
     """
     out = Path(out)
     jobs: list[Job] = []

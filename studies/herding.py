@@ -28,6 +28,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+from droneplan.core.deprecation import deprecated_names
 from droneplan.formulations.herding import solve_allocation
 from droneplan.planners.herding import (
     BenchmarkHerder,
@@ -74,7 +75,7 @@ __all__ = [
     "bench",
     "write_gif",
     "animate",
-    "summary_table",
+    "run_times_table",
 ]
 
 FIG_6_7 = {
@@ -972,7 +973,7 @@ def write_gif(trace, path, *, fps: int = 8, goal=None) -> Path:
     return animate(trace, path, fps=fps, goal=goal)
 
 
-def summary_table(traces: dict):
+def run_times_table(traces: dict):
     """Gathering and total time per run of {label: HerdingTrace}, as a DataFrame with units in the
     column names (times in min, speeds in m/s; the traces themselves hold seconds).
 
@@ -998,3 +999,6 @@ def summary_table(traces: dict):
             for k, tr in traces.items()
         ]
     ).set_index("method")
+
+
+__getattr__ = deprecated_names(__name__, {"summary_table": "run_times_table"}, globals())

@@ -250,7 +250,7 @@ def _alloc_exact(d, s, M, *, seed, time_limit):
 def _alloc_cpsat(d, s, M, *, seed, time_limit, warm_start=None):
     from droneplan.formulations.herding import solve_allocation
 
-    return solve_allocation(d, s, M, method="cp-sat", time_limit=time_limit, hint=warm_start)
+    return solve_allocation(d, s, M, engine="cp-sat", time_limit=time_limit, warm_start=warm_start)
 
 
 def _alloc_alg3(d, s, M, *, seed, time_limit):

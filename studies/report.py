@@ -630,6 +630,9 @@ def write_report(out: str | Path, *, problems: Sequence[str] = PROBLEMS, title: 
                 f'<figure><a href="{rel}"><img src="{rel}" alt="{html.escape(fig.stem)}" loading="lazy"></a>'
                 f"<figcaption>{html.escape(fig.stem.replace('_', ' '))}</figcaption></figure>\n"
             )
+        from droneplan.studies.plots.maps import report_map_html  # folium loads for a report only
+
+        parts.append(report_map_html(problem))  # the problem's interactive map, if it has one
         if data:
             links = ", ".join(f'<a href="{html.escape(d)}">{html.escape(d)}</a>' for d in data)
             parts.append(f'<p class="source">other data: {links}</p>\n')

@@ -288,12 +288,14 @@ PATH_COST = 6.0
 """Estimated CPU seconds of one Table 5.2 path (the scheduler starts long chains first)."""
 
 
-def reproduce_jobs(*, quick: bool, out: Path) -> list[Job]:
+def reproduce_jobs(*, quick: bool, out: Path, store_path: Path | None = None) -> list[Job]:
     """The shark reproduction as jobs (:mod:`droneplan.studies.jobs`): Figs. 5.10-5.11, one job
     per Table 5.2 path, groups of repelling episodes, and the tables and figures they feed.
 
     quick: coarser offline OCP (N = 40 / 30 instead of 60 / 40), 6 repelling episodes per group
-    (full: 30) and no OCP group with 2 sharks; out: directory for the CSV, PNG and GIF files.
+    (full: 30) and no OCP group with 2 sharks; out: directory for the CSV, PNG and GIF files;
+    store_path: not used (the shark jobs write their tables, no store rows), taken so that every
+    problem's ``reproduce_jobs`` has one signature.
     """
     out = Path(out)
     jobs = [

@@ -97,7 +97,7 @@ def _allocate(method: str, drone_s, steer_s, M):
         return allocate_collision_blind(drone_s, steer_s, M)
     if method == "exact":  # the herder's arc positions lie in [0, M) by construction
         return solve_checked_exact(drone_s, steer_s, M)
-    return solve_allocation(drone_s, steer_s, M, method=method, workers=1)
+    return solve_allocation(drone_s, steer_s, M, engine=method, workers=1)
 
 
 class _Herder(abc.ABC):

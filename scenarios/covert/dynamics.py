@@ -11,6 +11,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from droneplan.core.deprecation import renamed_keywords
 from droneplan.core.validation import (
     check_array,
     check_bool,
@@ -29,6 +30,7 @@ __all__ = [
     "rotate_heading",
     "step_drone",
     "measure",
+    "observe_targets",
     "CovertObservation",
     "CovertCommand",
     "Controller",
@@ -180,6 +182,20 @@ def measure(true_rel: NDArray[np.float64], noise: float, rng: np.random.Generato
     if noise == 0.0:
         return true_rel.copy()
     return true_rel * (1.0 + noise * rng.uniform(-1.0, 1.0, size=true_rel.shape))
+
+
+def observe_targets(
+    scenario: CovertScenario, t: float, drone: NDArray[np.float64], noise: float, rng: np.random.Generator
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """What the drone measures at time ``t`` (s) from ``drone`` (3,) (m), as :func:`simulate` does:
+    (the measured vectors a_j = A_j - D (n, 3) (m), NaN rows for the unobservable targets; the
+    (n,) observable mask). noise: amplitude as a fraction of each component (:func:`measure`);
+    rng: the run's generator for the noise (drawn from when noise > 0, observable or not)."""
+    A = scenario.targets_at(t)
+    obsmask = scenario.observable_at(t, drone)
+    rel = measure(A - drone, noise, rng)
+    rel[~obsmask] = np.nan
+    return rel, obsmask
 
 
 # --------------------------------------------------------------------------- simulation
@@ -342,7 +358,7 @@ class _Record:
 
 
 def _start(
-    scenario: CovertScenario, max_time: Any, initial_heading: Any, vtol: bool
+    scenario: CovertScenario, t_max: Any, initial_heading: Any, vtol: bool
 ) -> tuple[float, float, NDArray[np.float64], NDArray[np.float64]]:
     """Check the run's settings; returns (climb: height of D_s above the ground below it (m), 0
     without ``vtol``; t_stop (s); the start position (D_s, or D_v with ``vtol``); the unit heading)."""
@@ -356,13 +372,9 @@ def _start(
             raise ValueError(
                 f"vtol=True needs D_s above the ground, but D_s is {-climb:.3f} m below the terrain there"
             )
-    t_stop = (
-        p.duration + 60.0 + 2.0 * climb / p.V_max
-        if max_time is None
-        else check_positive("max_time", max_time)
-    )
+    t_stop = p.duration + 60.0 + 2.0 * climb / p.V_max if t_max is None else check_positive("t_max", t_max)
     if t_stop / p.dt > 1e7:
-        raise ValueError(f"max_time asks for {t_stop / p.dt:.3g} steps of dt = {p.dt} s, more than 1e7")
+        raise ValueError(f"t_max asks for {t_stop / p.dt:.3g} steps of dt = {p.dt} s, more than 1e7")
     D = p.D_s_arr.copy()
     if vtol:
         D[2] -= climb  # D_v, on the ground below D_s
@@ -398,13 +410,14 @@ def _warn_without_targets(scenario: CovertScenario) -> None:
         )
 
 
+@renamed_keywords(max_time="t_max")
 def simulate(
     scenario: CovertScenario,
     controller: Controller,
     *,
     noise: float = 0.0,
     seed: int | np.random.Generator | None = None,
-    max_time: float | None = None,
+    t_max: float | None = None,
     initial_heading: Any = None,
     vtol: bool = False,
 ) -> CovertTrace:
@@ -414,7 +427,8 @@ def simulate(
         -> CovertCommand``, ``phase``, ``finished``; optional ``fallbacks``, ``statuses``, ``solve_times``).
     noise: measurement noise amplitude as a fraction of each measured component (>= 0).
     seed: seed for the noise (int, Generator or None: a seed is drawn; recorded in the trace).
-    max_time: hard stop (s); default duration + 60 s (plus the take-off and landing with ``vtol``).
+    t_max: the horizon, a hard stop (s; formerly ``max_time``); default duration + 60 s (plus the
+        take-off and landing with ``vtol``).
     initial_heading: initial h (default: from D_s towards F).
     vtol: fly the whole mission of the thesis (§3.4, Algorithm 1): a vertical take-off from the VTOL
         position D_v on the ground below D_s (terrain height at D_s's x, y) up to D_s, the controller's
@@ -428,7 +442,7 @@ def simulate(
     check_methods("controller", controller, ("reset", "command"))
     noise = check_nonneg("noise", noise)
     vtol = check_bool("vtol", vtol)
-    _, t_stop, D, h = _start(scenario, max_time, initial_heading, vtol)
+    _, t_stop, D, h = _start(scenario, t_max, initial_heading, vtol)
     _warn_without_targets(scenario)  # after _start, which checks that it is a CovertScenario
     p = scenario.params
     rng, drawn = resolve_seed(seed)
@@ -441,10 +455,7 @@ def simulate(
     ground = 0.0  # ground height below the drone when it lands (m)
     for k in range(steps + 1):
         t = k * p.dt
-        A = scenario.targets_at(t)
-        obsmask = scenario.observable_at(t, D)
-        rel = measure(A - D, noise, rng)
-        rel[~obsmask] = np.nan
+        rel, obsmask = observe_targets(scenario, t, D, noise, rng)
         rec.state(t, D, h)
         if k == steps:
             rec.last(controller.phase if leg is None else leg)

@@ -1,5 +1,6 @@
 """Shark interception world (thesis ch. 5): Table 5.1, field model, shark paths, simulator, repelling."""
 
+from droneplan.core.deprecation import deprecated_names
 from droneplan.scenarios.shark.params import (
     THESIS_TABLE_5_1,
     SharkParams,
@@ -32,7 +33,6 @@ from droneplan.scenarios.shark.simulate import (
     clip_velocity,
     operator_start,
     simulate,
-    simulate_interception,
 )
 from droneplan.scenarios.shark.trajectories import (
     SharkTrajectory,
@@ -60,7 +60,6 @@ __all__ = [
     "clip_velocity",
     "operator_start",
     "simulate",
-    "simulate_interception",
     "SharkTrajectory",
     "constant_velocity_trajectory",
     "make_trajectory",
@@ -77,3 +76,6 @@ __all__ = [
     "RepellingScenario",
     "RepellingObservation",
 ]
+
+
+__getattr__ = deprecated_names(__name__, {"simulate_interception": "simulate"}, globals())

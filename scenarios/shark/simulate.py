@@ -10,6 +10,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from droneplan.core.deprecation import deprecated_names
 from droneplan.core.validation import (
     MAX_COORDINATE,
     check_array,
@@ -30,9 +31,11 @@ __all__ = [
     "InterceptionController",
     "InterceptionTrace",
     "simulate",
-    "simulate_interception",
     "operator_start",
     "clip_velocity",
+    "operator_step",
+    "OperatorStep",
+    "frontal_angle",
     "FRONTAL_TOL_DEG",
     "DEFAULT_BEARING_DEG",
 ]
@@ -255,7 +258,69 @@ def operator_start(
     return np.array([s0[0] + params.Di * math.cos(psi), s0[1] + params.Di * math.sin(psi), z])
 
 
-def simulate(  # noqa: PLR0915
+class OperatorStep(NamedTuple):
+    """One step of Ts of the operator's dynamics (5.4), from :func:`operator_step`."""
+
+    operator: NDArray[np.float64]
+    """(3,) operator position at the end of the step (m)."""
+    velocity: NDArray[np.float64]
+    """(3,) velocity flown (m/s): the command clipped to the speed limits and the altitude band."""
+    clipped: bool
+    """The command exceeded the speed limits and was clipped."""
+    contact: tuple[float, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None
+    """The first field contact within the step: (time (s), shark position (3,) m, shark velocity
+    (3,) m/s, operator position (3,) m); None without contact."""
+
+
+def operator_step(
+    operator: NDArray[np.float64],
+    velocity,
+    trajectory: SharkTrajectory,
+    k: int,
+    params: SharkParams,
+    fractions: NDArray[np.float64],
+) -> OperatorStep:
+    """Fly the operator from sample ``k`` to ``k + 1`` of the shark's path with ``velocity`` (the
+    step of :func:`simulate`): clip it to the speed limits, keep the altitude in [lmin, le], and
+    check the field contact at the fractions of the step ``fractions`` (both move linearly).
+
+    operator: (3,) position at t_k (m); velocity: (3,) command (m/s); trajectory: the shark's path;
+    k: the sample index; params: the run's SharkParams; fractions: increasing, in (0, 1].
+    """
+    v, clipped = clip_velocity(velocity, params)
+    On = operator + params.Ts * v
+    On[2] = min(max(On[2], params.lmin), params.le)
+    v = (On - operator) / params.Ts
+    # contact check on the segment (both move linearly within the step)
+    S, V = trajectory.pos[k], trajectory.vel[k]
+    Sn = trajectory.pos[k + 1]
+    Ss = S + fractions[:, None] * (Sn - S)
+    Os = operator + fractions[:, None] * (On - operator)
+    clear = inside_field(Ss, Os, params)
+    contact = None
+    if np.any(clear <= 0):
+        j = int(np.argmax(clear <= 0))
+        tc = float(trajectory.t[k] + fractions[j] * params.Ts)
+        Vc = V + fractions[j] * (trajectory.vel[k + 1] - V)
+        contact = (tc, Ss[j], Vc, Os[j])
+    return OperatorStep(On, v, clipped, contact)
+
+
+def frontal_angle(operator, shark, shark_vel) -> float:
+    """Angle (deg) between the shark's horizontal heading and the shark-to-operator direction.
+
+    operator, shark: (3,) positions (m); shark_vel: (3,) shark velocity (m/s). 0 when they
+    coincide horizontally, 180 when the shark stands still.
+    """
+    rel = np.asarray(operator)[:2] - np.asarray(shark)[:2]
+    hv = np.asarray(shark_vel)[:2]
+    if np.linalg.norm(hv) < 1e-9 or np.linalg.norm(rel) < 1e-9:
+        return 0.0 if np.linalg.norm(rel) < 1e-9 else 180.0
+    cosang = np.dot(rel, hv) / (np.linalg.norm(rel) * np.linalg.norm(hv))
+    return math.degrees(math.acos(max(-1.0, min(1.0, cosang))))
+
+
+def simulate(
     scenario: InterceptionScenario | SharkTrajectory,
     controller: InterceptionController,
     params: SharkParams | None = None,
@@ -319,24 +384,13 @@ def simulate(  # noqa: PLR0915
         # the command covers [t_k, t_k + Ts]: its flag tells whether a contact during this step is intended
         v, ready = (cmd.velocity, bool(cmd.at_interception)) if isinstance(cmd, SharkCommand) else (cmd, True)
         phases.append(SharkPhase(getattr(controller, "phase", SharkPhase.PURSUIT)))
-        v, c = clip_velocity(v, params)
-        clipped_steps += c
-        On = O + params.Ts * v
-        On[2] = min(max(On[2], params.lmin), params.le)
-        v = (On - O) / params.Ts
-        ovs.append(v)
-        # contact check on the segment (both move linearly within the step)
-        Sn = trajectory.pos[k + 1]
-        Ss = S + fr[:, None] * (Sn - S)
-        Os = O + fr[:, None] * (On - O)
-        clear = inside_field(Ss, Os, params)
-        O = On
+        step = operator_step(O, v, trajectory, k, params, fr)
+        clipped_steps += step.clipped
+        ovs.append(step.velocity)
+        O = step.operator
         ops.append(O.copy())
-        if np.any(clear <= 0):
-            j = int(np.argmax(clear <= 0))
-            tc = float(trajectory.t[k] + fr[j] * params.Ts)
-            Vc = V + fr[j] * (trajectory.vel[k + 1] - V)
-            contact = (k + 1, tc, Ss[j], Vc, Os[j], ready)
+        if step.contact is not None:
+            contact = (k + 1, *step.contact, ready)
             break
     K = len(ops)
     t = trajectory.t[:K]
@@ -378,13 +432,7 @@ def simulate(  # noqa: PLR0915
             contact_eps=None,
         )
     _, tc, Sc, Vc, Oc, ready = contact
-    rel = Oc[:2] - Sc[:2]
-    hv = Vc[:2]
-    if np.linalg.norm(hv) < 1e-9 or np.linalg.norm(rel) < 1e-9:
-        angle = 0.0 if np.linalg.norm(rel) < 1e-9 else 180.0
-    else:
-        cosang = np.dot(rel, hv) / (np.linalg.norm(rel) * np.linalg.norm(hv))
-        angle = math.degrees(math.acos(max(-1.0, min(1.0, cosang))))
+    angle = frontal_angle(Oc, Sc, Vc)
     return InterceptionTrace(
         **common,
         intercept_time=tc,
@@ -396,5 +444,4 @@ def simulate(  # noqa: PLR0915
     )
 
 
-simulate_interception = simulate
-"""The older name of :func:`simulate` (same function)."""
+__getattr__ = deprecated_names(__name__, {"simulate_interception": "simulate"}, globals())

@@ -211,7 +211,7 @@ def _certify_allocation(instance: InstanceLike, time_limit: float | None) -> dic
     value = check_allocation(d.drone_s, d.steer_s, d.perimeter, res.x)
     engine = "exact combinatorial allocation"
     if d.n <= 16:
-        cp = solve_allocation(d.drone_s, d.steer_s, d.perimeter, method="cp-sat", time_limit=time_limit)
+        cp = solve_allocation(d.drone_s, d.steer_s, d.perimeter, engine="cp-sat", time_limit=time_limit)
         if (
             cp.status.value != "optimal"
             or cp.objective is None

@@ -3,16 +3,27 @@
 Every instance without a current entry is certified in its own time-limited child process
 (:mod:`droneplan.studies.runner`), ``workers`` at a time; the library file is rewritten after every
 entry, so an interrupted run keeps what it finished and the same command resumes it.
+
+On a Dask cluster (``dask=ADDRESS``, ``droneplan certify ... --dask ADDRESS``, or a Dask
+``executor`` of :func:`~droneplan.studies.common.make_executor`) each instance's child process runs
+on a worker (:func:`~droneplan.studies.runner.run_isolated` there), which sends back only the
+entry's fields. The library file is written here, by the process that holds its lock, after each
+instance as it comes back, exactly as in a local run: a worker never writes library files.
 """
 
 from __future__ import annotations
 
+import concurrent.futures as cf
+import contextlib
 import os
 import random
 from collections.abc import Iterator, Sequence
 from typing import Any
 
-from droneplan.core.validation import check_int, check_sequence, check_time_limit
+from tqdm.auto import tqdm
+
+from droneplan.core.validation import check_instance, check_int, check_sequence, check_time_limit
+from droneplan.studies.common import StudyError, StudyExecutor, make_executor
 from droneplan.studies.library import (
     LIBRARY_FAMILIES,
     certify_instance,
@@ -23,9 +34,17 @@ from droneplan.studies.library import (
     save_library,
 )
 from droneplan.studies.provenance import provenance
-from droneplan.studies.runner import Job, JobOutcome, run_jobs
+from droneplan.studies.runner import Job, JobOutcome, run_isolated, run_jobs
 
-__all__ = ["certify", "verify", "certifications", "CERTIFY_GRACE_S"]
+__all__ = [
+    "certify",
+    "verify",
+    "certifications",
+    "check_cluster_options",
+    "connect",
+    "option_message",
+    "CERTIFY_GRACE_S",
+]
 
 CERTIFY_GRACE_S = 30.0
 """How long a certification may overrun its time limit before its process is killed (s): the
@@ -41,6 +60,8 @@ def certify(
     force: bool = False,
     improve: bool = False,
     progress: bool = True,
+    dask: str | None = None,
+    executor: StudyExecutor | None = None,
     **size: Any,
 ) -> dict[str, Any]:
     """Certify the instances of ``family`` and write its library file; return a summary.
@@ -48,8 +69,14 @@ def certify(
     family: a family in ``LIBRARY_FAMILIES``. time_limit: per instance (s; None: none).
     workers: instances certified at once (default: number of cores). directory: where the
     library files are (default: the package's). force: redo every entry. improve: redo the
-    entries that are not proven optimal. progress: show a progress bar. size: the family's sizes
-    and ``seeds``/``first_seed`` (default: what ``LIBRARY_FAMILIES`` lists).
+    entries that are not proven optimal. progress: show a progress bar. dask: the address of a
+    Dask scheduler (``"tcp://host:8786"``) to certify the instances on, instead of ``workers``
+    local processes; one that does not answer within 5 s is a :class:`StudyError` naming
+    ``dask``, raised before any file is written. executor: a
+    :class:`~droneplan.studies.common.StudyExecutor` instead (a Dask one runs the instances on its
+    cluster; a local one gives the number of instances at once). The entries are written here in
+    either case, after each instance (module docstring). size: the family's sizes and
+    ``seeds``/``first_seed`` (default: what ``LIBRARY_FAMILIES`` lists).
     Returns {"family", "path", "certified", "failed", "entries", "proven"} (counts and the path).
     """
     if family not in LIBRARY_FAMILIES:
@@ -58,6 +85,7 @@ def certify(
         )
     time_limit = check_time_limit(time_limit)
     workers = check_int("workers", workers if workers is not None else (os.cpu_count() or 1), min_value=1)
+    check_cluster_options(dask, executor)
     instances = library_instances(family, **size)
     entries = load_library(family, directory)
     todo = entries_to_certify(instances, entries, force=force, improve=improve)
@@ -65,22 +93,25 @@ def certify(
     prov = provenance()
     failed: list[str] = []
     path = None
-    for outcome in certifications(todo, time_limit, workers, f"certify {family}" if progress else None):
-        inst = by_id[str(outcome.key)]
-        if outcome.status != "ok":
-            failed.append(f"{inst.id}: {outcome.status}: {outcome.error}")
-            continue
-        old = entries.get(inst.id)
-        new = entry_from(inst, outcome.value, time_limit=time_limit, prov=prov)
-        if (
-            old is not None
-            and old.fingerprint == new.fingerprint
-            and not force
-            and _better_or_equal(old, new)
-        ):
-            continue  # an improve run that did not improve keeps the older, better entry
-        entries[inst.id] = new
-        path = save_library(family, {inst.id: new}, directory, merge=True)
+    with contextlib.ExitStack() as stack:
+        runner = connect(stack, dask, executor)
+        desc = f"certify {family}" if progress else None
+        for outcome in certifications(todo, time_limit, workers, desc, executor=runner):
+            inst = by_id[str(outcome.key)]
+            if outcome.status != "ok":
+                failed.append(f"{inst.id}: {outcome.status}: {outcome.error}")
+                continue
+            old = entries.get(inst.id)
+            new = entry_from(inst, outcome.value, time_limit=time_limit, prov=prov)
+            if (
+                old is not None
+                and old.fingerprint == new.fingerprint
+                and not force
+                and _better_or_equal(old, new)
+            ):
+                continue  # an improve run that did not improve keeps the older, better entry
+            entries[inst.id] = new
+            path = save_library(family, {inst.id: new}, directory, merge=True)  # here, under its lock
     wanted = {inst.id for inst in instances}
     held = [e for k, e in entries.items() if k in wanted]
     return {
@@ -94,20 +125,89 @@ def certify(
 
 
 def certifications(
-    instances: list[Any], time_limit: float | None, workers: int, progress: str | None
+    instances: list[Any],
+    time_limit: float | None,
+    workers: int,
+    progress: str | None,
+    *,
+    executor: StudyExecutor | None = None,
 ) -> Iterator[JobOutcome]:
     """The outcomes of certifying each instance in its own time-limited child process.
 
     instances: the StudyInstances. time_limit: per instance (s; None: none; the child is killed
     ``CERTIFY_GRACE_S`` after it). workers: children at once. progress: a progress bar's
-    description, or None for none. Yields one ``JobOutcome`` per instance (key: its id; value:
-    :func:`~droneplan.studies.library.certify_instance`'s fields) as each finishes.
+    description, or None for none. executor: None (``workers`` local children), a local
+    :class:`~droneplan.studies.common.StudyExecutor` (as many children as its slots) or a Dask one
+    (each child on a worker of its cluster). Yields one ``JobOutcome`` per instance (key: its id;
+    value: :func:`~droneplan.studies.library.certify_instance`'s fields) as each finishes.
     """
     jobs = [
         Job(inst.id, certify_instance, (inst,), {"time_limit": time_limit}, time_limit=time_limit)
         for inst in instances
     ]
+    if executor is not None and executor.kind == "dask":
+        yield from _on_cluster(jobs, executor, progress)
+        return
+    if executor is not None:
+        workers = executor.slots
     yield from run_jobs(jobs, workers=workers, grace=CERTIFY_GRACE_S, progress=progress)
+
+
+def _on_cluster(jobs: list[Job], executor: StudyExecutor, progress: str | None) -> Iterator[JobOutcome]:
+    """The outcomes of ``jobs``, each run in a child of a Dask worker (``run_isolated`` there), as
+    they come back; a job whose worker failed is a ``"crashed"`` outcome. Leaving early (an
+    interrupt, an error while an outcome is written) cancels the jobs not yet finished."""
+    futures = {executor.submit(run_isolated, job, grace=CERTIFY_GRACE_S): job.key for job in jobs}
+    try:
+        with tqdm(total=len(futures), desc=progress, disable=progress is None) as bar:
+            for fut in cf.as_completed(futures):
+                try:
+                    outcome = fut.result()
+                except Exception as exc:  # noqa: BLE001 - the worker died or lost the job: one failure
+                    outcome = JobOutcome(futures[fut], "crashed", error=f"worker failed: {_one_line(exc)}")
+                bar.update(1)
+                yield outcome
+    finally:
+        for fut in futures:
+            fut.cancel()
+
+
+def _one_line(exc: BaseException) -> str:
+    """``"Type: message"`` of ``exc`` on one line (at most 200 characters)."""
+    return f"{type(exc).__name__}: {' '.join(str(exc).split())}"[:200]
+
+
+def check_cluster_options(dask: object, executor: object) -> None:
+    """Refuse, naming the parameter, a ``dask`` that is not a scheduler address (str or None), an
+    ``executor`` that is not a :class:`~droneplan.studies.common.StudyExecutor` (or None), or
+    both given."""
+    check_instance("dask", dask, str, optional=True)
+    check_instance("executor", executor, StudyExecutor, optional=True)
+    if dask is not None and executor is not None:
+        raise ValueError("dask and executor: give one of them, not both")
+    if isinstance(dask, str) and not dask.strip():
+        raise ValueError(f"dask must be a scheduler address such as 'tcp://host:8786', got {dask!r}")
+
+
+def option_message(exc: BaseException) -> str:
+    """The message of ``exc`` for the command line: a leading ``dask:`` (the keyword) becomes
+    ``--dask:`` (the option)."""
+    text = str(exc)
+    return f"--{text}" if text.startswith("dask:") else text
+
+
+def connect(
+    stack: contextlib.ExitStack, dask: str | None, executor: StudyExecutor | None
+) -> StudyExecutor | None:
+    """``executor``, or (with ``dask``) an executor on the Dask scheduler at that address, opened
+    in ``stack`` (:func:`~droneplan.studies.common.make_executor`, at most 5 s to answer); a
+    scheduler that does not answer is a one-line :class:`StudyError` starting ``dask:``."""
+    if dask is None:
+        return executor
+    try:
+        return stack.enter_context(make_executor(dask_address=dask))
+    except StudyError as exc:
+        raise StudyError(f"dask: {exc}") from None
 
 
 def _better_or_equal(old, new) -> bool:
@@ -131,12 +231,14 @@ def verify(
     sample: int | None = None,
     seed: int | None = None,
     progress: bool = True,
+    dask: str | None = None,
+    executor: StudyExecutor | None = None,
 ) -> dict[str, Any]:
     """Re-prove the stored entries of ``family`` and report those that do not hold; writes nothing.
 
     An entry does not hold when the fresh certification finds a plan better than its stored
     bound, or proves another optimum than the one it states. family, time_limit, workers,
-    directory: as for :func:`certify`. ids: re-prove only these entries (None: all). sample:
+    directory, dask, executor: as for :func:`certify`. ids: re-prove only these entries (None: all). sample:
     re-prove this many of them drawn at random (None: all). seed: the draw's seed (None: a fresh
     one, reported in the summary so a draw can be repeated). Returns {"family", "checked",
     "seed", "failed"} (``failed``: one line per entry).
@@ -147,6 +249,7 @@ def verify(
         )
     time_limit = check_time_limit(time_limit)
     workers = check_int("workers", workers if workers is not None else (os.cpu_count() or 1), min_value=1)
+    check_cluster_options(dask, executor)
     entries = load_library(family, directory)
     instances = [inst for inst in library_instances(family) if inst.id in entries]
     if ids is not None:
@@ -155,14 +258,17 @@ def verify(
     if sample is not None and check_int("sample", sample, min_value=1) < len(instances):
         instances = random.Random(seed).sample(instances, sample)
     failed = []
-    for outcome in certifications(instances, time_limit, workers, f"verify {family}" if progress else None):
-        entry = entries[str(outcome.key)]
-        if outcome.status != "ok":
-            failed.append(f"{entry.id}: not re-proven ({outcome.status}: {outcome.error})")
-            continue
-        why = entry_disagrees(entry, outcome.value)
-        if why:
-            failed.append(f"{entry.id}: {why}")
+    with contextlib.ExitStack() as stack:
+        runner = connect(stack, dask, executor)
+        desc = f"verify {family}" if progress else None
+        for outcome in certifications(instances, time_limit, workers, desc, executor=runner):
+            entry = entries[str(outcome.key)]
+            if outcome.status != "ok":
+                failed.append(f"{entry.id}: not re-proven ({outcome.status}: {outcome.error})")
+                continue
+            why = entry_disagrees(entry, outcome.value)
+            if why:
+                failed.append(f"{entry.id}: {why}")
     return {"family": family, "checked": len(instances), "seed": seed, "failed": failed}
 
 

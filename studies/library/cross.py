@@ -20,26 +20,35 @@ the other instances, so one run shows them all), unless ``strict=False``.
 
 An instance where an engine stopped at its time limit is compared on bounds only; the
 summary counts the instances where both proved.
+
+On a Dask cluster (``dask=ADDRESS``, ``droneplan cross-certify ... --dask ADDRESS``, or a
+Dask ``executor`` of :func:`~droneplan.studies.common.make_executor`) the two engines of each
+instance run on a worker, which sends back their outcomes only; the library lookup, the checks,
+the log and the saved disagreements are done here, as each instance comes back.
 """
 
 from __future__ import annotations
 
 import argparse
+import concurrent.futures as cf
+import contextlib
 import json
 import math
 import os
 import re
 import sys
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from droneplan.core.validation import check_int, check_time_limit
+from droneplan.studies.common import StudyError, StudyExecutor
 from droneplan.studies.instances import FAMILIES, StudyInstance, family_instances, save_instance
 from droneplan.studies.library import lookup
+from droneplan.studies.library.certify import check_cluster_options, connect, option_message
 
 __all__ = ["CrossCertificationError", "cross_certify", "cross_check_instance"]
 
@@ -141,8 +150,28 @@ def cross_check_instance(
     if instance.kind != "cells":
         raise ValueError(f"instance must be a cells instance, got kind {instance.kind!r} ({instance.id})")
     _require_thesis_model(instance)
-    limits = {"bnb": time_limit, "milp": time_limit if milp_time_limit is None else milp_time_limit}
-    out = {name: _run_engine(instance.data, name, limits[name], backend, workers) for name in ENGINE_NAMES}
+    out = _run_engines(instance.data, _limits(time_limit, milp_time_limit), backend, workers)
+    return _checked(instance, out, library_dir)
+
+
+def _limits(time_limit: float | None, milp_time_limit: float | None) -> dict[str, float | None]:
+    """Each engine's time limit (s; None: none)."""
+    return {"bnb": time_limit, "milp": time_limit if milp_time_limit is None else milp_time_limit}
+
+
+def _run_engines(
+    problem: Any, limits: dict[str, float | None], backend: str, workers: int
+) -> dict[str, dict[str, Any]]:
+    """Both engines on one problem (where the instance is computed: here, or on a Dask worker),
+    by name; each outcome as :func:`_run_engine` gives it. limits: each engine's time limit (s)."""
+    return {name: _run_engine(problem, name, limits[name], backend, workers) for name in ENGINE_NAMES}
+
+
+def _checked(
+    instance: StudyInstance, out: dict[str, dict[str, Any]], library_dir: str | os.PathLike | None
+) -> dict[str, Any]:
+    """The record of :func:`cross_check_instance` from both engines' outcomes ``out``: the library
+    entry (read from ``library_dir`` in this process) and every disagreement."""
     entry = lookup(instance, library_dir)
     return {
         "id": instance.id,
@@ -177,6 +206,8 @@ def cross_certify(
     strict: bool = True,
     log: str | os.PathLike | None = None,
     progress: Callable[[dict[str, Any]], None] | None = None,
+    dask: str | None = None,
+    executor: StudyExecutor | None = None,
 ) -> dict[str, Any]:
     """Cross-certify the exact cells engines on ``family``'s instances (module docstring).
 
@@ -186,7 +217,13 @@ def cross_certify(
     disagreeing instances are saved. library_dir: the library files (default: the
     package's). strict: raise :class:`CrossCertificationError` after the run when any
     instance disagrees. log: a JSON-lines file that gets one line per instance as it ends
-    (None: none). progress: called with each instance's record.
+    (None: none). progress: called with each instance's record. dask: the address of a Dask
+    scheduler (``"tcp://host:8786"``) whose workers run the engines, one instance per task (the
+    checks, the log and the saved files stay in this process); one that does not answer within
+    5 s is a :class:`~droneplan.studies.common.StudyError` naming ``dask``, raised before any
+    file is written. executor: a :class:`~droneplan.studies.common.StudyExecutor` instead (serial:
+    as without one; a process pool or Dask: the instances are spread over it). With either, the
+    log's lines come in the order the instances finish.
 
     Returns {"family", "instances", "both_proven", "bnb_proven", "milp_proven",
     "library_matched" (proven optima equal to a proven library value), "disagreements"
@@ -198,6 +235,7 @@ def cross_certify(
     check_time_limit(time_limit)
     check_time_limit(milp_time_limit)
     check_int("workers", workers, min_value=1)
+    check_cluster_options(dask, executor)
     instances = family_instances(
         family, m=list(m) if isinstance(m, Iterable) else m, seeds=seeds, first_seed=first_seed
     )
@@ -214,31 +252,11 @@ def cross_certify(
         "saved": [],
         "cpu_s": dict.fromkeys(ENGINE_NAMES, 0.0),
     }
-    for inst in instances:
-        rec = cross_check_instance(
-            inst,
-            time_limit=time_limit,
-            milp_time_limit=milp_time_limit,
-            backend=backend,
-            workers=workers,
-            library_dir=library_dir,
-        )
-        _tally(summary, rec)
-        if rec["disagreements"]:
-            path = _save_disagreement(
-                inst, rec["engines"], rec["library"], rec["disagreements"], Path(directory)
-            )
-            summary["disagreements"][inst.id] = rec["disagreements"]
-            summary["saved"].append(str(path))
-            print(
-                f"cross-certify DISAGREEMENT {inst.id}: {rec['disagreements']} (saved {path})",
-                file=sys.stderr,
-            )
-        if log is not None:
-            with open(log, "a") as fh:
-                fh.write(json.dumps({**rec, "library": _entry_dict(rec["library"])}) + "\n")
-        if progress is not None:
-            progress(rec)
+    limits = _limits(time_limit, milp_time_limit)
+    with contextlib.ExitStack() as stack:
+        runner = connect(stack, dask, executor)
+        for inst, out in _engine_outcomes(instances, limits, backend, workers, runner):
+            _record(summary, _checked(inst, out, library_dir), inst, directory, log, progress)
     if strict and summary["disagreements"]:
         lines = [f"{k}: {'; '.join(v)}" for k, v in summary["disagreements"].items()]
         raise CrossCertificationError(
@@ -246,6 +264,54 @@ def cross_certify(
             + "\n".join(lines)
         )
     return summary
+
+
+def _engine_outcomes(
+    instances: list[StudyInstance],
+    limits: dict[str, float | None],
+    backend: str,
+    workers: int,
+    executor: StudyExecutor | None,
+) -> Iterator[tuple[StudyInstance, dict[str, dict[str, Any]]]]:
+    """(instance, both engines' outcomes) for each instance: one after the other in this process
+    (no executor, or a serial one), or spread over ``executor`` in the order they finish. Leaving
+    early cancels the instances not yet finished."""
+    if executor is None or executor.kind == "serial":
+        for inst in instances:
+            yield inst, _run_engines(inst.data, limits, backend, workers)
+        return
+    futures = {executor.submit(_run_engines, inst.data, limits, backend, workers): inst for inst in instances}
+    try:
+        for fut in cf.as_completed(futures):
+            yield futures[fut], fut.result()
+    finally:
+        for fut in futures:
+            fut.cancel()
+
+
+def _record(
+    summary: dict[str, Any],
+    rec: dict[str, Any],
+    inst: StudyInstance,
+    directory: str | os.PathLike,
+    log: str | os.PathLike | None,
+    progress: Callable[[dict[str, Any]], None] | None,
+) -> None:
+    """Count one instance's record in ``summary``, save it when it disagrees, log it, report it."""
+    _tally(summary, rec)
+    if rec["disagreements"]:
+        path = _save_disagreement(inst, rec["engines"], rec["library"], rec["disagreements"], Path(directory))
+        summary["disagreements"][inst.id] = rec["disagreements"]
+        summary["saved"].append(str(path))
+        print(
+            f"cross-certify DISAGREEMENT {inst.id}: {rec['disagreements']} (saved {path})",
+            file=sys.stderr,
+        )
+    if log is not None:
+        with open(log, "a") as fh:
+            fh.write(json.dumps({**rec, "library": _entry_dict(rec["library"])}) + "\n")
+    if progress is not None:
+        progress(rec)
 
 
 def _entry_dict(entry) -> dict | None:
@@ -304,6 +370,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     parser.add_argument(
         "--library-dir", type=Path, default=None, help="where the library files are (default: the package's)"
     )
+    parser.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        default=None,
+        help="address of a running Dask scheduler whose workers run the engines, e.g. tcp://10.0.0.1:8786",
+    )
     return parser
 
 
@@ -316,20 +388,24 @@ def run(args: argparse.Namespace) -> int:
         m = [int(v) for v in str(args.m).split(",") if v.strip()]
     except ValueError:
         raise ValueError(f"--m must be comma-separated integers, got {args.m!r}") from None
-    summary = cross_certify(
-        args.family,
-        m=m,
-        seeds=args.seeds,
-        first_seed=args.first_seed,
-        time_limit=args.time_limit,
-        milp_time_limit=args.milp_time_limit,
-        backend=args.backend,
-        workers=args.workers,
-        directory=args.out,
-        library_dir=args.library_dir,
-        log=args.log,
-        strict=False,
-    )
+    try:
+        summary = cross_certify(
+            args.family,
+            m=m,
+            seeds=args.seeds,
+            first_seed=args.first_seed,
+            time_limit=args.time_limit,
+            milp_time_limit=args.milp_time_limit,
+            backend=args.backend,
+            workers=args.workers,
+            directory=args.out,
+            library_dir=args.library_dir,
+            log=args.log,
+            strict=False,
+            dask=getattr(args, "dask", None),
+        )
+    except StudyError as exc:  # an unreachable scheduler: named as the option it came from
+        raise StudyError(option_message(exc)) from None
     print(
         f"cross-certify {summary['family']}: {summary['instances']} instances; both engines proved "
         f"{summary['both_proven']} (bnb {summary['bnb_proven']}, milp {summary['milp_proven']}), "

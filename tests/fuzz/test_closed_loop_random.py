@@ -138,7 +138,7 @@ def test_random_repelling_beaches_run_finite(sharks, swimmers, seed):
 def test_random_covert_target_groups_give_bearing_changes_in_range(n_targets, seed, method, noise):
     case = dp.covert.random_case(n_targets, seed, n_hills=2)
     controller = dp.covert.SlidingModeObserver() if method == "sliding" else dp.covert.HoverBenchmark()
-    tr = dp.covert.simulate(case, controller, max_time=4.0, noise=noise, seed=seed)
+    tr = dp.covert.simulate(case, controller, t_max=4.0, noise=noise, seed=seed)
     p = case.params
     assert np.all(np.isfinite(tr.drone)) and np.all(np.isfinite(tr.targets)) and np.all(np.isfinite(tr.t))
     assert tr.targets.shape[1] == n_targets and tr.t[-1] <= 4.0 + 1e-9

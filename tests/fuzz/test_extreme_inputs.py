@@ -83,6 +83,20 @@ def _fresh_dir() -> str:
     return tempfile.mkdtemp(prefix="droneplan-fuzz-gap-")
 
 
+_HOME = (47.0, 8.0, 400.0)
+"""A home position (lat, lon in degrees, alt in m) for the mission and GeoJSON exports."""
+_PLAN = np.array([[900.0, -3300.0], [2900.0, -800.0]])
+"""Two drone-cell positions (m) for the exports."""
+_CELLS: list[Any] = []
+
+
+def _cells_problem() -> Any:
+    """The Table 4.2 problem the exports' plan places drone-cells in, built once."""
+    if not _CELLS:
+        _CELLS.append(dp.cells.thesis_problem(n_cells=2, seed=0))
+    return _CELLS[0]
+
+
 TOP_SPECS: dict[str, Any] = {
     "load_results": lambda: ((_study()["out"],), {}),
     "gap": lambda: (
@@ -107,8 +121,21 @@ TOP_SPECS: dict[str, Any] = {
     "plot_anytime": lambda: ((_study()["df"], dp.load_traces(_study()["out"])), {}),
     "plot_anytime_ecdf": lambda: ((_study()["df"], dp.load_traces(_study()["out"])), {}),
     "run_gap": lambda: (("cells",), {"seeds": 1, "out": _fresh_dir()}),
+    "export_mission": lambda: (
+        (_PLAN, Path(_fresh_dir()) / "m.wpl"),
+        {"origin": _HOME, "problem": _cells_problem()},
+    ),
+    "to_geojson": lambda: ((_PLAN,), {"origin": _HOME, "problem": _cells_problem()}),
+    "to_geodataframe": lambda: ((_PLAN,), {"origin": _HOME, "problem": _cells_problem()}),
 }
-TOP_EXTRA = {"gap": {"seeds": 1, "m": 1}, "family_instances": {"seeds": 1, "m": 1}, "run_gap": {"seeds": 1}}
+TOP_EXTRA = {
+    "gap": {"seeds": 1, "m": 1},
+    "family_instances": {"seeds": 1, "m": 1},
+    "run_gap": {"seeds": 1},
+    "export_mission": {"origin": _HOME},
+    "to_geojson": {"origin": _HOME},
+    "to_geodataframe": {"origin": _HOME},
+}
 """Valid values of the top-level entries' parameters that have no default (``**size`` keywords too)."""
 
 SLOW = {"gap", "run_gap", "ga_ablation", "optimal_interception"}

@@ -234,7 +234,7 @@ def test_a_controller_that_patches_its_simulator_changes_no_score(tmp_path, monk
     monkeypatch.setattr(module, attr, getattr(module, attr))  # restored after the test
     plan = droneplan.studies.study.plan_study(problem, methods=methods, instances=instances, **size)
     instance = plan.instances[0]
-    metrics = harness._simulate(instance, patching_cls(), seed=0)
+    metrics = instance.kind_class.simulate(instance.data, patching_cls(), seed=0)
     claimed = metrics["total_time"] if problem == "herding" else metrics["beta_max_deg"]
     assert claimed < honest.loc[inst, "objective"]
 

@@ -55,6 +55,8 @@ BAD = {
     # plot helpers: a matplotlib axes (None: a new figure), runs as a trace or {label: trace}, tables
     "ax": ["x", 3, np.zeros(2)],
     "traces": [None, "x", 3, {}, {"a": 3}],
+    # interactive maps: the (lat, lon) the local origin stands for (None: local metres)
+    "origin": [[NAN, 0.0], [95.0, 0.0], [0.0, 200.0], "ab", [1.0]],
     "frame": [None, {}, "x", pd.DataFrame()],
 }
 
@@ -125,7 +127,7 @@ _RUNS: dict[str, Any] = {}
 def _covert_short():
     """A 2 s hover run on thesis case 1 (for the plot helpers)."""
     if "covert" not in _RUNS:
-        _RUNS["covert"] = dp.covert.simulate(_covert_case(), dp.covert.HoverBenchmark(), max_time=2.0)
+        _RUNS["covert"] = dp.covert.simulate(_covert_case(), dp.covert.HoverBenchmark(), t_max=2.0)
     return _RUNS["covert"]
 
 
@@ -286,7 +288,8 @@ SPECS: dict[str, Spec] = {
         lambda: ((_data_file("points.csv"),), {"n_cells": 2}), {"n_cells": "int>=1", "params": "object?"}
     ),
     "load_cells_geojson": Spec(
-        lambda: ((_data_file("points.geojson"),), {"n_cells": 2}), {"n_cells": "int>=1", "origin": "vec2"}
+        lambda: ((_data_file("points.geojson"),), {"n_cells": 2}),
+        {"n_cells": "int>=1", "origin": "vec2", "no_fly": "object?"},
     ),
     # a file name that is no file is reported with the file's name, and dt=None (keep the file's own
     # times) is valid: the loaders' tests check those
@@ -376,12 +379,12 @@ SPECS: dict[str, Spec] = {
         {"drone": "points3", "R": "vec3"},
     ),
     "simulate@covert": Spec(
-        lambda: ((_covert_case(), dp.covert.HoverBenchmark()), {"max_time": 1.0}),
+        lambda: ((_covert_case(), dp.covert.HoverBenchmark()), {"t_max": 1.0}),
         {
             "scenario": "object",
             "controller": "object",
             "noise": "nonneg",
-            "max_time": "positive",
+            "t_max": "positive",
             "seed": "seed",
         },
     ),
@@ -478,10 +481,6 @@ SPECS: dict[str, Spec] = {
             "t_max": "positive",
             "substeps": "int>=1",
         },
-    ),
-    "simulate_interception": Spec(
-        lambda: ((_path_a(), dp.shark.ClassicalPursuit()), {}),
-        {"scenario": "object", "controller": "object", "t_max": "positive"},
     ),
     "SharkBehaviour": Spec(
         lambda: ((), {}), {"speed": "positive", "turn_rate": "positive", "flee_time": "positive"}
@@ -645,7 +644,7 @@ SPECS: dict[str, Spec] = {
         lambda: ((_herding_run(), _gif_path()), {"fps": 4}),
         {"trace": "object", "path": "object", "fps": "int>=1", "goal": "vec2"},
     ),
-    "summary_table": Spec(lambda: (({"proposed": _herding_run()},), {}), {"traces": "traces"}),
+    "run_times_table": Spec(lambda: (({"proposed": _herding_run()},), {}), {"traces": "traces"}),
     "animate@covert": Spec(
         lambda: ((_covert_short(), _gif_path()), {"stride": 5}),
         {"trace": "object", "path": "object", "fps": "int>=1", "stride": "int>=1"},
@@ -658,8 +657,41 @@ SPECS: dict[str, Spec] = {
         lambda: ((_herding_run(), _gif_path()), {}),
         {"trace": "object", "path": "object", "fps": "int>=1", "stride": "int>=1", "goal": "vec2"},
     ),
+    # ---- interactive maps (folium)
+    "map@cells": Spec(
+        lambda: ((P(), [[1600.0, 0.0]]), {}),
+        {"problem": "object", "result": "points2", "origin": "origin", "max_users": "int>=1"},
+    ),
+    "map@covert": Spec(
+        lambda: ((_covert_short(),), {}), {"trace": "object", "origin": "origin", "max_steps": "int>=1"}
+    ),
+    "map@shark": Spec(
+        lambda: ((_shark_run(),), {}), {"trace": "object", "origin": "origin", "max_steps": "int>=1"}
+    ),
+    "map@herding": Spec(
+        lambda: ((_herding_run(),), {}),
+        {"trace": "object", "origin": "origin", "max_steps": "int>=1", "max_animals": "int>=1"},
+    ),
     "ProposedHerder": Spec(lambda: ((), {}), {"settings": "object?"}),
     "BenchmarkHerder": Spec(lambda: ((), {}), {"settings": "object?"}),
+    # the Gymnasium environments and the policy controllers (a policy: obs_vector -> action)
+    "HerdingEnv": Spec(
+        lambda: ((), {"n_animals": 5, "n_drones": 2, "t_max": 2.0}),
+        {"scenario": "object?", "n_animals": "size", "n_drones": "int>=1", "t_max": "positive"},
+    ),
+    "InterceptionEnv": Spec(
+        lambda: ((), {"duration": 3.0}),
+        {"scenario": "object?", "duration": "positive", "t_max": "positive", "substeps": "int>=1"},
+    ),
+    "CovertEnv": Spec(
+        lambda: ((), {}),
+        {"scenario": "object", "noise": "nonneg", "t_max": "positive", "home_radius": "positive"},
+    ),
+    "policy_controller@herding": Spec(lambda: ((np.zeros,), {}), {"policy": "object"}),
+    "policy_controller@shark": Spec(lambda: ((np.zeros,), {}), {"policy": "object"}),
+    "policy_controller@covert": Spec(
+        lambda: ((np.zeros,), {}), {"policy": "object", "home_radius": "positive"}
+    ),
 }
 
 PLOTTING: set[str] = set()  # every plot helper and animation writer has a spec above
@@ -946,7 +978,10 @@ NAN_RUNS = {
     "animate@covert": lambda: ((_with_nan(_covert_short()), _gif_path()), {}),
     "animate@shark": lambda: ((_with_nan(_shark_run()), _gif_path()), {}),
     "animate@herding": lambda: ((_with_nan(_herding_run()), _gif_path()), {}),
-    "summary_table": lambda: (({"a": _with_nan(_herding_run())},), {}),
+    "map@covert": lambda: ((_with_nan(_covert_short()),), {}),
+    "map@shark": lambda: ((_with_nan(_shark_run()),), {}),
+    "map@herding": lambda: ((_with_nan(_herding_run()),), {}),
+    "run_times_table": lambda: (({"a": _with_nan(_herding_run())},), {}),
     "plot_stealth_front": lambda: (tuple(f.assign(t_a=np.nan) for f in _front_frames()), {}),
     "plot_optimised_front": lambda: (
         tuple(f.assign(bound_deg=np.nan) for f in _optimised_front_frames()),

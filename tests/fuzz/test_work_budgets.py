@@ -103,7 +103,7 @@ def test_sphere_bnb_settings_are_checked(param, value):
 
 
 def _short_covert_trace():
-    return dp.covert.simulate(dp.covert.thesis_case(1), dp.covert.HoverBenchmark(), max_time=1.0)
+    return dp.covert.simulate(dp.covert.thesis_case(1), dp.covert.HoverBenchmark(), t_max=1.0)
 
 
 def test_stealth_front_with_a_tiny_step_is_refused_up_front():
@@ -230,9 +230,9 @@ def test_write_gif_valid_call_writes_a_gif(tmp_path):
 
 
 @pytest.mark.parametrize(("traces", "kind"), [({}, ValueError), ([], TypeError), ({"a": 3}, TypeError)])
-def test_summary_table_checks_traces(traces, kind):
+def test_run_times_table_checks_traces(traces, kind):
     with pytest.raises(kind, match="traces"):
-        dp.herding.summary_table(traces)
+        dp.herding.run_times_table(traces)
 
 
 @pytest.mark.parametrize("tol", [NAN, -1.0, math.inf])

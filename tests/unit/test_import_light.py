@@ -5,7 +5,19 @@ from __future__ import annotations
 import subprocess
 import sys
 
-HEAVY = ("cvxpy", "casadi", "ortools", "matplotlib", "pandas")
+HEAVY = (
+    "cvxpy",
+    "casadi",
+    "ortools",
+    "matplotlib",
+    "pandas",
+    "pyscipopt",
+    "gurobipy",
+    "folium",
+    "pyproj",
+    "geopandas",
+    "shapely",
+)
 
 
 def _run(code: str) -> list[str]:

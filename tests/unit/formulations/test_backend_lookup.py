@@ -33,8 +33,8 @@ def test_a_new_cp_backend_is_used_by_shark_and_herding(renamed):
     assert res.backend == renamed and ref.backend == "cp-sat"
     assert res.objective == ref.objective == pytest.approx(3.0)
     d, s = [0.0, 10.0, 20.0], [5.0, 30.0, 60.0]
-    a = solve_allocation(d, s, 100.0, method="exact")
-    b = solve_allocation(d, s, 100.0, method=renamed)
+    a = solve_allocation(d, s, 100.0, engine="exact")
+    b = solve_allocation(d, s, 100.0, engine=renamed)
     assert b.backend == renamed and b.objective == pytest.approx(a.objective)
 
 
@@ -48,7 +48,7 @@ def test_unknown_or_unsuitable_backends_are_refused():
     with pytest.raises(ValueError, match="does not solve to a local optimum"):
         InterceptionOCP(N=10, backend="osqp")
     with pytest.raises(ValueError, match="known cp backends"):
-        solve_assignment(np.ones((2, 2)), backend="gurobi")
+        solve_assignment(np.ones((2, 2)), backend="no-such-solver")
 
 
 def test_formulation_solves_print_nothing(capfd):
@@ -88,6 +88,6 @@ def test_formulation_solves_print_nothing(capfd):
         (np.array([0, 0, -3.0]), np.array([5.0, 0.0])), np.array([40.0, 0, 2.0]), N=20
     ).has_solution
     assert solve_assignment(np.array([[3.0, 9.0], [4.0, 2.0]])).has_solution
-    assert solve_allocation([0.0, 10.0, 20.0], [5.0, 30.0, 60.0], 100.0, method="cp-sat").has_solution
+    assert solve_allocation([0.0, 10.0, 20.0], [5.0, 30.0, 60.0], 100.0, engine="cp-sat").has_solution
     out, _ = capfd.readouterr()
     assert out == ""

@@ -493,7 +493,8 @@ def test_read_user_tracks_from_metres_and_degrees(tmp_path):
     degrees = tmp_path / "geo.csv"
     degrees.write_text("id,t,lon,lat\n1,0,0.0,0.0\n1,1,0.001,0.0\n")
     _, _, geo = dp.cells.read_user_tracks(degrees, origin=(0.0, 0.0))
-    assert geo[1, 0, 0] == pytest.approx(6_371_008.8 * np.radians(0.001), rel=1e-9)
+    # along the equator, a circle of the WGS 84 semi-major axis (6 378 137 m)
+    assert geo[1, 0, 0] == pytest.approx(6_378_137.0 * np.radians(0.001), rel=1e-9)
     gappy = tmp_path / "gappy.csv"
     gappy.write_text("id,t,x,y\n1,0,0,0\n2,0,1,1\n1,1,0,0\n")
     with pytest.raises(ValueError, match="every id needs a row at every time"):

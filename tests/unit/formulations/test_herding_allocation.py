@@ -34,8 +34,8 @@ def instances(draw, n_max=6):
 @given(instances())
 def test_exact_cpsat_bruteforce_agree(inst):
     d, s, M = inst
-    ex = solve_allocation(d, s, M, method="exact")
-    cp = solve_allocation(d, s, M, method="cp-sat")
+    ex = solve_allocation(d, s, M, engine="exact")
+    cp = solve_allocation(d, s, M, engine="cp-sat")
     bf = allocate_bruteforce(d, s, M)
     assert ex.status == cp.status == bf.status
     if not ex.has_solution:
@@ -62,7 +62,7 @@ def test_cpsat_hint_from_exact_keeps_optimum(inst):
     ex = solve_allocation(d, s, M)
     if not ex.has_solution:
         return
-    cp = solve_allocation(d, s, M, method="cp-sat", hint=ex.x)
+    cp = solve_allocation(d, s, M, engine="cp-sat", warm_start=ex.x)
     assert cp.warm_started
     assert cp.objective == pytest.approx(ex.objective, abs=1e-9 * M)
 
@@ -96,7 +96,7 @@ def test_collision_blind_can_cross():
 def test_coincident_steering_points_infeasible():
     res = solve_allocation([0.0, 40.0], [10.0, 10.0], 100.0)
     assert res.status is Status.INFEASIBLE
-    assert solve_allocation([0.0, 40.0], [10.0, 10.0], 100.0, method="cp-sat").status is Status.INFEASIBLE
+    assert solve_allocation([0.0, 40.0], [10.0, 10.0], 100.0, engine="cp-sat").status is Status.INFEASIBLE
     assert allocate_bruteforce([0.0, 40.0], [10.0, 10.0], 100.0).status is Status.INFEASIBLE
     # one drone: the order constraints are vacuous
     assert solve_allocation([5.0], [95.0], 100.0).objective == pytest.approx(10.0)
@@ -108,7 +108,7 @@ def test_fewer_steering_points_than_drones_rule():
     d = np.array([1.0, 30.0, 52.0, 80.0])
     ex = solve_allocation(d, [0.0], 100.0)
     bf = allocate_bruteforce(d, [0.0], 100.0)
-    cp = solve_allocation(d, [0.0], 100.0, method="cp-sat")
+    cp = solve_allocation(d, [0.0], 100.0, engine="cp-sat")
     assert ex.objective == pytest.approx(bf.objective) == pytest.approx(cp.objective)
     assert "padded" in ex.message
     assert sorted(ex.x.target) == [0, 1, 2, 3]
@@ -133,8 +133,8 @@ def test_bad_input(args, match):
     for fn in (solve_allocation, allocate_bruteforce, allocate_collision_blind):
         with pytest.raises(ValueError, match=match):
             fn(*args)
-    with pytest.raises(ValueError, match="method"):
-        solve_allocation([1.0], [1.0], 10.0, method="greedy")
+    with pytest.raises(ValueError, match=r"^engine"):
+        solve_allocation([1.0], [1.0], 10.0, engine="greedy")
 
 
 def test_bruteforce_refuses_large_n():

@@ -14,7 +14,7 @@ from droneplan.scenarios.shark import THESIS_TABLE_5_1 as P
 from droneplan.scenarios.shark import (
     operator_start,
     random_trajectory,
-    simulate_interception,
+    simulate,
 )
 from droneplan.solvers.result import Status
 from droneplan.solvers.search import first_root_lipschitz
@@ -85,7 +85,7 @@ def test_bound_below_ocp_and_virtual_shark_above_plain_bound(seed):
     assert res.status.has_solution and res.bound is not None
     assert res.bound <= res.objective + 1e-6
     vs = VirtualSharkInterceptor()
-    simulate_interception(tr, vs, operator0=O0)
+    simulate(tr, vs, operator0=O0)
     if vs.capture_time is not None:
         assert res.bound <= vs.capture_time + 1e-9
     assert res.bound >= _plain_bound(tr, O0) - 1e-9
@@ -106,7 +106,7 @@ def test_bound_below_virtual_shark_capture_on_random_paths(seed, bearing):
     b = interception_time_bound(tr, O0)
     assert b.bound is None or b.bound >= _plain_bound(tr, O0) - 1e-9
     vs = VirtualSharkInterceptor()
-    simulate_interception(tr, vs, operator0=O0)
+    simulate(tr, vs, operator0=O0)
     if vs.capture_time is not None:
         assert b.bound is not None and b.bound <= vs.capture_time + 1e-9
 

@@ -159,7 +159,7 @@ def test_settings_validation():
 def test_mpc_commands_within_plant_bounds(backend):
     sc = thesis_case(1)
     ctl = MPCObserver(observer=MPCObserverSettings(backend=backend))
-    tr = simulate(sc, ctl, max_time=14.0)
+    tr = simulate(sc, ctl, t_max=14.0)
     ok = ~np.isnan(tr.v)
     assert np.all(np.abs(tr.v[ok]) <= sc.params.V_max + 1e-9)
     assert np.all(np.linalg.norm(tr.u[ok], axis=1) <= sc.params.U_max + 1e-9)
@@ -184,7 +184,7 @@ def test_mpc_warm_starts_are_reported_as_what_they_were(monkeypatch):
 
     monkeypatch.setattr(fc.RecedingBearingMPC, "solve", spy)
     ctl = MPCObserver()
-    simulate(thesis_case(1), ctl, max_time=6.0)
+    simulate(thesis_case(1), ctl, t_max=6.0)
     assert seen and seen[0][1] == "sliding-rollout"  # the first solve starts from the sliding rollout
     for handed, label, res in seen:
         # warm_started is True exactly when a start was handed over, and info names it
@@ -207,8 +207,8 @@ def test_mpc_falls_back_to_sliding_mode_and_counts(monkeypatch):
     p = replace(THESIS_TABLE_3_2)
     sc = thesis_case(1)
     ctl = MPCObserver()
-    tr = simulate(sc, ctl, max_time=20.0)
-    ref = simulate(sc, SlidingModeObserver(), max_time=20.0)
+    tr = simulate(sc, ctl, t_max=20.0)
+    ref = simulate(sc, SlidingModeObserver(), t_max=20.0)
     assert np.allclose(tr.drone, ref.drone)
     assert tr.fallbacks == len(tr.solve_times) > 100
     assert p == THESIS_TABLE_3_2
@@ -228,7 +228,7 @@ def test_rollout_sliding_reproduces_the_closed_loop_on_true_targets():
     """Fed the true target positions, the open-loop rollout is the closed-loop sliding observer
     (approach, arrival switch and on-sphere law) up to rounding."""
     sc = thesis_case(1)
-    tr = simulate(sc, SlidingModeObserver(), max_time=15.0)
+    tr = simulate(sc, SlidingModeObserver(), t_max=15.0)
     K = tr.t.size - 1
     D, h, phases = rollout_sliding("to-sphere", tr.drone[0], tr.heading[0], tr.targets[:K], sc.params)
     assert np.allclose(D, tr.drone, atol=1e-7)
@@ -257,8 +257,8 @@ def test_safeguard_with_a_huge_margin_is_the_sliding_mode():
     the sliding-mode law: the trajectory is the sliding observer's."""
     sc = thesis_case(1)
     ctl = SafeguardedMPCObserver(safeguard=SafeguardSettings(margin=10.0))
-    tr = simulate(sc, ctl, max_time=12.0)
-    ref = simulate(sc, SlidingModeObserver(), max_time=12.0)
+    tr = simulate(sc, ctl, t_max=12.0)
+    ref = simulate(sc, SlidingModeObserver(), t_max=12.0)
     assert len(ctl.choices) > 10 and set(ctl.choices) == {"sliding"}
     assert np.allclose(tr.drone, ref.drone, atol=1e-9)
 
@@ -266,7 +266,7 @@ def test_safeguard_with_a_huge_margin_is_the_sliding_mode():
 def test_safeguarded_mpc_bounds_deadline_and_choice_rule():
     sc = thesis_case(1)
     ctl = SafeguardedMPCObserver()
-    tr = simulate(sc, ctl, max_time=16.0)
+    tr = simulate(sc, ctl, t_max=16.0)
     p = sc.params
     ok = ~np.isnan(tr.v)
     assert np.all(np.abs(tr.v[ok]) <= p.V_max + 1e-9)

@@ -226,7 +226,7 @@ def test_simulate_heading_stays_unit_and_circle_radius():
     p = replace(THESIS_TABLE_3_2, duration=10.0)
     sc = CovertScenario(p, Terrain(), ())
     with pytest.warns(UserWarning, match="no target"):  # a target-less run is allowed, never silent
-        tr = simulate(sc, _Circle(), max_time=10.0, initial_heading=[1.0, 0.0, 0.0])
+        tr = simulate(sc, _Circle(), t_max=10.0, initial_heading=[1.0, 0.0, 0.0])
     assert np.allclose(np.linalg.norm(tr.heading, axis=1), 1.0, atol=1e-12)
     centre = p.D_s_arr + np.array([0.0, -p.V_max / p.U_max, 0.0])
     assert np.allclose(np.linalg.norm(tr.drone - centre, axis=1), p.V_max / p.U_max, atol=1e-9)

@@ -73,7 +73,7 @@ def test_default_mission_is_the_thesis_s_simulated_one_without_vtol(case1):
 
 
 def test_a_run_cut_short_during_the_take_off_ends_in_take_off(case1):
-    tr = dp.covert.simulate(case1, dp.covert.HoverBenchmark(), vtol=True, max_time=1.0)
+    tr = dp.covert.simulate(case1, dp.covert.HoverBenchmark(), vtol=True, t_max=1.0)
     assert set(tr.phase) == {P.TAKE_OFF} and not tr.finished
     assert np.all(tr.drone[:, :2] == case1.params.D_s_arr[:2])
 
@@ -81,7 +81,7 @@ def test_a_run_cut_short_during_the_take_off_ends_in_take_off(case1):
 @pytest.mark.parametrize("value", ["yes", 1, None, 1.0])
 def test_vtol_must_be_a_bool(case1, value):
     with pytest.raises(TypeError, match="vtol"):
-        dp.covert.simulate(case1, dp.covert.HoverBenchmark(), vtol=value, max_time=1.0)
+        dp.covert.simulate(case1, dp.covert.HoverBenchmark(), vtol=value, t_max=1.0)
 
 
 def test_vtol_needs_d_s_above_the_ground(case1):
@@ -90,5 +90,5 @@ def test_vtol_needs_d_s_above_the_ground(case1):
     sc = CovertScenario(p, hill, case1.paths)
     with pytest.raises(ValueError, match="vtol"):
         dp.covert.simulate(sc, dp.covert.HoverBenchmark(), vtol=True)
-    tr = dp.covert.simulate(sc, dp.covert.HoverBenchmark(), max_time=1.0)  # without VTOL it still runs
+    tr = dp.covert.simulate(sc, dp.covert.HoverBenchmark(), t_max=1.0)  # without VTOL it still runs
     assert tr.phase[0] == P.TO_SPHERE

@@ -44,7 +44,7 @@ def _runs():
     herd_sc = dp.herding.thesis_scenario(15, seed=0, field_size=(100.0, 100.0), goal=(-100.0, 50.0))
     return {
         "covert": (
-            dp.covert.simulate(covert_sc, dp.covert.SlidingModeObserver(), seed=3, max_time=8.0),
+            dp.covert.simulate(covert_sc, dp.covert.SlidingModeObserver(), seed=3, t_max=8.0),
             dp.covert.SlidingModeObserver,
             dp.covert.CovertPhase,
             dp.covert.CovertFrame,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from typing import ClassVar
 
 import numpy as np
@@ -21,13 +22,16 @@ from droneplan.solvers import (
 )
 from droneplan.solvers.base import KINDS, LinearBackend, QpBackend
 
+OPTIONAL_LINEAR = {"gurobi", "pyscipopt"}
+"""The linear backends of the optional extras ``gurobi`` and ``scip``."""
+
 
 def test_unknown_name_lists_the_known_ones():
     with pytest.raises(ValueError, match="unknown backend 'no-such-solver'") as err:
         get_backend("no-such-solver")
     for name in registered_backends():
         assert repr(name) in str(err.value)
-    with pytest.raises(ValueError, match=r"known linear backends: \['cp-sat', 'highs', 'scip'\]"):
+    with pytest.raises(ValueError, match=re.escape(f"known linear backends: {available_backends('linear')}")):
         get_backend("no-such-solver", kind="linear")
 
 
@@ -41,18 +45,20 @@ def test_missing_capability_and_bad_kind():
 
 
 def test_builtin_kinds():
-    assert available_backends("linear") == ["cp-sat", "highs", "scip"]
+    core_linear = ["cp-sat", "highs", "scip"]  # the optional extras add "gurobi", "pyscipopt"
+    assert [b for b in available_backends("linear") if b in core_linear] == core_linear
+    assert set(available_backends("linear")) - set(core_linear) <= OPTIONAL_LINEAR
     assert available_backends("cp") == ["cp-sat"]
     assert "ipopt" in available_backends("nlp")
     assert available_backends("qp") == ["osqp"]
     assert available_backends("nlp") == ["ipopt", "osqp"]
-    for name in registered_backends():
+    for name in available_backends():
         adapter = get_backend(name)
         assert adapter.name == name
         assert adapter.kinds and adapter.kinds <= set(KINDS)
 
 
-@pytest.mark.parametrize("name", registered_backends())
+@pytest.mark.parametrize("name", available_backends())
 def test_every_adapter_maps_an_unknown_code_to_error(name):
     adapter = get_backend(name)
     assert adapter.map_status("surely not a native status code") is Status.ERROR
@@ -138,7 +144,12 @@ def test_builtin_table_is_one_table_of_classes():
     for name, cls in table.items():
         assert issubclass(cls, BackendAdapter) and cls.name == name
         assert cls.kinds and cls.kinds <= set(KINDS), name
-        assert cls.requires and cls.requires_installed(), name
+        assert cls.requires, name
+        if name in OPTIONAL_LINEAR:  # an optional extra: installed, or its install command is known
+            assert cls.install_hint.startswith("pip install"), name
+            if name not in available_backends():
+                continue
+        assert cls.requires_installed(), name
         assert get_backend(name).kinds == cls.kinds, name
     assert table["cp-sat"].kinds == {"cp", "linear"}
     assert table["osqp"].kinds == {"nlp", "qp"}
@@ -241,7 +252,7 @@ def test_listing_backends_imports_no_solver_library():
         " in ('cpsat', 'mip', 'nlp', 'qp')))\n"
         "from droneplan.solvers.registry import available_backends\n"
         "print(available_backends('linear'), available_backends())\n"
-        "libraries = ('ortools', 'casadi', 'osqp', 'cvxpy', 'highspy', 'scipy')\n"
+        "libraries = ('ortools', 'casadi', 'osqp', 'cvxpy', 'highspy', 'scipy', 'pyscipopt', 'gurobipy')\n"
         "print(sorted(m for m in libraries if m in sys.modules))\n"
         "print(sorted(m for m in sys.modules if m.startswith('droneplan.solvers.') and m.split('.')[-1]"
         " in ('cpsat', 'mip', 'nlp', 'qp')))\n"
@@ -249,6 +260,8 @@ def test_listing_backends_imports_no_solver_library():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     before, listed, libraries, adapters = out.strip().splitlines()
     assert before == "[]"  # importing the package loads no adapter module
-    assert listed == "['cp-sat', 'highs', 'scip'] ['cp-sat', 'highs', 'ipopt', 'osqp', 'scip']"
+    extras = [name for name in ("gurobi", "pyscipopt") if name in available_backends()]  # optional
+    linear = sorted(["cp-sat", "highs", "scip", *extras])
+    assert listed == f"{linear} {sorted([*linear, 'ipopt', 'osqp'])}"
     assert libraries == "[]"
     assert adapters == str([f"droneplan.solvers.{m}" for m in ("cpsat", "mip", "nlp", "qp")])

@@ -19,7 +19,7 @@ NAN = float("nan")
 
 @pytest.fixture(scope="module")
 def covert_run():
-    return dp.covert.simulate(dp.covert.thesis_case(1), dp.covert.HoverBenchmark(), max_time=3.0)
+    return dp.covert.simulate(dp.covert.thesis_case(1), dp.covert.HoverBenchmark(), t_max=3.0)
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ import sys
 import pandas as pd
 import pytest
 
-from droneplan.studies import cli
+from droneplan.studies import cli, problem_studies
 from droneplan.studies.common import ComparisonTable, make_executor, map_rows, summarize
 from droneplan.studies.store import (
     STORE_NAME,
@@ -32,7 +32,7 @@ def test_help_runs_and_names_available_problems():
 
 
 def test_unavailable_or_unknown_problem_is_refused(monkeypatch):
-    monkeypatch.setattr(cli, "available_problems", list)
+    monkeypatch.setattr(problem_studies, "available_problems", list)
     with pytest.raises(SystemExit, match="not implemented yet"):
         cli.main(["reproduce", "cells", "--quick"])
     with pytest.raises(SystemExit):
@@ -192,22 +192,25 @@ def _failing_task(task):
     raise RuntimeError(f"planned failure on {task['instance']}")
 
 
+def _fake_table(out):
+    ComparisonTable("fake table").emit(out, "fake")
+
+
 def test_reproduce_report_is_written_when_a_task_errors(tmp_path, monkeypatch):
     """An error row does not suppress --report: the page shows what finished, the exit code is 1."""
     import types
 
-    def reproduce(*, quick, out, executor, store):
-        map_rows(_square, _tasks(2), executor=executor, store=store)
-        map_rows(
-            _failing_task,
-            [{"problem": "herding", "instance": "t:bad", "seed": 9}],
-            executor=executor,
-            store=store,
-        )
-        ComparisonTable("fake table").emit(out, "fake")
+    from droneplan.studies.jobs import Job, row_jobs
 
-    monkeypatch.setattr(cli, "_load", lambda problem: types.SimpleNamespace(reproduce=reproduce))
-    monkeypatch.setattr(cli, "available_problems", lambda: ["herding"])
+    def reproduce_jobs(*, quick, out, store_path):
+        rows = row_jobs(_square, _tasks(2), section="fake", cost=1.0)
+        rows += row_jobs(
+            _failing_task, [{"problem": "herding", "instance": "t:bad", "seed": 9}], section="fake", cost=1.0
+        )
+        return [*rows, Job("fake/table", "fake", _fake_table, {"out": out}, local=True)]
+
+    monkeypatch.setattr(cli, "_load", lambda problem: types.SimpleNamespace(reproduce_jobs=reproduce_jobs))
+    monkeypatch.setattr(problem_studies, "available_problems", lambda: ["herding"])
     code = cli.main(["reproduce", "herding", "--quick", "--out", str(tmp_path), "--workers", "1", "--report"])
     assert code == 1
     assert (tmp_path / "report.html").is_file()

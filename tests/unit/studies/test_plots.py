@@ -28,8 +28,8 @@ def runs():
     )
     covert_sc = dp.covert.thesis_case(1, seed=0)
     covert_tr = {
-        "sliding": dp.covert.simulate(covert_sc, dp.covert.SlidingModeObserver(), max_time=6.0),
-        "hover": dp.covert.simulate(covert_sc, dp.covert.HoverBenchmark(), max_time=6.0),
+        "sliding": dp.covert.simulate(covert_sc, dp.covert.SlidingModeObserver(), t_max=6.0),
+        "hover": dp.covert.simulate(covert_sc, dp.covert.HoverBenchmark(), t_max=6.0),
     }
     path = dp.shark.thesis_trajectories()["a"]
     shark_tr = {
