@@ -28,7 +28,8 @@ import numpy as np
 
 from droneplan.solvers.base import BackendAdapter, LinearBackend, NativeReadout, run_native
 from droneplan.solvers.linear import LinearModel
-from droneplan.solvers.native_mip import MipRun, check_solve_settings, mip_readout, write_through_temp
+from droneplan.solvers.model_files import check_model_file, write_through_temp
+from droneplan.solvers.native_mip import MipRun, check_solve_settings, mip_readout
 from droneplan.solvers.result import SolveResult, Status
 
 __all__ = ["BACKEND", "STATUS_MAP", "STATUS_NAMES", "GurobiAdapter", "GurobiLinearModel"]
@@ -132,11 +133,8 @@ class GurobiAdapter(BackendAdapter, LinearBackend):
         """
         import gurobipy as gp
 
-        if not isinstance(path, (str, os.PathLike)):
-            raise TypeError(f"path must be a file path (str or os.PathLike), got {type(path).__name__}")
-        if not Path(path).is_file():
-            raise ValueError(f"path: no file {str(path)[-80:]!r}")
-        return GurobiLinearModel(self, gp.read(os.fspath(path), env=_environment()))
+        source = check_model_file(path)
+        return GurobiLinearModel(self, gp.read(source, env=_environment()))
 
 
 class GurobiLinearModel(LinearModel):

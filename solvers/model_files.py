@@ -19,13 +19,20 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["MODEL_SUFFIXES", "check_model_path", "write_cp_model", "write_highs"]
+__all__ = [
+    "MODEL_SUFFIXES",
+    "check_model_path",
+    "check_model_file",
+    "write_through_temp",
+    "write_cp_model",
+    "write_highs",
+]
 
 MODEL_SUFFIXES = (".mps", ".lp")
 """The model file formats, by suffix."""
@@ -50,22 +57,53 @@ def check_model_path(path: Any) -> Path:
 
 
 def write_highs(highs: Any, path: str | os.PathLike[str]) -> Path:
-    """Write the model a ``highspy.Highs`` holds to ``path`` (``.mps`` or ``.lp``, checked by
-    :func:`check_model_path`) through a temporary file renamed into place; returns the path."""
+    """Write a HiGHS model to ``path`` (``.mps`` or ``.lp``, HiGHS picks the format by suffix).
+
+    highs: a ``highspy.Highs`` holding the model. path: the file (checked by
+    :func:`check_model_path`). Returns the path; a failure leaves no partial file.
+    """
     import highspy  # type: ignore[import-untyped]
 
+    def write(tmp: str) -> None:
+        if highs.writeModel(tmp) != highspy.HighsStatus.kOk:
+            raise OSError(f"HiGHS could not write {path}")
+
+    return write_through_temp(path, write)
+
+
+def write_through_temp(path: str | os.PathLike[str], write: Callable[[str], Any]) -> Path:
+    """Write a model file with ``write(temporary_name)`` and rename it to ``path``.
+
+    path: the file, ``.mps`` or ``.lp`` (checked by
+    :func:`~droneplan.solvers.model_files.check_model_path`); the temporary file sits in the
+    same folder with the same suffix (the solvers choose the format by suffix). write: the
+    solver's own writer. Returns the path; a failure leaves no partial file.
+    """
     target = check_model_path(path)
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=target.suffix)
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.stem}.", suffix=target.suffix.lower())
     os.close(fd)
     try:
-        if highs.writeModel(tmp) != highspy.HighsStatus.kOk:
-            raise OSError(f"HiGHS could not write {target}")
+        write(tmp)
+        if not os.path.getsize(tmp):
+            raise OSError(f"the solver wrote nothing to {target}")
         os.replace(tmp, target)
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
     return target
+
+
+def check_model_file(path: Any) -> str:
+    """An existing model file to read, as a string path; a one-line error otherwise.
+
+    path: a ``str`` or ``os.PathLike`` naming an existing ``.mps`` or ``.lp`` file.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a file path (str or os.PathLike), got {type(path).__name__}")
+    if not Path(path).is_file():
+        raise ValueError(f"path: no file {str(path)[-80:]!r}")
+    return os.fspath(path)
 
 
 class _Rows:

@@ -14,23 +14,18 @@ The status rules, the same for both backends:
 
 from __future__ import annotations
 
-import contextlib
 import math
-import os
-import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from droneplan.core.validation import check_time_limit
 from droneplan.solvers.base import NativeReadout
-from droneplan.solvers.model_files import check_model_path
 from droneplan.solvers.result import Status
 
-__all__ = ["GAP_TOLERANCE", "MipRun", "check_solve_settings", "mip_readout", "write_through_temp"]
+__all__ = ["GAP_TOLERANCE", "MipRun", "check_solve_settings", "mip_readout"]
 
 GAP_TOLERANCE = 1e-6
 """Largest ``|bound - objective| / max(1, |objective|)`` at which a solve reported optimal counts as
@@ -133,26 +128,3 @@ def mip_readout(
         message="; ".join(notes),
         status=status,
     )
-
-
-def write_through_temp(path: str | os.PathLike[str], write: Callable[[str], Any]) -> Path:
-    """Write a model file with ``write(temporary_name)`` and rename it to ``path``.
-
-    path: the file, ``.mps`` or ``.lp`` (checked by
-    :func:`~droneplan.solvers.model_files.check_model_path`); the temporary file sits in the
-    same folder with the same suffix (the solvers choose the format by suffix). write: the
-    solver's own writer. Returns the path; a failure leaves no partial file.
-    """
-    target = check_model_path(path)
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.stem}.", suffix=target.suffix.lower())
-    os.close(fd)
-    try:
-        write(tmp)
-        if not os.path.getsize(tmp):
-            raise OSError(f"the solver wrote nothing to {target}")
-        os.replace(tmp, target)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    return target

@@ -22,7 +22,8 @@ import numpy as np
 
 from droneplan.solvers.base import BackendAdapter, LinearBackend, NativeReadout, run_native
 from droneplan.solvers.linear import LinearModel
-from droneplan.solvers.native_mip import MipRun, check_solve_settings, mip_readout, write_through_temp
+from droneplan.solvers.model_files import check_model_file, write_through_temp
+from droneplan.solvers.native_mip import MipRun, check_solve_settings, mip_readout
 from droneplan.solvers.result import SolveResult, Status
 
 __all__ = ["BACKEND", "STATUS_MAP", "PyScipOptAdapter", "ScipLinearModel"]
@@ -102,12 +103,9 @@ class PyScipOptAdapter(BackendAdapter, LinearBackend):
         path: an existing ``.mps`` or ``.lp`` file (e.g. one written by ``LinearModel.write``).
         Its variables, in the file's order, are ``model.native.getVars()``.
         """
-        if not isinstance(path, (str, os.PathLike)):
-            raise TypeError(f"path must be a file path (str or os.PathLike), got {type(path).__name__}")
-        if not Path(path).is_file():
-            raise ValueError(f"path: no file {str(path)[-80:]!r}")
+        source = check_model_file(path)
         lin = ScipLinearModel(self)
-        lin.native.readProblem(os.fspath(path))
+        lin.native.readProblem(source)
         return lin
 
 

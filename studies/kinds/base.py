@@ -123,6 +123,11 @@ class Kind:
     given some)."""
     objective: ClassVar[str] = ""
     """What the objective is, with its unit (one line, for docs)."""
+    exact_engine: ClassVar[str | None] = None
+    """The registered exact engine that certifies an instance (:meth:`certify`'s default: the
+    engine's scored plan, or the :attr:`baseline`'s when better and the engine does not prove)."""
+    baseline: ClassVar[str | None] = None
+    """The registered heuristic whose plan a certification keeps when it beats an unproven engine."""
 
     def holds(self, data: Any) -> bool:
         """Whether ``data`` is this kind's data (a user's own object, recognised by its type).
@@ -155,11 +160,12 @@ class Kind:
         return 1
 
     def arguments(self, data: Any) -> tuple[Any, ...]:
-        """The positional arguments a static kind's method is called with (arrays are copies).
+        """The positional arguments a static kind's method is called with (arrays are copies): the
+        data itself by default.
 
         data: this kind's data.
         """
-        raise ValueError(f"{self.name} methods are controllers run in a simulator, not called on data")
+        return (data,)
 
     def execute(
         self, data: Any, method: MethodLike, *, seed: int, time_limit: float | None, **extra: Any
@@ -201,12 +207,17 @@ class Kind:
         self, instance: InstanceLike, *, time_limit: float | None, run: MethodRunner
     ) -> dict[str, Any]:
         """The certified-library fields of one instance (value, bound, bound_kind, status, sense,
-        plan, engine, time_s, message); raises when the engine's plan does not verify.
+        plan, engine, time_s, message); raises when the engine's plan does not verify. By default
+        the kind's :attr:`exact_engine` (:func:`certify_by_engine`).
 
         instance: the study instance. time_limit: the engine's limit (s; None: none). run: runs a
         registered method on the instance (:data:`MethodRunner`).
         """
-        raise ValueError(f"no certification procedure for {self.name!r} instances")
+        if self.exact_engine is None or self.baseline is None:
+            raise ValueError(f"no certification procedure for {self.name!r} instances")
+        return certify_by_engine(
+            self, instance, engine=self.exact_engine, baseline=self.baseline, time_limit=time_limit, run=run
+        )
 
     def families(self) -> tuple[Family, ...]:
         """The named, versioned generators of this kind's instances."""
@@ -306,6 +317,13 @@ class ClosedLoopKind(Kind):
     closed_loop = True
     metric: ClassVar[str]
     """The simulator metric that is the row's objective."""
+
+    def arguments(self, data: Any) -> tuple[Any, ...]:
+        """Refused: a closed-loop kind's methods are controllers, not called on data.
+
+        data: this kind's data.
+        """
+        raise ValueError(f"{self.name} methods are controllers run in a simulator, not called on data")
 
     def score(self, instance: InstanceLike, returned: Any, method: MethodLike) -> Scored:
         """Droneplan's verdict on one simulated run: ``returned`` is :meth:`simulate`'s metrics, with

@@ -34,7 +34,6 @@ from droneplan.studies.kinds.base import (
     Kind,
     MethodLike,
     MethodRunner,
-    certify_by_engine,
     plain_array,
 )
 from droneplan.studies.scoring import (
@@ -353,9 +352,6 @@ class CellsKind(Kind):
     def size(self, data: Any) -> int:
         return int(data.n_cells)
 
-    def arguments(self, data: Any) -> tuple[Any, ...]:
-        return (data,)
-
     def score(self, instance: InstanceLike, returned: Any, method: MethodLike) -> Scored:
         return _score_cells(instance, returned, method)
 
@@ -417,6 +413,7 @@ class CellsMobileKind(Kind):
     problem = "cells"
     sense = "max"
     default_methods = ("joint", "myopic")
+    exact_engine, baseline = "joint", "myopic"
     objective = "covered weight summed over the epochs"
 
     def holds(self, data: Any) -> bool:
@@ -439,18 +436,8 @@ class CellsMobileKind(Kind):
     def size(self, data: Any) -> int:
         return int(data.problem.n_cells)
 
-    def arguments(self, data: Any) -> tuple[Any, ...]:
-        return (data,)
-
     def score(self, instance: InstanceLike, returned: Any, method: MethodLike) -> Scored:
         return _score_cells_mobile(instance, returned, method)
-
-    def certify(
-        self, instance: InstanceLike, *, time_limit: float | None, run: MethodRunner
-    ) -> dict[str, Any]:
-        return certify_by_engine(
-            self, instance, engine="joint", baseline="myopic", time_limit=time_limit, run=run
-        )
 
     def families(self) -> tuple[Family, ...]:
         return (
@@ -475,6 +462,7 @@ class CellsFleetKind(Kind):
     sense = "min"
     data_type = FleetSizeInstance
     default_methods = ("min-fleet", "greedy-fleet")
+    exact_engine, baseline = "min-fleet", "greedy-fleet"
     objective = "drone-cells placed"
 
     def encode(self, data: Any) -> dict | None:
@@ -491,13 +479,6 @@ class CellsFleetKind(Kind):
 
     def score(self, instance: InstanceLike, returned: Any, method: MethodLike) -> Scored:
         return _score_cells_fleet(instance, returned, method)
-
-    def certify(
-        self, instance: InstanceLike, *, time_limit: float | None, run: MethodRunner
-    ) -> dict[str, Any]:
-        return certify_by_engine(
-            self, instance, engine="min-fleet", baseline="greedy-fleet", time_limit=time_limit, run=run
-        )
 
     def families(self) -> tuple[Family, ...]:
         return (

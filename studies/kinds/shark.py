@@ -23,7 +23,6 @@ from droneplan.studies.kinds.base import (
     Kind,
     MethodLike,
     MethodRunner,
-    certify_by_engine,
     plain_array,
 )
 from droneplan.studies.scoring import Scored, check_claim, describe, number, unwrap
@@ -303,6 +302,7 @@ class SharkFleetKind(Kind):
     sense = "min"
     data_type = FleetInstance
     default_methods = ("bottleneck", "greedy-nearest")
+    exact_engine, baseline = "bottleneck", "greedy-nearest"
     objective = "the latest predicted interception time (s)"
 
     def encode(self, data: Any) -> dict | None:
@@ -321,13 +321,6 @@ class SharkFleetKind(Kind):
 
     def score(self, instance: InstanceLike, returned: Any, method: MethodLike) -> Scored:
         return _score_fleet(instance, returned, method)
-
-    def certify(
-        self, instance: InstanceLike, *, time_limit: float | None, run: MethodRunner
-    ) -> dict[str, Any]:
-        return certify_by_engine(
-            self, instance, engine="bottleneck", baseline="greedy-nearest", time_limit=time_limit, run=run
-        )
 
     def families(self) -> tuple[Family, ...]:
         return (

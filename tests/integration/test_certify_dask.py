@@ -25,14 +25,6 @@ PROVENANCE = {"time_s", "certified_at", "droneplan_version", "git_commit", "code
 PROVENANCE |= {"cores"}
 
 
-@pytest.fixture(scope="module")
-def cluster():
-    with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
-    ) as c:
-        yield c
-
-
 def _entries(directory) -> dict[str, dict]:
     """The library entries of ``allocation`` in ``directory`` without their times and provenance."""
     return {

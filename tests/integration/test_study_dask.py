@@ -16,14 +16,6 @@ pytestmark = pytest.mark.slow  # ~2 min on 2 cores: CI runs it
 HELD_OUT = 1000  # seeds no test or tuning run used before
 
 
-@pytest.fixture(scope="module")
-def cluster():
-    with distributed.LocalCluster(
-        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
-    ) as c:
-        yield c
-
-
 def _invariants(df: pd.DataFrame) -> None:
     assert not df.duplicated(["problem", "instance", "method"]).any()
     assert (df["status"] != "error").all(), df.loc[df["status"] == "error", "message"].tolist()
