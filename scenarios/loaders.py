@@ -748,32 +748,50 @@ def load_shark_track_csv(  # noqa: C901
 
 
 def read_user_tracks(
-    path: PathLike, *, origin: ArrayLike | None = None
+    path: Any, *, origin: ArrayLike | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """User tracks from a CSV file with the columns ``id, t, x, y`` (metres) or ``id, t, lon, lat``
-    (degrees, projected about ``origin`` = (lon0, lat0) by :func:`project_local`, pyproj's azimuthal
-    equidistant projection on the WGS 84 ellipsoid; ``origin`` None: the tracks' spherical
-    centroid). Every id needs a row at every time.
+    (degrees), or from a GeoDataFrame of Point rows with ``id`` and ``t`` columns in any CRS
+    (reprojected to WGS 84; geopandas is the optional ``[geo]`` extra). Degrees are projected about
+    ``origin`` = (lon0, lat0) by :func:`project_local`, pyproj's azimuthal equidistant projection on
+    the WGS 84 ellipsoid (``origin`` None: the tracks' spherical centroid). Every id needs a row at
+    every time.
 
-    path: the CSV file. origin: (lon0, lat0) degrees, or None.
+    path: the CSV file, or a GeoDataFrame. origin: (lon0, lat0) degrees, or None.
 
     Returns (times (T,) s, sorted; ids (n,), sorted; snapshots (T, n, 2) m), the snapshots of
     :class:`droneplan.cells.MobileProblem`.
     """
-    file = _as_path(path)
     given_origin = None if origin is None else _check_origin(origin)
-    header = _csv_header(file)
-    geographic = "lon" in header and "lat" in header and not ("x" in header and "y" in header)
-    columns = ("id", "t", "lon", "lat") if geographic else ("id", "t", "x", "y")
-    table, _, _ = _read_table(file, columns)
+    if _is_geodata(path):
+        source = "tracks"
+        missing = [c for c in ("id", "t") if c not in getattr(path, "columns", ())]
+        if missing:
+            raise ValueError(f"path: the GeoDataFrame has no column {', '.join(missing)} (needs id, t)")
+        lon, lat = _points_lonlat(path, "path")
+        if len(lon) != len(path):
+            raise ValueError("path: every row of a GeoDataFrame of tracks must be one Point")
+        table = np.column_stack(
+            [np.asarray(path["id"], dtype=np.float64), np.asarray(path["t"], dtype=np.float64), lon, lat]
+        )
+        geographic = True
+    else:
+        file = _as_path(path)
+        source = str(file)
+        header = _csv_header(file)
+        geographic = "lon" in header and "lat" in header and not ("x" in header and "y" in header)
+        columns = ("id", "t", "lon", "lat") if geographic else ("id", "t", "x", "y")
+        table, _, _ = _read_table(file, columns)
+    if not np.all(np.isfinite(table[:, :2])):
+        raise ValueError(f"{source}: id and t must be finite numbers")
     ids, id_index = np.unique(table[:, 0], return_inverse=True)
     times, t_index = np.unique(table[:, 1], return_inverse=True)
     cell = t_index * len(ids) + id_index
     if len(np.unique(cell)) != len(cell):
-        raise ValueError(f"{file}: an id appears twice at one time")
+        raise ValueError(f"{source}: an id appears twice at one time")
     if len(cell) != len(ids) * len(times):
         raise ValueError(
-            f"{file}: {len(cell)} rows for {len(ids)} ids at {len(times)} times: "
+            f"{source}: {len(cell)} rows for {len(ids)} ids at {len(times)} times: "
             "every id needs a row at every time"
         )
     xy = table[:, 2:4]

@@ -265,3 +265,28 @@ def test_projected_cells_give_their_frame(tmp_path):
     doc = dp.to_geojson(plan, problem=projected)  # the origin comes from the ProjectedCells
     lon, lat, _ = by_kind(doc, "drone_cell")[0]["geometry"]["coordinates"]
     assert np.allclose(projected.to_lonlat(plan), ([lon], [lat]), atol=1e-12)
+
+
+def test_user_tracks_read_from_a_geodataframe_in_any_crs_equal_the_csv_in_degrees(tmp_path):
+    geopandas = pytest.importorskip("geopandas")
+    rng = np.random.default_rng(5)
+    rows = [
+        (i, t, 8.0 + rng.uniform(-0.02, 0.02), 47.0 + rng.uniform(-0.02, 0.02))
+        for t in (0, 60, 120)
+        for i in (3, 7)
+    ]
+    csv = tmp_path / "tracks.csv"
+    csv.write_text(
+        "id,t,lon,lat\n" + "".join(f"{i},{t},{lon!r},{lat!r}\n" for i, t, lon, lat in rows), encoding="utf-8"
+    )
+    frame = geopandas.GeoDataFrame(
+        {"id": [r[0] for r in rows], "t": [r[1] for r in rows]},
+        geometry=[Point(r[2], r[3]) for r in rows],
+        crs="EPSG:4326",
+    ).to_crs(2056)  # the Swiss grid: another CRS, in metres
+    expected = dp.cells.read_user_tracks(csv, origin=(8.0, 47.0))
+    got = dp.cells.read_user_tracks(frame, origin=(8.0, 47.0))
+    assert np.array_equal(got[0], expected[0]) and np.array_equal(got[1], expected[1])
+    assert np.allclose(got[2], expected[2], atol=1e-3)  # metres, after two reprojections
+    with pytest.raises(ValueError, match=r"^path: the GeoDataFrame has no column t"):
+        dp.cells.read_user_tracks(frame.drop(columns=["t"]))
