@@ -34,31 +34,6 @@ FRAME = LocalFrame.from_origin(*ORIGIN)
 ROUND_TRIP = 0.1  # m
 
 
-@pytest.fixture(scope="module")
-def cells():
-    problem = dp.cells.thesis_problem(n_cells=2, seed=0)
-    return problem, dp.cells.greedy_placement(problem)
-
-
-@pytest.fixture(scope="module")
-def traces():
-    covert = dp.covert.simulate(
-        dp.covert.thesis_case(1, seed=0), dp.covert.SlidingModeObserver(), seed=3, t_max=8.0
-    )
-    shark = dp.shark.simulate(
-        dp.shark.InterceptionScenario(dp.shark.thesis_trajectories()["a"]),
-        dp.shark.VirtualSharkInterceptor(),
-        seed=3,
-    )
-    herd = dp.herding.simulate(
-        dp.herding.thesis_scenario(15, seed=0, field_size=(100.0, 100.0), goal=(-100.0, 50.0)),
-        dp.herding.ProposedHerder(),
-        t_max=6.0,
-        seed=3,
-    )
-    return {"covert": covert, "shark": shark, "herding": herd}
-
-
 def read_wpl(path):
     """(command, frame, params, local xyz) of every item after home, read by pymavlink."""
     loader = mavwp.MAVWPLoader()
