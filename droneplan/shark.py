@@ -65,7 +65,6 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
         random_trajectory,
         sharks_to_repel,
         simulate,
-        simulate_interception,
         simulate_repelling,
         thesis_trajectories,
         touches,
@@ -96,7 +95,6 @@ __all__ = [
     "InterceptionController",
     "InterceptionTrace",
     "simulate",
-    "simulate_interception",
     "SharkBehaviour",
     "RepellingScenario",
     "RepellingObservation",
@@ -195,7 +193,6 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "random_trajectory",
         "sharks_to_repel",
         "simulate",
-        "simulate_interception",
         "simulate_repelling",
         "thesis_trajectories",
         "touches",
@@ -216,4 +213,4 @@ _SOURCES: dict[str, tuple[str, ...]] = {
 front door loads no solver library, cvxpy, matplotlib or pandas."""
 
 if not TYPE_CHECKING:  # type checkers see the imports above (and flag a misspelt name)
-    __getattr__, __dir__ = _lazy_names(globals(), _SOURCES)
+    __getattr__, __dir__ = _lazy_names(globals(), _SOURCES, deprecated={"simulate_interception": "simulate"})

@@ -54,3 +54,6 @@ def test_renamed_public_names():
     with pytest.warns(DeprecationWarning, match="'summary_table' is deprecated.*'run_times_table'"):
         assert dp.herding.summary_table is dp.herding.run_times_table
     assert "summary_table" not in dir(dp.herding)
+    with pytest.warns(DeprecationWarning, match="'simulate_interception' is deprecated"):
+        assert dp.shark.simulate_interception is dp.shark.simulate
+    assert "simulate_interception" not in dp.shark.__all__
