@@ -20,6 +20,7 @@ the method (:class:`MethodLike`) and, to certify, a way to run registered method
 
 from __future__ import annotations
 
+import abc
 import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -101,7 +102,7 @@ def plain_array(a: Any) -> list:
     return np.asarray(a, dtype=float).tolist()
 
 
-class Kind:
+class Kind(abc.ABC):
     """One instance kind (module docstring: what a kind holds). Subclasses set the class
     attributes and implement the methods their kind needs; one instance of each is registered
     in :data:`droneplan.studies.kinds.KINDS`."""
@@ -136,20 +137,20 @@ class Kind:
         """
         return self.data_type is not None and isinstance(data, self.data_type)
 
+    @abc.abstractmethod
     def encode(self, data: Any) -> dict | None:
         """The data as plain JSON values (None for kinds rebuilt from their family's parameters).
 
         data: this kind's data.
         """
-        raise NotImplementedError(f"{self.name} instances have no codec")
 
+    @abc.abstractmethod
     def decode(self, payload: Mapping[str, Any]) -> Any:
         """The data from :meth:`encode`'s JSON values (raises KeyError, TypeError or ValueError when
         they do not fit).
 
         payload: the decoded JSON object.
         """
-        raise NotImplementedError(f"{self.name} instances have no codec")
 
     def size(self, data: Any) -> int:
         """The problem's main size (cells m, allocation n, drones of a herding run, targets; 1 for
@@ -193,6 +194,7 @@ class Kind:
         """
         raise ValueError(f"{self.name} methods return a plan; there is no simulator to run")
 
+    @abc.abstractmethod
     def score(self, instance: InstanceLike, returned: Any, method: MethodLike) -> Scored:
         """Droneplan's verdict on what ``method`` returned for ``instance`` (a plan, or a closed-loop
         kind's simulator metrics).
@@ -201,7 +203,6 @@ class Kind:
         :meth:`simulate`'s metrics. method: the study method (its ``trusted_bound`` decides whether
         a bound it returns is recorded).
         """
-        raise NotImplementedError(f"no scorer for {self.name} instances")
 
     def certify(
         self, instance: InstanceLike, *, time_limit: float | None, run: MethodRunner
@@ -339,10 +340,10 @@ class ClosedLoopKind(Kind):
             return Scored(status, message=str(returned["controller_failed"]), extras=extras)
         return self.score_metrics(returned, extras)
 
+    @abc.abstractmethod
     def score_metrics(self, metrics: Mapping[str, Any], extras: dict[str, Any]) -> Scored:
         """The verdict on a run whose controller answered every command.
 
         metrics: :meth:`simulate`'s metrics. extras: the metrics besides the objective (the row's
         extra columns).
         """
-        raise NotImplementedError
