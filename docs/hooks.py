@@ -2,7 +2,7 @@
 reproduction report (``droneplan reproduce --report``) is published under ``report/``.
 
 - ``<!-- deviations: cells -->`` expands to the table of deliberate deviations from the thesis
-  (``droneplan.studies.report.DEVIATIONS``, shared with the reproduction report).
+  (``droneplan.studies.thesis.report.DEVIATIONS``, shared with the reproduction report).
 - A page line ``<!-- api: droneplan.cells -->`` expands to one mkdocstrings block per name in
   ``droneplan.cells.__all__`` (read statically from the source), so a new public name appears
   in the reference without editing the docs.
@@ -118,7 +118,7 @@ def on_files(files, config):
 def on_page_markdown(markdown, page, config, files):
     markdown = API_MARKER.sub(_api_blocks, markdown)
     if DEVIATIONS_MARKER.search(markdown):
-        from droneplan.studies.report import deviations_markdown  # one source for docs and report
+        from droneplan.studies.thesis.report import deviations_markdown  # one source for docs and report
 
         markdown = DEVIATIONS_MARKER.sub(lambda m: deviations_markdown(m.group(1)), markdown)
     if REPORT_MARKER in markdown:

@@ -127,7 +127,7 @@ def __getattr__(name: str) -> Any:
     if name in _FRONT_DOORS or name in _LAYERS:
         value = importlib.import_module(f"droneplan.{name}")
     elif name == "run_gap":
-        from droneplan.studies.problem_studies import run_gap
+        from droneplan.studies.thesis.problem_studies import run_gap
 
         value = run_gap
     elif name in ("SolveResult", "Status"):

@@ -71,9 +71,9 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
         read_user_tracks,
     )
     from droneplan.solvers.result import SolveResult, Status
-    from droneplan.studies.cells import GA_VARIANTS, ga_ablation, instance_features
     from droneplan.studies.plots import plot_deployment_region, plot_map
     from droneplan.studies.plots.maps.cells import map
+    from droneplan.studies.thesis.cells import GA_VARIANTS, ga_ablation, instance_features
 
 __all__ = [
     # scenarios and presets
@@ -200,7 +200,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "SolveResult",
         "Status",
     ),
-    "droneplan.studies.cells": (
+    "droneplan.studies.thesis.cells": (
         "GA_VARIANTS",
         "ga_ablation",
         "instance_features",

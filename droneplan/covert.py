@@ -58,11 +58,11 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
     )
     from droneplan.scenarios.envs.covert import CovertEnv, policy_controller
     from droneplan.solvers.result import SolveResult, Status
-    from droneplan.studies.covert import stealth_front
-    from droneplan.studies.covert_front import optimised_front
     from droneplan.studies.plots import plot_bearing, plot_path, plot_stealth_front
     from droneplan.studies.plots.covert import animate, plot_optimised_front
     from droneplan.studies.plots.maps.covert import map
+    from droneplan.studies.thesis.covert import stealth_front
+    from droneplan.studies.thesis.covert_front import optimised_front
 
 __all__ = [
     # world, presets, simulator
@@ -177,8 +177,8 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "SolveResult",
         "Status",
     ),
-    "droneplan.studies.covert": ("stealth_front",),
-    "droneplan.studies.covert_front": ("optimised_front",),
+    "droneplan.studies.thesis.covert": ("stealth_front",),
+    "droneplan.studies.thesis.covert_front": ("optimised_front",),
     "droneplan.studies.plots": (
         "plot_bearing",
         "plot_path",

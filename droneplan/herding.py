@@ -50,10 +50,10 @@ if TYPE_CHECKING:  # the names for type checkers and the docs; at run time __get
     )
     from droneplan.scenarios.loaders import herding_scenario_from_csv, load_herd_csv
     from droneplan.solvers.result import SolveResult, Status
-    from droneplan.studies.herding import run_times_table, write_gif
     from droneplan.studies.plots import plot_final, plot_footprint, plot_state
     from droneplan.studies.plots.herding import animate
     from droneplan.studies.plots.maps.herding import map
+    from droneplan.studies.thesis.herding import run_times_table, write_gif
 
 __all__ = [
     # world, presets, simulator
@@ -151,7 +151,7 @@ _SOURCES: dict[str, tuple[str, ...]] = {
         "SolveResult",
         "Status",
     ),
-    "droneplan.studies.herding": (
+    "droneplan.studies.thesis.herding": (
         "run_times_table",
         "write_gif",
     ),

@@ -9,8 +9,8 @@ the engine result ``{"status", "bound", "bound_kind", "message", "extras"}``.
 - :func:`interception_bounds` (``interception-bound``, shark paths): the offline OCP on the known
   path and its proven lower bound on the capture time, as extras.
 
-This module imports no per-problem study module (:mod:`droneplan.studies.covert`,
-:mod:`~droneplan.studies.covert_gap`, :mod:`~droneplan.studies.shark` import from it), so the
+This module imports no per-problem study module (:mod:`droneplan.studies.thesis.covert`,
+:mod:`~droneplan.studies.thesis.covert_gap`, :mod:`~droneplan.studies.thesis.shark` import from it), so the
 method registry reaches the engines without an import circle.
 """
 

@@ -1,11 +1,11 @@
 """The ``droneplan`` command line: ``reproduce``, ``gap`` and ``bench``.
 
-A problem is available when its study module ``droneplan.studies.<problem>`` exists; such
-a module follows :class:`~droneplan.studies.problem_studies.ProblemStudies`:
+A problem is available when its study module ``droneplan.studies.thesis.<problem>`` exists; such
+a module follows :class:`~droneplan.studies.thesis.problem_studies.ProblemStudies`:
 ``reproduce_jobs(*, quick, out, store_path)`` (``droneplan reproduce`` runs the jobs of every
 problem asked for together, see :func:`run_reproduce`), ``gap(*, seeds, executor, out, store,
 first_seed)`` and ``bench(*, quick, out)``. This module only parses and dispatches; the gap study
-of a problem is :func:`~droneplan.studies.problem_studies.run_gap`.
+of a problem is :func:`~droneplan.studies.thesis.problem_studies.run_gap`.
 
 Every study writes its rows to one store, ``<--out>/results.sqlite`` (schema and store:
 :mod:`droneplan.studies.store`), exported to ``<--out>/results.csv`` after each problem;
@@ -33,17 +33,22 @@ from droneplan.core.validation import check_positive
 from droneplan.studies import common
 from droneplan.studies.common import StudyError, make_executor, render_frame
 from droneplan.studies.library import LibraryFileError
-from droneplan.studies.problem_studies import CHAPTER as _CHAPTER
-from droneplan.studies.problem_studies import ProblemStudies, available_problems, resolve_problems, run_gap
-from droneplan.studies.problem_studies import problem_studies as _load
-from droneplan.studies.problem_studies import writable_out as _writable_out
 from droneplan.studies.problems import PROBLEMS
 from droneplan.studies.store import STORE_NAME, ResultStore, StoreError
+from droneplan.studies.thesis.problem_studies import CHAPTER as _CHAPTER
+from droneplan.studies.thesis.problem_studies import (
+    ProblemStudies,
+    available_problems,
+    resolve_problems,
+    run_gap,
+)
+from droneplan.studies.thesis.problem_studies import problem_studies as _load
+from droneplan.studies.thesis.problem_studies import writable_out as _writable_out
 
 if TYPE_CHECKING:
     import pandas as pd
 
-    from droneplan.studies import cells, covert, herding, shark
+    from droneplan.studies.thesis import cells, covert, herding, shark
 
     # mypy checks that the four study modules follow the one protocol
     _STUDY_MODULES: tuple[ProblemStudies, ...] = (covert, cells, shark, herding)
@@ -710,7 +715,7 @@ def _run(args) -> int:
     if args.command == "reproduce" and args.report:
         # written even when some tasks errored: the report shows what finished, and the error
         # rows' tables say so; the exit code below still reports the errors
-        from droneplan.studies.report import write_report
+        from droneplan.studies.thesis.report import write_report
 
         print(f"report: {write_report(args.out, problems=problems)}", flush=True)
     if len(errors):

@@ -1,5 +1,6 @@
 """Machinery shared by the per-problem studies: executors (serial, process pool, Dask),
-mapping tasks to rows of the results store with clean interrupts, the numeric summary and
+the recording of task rows with clean interrupts (:func:`droneplan.studies.jobs.map_rows` runs
+the tasks), the numeric summary and
 gap figure of a study, "thesis value | this run | how measured" tables, and timing helpers.
 
 The results schema and the store are in :mod:`droneplan.studies.store` (its docstring
@@ -18,14 +19,13 @@ import sys
 import textwrap
 import threading
 import time
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Self
 
 import numpy as np
 import pandas as pd
-from tqdm.auto import tqdm
 
 from droneplan.studies.provenance import config_hash, provenance, provenance_columns
 from droneplan.studies.store import COLUMNS, STORE_NAME, ResultStore, error_row
@@ -38,7 +38,6 @@ __all__ = [
     "check_executor_options",
     "INTERRUPT_GRACE_S",
     "open_store",
-    "map_rows",
     "task_config",
     "DEVIATION_THRESHOLD",
     "ComparisonTable",
@@ -377,108 +376,6 @@ class _Recorder:
         self.bar.update(1)
 
 
-def map_rows(
-    fn: TaskFn,
-    tasks: Iterable[Mapping[str, Any]],
-    *,
-    executor: StudyExecutor,
-    store: ResultStore,
-    desc: str = "",
-) -> pd.DataFrame:
-    """Run ``fn(task)`` for every task whose rows are not yet in ``store`` (or errored).
-
-    Each task is a dict with ``problem`` and ``instance`` (and optionally ``seed``, ``size``);
-    ``fn`` must be picklable (a module-level function) and return that instance's rows
-    (:func:`~droneplan.studies.store.build_rows`). Each row gets the task's ``config``
-    (:func:`task_config`: its settings and the code) and the provenance columns; a task
-    counts as done when its instance has rows of that config and no error row, so a rerun
-    after a code or settings change computes new rows, and the older rows of the same
-    methods are set aside (the count is shown on the progress bar and printed once). Each
-    task's rows are written in one transaction as it finishes. A task that raises becomes
-    an error row (rerun on the next call); Ctrl-C stops the study (KeyboardInterrupt),
-    keeping every row finished before it and discarding results that came back after it.
-
-    executor: from :func:`make_executor`; store: the open results store; desc: the
-    progress bar's label. Returns the current rows of the given tasks' instances (old and
-    new) in the schema of :mod:`droneplan.studies.store`.
-    """
-    tasks = list(tasks)
-    for t in tasks:
-        if "problem" not in t or "instance" not in t:
-            raise ValueError(f"every task needs 'problem' and 'instance', got {sorted(t)}")
-    keys = [(t["problem"], t["instance"]) for t in tasks]
-    if len(set(keys)) != len(keys):
-        raise ValueError("tasks repeat an instance id")
-    configs = {k: task_config(t) for k, t in zip(keys, tasks, strict=True)}
-    done = store.done_configs()
-    todo = [t for t, k in zip(tasks, keys, strict=True) if (*k, configs[k]) not in done]
-    with _InterruptGuard(executor) as guard, tqdm(total=len(todo), desc=desc, disable=not todo) as bar:
-        recorder = _Recorder(store, configs, bar)
-        try:
-            if executor.kind == "serial":
-                for task in todo:
-                    guard.check()
-                    rows = _call_task(fn, task)
-                    guard.rearm()
-                    guard.check()  # Ctrl-C during the task: its result is not recorded
-                    recorder.write(task, rows)
-            else:
-                _map_parallel(fn, todo, executor, recorder, guard)
-        finally:
-            if recorder.superseded:
-                print(
-                    f"droneplan: {desc or 'study'}: {recorder.superseded} row(s) of an earlier code or "
-                    "settings version set aside (load_results(..., include_superseded=True) shows them)",
-                    file=sys.stderr,
-                    flush=True,
-                )
-    wanted = set(keys)
-    problems = {p for p, _ in wanted}
-    frames = [store.frame(problem=p) for p in sorted(problems)]
-    df = pd.concat(frames, ignore_index=True) if frames else store.frame()
-    if not len(df):
-        return df
-    mask = [(p, i) in wanted for p, i in zip(df["problem"], df["instance"], strict=True)]
-    df = df[mask].reset_index(drop=True)
-    empty_extras = [c for c in df.columns if c not in COLUMNS and df[c].isna().all()]
-    return df.drop(columns=empty_extras)
-
-
-def _map_parallel(fn, todo, executor: StudyExecutor, recorder: _Recorder, guard: _InterruptGuard) -> None:
-    queue = list(reversed(todo))
-    pending: dict[cf.Future, Mapping[str, Any]] = {}
-    try:
-        while queue or pending:
-            while queue and len(pending) < 2 * executor.slots:
-                task = queue.pop()
-                pending[executor.submit(_call_task, fn, task)] = task
-            finished, _ = cf.wait(list(pending), timeout=0.25, return_when=cf.FIRST_COMPLETED)
-            guard.check()
-            for fut in finished:
-                task = pending.pop(fut)
-                try:
-                    rows = fut.result()
-                except BaseException as exc:  # the worker died or was interrupted
-                    guard.check()
-                    if isinstance(exc, KeyboardInterrupt):
-                        raise
-                    rows = [
-                        error_row(
-                            task["problem"],
-                            task["instance"],
-                            f"worker failed: {type(exc).__name__}: {exc}",
-                            seed=task.get("seed"),
-                            size=task.get("size"),
-                        )
-                    ]
-                recorder.write(task, rows)
-    except BaseException:
-        for fut in pending:
-            fut.cancel()
-        executor.kill()
-        raise
-
-
 # --------------------------------------------------------------------------- comparison tables
 DEVIATION_THRESHOLD = 0.25
 """Relative deviation |this run - thesis| / |thesis| above which a reproduce row is flagged."""
@@ -504,7 +401,7 @@ class ComparisonTable:
     ``!`` and carry a one-line reason in the ``why`` column. Speed rows (``kind="speed"``, the
     thesis value a computing time in s) show the speed-up instead ("13x faster") and are never
     flagged. ``explain`` (optional) supplies the reason of a flagged or speed row from a
-    registry (e.g. :func:`droneplan.studies.report.flag_reasons`); :meth:`unexplained` lists
+    registry (e.g. :func:`droneplan.studies.thesis.report.flag_reasons`); :meth:`unexplained` lists
     the flagged rows that still have none.
     """
 

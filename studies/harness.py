@@ -264,12 +264,12 @@ def run_warm_started(
     """
     if not isinstance(method, WarmStarted) or method.engine is None or method.heuristic is None:
         raise TypeError(f"method must be a warm-started composite, got {type(method).__name__}")
-    from droneplan.studies.runner import Job, run_isolated
+    from droneplan.studies.runner import IsolatedCall, run_isolated
 
     t0 = time.perf_counter()
     h_limit = None if time_limit is None else HEURISTIC_SHARE * time_limit
     h_budgets = {k: v for k, v in (budgets or {}).items() if k in BUDGET_KEYWORDS}
-    job = Job(
+    job = IsolatedCall(
         "heuristic",
         execute_plain,
         (instance, method.heuristic, seed, h_limit, h_budgets),

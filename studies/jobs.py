@@ -8,6 +8,12 @@ of all problems share one pool and its cores stay busy. Jobs that write rows of 
 store (:func:`row_jobs`) are skipped when the store already holds their rows, so an
 interrupted reproduction resumes. Every job's wall and CPU time is measured where it runs,
 and :func:`time_table` sums them per section.
+
+This is droneplan's one execution stack. A job with a ``time_limit`` or ``memory_limit`` runs
+in a forked child of the worker that takes it (:func:`droneplan.studies.runner.run_isolated`,
+the isolated, time-limited runner below the graph), so it can be killed without losing the
+worker. :func:`map_rows`, the store tasks of the built-in studies, is the graph of independent
+store-task jobs.
 """
 
 from __future__ import annotations
@@ -15,6 +21,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import contextlib
 import os
+import sys
 import time
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
@@ -23,6 +30,7 @@ from typing import Any
 import pandas as pd
 from tqdm.auto import tqdm
 
+from droneplan.core.validation import check_int, check_time_limit
 from droneplan.studies.common import (
     StudyError,
     StudyExecutor,
@@ -32,7 +40,7 @@ from droneplan.studies.common import (
     _Recorder,
     task_config,
 )
-from droneplan.studies.store import ResultStore, error_row
+from droneplan.studies.store import COLUMNS, ResultStore, error_row
 
 __all__ = [
     "TIMES_NAME",
@@ -42,6 +50,7 @@ __all__ = [
     "JobsFailed",
     "row_jobs",
     "run_jobs",
+    "map_rows",
     "time_table",
     "idle_estimate",
     "run_reproduction",
@@ -66,7 +75,13 @@ class Job:
     used to run the longest chains first; task: for a store task (:func:`row_jobs`), the task
     mapping whose rows the job writes; local: the job writes files under ``--out`` or reads the
     store by its path, so on a Dask cluster (whose workers may be other machines) it runs in the
-    scheduling process (local process pools share the machine and run it like any other).
+    scheduling process (local process pools share the machine and run it like any other);
+    time_limit: wall seconds the job may take, or None (no limit); memory_limit: the
+    address-space limit of the job in bytes, or None. With either set, the job runs in a forked
+    child of its worker (:func:`droneplan.studies.runner.run_isolated`, killed
+    :data:`ISOLATION_GRACE_S` after its limit): a job that overruns, crashes or exhausts its
+    memory fails with the runner's one-line message (a store task gets an error row) and the
+    worker goes on.
     """
 
     key: str
@@ -78,6 +93,45 @@ class Job:
     cost: float = 1.0
     task: Mapping[str, Any] | None = None
     local: bool = False
+    time_limit: float | None = None
+    memory_limit: int | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "time_limit", check_time_limit(self.time_limit))
+        if self.memory_limit is not None:
+            object.__setattr__(
+                self, "memory_limit", check_int("memory_limit", self.memory_limit, min_value=1)
+            )
+
+    @property
+    def isolated(self) -> bool:
+        """Whether the job runs in a child process of its own (it has a time or memory limit)."""
+        return self.time_limit is not None or self.memory_limit is not None
+
+
+ISOLATION_GRACE_S = 2.0
+"""Seconds an isolated job may overrun its ``time_limit`` before its child is killed."""
+
+
+class JobLimitExceeded(RuntimeError):
+    """An isolated job timed out, crashed or raised in its child; the message is the runner's."""
+
+
+def _isolated(
+    fn: Callable[..., Any], kwargs: Mapping[str, Any], limits: tuple[float | None, int | None]
+) -> Any:
+    """Run ``fn(**kwargs)`` in a forked child with ``limits`` (time limit s, memory bytes)."""
+    from droneplan.studies.runner import IsolatedCall, run_isolated
+
+    time_limit, memory_limit = limits
+    outcome = run_isolated(
+        IsolatedCall("job", fn, kwargs=dict(kwargs), time_limit=time_limit),
+        grace=ISOLATION_GRACE_S,
+        memory_limit=memory_limit,
+    )
+    if outcome.status != "ok":
+        raise JobLimitExceeded(outcome.error)
+    return outcome.value
 
 
 @dataclass(frozen=True)
@@ -104,7 +158,7 @@ class JobsFailed(StudyError):
 def row_jobs(
     fn: TaskFn, tasks: Iterable[Mapping[str, Any]], *, section: str, cost: float | Callable[[Mapping], float]
 ) -> list[Job]:
-    """One :class:`Job` per store task: runs ``fn(task)`` (as :func:`common.map_rows` does,
+    """One :class:`Job` per store task: runs ``fn(task)`` (as :func:`map_rows` does,
     an exception becomes an error row) and the scheduler writes the rows to the store.
 
     fn: the task function (module-level); tasks: mappings with ``problem`` and ``instance``;
@@ -194,6 +248,7 @@ class _Run:
 
     def __init__(self, jobs: list[Job], store: ResultStore | None):
         self.jobs = _check(jobs)
+        self.order = {k: i for i, k in enumerate(self.jobs)}
         if store is None and any(j.task is not None for j in jobs):
             raise ValueError("store tasks among the jobs need a store")
         self.store = store
@@ -217,6 +272,7 @@ class _Run:
                 if (*pi, self.configs[pi]) in done:
                     self.done_rows.add(j.key)
         self.done_rows |= self._only_feeding(self.done_rows)
+        self.recorder = _Recorder(store, self.configs, tqdm(disable=True)) if store is not None else None
 
     def _only_feeding(self, done: set[str]) -> set[str]:
         """Jobs whose every user is in ``done`` or among them (work only resumed tasks needed)."""
@@ -239,9 +295,9 @@ class _Run:
     def ready(self) -> list[str]:
         """The jobs whose inputs are all in, in the order to start them: store tasks first (they
         are cheap and put finished work on disk, so a long run stopped midway keeps it and frees
-        its inputs' results), then the longest chains."""
+        its inputs' results), then the longest chains; ties in the order the jobs were given."""
         keys = [k for k, deps in self.waiting.items() if not deps]
-        return sorted(keys, key=lambda k: (self.jobs[k].task is None, -self.prio[k], k))
+        return sorted(keys, key=lambda k: (self.jobs[k].task is None, -self.prio[k], self.order[k]))
 
     def start(self, key: str) -> tuple[Callable[..., Any], dict[str, Any]] | None:
         """Take ``key`` off the waiting list; its call, or None when there is nothing to run."""
@@ -260,6 +316,8 @@ class _Run:
             return None
         kwargs = dict(job.kwargs)
         kwargs.update({name: self.results[dep] for name, dep in job.needs.items()})
+        if job.isolated:
+            return _isolated, {"fn": job.fn, "kwargs": kwargs, "limits": (job.time_limit, job.memory_limit)}
         return job.fn, kwargs
 
     @staticmethod
@@ -284,8 +342,8 @@ class _Run:
         now = time.perf_counter() - self.t0
         self.timings.append(JobTiming(key, job.section, wall, cpu, start, now, skipped))
         if job.task is not None:
-            if result is not None and self.store is not None:
-                _Recorder(self.store, self.configs, tqdm(disable=True)).write(job.task, result)
+            if result is not None and self.recorder is not None:
+                self.recorder.write(job.task, result)
             result = None
         self.results[key] = result
         self.release(key)
@@ -301,7 +359,11 @@ class _Run:
 
 
 def run_jobs(
-    jobs: list[Job], *, executor: StudyExecutor, store: ResultStore | None = None, progress: bool = True
+    jobs: list[Job],
+    *,
+    executor: StudyExecutor,
+    store: ResultStore | None = None,
+    progress: bool | str = True,
 ) -> list[JobTiming]:
     """Run every job once its inputs are ready, on ``executor``: a store task as soon as it can
     start (its rows are on disk from then on), the others longest chains first.
@@ -309,26 +371,47 @@ def run_jobs(
     jobs: the jobs (keys unique, no cycles); executor: from :func:`common.make_executor` (a
     serial one runs the jobs in this process in the same order rules); store: the results
     store the store tasks write to (needed when there are any; tasks it already holds are
-    skipped); progress: print a line per finished section. Returns the timing of every job.
-    Raises :class:`JobsFailed` naming the jobs that raised, after every job that did not
-    depend on them has run; Ctrl-C stops the run (KeyboardInterrupt) keeping the rows written.
+    skipped); progress: True prints a line per finished section, a string shows a progress bar
+    over the jobs to run with that label, False shows nothing. Rows of an earlier code or
+    settings version that new rows set aside are counted and reported once on stderr. Returns
+    the timing of every job. Raises :class:`JobsFailed` naming the jobs that raised, after every
+    job that did not depend on them has run; Ctrl-C stops the run (KeyboardInterrupt) keeping
+    the rows written.
     """
-    run = _Run(list(jobs), store)
-    left = dict.fromkeys({j.section for j in run.jobs.values()}, 0)
-    for j in run.jobs.values():
-        left[j.section] += 1
+    jobs = list(jobs)
+    label = progress if isinstance(progress, str) else ""
+    run = _Run(jobs, store)
+    tasks_to_run = sum(j.task is not None and k not in run.done_rows for k, j in run.jobs.items())
+    with tqdm(
+        total=tasks_to_run, desc=label, disable=not isinstance(progress, str) or not tasks_to_run
+    ) as bar:
+        if run.recorder is not None:
+            run.recorder.bar = bar  # counts each store task as its rows are written
+        left = dict.fromkeys({j.section for j in run.jobs.values()}, 0)
+        for j in run.jobs.values():
+            left[j.section] += 1
 
-    def done(key: str) -> None:
-        sec = run.jobs[key].section
-        left[sec] -= 1
-        if progress and left[sec] == 0:
-            print(f"[{time.perf_counter() - run.t0:6.1f} s] {sec}: done", flush=True)
+        def done(key: str) -> None:
+            sec = run.jobs[key].section
+            left[sec] -= 1
+            if progress is True and left[sec] == 0:
+                print(f"[{time.perf_counter() - run.t0:6.1f} s] {sec}: done", flush=True)
 
-    with _InterruptGuard(executor) as guard:
-        if executor.kind == "serial":
-            _serial(run, guard, done)
-        else:
-            _parallel(run, executor, guard, done)
+        try:
+            with _InterruptGuard(executor) as guard:
+                if executor.kind == "serial":
+                    _serial(run, guard, done)
+                else:
+                    _parallel(run, executor, guard, done)
+        finally:
+            superseded = run.recorder.superseded if run.recorder is not None else 0
+            if superseded:
+                print(
+                    f"droneplan: {label or 'study'}: {superseded} row(s) of an earlier code or "
+                    "settings version set aside (load_results(..., include_superseded=True) shows them)",
+                    file=sys.stderr,
+                    flush=True,
+                )
     # a failure that only fed store tasks is already in their error rows (retried on a rerun)
     failed = {
         k: m
@@ -341,6 +424,54 @@ def run_jobs(
         error.timings = run.timings
         raise error
     return run.timings
+
+
+def map_rows(
+    fn: TaskFn,
+    tasks: Iterable[Mapping[str, Any]],
+    *,
+    executor: StudyExecutor,
+    store: ResultStore,
+    desc: str = "",
+) -> pd.DataFrame:
+    """Run ``fn(task)`` for every task whose rows are not yet in ``store`` (or errored): the
+    graph of one independent store-task job per task (:func:`row_jobs`, :func:`run_jobs`).
+
+    Each task is a dict with ``problem`` and ``instance`` (and optionally ``seed``, ``size``);
+    ``fn`` must be picklable (a module-level function) and return that instance's rows
+    (:func:`~droneplan.studies.store.build_rows`). Each row gets the task's ``config``
+    (:func:`~droneplan.studies.common.task_config`: its settings and the code) and the
+    provenance columns; a task counts as done when its instance has rows of that config and no
+    error row, so a rerun after a code or settings change computes new rows, and the older rows
+    of the same methods are set aside (the count is shown on the progress bar and printed once).
+    Each task's rows are written in one transaction as it finishes, in the order given. A task
+    that raises becomes an error row (rerun on the next call); Ctrl-C stops the study
+    (KeyboardInterrupt), keeping every row finished before it and discarding results that came
+    back after it.
+
+    executor: from :func:`~droneplan.studies.common.make_executor`; store: the open results
+    store; desc: the progress bar's label. Returns the current rows of the given tasks'
+    instances (old and new) in the schema of :mod:`droneplan.studies.store`.
+    """
+    tasks = list(tasks)
+    for t in tasks:
+        if "problem" not in t or "instance" not in t:
+            raise ValueError(f"every task needs 'problem' and 'instance', got {sorted(t)}")
+    keys = [(t["problem"], t["instance"]) for t in tasks]
+    if len(set(keys)) != len(keys):
+        raise ValueError("tasks repeat an instance id")
+    run_jobs(
+        row_jobs(fn, tasks, section=desc or "study", cost=1.0), executor=executor, store=store, progress=desc
+    )
+    wanted = set(keys)
+    frames = [store.frame(problem=p) for p in sorted({p for p, _ in wanted})]
+    df = pd.concat(frames, ignore_index=True) if frames else store.frame()
+    if not len(df):
+        return df
+    mask = [(p, i) in wanted for p, i in zip(df["problem"], df["instance"], strict=True)]
+    df = df[mask].reset_index(drop=True)
+    empty_extras = [c for c in df.columns if c not in COLUMNS and df[c].isna().all()]
+    return df.drop(columns=empty_extras)
 
 
 def _serial(run: _Run, guard: _InterruptGuard, done: Callable[[str], None]) -> None:

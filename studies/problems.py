@@ -2,7 +2,7 @@
 
 Every module that needs the list of problems (the command line, the report, the results
 store, the study front door) imports ``PROBLEMS`` from here, so adding a problem is one edit.
-Each name is also the name of its study module ``droneplan.studies.<name>`` and of its front
+Each name is also the name of its study module ``droneplan.studies.thesis.<name>`` and of its front
 door ``droneplan.<name>``.
 """
 

@@ -2,11 +2,11 @@
 
 A study calls code it does not control: a method a user wrote in a notebook, a solver
 binding that may hang in C, segfault, print, sleep, raise, or return something that is
-not a plan. :func:`run_jobs` runs each :class:`Job` in a child process of its own and
-turns whatever happens into one :class:`JobOutcome`:
+not a plan. :func:`run_calls` runs each :class:`IsolatedCall` in a child process of its own and
+turns whatever happens into one :class:`CallOutcome`:
 
 - ``"ok"``: ``fn`` returned; ``value`` is its return value: pickled in the child and
-  unpickled here for a job of droneplan's own code (``Job.returns == "pickle"``), or the
+  unpickled here for a job of droneplan's own code (``IsolatedCall.returns == "pickle"``), or the
   bytes ``fn`` returned, untouched, for a job running code droneplan does not control
   (``"bytes"``: nothing the child writes is ever unpickled; see :mod:`droneplan.studies.wire`);
 - ``"error"``: ``fn`` raised (any exception, ``SystemExit`` and ``KeyboardInterrupt``
@@ -19,10 +19,10 @@ turns whatever happens into one :class:`JobOutcome`:
   ``os._exit`` in the job, the kernel's out-of-memory killer); ``error`` names the exit
   code or signal.
 
-A job may also be given a CPU-time limit (:attr:`Job.cpu_limit`, the child's ``RLIMIT_CPU``: a
+A job may also be given a CPU-time limit (:attr:`IsolatedCall.cpu_limit`, the child's ``RLIMIT_CPU``: a
 budget that does not shrink when other work shares the machine), and may send reports while it
 runs (:func:`send_report`, e.g. each new incumbent of an anytime method); the parent keeps a
-thinned list of them (:attr:`Job.max_reports`) and returns it with the outcome, whatever the
+thinned list of them (:attr:`IsolatedCall.max_reports`) and returns it with the outcome, whatever the
 outcome is.
 
 Why ``os.fork`` and not :mod:`multiprocessing` or :mod:`concurrent.futures`:
@@ -40,7 +40,7 @@ another thread held at that moment stays locked in the child (a job that then ta
 same lock, e.g. through ``logging``, would wait until it is killed at its time limit),
 and a child should not use an OpenMP runtime that the parent already started. The
 runner is therefore POSIX-only (Linux, macOS); on a platform without ``os.fork``
-:func:`run_jobs` raises :class:`RuntimeError`.
+:func:`run_calls` raises :class:`RuntimeError`.
 
 What the child does: it moves into its own process group (Ctrl-C in a terminal reaches
 only the parent, which then kills every child), asks the kernel to kill it when the parent
@@ -88,6 +88,7 @@ if sys.platform != "win32":  # imported here, not in the child: an import after 
     import resource
 
 
+from droneplan.core.deprecation import deprecated_names
 from droneplan.core.validation import check_instance, check_int, check_nonneg, check_time_limit
 
 _PR_SET_PDEATHSIG = 1  # prctl option (linux/prctl.h): a signal the kernel sends when the parent dies
@@ -99,18 +100,18 @@ if sys.platform.startswith("linux"):
 __all__ = [
     "OUTCOME_STATUSES",
     "RESULT_MODES",
-    "Job",
-    "JobOutcome",
+    "IsolatedCall",
+    "CallOutcome",
     "die_with_parent",
     "run_isolated",
-    "run_jobs",
+    "run_calls",
     "send_report",
 ]
 
 OUTCOME_STATUSES = ("ok", "error", "timeout", "crashed")
 RESULT_MODES = ("pickle", "bytes")
-"""The values of :attr:`Job.returns`."""
-"""The values of :attr:`JobOutcome.status`, in this order of how far the job got."""
+"""The values of :attr:`IsolatedCall.returns`."""
+"""The values of :attr:`CallOutcome.status`, in this order of how far the job got."""
 
 _TICK_S = 0.2  # longest wait between two looks at the children (s)
 _FAST_TICK_S = 0.01  # wait while a child has closed its pipe but not yet exited (s)
@@ -118,7 +119,7 @@ _HEADER = struct.Struct(">Q")  # length prefix of a result message (bytes)
 _OK_PICKLE, _OK_BYTES, _ERROR = b"P", b"B", b"E"  # the first byte of a message: what follows
 _REPORT = b"R"  # a report (send_report): the job goes on; any number of them before the result
 _READ_CHUNK = 1 << 20  # bytes per read from a child's pipe
-_MESSAGE_CHARS = 300  # longest message kept in JobOutcome.error (characters)
+_MESSAGE_CHARS = 300  # longest message kept in CallOutcome.error (characters)
 _END = object()  # end of the jobs
 
 # Python 3.12+ warns on every fork of a process that runs threads (a Dask worker, a
@@ -131,15 +132,15 @@ warnings.filterwarnings(
 
 
 @dataclass(frozen=True)
-class Job:
+class IsolatedCall:
     """One call ``fn(*args, **kwargs)`` to run in a child process.
 
-    key: any hashable value naming the job; returned unchanged in its :class:`JobOutcome`.
+    key: any hashable value naming the job; returned unchanged in its :class:`CallOutcome`.
     fn: the callable to run (any callable: a lambda or closure is fine, it is not pickled).
     args: positional arguments of ``fn`` (a tuple).
     kwargs: keyword arguments of ``fn`` (a mapping of str).
     time_limit: wall time the job may take (s); None: no limit. The child is killed
-        ``grace`` seconds after the limit (see :func:`run_jobs`).
+        ``grace`` seconds after the limit (see :func:`run_calls`).
     returns: how the result travels back. ``"pickle"``: any picklable value, unpickled in the
         parent; only for droneplan's own code, since unpickling runs whatever the bytes name.
         ``"bytes"``: ``fn`` returns ``bytes`` (e.g. a :mod:`droneplan.studies.wire` message) and
@@ -192,8 +193,8 @@ class Job:
 
 
 @dataclass(frozen=True)
-class JobOutcome:
-    """What became of one :class:`Job`.
+class CallOutcome:
+    """What became of one :class:`IsolatedCall`.
 
     key: the job's key, unchanged.
     status: ``"ok"``, ``"error"``, ``"timeout"`` or ``"crashed"`` (see the module docstring).
@@ -204,7 +205,7 @@ class JobOutcome:
     traceback: the child's formatted traceback when ``status == "error"``, else ``""``.
     wall_s: wall time of the child from its start to its end (s).
     cpu_s: user + system CPU time of the child and of the processes it waited for (s).
-    reports: the reports the parent kept (:attr:`Job.max_reports`), in the order they were sent:
+    reports: the reports the parent kept (:attr:`IsolatedCall.max_reports`), in the order they were sent:
         bytes for a job with ``returns="bytes"``, unpickled values otherwise.
     n_reports: how many reports the job sent in all.
     """
@@ -220,29 +221,29 @@ class JobOutcome:
     n_reports: int = 0
 
 
-def run_isolated(job: Job, *, grace: float = 2.0, memory_limit: int | None = None) -> JobOutcome:
-    """Run one job in a child process and return its outcome (see :func:`run_jobs`).
+def run_isolated(job: IsolatedCall, *, grace: float = 2.0, memory_limit: int | None = None) -> CallOutcome:
+    """Run one job in a child process and return its outcome (see :func:`run_calls`).
 
-    job: the :class:`Job` to run.
+    job: the :class:`IsolatedCall` to run.
     grace: time the job may overrun its ``time_limit`` before it is killed (s).
     memory_limit: address-space limit of the child (bytes); None: no limit.
     """
-    check_instance("job", job, Job)
-    with contextlib.closing(run_jobs([job], workers=1, grace=grace, memory_limit=memory_limit)) as outcomes:
+    check_instance("job", job, IsolatedCall)
+    with contextlib.closing(run_calls([job], workers=1, grace=grace, memory_limit=memory_limit)) as outcomes:
         return next(outcomes)
 
 
-def run_jobs(
-    jobs: Iterable[Job],
+def run_calls(
+    jobs: Iterable[IsolatedCall],
     *,
     workers: int = 1,
     grace: float = 2.0,
     memory_limit: int | None = None,
     progress: str | None = None,
-) -> Generator[JobOutcome, None, None]:
+) -> Generator[CallOutcome, None, None]:
     """Run every job in a forked child process; yield their outcomes as they finish.
 
-    jobs: the :class:`Job` s to run (any iterable; consumed lazily, ``workers`` at a time).
+    jobs: the :class:`IsolatedCall` s to run (any iterable; consumed lazily, ``workers`` at a time).
     workers: number of children alive at once (count, >= 1).
     grace: time a job may overrun its ``time_limit`` before its process group is killed
         with SIGKILL (s, >= 0); its outcome is then ``"timeout"``. A job that returns
@@ -280,8 +281,8 @@ def _require_fork() -> None:
 
 # --------------------------------------------------------------------------- the parent
 def _run(  # noqa: C901
-    jobs: Iterable[Job], workers: int, grace: float, memory_limit: int | None, progress: str | None
-) -> Generator[JobOutcome, None, None]:
+    jobs: Iterable[IsolatedCall], workers: int, grace: float, memory_limit: int | None, progress: str | None
+) -> Generator[CallOutcome, None, None]:
     total = len(jobs) if isinstance(jobs, Sized) else None
     source = iter(jobs)
     running: dict[int, _Child] = {}  # by the read end of the child's pipe
@@ -295,8 +296,8 @@ def _run(  # noqa: C901
                     if job is _END:
                         exhausted = True
                         break
-                    if not isinstance(job, Job):
-                        raise TypeError(f"jobs[{index}] must be a Job, got {type(job).__name__}")
+                    if not isinstance(job, IsolatedCall):
+                        raise TypeError(f"jobs[{index}] must be an IsolatedCall, got {type(job).__name__}")
                     _Child.start(job, memory_limit, grace, running, selector)
                     index += 1
                 if not running:
@@ -314,7 +315,7 @@ def _run(  # noqa: C901
             bar.close()
 
 
-def _step(running: dict[int, _Child], selector: selectors.BaseSelector, grace: float) -> list[JobOutcome]:
+def _step(running: dict[int, _Child], selector: selectors.BaseSelector, grace: float) -> list[CallOutcome]:
     """Wait (at most one tick) for the children, and return the outcomes of those that ended."""
     now = time.monotonic()
     timeout = _FAST_TICK_S if any(c.eof for c in running.values()) else _TICK_S
@@ -339,7 +340,7 @@ def _step(running: dict[int, _Child], selector: selectors.BaseSelector, grace: f
 class _Child:
     """A forked child running one job, seen from the parent."""
 
-    def __init__(self, job: Job, pid: int, fd: int, started: float):
+    def __init__(self, job: IsolatedCall, pid: int, fd: int, started: float):
         self.job, self.pid, self.fd, self.started = job, pid, fd, started
         self.buffer = bytearray()
         self.eof = False
@@ -356,7 +357,7 @@ class _Child:
     @classmethod
     def start(
         cls,
-        job: Job,
+        job: IsolatedCall,
         memory_limit: int | None,
         grace: float,
         running: dict[int, _Child],
@@ -505,7 +506,7 @@ class _Child:
             os.close(self.fd)
 
     # ----------------------------------------------------------------- outcome
-    def poll(self, grace: float) -> JobOutcome | None:
+    def poll(self, grace: float) -> CallOutcome | None:
         """The outcome if the child is done (it is then reaped), else None."""
         if self.unwanted_report:
             self.kill_and_reap()
@@ -540,11 +541,11 @@ class _Child:
     def wall_s(self) -> float:
         return (self.ended if self.ended is not None else time.monotonic()) - self.started
 
-    def _outcome(self, status: str, **fields: Any) -> JobOutcome:
+    def _outcome(self, status: str, **fields: Any) -> CallOutcome:
         reports: list[Any] = self.kept_reports()
         if self.job.returns == "pickle":
             reports = [_unpickled_report(r) for r in reports]
-        return JobOutcome(
+        return CallOutcome(
             self.job.key,
             status,
             wall_s=self.wall_s,
@@ -554,7 +555,7 @@ class _Child:
             **fields,
         )
 
-    def _from_message(self) -> JobOutcome:
+    def _from_message(self) -> CallOutcome:
         (n,) = _HEADER.unpack_from(self.buffer)
         body = bytes(memoryview(self.buffer)[_HEADER.size : _HEADER.size + n])
         self.buffer = bytearray()
@@ -581,7 +582,7 @@ class _Child:
             error=f"the child sent a message of kind {kind!r}, not a result of kind {self.job.returns!r}",
         )
 
-    def _crashed(self) -> JobOutcome:
+    def _crashed(self) -> CallOutcome:
         status = self.status
         limit = self.job.cpu_limit
         killed_by = os.WTERMSIG(status) if status is not None and os.WIFSIGNALED(status) else None
@@ -666,11 +667,11 @@ def die_with_parent(parent: int) -> None:  # pragma: no cover - runs in children
 
 
 def send_report(value: Any) -> None:
-    """Send a report to the parent from inside a job (see :attr:`Job.max_reports`): ``bytes`` in a
+    """Send a report to the parent from inside a job (see :attr:`IsolatedCall.max_reports`): ``bytes`` in a
     job with ``returns="bytes"``, any picklable value otherwise. The job goes on; the parent
-    keeps a thinned list of the reports and hands it over in the job's :class:`JobOutcome`.
+    keeps a thinned list of the reports and hands it over in the job's :class:`CallOutcome`.
 
-    value: the report. Raises RuntimeError outside a job of :func:`run_jobs`.
+    value: the report. Raises RuntimeError outside a job of :func:`run_calls`.
     """
     if _CHILD is None or os.getpid() != _CHILD[0]:
         raise RuntimeError("send_report is for a job running under droneplan's job runner")
@@ -684,7 +685,9 @@ def send_report(value: Any) -> None:
     _write_message(w, _REPORT + payload)
 
 
-_CHILD: tuple[int, int, str] | None = None  # in a child: (its pid, the pipe's write end, Job.returns)
+_CHILD: tuple[int, int, str] | None = (
+    None  # in a child: (its pid, the pipe's write end, IsolatedCall.returns)
+)
 
 
 def _write_message(w: int, message: bytes) -> None:
@@ -701,7 +704,7 @@ def _unpickled_report(payload: bytes) -> Any:
         return f"unreadable report: {_one_line(exc)}"
 
 
-def _set_limits(job: Job, memory_limit: int | None, grace: float) -> None:  # pragma: no cover
+def _set_limits(job: IsolatedCall, memory_limit: int | None, grace: float) -> None:  # pragma: no cover
     """The child's resource limits: no core dumps, the address space, the CPU time."""
     with contextlib.suppress(ValueError, OSError):
         resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
@@ -718,7 +721,7 @@ def _set_limits(job: Job, memory_limit: int | None, grace: float) -> None:  # pr
 
 
 def _child_main(  # pragma: no cover
-    job: Job, w: int, close_fds: list[int], limits: tuple[int | None, float], parent: int
+    job: IsolatedCall, w: int, close_fds: list[int], limits: tuple[int | None, float], parent: int
 ) -> None:
     """Everything the child does; it never returns (``os._exit`` in every path). ``limits``:
     the address-space limit (bytes or None) and the grace (s) over the job's CPU limit."""
@@ -750,7 +753,7 @@ def _child_main(  # pragma: no cover
         os._exit(code)
 
 
-def _call(job: Job) -> bytes:
+def _call(job: IsolatedCall) -> bytes:
     """Run the job; its result message (a kind byte, then the payload)."""
     try:
         value = job.fn(*job.args, **job.kwargs)
@@ -770,3 +773,10 @@ def _call(job: Job) -> bytes:
 
 def _error_message(error: str, traceback: str) -> bytes:
     return _ERROR + json.dumps([error, traceback]).encode("utf-8", "replace")
+
+
+# the names of the previous release: a reproduction's graph node is now the only ``Job``
+# (:class:`droneplan.studies.jobs.Job`)
+__getattr__ = deprecated_names(
+    __name__, {"Job": "IsolatedCall", "JobOutcome": "CallOutcome", "run_jobs": "run_calls"}, globals()
+)

@@ -64,7 +64,7 @@ Dask can pickle it). Each task dict holds ``problem`` and ``instance`` (use
 :func:`instance_id`) plus whatever the function needs. The function runs every method on
 the instance, turns each outcome into an :class:`Outcome` (:meth:`Outcome.of` converts a
 ``SolveResult``) and returns ``build_rows(problem, instance, seed=..., size=..., sense=...,
-outcomes=[...])``, which fills the gaps. :func:`droneplan.studies.common.map_rows` runs the
+outcomes=[...])``, which fills the gaps. :func:`droneplan.studies.jobs.map_rows` runs the
 tasks not yet in the store through an executor, adds the ``config`` and provenance columns,
 and writes each task's rows in one transaction. ::
 
@@ -495,7 +495,7 @@ def build_rows(
     outcomes: one :class:`Outcome` per method; study: defaults to the part of ``instance``
     before ``':'``. The gaps follow :func:`fill_gaps` (the store recomputes them on read).
     ``config`` is ``''`` and the provenance columns are None until the rows are written by
-    :func:`~droneplan.studies.common.map_rows` (or filled by the caller).
+    :func:`~droneplan.studies.jobs.map_rows` (or filled by the caller).
     """
     if problem not in PROBLEMS:
         raise ValueError(f"problem must be one of {PROBLEMS}, got {problem!r}")

@@ -57,7 +57,7 @@ from droneplan.studies.library import lookup
 from droneplan.studies.methods import Method, check_study_time_limit, resolve_methods
 from droneplan.studies.provenance import config_hash, provenance, provenance_columns
 from droneplan.studies.references import REFERENCE_METHOD, check_reference, entry_row, reference_rows
-from droneplan.studies.runner import Job, JobOutcome, run_isolated, run_jobs
+from droneplan.studies.runner import CallOutcome, IsolatedCall, run_calls, run_isolated
 from droneplan.studies.store import (
     LIBRARY_METHOD,
     LIBRARY_SUSPECT,
@@ -170,7 +170,7 @@ class _Task:
     budgets: tuple[float | None, int | None] = (None, None)
     """(cpu_limit in CPU-s, max_evaluations)."""
 
-    def job(self, key: Any) -> Job:
+    def job(self, key: Any) -> IsolatedCall:
         """The runner's job of this task: the method in a child, under its wall and CPU limits,
         reporting when it takes a ``report`` (static kinds)."""
         cpu_limit, max_evaluations = self.budgets
@@ -180,7 +180,7 @@ class _Task:
         if cpu_limit is not None and not self.method.accepts("cpu_limit"):
             method_limit = cpu_limit if wall is None else min(wall, cpu_limit)
         budgets = {"cpu_limit": cpu_limit, "max_evaluations": max_evaluations, "report": reports}
-        return Job(
+        return IsolatedCall(
             key,
             execute_plain,
             (self.instance, self.method, self.seed, method_limit, budgets),
@@ -325,7 +325,7 @@ def _library_row(inst: StudyInstance) -> dict | None:
     return entry_row(inst, entry, method=LIBRARY_METHOD, role="model", source="certified library")
 
 
-def _verdict(task: _Task, outcome: JobOutcome) -> tuple[Scored, float | None]:
+def _verdict(task: _Task, outcome: CallOutcome) -> tuple[Scored, float | None]:
     """Droneplan's verdict on one job's outcome, and the time its scoring took (s; None: not scored).
 
     The method's plain-data message is decoded here (nothing in it is executed) and scored in a
@@ -363,7 +363,7 @@ def _plan_hash(value: Any) -> str | None:
 
 def _score_isolated(task: _Task, value: Any) -> tuple[Scored, float]:
     """:func:`~droneplan.studies.harness.score` run in a forked child with a time and memory budget."""
-    job = Job("score", score, (task.instance, task.method, value), time_limit=SCORE_TIME_LIMIT)
+    job = IsolatedCall("score", score, (task.instance, task.method, value), time_limit=SCORE_TIME_LIMIT)
     oc = run_isolated(job, grace=1.0, memory_limit=address_space_limit(SCORE_MEMORY_HEADROOM))
     if oc.status == "ok" and isinstance(oc.value, Scored):
         return oc.value, oc.wall_s
@@ -391,8 +391,8 @@ def address_space_limit(headroom: int) -> int | None:
 
 @contextlib.contextmanager
 def _dask_outcomes(
-    address: str | None, jobs: list[Job], grace: float, headroom: int, executor: Any = None
-) -> Iterator[Iterator[JobOutcome]]:
+    address: str | None, jobs: list[IsolatedCall], grace: float, headroom: int, executor: Any = None
+) -> Iterator[Iterator[CallOutcome]]:
     """Outcomes of ``jobs`` computed on a Dask cluster (each job isolated in a child on its worker,
     whose result comes back as the bytes of its plain-data message, decoded and scored here)."""
     import concurrent.futures as cf
@@ -403,14 +403,14 @@ def _dask_outcomes(
         ex = executor if executor is not None else stack.enter_context(make_executor(dask_address=address))
         futures = [ex.submit(_run_on_worker, job, grace, headroom) for job in jobs]
 
-        def gen() -> Iterator[JobOutcome]:
+        def gen() -> Iterator[CallOutcome]:
             for fut in cf.as_completed(futures):
                 yield fut.result()
 
         yield gen()
 
 
-def _run_on_worker(job: Job, grace: float, headroom: int) -> JobOutcome:
+def _run_on_worker(job: IsolatedCall, grace: float, headroom: int) -> CallOutcome:
     """One job in a child of this (Dask worker) process, with ``headroom`` bytes of address space
     beyond this process's own."""
     return run_isolated(job, grace=grace, memory_limit=address_space_limit(headroom))
@@ -589,7 +589,7 @@ class _Execution:
                 _dask_outcomes(self.dask, list(jobs), GRACE_S, self.headroom, self.dask_executor)
                 if self.dask or self.dask_executor is not None
                 else contextlib.nullcontext(
-                    run_jobs(
+                    run_calls(
                         jobs,
                         workers=self.workers,
                         grace=GRACE_S,
@@ -612,11 +612,13 @@ class _Execution:
         return jobs
 
 
-def _record_trace(traces: TraceStore, key: tuple, task: _Task, oc: JobOutcome, verdict: Scored) -> None:
+def _record_trace(traces: TraceStore, key: tuple, task: _Task, oc: CallOutcome, verdict: Scored) -> None:
     """Score the reports of one run (in a child, like a final plan), store them as its trace and
     note them on the row: ``reports`` (how many the method made), ``trace_points`` (kept), and
     the flag ``trace-claim-mismatch`` when a report's claim differs from droneplan's score."""
-    job = Job("trace", score_reports, (task.instance, task.method, oc.reports), time_limit=SCORE_TIME_LIMIT)
+    job = IsolatedCall(
+        "trace", score_reports, (task.instance, task.method, oc.reports), time_limit=SCORE_TIME_LIMIT
+    )
     scored = run_isolated(job, grace=1.0, memory_limit=address_space_limit(SCORE_MEMORY_HEADROOM))
     verdict.extras["reports"] = oc.n_reports
     if scored.status != "ok" or not isinstance(scored.value, list):
@@ -699,7 +701,7 @@ class _ClaimedJobs:
     def _store_key(self, t: _Task) -> tuple:
         return _task_key(self.problem, t)
 
-    def __iter__(self) -> Iterator[Job]:
+    def __iter__(self) -> Iterator[IsolatedCall]:
         for t in self.todo:
             if not self.store.try_claim(self._store_key(t)):
                 self.busy += 1

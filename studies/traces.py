@@ -13,7 +13,7 @@ each new incumbent::
 The reporter stamps each call with the time since the method started (s, in the job's child
 process) and sends it to the study as plain data (:mod:`~droneplan.studies.wire`); the runner
 keeps at most :data:`MAX_TRACE_POINTS` of them per run, the first and the last among them
-(:attr:`~droneplan.studies.runner.Job.max_reports`). The study then scores every kept report
+(:attr:`~droneplan.studies.runner.IsolatedCall.max_reports`). The study then scores every kept report
 with droneplan's own evaluator (:func:`score_trace`), exactly as a final plan: an infeasible
 plan is ``infeasible``, a claimed objective that differs from droneplan's is flagged
 ``claim-mismatch``, and a bound counts only from droneplan's exact engines. A call with

@@ -46,7 +46,7 @@ def site(tmp_path_factory) -> Path:
     import matplotlib.pyplot as plt
 
     from droneplan.studies.common import ComparisonTable
-    from droneplan.studies.report import write_report
+    from droneplan.studies.thesis.report import write_report
 
     out = tmp_path_factory.mktemp("results")
     table = ComparisonTable("Table 4.3")

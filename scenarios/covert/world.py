@@ -544,7 +544,7 @@ FIGURES_CASE1 = {
 (m, deg). Target 1 walks an S and climbs a 14 m hill in its second half, target 2 walks straight;
 they pass closest (0.4 m apart) at mid-mission 49 m from F and both walk away from D_s, so they
 move away from the drone after t_a. Chosen among 160 random layouts of that form as the one that
-meets every statement of §3.5 on case 1 checked by ``studies.fidelity_covert.figure_checks``
+meets every statement of §3.5 on case 1 checked by ``studies.thesis.fidelity_covert.figure_checks``
 (closest in mid-mission; target 1 climbing in its second half with the height difference
 growing; both farther from the drone at t_f than at t_a; the sliding-mode run's beta_m falling
 after t_a and rising, more slowly, after 60 s; its t_a = 7.4 s +- 0.5 s and t_f = 113.2 s +- 1 s)

@@ -34,7 +34,7 @@ from droneplan.studies.library import (
     save_library,
 )
 from droneplan.studies.provenance import provenance
-from droneplan.studies.runner import Job, JobOutcome, run_isolated, run_jobs
+from droneplan.studies.runner import CallOutcome, IsolatedCall, run_calls, run_isolated
 
 __all__ = [
     "certify",
@@ -131,18 +131,18 @@ def certifications(
     progress: str | None,
     *,
     executor: StudyExecutor | None = None,
-) -> Iterator[JobOutcome]:
+) -> Iterator[CallOutcome]:
     """The outcomes of certifying each instance in its own time-limited child process.
 
     instances: the StudyInstances. time_limit: per instance (s; None: none; the child is killed
     ``CERTIFY_GRACE_S`` after it). workers: children at once. progress: a progress bar's
     description, or None for none. executor: None (``workers`` local children), a local
     :class:`~droneplan.studies.common.StudyExecutor` (as many children as its slots) or a Dask one
-    (each child on a worker of its cluster). Yields one ``JobOutcome`` per instance (key: its id;
+    (each child on a worker of its cluster). Yields one ``CallOutcome`` per instance (key: its id;
     value: :func:`~droneplan.studies.library.certify_instance`'s fields) as each finishes.
     """
     jobs = [
-        Job(inst.id, certify_instance, (inst,), {"time_limit": time_limit}, time_limit=time_limit)
+        IsolatedCall(inst.id, certify_instance, (inst,), {"time_limit": time_limit}, time_limit=time_limit)
         for inst in instances
     ]
     if executor is not None and executor.kind == "dask":
@@ -150,10 +150,12 @@ def certifications(
         return
     if executor is not None:
         workers = executor.slots
-    yield from run_jobs(jobs, workers=workers, grace=CERTIFY_GRACE_S, progress=progress)
+    yield from run_calls(jobs, workers=workers, grace=CERTIFY_GRACE_S, progress=progress)
 
 
-def _on_cluster(jobs: list[Job], executor: StudyExecutor, progress: str | None) -> Iterator[JobOutcome]:
+def _on_cluster(
+    jobs: list[IsolatedCall], executor: StudyExecutor, progress: str | None
+) -> Iterator[CallOutcome]:
     """The outcomes of ``jobs``, each run in a child of a Dask worker (``run_isolated`` there), as
     they come back; a job whose worker failed is a ``"crashed"`` outcome. Leaving early (an
     interrupt, an error while an outcome is written) cancels the jobs not yet finished."""
@@ -164,7 +166,7 @@ def _on_cluster(jobs: list[Job], executor: StudyExecutor, progress: str | None) 
                 try:
                     outcome = fut.result()
                 except Exception as exc:  # noqa: BLE001 - the worker died or lost the job: one failure
-                    outcome = JobOutcome(futures[fut], "crashed", error=f"worker failed: {_one_line(exc)}")
+                    outcome = CallOutcome(futures[fut], "crashed", error=f"worker failed: {_one_line(exc)}")
                 bar.update(1)
                 yield outcome
     finally:

@@ -132,7 +132,7 @@ def plot_stealth_front(points: Any, bound: Any, *, ax: Any = None, title: str | 
     """beta_max (deg) against arrival time on the sphere (s): one marker per run and the whole-mission
     lower bound for any controller arriving by then; returns the figure.
 
-    points, bound: the DataFrames of :func:`studies.covert.stealth_front`. ax: a 2-D axes or None;
+    points, bound: the DataFrames of :func:`studies.thesis.covert.stealth_front`. ax: a 2-D axes or None;
     title: the axes title (None: none). points needs the columns method, t_a and beta_max_deg;
     bound the columns t_a and bound_deg (either may have no rows).
     """
@@ -156,7 +156,7 @@ def plot_optimised_front(
 ):
     """Figure of the optimised stealth-arrival front: beta_max (deg) against the arrival-time limit (s).
 
-    points, curve: the two DataFrames of :func:`studies.covert_front.optimised_front` (points needs
+    points, curve: the two DataFrames of :func:`studies.thesis.covert_front.optimised_front` (points needs
     arrival_limit_s, beta_max_deg, bound_deg and certified_within_deg; curve t_a and bound_deg;
     either may have no rows). Each point is drawn at its limit with its bound below it; points
     certified within ``margin_deg`` (deg, > 0) are filled, the others hollow, and each is labelled

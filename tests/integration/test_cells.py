@@ -1,7 +1,7 @@
 import pandas as pd
 import pytest
 
-from droneplan.studies import cells as study
+from droneplan.studies.thesis import cells as study
 
 
 @pytest.mark.slow

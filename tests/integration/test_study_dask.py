@@ -6,9 +6,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from droneplan.studies import cells, herding, shark
 from droneplan.studies.common import make_executor
 from droneplan.studies.store import COLUMNS, STORE_NAME, ResultStore, load_results
+from droneplan.studies.thesis import cells, herding, shark
 
 distributed = pytest.importorskip("distributed")
 pytestmark = pytest.mark.slow  # ~2 min on 2 cores: CI runs it

@@ -134,3 +134,22 @@ def test_no_import_circle(layer):
     graph = _graph(f"droneplan.{layer}")
     cycles = _cycles(graph)
     assert not cycles, f"import circles in {layer}/: {_report(graph, cycles)}"
+
+
+CLI_ROOM = {"droneplan.studies.cli", "droneplan.studies.bench_summary"}
+"""The command line and the benches, which import both the engine and the thesis reproductions."""
+
+
+def _is_thesis(name: str) -> bool:
+    return name == "droneplan.studies.thesis" or name.startswith("droneplan.studies.thesis.")
+
+
+def test_the_study_engine_never_imports_the_thesis_reproductions():
+    engine = [n for n in _graph("droneplan.studies") if not _is_thesis(n) and n not in CLI_ROOM]
+    assert "droneplan.studies.study" in engine and "droneplan.studies.thesis.cells" in MODULES
+    offending = {n: sorted(m for m in _imports(n) if _is_thesis(m)) for n in engine}
+    offending = {n: ms for n, ms in offending.items() if ms}
+    assert not offending, f"engine modules that import studies/thesis/: {offending}"
+    # and nothing below the studies layer does either
+    below = [n for n in MODULES if not n.startswith("droneplan.studies")]
+    assert not [n for n in below if any(_is_thesis(m) for m in _imports(n))]

@@ -8,7 +8,7 @@ import pytest
 
 from droneplan.planners.covert import SlidingModeObserver
 from droneplan.scenarios.covert import LAYOUTS, CovertScenario, simulate, thesis_case, two_target_layout
-from droneplan.studies.fidelity_covert import figure_checks
+from droneplan.studies.thesis.fidelity_covert import figure_checks
 
 T = np.arange(0.0, 120.0 + 1e-9, 0.5)
 

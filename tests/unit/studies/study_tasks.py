@@ -77,7 +77,8 @@ def tasks(n: int, delay: float = 0.0) -> list[dict]:
 
 def main(argv: list[str]) -> int:
     from droneplan.studies import common
-    from droneplan.studies.common import make_executor, map_rows
+    from droneplan.studies.common import make_executor
+    from droneplan.studies.jobs import map_rows
     from droneplan.studies.store import ResultStore
 
     out, mode, n = argv[0], argv[1], int(argv[2])

@@ -187,7 +187,7 @@ def test_nan_positions_are_refused_naming_the_trace(covert_run, shark_run, tmp_p
 
 
 def test_the_report_shows_a_problem_s_gif_beside_its_figures(shark_run, tmp_path):
-    from droneplan.studies.report import write_report
+    from droneplan.studies.thesis.report import write_report
 
     dp.shark.animate(shark_run, tmp_path / "shark" / "run.gif", stride=10)
     text = write_report(tmp_path).read_text()

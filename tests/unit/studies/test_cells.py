@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from droneplan.formulations.cells import CellProblem
-from droneplan.studies import cells as study
+from droneplan.studies.thesis import cells as study
 
 
 def test_study_entry_points_exist():

@@ -9,7 +9,7 @@ import pytest
 
 from droneplan.formulations.cells import ENGINES, solve_exact
 from droneplan.scenarios.cells import THESIS_TABLE_4_2, expected_user_count, thesis_problem
-from droneplan.studies.cells import (
+from droneplan.studies.thesis.cells import (
     GRID_DENSITIES,
     GRID_MS,
     GRID_QUICK_TIME_LIMIT,
@@ -122,7 +122,7 @@ def test_a_refused_grid_row_is_measured(monkeypatch):
     """An engine's refusal (a model over the machine's cap, here a cap of 1,000 terms) is a row
     with status REFUSED, the message and the seconds and memory the refusal took."""
     from droneplan.formulations.cells import _milp
-    from droneplan.studies.cells import _grid_solve
+    from droneplan.studies.thesis.cells import _grid_solve
 
     monkeypatch.setattr(_milp, "model_term_cap", lambda: 1000)
     monkeypatch.setattr(_milp, "LP_FIXING_MAX_TERMS", 100)

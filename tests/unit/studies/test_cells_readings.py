@@ -4,9 +4,9 @@ import pandas as pd
 import pytest
 
 from droneplan.planners.cells import GA_READINGS
-from droneplan.studies import cells as study
 from droneplan.studies.common import ComparisonTable
-from droneplan.studies.report import flag_reasons
+from droneplan.studies.thesis import cells as study
+from droneplan.studies.thesis.report import flag_reasons
 
 
 def test_readings_study_on_a_small_instance(tmp_path):
@@ -50,9 +50,9 @@ def test_readings_markdown_of_nothing():
 
 
 def test_table_4_3_has_t_es_as_written_and_p_save(tmp_path):
-    from droneplan.studies.cells_ga import GapPart, es_method, gap_rows, run_seconds
     from droneplan.studies.methods import BUILTIN
     from droneplan.studies.store import ResultStore
+    from droneplan.studies.thesis.cells_ga import GapPart, es_method, gap_rows, run_seconds
 
     task = {"problem": "cells", "instance": "table4.3:m=1,seed=0,test", "kind": "exact", "m": 1, "seed": 0}
     exact = pd.DataFrame(study.reproduce_task({**task, "exact_limit": 60.0}))

@@ -8,8 +8,9 @@ import sys
 import pandas as pd
 import pytest
 
-from droneplan.studies import cli, problem_studies
-from droneplan.studies.common import ComparisonTable, make_executor, map_rows, summarize
+from droneplan.studies import cli
+from droneplan.studies.common import ComparisonTable, make_executor, summarize
+from droneplan.studies.jobs import map_rows
 from droneplan.studies.store import (
     STORE_NAME,
     Outcome,
@@ -17,6 +18,7 @@ from droneplan.studies.store import (
     build_rows,
     instance_id,
 )
+from droneplan.studies.thesis import problem_studies
 
 
 def test_help_runs_and_names_available_problems():

@@ -17,8 +17,8 @@ import pytest
 from droneplan.core.validation import work_limits
 from droneplan.planners.covert import SlidingModeObserver
 from droneplan.scenarios.covert import simulate, thesis_case
-from droneplan.studies.covert_front import optimised_front
 from droneplan.studies.plots.covert import plot_optimised_front
+from droneplan.studies.thesis.covert_front import optimised_front
 
 DEG = 180.0 / math.pi
 
@@ -119,7 +119,7 @@ def test_scenario_type_checked():
 
 
 def test_section_refuses_bad_flags(tmp_path):
-    from droneplan.studies.covert_front import optimised_front_section
+    from droneplan.studies.thesis.covert_front import optimised_front_section
 
     with pytest.raises(TypeError, match="quick"):
         optimised_front_section(1, tmp_path, quick="yes")

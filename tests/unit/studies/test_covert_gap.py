@@ -1,11 +1,11 @@
-"""studies.covert_gap: the covert gap study is an open study of the registered controllers and the
+"""studies.thesis.covert_gap: the covert gap study is an open study of the registered controllers and the
 on-sphere bound engine, resumable, and equal to the runs and oracle made directly."""
 
 from __future__ import annotations
 
 import pytest
 
-import droneplan.studies.covert_gap as cg
+import droneplan.studies.thesis.covert_gap as cg
 from droneplan.planners.covert import HoverBenchmark, SlidingModeObserver
 from droneplan.scenarios.covert import random_case, simulate
 from droneplan.studies.bound_engines import DEG, _instant_optima

@@ -1,10 +1,10 @@
-"""studies.covert: the stealth front refuses budgets it cannot meet."""
+"""studies.thesis.covert: the stealth front refuses budgets it cannot meet."""
 
 from __future__ import annotations
 
 import pytest
 
-import droneplan.studies.covert as sc
+import droneplan.studies.thesis.covert as sc
 
 
 def test_stealth_front_budget_names_the_parameter_that_made_it_large():

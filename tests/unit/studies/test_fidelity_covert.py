@@ -5,7 +5,7 @@ import pytest
 
 from droneplan.planners.covert import SlidingModeObserver
 from droneplan.scenarios.covert import simulate, thesis_case
-from droneplan.studies.fidelity_covert import (
+from droneplan.studies.thesis.fidelity_covert import (
     BASE,
     consistent_layouts,
     feature_sweep,
@@ -35,7 +35,7 @@ def test_sweep_changes_one_feature():
 def test_consistent_layouts_keep_exactly_the_layouts_that_pass():
     import numpy as np
 
-    from droneplan.studies.fidelity_covert import SEARCH_RANGES
+    from droneplan.studies.thesis.fidelity_covert import SEARCH_RANGES
 
     rows = consistent_layouts(n_samples=3, seed=7, ignore=("in_zone", "t_a", "t_f", "beta_down_up"))
     rng = np.random.default_rng(7)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from droneplan.scenarios.herding import HerdingParams, animal_step, barking_mask, thesis_scenario
-from droneplan.studies.fidelity_herding import (
+from droneplan.studies.thesis.fidelity_herding import (
     RULES,
     drone_repulsion,
     stalled_state,

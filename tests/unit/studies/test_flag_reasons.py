@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from droneplan.studies.common import ComparisonTable
-from droneplan.studies.report import (
+from droneplan.studies.thesis.report import (
     FLAG_REASONS,
     PROBLEMS,
     flag_reasons,

@@ -1,11 +1,11 @@
-"""studies.herding: the allocation gap rows and tables, and one run record."""
+"""studies.thesis.herding: the allocation gap rows and tables, and one run record."""
 
 import numpy as np
 import pytest
 
-from droneplan.studies import herding as study
 from droneplan.studies.common import make_executor
 from droneplan.studies.store import load_results
+from droneplan.studies.thesis import herding as study
 
 
 @pytest.mark.parametrize("n", [2, 5, 7])
@@ -138,7 +138,7 @@ def test_bench_whole_run_rows_record_cpu_wall_and_load(monkeypatch):
 
 
 def _scenario_of(task):
-    """The scenario a sweep task's run simulates (as studies.herding._run_traced builds it)."""
+    """The scenario a sweep task's run simulates (as studies.thesis.herding._run_traced builds it)."""
     from droneplan.scenarios.herding import thesis_scenario
 
     field = task.get("field")

@@ -178,7 +178,7 @@ def test_the_report_map_shows_the_thesis_instance():
 
 
 def test_the_reproduction_report_embeds_the_placement_map(tmp_path):
-    from droneplan.studies.report import write_report
+    from droneplan.studies.thesis.report import write_report
 
     (tmp_path / "cells").mkdir()
     (tmp_path / "shark").mkdir()

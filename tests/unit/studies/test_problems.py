@@ -12,9 +12,9 @@ from droneplan.studies.problems import PROBLEMS
 def test_the_problem_list_names_every_study_module_in_chapter_order():
     assert PROBLEMS == ("covert", "cells", "shark", "herding")
     for name in PROBLEMS:
-        assert callable(importlib.import_module(f"droneplan.studies.{name}").gap)
+        assert callable(importlib.import_module(f"droneplan.studies.thesis.{name}").gap)
 
 
-@pytest.mark.parametrize("module", ["cli", "report", "store"])
+@pytest.mark.parametrize("module", ["cli", "thesis.report", "store"])
 def test_every_module_imports_the_one_list(module):
     assert importlib.import_module(f"droneplan.studies.{module}").PROBLEMS is PROBLEMS

@@ -16,7 +16,13 @@ import pytest
 
 from droneplan.studies.cli import _parser
 from droneplan.studies.common import ComparisonTable
-from droneplan.studies.report import DEVIATIONS, PROBLEMS, REPORT_NAME, deviations_markdown, write_report
+from droneplan.studies.thesis.report import (
+    DEVIATIONS,
+    PROBLEMS,
+    REPORT_NAME,
+    deviations_markdown,
+    write_report,
+)
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

@@ -6,10 +6,10 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from droneplan.studies import cells, herding
 from droneplan.studies.common import make_executor
 from droneplan.studies.jobs import Job, JobsFailed, idle_estimate, row_jobs, run_jobs, time_table
 from droneplan.studies.store import ResultStore, instance_id
+from droneplan.studies.thesis import cells, herding
 
 
 def _add(a: int, b: int = 0) -> int:
@@ -214,3 +214,79 @@ def test_a_store_task_runs_as_soon_as_its_inputs_are_in(tmp_path):
 
 def _join_rows(task, a: int, b: int) -> list[dict]:
     return _rows_for(task)
+
+
+def _sleep_then(value: int, seconds: float) -> int:
+    import time
+
+    time.sleep(seconds)
+    return value
+
+
+def _allocate(megabytes: int) -> int:
+    return len(bytearray(megabytes << 20))
+
+
+def test_a_job_with_a_limit_runs_isolated_and_fails_alone_when_it_overruns(tmp_path):
+    import resource
+    import time
+
+    from droneplan.studies import jobs as jobs_module
+
+    monkey_grace = jobs_module.ISOLATION_GRACE_S
+    jobs_module.ISOLATION_GRACE_S = 0.2
+    try:
+        vm = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss << 10
+        graph = [
+            Job("quick", "s", _sleep_then, {"value": 3, "seconds": 0.0}, time_limit=5.0),
+            Job("slow", "s", _sleep_then, {"value": 4, "seconds": 30.0}, time_limit=0.5),
+            Job("greedy", "s", _allocate, {"megabytes": 4096}, memory_limit=vm + (512 << 20) + (1 << 30)),
+            Job("sum", "s", _add, {}, {"a": "quick"}),
+            Job("after-slow", "s", _add, {}, {"a": "slow"}),
+        ]
+        t0 = time.perf_counter()
+        with make_executor(1) as ex, pytest.raises(JobsFailed) as failed:
+            run_jobs(graph, executor=ex, progress=False)
+        assert time.perf_counter() - t0 < 20.0  # the slow job was killed, not waited for
+    finally:
+        jobs_module.ISOLATION_GRACE_S = monkey_grace
+    message = str(failed.value)
+    assert "slow: JobLimitExceeded: killed after" in message and "time limit 0.5 s" in message
+    assert "greedy: JobLimitExceeded: MemoryError" in message
+    ran = {t.key for t in failed.value.timings}
+    assert ran == {"quick", "sum"}  # failed jobs have no timing; after-slow did not run
+    assert Job("k", "s", _add).isolated is False and Job("k", "s", _add, time_limit=1.0).isolated
+    with pytest.raises(ValueError, match="time_limit"):
+        Job("k", "s", _add, time_limit=-1.0)
+    with pytest.raises(ValueError, match="memory_limit"):
+        Job("k", "s", _add, memory_limit=0)
+
+
+def test_an_isolated_store_task_that_overruns_becomes_an_error_row(tmp_path):
+    from droneplan.studies import jobs as jobs_module
+
+    task = {"problem": "herding", "instance": instance_id("iso", seed=0), "seed": 0}
+    (job,) = row_jobs(_sleep_task, [task], section="s", cost=1.0)
+    job = jobs_module.Job(job.key, job.section, job.fn, job.kwargs, task=job.task, time_limit=0.3)
+    with ResultStore(tmp_path / "r.sqlite") as store, make_executor(1) as ex:
+        run_jobs([job], executor=ex, store=store, progress=False)
+        df = store.frame()
+    assert list(df["status"]) == ["error"] and "killed after" in df["message"].iloc[0]
+
+
+def _sleep_task(task) -> list[dict]:
+    import time
+
+    time.sleep(30.0)
+    return []
+
+
+def test_the_runner_names_of_the_previous_release_still_answer():
+    from droneplan.studies import runner
+
+    with pytest.warns(DeprecationWarning, match="IsolatedCall"):
+        assert runner.Job is runner.IsolatedCall
+    with pytest.warns(DeprecationWarning, match="run_calls"):
+        assert runner.run_jobs is runner.run_calls
+    with pytest.warns(DeprecationWarning, match="CallOutcome"):
+        assert runner.JobOutcome is runner.CallOutcome

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from droneplan.studies.runner import OUTCOME_STATUSES, Job, JobOutcome, run_isolated, run_jobs
+from droneplan.studies.runner import OUTCOME_STATUSES, CallOutcome, IsolatedCall, run_calls, run_isolated
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="the runner is POSIX-only")
 
@@ -120,8 +120,8 @@ def _spin_in_a_grandchild(seconds: float) -> int:
 
 # --------------------------------------------------------------------------- outcomes
 def test_ok_returns_the_value_and_measures_the_child():
-    out = run_isolated(Job(("inst", 3), np.arange, (10,), {"dtype": np.int32}))
-    assert isinstance(out, JobOutcome)
+    out = run_isolated(IsolatedCall(("inst", 3), np.arange, (10,), {"dtype": np.int32}))
+    assert isinstance(out, CallOutcome)
     assert out.key == ("inst", 3) and out.status == "ok" and out.error == "" and out.traceback == ""
     np.testing.assert_array_equal(out.value, np.arange(10, dtype=np.int32))
     assert out.value.dtype == np.int32
@@ -131,13 +131,13 @@ def test_ok_returns_the_value_and_measures_the_child():
 
 def test_a_result_of_many_megabytes_arrives_whole():
     n = 3_000_000  # 24 MB: hundreds of pipe buffers
-    out = run_isolated(Job("big", np.arange, (n,), {"dtype": np.float64}))
+    out = run_isolated(IsolatedCall("big", np.arange, (n,), {"dtype": np.float64}))
     assert out.status == "ok"
     np.testing.assert_array_equal(out.value, np.arange(n, dtype=np.float64))
 
 
 def test_an_exception_is_an_error_with_message_and_traceback():
-    out = run_isolated(Job("v", _raise_value_error, (7,)))
+    out = run_isolated(IsolatedCall("v", _raise_value_error, (7,)))
     assert out.status == "error" and out.value is None
     assert out.error == "ValueError: bad input: 7"  # one line
     assert "Traceback (most recent call last)" in out.traceback
@@ -149,8 +149,10 @@ def test_system_exit_is_an_error_and_the_parents_atexit_handlers_never_run_in_th
     handler = marker.touch
     atexit.register(handler)
     try:
-        out = run_isolated(Job("exit", sys.exit, (2,)))
-        interrupted = run_isolated(Job("kbd", _thread.interrupt_main))  # SIGINT is ignored in the child
+        out = run_isolated(IsolatedCall("exit", sys.exit, (2,)))
+        interrupted = run_isolated(
+            IsolatedCall("kbd", _thread.interrupt_main)
+        )  # SIGINT is ignored in the child
     finally:
         atexit.unregister(handler)
     assert (out.status, out.error) == ("error", "SystemExit: 2")
@@ -160,7 +162,7 @@ def test_system_exit_is_an_error_and_the_parents_atexit_handlers_never_run_in_th
 
 def test_a_sleeping_job_is_killed_after_limit_plus_grace():
     start = time.monotonic()
-    out = run_isolated(Job("s", time.sleep, (60,), time_limit=0.5), grace=0.5)
+    out = run_isolated(IsolatedCall("s", time.sleep, (60,), time_limit=0.5), grace=0.5)
     elapsed = time.monotonic() - start
     assert out.status == "timeout" and out.value is None
     assert "time limit 0.5 s" in out.error and out.error.startswith("killed after ")
@@ -168,7 +170,7 @@ def test_a_sleeping_job_is_killed_after_limit_plus_grace():
 
 
 def test_a_job_that_returns_within_the_grace_period_is_ok():
-    out = run_isolated(Job("late", time.sleep, (0.4,), time_limit=0.1), grace=3.0)
+    out = run_isolated(IsolatedCall("late", time.sleep, (0.4,), time_limit=0.1), grace=3.0)
     assert out.status == "ok" and out.wall_s >= 0.4
 
 
@@ -183,19 +185,19 @@ def test_a_job_that_returns_within_the_grace_period_is_ok():
 def test_a_child_that_dies_without_a_result_crashed(fn, args, expected):
     if args == "self-segv":
         fn, args = (lambda: os.kill(os.getpid(), signal.SIGSEGV)), ()
-    out = run_isolated(Job("c", fn, args))
+    out = run_isolated(IsolatedCall("c", fn, args))
     assert (out.status, out.error, out.value) == ("crashed", expected, None)
 
 
 def test_an_unpicklable_return_value_is_an_error_naming_its_type():
-    out = run_isolated(Job("l", lambda: lambda x: x))
+    out = run_isolated(IsolatedCall("l", lambda: lambda x: x))
     assert out.status == "error"
     assert "(function) cannot be pickled" in out.error
     assert "\n" not in out.error and "pickle" in out.traceback
 
 
 def test_a_return_value_that_fails_to_unpickle_is_an_error():
-    out = run_isolated(Job("u", _LoadsBadly))
+    out = run_isolated(IsolatedCall("u", _LoadsBadly))
     assert out.status == "error" and "could not be unpickled" in out.error
     assert "no unpickling here" in out.error
 
@@ -209,7 +211,7 @@ def test_closures_and_local_functions_run_without_pickling():
     def scaled(offset):
         return float((secret * Local.factor).sum() + offset)
 
-    out = run_isolated(Job("closure", scaled, kwargs={"offset": 1.0}))
+    out = run_isolated(IsolatedCall("closure", scaled, kwargs={"offset": 1.0}))
     assert (out.status, out.value) == ("ok", 17.0)
 
 
@@ -221,7 +223,7 @@ def test_printed_output_reaches_the_parents_descriptors_once(capfd):
         print("job warning", file=sys.stderr)
         return 1
 
-    out = run_isolated(Job("p", noisy))
+    out = run_isolated(IsolatedCall("p", noisy))
     captured = capfd.readouterr()
     assert out.status == "ok"
     assert captured.out.count("hello from the job") == 1
@@ -230,10 +232,10 @@ def test_printed_output_reaches_the_parents_descriptors_once(capfd):
 
 
 def test_cpu_time_counts_the_child_and_the_processes_it_waited_for():
-    own = run_isolated(Job("cpu", _spin, (0.3,)))
+    own = run_isolated(IsolatedCall("cpu", _spin, (0.3,)))
     assert own.status == "ok" and own.value >= 0.3
     assert own.cpu_s >= 0.25  # rusage may round to the scheduler tick
-    waited = run_isolated(Job("cpu2", _spin_in_a_grandchild, (0.3,)))
+    waited = run_isolated(IsolatedCall("cpu2", _spin_in_a_grandchild, (0.3,)))
     assert (waited.status, waited.value) == ("ok", 0)
     assert waited.cpu_s >= 0.25
 
@@ -241,7 +243,7 @@ def test_cpu_time_counts_the_child_and_the_processes_it_waited_for():
 def _run_inside_a_pool_worker(n: int) -> tuple[bool, str, object]:
     import multiprocessing
 
-    outcome = run_isolated(Job("in-pool", lambda: n + 1))  # a lambda: a pool could not even send it
+    outcome = run_isolated(IsolatedCall("in-pool", lambda: n + 1))  # a lambda: a pool could not even send it
     return multiprocessing.current_process().daemon, outcome.status, outcome.value
 
 
@@ -261,7 +263,7 @@ def test_jobs_run_inside_a_daemonic_pool_worker():
 def test_helpers_a_job_started_die_with_it(tmp_path, then, limit, status):
     path = tmp_path / "helper.pid"
     before = _children()
-    out = run_isolated(Job("g", _leave_a_helper, (str(path), then), time_limit=limit), grace=0.2)
+    out = run_isolated(IsolatedCall("g", _leave_a_helper, (str(path), then), time_limit=limit), grace=0.2)
     assert out.status == status
     if then == "exit":
         assert out.error == "died: exit code 5"
@@ -273,27 +275,33 @@ def test_helpers_a_job_started_die_with_it(tmp_path, then, limit, status):
 # --------------------------------------------------------------------------- several jobs
 def test_two_workers_run_two_sleeping_jobs_at_once():
     start = time.monotonic()
-    outs = list(run_jobs([Job(i, time.sleep, (1.5,)) for i in range(2)], workers=2))
+    outs = list(run_calls([IsolatedCall(i, time.sleep, (1.5,)) for i in range(2)], workers=2))
     elapsed = time.monotonic() - start
     assert sorted(o.key for o in outs) == [0, 1] and {o.status for o in outs} == {"ok"}
     assert elapsed < 2.6  # one after the other would take 3 s
 
 
 def test_outcomes_come_in_the_order_jobs_finish():
-    outs = list(run_jobs([Job("slow", time.sleep, (1.0,)), Job("fast", int, ("7",))], workers=2))
+    outs = list(
+        run_calls([IsolatedCall("slow", time.sleep, (1.0,)), IsolatedCall("fast", int, ("7",))], workers=2)
+    )
     assert [o.key for o in outs] == ["fast", "slow"]
     assert outs[0].value == 7
 
 
 def test_many_jobs_from_a_generator_are_all_collected_once():
     n = 24
-    jobs = (Job(("sq", i), lambda i=i: i * i) for i in range(n))  # not a Sequence: total unknown
-    outs = list(run_jobs(jobs, workers=2, progress="squares"))
+    jobs = (IsolatedCall(("sq", i), lambda i=i: i * i) for i in range(n))  # not a Sequence: total unknown
+    outs = list(run_calls(jobs, workers=2, progress="squares"))
     assert len(outs) == n
     assert {o.key: o.value for o in outs} == {("sq", i): i * i for i in range(n)}
     mixed = list(
-        run_jobs(
-            [Job("a", abs, (-2,)), Job("b", _raise_value_error, (1,)), Job("c", os._exit, (1,))],
+        run_calls(
+            [
+                IsolatedCall("a", abs, (-2,)),
+                IsolatedCall("b", _raise_value_error, (1,)),
+                IsolatedCall("c", os._exit, (1,)),
+            ],
             workers=3,
             progress="mixed",
         )
@@ -304,22 +312,22 @@ def test_many_jobs_from_a_generator_are_all_collected_once():
 def test_memory_limit_turns_a_huge_allocation_into_an_error():
     psutil = pytest.importorskip("psutil")
     limit = psutil.Process().memory_info().vms + 2**30  # what the fork inherits + 1 GiB
-    huge = run_isolated(Job("huge", np.empty, (8 * 2**30,), {"dtype": np.uint8}), memory_limit=limit)
+    huge = run_isolated(IsolatedCall("huge", np.empty, (8 * 2**30,), {"dtype": np.uint8}), memory_limit=limit)
     assert huge.status == "error" and huge.error.startswith("MemoryError: ")
-    small = run_isolated(Job("small", np.ones, (10**6,)), memory_limit=limit)
+    small = run_isolated(IsolatedCall("small", np.ones, (10**6,)), memory_limit=limit)
     assert small.status == "ok" and small.value.sum() == 10**6
 
 
 # --------------------------------------------------------------------------- interrupts
 def test_keyboard_interrupt_in_the_consumer_kills_and_reaps_every_child(tmp_path):
     paths = [str(tmp_path / f"pid{i}") for i in range(3)]
-    jobs = [Job(i, _record_pid_then_sleep, (p,)) for i, p in enumerate(paths)]
-    jobs.append(Job("fast", _wait_for, (paths,)))
+    jobs = [IsolatedCall(i, _record_pid_then_sleep, (p,)) for i, p in enumerate(paths)]
+    jobs.append(IsolatedCall("fast", _wait_for, (paths,)))
     before = _children()
     seen: list[tuple[object, str]] = []
 
     def consume():  # a loop over the outcomes whose body is interrupted by Ctrl-C
-        for outcome in run_jobs(jobs, workers=4):
+        for outcome in run_calls(jobs, workers=4):
             seen.append((outcome.key, outcome.status))
             raise KeyboardInterrupt
 
@@ -333,8 +341,8 @@ def test_keyboard_interrupt_in_the_consumer_kills_and_reaps_every_child(tmp_path
 
 def test_keyboard_interrupt_while_waiting_kills_and_reaps_every_child(tmp_path):
     paths = [str(tmp_path / f"pid{i}") for i in range(2)]
-    it = run_jobs(
-        [Job(i, _record_pid_then_sleep, (p,), time_limit=30) for i, p in enumerate(paths)], workers=2
+    it = run_calls(
+        [IsolatedCall(i, _record_pid_then_sleep, (p,), time_limit=30) for i, p in enumerate(paths)], workers=2
     )
     before = _children()
 
@@ -354,8 +362,8 @@ def test_keyboard_interrupt_while_waiting_kills_and_reaps_every_child(tmp_path):
 
 def test_closing_the_iterator_early_kills_the_rest(tmp_path):
     paths = [str(tmp_path / f"pid{i}") for i in range(2)]
-    jobs = [Job(i, _record_pid_then_sleep, (p,)) for i, p in enumerate(paths)]
-    it = run_jobs([*jobs, Job("fast", _wait_for, (paths,))], workers=3)
+    jobs = [IsolatedCall(i, _record_pid_then_sleep, (p,)) for i, p in enumerate(paths)]
+    it = run_calls([*jobs, IsolatedCall("fast", _wait_for, (paths,))], workers=3)
     assert next(it).key == "fast"
     it.close()
     for p in paths:
@@ -377,7 +385,7 @@ def test_closing_the_iterator_early_kills_the_rest(tmp_path):
 )
 def test_bad_runner_arguments_are_refused_by_name(kwargs, error, name):
     with pytest.raises(error, match=name):
-        run_jobs([Job(0, int)], **kwargs)
+        run_calls([IsolatedCall(0, int)], **kwargs)
 
 
 @pytest.mark.parametrize(
@@ -395,24 +403,24 @@ def test_bad_runner_arguments_are_refused_by_name(kwargs, error, name):
 )
 def test_bad_jobs_are_refused_by_name(kwargs, error, name):
     with pytest.raises(error, match=name):
-        Job(**{"key": 0, "fn": int, **kwargs})
+        IsolatedCall(**{"key": 0, "fn": int, **kwargs})
 
 
 def test_something_that_is_not_a_job_is_refused_with_its_position():
     before = _children()
-    with pytest.raises(TypeError, match=r"jobs\[1\] must be a Job"):
-        list(run_jobs([Job(0, int), (1, int)], workers=1))
-    with pytest.raises(TypeError, match="job must be Job"):
+    with pytest.raises(TypeError, match=r"jobs\[1\] must be an IsolatedCall"):
+        list(run_calls([IsolatedCall(0, int), (1, int)], workers=1))
+    with pytest.raises(TypeError, match="job must be IsolatedCall"):
         run_isolated((0, int))  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="jobs"):
-        run_jobs(None)  # type: ignore[arg-type]
+        run_calls(None)  # type: ignore[arg-type]
     assert _children() == before
 
 
 def test_a_platform_without_fork_gets_a_clear_error(monkeypatch):
     monkeypatch.delattr(os, "fork")
     with pytest.raises(RuntimeError, match=r"needs os\.fork"):
-        run_jobs([Job(0, int)])
+        run_calls([IsolatedCall(0, int)])
 
 
 # ------------------------------------------------------------- jobs of code droneplan does not control
@@ -461,23 +469,23 @@ def _writes_a_forged_pickle_result(before: set[tuple[int, int]]):
 def test_a_bytes_job_never_unpickles_what_its_child_writes():
     """With returns="pickle" the same forged message runs __reduce__ here (the last lines)."""
     out = run_isolated(
-        Job("forged", _writes_a_forged_pickle_result, (_open_files(),), returns="bytes"), grace=1.0
+        IsolatedCall("forged", _writes_a_forged_pickle_result, (_open_files(),), returns="bytes"), grace=1.0
     )
     assert _UNPICKLED == []
     assert out.status == "error" and "kind b'P'" in out.error
     trusted = run_isolated(
-        Job("forged", _writes_a_forged_pickle_result, (_open_files(),), returns="pickle"), grace=1.0
+        IsolatedCall("forged", _writes_a_forged_pickle_result, (_open_files(),), returns="pickle"), grace=1.0
     )
     assert trusted.status == "ok" and trusted.value == "ran" and _UNPICKLED == ["ran"]
     _UNPICKLED.clear()
 
 
 def test_a_bytes_job_hands_its_bytes_over_untouched_and_refuses_other_values():
-    assert run_isolated(Job("b", lambda: b"\x00raw", returns="bytes")).value == b"\x00raw"
-    out = run_isolated(Job("s", lambda: "text", returns="bytes"))
+    assert run_isolated(IsolatedCall("b", lambda: b"\x00raw", returns="bytes")).value == b"\x00raw"
+    out = run_isolated(IsolatedCall("s", lambda: "text", returns="bytes"))
     assert out.status == "error" and "returned str, not bytes" in out.error
 
 
 def test_a_result_past_its_cap_is_an_error_naming_the_size():
-    out = run_isolated(Job("big", lambda: bytes(1 << 20), returns="bytes", max_result_bytes=1000))
+    out = run_isolated(IsolatedCall("big", lambda: bytes(1 << 20), returns="bytes", max_result_bytes=1000))
     assert out.status == "error" and "more than the cap of 1000" in out.error

@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from droneplan.studies.runner import Job, run_isolated, send_report
+from droneplan.studies.runner import IsolatedCall, run_isolated, send_report
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="the runner is POSIX-only")
 
@@ -22,7 +22,7 @@ def _spin(seconds: float) -> str:
 
 
 def test_a_job_within_its_cpu_limit_finishes():
-    outcome = run_isolated(Job("ok", _spin, (0.2,), cpu_limit=5.0), grace=0.5)
+    outcome = run_isolated(IsolatedCall("ok", _spin, (0.2,), cpu_limit=5.0), grace=0.5)
     assert outcome.status == "ok" and outcome.value == "done"
     assert 0.2 <= outcome.cpu_s < 5.0
 
@@ -30,7 +30,7 @@ def test_a_job_within_its_cpu_limit_finishes():
 def test_a_job_over_its_cpu_limit_is_stopped_by_the_kernel_as_a_timeout():
     """RLIMIT_CPU sends SIGXCPU at limit + grace (rounded up to whole seconds): a timeout that says
     so, after at least the limit and well before the job's own 30 s."""
-    outcome = run_isolated(Job("spin", _spin, (30.0,), cpu_limit=1.0), grace=0.5)
+    outcome = run_isolated(IsolatedCall("spin", _spin, (30.0,), cpu_limit=1.0), grace=0.5)
     assert outcome.status == "timeout"
     assert "CPU limit 1.0 s" in outcome.error
     assert 1.0 <= outcome.cpu_s < 5.0
@@ -38,14 +38,14 @@ def test_a_job_over_its_cpu_limit_is_stopped_by_the_kernel_as_a_timeout():
 
 def test_a_sleeping_job_is_not_stopped_by_its_cpu_limit():
     """CPU time, not wall time: a job that waits uses no CPU."""
-    outcome = run_isolated(Job("nap", time.sleep, (1.5,), cpu_limit=1.0), grace=0.0)
+    outcome = run_isolated(IsolatedCall("nap", time.sleep, (1.5,), cpu_limit=1.0), grace=0.0)
     assert outcome.status == "ok" and outcome.wall_s >= 1.5
 
 
 @pytest.mark.parametrize("bad", [0, -1.0, float("nan"), float("inf")])
 def test_a_cpu_limit_must_be_positive_and_finite(bad):
     with pytest.raises(ValueError, match="cpu_limit"):
-        Job("bad", _spin, (0.1,), cpu_limit=bad)
+        IsolatedCall("bad", _spin, (0.1,), cpu_limit=bad)
 
 
 def _reporter(count: int) -> int:
@@ -55,14 +55,14 @@ def _reporter(count: int) -> int:
 
 
 def test_every_report_of_a_short_job_is_kept_in_order():
-    outcome = run_isolated(Job("few", _reporter, (5,), max_reports=10))
+    outcome = run_isolated(IsolatedCall("few", _reporter, (5,), max_reports=10))
     assert outcome.status == "ok" and outcome.value == 5
     assert [r["i"] for r in outcome.reports] == [0, 1, 2, 3, 4] and outcome.n_reports == 5
 
 
 @pytest.mark.parametrize("count", [11, 200, 5000])
 def test_many_reports_are_thinned_to_the_cap_keeping_the_first_and_the_last(count):
-    outcome = run_isolated(Job("many", _reporter, (count,), max_reports=10))
+    outcome = run_isolated(IsolatedCall("many", _reporter, (count,), max_reports=10))
     kept = [r["i"] for r in outcome.reports]
     assert outcome.n_reports == count
     assert len(kept) <= 10 and kept[0] == 0 and kept[-1] == count - 1
@@ -80,12 +80,12 @@ def test_reports_of_a_bytes_job_stay_bytes_and_must_be_bytes():
             send_report(b"refused a str")
         return b"result"
 
-    outcome = run_isolated(Job("bytes", job, returns="bytes", max_reports=5))
+    outcome = run_isolated(IsolatedCall("bytes", job, returns="bytes", max_reports=5))
     assert outcome.value == b"result" and outcome.reports == (b"first", b"refused a str")
 
 
 def test_a_report_to_a_job_that_takes_none_is_an_error_outcome():
-    outcome = run_isolated(Job("unwanted", _reporter, (1,)))
+    outcome = run_isolated(IsolatedCall("unwanted", _reporter, (1,)))
     assert outcome.status == "error" and "max_reports" in outcome.error
 
 
@@ -94,7 +94,7 @@ def test_reports_survive_a_timeout():
         send_report("started")
         time.sleep(30)
 
-    outcome = run_isolated(Job("slow", slow, time_limit=0.5, max_reports=4), grace=0.2)
+    outcome = run_isolated(IsolatedCall("slow", slow, time_limit=0.5, max_reports=4), grace=0.2)
     assert outcome.status == "timeout" and outcome.reports == ("started",)
 
 
@@ -105,4 +105,4 @@ def test_send_report_outside_a_job_raises():
 
 def test_max_reports_of_one_is_refused():
     with pytest.raises(ValueError, match="max_reports"):
-        Job("one", _reporter, (1,), max_reports=1)
+        IsolatedCall("one", _reporter, (1,), max_reports=1)

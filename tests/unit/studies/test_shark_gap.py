@@ -1,4 +1,4 @@
-"""studies.shark gap: the random paths run as an open study (closed-loop contact times) with the
+"""studies.thesis.shark gap: the random paths run as an open study (closed-loop contact times) with the
 offline OCP and its proven bound as extras of the bound engine's row."""
 
 from __future__ import annotations
@@ -8,11 +8,11 @@ import pytest
 
 from droneplan.planners.shark import VirtualSharkInterceptor, allocate_operators, optimal_interception
 from droneplan.scenarios.shark import operator_start, random_trajectory, simulate
-from droneplan.studies import shark as study
 from droneplan.studies.common import make_executor
 from droneplan.studies.harness import execute, score
 from droneplan.studies.instances import FleetInstance, family_instances, load_instance, save_instance
 from droneplan.studies.methods import BUILTIN, DEFAULT_METHODS, Method, resolve_methods
+from droneplan.studies.thesis import shark as study
 
 
 def test_shark_defaults_and_engine_are_registered():

@@ -1,7 +1,7 @@
 import numpy as np
 
-from droneplan.studies import shark as study
 from droneplan.studies.common import ComparisonTable
+from droneplan.studies.thesis import shark as study
 
 
 def test_fig_5_10_records_the_infeasible_range(tmp_path):

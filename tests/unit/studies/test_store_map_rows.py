@@ -9,7 +9,8 @@ import matplotlib
 import pytest
 
 from droneplan.studies import common
-from droneplan.studies.common import make_executor, map_rows, report_study, summarize, task_config
+from droneplan.studies.common import make_executor, report_study, summarize, task_config
+from droneplan.studies.jobs import map_rows
 from droneplan.studies.provenance import config_hash, provenance
 from droneplan.studies.store import STORE_NAME, Outcome, ResultStore, build_rows, instance_id
 

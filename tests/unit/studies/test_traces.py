@@ -15,7 +15,7 @@ from droneplan.studies import wire
 from droneplan.studies.instances import family_instances
 from droneplan.studies.methods import BUILTIN, Method
 from droneplan.studies.reporter import MAX_REPORT_CALLS, Reporter
-from droneplan.studies.runner import Job, run_isolated, send_report
+from droneplan.studies.runner import IsolatedCall, run_isolated, send_report
 from droneplan.studies.traces import (
     ecdf,
     primal_integral,
@@ -84,7 +84,7 @@ def test_a_reporting_method_in_a_child_keeps_at_most_the_cap_with_first_and_last
             report(np.array([[2000.0 + i, 0.0]]))
         return b"done"
 
-    outcome = run_isolated(Job("r", job, returns="bytes", max_reports=20))
+    outcome = run_isolated(IsolatedCall("r", job, returns="bytes", max_reports=20))
     xs = [r["plan"][0][0] for r in _decoded(list(outcome.reports))]
     assert outcome.n_reports == 500 and len(xs) <= 20 and xs[0] == 2000.0 and xs[-1] == 2499.0
 

@@ -1,6 +1,6 @@
 """The reproduction report: one static HTML page from what ``droneplan reproduce`` wrote.
 
-``droneplan reproduce --quick --report`` (or ``python -m droneplan.studies.report OUT`` on an
+``droneplan reproduce --quick --report`` (or ``python -m droneplan.studies.thesis.report OUT`` on an
 existing ``--out`` directory) writes ``OUT/report.html``. It opens with the run itself: the machines
 and code that made the stored rows and the last reproduce's wall and CPU time per section. For each
 problem it shows every thesis
@@ -643,9 +643,9 @@ def write_report(out: str | Path, *, problems: Sequence[str] = PROBLEMS, title: 
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m droneplan.studies.report OUT``: rebuild the report from an existing ``--out``."""
+    """``python -m droneplan.studies.thesis.report OUT``: rebuild the report from an existing ``--out``."""
     parser = argparse.ArgumentParser(
-        prog="python -m droneplan.studies.report", description=__doc__.splitlines()[0]
+        prog="python -m droneplan.studies.thesis.report", description=__doc__.splitlines()[0]
     )
     parser.add_argument(
         "out", type=Path, nargs="?", default=Path("results"), help="the reproduce --out directory"

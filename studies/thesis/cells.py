@@ -4,7 +4,7 @@ exact engine within 120 s and 300 s, the GA/exact time ratio, the GA success rat
 
 The GA runs and exhaustive searches of the reproduction (Table 4.3, Figs 4.3 and 4.5, the
 ablation) are rows of :func:`droneplan.gap` studies with repeated runs
-(:mod:`droneplan.studies.cells_ga`), measured against the certified library's proven optima. The
+(:mod:`droneplan.studies.thesis.cells_ga`), measured against the certified library's proven optima. The
 exact times and bounds of Table 4.3 and the optima of Fig. 4.6 come from the combinatorial branch
 and bound (``solve_exact(engine="bnb")``; its rows are named ``bnb``), the faster of the two exact
 engines; the MILP (``solve_milp``, CP-SAT by default, HiGHS beside it) certifies the same optima in
@@ -42,7 +42,18 @@ from droneplan.scenarios.cells import (
     thesis_problem,
 )
 from droneplan.solvers.result import SolveResult
-from droneplan.studies.cells_ga import (
+from droneplan.studies.common import (
+    ComparisonTable,
+    make_executor,
+    measured,
+    open_store,
+    report_study,
+)
+from droneplan.studies.jobs import Job, map_rows, row_jobs, run_reproduction
+from droneplan.studies.methods import BUILTIN
+from droneplan.studies.plots.cells import plot_deployment_region, plot_map
+from droneplan.studies.store import Outcome, build_rows, instance_id
+from droneplan.studies.thesis.cells_ga import (
     GA_TIME_LIMIT,
     GA_VARIANTS,
     INSTANCE_VARIANTS,
@@ -67,19 +78,7 @@ from droneplan.studies.cells_ga import (
     share_text,
     stored_rows,
 )
-from droneplan.studies.common import (
-    ComparisonTable,
-    make_executor,
-    map_rows,
-    measured,
-    open_store,
-    report_study,
-)
-from droneplan.studies.jobs import Job, row_jobs, run_reproduction
-from droneplan.studies.methods import BUILTIN
-from droneplan.studies.plots.cells import plot_deployment_region, plot_map
-from droneplan.studies.report import flag_reasons
-from droneplan.studies.store import Outcome, build_rows, instance_id
+from droneplan.studies.thesis.report import flag_reasons
 
 __all__ = [
     "INSTANCE_SEED",
@@ -134,7 +133,7 @@ def reproduce_task(task: Mapping[str, Any]) -> list[dict[str, Any]]:
     machine) or on the non-clustered snapshot (kind ``exact-nc``, Fig. 4.6).
 
     The GA runs and exhaustive searches of the reproduction are rows of :func:`droneplan.gap`
-    (:mod:`droneplan.studies.cells_ga`), not tasks of this function.
+    (:mod:`droneplan.studies.thesis.cells_ga`), not tasks of this function.
     """
     m, seed = int(task["m"]), int(task["seed"])
     kind = task["kind"]
@@ -1124,7 +1123,7 @@ def bench_grid_row(spec: Mapping[str, Any]) -> dict[str, Any]:
 
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     proc = subprocess.run(
-        [sys.executable, "-c", "from droneplan.studies.cells import _grid_child; _grid_child()"],
+        [sys.executable, "-c", "from droneplan.studies.thesis.cells import _grid_child; _grid_child()"],
         input=json.dumps(dict(spec)),
         capture_output=True,
         text=True,
@@ -1206,14 +1205,14 @@ def bench_grid(
 
 def grid_main(argv=None) -> int:
     """Run a chosen part of the scale grid from the command line (``python -m
-    droneplan.studies.cells --ms 6 8 --densities 2 4 --engines bnb --out DIR``); every option
+    droneplan.studies.thesis.cells --ms 6 8 --densities 2 4 --engines bnb --out DIR``); every option
     left out takes the full grid's default. Returns the exit code (0).
 
     argv: the arguments (list of str; None: ``sys.argv[1:]``)."""
     import argparse
 
     ap = argparse.ArgumentParser(
-        prog="python -m droneplan.studies.cells",
+        prog="python -m droneplan.studies.thesis.cells",
         description="Rows of the bench cells scale grid, each in a fresh process (bench_grid).",
     )
     ap.add_argument("--ms", type=int, nargs="+", default=None, help="numbers of drone-cells m")

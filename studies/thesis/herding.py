@@ -48,17 +48,16 @@ from droneplan.studies.common import (
     ComparisonTable,
     load_average,
     make_executor,
-    map_rows,
     measured,
     report_study,
     timed,
 )
 from droneplan.studies.common import open_store as _store
 from droneplan.studies.instances import random_allocation_instance
-from droneplan.studies.jobs import Job, run_reproduction
+from droneplan.studies.jobs import Job, map_rows, run_reproduction
 from droneplan.studies.plots.herding import animate, plot_state
-from droneplan.studies.report import flag_reasons
 from droneplan.studies.store import Outcome, ResultStore, build_rows, instance_id
+from droneplan.studies.thesis.report import flag_reasons
 
 __all__ = [
     "FIG_6_7",

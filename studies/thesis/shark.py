@@ -41,7 +41,7 @@ from droneplan.studies.bound_engines import BOUND_METRIC, interception_bounds
 from droneplan.studies.common import ComparisonTable, measured, report_study
 from droneplan.studies.jobs import Job, run_reproduction
 from droneplan.studies.plots.shark import animate, plot_time_series, plot_top_view
-from droneplan.studies.report import flag_reasons
+from droneplan.studies.thesis.report import flag_reasons
 
 if TYPE_CHECKING:
     import pandas as pd

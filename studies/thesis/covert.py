@@ -4,9 +4,9 @@
   the hover benchmark, the sliding-mode laws and the min-max bearing MPC, plus PNGs
   (3D trajectories, bearing changes, noise).
 - ``gap``: hover / sliding / MPC per random target group against the proven bounds; it lives in
-  :mod:`droneplan.studies.covert_gap` and is imported here, where ``droneplan gap covert`` finds it.
+  :mod:`droneplan.studies.thesis.covert_gap` and is imported here, where ``droneplan gap covert`` finds it.
 - ``reproduce`` also draws the stealth-versus-arrival-time front (:func:`stealth_front`), and in
-  full mode the optimised front beside it (:mod:`droneplan.studies.covert_front`).
+  full mode the optimised front beside it (:mod:`droneplan.studies.thesis.covert_front`).
 - ``bench``: MPC solve time per replan vs its control period (IPOPT and the OSQP
   real-time iteration), and the MPC-vs-sliding margin on both cases, for the MPC and
   the safeguarded MPC (MPC plan or sliding rollout per replan, with its arrival times).
@@ -33,11 +33,11 @@ from droneplan.planners.covert import (
 from droneplan.scenarios.covert import CovertTrace, simulate, thesis_case
 from droneplan.studies.bound_engines import DEG, _instant_optima, _on_sphere
 from droneplan.studies.common import ComparisonTable, measured
-from droneplan.studies.covert_front import optimised_front_section
-from droneplan.studies.covert_gap import GAP_THESIS, gap
 from droneplan.studies.jobs import Job, run_reproduction
 from droneplan.studies.plots.covert import animate, plot_bearing, plot_path, plot_stealth_front
-from droneplan.studies.report import flag_reasons
+from droneplan.studies.thesis.covert_front import optimised_front_section
+from droneplan.studies.thesis.covert_gap import GAP_THESIS, gap
+from droneplan.studies.thesis.report import flag_reasons
 
 __all__ = ["DEG", "stealth_front", "reproduce", "reproduce_jobs", "gap", "GAP_THESIS", "bench"]
 
@@ -702,7 +702,7 @@ def reproduce_jobs(*, quick: bool, out: Path, store_path: Path | None = None) ->
     quick: 3 noise runs at 2 levels (full: 20 at 5), the MPC variants on case 1 only (case 2:
     hover, sliding mode and MPC, see :func:`_case_runs`), the stealth front of case 1 only, at 1 s
     instants (full: both cases at 0.2 s, two more MPC approach speeds, and the optimised front of
-    :mod:`droneplan.studies.covert_front` for both cases); out: directory for the CSV, PNG and GIF
+    :mod:`droneplan.studies.thesis.covert_front` for both cases); out: directory for the CSV, PNG and GIF
     files; store_path: not used (the covert jobs write their tables, no store rows), taken so that
     every problem's ``reproduce_jobs`` has one signature.
     """

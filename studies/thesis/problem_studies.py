@@ -1,7 +1,7 @@
 """The four problems' study modules behind one typed protocol, and the built-in gap study of any
 of them (:func:`run_gap`, what ``droneplan gap <problem>`` runs).
 
-Each problem's study module ``droneplan.studies.<problem>`` follows :class:`ProblemStudies`: the
+Each problem's study module ``droneplan.studies.thesis.<problem>`` follows :class:`ProblemStudies`: the
 same signatures for ``reproduce_jobs`` (its reproduction as a graph of jobs), ``gap`` (its
 built-in gap study) and ``bench``. The command line only parses and dispatches to these.
 
@@ -43,7 +43,7 @@ CHAPTER = {"covert": 3, "cells": 4, "shark": 5, "herding": 6}
 
 
 class ProblemStudies(Protocol):
-    """What every problem's study module offers (the module ``droneplan.studies.<problem>``)."""
+    """What every problem's study module offers (the module ``droneplan.studies.thesis.<problem>``)."""
 
     def reproduce_jobs(self, *, quick: bool, out: Path, store_path: Path) -> list[Job]:
         """The problem's reproduction as jobs (``droneplan reproduce`` runs every problem's
@@ -66,7 +66,7 @@ class ProblemStudies(Protocol):
 
 def available_problems() -> list[str]:
     """Problems whose study module is installed, in chapter order."""
-    return [p for p in PROBLEMS if importlib.util.find_spec(f"droneplan.studies.{p}") is not None]
+    return [p for p in PROBLEMS if importlib.util.find_spec(f"droneplan.studies.thesis.{p}") is not None]
 
 
 def problem_studies(problem: str) -> ProblemStudies:
@@ -76,7 +76,7 @@ def problem_studies(problem: str) -> ProblemStudies:
     """
     if problem not in PROBLEMS:
         raise ValueError(f"problem must be one of {', '.join(PROBLEMS)}, got {problem!r}")
-    return cast(ProblemStudies, importlib.import_module(f"droneplan.studies.{problem}"))
+    return cast(ProblemStudies, importlib.import_module(f"droneplan.studies.thesis.{problem}"))
 
 
 def resolve_problems(problem: str) -> list[str]:
