@@ -31,7 +31,7 @@ from droneplan.formulations.cells._bnb import (
     search,
 )
 from droneplan.formulations.cells._core import evaluate
-from droneplan.formulations.cells._milp import CONNECTIVITY, solve_prepared
+from droneplan.formulations.cells._milp import CONNECTIVITY, refuse_before_polish, solve_prepared
 from droneplan.formulations.cells._open import BNB_VARIANTS, solve_variant
 from droneplan.formulations.cells._portfolio import ModelPeer, solve_portfolio
 from droneplan.formulations.cells._prepare import Prepared, _near_any, dropped_sites_text, prepare
@@ -397,7 +397,9 @@ def _run_model(
     bnb_elimination: bool,
 ) -> SolveResult:
     """The candidate model from the preparation, after the polish (and the branch and bound's
-    root elimination when ``bnb_elimination``)."""
+    root elimination when ``bnb_elimination``); a model too large even from the best incumbent
+    the polish could reach is refused before it (``_milp.refuse_before_polish``)."""
+    refuse_before_polish(prep, backend=backend, connectivity=connectivity, max_rounds=max_rounds)
     _polish(prep)
     if bnb_elimination:
         _eliminate_for_model(prep)

@@ -1232,7 +1232,7 @@ def _bound_m_minus_1(prep: Prepared) -> float:
     time_left = prep.left()
     if time_left is not None and time_left < prep.relax_time:
         return prep.ub
-    relax = coverage_upper_bound(prep.problem, prep.problem.n_cells - 1, time_limit=time_left)
+    relax = prep.relaxation_m_minus_1()
     return float(len(prep.problem.targets)) if relax.bound is None else float(relax.bound)
 
 
@@ -1317,6 +1317,67 @@ def lp_fixing(
     return alive, float(math.floor(lpb.bound)), stats
 
 
+def _lp_fixing_runs(backend: str, connectivity: str, n_sites: int) -> bool:
+    """True when item 10 (``lp_fixing``) runs before a final round over ``n_sites`` sites."""
+    return (
+        LP_FIXING.get(backend, False)
+        and connectivity == "hops"
+        and n_sites >= LP_FIXING_MIN_SITES
+        and "highs" in BACKENDS
+    )
+
+
+def _refuse_model_size(term_cap: int | None, projected: float | None = None) -> None:
+    """Refuse the model, naming the size asked for: its build stopped at ``term_cap`` terms,
+    or (``projected``) its hop rows are projected to this many terms before it is built."""
+    cap = int(term_cap or 0)
+    memory = machine_memory() or 0.0
+    asked = (
+        "counted, or projected from a sample of a level's rows, while the model was built"
+        if projected is None
+        else f"about {projected:,.0f} terms ({projected * MODEL_BYTES_PER_TERM / 2**30:.1f} GiB), "
+        "projected from a sample of level 2's rows before the model is built"
+    )
+    raise ValueError(
+        f"problem: the candidate model's hop rows would hold more than {cap:,} terms, the most a "
+        f"model may take here ({MODEL_MEMORY_SHARE:.0%} of this machine's memory, "
+        f"{memory / 2**30:.1f} GiB, at {MODEL_BYTES_PER_TERM} bytes a term with the solver's "
+        f"copies): {asked}; use engine='bnb', connectivity='lazy' or fewer candidate sites"
+    )
+
+
+def refuse_before_polish(prep: Prepared, *, backend: str, connectivity: str, max_rounds: int) -> None:
+    """Refuse, before ``solve_exact``'s polish, a hop model too large even in the best case the
+    polish could reach.
+
+    The polish can raise the incumbent at most to the continuous bound ``ub``. The first round's
+    sites are then those of ``reduce_candidates`` at ``ub`` (plus the incumbent's own sites):
+    every lower incumbent or target keeps a superset of them, so when the hop rows over this
+    smallest set are already projected (``_projected_model_terms``) past ``PROJECTION_MARGIN``
+    times ``model_term_cap``, no incumbent the polish finds makes the model fit, and the
+    refusal of :meth:`_ModelSolve._refuse_projected_size` is certain; it comes here, before the
+    polish's seconds. In that best case the first round is the final one, so when the LP fixing
+    would run and level 2 alone is projected within its own cap (it might drop sites), the
+    decision is left to the later check. Nothing is refused without a known cap, with the lazy
+    cuts (no hop rows) or with ``max_rounds`` 0 (no model built).
+
+    prep: the prepared call (its bound ``ub`` and ``bound_m_minus_1``); backend, connectivity,
+    max_rounds: those of :func:`solve_prepared`.
+    """
+    term_cap = model_term_cap()
+    if term_cap is None or connectivity != "hops" or max_rounds == 0:
+        return
+    none = np.zeros((0, prep.problem.plan_width))
+    keep = reduce_candidates(prep.problem, prep.cand, float(prep.ub), none, prep.bound_m_minus_1())
+    total, level2 = _projected_model_terms(prep.problem, prep.cand, keep, backend)
+    if total <= PROJECTION_MARGIN * term_cap:
+        return
+    lp_may_shrink = level2 <= PROJECTION_MARGIN * LP_FIXING_MAX_TERMS
+    if lp_may_shrink and _lp_fixing_runs(backend, connectivity, len(keep)):
+        return
+    _refuse_model_size(term_cap, total)
+
+
 class _ModelSolve:
     """One call of :func:`solve_prepared`: the prepared instance, the backend settings and the
     search state shared by the rounds of the target scheme."""
@@ -1354,12 +1415,7 @@ class _ModelSolve:
 
     def _lp_fixing_on(self, n_sites: int) -> bool:
         """True when item 10 runs before a final round over ``n_sites`` sites (``lp_fixing``)."""
-        return (
-            LP_FIXING.get(self.backend, False)
-            and self.connectivity == "hops"
-            and n_sites >= LP_FIXING_MIN_SITES
-            and "highs" in BACKENDS
-        )
+        return _lp_fixing_runs(self.backend, self.connectivity, n_sites)
 
     def _refuse_projected_size(self) -> None:
         """Refuse up front a hop model that the first round's build would refuse: its sites
@@ -1411,20 +1467,7 @@ class _ModelSolve:
     def _refuse_model_size(self, projected: float | None = None) -> None:
         """Refuse the model, naming the size asked for: its build stopped at ``term_cap`` terms,
         or (``projected``) its hop rows are projected to this many terms before it is built."""
-        cap = int(self.term_cap or 0)
-        memory = machine_memory() or 0.0
-        asked = (
-            "counted, or projected from a sample of a level's rows, while the model was built"
-            if projected is None
-            else f"about {projected:,.0f} terms ({projected * MODEL_BYTES_PER_TERM / 2**30:.1f} GiB), "
-            "projected from a sample of level 2's rows before the model is built"
-        )
-        raise ValueError(
-            f"problem: the candidate model's hop rows would hold more than {cap:,} terms, the most a "
-            f"model may take here ({MODEL_MEMORY_SHARE:.0%} of this machine's memory, "
-            f"{memory / 2**30:.1f} GiB, at {MODEL_BYTES_PER_TERM} bytes a term with the solver's "
-            f"copies): {asked}; use engine='bnb', connectivity='lazy' or fewer candidate sites"
-        )
+        _refuse_model_size(self.term_cap, projected)
 
     def relaxation(self, keep: np.ndarray, found: list) -> SolveResult:
         """Build and solve the model on the sites ``keep`` with the cuts ``found`` (one round

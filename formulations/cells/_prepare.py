@@ -286,6 +286,8 @@ class Prepared:
     heuristic, so a longer limit may still raise the incumbent."""
     _b_prev: float | None = None
     """:meth:`bound_m_minus_1` once computed."""
+    _relax_prev: SolveResult | None = None
+    """:meth:`relaxation_m_minus_1` once computed."""
     report: Callable[..., Any] | None = None
     """Called as ``report(positions, bound=...)`` with each better placement the engines find
     (``solve_exact(report=...)``); the bound is ``ub``, valid for the continuous problem."""
@@ -315,9 +317,18 @@ class Prepared:
             elif time_left is not None and time_left < self.relax_time:
                 self._b_prev = self.ub
             else:
-                relax = coverage_upper_bound(self.problem, m - 1, time_limit=time_left)
+                relax = self.relaxation_m_minus_1()
                 self._b_prev = self.ub if relax.bound is None else min(float(relax.bound), self.ub)
         return self._b_prev
+
+    def relaxation_m_minus_1(self) -> SolveResult:
+        """The continuous relaxation of m - 1 discs (``coverage_upper_bound``, within the time
+        left), computed once and shared by the engines' B_{m-1} bounds."""
+        if self._relax_prev is None:
+            self._relax_prev = coverage_upper_bound(
+                self.problem, self.problem.n_cells - 1, time_limit=self.left()
+            )
+        return self._relax_prev
 
     def prune_candidates(self) -> int:
         """Drop the candidate sites that no placement better than the incumbent can hold;

@@ -1,7 +1,9 @@
 """The MILP engine refuses a model too large for the machine before it builds anything of it:
-``_ModelSolve`` projects the first round's hop rows (``_projected_model_terms``, the build's own
-first projection) right after the polish, before the bounds of the light-site rows, the LP
-fixing and the model's rows; and only when nothing later could make that model smaller."""
+``refuse_before_polish`` projects the hop rows of the smallest first round the polish could
+lead to (incumbent at the continuous bound) before the polish; ``_ModelSolve`` projects the
+first round's hop rows (``_projected_model_terms``, the build's own first projection) right
+after the polish, before the bounds of the light-site rows, the LP fixing and the model's rows;
+and each refuses only when nothing later could make that model smaller."""
 
 import numpy as np
 import pytest
@@ -134,9 +136,12 @@ def test_polish_runs_when_the_site_relations_fit(monkeypatch):
 
 def test_no_early_refusal_when_the_time_limit_stopped_the_polish(monkeypatch):
     """When the polish's share of the time passed while the search's relations were built, the
-    incumbent could still rise with more time, so the up-front projection does not refuse; the
-    model's build (with its own count) and the time limit answer instead."""
-    from droneplan.formulations.cells import _bnb
+    incumbent could still rise with more time, so the projection after the polish does not
+    refuse; the model's build (with its own count) and the time limit answer instead. (The
+    check before the polish is switched off here: it would refuse first, from the best case.)"""
+    from droneplan.formulations.cells import _bnb, _exact
+
+    monkeypatch.setattr(_exact, "refuse_before_polish", lambda *a, **k: None)
 
     monkeypatch.setattr(_bnb.BranchAndBoundSearch, "out_of_time", lambda self: True)
     monkeypatch.setattr(_milp, "model_term_cap", lambda: 1000)
@@ -172,3 +177,37 @@ def test_lp_fixing_skipped_before_its_model_when_level_2_alone_is_over_its_cap(m
     res = solve_exact(p, engine="milp", workers=1, time_limit=120)
     assert res.info["model_stats"]["lp_fixing"].startswith("skipped (level 2's hop rows projected at")
     assert res.status is Status.OPTIMAL and res.objective == expected.objective
+
+
+def test_refused_before_the_polish_when_even_the_best_incumbent_leaves_too_large_a_model(monkeypatch):
+    """With a small cap the refusal comes before the polish has run (its search fails the test),
+    naming the projected terms."""
+    from droneplan.formulations.cells import _exact
+
+    monkeypatch.setattr(_milp, "model_term_cap", lambda: 1000)
+    monkeypatch.setattr(_milp, "LP_FIXING_MAX_TERMS", 100)
+    monkeypatch.setattr(_exact, "search", _must_not_run("the polish"))
+    with pytest.raises(ValueError, match=r"more than 1,000 terms.*projected from a sample of level 2"):
+        solve_exact(thesis_problem(4, 0), engine="milp", workers=1, time_limit=120)
+
+
+@pytest.mark.parametrize(("m", "seed"), [(3, 0), (4, 0), (4, 3), (5, 1)])
+def test_the_sites_projected_before_the_polish_are_a_subset_of_every_first_round(m, seed):
+    """Soundness of the check before the polish: the sites it projects (the incumbent at the
+    continuous bound) are among the first round's sites for the incumbent the polish does reach,
+    and among those of every incumbent value up to the bound, so its projection never exceeds
+    the one the later check makes (same sample rule, fewer rows)."""
+    from droneplan.formulations.cells._exact import _polish
+    from droneplan.formulations.cells._prepare import prepare
+
+    p = thesis_problem(m, seed)
+    prep = prepare(p, time_limit=120)
+    b_best = prep.bound_m_minus_1()
+    none = np.zeros((0, p.plan_width))
+    best = set(_milp.reduce_candidates(p, prep.cand, float(prep.ub), none, b_best).tolist())
+    _polish(prep)
+    b_later = _milp._bound_m_minus_1(prep)
+    assert b_best <= b_later + 1e-9
+    for g in np.linspace(prep.inc_val, prep.ub, 5):
+        later = set(_milp.reduce_candidates(p, prep.cand, float(g), prep.inc, b_later).tolist())
+        assert best <= later
