@@ -24,6 +24,7 @@ when that finds no plan in the time left, the previous placement kept.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import time
 from dataclasses import dataclass
@@ -139,21 +140,72 @@ def evaluate_mobile(mp: MobileProblem, plan: Any) -> MobileEvaluation:
 
 
 def solve_mobile(
-    mp: MobileProblem, *, time_limit: float | None = None, backend: str = "cp-sat", workers: int | None = None
+    mp: MobileProblem,
+    *,
+    time_limit: float | None = None,
+    backend: str = "cp-sat",
+    workers: int | None = None,
+    warm_start: Any = None,
 ) -> SolveResult:
     """The joint model of all epochs (module docstring), proven over each epoch's candidate sites.
 
     mp: the :class:`MobileProblem`. time_limit: wall-clock limit (s), None: none. backend:
     "cp-sat", "highs" or "scip" (CP-SAT takes integer weights only). workers: backend threads.
+    warm_start: a feasible plan of moving drone-cells ((T, k, w) m, e.g. ``myopic(mp).x``) or a
+        SolveResult holding one, None: none. Its positions join every epoch's candidate sites, it
+        is handed to the backend as a start solution where the backend takes one, and the result
+        is never worse than it: when the backend ends below its weight (or with no plan), the
+        warm start is the returned plan, FEASIBLE, with the backend's bound.
 
     Returns a SolveResult: ``x`` the plan (T, k, w), ``objective`` the covered weight summed over
     the epochs, ``bound`` the backend's proven bound; ``info["evaluation"]`` is
-    :func:`evaluate_mobile` of the plan, ``info["per_epoch"]`` each epoch's weight.
+    :func:`evaluate_mobile` of the plan, ``info["per_epoch"]`` each epoch's weight, and with a warm
+    start ``info["warm_start"]`` its ``value``, whether the backend ``took`` it as a start and
+    whether it was ``returned``.
     """
     check_instance("mp", mp, MobileProblem)
     workers = _check_workers(workers)
-    return _joint(
-        mp, fixed_first=None, time_limit=check_time_limit(time_limit), backend=backend, workers=workers
+    limit = check_time_limit(time_limit)
+    warm = _warm_plan(mp, warm_start)
+    res = _joint(mp, fixed_first=None, time_limit=limit, backend=backend, workers=workers, warm=warm)
+    return res if warm is None else _no_worse_than(mp, res, warm)
+
+
+def _warm_plan(mp: MobileProblem, warm_start: Any) -> np.ndarray | None:
+    """``warm_start`` as a feasible (T, k, w) plan of ``mp``, or None; a plan that breaks a rule
+    is refused naming the first violation."""
+    if warm_start is None:
+        return None
+    plan = warm_start.x if isinstance(warm_start, SolveResult) else warm_start
+    if plan is None:
+        raise ValueError("warm_start: the SolveResult holds no plan")
+    arr = check_array("warm_start", plan)
+    width = mp.problem.plan_width
+    if arr.ndim != 3 or arr.shape[0] != mp.n_epochs or arr.shape[2] != width:
+        raise ValueError(f"warm_start must have shape ({mp.n_epochs}, k, {width}), got {arr.shape}")
+    ev = evaluate_mobile(mp, arr)
+    if not ev.feasible:
+        raise ValueError(f"warm_start must be a feasible plan: {ev.violations[0]}")
+    return arr
+
+
+def _no_worse_than(mp: MobileProblem, res: SolveResult, warm: np.ndarray) -> SolveResult:
+    """``res``, or the warm start when the joint model's plan covers less (or there is none)."""
+    value = evaluate_mobile(mp, warm).value
+    ours = res.objective if res.has_solution and res.objective is not None else -np.inf
+    returned = ours < value - 1e-9
+    info = {**res.info, "warm_start": {"value": value, "took": res.warm_started, "returned": returned}}
+    if not returned:
+        return dataclasses.replace(res, info=info)
+    ev = evaluate_mobile(mp, warm)
+    info.update(evaluation=ev, per_epoch=ev.per_epoch)
+    return dataclasses.replace(
+        res,
+        status=Status.OPTIMAL if res.bound is not None and value >= res.bound - 1e-9 else Status.FEASIBLE,
+        objective=value,
+        x=warm,
+        message=f"{res.message}; the warm start ({value:g}) is better than the model's plan and is returned",
+        info=info,
     )
 
 
@@ -164,11 +216,16 @@ def _joint(
     time_limit: float | None,
     backend: str,
     workers: int | None,
+    warm: np.ndarray | None = None,
 ) -> SolveResult:
-    """The joint model; with ``fixed_first`` ((k, w) positions) epoch 0 is that placement."""
+    """The joint model; with ``fixed_first`` ((k, w) positions) epoch 0 is that placement; with
+    ``warm`` ((T, k, w) plan) its positions are candidate sites and it is the backend's start."""
     t0 = time.perf_counter()
     lin = _new_model(backend)
-    extra = None if fixed_first is None else np.asarray(fixed_first, float).reshape(-1, mp.problem.plan_width)
+    width = mp.problem.plan_width
+    extra = None if fixed_first is None else np.asarray(fixed_first, float).reshape(-1, width)
+    if warm is not None:
+        extra = warm.reshape(-1, width) if extra is None else np.concatenate([extra, warm.reshape(-1, width)])
 
     def late() -> bool:
         return time_limit is not None and time.perf_counter() - t0 > time_limit
@@ -186,7 +243,8 @@ def _joint(
     left = None if time_limit is None else time_limit - (time.perf_counter() - t0)
     if left is not None and left <= 0.0:
         return _built_too_late(mp, backend, t0)
-    raw = lin.solve(variables=variables, time_limit=left, workers=workers)
+    hint = None if warm is None else _hint(blocks, warm)
+    raw = lin.solve(variables=variables, time_limit=left, workers=workers, hint=hint)
     if not raw.has_solution:
         return SolveResult(
             raw.status,
@@ -220,6 +278,7 @@ def _joint(
         backend_status=raw.backend_status,
         message=message,
         solve_time=time.perf_counter() - t0,
+        warm_started=raw.warm_started,
         info={"engine": "milp", "evaluation": ev, "per_epoch": ev.per_epoch},
     )
 
@@ -235,15 +294,30 @@ def _built_too_late(mp: MobileProblem, backend: str, t0: float) -> SolveResult:
     )
 
 
-def _fix(lin, block: SiteBlock, positions: np.ndarray) -> None:
-    """Epoch 0 of ``block`` is exactly the placement ``positions`` (each a candidate site)."""
+def _site_indices(block: SiteBlock, positions: np.ndarray) -> set[int]:
+    """The candidate sites of ``block`` at ``positions`` (each must be one, within 1e-6 m)."""
     sites = block.cand.plan(np.arange(len(block.x)))
-    fixed = set()
+    found = set()
     for p in np.asarray(positions, dtype=float):
         i = int(np.argmin(np.abs(sites - p).max(axis=1)))
         if np.abs(sites[i] - p).max() > 1e-6:
-            raise ValueError(f"the fixed placement's drone-cell at {p} is no candidate site")
-        fixed.add(i)
+            raise ValueError(f"the drone-cell at {p} is no candidate site")
+        found.add(i)
+    return found
+
+
+def _hint(blocks: list[SiteBlock], warm: np.ndarray) -> dict:
+    """The start solution of ``warm``: each epoch's site variables at 1 on its sites, 0 elsewhere."""
+    hint = {}
+    for block, positions in zip(blocks, warm, strict=True):
+        chosen = _site_indices(block, positions)
+        hint.update({var: 1.0 if i in chosen else 0.0 for i, var in enumerate(block.x)})
+    return hint
+
+
+def _fix(lin, block: SiteBlock, positions: np.ndarray) -> None:
+    """Epoch 0 of ``block`` is exactly the placement ``positions`` (each a candidate site)."""
+    fixed = _site_indices(block, positions)
     for i, var in enumerate(block.x):
         lin.add(var == (1 if i in fixed else 0))
 

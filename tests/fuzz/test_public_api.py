@@ -266,7 +266,7 @@ SPECS: dict[str, Spec] = {
     "evaluate_mobile": Spec(lambda: ((_mobile(), _snapshots()[:, :1]), {}), {"mp": "object"}),
     "solve_mobile": Spec(
         lambda: ((_mobile(),), {"time_limit": 5.0}),
-        {"mp": "object", "time_limit": "time_limit", "workers": "int>=1"},
+        {"mp": "object", "time_limit": "time_limit", "workers": "int>=1", "warm_start": "object?"},
     ),
     "myopic": Spec(
         lambda: ((_mobile(),), {"time_limit": 5.0}),

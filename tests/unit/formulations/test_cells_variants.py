@@ -603,3 +603,41 @@ def test_the_joint_model_out_of_time_while_built_says_so_and_myopic_still_answer
     base = dp.cells.myopic(mp, time_limit=0.2)
     assert base.status is Status.FEASIBLE
     assert dp.cells.evaluate_mobile(mp, base.x).feasible
+
+
+@settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10_000), max_move=st.sampled_from([0.0, 0.5, 1.5]))
+def test_the_joint_model_warm_started_from_myopic_is_still_the_brute_force_optimum(seed, max_move):
+    rng = np.random.default_rng(seed)
+    start = rng.uniform(-3.0, 3.0, size=(3, 2))
+    drift = rng.normal(0.0, 0.8, size=(3, 2))
+    snapshots = np.stack([start, start + drift, start + 2 * drift])
+    mp = dp.cells.MobileProblem(CellProblem(start, [[0.0, 0.0]], 2, **RADII), snapshots, max_move)
+    baseline = dp.cells.myopic(mp, time_limit=60)
+    joint = dp.cells.solve_mobile(mp, time_limit=60, warm_start=baseline)
+    assert joint.status is Status.OPTIMAL and dp.cells.evaluate_mobile(mp, joint.x).feasible
+    assert joint.objective == pytest.approx(_best_mobile_by_enumeration(mp))
+    assert joint.info["warm_start"]["value"] == baseline.objective <= joint.objective + 1e-9
+    assert joint.info["warm_start"]["took"] is True  # CP-SAT takes the start
+
+
+def test_a_warm_start_is_returned_when_the_joint_model_ends_below_it_or_without_a_plan():
+    """The moving-users world, 3 epochs: cut short inside the build, the joint model has no plan,
+    so the myopic plan it was given comes back, FEASIBLE and said so."""
+    from droneplan.studies.cells_variants import mobile_problem
+
+    mp = mobile_problem(2, 0, 3)
+    base = dp.cells.myopic(mp, time_limit=60)
+    joint = dp.cells.solve_mobile(mp, time_limit=0.2, warm_start=base.x)
+    assert joint.status is Status.FEASIBLE and joint.objective == base.objective
+    assert np.array_equal(joint.x, base.x) and joint.info["warm_start"]["returned"] is True
+    assert "warm start" in joint.message and joint.info["evaluation"].feasible
+
+
+def test_an_infeasible_warm_start_is_refused_naming_the_violation():
+    base = CellProblem([[2.5, 0.0]], [[0.0, 0.0]], 1, **RADII)
+    mp = dp.cells.MobileProblem(base, [[[2.5, 0.0]], [[0.0, 2.5]]], max_move=1.0)
+    with pytest.raises(ValueError, match="warm_start must be a feasible plan: drone-cell 0 moves"):
+        dp.cells.solve_mobile(mp, warm_start=[[[2.5, 0.0]], [[0.0, 2.5]]])
+    with pytest.raises(ValueError, match="warm_start: the SolveResult holds no plan"):
+        dp.cells.solve_mobile(mp, warm_start=dp.SolveResult(Status.NO_SOLUTION))

@@ -36,7 +36,7 @@ def test_bench_variants_writes_a_row_per_variant_seed(tmp_path, monkeypatch):
     monkeypatch.setattr(cell_variants, "thesis_problem", _small_thesis_problem)
     rows = bench_variants(seeds=[0], m=2, time_limit=60.0, out=tmp_path, epochs=2)
     df = pd.read_csv(tmp_path / "bench_variants.csv")
-    assert len(df) == len(rows) == len(VARIANTS) + 3 + 2
+    assert len(df) == len(rows) == len(VARIANTS) + 3 + 3
     proven = df[df["variant"].isin(VARIANTS)]
     assert (proven["status"] == "optimal").all()
     assert (proven["objective"] <= proven["bound"] + 1e-6).all()
@@ -44,6 +44,8 @@ def test_bench_variants_writes_a_row_per_variant_seed(tmp_path, monkeypatch):
         df.loc[df["variant"] == name, "objective"].item() for name in ("mobile joint", "mobile myopic")
     )
     assert greedy <= joint + 1e-9
+    warm = df.loc[df["variant"] == "mobile joint warm", "objective"].item()
+    assert greedy <= warm + 1e-9 and warm == pytest.approx(joint)  # both proven on this small world
 
 
 def test_bench_variants_resumes_an_interrupted_grid(tmp_path, monkeypatch):
@@ -53,7 +55,7 @@ def test_bench_variants_resumes_an_interrupted_grid(tmp_path, monkeypatch):
     first = bench_variants(seeds=[0], m=2, time_limit=60.0, out=tmp_path, epochs=2)
     path = tmp_path / "bench_variants.csv"
     frame = pd.read_csv(path)
-    frame.iloc[:-2].to_csv(path, index=False)  # as if stopped before the moving-users rows
+    frame.iloc[:-3].to_csv(path, index=False)  # as if stopped before the moving-users rows
     calls = []
     original = cells_variants.solve_exact
     monkeypatch.setattr(cells_variants, "solve_exact", lambda *a, **k: calls.append(1) or original(*a, **k))
