@@ -513,8 +513,9 @@ def solve_exact(
 
     Raises ValueError (engine "milp", hop levels) when the model's hop rows are projected past
     half this machine's memory at 128 bytes a term (``_milp.model_term_cap``), naming the terms
-    asked for: after the polish (which may raise the incumbent and so prune the model) and
-    before the model, or the LP of its site fixing, is built.
+    asked for: before the polish when even the best incumbent it could reach (the continuous
+    bound) leaves too large a model, else after the polish (which may raise the incumbent and
+    so prune the model) and before the model, or the LP of its site fixing, is built.
     """
     engine = _engine_for(problem, engine)
     _check_common(problem, engine, backend, connectivity, workers, max_rounds, user_cliques)
