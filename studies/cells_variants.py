@@ -15,6 +15,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from droneplan.formulations.cells import MobileProblem, min_fleet, myopic, solve_exact, solve_mobile
 from droneplan.scenarios.cell_variants import (
     MOBILE_MAX_MOVE_M,
@@ -26,7 +28,7 @@ from droneplan.scenarios.cell_variants import (
 from droneplan.scenarios.cells import thesis_problem
 from droneplan.studies.common import measured
 
-__all__ = ["mobile_problem", "bench_variants"]
+__all__ = ["mobile_problem", "bench_variants", "variants_summary"]
 
 
 def mobile_problem(m: int, seed: int, epochs: int) -> MobileProblem:
@@ -126,3 +128,45 @@ def _result_row(name: str, seed: int, m: int, res: Any, run: Any) -> dict[str, A
         "cpu_s": run.cpu_s,
         "load_1min": run.load,
     }
+
+
+_SETTLED = ("optimal", "infeasible")
+"""Statuses that answer a row for good: proven optimal, or proven infeasible (a min-fleet share
+that m drone-cells cannot reach)."""
+
+
+def variants_summary(rows: list[dict[str, Any]]) -> str:
+    """A markdown table of the grid's rows, one line per variant: seeds run, how many settled
+    within the time limit (proven optimal or proven infeasible), the median CPU seconds of those,
+    the unsettled seeds with their objective / bound, and the largest 1-minute load of its rows.
+
+    rows: the rows of :func:`bench_variants` (or its CSV's records)."""
+    by_variant: dict[str, list[dict[str, Any]]] = {}
+    for row in rows:
+        by_variant.setdefault(str(row["variant"]), []).append(row)
+    lines = [
+        "| variant | seeds | settled | median CPU-s (settled) "
+        "| not settled: seed objective / bound | max load |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, rs in by_variant.items():
+        rs = sorted(rs, key=lambda r: int(r["seed"]))
+        settled = [r for r in rs if r["status"] in _SETTLED]
+        cpu = [float(r["cpu_s"]) for r in settled]
+        median = f"{float(np.median(cpu)):.0f}" if cpu else "-"
+        open_rows = ", ".join(
+            f"{int(r['seed'])}: {_number(r['objective'])} / {_number(r['bound'])}"
+            for r in rs
+            if r["status"] not in _SETTLED
+        )
+        load = max(float(r["load_1min"]) for r in rs)
+        lines.append(f"| {name} | {len(rs)} | {len(settled)} | {median} | {open_rows or '-'} | {load:.1f} |")
+    return "\n".join(lines)
+
+
+def _number(value: Any) -> str:
+    """A row's objective or bound as printed: an integer without decimals, '-' when missing."""
+    if value is None or value != value:
+        return "-"
+    v = float(value)
+    return f"{v:.0f}" if v.is_integer() else f"{v:.1f}"

@@ -749,7 +749,7 @@ def _run_bench_variants(args, problems: list[str]) -> int:
     """``droneplan bench cells --variants``: the variant rows of ``studies.cells_variants``."""
     if problems != ["cells"]:
         raise SystemExit("droneplan: --variants goes with 'bench cells'")
-    from droneplan.studies.cells_variants import bench_variants
+    from droneplan.studies.cells_variants import bench_variants, variants_summary
 
     limit = args.time_limit if args.time_limit is not None else (60.0 if args.quick else 600.0)
     seeds, m = ([0], 2) if args.quick else (list(range(10)), 4)
@@ -764,6 +764,7 @@ def _run_bench_variants(args, problems: list[str]) -> int:
             f"{row['objective']} / {row['bound']}  {row['cpu_s']:.1f} CPU-s, "
             f"{row['wall_s']:.1f} s wall, load {row['load_1min']:.2f}"
         )
+    print(variants_summary(rows))
     print(f"rows in {out / 'bench_variants.csv'}")
     return 0
 

@@ -64,3 +64,30 @@ def test_bench_variants_resumes_an_interrupted_grid(tmp_path, monkeypatch):
     assert len(again) == len(first)
     assert [row["variant"] for row in again] == [row["variant"] for row in first]
     assert len(pd.read_csv(path)) == len(first)
+
+
+def test_the_summary_counts_settled_rows_and_lists_the_open_ones():
+    from droneplan.studies.cells_variants import variants_summary
+
+    def row(variant, seed, status, obj, bound, cpu):
+        return {
+            "variant": variant,
+            "seed": seed,
+            "status": status,
+            "objective": obj,
+            "bound": bound,
+            "cpu_s": cpu,
+            "load_1min": 1.5,
+        }
+
+    text = variants_summary(
+        [
+            row("capacity", 0, "feasible", 56.0, 80.0, 600.0),
+            row("capacity", 1, "optimal", 50.0, 50.0, 30.0),
+            row("min-fleet 20%", 0, "infeasible", None, None, 10.0),
+            row("min-fleet 20%", 1, "infeasible", float("nan"), float("nan"), 20.0),
+        ]
+    )
+    lines = text.splitlines()
+    assert lines[2] == "| capacity | 2 | 1 | 30 | 0: 56 / 80 | 1.5 |"
+    assert lines[3] == "| min-fleet 20% | 2 | 2 | 15 | - | 1.5 |"
