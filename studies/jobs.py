@@ -48,6 +48,8 @@ __all__ = [
     "Job",
     "JobTiming",
     "JobsFailed",
+    "JobLimitExceeded",
+    "ISOLATION_GRACE_S",
     "row_jobs",
     "run_jobs",
     "map_rows",
